@@ -1,0 +1,28 @@
+# `make demo` and `make test` set everything up on a fresh machine (Python >= 3.11 and pip only).
+PYTHON ?= python3
+VENV   := .venv
+BIN    := $(VENV)/bin
+STAMP  := $(VENV)/.installed
+
+.PHONY: demo test bench clean
+
+$(BIN)/python:
+	$(PYTHON) -m venv $(VENV)
+
+$(STAMP): pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e ".[test]"
+	touch $(STAMP)
+
+demo: $(STAMP)
+	$(BIN)/nlobs analyze examples/models/flexible-link.toml
+	$(BIN)/nlobs analyze examples/models/isidori-146.toml
+
+test: $(STAMP)
+	MPLBACKEND=Agg $(BIN)/python -m pytest -q -p no:cacheprovider
+
+bench: $(STAMP)
+	$(BIN)/python benchmarks/simulation_throughput.py
+
+clean:
+	rm -rf $(VENV) build dist

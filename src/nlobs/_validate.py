@@ -1,0 +1,114 @@
+"""Argument validation shared by every layer (shapes, finiteness, symmetry).
+
+Private helpers: public functions call them on entry so that bad input fails
+early with a typed error naming the argument.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, NonFiniteError, NotSymmetricError
+
+
+def as_finite_array(name: str, value: ArrayLike, ndim: int | None = None) -> NDArray[np.float64]:
+    """Return ``value`` as a float64 array, checking finiteness and (optionally) ``ndim``."""
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise DimensionError(f"{name}: cannot be read as a numeric array ({exc})") from None
+    if ndim is not None and arr.ndim != ndim:
+        raise DimensionError(f"{name}: expected a {ndim}-d array, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        bad = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
+        raise NonFiniteError(f"{name}: entry {bad} is {arr[bad]!r}; all entries must be finite")
+    return arr
+
+
+def as_matrix(name: str, value: ArrayLike, shape: tuple[int | None, int | None] | None = None) -> NDArray[np.float64]:
+    """Return ``value`` as a finite 2-d float array of the given shape.
+
+    ``None`` in ``shape`` leaves that dimension free. A 0-d or 1-d input is
+    *not* silently reshaped: row/column ambiguity is an error.
+    """
+    arr = as_finite_array(name, value)
+    if arr.ndim != 2:
+        raise DimensionError(f"{name}: expected a 2-d matrix, got shape {arr.shape}")
+    if shape is not None:
+        for axis, want in enumerate(shape):
+            if want is not None and arr.shape[axis] != want:
+                raise DimensionError(f"{name}: expected shape {_fmt_shape(shape)}, got {arr.shape}")
+    return arr
+
+
+def as_square(name: str, value: ArrayLike, n: int | None = None) -> NDArray[np.float64]:
+    """Return a finite square matrix (of size ``n`` when given)."""
+    arr = as_matrix(name, value)
+    if arr.shape[0] != arr.shape[1]:
+        raise DimensionError(f"{name}: expected a square matrix, got shape {arr.shape}")
+    if n is not None and arr.shape[0] != n:
+        raise DimensionError(f"{name}: expected shape ({n}, {n}), got {arr.shape}")
+    return arr
+
+
+def as_symmetric(name: str, value: ArrayLike, n: int | None = None, rtol: float = 1e-9) -> NDArray[np.float64]:
+    """Return a finite symmetric matrix; raise if it is not symmetric to ``rtol``.
+
+    The returned matrix is exactly symmetrised, ``(M + M.T) / 2``.
+    """
+    arr = as_square(name, value, n)
+    asym = float(np.max(np.abs(arr - arr.T), initial=0.0))
+    scale = max(1.0, float(np.max(np.abs(arr), initial=0.0)))
+    if asym > rtol * scale:
+        raise NotSymmetricError(f"{name}: not symmetric (max |M - M^T| = {asym:.3g})")
+    return 0.5 * (arr + arr.T)
+
+
+def as_vector(name: str, value: ArrayLike, n: int | None = None) -> NDArray[np.float64]:
+    """Return a finite 1-d float array (of length ``n`` when given)."""
+    arr = as_finite_array(name, value)
+    if arr.ndim != 1:
+        raise DimensionError(f"{name}: expected a 1-d vector, got shape {arr.shape}")
+    if n is not None and arr.shape[0] != n:
+        raise DimensionError(f"{name}: expected length {n}, got {arr.shape[0]}")
+    return arr
+
+
+def as_batch(name: str, value: ArrayLike, n: int) -> NDArray[np.float64]:
+    """Return a finite array of shape ``(..., n)`` (a batch of n-vectors)."""
+    arr = as_finite_array(name, value)
+    if arr.ndim == 0 or arr.shape[-1] != n:
+        raise DimensionError(f"{name}: expected shape (..., {n}), got {arr.shape}")
+    return arr
+
+
+def positive(name: str, value: float, *, allow_zero: bool = False) -> float:
+    """Return ``value`` as a float, checking it is finite and positive."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise DimensionError(f"{name}: expected a number, got {value!r}") from None
+    if not np.isfinite(v):
+        raise NonFiniteError(f"{name}: must be finite, got {v!r}")
+    if v < 0 or (v == 0 and not allow_zero):
+        raise InvalidArgumentError(f"{name}: must be {'non-negative' if allow_zero else 'positive'}, got {v!r}")
+    return v
+
+
+def check_names(kind: str, names: Sequence[str]) -> tuple[str, ...]:
+    """Check names are unique Python identifiers and return them as a tuple."""
+    out = tuple(names)
+    for nm in out:
+        if not isinstance(nm, str) or not nm.isidentifier():
+            raise ModelError(f"{kind} name {nm!r} is not a valid identifier")
+    dup = sorted({nm for nm in out if out.count(nm) > 1})
+    if dup:
+        raise ModelError(f"duplicate {kind} names: {', '.join(dup)}")
+    return out
+
+
+def _fmt_shape(shape: tuple[int | None, int | None]) -> str:
+    return "(" + ", ".join("?" if s is None else str(s) for s in shape) + ")"

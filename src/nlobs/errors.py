@@ -1,0 +1,114 @@
+"""Typed exceptions raised by nlobs.
+
+Every exception derives from :class:`NlobsError`; those about bad arguments also
+derive from :class:`ValueError` so that generic callers can catch them as such.
+Messages always name the offending quantity (and, where there is one, the file,
+line, time or constraint) so a user can act on them without a debugger.
+"""
+
+from __future__ import annotations
+
+
+class NlobsError(Exception):
+    """Base class of every error nlobs raises on purpose."""
+
+
+class DimensionError(NlobsError, ValueError):
+    """An array has the wrong shape or two arrays disagree in size."""
+
+
+class NonFiniteError(NlobsError, ValueError):
+    """An array holds NaN or infinite entries where finite numbers are required."""
+
+
+class NotSymmetricError(NlobsError, ValueError):
+    """A matrix that must be symmetric is not (beyond a relative tolerance)."""
+
+
+class InvalidArgumentError(NlobsError, ValueError):
+    """An argument has an invalid value (negative bound, unknown option, ...)."""
+
+
+class UnknownNameError(NlobsError, ValueError):
+    """A name (state, input, parameter, option, example) is not known."""
+
+
+class ModelError(NlobsError, ValueError):
+    """A model is inconsistent (duplicate names, free symbols, wrong time base...)."""
+
+
+class ModelFileError(ModelError):
+    """A model file cannot be parsed or validated.
+
+    Attributes
+    ----------
+    path : str
+        The file.
+    line : int or None
+        1-based line number of the offending text, when known.
+    text : str
+        The offending text (an expression, a key), possibly empty.
+    """
+
+    def __init__(self, path: str, line: int | None, text: str, reason: str) -> None:
+        self.path = path
+        self.line = line
+        self.text = text
+        self.reason = reason
+        where = f"{path}:{line}" if line is not None else path
+        shown = f": {text!r}" if text else ""
+        super().__init__(f"{where}: {reason}{shown}")
+
+
+class DesignError(NlobsError):
+    """Base class of gain-synthesis failures."""
+
+
+class DesignInfeasible(DesignError):
+    """The design problem has no solution, or the solver could not find one.
+
+    Attributes
+    ----------
+    constraint : str
+        Name of the constraint (LMI block) that fails, when it can be identified.
+    violation : float or None
+        By how much it fails (e.g. the largest eigenvalue of a block that must
+        be negative definite), when known.
+    """
+
+    def __init__(self, message: str, *, constraint: str = "", violation: float | None = None) -> None:
+        self.constraint = constraint
+        self.violation = violation
+        super().__init__(message)
+
+
+class DesignUnbounded(DesignError):
+    """The requested optimum is not attained: the gains grow without bound.
+
+    Raised instead of returning a huge gain that merely reflects the solver's
+    strictness margin (see ``docs/synthesis.md``).
+    """
+
+
+class CertificateError(DesignError):
+    """A solver answer failed the independent re-verification of its certificate."""
+
+
+class SimulationDiverged(NlobsError, ArithmeticError):
+    """A simulated state became non-finite.
+
+    Attributes
+    ----------
+    time : float
+        Simulation time at which the non-finite value was first seen.
+    which : str
+        ``"plant"`` or ``"observer"``.
+    state : str
+        Name of the first non-finite state component.
+    """
+
+    def __init__(self, time: float, which: str, state: str) -> None:
+        self.time = time
+        self.which = which
+        self.state = state
+        super().__init__(f"simulation diverged at t={time:g}: {which} state {state!r} is not finite")
