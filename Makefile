@@ -15,8 +15,8 @@ $(STAMP): pyproject.toml | $(BIN)/python
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/nlobs analyze examples/models/flexible-link.toml
-	$(BIN)/nlobs analyze examples/models/isidori-146.toml
+	$(BIN)/nlobs analyze gnss-ins-axis
+	$(BIN)/nlobs analyze isidori-146
 
 test: $(STAMP)
 	MPLBACKEND=Agg $(BIN)/python -m pytest -q -p no:cacheprovider

@@ -1,0 +1,160 @@
+"""Model-level analysis: what ``nlobs analyze`` reports for any model.
+
+For a linear model, the structural properties and norms of
+:func:`nlobs.linear.analyze_linear`. For a nonlinear model, its dimensions and
+form, and the same linear analysis of its Jacobian linearisation at an
+operating point (the origin by default), clearly labelled as *local*. The
+symbolic (Lie-derivative) analyses of nonlinear models are added by the
+geometry layer.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from nlobs._validate import as_vector
+from nlobs.errors import DimensionError, NonFiniteError
+from nlobs.linear import LinearReport, analyze_linear
+from nlobs.systems.linear import LinearSystem
+from nlobs.systems.symbolic import SymbolicModel
+
+
+def linearize(model: SymbolicModel, x0: ArrayLike | None = None, u0: ArrayLike | None = None) -> LinearSystem:
+    """Jacobian linearisation ``(∂F/∂x, ∂F/∂u, ∂h/∂x, ∂h/∂u)`` at ``(x0, u0)`` (default: the origin).
+
+    Raises
+    ------
+    NonFiniteError
+        If a Jacobian is not finite at the point (e.g. ``log(x1)`` at ``x1 = 0``).
+    """
+    x = np.zeros(model.n) if x0 is None else as_vector("x0", x0, model.n)
+    u = np.zeros(model.m) if u0 is None else as_vector("u0", u0, model.m)
+    c = model.compile()
+    with np.errstate(all="ignore"):
+        mats = {
+            "A": c.rhs_jacobian_x(0.0, x, u),
+            "B": c.rhs_jacobian_u(0.0, x, u),
+            "C": c.output_jacobian_x(0.0, x, u),
+            "D": c.output_jacobian_u(0.0, x, u),
+        }
+    for k, v in mats.items():
+        if not np.all(np.isfinite(v)):
+            raise NonFiniteError(f"{model.name}: Jacobian {k} is not finite at x0={x.tolist()}, u0={u.tolist()}")
+    return LinearSystem(mats["A"], mats["B"], mats["C"], mats["D"], time=model.time, states=model.states,
+                        inputs=model.inputs, outputs=model.outputs, name=f"{model.name} (linearised)")
+
+
+@dataclass(frozen=True)
+class NonlinearReport:
+    """What nlobs reports about a nonlinear model (see :func:`analyze`)."""
+
+    name: str
+    time: str
+    dt: float | None
+    states: tuple[str, ...]
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+    parameters: dict[str, float]
+    input_affine: bool
+    equations: tuple[str, ...]
+    output_equations: tuple[str, ...]
+    operating_point: tuple[tuple[float, ...], tuple[float, ...]]
+    linearization: LinearReport | None
+    linearization_error: str | None
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-serialisable dict with stable keys (documented in the README)."""
+        return {
+            "kind": "nonlinear",
+            "name": self.name,
+            "time": self.time,
+            "dt": self.dt,
+            "n": len(self.states),
+            "m": len(self.inputs),
+            "p": len(self.outputs),
+            "states": list(self.states),
+            "inputs": list(self.inputs),
+            "outputs": list(self.outputs),
+            "parameters": dict(self.parameters),
+            "input_affine": self.input_affine,
+            "equations": list(self.equations),
+            "output_equations": list(self.output_equations),
+            "linearization": None
+            if self.linearization is None
+            else {
+                "x0": list(self.operating_point[0]),
+                "u0": list(self.operating_point[1]),
+                **self.linearization.to_dict(),
+            },
+            "linearization_error": self.linearization_error,
+        }
+
+    def to_text(self) -> str:
+        """Human-readable multi-line report."""
+        dot = "x⁺" if self.time == "discrete" else "ẋ"
+        lines = [
+            f"model        {self.name}  (nonlinear, {self.time}{'' if self.dt is None else f', dt={self.dt:g}'})",
+            f"dimensions   n={len(self.states)} states, m={len(self.inputs)} inputs, p={len(self.outputs)} outputs",
+            f"form         {'input-affine  f(x) + g(x) u' if self.input_affine else 'general  F(x, u)'}",
+        ]
+        if self.parameters:
+            lines.append("parameters   " + ", ".join(f"{k} = {v:g}" for k, v in self.parameters.items()))
+        for s, e in zip(self.states, self.equations):
+            lines.append(f"  {dot}_{s} = {e}" if self.time == "continuous" else f"  {s}⁺ = {e}")
+        for o, e in zip(self.outputs, self.output_equations):
+            lines.append(f"  {o} = {e}")
+        x0, u0 = self.operating_point
+        if self.linearization is not None:
+            lines.append(f"linearisation at x0={list(x0)}, u0={list(u0)} (local properties only):")
+            lines.extend("  " + ln for ln in self.linearization.to_text().splitlines())
+        else:
+            lines.append(f"linearisation at x0={list(x0)}: not available ({self.linearization_error})")
+        return "\n".join(lines)
+
+
+def analyze(
+    model: SymbolicModel | LinearSystem,
+    *,
+    x0: Sequence[float] | None = None,
+    u0: Sequence[float] | None = None,
+) -> LinearReport | NonlinearReport:
+    """Analyse a model as ``nlobs analyze`` does.
+
+    Parameters
+    ----------
+    model : SymbolicModel or LinearSystem
+    x0, u0 : sequence of float, optional
+        Operating point of the linearisation of a nonlinear model (default: origin).
+    """
+    if isinstance(model, LinearSystem):
+        if x0 is not None or u0 is not None:
+            raise DimensionError("x0/u0 are only used for nonlinear models")
+        return analyze_linear(model)
+    x = tuple(float(v) for v in (np.zeros(model.n) if x0 is None else as_vector("x0", x0, model.n)))
+    u = tuple(float(v) for v in (np.zeros(model.m) if u0 is None else as_vector("u0", u0, model.m)))
+    lin: LinearReport | None = None
+    err: str | None = None
+    try:
+        lin = analyze_linear(linearize(model, x, u))
+    except NonFiniteError as exc:
+        err = str(exc)
+    return NonlinearReport(
+        name=model.name,
+        time=str(model.time).split(" ")[0],
+        dt=getattr(model.time, "dt", None),
+        states=model.states,
+        inputs=model.inputs,
+        outputs=model.outputs,
+        parameters=dict(model.parameters),
+        input_affine=model.is_input_affine,
+        equations=tuple(str(e) for e in model.rhs),
+        output_equations=tuple(str(e) for e in model.h),
+        operating_point=(x, u),
+        linearization=lin,
+        linearization_error=err,
+    )

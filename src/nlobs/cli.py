@@ -1,0 +1,138 @@
+"""The ``nlobs`` command line. Calls only the public API.
+
+Exit statuses: 0 success; 1 a design/simulation failure reported by nlobs;
+2 bad input (a model file that does not parse or validate, an unknown name,
+a malformed option); 3 no observer of the requested structure exists.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from importlib import resources
+from pathlib import Path
+from typing import Annotated, Any, NoReturn
+
+import numpy as np
+import typer
+from rich.console import Console
+
+from nlobs import __version__
+from nlobs.analysis import analyze
+from nlobs.errors import ModelFileError, NlobsError
+from nlobs.systems.modelfile import Model, load_model
+
+app = typer.Typer(
+    name="nlobs",
+    help="Design, certify and simulate nonlinear state observers.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+EXIT_FAILURE = 1
+EXIT_BAD_INPUT = 2
+EXIT_NO_OBSERVER = 3
+
+
+def _console() -> Console:
+    return Console(highlight=False, soft_wrap=True)
+
+
+def _fail(message: str, status: int = EXIT_BAD_INPUT) -> NoReturn:
+    """Print a one-line error to stderr and exit."""
+    Console(stderr=True, highlight=False, soft_wrap=True).print(f"nlobs: error: {message}", markup=False)
+    raise typer.Exit(status)
+
+
+def shipped_models() -> dict[str, Path]:
+    """Model files shipped with nlobs, by name (the file stem)."""
+    root = resources.files("nlobs") / "data" / "models"
+    return {Path(str(p)).stem: Path(str(p)) for p in root.iterdir() if str(p).endswith(".toml")}
+
+
+def _load(model: str) -> Model:
+    path = Path(model)
+    if not path.exists():
+        shipped = shipped_models()
+        if model in shipped:
+            path = shipped[model]
+        else:
+            _fail(f"{model}: no such file (shipped models: {', '.join(sorted(shipped))})")
+    try:
+        return load_model(path)
+    except ModelFileError as exc:
+        _fail(str(exc))
+
+
+def _floats(option: str, text: str | None) -> list[float] | None:
+    if text is None:
+        return None
+    try:
+        vals = [float(s) for s in text.replace(",", " ").split()]
+    except ValueError:
+        _fail(f"{option}: expected comma-separated numbers, got {text!r}")
+    if not all(math.isfinite(v) for v in vals):
+        _fail(f"{option}: values must be finite, got {text!r}")
+    return vals
+
+
+def _jsonable(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def _emit_json(data: dict[str, Any]) -> None:
+    typer.echo(json.dumps(_jsonable(data), indent=2, allow_nan=False))
+
+
+@app.command("analyze")
+def analyze_cmd(
+    model: Annotated[str, typer.Argument(help="A model file (.toml), or the name of a shipped model.")],
+    as_json: Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON report.")] = False,
+    x0: Annotated[str | None, typer.Option(help="Linearisation point of a nonlinear model, e.g. '0,1,0,0'.")] = None,
+    u0: Annotated[str | None, typer.Option(help="Input at the linearisation point.")] = None,
+) -> None:
+    """Report a model's dimensions, structural properties and norms."""
+    m = _load(model)
+    try:
+        report = analyze(m, x0=_floats("--x0", x0), u0=_floats("--u0", u0))
+    except NlobsError as exc:
+        _fail(f"{model}: {exc}")
+    if as_json:
+        data = report.to_dict()
+        data.setdefault("kind", "linear")
+        _emit_json(data)
+    else:
+        _console().print(report.to_text(), markup=False)
+
+
+@app.command("models")
+def models_cmd(
+    as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list.")] = False,
+) -> None:
+    """List the model files shipped with nlobs."""
+    shipped = shipped_models()
+    if as_json:
+        typer.echo(json.dumps([{"name": k, "path": str(v)} for k, v in sorted(shipped.items())], indent=2))
+        return
+    con = _console()
+    for name, path in sorted(shipped.items()):
+        con.print(f"{name:28s} {path}", markup=False)
+
+
+@app.command("version")
+def version_cmd() -> None:
+    """Print the nlobs version."""
+    typer.echo(__version__)
+
+
+def main() -> None:  # pragma: no cover - entry point convenience
+    app()

@@ -1,0 +1,102 @@
+"""Compile SymPy matrices to batched NumPy callables.
+
+:func:`compile_matrix` is the one place where SymPy expressions become numeric
+code. It uses :func:`sympy.lambdify` with ``cse=True`` on the flattened entries,
+takes flat arguments (one array per symbol, so a leading batch axis comes for
+free), broadcasts constant entries to the batch shape (lambdify alone would
+return a scalar ``0`` for them) and refuses expressions with free symbols that
+are not arguments.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+import sympy as sp
+from numpy.typing import NDArray
+
+from nlobs.errors import DimensionError, ModelError
+
+Array = NDArray[np.float64]
+
+_NUMPY_MODULES: list[Any] = [{"Abs": np.abs, "sign": np.sign}, "numpy"]
+
+
+@dataclass(frozen=True)
+class BatchedFunction:
+    """A compiled matrix-valued function of stacked argument vectors.
+
+    Calling it with arrays of shapes ``(..., len(group))`` for each argument
+    group returns an array of shape ``(..., rows, cols)`` (or ``(..., rows)``
+    when compiled with ``vector=True``).
+    """
+
+    shape: tuple[int, int]
+    groups: tuple[int, ...]
+    vector: bool
+    _fn: Callable[..., Any]
+
+    def __call__(self, *args: Array) -> Array:
+        if len(args) != len(self.groups):
+            raise DimensionError(f"expected {len(self.groups)} argument arrays, got {len(args)}")
+        flat: list[Array] = []
+        batch: tuple[int, ...] = ()
+        for i, (a, size) in enumerate(zip(args, self.groups)):
+            a = np.asarray(a, dtype=float)
+            if a.ndim == 0 or a.shape[-1] != size:
+                raise DimensionError(f"argument {i}: expected shape (..., {size}), got {a.shape}")
+            batch = np.broadcast_shapes(batch, a.shape[:-1])
+            flat.extend(a[..., j] for j in range(size))
+        values = self._fn(*flat)
+        out = np.empty(batch + (len(values),), dtype=float)
+        for j, v in enumerate(values):
+            out[..., j] = v  # broadcasts constant entries
+        rows, cols = self.shape
+        return out if self.vector else out.reshape(batch + (rows, cols))
+
+
+def compile_matrix(
+    expr: sp.Matrix | Sequence[sp.Expr],
+    groups: Sequence[Sequence[sp.Symbol]],
+    *,
+    vector: bool = False,
+    what: str = "expression",
+) -> BatchedFunction:
+    """Compile a SymPy matrix into a :class:`BatchedFunction`.
+
+    Parameters
+    ----------
+    expr : sympy.Matrix or sequence of expressions
+        The function to compile. A sequence is treated as a column vector.
+    groups : sequence of sequences of sympy.Symbol
+        Argument groups, e.g. ``(states, inputs)``; the compiled function takes
+        one array per group.
+    vector : bool
+        Return shape ``(..., rows)`` instead of ``(..., rows, cols)``
+        (requires a column vector).
+    what : str
+        Name used in error messages.
+
+    Raises
+    ------
+    ModelError
+        If ``expr`` has free symbols that are not in ``groups``.
+    """
+    mat = sp.Matrix(expr) if not isinstance(expr, sp.MatrixBase) else expr
+    if vector and mat.shape[1] != 1 and mat.shape[0] * mat.shape[1] > 0:
+        raise DimensionError(f"{what}: vector=True needs a column vector, got shape {mat.shape}")
+    args = [s for grp in groups for s in grp]
+    stray = sorted(str(s) for s in mat.free_symbols - set(args))
+    if stray:
+        raise ModelError(f"{what}: free symbols that are not arguments: {', '.join(stray)}")
+    entries = list(mat)  # row-major
+    fn = sp.lambdify(args, entries, modules=_NUMPY_MODULES, cse=True)
+    return BatchedFunction(
+        shape=(int(mat.shape[0]), int(mat.shape[1])),
+        groups=tuple(len(g) for g in groups),
+        vector=vector,
+        _fn=fn,
+    )

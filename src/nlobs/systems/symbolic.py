@@ -1,0 +1,305 @@
+"""Symbolic (SymPy) nonlinear models and their compilation to NumPy.
+
+Two forms are supported:
+
+* input-affine: ``ẋ = f(x) + g(x) u`` (or ``x⁺ = ...``), ``y = h(x, u)``;
+* general: ``ẋ = F(x, u)``, ``y = h(x, u)``.
+
+Named parameters are substituted by their numeric values at :meth:`SymbolicModel.compile`
+time. The compiled :class:`CompiledModel` satisfies :class:`~nlobs.systems.base.PlantModel`
+and never touches SymPy when it is evaluated.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import sympy as sp
+from numpy.typing import NDArray
+
+from nlobs._validate import check_names
+from nlobs.errors import DimensionError, ModelError, NonFiniteError, UnknownNameError
+from nlobs.systems.codegen import BatchedFunction, compile_matrix
+from nlobs.systems.timebase import CONTINUOUS, TimeBase
+
+Array = NDArray[np.float64]
+
+
+def _canonical(mat: sp.MatrixBase) -> sp.ImmutableMatrix:
+    """Replace every symbol by the real symbol of the same name (the model's convention)."""
+    return sp.ImmutableMatrix(mat.xreplace({s: sp.Symbol(s.name, real=True) for s in mat.free_symbols}))
+
+
+def _column(name: str, value: sp.Matrix | Sequence[sp.Expr], rows: int) -> sp.Matrix:
+    mat = _canonical(sp.Matrix(value) if not isinstance(value, sp.MatrixBase) else value)
+    if mat.shape[1] != 1 and mat.shape[0] == 1:
+        mat = mat.T
+    if mat.shape != (rows, 1):
+        raise DimensionError(f"{name}: expected {rows} entries, got shape {mat.shape}")
+    return sp.ImmutableMatrix(mat)
+
+
+@dataclass(frozen=True)
+class SymbolicModel:
+    """A nonlinear model held as SymPy expressions.
+
+    Use :meth:`input_affine` or :meth:`general` to build one.
+
+    Attributes
+    ----------
+    x, u : tuple of sympy.Symbol
+        State and input symbols (their names are the model's names).
+    outputs : tuple of str
+        Output names.
+    drift : sympy.ImmutableMatrix or None
+        ``f(x)`` (n × 1) of the input-affine form, ``None`` for a general model.
+    input_matrix : sympy.ImmutableMatrix or None
+        ``g(x)`` (n × m) of the input-affine form.
+    rhs : sympy.ImmutableMatrix
+        ``F(x, u)`` (n × 1), equal to ``f(x) + g(x) u`` for input-affine models.
+    h : sympy.ImmutableMatrix
+        Output map (p × 1), may depend on ``u``.
+    parameters : mapping of str to float
+        Named constants, substituted at compile time.
+    time : Continuous or Discrete
+        Time base.
+    name : str
+    """
+
+    x: tuple[sp.Symbol, ...]
+    u: tuple[sp.Symbol, ...]
+    outputs: tuple[str, ...]
+    drift: sp.ImmutableMatrix | None
+    input_matrix: sp.ImmutableMatrix | None
+    rhs: sp.ImmutableMatrix
+    h: sp.ImmutableMatrix
+    parameters: Mapping[str, float] = field(default_factory=dict)
+    time: TimeBase = CONTINUOUS
+    name: str = "model"
+
+    # ------------------------------------------------------------------ constructors
+    @classmethod
+    def input_affine(
+        cls,
+        states: Sequence[str],
+        inputs: Sequence[str],
+        outputs: Sequence[str],
+        f: Sequence[sp.Expr] | sp.Matrix,
+        g: Sequence[Sequence[sp.Expr]] | sp.Matrix | None,
+        h: Sequence[sp.Expr] | sp.Matrix,
+        *,
+        parameters: Mapping[str, float] | None = None,
+        time: TimeBase = CONTINUOUS,
+        name: str = "model",
+    ) -> SymbolicModel:
+        """Build ``ẋ = f(x) + g(x) u``, ``y = h(x, u)``.
+
+        Expressions may use ``sympy.Symbol(name)`` for every state, input and
+        parameter name. ``f`` and ``g`` must not depend on the inputs.
+        """
+        x, u, outs, params = cls._symbols(states, inputs, outputs, parameters)
+        n, m = len(x), len(u)
+        f_ = _column("f", f, n)
+        if g is None:
+            g_ = sp.ImmutableMatrix(sp.zeros(n, m))
+        else:
+            g_ = _canonical(sp.Matrix(g))
+            if m == 0 and g_.shape[0] in (0, n):
+                g_ = sp.ImmutableMatrix(sp.zeros(n, 0))
+            if g_.shape != (n, m):
+                raise DimensionError(f"g: expected shape ({n}, {m}), got {g_.shape}")
+        bad = (f_.free_symbols | g_.free_symbols) & set(u)
+        if bad:
+            raise ModelError(f"f and g of an input-affine model must not depend on inputs: {sorted(map(str, bad))}")
+        rhs = sp.ImmutableMatrix(f_ + g_ * sp.Matrix(u)) if m else f_
+        model = cls(x, u, outs, f_, g_, rhs, _column("h", h, len(outs)), dict(params), time, name)
+        model._check_symbols()
+        return model
+
+    @classmethod
+    def general(
+        cls,
+        states: Sequence[str],
+        inputs: Sequence[str],
+        outputs: Sequence[str],
+        rhs: Sequence[sp.Expr] | sp.Matrix,
+        h: Sequence[sp.Expr] | sp.Matrix,
+        *,
+        parameters: Mapping[str, float] | None = None,
+        time: TimeBase = CONTINUOUS,
+        name: str = "model",
+    ) -> SymbolicModel:
+        """Build ``ẋ = F(x, u)``, ``y = h(x, u)``."""
+        x, u, outs, params = cls._symbols(states, inputs, outputs, parameters)
+        rhs_ = _column("rhs", rhs, len(x))
+        model = cls(x, u, outs, None, None, rhs_, _column("h", h, len(outs)), dict(params), time, name)
+        model._check_symbols()
+        return model
+
+    @staticmethod
+    def _symbols(
+        states: Sequence[str],
+        inputs: Sequence[str],
+        outputs: Sequence[str],
+        parameters: Mapping[str, float] | None,
+    ) -> tuple[tuple[sp.Symbol, ...], tuple[sp.Symbol, ...], tuple[str, ...], dict[str, float]]:
+        st = check_names("state", states)
+        ins = check_names("input", inputs)
+        outs = check_names("output", outputs)
+        params = dict(parameters or {})
+        check_names("parameter", list(params))
+        clash = sorted((set(st) & set(ins)) | ((set(st) | set(ins)) & set(params)))
+        if clash:
+            raise ModelError(f"names used twice (state/input/parameter): {', '.join(clash)}")
+        if not st:
+            raise DimensionError("a model needs at least one state")
+        for k, v in params.items():
+            try:
+                val = float(v)
+            except (TypeError, ValueError):
+                raise ModelError(f"parameter {k!r}: expected a number, got {v!r}") from None
+            if not np.isfinite(val):
+                raise NonFiniteError(f"parameter {k!r} is not finite ({val!r})")
+            params[k] = val
+        return (
+            tuple(sp.Symbol(s, real=True) for s in st),
+            tuple(sp.Symbol(s, real=True) for s in ins),
+            outs,
+            params,
+        )
+
+    def _check_symbols(self) -> None:
+        allowed = set(self.x) | set(self.u) | {sp.Symbol(p, real=True) for p in self.parameters}
+        for what, mat in (("rhs", self.rhs), ("h", self.h)):
+            stray = mat.free_symbols - allowed
+            if stray:
+                raise ModelError(f"{self.name}: {what} uses undeclared symbols {sorted(map(str, stray))}")
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def states(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.x)
+
+    @property
+    def inputs(self) -> tuple[str, ...]:
+        return tuple(s.name for s in self.u)
+
+    @property
+    def n(self) -> int:
+        return len(self.x)
+
+    @property
+    def m(self) -> int:
+        return len(self.u)
+
+    @property
+    def p(self) -> int:
+        return len(self.outputs)
+
+    @property
+    def is_input_affine(self) -> bool:
+        return self.drift is not None
+
+    def symbol(self, name: str) -> sp.Symbol:
+        """The SymPy symbol of a state, input or parameter name."""
+        for s in (*self.x, *self.u):
+            if s.name == name:
+                return s
+        if name in self.parameters:
+            return sp.Symbol(name, real=True)
+        raise UnknownNameError(f"{self.name}: no state, input or parameter named {name!r}")
+
+    def substituted(self, parameters: Mapping[str, float] | None = None) -> dict[sp.Symbol, float]:
+        """Substitution map of parameter symbols to values (``parameters`` override the model's)."""
+        values = dict(self.parameters)
+        for k, v in (parameters or {}).items():
+            if k not in values:
+                raise UnknownNameError(f"{self.name}: no parameter named {k!r} (known: {sorted(values)})")
+            values[k] = float(v)
+        return {sp.Symbol(k, real=True): v for k, v in values.items()}
+
+    def compile(self, parameters: Mapping[str, float] | None = None) -> CompiledModel:
+        """Compile to NumPy: the model, its output and their Jacobians.
+
+        Parameters
+        ----------
+        parameters : mapping, optional
+            Override values of named parameters.
+        """
+        subs = self.substituted(parameters)
+        rhs = self.rhs.subs(subs)
+        h = self.h.subs(subs)
+        grp = (self.x, self.u)
+        X, U = sp.Matrix(self.x), sp.Matrix(self.u)
+        return CompiledModel(
+            time=self.time,
+            states=self.states,
+            inputs=self.inputs,
+            outputs=self.outputs,
+            name=self.name,
+            _rhs=compile_matrix(rhs, grp, vector=True, what=f"{self.name}.rhs"),
+            _h=compile_matrix(h, grp, vector=True, what=f"{self.name}.h"),
+            _rhs_x=compile_matrix(rhs.jacobian(X), grp, what=f"{self.name}.drhs/dx"),
+            _rhs_u=compile_matrix(rhs.jacobian(U) if self.m else sp.zeros(self.n, 0), grp, what="drhs/du"),
+            _h_x=compile_matrix(h.jacobian(X), grp, what=f"{self.name}.dh/dx"),
+            _h_u=compile_matrix(h.jacobian(U) if self.m else sp.zeros(self.p, 0), grp, what="dh/du"),
+        )
+
+
+@dataclass(frozen=True)
+class CompiledModel:
+    """A :class:`SymbolicModel` compiled to batched NumPy callables.
+
+    Satisfies :class:`~nlobs.systems.base.PlantModel`. Every method accepts
+    ``x`` of shape ``(..., n)`` and ``u`` of shape ``(..., m)``.
+    """
+
+    time: TimeBase
+    states: tuple[str, ...]
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+    name: str
+    _rhs: BatchedFunction
+    _h: BatchedFunction
+    _rhs_x: BatchedFunction
+    _rhs_u: BatchedFunction
+    _h_x: BatchedFunction
+    _h_u: BatchedFunction
+
+    @property
+    def n(self) -> int:
+        return len(self.states)
+
+    @property
+    def m(self) -> int:
+        return len(self.inputs)
+
+    @property
+    def p(self) -> int:
+        return len(self.outputs)
+
+    def rhs(self, t: float, x: Array, u: Array) -> Array:
+        """``F(x, u)``: ``ẋ`` or ``x⁺``, shape ``(..., n)``."""
+        return self._rhs(x, u)
+
+    def output(self, t: float, x: Array, u: Array) -> Array:
+        """``h(x, u)``, shape ``(..., p)``."""
+        return self._h(x, u)
+
+    def rhs_jacobian_x(self, t: float, x: Array, u: Array) -> Array:
+        """``∂F/∂x``, shape ``(..., n, n)``."""
+        return self._rhs_x(x, u)
+
+    def rhs_jacobian_u(self, t: float, x: Array, u: Array) -> Array:
+        """``∂F/∂u``, shape ``(..., n, m)``."""
+        return self._rhs_u(x, u)
+
+    def output_jacobian_x(self, t: float, x: Array, u: Array) -> Array:
+        """``∂h/∂x``, shape ``(..., p, n)``."""
+        return self._h_x(x, u)
+
+    def output_jacobian_u(self, t: float, x: Array, u: Array) -> Array:
+        """``∂h/∂u``, shape ``(..., p, m)``."""
+        return self._h_u(x, u)
