@@ -30,6 +30,11 @@ class Observer(Protocol):
         plant's ``n``, e.g. an extended state or a covariance).
     n_x : int
         Dimension of the plant-state estimate returned by :meth:`estimate`.
+
+    Notes
+    -----
+    An observer may also define ``state_names`` (a tuple of ``n_z`` strings);
+    the simulation loop uses them in error messages (otherwise ``z[i]``).
     """
 
     time: TimeBase

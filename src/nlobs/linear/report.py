@@ -1,0 +1,241 @@
+"""One-call structural report of a :class:`~nlobs.systems.linear.LinearSystem`.
+
+:func:`analyze_linear` gathers stability, observability/detectability,
+invariant zeros (Rosenbrock system matrix), left invertibility, minimum phase,
+strong detectability (seed paper, Khajenejad & Yong, Definition 2.1 /
+Remark 2.2, reading ``(A, B, C, D)`` as ``(A, G, C, H)``) and the H∞/H2 norms
+into a frozen :class:`LinearReport`, which serialises to JSON-ready data with
+a stable set of keys (:meth:`LinearReport.to_dict`) and to plain text
+(:meth:`LinearReport.to_text`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nlobs.errors import InvalidArgumentError
+from nlobs.linear.norms import h2_norm, hinf_norm
+from nlobs.linear.observability import unobservable_modes
+from nlobs.linear.stability import eigenvalues, is_stable, strictly_inside
+from nlobs.linear.zeros import invariant_zeros, minimum_phase
+from nlobs.systems.linear import LinearSystem
+
+__all__ = ["LinearReport", "analyze_linear", "REPORT_KEYS"]
+
+REPORT_KEYS: tuple[str, ...] = (
+    "name",
+    "time",
+    "dt",
+    "n",
+    "m",
+    "p",
+    "eigenvalues",
+    "stable",
+    "observable",
+    "detectable",
+    "left_invertible",
+    "minimum_phase",
+    "strongly_detectable",
+    "invariant_zeros",
+    "normal_rank",
+    "hinf_norm",
+    "h2_norm",
+)
+"""The top-level keys of :meth:`LinearReport.to_dict`, in order (a stable interface)."""
+
+
+def _pairs(z: NDArray[np.complex128]) -> list[list[float]]:
+    return [[float(v.real), float(v.imag)] for v in np.asarray(z, dtype=complex)]
+
+
+def _fmt_c(v: complex) -> str:
+    v = complex(v)
+    if v.imag == 0.0:
+        return f"{v.real:.6g}"
+    sign = "+" if v.imag >= 0 else "-"
+    return f"{v.real:.6g}{sign}{abs(v.imag):.6g}j"
+
+
+def _fmt_list(z: NDArray[np.complex128]) -> str:
+    return "none" if len(z) == 0 else ", ".join(_fmt_c(v) for v in z)
+
+
+@dataclass(frozen=True)
+class LinearReport:
+    """Structural properties of a linear system (see :func:`analyze_linear`).
+
+    Attributes
+    ----------
+    name : str
+    time : {"continuous", "discrete"}
+    dt : float or None
+        Sampling period (discrete time only).
+    n, m, p : int
+        Numbers of states, inputs, outputs.
+    eigenvalues : ndarray of complex
+        Eigenvalues of ``A`` (the poles), sorted.
+    stable : bool
+        ``A`` Hurwitz (continuous) or Schur (discrete).
+    observable, detectable : bool
+        Of the pair ``(A, C)``.
+    unobservable_modes : ndarray of complex
+    invariant_zeros : ndarray of complex
+        Finite invariant zeros of ``R(s) = [[sI − A, −B], [C, D]]``.
+    normal_rank : int
+        Normal rank of ``R(s)``.
+    left_invertible : bool
+        ``normal_rank == n + m``.
+    minimum_phase : bool
+        Left invertible and every finite invariant zero strictly stable.
+    minimum_phase_reason : str
+    strongly_detectable : bool
+        Strong detectability of ``(A, G, C, H) = (A, B, C, D)``, i.e. ``B``
+        read as the unknown-input matrix (seed paper, Def. 2.1).
+    hinf_norm : float or None
+        ``None`` when the system is not stable.
+    h2_norm : float or None
+        ``None`` when unstable, or infinite (continuous time with ``D ≠ 0``).
+    """
+
+    name: str
+    time: str
+    dt: float | None
+    n: int
+    m: int
+    p: int
+    eigenvalues: NDArray[np.complex128]
+    stable: bool
+    observable: bool
+    detectable: bool
+    unobservable_modes: NDArray[np.complex128]
+    invariant_zeros: NDArray[np.complex128]
+    normal_rank: int
+    left_invertible: bool
+    minimum_phase: bool
+    strongly_detectable: bool
+    hinf_norm: float | None
+    h2_norm: float | None
+    minimum_phase_reason: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-serialisable data with exactly the keys :data:`REPORT_KEYS`.
+
+        Complex numbers are ``[re, im]`` pairs; booleans, ints and floats are
+        plain Python types; a missing norm is ``None`` (JSON ``null``).
+        """
+        return {
+            "name": str(self.name),
+            "time": str(self.time),
+            "dt": None if self.dt is None else float(self.dt),
+            "n": int(self.n),
+            "m": int(self.m),
+            "p": int(self.p),
+            "eigenvalues": _pairs(self.eigenvalues),
+            "stable": bool(self.stable),
+            "observable": bool(self.observable),
+            "detectable": bool(self.detectable),
+            "left_invertible": bool(self.left_invertible),
+            "minimum_phase": bool(self.minimum_phase),
+            "strongly_detectable": bool(self.strongly_detectable),
+            "invariant_zeros": _pairs(self.invariant_zeros),
+            "normal_rank": int(self.normal_rank),
+            "hinf_norm": None if self.hinf_norm is None else float(self.hinf_norm),
+            "h2_norm": None if self.h2_norm is None else float(self.h2_norm),
+        }
+
+    def to_text(self) -> str:
+        """A short human-readable multi-line report (plain text)."""
+
+        def yn(b: bool) -> str:
+            return "yes" if b else "no"
+
+        time = self.time if self.dt is None else f"{self.time} (dt={self.dt:g})"
+        lines = [
+            f"Linear system '{self.name}': {time}, n={self.n}, m={self.m}, p={self.p}",
+            f"  poles:               {_fmt_list(self.eigenvalues)}",
+            f"  stable:              {yn(self.stable)}",
+            f"  observable:          {yn(self.observable)}",
+            f"  detectable:          {yn(self.detectable)}"
+            + ("" if self.observable else f" (unobservable modes: {_fmt_list(self.unobservable_modes)})"),
+            f"  invariant zeros:     {_fmt_list(self.invariant_zeros)}",
+            f"  normal rank:         {self.normal_rank} (n + m = {self.n + self.m})",
+            f"  left invertible:     {yn(self.left_invertible)}",
+            f"  minimum phase:       {yn(self.minimum_phase)}"
+            + ("" if self.minimum_phase or not self.minimum_phase_reason else f" ({self.minimum_phase_reason})"),
+            f"  strongly detectable: {yn(self.strongly_detectable)} (B read as unknown-input matrix)",
+            f"  H-infinity norm:     {'n/a (unstable)' if self.hinf_norm is None else f'{self.hinf_norm:.6g}'}",
+            f"  H2 norm:             {_h2_text(self)}",
+        ]
+        return "\n".join(lines)
+
+
+def _h2_text(r: LinearReport) -> str:
+    if r.h2_norm is not None:
+        return f"{r.h2_norm:.6g}"
+    return "n/a (unstable)" if not r.stable else "infinite (D != 0)"
+
+
+def analyze_linear(sys: LinearSystem) -> LinearReport:
+    """Structural analysis of a linear system.
+
+    Parameters
+    ----------
+    sys : LinearSystem
+        The model; its time base selects continuous- or discrete-time tests.
+
+    Returns
+    -------
+    LinearReport
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``sys`` is not a :class:`~nlobs.systems.linear.LinearSystem`.
+
+    Notes
+    -----
+    Uses :func:`~nlobs.linear.stability.is_stable`,
+    :func:`~nlobs.linear.observability.unobservable_modes` (PBH per spectral cluster),
+    :func:`~nlobs.linear.zeros.invariant_zeros` (Emami-Naeini & Van Dooren
+    1982), :func:`~nlobs.linear.norms.hinf_norm` (Bruinsma & Steinbuch 1990)
+    and :func:`~nlobs.linear.norms.h2_norm` (Gramians).
+    """
+    if not isinstance(sys, LinearSystem):
+        raise InvalidArgumentError(f"sys: expected a LinearSystem, got {type(sys).__name__}")
+    A, B, C, D = (np.asarray(M, dtype=float) for M in (sys.A, sys.B, sys.C, sys.D))
+    disc = bool(sys.is_discrete)
+    dt = float(sys.time.dt) if disc else None  # type: ignore[union-attr]
+    eig = eigenvalues(A)
+    stable = is_stable(A, discrete=disc)
+    uo = unobservable_modes(A, C, discrete=disc)
+    detectable = bool(np.all(strictly_inside(uo, discrete=disc)))
+    iz = invariant_zeros(A, B, C, D)
+    mp = minimum_phase(A, B, C, D, discrete=disc)
+    hinf = hinf_norm(A, B, C, D, discrete=disc) if stable else math.inf
+    h2 = h2_norm(A, B, C, D, discrete=disc) if stable else math.inf
+    return LinearReport(
+        name=sys.name,
+        time="discrete" if disc else "continuous",
+        dt=dt,
+        n=sys.n,
+        m=sys.m,
+        p=sys.p,
+        eigenvalues=eig,
+        stable=stable,
+        observable=uo.size == 0,
+        detectable=detectable,
+        unobservable_modes=uo,
+        invariant_zeros=iz.zeros,
+        normal_rank=iz.normal_rank,
+        left_invertible=iz.left_invertible,
+        minimum_phase=mp.minimum_phase,
+        strongly_detectable=mp.minimum_phase,
+        hinf_norm=hinf if math.isfinite(hinf) else None,
+        h2_norm=h2 if math.isfinite(h2) else None,
+        minimum_phase_reason=mp.reason,
+    )

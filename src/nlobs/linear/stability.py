@@ -1,0 +1,151 @@
+"""Eigenvalue-based stability tests for ``ẋ = A x`` and ``x⁺ = A x``.
+
+Continuous time is (Hurwitz) stable when every eigenvalue of ``A`` has a
+negative real part; discrete time is (Schur) stable when every eigenvalue lies
+strictly inside the unit circle.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
+
+from nlobs._validate import as_square
+from nlobs.errors import InvalidArgumentError, NonFiniteError
+
+__all__ = ["BOUNDARY_TOL", "strictly_inside", "eigenvalues", "is_stable", "spectral_abscissa", "spectral_radius", "stability_margin"]
+
+
+def _eigs(A: NDArray[np.float64]) -> NDArray[np.complex128]:
+    if A.shape[0] == 0:
+        return np.zeros(0, dtype=complex)
+    return np.asarray(scipy.linalg.eigvals(A), dtype=complex)
+
+
+BOUNDARY_TOL = 1e-9
+"""Default margin of :func:`strictly_inside`: computed zeros/modes closer than
+this (relatively) to the stability boundary are treated as *on* it."""
+
+
+def strictly_inside(points: ArrayLike, *, discrete: bool = False, tol: float = BOUNDARY_TOL) -> NDArray[np.bool_]:
+    """Elementwise test that complex points lie strictly in the stability region.
+
+    Parameters
+    ----------
+    points : array_like of complex
+        Eigenvalues, unobservable modes or invariant zeros.
+    discrete : bool
+        Region ``|z| < 1`` instead of ``Re z < 0``.
+    tol : float, default 1e-9
+        Safety margin for computed quantities: ``Re z < −tol·max(1, |z|)``,
+        resp. ``|z| < 1 − tol``. A zero exactly on the boundary (``s = 0``,
+        ``z = −1``) is computed only to rounding accuracy, so without a margin
+        its classification would be decided by the sign of a rounding error.
+
+    Returns
+    -------
+    ndarray of bool
+    """
+    z = np.asarray(points, dtype=complex)
+    try:
+        t = float(tol)
+    except (TypeError, ValueError):
+        raise InvalidArgumentError(f"tol: expected a number, got {tol!r}") from None
+    if not np.isfinite(t) or t < 0:
+        raise InvalidArgumentError(f"tol: must be finite and non-negative, got {tol!r}")
+    if discrete:
+        return np.abs(z) < 1.0 - t
+    return z.real < -t * np.maximum(1.0, np.abs(z))
+
+
+def eigenvalues(A: ArrayLike) -> NDArray[np.complex128]:
+    """Eigenvalues of a square matrix, sorted by real part then imaginary part.
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        Finite square matrix.
+
+    Returns
+    -------
+    ndarray of complex, shape (n,)
+        The eigenvalues (LAPACK ``geev`` via :func:`scipy.linalg.eigvals`).
+
+    Raises
+    ------
+    DimensionError
+        ``A`` is not a square 2-d matrix.
+    NonFiniteError
+        ``A`` has NaN or infinite entries.
+    """
+    lam = _eigs(as_square("A", A))
+    return lam[np.lexsort((lam.imag, lam.real))]
+
+
+def spectral_abscissa(A: ArrayLike) -> float:
+    """Largest real part of the eigenvalues of ``A`` (``-inf`` when ``n = 0``).
+
+    ``ẋ = A x`` is asymptotically stable iff the spectral abscissa is negative.
+    """
+    lam = _eigs(as_square("A", A))
+    return float(np.max(lam.real, initial=-np.inf))
+
+
+def spectral_radius(A: ArrayLike) -> float:
+    """Largest modulus of the eigenvalues of ``A`` (``0`` when ``n = 0``).
+
+    ``x⁺ = A x`` is asymptotically stable iff the spectral radius is below one.
+    """
+    lam = _eigs(as_square("A", A))
+    return float(np.max(np.abs(lam), initial=0.0))
+
+
+def stability_margin(A: ArrayLike, *, discrete: bool = False) -> float:
+    """Distance of the worst eigenvalue to the stability boundary.
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        System matrix.
+    discrete : bool
+        ``False``: the boundary is the imaginary axis and the margin is
+        ``-max Re λ``. ``True``: the boundary is the unit circle and the margin
+        is ``1 - max |λ|``.
+
+    Returns
+    -------
+    float
+        Positive when ``A`` is strictly stable, zero on the boundary, negative
+        when unstable; ``+inf`` for ``n = 0`` in continuous time (no eigenvalue)
+        and ``1`` in discrete time.
+    """
+    if discrete:
+        return 1.0 - spectral_radius(A)
+    return -spectral_abscissa(A)
+
+
+def is_stable(A: ArrayLike, *, discrete: bool = False, tol: float = 0.0) -> bool:
+    """Whether ``A`` is strictly (asymptotically) stable, with a safety margin.
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        System matrix.
+    discrete : bool
+        Schur (``|λ| < 1``) instead of Hurwitz (``Re λ < 0``) stability.
+    tol : float, default 0
+        Required margin: the test is ``stability_margin(A) > tol``, i.e.
+        ``max Re λ < -tol`` or ``max |λ| < 1 - tol``.
+
+    Returns
+    -------
+    bool
+    """
+    try:
+        t = float(tol)
+    except (TypeError, ValueError):
+        raise InvalidArgumentError(f"tol: expected a number, got {tol!r}") from None
+    if not np.isfinite(t):
+        raise NonFiniteError(f"tol: must be finite, got {t!r}")
+    return bool(stability_margin(A, discrete=discrete) > t)

@@ -1,0 +1,100 @@
+"""Luenberger observer for a linear system ``(A, B, C, D)`` with output-injection gain ``L``.
+
+Continuous time:
+
+.. math:: \\dot z = A z + B u + L\\,(y - C z - D u), \\qquad \\hat x = z,
+
+so that the error ``e = z − x`` obeys ``ė = (A − L C) e``.
+
+Discrete time (predictor form, the same ``dt`` as the plant):
+
+.. math:: z^+ = A z + B u + L\\,(y - C z - D u), \\qquad e^+ = (A − L C)\\, e .
+
+The observer converges iff ``A − L C`` is Hurwitz (continuous) or Schur
+(discrete); :attr:`LuenbergerObserver.error_matrix` gives it for checking.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from nlobs._validate import as_batch, as_matrix
+from nlobs.errors import InvalidArgumentError
+from nlobs.systems.linear import LinearSystem
+from nlobs.systems.timebase import TimeBase
+
+Array = NDArray[np.float64]
+
+
+@dataclass(frozen=True, eq=False)
+class LuenbergerObserver:
+    """Full-order Luenberger observer ``ż = A z + B u + L (y − C z − D u)`` (or ``z⁺ = …``).
+
+    Parameters
+    ----------
+    system : LinearSystem
+        The model the observer copies; its time base is the observer's.
+    L : array_like, shape (n, p)
+        Output-injection gain.
+
+    Attributes
+    ----------
+    time : Continuous or Discrete
+        The system's time base.
+    state_names : tuple of str
+        ``"<state>_hat"`` for each state (used in divergence reports).
+
+    Notes
+    -----
+    The observer holds no state: :meth:`rhs` maps ``(t, z, u, y)`` to ``ż`` or
+    ``z⁺`` for batches ``z`` of shape ``(..., n)``.
+    """
+
+    system: LinearSystem
+    L: Array
+    time: TimeBase = field(init=False)
+    state_names: tuple[str, ...] = field(init=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.system, LinearSystem):
+            raise InvalidArgumentError(f"system: expected a LinearSystem, got {type(self.system).__name__}")
+        gain = as_matrix("L", self.L, (self.system.n, self.system.p))
+        gain.setflags(write=False)
+        object.__setattr__(self, "L", gain)
+        object.__setattr__(self, "time", self.system.time)
+        object.__setattr__(self, "state_names", tuple(f"{s}_hat" for s in self.system.states))
+        # Precomputed transposes for row-vector batches: ż = z (A − LC)ᵀ + u (B − LD)ᵀ + y Lᵀ.
+        A, B, C, D = self.system.A, self.system.B, self.system.C, self.system.D
+        object.__setattr__(self, "_FzT", np.ascontiguousarray((A - gain @ C).T))
+        object.__setattr__(self, "_FuT", np.ascontiguousarray((B - gain @ D).T))
+        object.__setattr__(self, "_LT", np.ascontiguousarray(gain.T))
+
+    @property
+    def n_z(self) -> int:
+        """Observer state dimension (``n``)."""
+        return self.system.n
+
+    @property
+    def n_x(self) -> int:
+        """Estimate dimension (``n``)."""
+        return self.system.n
+
+    @property
+    def error_matrix(self) -> Array:
+        """``A − L C``, the matrix of the error dynamics."""
+        return self.system.A - self.L @ self.system.C
+
+    def init(self, x_hat0: ArrayLike) -> Array:
+        """Observer state from the initial estimate (``z0 = x̂0``), shape ``(..., n)``."""
+        return np.array(as_batch("x_hat0", x_hat0, self.system.n), dtype=float)
+
+    def rhs(self, t: float, z: Array, u: Array, y: Array) -> Array:
+        """``ż`` (continuous) or ``z⁺`` (discrete) for batches, shape ``(..., n)``."""
+        return z @ self._FzT + u @ self._FuT + y @ self._LT  # type: ignore[attr-defined]
+
+    def estimate(self, z: Array) -> Array:
+        """The estimate is the observer state, ``x̂ = z``."""
+        return z

@@ -1,0 +1,647 @@
+"""The simulation loop: a plant and its observer integrated together on one time grid.
+
+Time grid and order of operations
+---------------------------------
+Times are ``t_k = t0 + k dt`` for ``k = 0 .. N`` with ``N = ceil(duration / dt)``
+(so the last time is at or just after ``t0 + duration``). At each ``t_k``:
+
+1. every measurement group due at step ``k`` (``k`` a multiple of its stride
+   ``1 / (rate dt)``) reads ``y = h(t_k, x_k, u(t_k))`` plus noise into the
+   held measurement; every input sensor due reads ``u(t_k)`` plus noise into
+   the held input;
+2. a :class:`~nlobs.observers.base.CorrectingObserver` makes its correction
+   ``z ← correct(t_k, z, u_obs, y_held, fresh)`` if any group sampled;
+3. the state, the estimate and the held measurement are saved (every
+   ``save_every``-th step and the last one);
+4. plant and observer advance to ``t_{k+1}``:
+
+   * continuous plant and observer: one joint RK4 step of ``(x, z)``; the
+     plant is driven by the true ``u(t)`` at each stage (by ``u(t_k)`` for the
+     whole step when ``u`` is a zero-order-hold :class:`SampledSignal`, so that
+     breakpoints on the grid are integrated exactly), the observer by the
+     held measurement (or, with ``measurements=None``, by the exact output
+     ``h(t, x, u)`` of the same stage) and by ``u_obs(t)`` — the true input,
+     with the channels of input sensors replaced by their held readings;
+   * discrete plant: ``x_{k+1} = f(t_k, x_k, u_k)``; continuous plant with a
+     discrete observer: one RK4 step of the plant;
+   * discrete observer: ``z_{k+1} = g(t_k, z_k, u_obs(t_k), y_k)``.
+
+After every step (and every correction) the plant and observer states are
+checked for non-finite entries; the first one seen stops the run with
+:class:`~nlobs.errors.SimulationDiverged` at that grid time. NumPy
+floating-point warnings (overflow, invalid) are silenced inside the loop
+because this check reports them.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time as _time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from types import TracebackType
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from nlobs._validate import as_batch, positive
+from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError, SimulationDiverged
+from nlobs.observers.base import CorrectingObserver, Observer
+from nlobs.simulate.integrators import RK4, Integrator, SolveIVP, rk4_step, rk4_step_joint, solve_ivp_batch
+from nlobs.simulate.result import SimulationResult
+from nlobs.simulate.sampling import (
+    InputSensor,
+    MeasurementGroup,
+    ScheduledGroup,
+    sample_into,
+    schedule_inputs,
+    schedule_measurements,
+)
+from nlobs.simulate.signals import InputFunction, InputLike, SampledSignal, as_input_function
+from nlobs.systems.base import PlantModel
+from nlobs.systems.timebase import Continuous, Discrete, TimeBase
+
+Array = NDArray[np.float64]
+
+#: Relative tolerance when comparing the step sizes of discrete models and ``dt``.
+DT_RTOL = 1e-9
+#: In automatic mode, a progress bar appears once a run has taken this long (seconds) on a terminal.
+PROGRESS_AFTER_S = 2.0
+
+
+class _NullObserver:
+    """Stand-in when only the plant is simulated: no state, no estimate."""
+
+    def __init__(self, time: TimeBase) -> None:
+        self.time = time
+
+    n_z = 0
+    n_x = 0
+
+    def init(self, x_hat0: Array) -> Array:
+        return np.zeros((*x_hat0.shape[:-1], 0))
+
+    def rhs(self, t: float, z: Array, u: Array, y: Array) -> Array:
+        return z
+
+    def estimate(self, z: Array) -> Array:
+        return z
+
+
+@dataclass(frozen=True)
+class _Setup:
+    """Everything the two loops share, validated once."""
+
+    plant: PlantModel
+    observer: Any
+    has_observer: bool
+    correcting: bool
+    plant_discrete: bool
+    observer_discrete: bool
+    dt: float
+    t0: float
+    n_steps: int
+    batch: tuple[int, ...]
+    x0: Array
+    z0: Array
+    n_x: int
+    u_fn: InputFunction
+    u_hold: bool  # piecewise-constant input: RK4 uses u(t_k) for the whole step
+    groups: tuple[ScheduledGroup, ...] | None  # None: exact continuous measurement
+    sensors: tuple[ScheduledGroup, ...]
+    sensed: NDArray[np.bool_]  # (m,) inputs read by a sensor
+    rng: np.random.Generator | None
+    save_steps: NDArray[np.intp]
+    plant_names: tuple[str, ...]
+    observer_names: tuple[str, ...]
+    estimate_names: tuple[str, ...]
+
+    def t(self, k: int) -> float:
+        return self.t0 + k * self.dt
+
+
+class _State:
+    """The loop's mutable working state (held readings), private to one run."""
+
+    def __init__(self, s: _Setup) -> None:
+        p, m = s.plant.p, s.plant.m
+        self.y_held = np.full((*s.batch, p), np.nan)
+        self.u_held = np.full((*s.batch, m), np.nan)
+        self.y_view = self.y_held.view()
+        self.y_view.flags.writeable = False
+        self.u_view = self.u_held.view()
+        self.u_view.flags.writeable = False
+        self.fresh = np.zeros(p, dtype=bool)
+        self.all_fresh = np.ones(p, dtype=bool)
+        self.all_sensed = bool(s.sensed.all()) and s.sensed.size > 0
+
+    def u_obs(self, s: _Setup, u: Array) -> Array:
+        """Input seen by the observer: true ``u`` with sensed channels replaced by held readings."""
+        if not s.sensors:
+            return u
+        if self.all_sensed:
+            return self.u_view
+        return np.where(s.sensed, self.u_held, u)
+
+
+class _Recorder:
+    """Preallocated output arrays and the mapping from steps to saved rows.
+
+    The buffers are time-major, ``(K, *batch, n)``, so that each saved step is
+    one contiguous write; :meth:`arrays` hands them out as read-only
+    ``(*batch, K, n)`` views without copying.
+    """
+
+    def __init__(self, s: _Setup) -> None:
+        K = s.save_steps.size
+        self.t = s.t0 + s.save_steps * s.dt
+        self.x = np.empty((K, *s.batch, s.plant.n))
+        self.x_hat = np.empty((K, *s.batch, s.n_x))
+        self.y = np.empty((K, *s.batch, s.plant.p))
+        self.sampled = np.zeros((K, s.plant.p), dtype=bool)
+        self.row_of = {int(k): j for j, k in enumerate(s.save_steps)}
+
+    def save(self, s: _Setup, k: int, x: Array, z: Array, y: Array, fresh: NDArray[np.bool_]) -> None:
+        j = self.row_of.get(k)
+        if j is None:
+            return
+        self.x[j] = x
+        self.x_hat[j] = _estimate(s, z)
+        self.y[j] = y
+        self.sampled[j] = fresh
+
+    def arrays(self) -> dict[str, NDArray]:
+        out = {}
+        for name in ("t", "x", "x_hat", "y", "sampled"):
+            buf = getattr(self, name)
+            buf.flags.writeable = False
+            out[name] = buf if name in ("t", "sampled") else np.moveaxis(buf, 0, -2)
+        return out
+
+
+class _Progress:
+    """A rich progress bar shown on request, or automatically for long runs on a terminal."""
+
+    def __init__(self, total: int, mode: bool | None) -> None:
+        self.total = max(total, 1)
+        self.mode = mode
+        self.every = max(1, self.total // 200)
+        self.next = 0
+        self.start = _time.perf_counter()
+        self.bar: Any = None
+        self.task: Any = None
+
+    def __enter__(self) -> _Progress:
+        if self.mode:
+            self._open()
+        return self
+
+    def _open(self) -> None:
+        from rich.console import Console
+        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+
+        self.bar = Progress(
+            TextColumn("simulating"),
+            BarColumn(),
+            TextColumn("{task.percentage:>5.1f}%"),
+            TimeElapsedColumn(),
+            TimeRemainingColumn(),
+            console=Console(stderr=True),
+            transient=False,
+        )
+        self.bar.start()
+        self.task = self.bar.add_task("simulate", total=self.total)
+
+    def update(self, k: int) -> None:
+        if k < self.next:
+            return
+        self.next = k + self.every
+        if self.bar is None:
+            if self.mode is not None or _time.perf_counter() - self.start < PROGRESS_AFTER_S:
+                return
+            if not sys.stderr.isatty():
+                self.mode = False
+                return
+            self._open()
+        self.bar.update(self.task, completed=k)
+
+    def __exit__(self, et: type[BaseException] | None, ev: BaseException | None, tb: TracebackType | None) -> None:
+        if self.bar is not None:
+            if et is None:
+                self.bar.update(self.task, completed=self.total)
+            self.bar.stop()
+
+
+def _estimate(s: _Setup, z: Array) -> Array:
+    return s.observer.estimate(z) if s.has_observer else np.empty((*s.batch, 0))
+
+
+def _first_bad(arr: Array, names: tuple[str, ...]) -> str:
+    bad = ~np.isfinite(arr).reshape(-1, arr.shape[-1]).all(axis=0)
+    return names[int(np.flatnonzero(bad)[0])]
+
+
+def _check_finite(s: _Setup, t: float, x: Array, z: Array) -> None:
+    if not np.isfinite(x).all():
+        raise SimulationDiverged(t, "plant", _first_bad(x, s.plant_names))
+    if not np.isfinite(z).all():
+        raise SimulationDiverged(t, "observer", _first_bad(z, s.observer_names))
+
+
+def _events(s: _Setup, st: _State, k: int, t: float, x: Array, z: Array) -> tuple[Array, NDArray[np.bool_]]:
+    """Sampling and correction at step ``k``; returns the (corrected) ``z`` and the fresh mask."""
+    fresh = st.fresh
+    due_y = [g for g in s.groups if k % g.stride == 0] if s.groups else []
+    due_u = [g for g in s.sensors if k % g.stride == 0]
+    if due_y or due_u or (s.groups is None and s.correcting):
+        u = s.u_fn(t)
+        if due_y:
+            y = s.plant.output(t, x, u)
+            fresh = np.zeros_like(st.fresh)
+            for g in due_y:
+                sample_into(st.y_held, y, g, s.rng)
+                fresh[g.index] = True
+        for g in due_u:
+            sample_into(st.u_held, u, g, s.rng)
+        if s.correcting:
+            if s.groups is None:  # discrete observer with exact measurements: every step is a sample
+                z = s.observer.correct(t, z, st.u_obs(s, u), s.plant.output(t, x, u), st.all_fresh)
+                fresh = st.all_fresh
+            elif due_y:
+                z = s.observer.correct(t, z, st.u_obs(s, u), st.y_view, fresh)
+            if not np.isfinite(z).all():
+                raise SimulationDiverged(t, "observer", _first_bad(z, s.observer_names))
+    return z, fresh
+
+
+def _measurement(s: _Setup, st: _State, t: float, x: Array, u: Array) -> Array:
+    return s.plant.output(t, x, u) if s.groups is None else st.y_view
+
+
+def _run_fixed(s: _Setup, rec: _Recorder, progress: _Progress) -> None:
+    """RK4 (continuous) or map iteration (discrete), one vectorised call per stage."""
+    st = _State(s)
+    x, z = s.x0, s.z0
+    plant, obs = s.plant, s.observer
+    exact_y = s.groups is None
+
+    u_step = s.u_fn(s.t0)  # u(t_k), used at every stage for a piecewise-constant input
+
+    def joint(t: float, xz: tuple[Array, ...]) -> tuple[Array, ...]:
+        xs, zs = xz
+        u = u_step if s.u_hold else s.u_fn(t)
+        y = plant.output(t, xs, u) if exact_y else st.y_view
+        return plant.rhs(t, xs, u), obs.rhs(t, zs, st.u_obs(s, u), y)
+
+    def plant_only(t: float, xs: Array) -> Array:
+        return plant.rhs(t, xs, u_step if s.u_hold else s.u_fn(t))
+
+    _check_finite(s, s.t0, x, z)
+    for k in range(s.n_steps + 1):
+        t = s.t(k)
+        z, fresh = _events(s, st, k, t, x, z)
+        if k in rec.row_of:
+            y_rec = plant.output(t, x, s.u_fn(t)) if exact_y else st.y_view
+            rec.save(s, k, x, z, y_rec, st.all_fresh if exact_y else fresh)
+        if k == s.n_steps:
+            break
+        if s.u_hold:
+            u_step = s.u_fn(t)
+        if s.observer_discrete or s.plant_discrete:
+            u = s.u_fn(t)
+            if s.observer_discrete:
+                z = obs.rhs(t, z, st.u_obs(s, u), _measurement(s, st, t, x, u))
+            x = plant.rhs(t, x, u) if s.plant_discrete else rk4_step(plant_only, t, x, s.dt)
+        elif s.has_observer:
+            x, z = rk4_step_joint(joint, t, (x, z), s.dt)
+        else:
+            x = rk4_step(plant_only, t, x, s.dt)
+        _check_finite(s, s.t(k + 1), x, z)
+        progress.update(k + 1)
+
+
+def _run_ivp(s: _Setup, rec: _Recorder, progress: _Progress, options: dict[str, Any]) -> None:
+    """``solve_ivp`` between consecutive event steps (samples, discrete observer steps)."""
+    st = _State(s)
+    x, z = s.x0, s.z0
+    plant, obs = s.plant, s.observer
+    n, exact_y = plant.n, s.groups is None
+    joint_z = s.has_observer and not s.observer_discrete
+
+    events: set[int] = {0, s.n_steps}
+    if s.observer_discrete:
+        events.update(range(s.n_steps + 1))
+    for g in (*(s.groups or ()), *s.sensors):
+        events.update(range(0, s.n_steps + 1, g.stride))
+    ev = sorted(events)
+
+    def f(t: float, xz: Array) -> Array:
+        xs, zs = xz[..., :n], xz[..., n:]
+        u = s.u_fn(t)
+        dx = plant.rhs(t, xs, u)
+        if not joint_z:
+            return dx
+        y = plant.output(t, xs, u) if exact_y else st.y_view
+        return np.concatenate([dx, obs.rhs(t, zs, st.u_obs(s, u), y)], axis=-1)
+
+    _check_finite(s, s.t0, x, z)
+    for i, k in enumerate(ev):
+        t = s.t(k)
+        z, fresh = _events(s, st, k, t, x, z)
+        saved_fresh = st.all_fresh if exact_y else fresh
+        u = s.u_fn(t)
+        rec.save(s, k, x, z, _measurement(s, st, t, x, u), saved_fresh)
+        if k == s.n_steps:
+            break
+        k_next = ev[i + 1]
+        inner = [j for j in range(k + 1, k_next) if j in rec.row_of]
+        steps = [*inner, k_next]
+        y0 = np.concatenate([x, z], axis=-1) if joint_z else x
+        ys, sol = solve_ivp_batch(f, y0, (t, s.t(k_next)), [s.t(j) for j in steps], options)
+        for row, j in enumerate(steps[: ys.shape[0]]):
+            xj = ys[row][..., :n]
+            zj = ys[row][..., n:] if joint_z else z
+            _check_finite(s, s.t(j), xj, zj)
+            if j != k_next:
+                uj = s.u_fn(s.t(j))
+                rec.save(s, j, xj, zj, _measurement(s, st, s.t(j), xj, uj), st.all_fresh if exact_y else st.fresh)
+        if sol.status != 0:
+            _raise_ivp_failure(s, sol, y0.shape, joint_z)
+        x_new = ys[-1][..., :n]
+        if s.observer_discrete and s.has_observer:
+            z = obs.rhs(t, z, st.u_obs(s, u), _measurement(s, st, t, x, u))
+        elif joint_z:
+            z = ys[-1][..., n:]
+        x = x_new
+        _check_finite(s, s.t(k_next), x, z)
+        progress.update(k_next)
+
+
+def _raise_ivp_failure(s: _Setup, sol: Any, shape: tuple[int, ...], joint_z: bool) -> None:
+    """Report a ``solve_ivp`` failure (step size collapsed) as divergence of the largest component.
+
+    The last accepted state is usually finite but huge; the component with the
+    largest magnitude (non-finite first) is named, with the solver's message as cause.
+    """
+    n = s.plant.n
+    last = np.asarray(sol.y[:, -1]).reshape(shape)
+    mag = np.where(np.isfinite(last), np.abs(last), np.inf)
+    which, names, part = "plant", s.plant_names, mag[..., :n]
+    if joint_z and np.max(mag[..., n:], initial=0.0) > np.max(part, initial=0.0):
+        which, names, part = "observer", s.observer_names, mag[..., n:]
+    worst = int(np.argmax(part.reshape(-1, part.shape[-1]).max(axis=0)))
+    raise SimulationDiverged(float(sol.t[-1]), which, names[worst]) from RuntimeError(str(sol.message))
+
+
+def _timebases(
+    plant: PlantModel, observer: Any, has_observer: bool, dt: float | None
+) -> tuple[float, bool, bool]:
+    """Resolve the step ``dt`` and check the time bases agree."""
+    pt, ot = plant.time, observer.time
+    for who, tb in (("plant", pt), ("observer", ot)):
+        if not isinstance(tb, (Continuous, Discrete)):
+            raise InvalidArgumentError(f"{who}.time: expected Continuous or Discrete, got {tb!r}")
+    if pt.is_discrete and not ot.is_discrete:
+        raise InvalidArgumentError("a discrete-time plant needs a discrete-time observer (got a continuous-time observer)")
+    fixed = [(who, tb.dt) for who, tb in (("plant", pt), ("observer", ot)) if isinstance(tb, Discrete)]
+    if not has_observer:
+        fixed = [f for f in fixed if f[0] == "plant"]
+    if dt is not None:
+        dt = positive("dt", dt)
+        fixed.append(("dt argument", dt))
+    if not fixed:
+        raise InvalidArgumentError("dt: required for a continuous-time simulation (there is no default step)")
+    ref_who, ref = fixed[0]
+    for who, val in fixed[1:]:
+        if abs(val - ref) > DT_RTOL * max(val, ref):
+            raise InvalidArgumentError(f"time step mismatch: {ref_who} has dt={ref:g} but {who} has dt={val:g}")
+    return ref, pt.is_discrete, bool(has_observer and ot.is_discrete)
+
+
+def _as_tuple(value: Any, kind: type, name: str) -> tuple[Any, ...]:
+    if value is None:
+        return ()
+    if isinstance(value, kind):
+        return (value,)
+    if isinstance(value, Sequence) and not isinstance(value, str):
+        return tuple(value)
+    raise InvalidArgumentError(f"{name}: expected a {kind.__name__} or a sequence of them, got {type(value).__name__}")
+
+
+def _names(obj: Any, attr: str, count: int, fallback: Callable[[int], str]) -> tuple[str, ...]:
+    names = getattr(obj, attr, None)
+    if isinstance(names, (tuple, list)) and len(names) == count and all(isinstance(v, str) for v in names):
+        return tuple(names)
+    return tuple(fallback(i) for i in range(count))
+
+
+def simulate(
+    plant: PlantModel,
+    observer: Observer | None,
+    x0: ArrayLike,
+    x_hat0: ArrayLike | None = None,
+    *,
+    duration: float,
+    dt: float | None = None,
+    u: InputLike = None,
+    measurements: MeasurementGroup | Sequence[MeasurementGroup] | None = None,
+    input_sensors: InputSensor | Sequence[InputSensor] | None = None,
+    seed: int | np.random.Generator | None = None,
+    integrator: Integrator = RK4(),
+    save_every: int = 1,
+    t0: float = 0.0,
+    progress: bool | None = None,
+) -> SimulationResult:
+    """Simulate a plant and an observer together, for one or many initial conditions.
+
+    Parameters
+    ----------
+    plant : PlantModel
+        The true system (continuous or discrete time).
+    observer : Observer or None
+        The observer (``None`` simulates the plant alone). A
+        :class:`~nlobs.observers.base.CorrectingObserver` is corrected at each
+        sample instant. If it has a ``state_names`` attribute (``n_z``
+        strings), divergence reports use it; otherwise ``z[i]``.
+    x0 : array_like, shape (n,) or (*batch, n)
+        Initial plant state(s); a batch shape runs many trajectories at once.
+    x_hat0 : array_like, shape (n_x,) or (*batch, n_x)
+        Initial estimate(s), passed to ``observer.init``; broadcast over the batch.
+        Required when there is an observer.
+    duration : float
+        Simulated time span (seconds); the run stops at the first grid time at
+        or after ``t0 + duration``.
+    dt : float, optional
+        Integration step. Required for continuous time; for a discrete plant
+        or observer it defaults to, and must agree with, the model's ``dt``.
+    u : None, array_like, callable or SampledSignal
+        Known input: a constant of shape ``(m,)`` or ``(*batch, m)``, a callable
+        ``u(t)`` returning such an array, or a :class:`SampledSignal`.
+    measurements : MeasurementGroup or sequence of them, optional
+        Sampled sensors, each with its own required rate and noise; together
+        they must cover every plant output. ``None`` means exact measurement
+        of every output, evaluated at every RK4 stage (every step in discrete time).
+    input_sensors : InputSensor or sequence of them, optional
+        Inputs the observer receives sampled, held and noisy (the plant always
+        gets the true ``u``).
+    seed : int or numpy.random.Generator, optional
+        Noise source; required when any sensor has non-zero noise. A Generator
+        is used (and advanced) as given.
+    integrator : RK4 or SolveIVP
+        ``RK4()`` (fixed step, default) or ``SolveIVP(...)`` (adaptive,
+        continuous-time plants only; the batch is flattened into one ODE).
+    save_every : int
+        Keep every ``save_every``-th step (and always the last one).
+    t0 : float
+        Start time.
+    progress : bool, optional
+        ``True``: always show a progress bar (on stderr); ``False``: never;
+        ``None`` (default): show one only when the run has already taken a
+        couple of seconds and stderr is a terminal.
+
+    Returns
+    -------
+    SimulationResult
+
+    Raises
+    ------
+    DimensionError
+        ``x0``, ``x_hat0``, ``u`` or the observer's ``init``/``estimate`` have the wrong shape.
+    NonFiniteError
+        ``x0``, ``x_hat0`` or ``u(t0)`` is not finite.
+    InvalidArgumentError
+        Non-positive ``dt`` or ``duration``, a missing ``dt``, a ``dt`` that
+        disagrees with a discrete model, a sensor rate that does not fit ``dt``,
+        outputs without a measurement group, or noise without a seed.
+    SimulationDiverged
+        A plant or observer state became non-finite (the time and the first
+        such state are named).
+
+    Examples
+    --------
+    >>> res = simulate(plant, obs, x0=[1.0, 0.0], x_hat0=[0.0, 0.0], duration=5.0, dt=1e-3)  # doctest: +SKIP
+    >>> res.metrics(tol=1e-3).time_to_tolerance  # doctest: +SKIP
+    """
+    if not isinstance(plant, PlantModel):
+        raise InvalidArgumentError(f"plant: expected a PlantModel (time, states, inputs, outputs, rhs, output), got {type(plant).__name__}")
+    has_observer = observer is not None
+    if observer is None:
+        if x_hat0 is not None:
+            raise InvalidArgumentError("x_hat0: given without an observer")
+        obs: Any = _NullObserver(plant.time)
+    else:
+        if not isinstance(observer, Observer):
+            raise InvalidArgumentError(f"observer: expected an Observer (time, n_z, n_x, init, rhs, estimate), got {type(observer).__name__}")
+        if x_hat0 is None:
+            raise InvalidArgumentError("x_hat0: the initial estimate is required when an observer is simulated")
+        obs = observer
+    if not isinstance(integrator, (RK4, SolveIVP)):
+        raise InvalidArgumentError(f"integrator: expected RK4() or SolveIVP(...), got {integrator!r}")
+    step, plant_discrete, observer_discrete = _timebases(plant, obs, has_observer, dt)
+    if isinstance(integrator, SolveIVP) and plant_discrete:
+        raise InvalidArgumentError("integrator: SolveIVP applies to continuous-time plants only; a discrete plant is iterated")
+    duration = positive("duration", duration)
+    try:
+        t0 = float(t0)
+    except (TypeError, ValueError):
+        raise InvalidArgumentError(f"t0: expected a number, got {t0!r}") from None
+    if not math.isfinite(t0):
+        raise NonFiniteError(f"t0: must be finite, got {t0!r}")
+    if isinstance(save_every, bool) or not isinstance(save_every, (int, np.integer)) or save_every < 1:
+        raise InvalidArgumentError(f"save_every: expected a positive integer, got {save_every!r}")
+    n_steps = max(1, math.ceil(duration / step - 1e-9))
+
+    n = plant.n
+    x0a = as_batch("x0", x0, n)
+    batch = tuple(x0a.shape[:-1])
+    n_x = int(obs.n_x)
+    if has_observer:
+        xh = as_batch("x_hat0", x_hat0, n_x)
+        try:
+            xh = np.broadcast_to(xh, (*batch, n_x)).copy()
+        except ValueError:
+            raise DimensionError(f"x_hat0: shape {xh.shape} does not broadcast to the batch of x0, {(*batch, n_x)}") from None
+        z0 = np.array(obs.init(xh), dtype=float)
+        if z0.shape != (*batch, obs.n_z):
+            raise DimensionError(f"observer.init returned shape {z0.shape}, expected {(*batch, obs.n_z)}")
+        xh_check = np.asarray(obs.estimate(z0))
+        if xh_check.shape != (*batch, n_x):
+            raise DimensionError(f"observer.estimate returned shape {xh_check.shape}, expected {(*batch, n_x)}")
+    else:
+        z0 = np.zeros((*batch, 0))
+
+    u_fn = as_input_function(u, plant.m, batch, t0)
+    groups_in = _as_tuple(measurements, MeasurementGroup, "measurements")
+    groups = None if measurements is None else schedule_measurements(groups_in, plant.outputs, step)
+    sensors = schedule_inputs(_as_tuple(input_sensors, InputSensor, "input_sensors"), plant.inputs, step)
+    sensed = np.zeros(plant.m, dtype=bool)
+    for g in sensors:
+        sensed[g.index] = True
+    correcting = has_observer and isinstance(obs, CorrectingObserver)
+    if correcting and groups is None and not observer_discrete:
+        raise InvalidArgumentError(
+            "measurements: a correcting observer in continuous time needs measurement groups with explicit rates"
+        )
+    noisy = [g.label for g in (*(groups or ()), *sensors) if g.noisy]
+    if isinstance(seed, np.random.Generator):
+        rng: np.random.Generator | None = seed
+    elif seed is None:
+        if noisy:
+            raise InvalidArgumentError(f"seed: {', '.join(noisy)} add noise; pass seed=<int> or a numpy Generator")
+        rng = None
+    elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+        rng = np.random.default_rng(int(seed))
+    else:
+        raise InvalidArgumentError(f"seed: expected an int or a numpy Generator, got {type(seed).__name__}")
+
+    save_steps = np.arange(0, n_steps + 1, int(save_every), dtype=np.intp)
+    if save_steps[-1] != n_steps:
+        save_steps = np.append(save_steps, n_steps)
+    estimate_names = tuple(plant.states) if n_x == n else tuple(f"x_hat[{i}]" for i in range(n_x))
+    setup = _Setup(
+        plant=plant,
+        observer=obs,
+        has_observer=has_observer,
+        correcting=correcting,
+        plant_discrete=plant_discrete,
+        observer_discrete=observer_discrete,
+        dt=step,
+        t0=t0,
+        n_steps=n_steps,
+        batch=batch,
+        x0=x0a,
+        z0=z0,
+        n_x=n_x,
+        u_fn=u_fn,
+        u_hold=isinstance(u, SampledSignal) and u.kind == "hold",
+        groups=groups,
+        sensors=sensors,
+        sensed=sensed,
+        rng=rng,
+        save_steps=save_steps,
+        plant_names=tuple(plant.states),
+        observer_names=_names(obs, "state_names", int(obs.n_z), lambda i: f"z[{i}]"),
+        estimate_names=estimate_names,
+    )
+    rec = _Recorder(setup)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"), _Progress(n_steps, progress) as bar:
+        if isinstance(integrator, SolveIVP):
+            _run_ivp(setup, rec, bar, integrator.options())
+        else:
+            _run_fixed(setup, rec, bar)
+    if plant_discrete:
+        method = "discrete"
+    elif observer_discrete:
+        method = f"{integrator.name}+discrete observer"
+    else:
+        method = integrator.name
+    return SimulationResult(
+        **rec.arrays(),
+        states=tuple(plant.states),
+        outputs=tuple(plant.outputs),
+        estimates=estimate_names,
+        dt=step,
+        method=method,
+    )

@@ -1,0 +1,209 @@
+"""Certificates of observer-gain designs (seed 001, LMIs (14)–(15); Chilali–Gahinet regions).
+
+A certificate records a gain ``K``, the Lyapunov matrix ``P`` that proves the
+LMIs, the bounds it was designed for and the result of an *independent*
+re-verification: every LMI block is re-evaluated in NumPy with the returned
+``P`` and ``X = P K`` recomputed from the returned ``K``, the closed-loop
+eigenvalues of ``A − K C`` are recomputed, and ``‖H‖∞``, ``‖G‖∞`` are
+recomputed with :func:`nlobs.linear.norms.hinf_norm`. A solver's "optimal"
+is never trusted on its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+
+import numpy as np
+from numpy.typing import NDArray
+
+from nlobs.synthesis.lmi import Solver
+
+__all__ = ["CertificateStatus", "CheckKind", "Check", "Objective", "ObserverGainCertificate"]
+
+
+class Objective(Enum):
+    """What the synthesis optimises over the LMI-feasible set."""
+
+    CENTRAL = "central"
+    """Maximise ``log det P + Σ log det(−F_i)`` over the LMI blocks ``F_i ≺ 0``
+    (the analytic centre): a finite, well-conditioned gain deep inside the set.
+    Needs a bounded set (``gamma_n`` with LMI (15), or a gain bound)."""
+    MIN_GAMMA_N = "min_gamma_n"
+    """Minimise ``γn²`` subject to (14), (15) (seed 001, Sec. 3.2) — raises
+    :class:`~nlobs.errors.DesignUnbounded` when the minimum is not attained."""
+    MIN_GAMMA = "min_gamma"
+    """Minimise ``γ²`` subject to (14) (and the other constraints) — same detection."""
+
+
+class CertificateStatus(Enum):
+    """Outcome of the independent re-verification."""
+
+    VERIFIED = "verified"
+    """Every check passed."""
+    FAILED = "failed"
+    """At least one check failed (see :attr:`ObserverGainCertificate.failed_checks`)."""
+
+
+class CheckKind(Enum):
+    """What a :class:`Check` verifies."""
+
+    LMI = "lmi"
+    """Largest eigenvalue of a symmetrised LMI block, must be ``< 0``."""
+    POSITIVITY = "positivity"
+    """``−λ_min(P)``, must be ``< 0`` (``P ≻ 0``)."""
+    SPECTRUM = "spectrum"
+    """``max Re λ(A − K C)``, must be ``< 0`` (Hurwitz)."""
+    REGION = "region"
+    """``−margin`` of the closed-loop eigenvalues to a pole region, must be ``< 0``."""
+    NORM = "norm"
+    """An H∞ norm recomputed from ``K`` against its bound."""
+    GAIN = "gain"
+    """``‖K‖₂`` against a gain bound."""
+
+
+@dataclass(frozen=True)
+class Check:
+    """One re-verification check: ``value < limit`` (``strict``) or ``value ≤ limit``.
+
+    Attributes
+    ----------
+    name : str
+        What is checked, e.g. ``"LMI (14)"`` or ``"‖H‖∞ < γ"``.
+    kind : CheckKind
+    value : float
+        The recomputed quantity (e.g. the largest eigenvalue of a block).
+    limit : float
+        Its bound.
+    strict : bool
+        Whether the inequality is strict.
+    """
+
+    name: str
+    kind: CheckKind
+    value: float
+    limit: float
+    strict: bool = True
+
+    @property
+    def passed(self) -> bool:
+        """Whether the check holds."""
+        if not np.isfinite(self.value):
+            return False
+        return self.value < self.limit if self.strict else self.value <= self.limit
+
+    @property
+    def margin(self) -> float:
+        """``limit − value``: positive when the check passes, by how much."""
+        return float(self.limit - self.value)
+
+    def describe(self) -> str:
+        """One line: the check, its value and its margin."""
+        rel = "<" if self.strict else "≤"
+        verdict = "ok" if self.passed else f"FAILED by {-self.margin:.3g}"
+        return f"{self.name}: {self.value:.6g} {rel} {self.limit:.6g} ({verdict})"
+
+
+@dataclass(frozen=True, eq=False)
+class ObserverGainCertificate:
+    """A verified (or, from :func:`verify_observer_gain` with ``strict=False``, failed) observer gain.
+
+    Error dynamics ``ẇ = (A − K C) w + B_d d − K N n`` (seed 001, (12a)),
+    ``H(s) = (sI − A + K C)⁻¹ B_d`` (13), ``G(s) = −(sI − A + K C)⁻¹ K N``.
+
+    Attributes
+    ----------
+    status : CertificateStatus
+    K : ndarray, shape (n, p)
+        Observer gain.
+    P : ndarray, shape (n, n), or None
+        Common Lyapunov matrix of LMIs (14), (15) and the region LMIs
+        (``None`` when none was found for a given gain).
+    gamma : float
+        Bound ``γ`` of LMI (14): ``‖H‖∞ < γ``.
+    gamma_n : float or None
+        Bound ``γn`` of LMI (15): ``‖G‖∞ ≤ γn`` (``None`` without noise channel).
+    hinf_H : float
+        ``‖H‖∞`` recomputed from ``K`` (``inf`` if ``A − K C`` is not Hurwitz).
+    hinf_G : float or None
+        ``‖G‖∞`` recomputed from ``K`` (``None`` without noise channel).
+    eigenvalues : ndarray of complex
+        Closed-loop eigenvalues of ``A − K C`` (sorted by real part).
+    checks : tuple of Check
+        Every re-verification check (LMI blocks, ``P ≻ 0``, spectrum, regions, norms, gain).
+    objective : Objective or None
+        The design objective (``None`` for a verified given gain).
+    solver : Solver or None
+        The solver that produced ``P`` (and ``K``).
+    solver_status : str
+        The solver's own status string (not trusted on its own).
+    margin : float
+        Strictness margin ``ε`` used in the LMIs (``F ⪯ −ε I``, ``P ⪰ ε I``).
+    seconds : float
+        Wall-clock time of the whole design/verification.
+    """
+
+    status: CertificateStatus
+    K: NDArray[np.float64]
+    P: NDArray[np.float64] | None
+    gamma: float
+    gamma_n: float | None
+    hinf_H: float
+    hinf_G: float | None
+    eigenvalues: NDArray[np.complex128]
+    checks: tuple[Check, ...]
+    objective: Objective | None
+    solver: Solver | None
+    solver_status: str
+    margin: float
+    seconds: float = 0.0
+
+    @property
+    def verified(self) -> bool:
+        """Whether every check passed."""
+        return self.status is CertificateStatus.VERIFIED
+
+    @property
+    def lmi_checks(self) -> tuple[Check, ...]:
+        """The per-LMI-block checks (largest eigenvalue of each symmetrised block)."""
+        return tuple(c for c in self.checks if c.kind is CheckKind.LMI)
+
+    @property
+    def failed_checks(self) -> tuple[Check, ...]:
+        """The checks that failed (empty when verified)."""
+        return tuple(c for c in self.checks if not c.passed)
+
+    @property
+    def gain_norm(self) -> float:
+        """``‖K‖₂``."""
+        return float(np.linalg.norm(self.K, 2))
+
+    @property
+    def hinf_ratio(self) -> float:
+        """``‖H‖∞ / γ`` (< 1 when verified)."""
+        return float(self.hinf_H / self.gamma)
+
+    @property
+    def noise_ratio(self) -> float | None:
+        """``‖G‖∞ / γn`` (≤ 1 when verified), or ``None``."""
+        if self.hinf_G is None or self.gamma_n is None:
+            return None
+        return float(self.hinf_G / self.gamma_n)
+
+    @property
+    def decay_rate(self) -> float:
+        """``−max Re λ(A − K C)``."""
+        return float(-np.max(self.eigenvalues.real))
+
+    def summary(self) -> str:
+        """A multi-line human-readable report."""
+        lines = [
+            f"observer gain certificate: {self.status.value}",
+            f"  objective={self.objective.value if self.objective else 'given gain'}, "
+            f"solver={self.solver.value if self.solver else '-'} ({self.solver_status}), margin={self.margin:g}",
+            f"  ‖K‖₂={self.gain_norm:.6g}, ‖H‖∞={self.hinf_H:.6g} (γ={self.gamma:g})"
+            + (f", ‖G‖∞={self.hinf_G:.6g} (γn={self.gamma_n:g})" if self.hinf_G is not None else ""),
+            "  eig(A−KC) = " + ", ".join(f"{z:.4g}" for z in self.eigenvalues),
+        ]
+        lines += ["  " + c.describe() for c in self.checks]
+        return "\n".join(lines)

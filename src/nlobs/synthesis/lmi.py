@@ -1,0 +1,199 @@
+"""Small shared helpers for LMI synthesis with CVXPY.
+
+* :func:`symmetrise` and :func:`bmat` build LMI blocks that work both on CVXPY
+  expressions (inside a problem) and on NumPy arrays (for the independent
+  re-verification of a certificate), so each LMI is written only once.
+* :func:`solve` runs a problem with Clarabel (default) or SCS, catches solver
+  failures and maps CVXPY's status strings to :class:`SolveStatus`.
+* :func:`max_eig` is the largest eigenvalue of the symmetric part of a numeric
+  block: an LMI ``F ≺ 0`` holds iff ``max_eig(F) < 0``.
+
+CVXPY has no strict matrix inequalities, so every ``F ≺ 0`` is imposed as
+``F ⪯ −ε I`` with an explicit margin ``ε > 0`` and re-checked afterwards.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+import cvxpy as cp
+import numpy as np
+from numpy.typing import NDArray
+
+from nlobs.errors import InvalidArgumentError
+
+__all__ = [
+    "Solver",
+    "SolveStatus",
+    "SolveResult",
+    "symmetrise",
+    "bmat",
+    "is_expression",
+    "max_eig",
+    "solve",
+    "as_solver",
+]
+
+
+class Solver(str, Enum):
+    """Conic solvers nlobs uses for LMIs (both ship as plain wheels)."""
+
+    CLARABEL = "CLARABEL"
+    """Interior-point solver; accurate, supports the exponential cone (log-det). Default."""
+    SCS = "SCS"
+    """First-order splitting solver; less accurate (run with tightened tolerances)."""
+
+
+class SolveStatus(Enum):
+    """Outcome of a solver run, as reported by the solver (not yet verified)."""
+
+    OPTIMAL = "optimal"
+    OPTIMAL_INACCURATE = "optimal_inaccurate"
+    INFEASIBLE = "infeasible"
+    INFEASIBLE_INACCURATE = "infeasible_inaccurate"
+    UNBOUNDED = "unbounded"
+    UNBOUNDED_INACCURATE = "unbounded_inaccurate"
+    SOLVER_ERROR = "solver_error"
+
+    @property
+    def has_solution(self) -> bool:
+        """Whether the solver returned primal values worth verifying."""
+        return self in (SolveStatus.OPTIMAL, SolveStatus.OPTIMAL_INACCURATE)
+
+    @property
+    def is_infeasible(self) -> bool:
+        """Whether the solver claims primal infeasibility (exactly or inaccurately)."""
+        return self in (SolveStatus.INFEASIBLE, SolveStatus.INFEASIBLE_INACCURATE)
+
+
+_STATUS_MAP = {
+    cp.OPTIMAL: SolveStatus.OPTIMAL,
+    cp.OPTIMAL_INACCURATE: SolveStatus.OPTIMAL_INACCURATE,
+    cp.INFEASIBLE: SolveStatus.INFEASIBLE,
+    cp.INFEASIBLE_INACCURATE: SolveStatus.INFEASIBLE_INACCURATE,
+    cp.UNBOUNDED: SolveStatus.UNBOUNDED,
+    cp.UNBOUNDED_INACCURATE: SolveStatus.UNBOUNDED_INACCURATE,
+}
+
+# SCS's defaults (eps 1e-4) are too loose for certificates: one "optimal" SCS
+# answer on the seed-001 example had a non-Hurwitz closed loop. Tighter
+# tolerances with an iteration cap (~1 s on small problems); SCS answers are
+# re-verified like any other and often end "optimal_inaccurate" on log-det
+# (exponential-cone) objectives.
+_DEFAULT_OPTIONS: dict[Solver, dict[str, Any]] = {
+    Solver.CLARABEL: {},
+    Solver.SCS: {"eps_abs": 1e-7, "eps_rel": 1e-7, "max_iters": 20_000},
+}
+
+
+@dataclass(frozen=True)
+class SolveResult:
+    """What one solver run returned.
+
+    Attributes
+    ----------
+    status : SolveStatus
+        Mapped status.
+    raw_status : str
+        CVXPY's status string (or the solver error message).
+    solver : Solver
+        Which solver ran.
+    value : float or None
+        Optimal objective value, when there is one.
+    seconds : float
+        Wall-clock time of compile + solve.
+    """
+
+    status: SolveStatus
+    raw_status: str
+    solver: Solver
+    value: float | None
+    seconds: float
+
+
+def as_solver(solver: Solver | str) -> Solver:
+    """Return ``solver`` as a :class:`Solver` (accepts ``"clarabel"``, ``"SCS"``...)."""
+    if isinstance(solver, Solver):
+        return solver
+    if isinstance(solver, str):
+        try:
+            return Solver(solver.upper())
+        except ValueError:
+            pass
+    known = ", ".join(s.value for s in Solver)
+    raise InvalidArgumentError(f"solver: unknown solver {solver!r}; expected one of {known}")
+
+
+def is_expression(x: object) -> bool:
+    """Whether ``x`` is a CVXPY expression (as opposed to a numeric array)."""
+    return isinstance(x, cp.Expression)
+
+
+def symmetrise(M: Any) -> Any:
+    """Return ``(M + Mᵀ)/2`` for a CVXPY expression or a NumPy array.
+
+    Every LMI block is symmetrised explicitly before it enters a constraint:
+    CVXPY's ``<<`` only constrains the symmetric part anyway, and making it
+    explicit keeps the verified block identical to the constrained one.
+    """
+    return (M + M.T) / 2
+
+
+def bmat(rows: Sequence[Sequence[Any]]) -> Any:
+    """Assemble a block matrix from CVXPY expressions and/or NumPy arrays.
+
+    Uses :func:`cvxpy.bmat` when any block is an expression, else
+    :func:`numpy.block`.
+    """
+    if any(is_expression(b) for row in rows for b in row):
+        return cp.bmat([list(row) for row in rows])
+    return np.block([[np.asarray(b, dtype=float) for b in row] for row in rows])
+
+
+def max_eig(M: NDArray[np.float64]) -> float:
+    """Largest eigenvalue of the symmetric part of a numeric matrix."""
+    S = 0.5 * (np.asarray(M, dtype=float) + np.asarray(M, dtype=float).T)
+    return float(np.linalg.eigvalsh(S)[-1])
+
+
+def solve(problem: cp.Problem, solver: Solver | str = Solver.CLARABEL, options: Mapping[str, Any] | None = None) -> SolveResult:
+    """Solve ``problem`` and map the outcome; never raises on solver failure.
+
+    Parameters
+    ----------
+    problem : cvxpy.Problem
+    solver : Solver or str
+        :attr:`Solver.CLARABEL` (default) or :attr:`Solver.SCS`.
+    options : mapping, optional
+        Solver keyword options; override nlobs's defaults (SCS runs with
+        ``eps_abs = eps_rel = 1e-7``, ``max_iters = 20000``).
+
+    Returns
+    -------
+    SolveResult
+        A solver exception becomes :attr:`SolveStatus.SOLVER_ERROR` with the
+        message in ``raw_status``.
+    """
+    s = as_solver(solver)
+    opts = dict(_DEFAULT_OPTIONS[s])
+    if options:
+        opts.update(options)
+    t0 = time.perf_counter()
+    try:
+        with warnings.catch_warnings():
+            # "Solution may be inaccurate": reported through the status instead
+            warnings.simplefilter("ignore", UserWarning)
+            problem.solve(solver=s.value, **opts)
+    except (cp.SolverError, ArithmeticError, ValueError) as exc:
+        return SolveResult(SolveStatus.SOLVER_ERROR, f"solver error: {exc}", s, None, time.perf_counter() - t0)
+    seconds = time.perf_counter() - t0
+    raw = str(problem.status)
+    status = _STATUS_MAP.get(raw, SolveStatus.SOLVER_ERROR)
+    value = problem.value if status.has_solution else None
+    val = float(value) if value is not None and np.isfinite(value) else None
+    return SolveResult(status, raw, s, val, seconds)

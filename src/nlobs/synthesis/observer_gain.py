@@ -1,0 +1,795 @@
+r"""Certified LMI synthesis of observer gains (Grip, Saberi & Johansen, seed 001, Sec. 3.2).
+
+Error dynamics of the observer (9) for the extended system (8):
+
+.. math:: \dot{\tilde w}_e = (𝔄 − K ℭ)\tilde w_e + 𝔅_d \tilde d − K N n,
+
+with ``H(s) = (sI − 𝔄 + Kℭ)⁻¹ 𝔅_d`` (13) and ``G(s) = −(sI − 𝔄 + Kℭ)⁻¹ K N``.
+Below ``A, C, Bd`` stand for ``𝔄, ℭ, 𝔅_d`` (any ``(A, C, Bd)`` may be given).
+
+With ``X = P K`` the conditions are LMIs in ``(P, X)``:
+
+* (14) bounded-real lemma, ``‖H‖∞ < γ``:
+  ``[[P A + Aᵀ P − X C − Cᵀ Xᵀ + I, P Bd], [Bdᵀ P, −γ² I]] ≺ 0``, ``P ≻ 0``;
+* (15) noise attenuation, ``‖G‖∞ ≤ γn``:
+  ``[[P A + Aᵀ P − X C − Cᵀ Xᵀ + I, −X N], [−Nᵀ Xᵀ, −γn² I]] ≺ 0`` (same ``P``);
+* pole regions of Chilali & Gahinet (1996) for ``A − K C`` with the same ``P``
+  (:mod:`nlobs.synthesis.regions`), written with ``P (A − K C) = P A − X C``;
+* optionally a gain bound ``‖K‖₂ ≤ κ`` (:class:`GainBound`).
+
+Strict inequalities are imposed with an explicit margin ``ε`` (``F ⪯ −ε I``,
+``P ⪰ ε I``) and every answer is re-verified independently of the solver
+(:class:`~nlobs.synthesis.certificate.ObserverGainCertificate`).
+
+Well-posedness. "Minimise γn² subject to (14), (15)" — the paper's recipe —
+has no minimum in the paper's own GNSS/INS example: ``‖G‖∞ ≥ 1`` for every
+stabilising gain and ``γn → 1`` only as ``‖K‖ → ∞``, so the solver returns a
+gain set by ``ε`` (``ε = 10⁻³ → K_pp ≈ 998``, ``ε = 10⁻⁶ → K_pp ≈ 9.9·10⁵``).
+:func:`design_observer_gain` therefore offers well-posed formulations — the
+analytic centre at fixed ``γ, γn`` (:attr:`Objective.CENTRAL`), a gain bound,
+pole regions — and runs the minimisations only with a check that the optimum
+does not move with ``ε`` (else :class:`~nlobs.errors.DesignUnbounded`). See
+``docs/synthesis.md``.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, NamedTuple, NoReturn
+
+import cvxpy as cp
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from nlobs._validate import as_matrix, as_square, positive
+from nlobs.errors import (
+    CertificateError,
+    DesignInfeasible,
+    DesignUnbounded,
+    DimensionError,
+    InvalidArgumentError,
+)
+from nlobs.linear.norms import hinf_norm
+from nlobs.linear.observability import unobservable_modes
+from nlobs.linear.stability import strictly_inside
+from nlobs.synthesis.certificate import (
+    CertificateStatus,
+    Check,
+    CheckKind,
+    Objective,
+    ObserverGainCertificate,
+)
+from nlobs.synthesis.lmi import Solver, SolveResult, SolveStatus, as_solver, bmat, max_eig, solve, symmetrise
+from nlobs.synthesis.regions import PoleRegion, as_regions
+
+__all__ = [
+    "ExtendedSystem",
+    "GainBound",
+    "extended_system",
+    "design_observer_gain",
+    "verify_observer_gain",
+]
+
+RegionArg = PoleRegion | Sequence[PoleRegion] | None
+
+_EPS = float(np.finfo(float).eps)
+_SLACK_TOL = 1e-9  # a stage is infeasible when its minimal slack exceeds this
+_UNBOUNDED_GROWTH = 10.0  # gain growth (per 100× change of ε) that flags a margin-driven optimum
+
+
+# --------------------------------------------------------------------------- data
+
+
+class ExtendedSystem(NamedTuple):
+    """Extended system matrices of seed 001, (8c): state ``w_e = [w; z]``."""
+
+    A: NDArray[np.float64]
+    """``𝔄 = [[A, B_z], [0, 0]]``."""
+    Bd: NDArray[np.float64]
+    """``𝔅_d = [[0], [I]]``."""
+    C: NDArray[np.float64]
+    """``ℭ = [C, D_z]``."""
+
+
+def extended_system(A: ArrayLike, B_z: ArrayLike, C: ArrayLike, D_z: ArrayLike | None = None) -> ExtendedSystem:
+    r"""Extended system (8c) of seed 001 that includes ``z`` as a state.
+
+    Parameters
+    ----------
+    A : array_like, shape (n_w, n_w)
+    B_z : array_like, shape (n_w, p_z)
+    C : array_like, shape (p_y, n_w)
+    D_z : array_like, shape (p_y, p_z), optional
+        Zero when omitted.
+
+    Returns
+    -------
+    ExtendedSystem
+        ``𝔄 = [[A, B_z], [0, 0]]``, ``𝔅_d = [[0], [I_{p_z}]]``, ``ℭ = [C, D_z]``.
+
+    Examples
+    --------
+    Per-axis GNSS/INS model (seed 001, Sec. 5): position and velocity with
+    acceleration ``z`` as input, both measured:
+
+    >>> ext = extended_system([[0, 1], [0, 0]], [[0], [1]], [[1, 0], [0, 1]])
+    >>> ext.A.shape, ext.Bd.shape, ext.C.shape
+    ((3, 3), (3, 1), (2, 3))
+    """
+    A_ = as_square("A", A)
+    n = A_.shape[0]
+    Bz = as_matrix("B_z", B_z, (n, None))
+    C_ = as_matrix("C", C, (None, n))
+    pz, py = Bz.shape[1], C_.shape[0]
+    Dz = np.zeros((py, pz)) if D_z is None else as_matrix("D_z", D_z, (py, pz))
+    Ae = np.block([[A_, Bz], [np.zeros((pz, n)), np.zeros((pz, pz))]])
+    Bde = np.vstack([np.zeros((n, pz)), np.eye(pz)])
+    Ce = np.hstack([C_, Dz])
+    return ExtendedSystem(Ae, Bde, Ce)
+
+
+@dataclass(frozen=True)
+class GainBound:
+    r"""Gain bound ``‖K‖₂ ≤ κ``, imposed as an LMI.
+
+    With a scalar decision variable ``μ ≥ 0`` the constraints ``P ⪰ μ I`` and
+    ``[[κ μ I, Xᵀ], [X, κ μ I]] ⪰ 0`` (i.e. ``‖X‖₂ ≤ κ μ``) are jointly linear in
+    ``(P, X, μ)`` and give ``‖K‖₂ = ‖P⁻¹ X‖₂ ≤ ‖P⁻¹‖₂ ‖X‖₂ ≤ (1/μ)(κ μ) = κ``.
+    Letting ``μ`` float (instead of the textbook ``P ⪰ I, ‖X‖ ≤ κ``) removes most
+    of the conservatism: on the seed-001 example the fixed ``P ⪰ I`` version
+    capped ``‖K‖₂`` at 1.42 whatever ``κ`` was, while this one reaches ``‖K‖₂ ≈ κ``.
+
+    Parameters
+    ----------
+    kappa : float
+        The bound ``κ > 0`` on the spectral norm of ``K``.
+    """
+
+    kappa: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "kappa", positive("gain_bound.kappa", self.kappa))
+
+
+@dataclass(frozen=True)
+class _Data:
+    """Validated problem data."""
+
+    A: NDArray[np.float64]
+    C: NDArray[np.float64]
+    Bd: NDArray[np.float64]
+    N: NDArray[np.float64] | None
+    regions: tuple[PoleRegion, ...]
+    gain_bound: GainBound | None
+
+    @property
+    def n(self) -> int:
+        return self.A.shape[0]
+
+
+def _validate_data(A: ArrayLike, C: ArrayLike, Bd: ArrayLike, N: ArrayLike | None, need_noise: bool,
+                   region: RegionArg, gain_bound: GainBound | float | None) -> _Data:
+    A_ = as_square("A", A)
+    n = A_.shape[0]
+    if n == 0:
+        raise DimensionError("A: the state dimension must be at least 1")
+    C_ = as_matrix("C", C, (None, n))
+    Bd_ = as_matrix("Bd", Bd, (n, None))
+    p = C_.shape[0]
+    if p == 0:
+        raise DimensionError("C: at least one measurement is needed")
+    N_: NDArray[np.float64] | None = None
+    if N is not None:
+        N_ = as_matrix("N", N, (p, None))
+    elif need_noise:
+        N_ = np.eye(p)
+    gb = _as_gain_bound(gain_bound)
+    return _Data(A_, C_, Bd_, N_, as_regions(region), gb)  # type: ignore[arg-type]
+
+
+def _as_gain_bound(gain_bound: GainBound | float | None) -> GainBound | None:
+    if gain_bound is None or isinstance(gain_bound, GainBound):
+        return gain_bound
+    if isinstance(gain_bound, (int, float, np.floating, np.integer)) and not isinstance(gain_bound, bool):
+        return GainBound(float(gain_bound))
+    raise InvalidArgumentError(f"gain_bound: expected a GainBound or a positive number, got {gain_bound!r}")
+
+
+def _as_objective(objective: Objective | str) -> Objective:
+    if isinstance(objective, Objective):
+        return objective
+    if isinstance(objective, str):
+        try:
+            return Objective(objective.lower())
+        except ValueError:
+            pass
+    known = ", ".join(o.value for o in Objective)
+    raise InvalidArgumentError(f"objective: unknown objective {objective!r}; expected one of {known}")
+
+
+def _margin(margin: float) -> float:
+    m = positive("margin", margin)
+    if m >= 1.0:
+        raise InvalidArgumentError(f"margin: must be a small positive number (< 1), got {m!r}")
+    return m
+
+
+# --------------------------------------------------------------------------- detectability
+
+
+def _require_detectable(A: NDArray[np.float64], C: NDArray[np.float64]) -> None:
+    """Raise :class:`DesignInfeasible` naming the first unobservable mode that is not stable (PBH)."""
+    bad = [lam for lam in unobservable_modes(A, C) if not strictly_inside(np.array([lam]))[0]]
+    if bad:
+        lam = complex(bad[0])
+        raise DesignInfeasible(
+            f"(A, C) is not detectable: the mode λ = {lam:.6g} (Re λ ≥ 0) is unobservable "
+            f"(PBH: rank [λI − A; C] < n), so no gain K makes A − K C Hurwitz "
+            "and LMI (14) is infeasible for every γ; add a measurement of that mode",
+            constraint="detectability",
+            violation=float(lam.real),
+        )
+
+
+# --------------------------------------------------------------------------- LMI blocks
+
+
+def _blocks(d: _Data, P: Any, X: Any, gamma2: Any, gamma_n2: Any, *, with14: bool = True,
+            with15: bool = True, regions: tuple[PoleRegion, ...] | None = None) -> list[tuple[str, Any]]:
+    """The LMI blocks that must be ``≺ 0``, for CVXPY or numeric ``(P, X)``.
+
+    ``gamma2``/``gamma_n2`` may be numbers or CVXPY variables. Written once and
+    used both to build the SDP and to re-verify it in NumPy.
+    """
+    n = d.n
+    PF = P @ d.A - X @ d.C  # P (A − K C)
+    F11 = PF + PF.T + np.eye(n)
+    out: list[tuple[str, Any]] = []
+    if with14:
+        PB = P @ d.Bd
+        m = d.Bd.shape[1]
+        out.append(("LMI (14)", symmetrise(bmat([[F11, PB], [PB.T, -gamma2 * np.eye(m)]]))))
+    if with15 and d.N is not None:
+        XN = X @ d.N
+        q = d.N.shape[1]
+        out.append(("LMI (15)", symmetrise(bmat([[F11, -XN], [-XN.T, -gamma_n2 * np.eye(q)]]))))
+    for r in d.regions if regions is None else regions:
+        out.append((f"region: {r.description}", r.lmi(P, PF)))
+    return out
+
+
+@dataclass
+class _Formulation:
+    P: cp.Variable
+    X: Any
+    constraints: list[Any]
+    neg_blocks: list[Any]  # blocks F with F ⪯ −εI (for log-det terms)
+    pos_blocks: list[Any]  # blocks G ⪰ 0 (gain bound)
+
+
+def _formulate(d: _Data, *, margin: float, gamma2: Any, gamma_n2: Any, with15: bool,
+               regions: tuple[PoleRegion, ...], gain_bound: GainBound | None,
+               K: NDArray[np.float64] | None = None, slack: Any = None, slack_on: str | None = None,
+               with14: bool = True) -> _Formulation:
+    """Build the constraints. ``slack_on`` names one block imposed as ``F ⪯ (t − ε) I`` instead."""
+    n, p = d.n, d.C.shape[0]
+    P = cp.Variable((n, n), symmetric=True, name="P")
+    X = P @ K if K is not None else cp.Variable((n, p), name="X")
+    cons: list[Any] = [P >> margin * np.eye(n)]
+    neg: list[Any] = []
+    for name, blk in _blocks(d, P, X, gamma2, gamma_n2, with14=with14, with15=with15, regions=regions):
+        k = blk.shape[0]
+        if name == slack_on:
+            cons.append(blk << (slack - margin) * np.eye(k))
+        else:
+            cons.append(blk << -margin * np.eye(k))
+            neg.append(blk)
+    pos: list[Any] = []
+    if gain_bound is not None and K is None:
+        mu = cp.Variable(nonneg=True, name="mu")
+        km = gain_bound.kappa * mu
+        G = symmetrise(cp.bmat([[km * np.eye(p), X.T], [X, km * np.eye(n)]]))
+        cons.append(P - mu * np.eye(n) >> 0)
+        if slack_on == "gain bound":
+            cons.append(G >> -slack * np.eye(n + p))
+        else:
+            cons.append(G >> 0)
+            pos.append(G)
+    return _Formulation(P, X, cons, neg, pos)
+
+
+def _central_objective(f: _Formulation) -> cp.Maximize:
+    """Analytic centre: ``log det P + Σ log det(−F_i) + Σ log det(G_j)``."""
+    terms = [cp.log_det(f.P)] + [cp.log_det(-b) for b in f.neg_blocks] + [cp.log_det(g) for g in f.pos_blocks]
+    return cp.Maximize(cp.sum(cp.hstack(terms)))
+
+
+# --------------------------------------------------------------------------- verification
+
+
+def _certify(d: _Data, K: NDArray[np.float64], P: NDArray[np.float64] | None, gamma: float,
+             gamma_n: float | None) -> tuple[list[Check], float, float | None, NDArray[np.complex128]]:
+    """Re-verify a gain independently of any solver (numpy eig + :func:`hinf_norm`)."""
+    n = d.n
+    Acl = d.A - K @ d.C
+    eigs = np.linalg.eigvals(Acl)
+    eigs = eigs[np.lexsort((eigs.imag, eigs.real))]
+    checks: list[Check] = []
+    if P is not None:
+        P = 0.5 * (P + P.T)
+        X = P @ K  # recomputed from the returned K
+        lam_min = float(np.linalg.eigvalsh(P)[0])
+        checks.append(Check("P ≻ 0", CheckKind.POSITIVITY, -lam_min, 0.0))
+        g2 = gamma**2
+        gn2 = gamma_n**2 if gamma_n is not None else 0.0
+        for name, blk in _blocks(d, P, X, g2, gn2):
+            tol = 100 * _EPS * max(1.0, float(np.linalg.norm(blk, 2)))
+            checks.append(Check(name, CheckKind.LMI, max_eig(blk), -tol))
+    checks.append(Check("A − K C Hurwitz (max Re λ)", CheckKind.SPECTRUM, float(np.max(eigs.real)), 0.0))
+    for r in d.regions:
+        checks.append(Check(f"eigenvalues in {r.description} (−margin)", CheckKind.REGION, -r.margin(eigs), 0.0))
+    hH = hinf_norm(Acl, d.Bd, np.eye(n), np.zeros((n, d.Bd.shape[1])))
+    checks.append(Check("‖H‖∞ < γ", CheckKind.NORM, hH, gamma))
+    hG: float | None = None
+    if d.N is not None and gamma_n is not None:
+        KN = K @ d.N
+        hG = hinf_norm(Acl, -KN, np.eye(n), np.zeros((n, KN.shape[1])))
+        checks.append(Check("‖G‖∞ ≤ γn", CheckKind.NORM, hG, gamma_n, strict=False))
+    if d.gain_bound is not None:
+        checks.append(Check("‖K‖₂ ≤ κ", CheckKind.GAIN, float(np.linalg.norm(K, 2)), d.gain_bound.kappa,
+                            strict=False))
+    return checks, float(hH), (None if hG is None else float(hG)), eigs
+
+
+def _failure_text(checks: Sequence[Check]) -> str:
+    return "; ".join(c.describe() for c in checks if not c.passed)
+
+
+# --------------------------------------------------------------------------- diagnosis
+
+
+def _stage_slack(d: _Data, stage: str, *, margin: float, gamma2: Any, gamma_n2: Any, with15: bool,
+                 regions: tuple[PoleRegion, ...], gain_bound: GainBound | None, with14: bool,
+                 solver: Solver, options: Mapping[str, Any] | None) -> tuple[SolveResult, float | None]:
+    """Minimal slack ``t`` of ``stage`` with the other listed constraints imposed."""
+    t = cp.Variable(name="t")
+    f = _formulate(d, margin=margin, gamma2=gamma2, gamma_n2=gamma_n2, with15=with15, regions=regions,
+                   gain_bound=gain_bound, slack=t, slack_on=stage, with14=with14)
+    prob = cp.Problem(cp.Minimize(t), f.constraints + [t >= -1.0])
+    res = solve(prob, solver, options)
+    return res, (float(t.value) if res.status.has_solution and t.value is not None else None)
+
+
+def _min_bound(d: _Data, which: str, *, margin: float, gamma2: Any, gamma_n2: Any, with15: bool,
+               regions: tuple[PoleRegion, ...], solver: Solver,
+               options: Mapping[str, Any] | None) -> float | None:
+    """Smallest γ (``which='gamma'``) or γn (``'gamma_n'``) with the given other constraints."""
+    v = cp.Variable(nonneg=True, name=which)
+    g2 = v if which == "gamma" else gamma2
+    gn2 = v if which == "gamma_n" else gamma_n2
+    f = _formulate(d, margin=margin, gamma2=g2, gamma_n2=gn2, with15=with15, regions=regions, gain_bound=None)
+    res = solve(cp.Problem(cp.Minimize(v), f.constraints), solver, options)
+    if not res.status.has_solution or v.value is None:
+        return None
+    return math.sqrt(max(float(v.value), 0.0))
+
+
+def _smallest_gain_bound(d: _Data, kappa: float, **kw: Any) -> float | None:
+    """Bisection (in log κ) for the smallest feasible gain bound, or ``None`` beyond 1e9."""
+
+    def feasible(k: float) -> bool:
+        res, t = _stage_slack(d, "gain bound", gain_bound=GainBound(k), **kw)
+        return t is not None and t <= _SLACK_TOL
+
+    hi = kappa
+    while True:
+        hi *= 10.0
+        if hi > 1e9:
+            return None
+        if feasible(hi):
+            break
+    lo = hi / 10.0
+    for _ in range(14):
+        mid = math.sqrt(lo * hi)
+        if feasible(mid):
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+def _diagnose(d: _Data, *, gamma: float | None, gamma_n: float | None, margin: float, solver: Solver,
+              options: Mapping[str, Any] | None, main: SolveResult) -> NoReturn:
+    """Find the first constraint whose addition makes the design infeasible and raise."""
+    with15 = d.N is not None and gamma_n is not None
+    free = cp.Variable(nonneg=True)  # unconstrained γ² when it is minimised without bound
+    g2: Any = gamma**2 if gamma is not None else free
+    gn2: Any = gamma_n**2 if gamma_n is not None else cp.Variable(nonneg=True)
+    common = dict(margin=margin, solver=solver, options=options)
+
+    stages: list[str] = []
+    if gamma is not None:
+        stages.append("LMI (14)")
+    if with15:
+        stages.append("LMI (15)")
+    stages += [f"region: {r.description}" for r in d.regions]
+    if d.gain_bound is not None:
+        stages.append("gain bound")
+
+    for k, stage in enumerate(stages):
+        on = stages[: k + 1]
+        regions = tuple(r for r in d.regions if f"region: {r.description}" in on)
+        kw = dict(gamma2=g2, gamma_n2=gn2, with15=with15 and "LMI (15)" in on, regions=regions, with14=True, **common)
+        gb = d.gain_bound if "gain bound" in on else None
+        res, t = _stage_slack(d, stage, gain_bound=gb, **kw)  # type: ignore[arg-type]
+        if t is not None and t <= _SLACK_TOL:
+            continue
+        before = ", ".join(on[:-1]) or "P ≻ 0"
+        if stage == "LMI (14)":
+            gmin = _min_bound(d, "gamma", gamma_n2=gn2, gamma2=None, with15=False, regions=(), **common)  # type: ignore[arg-type]
+            shown = f"≈ {gmin:.6g}" if gmin is not None else "unknown (the solver failed)"
+            assert gamma is not None
+            raise DesignInfeasible(
+                f"LMI (14) (bounded-real lemma, ‖H‖∞ < γ) is infeasible for γ = {gamma:g}: the smallest "
+                f"achievable γ is {shown} (an infimum over stabilising gains; by Theorem 2 it is > 0 when "
+                "(A, B_z, C, D_z) is not minimum phase). Choose γ above it.",
+                constraint="LMI (14)",
+                violation=(gmin - gamma) if gmin is not None else t,
+            )
+        if stage == "LMI (15)":
+            gnmin = _min_bound(d, "gamma_n", gamma2=g2, gamma_n2=None, with15=True, regions=(), **common)  # type: ignore[arg-type]
+            shown = f"≈ {gnmin:.6g}" if gnmin is not None else "unknown (the solver failed)"
+            assert gamma_n is not None
+            raise DesignInfeasible(
+                f"LMI (15) (‖G‖∞ ≤ γn) cannot hold with a common P together with LMI (14) at "
+                f"{'γ = ' + format(gamma, 'g') if gamma is not None else 'free γ'}: γn = {gamma_n:g} is too small; "
+                f"the smallest achievable γn is {shown} (possibly an infimum approached only as ‖K‖ → ∞: "
+                "choose γn somewhat above it).",
+                constraint="LMI (15)",
+                violation=(gnmin - gamma_n) if gnmin is not None else t,
+            )
+        if stage == "gain bound":
+            assert d.gain_bound is not None
+            kw2 = dict(kw)
+            kmin = _smallest_gain_bound(d, d.gain_bound.kappa, **kw2)
+            shown = f"≈ {kmin:.4g}" if kmin is not None else "above 1e9"
+            raise DesignInfeasible(
+                f"the gain bound ‖K‖₂ ≤ κ = {d.gain_bound.kappa:g} is infeasible together with {before}: "
+                f"the smallest feasible gain bound with these constraints is {shown}. Relax the pole region(s), "
+                "γ/γn, or the bound.",
+                constraint="gain bound",
+                violation=(kmin - d.gain_bound.kappa) if kmin is not None else t,
+            )
+        # a pole region
+        by = f"{t:.3g}" if t is not None else f"unknown (solver status {res.raw_status})"
+        raise DesignInfeasible(
+            f"the pole {stage} is infeasible together with {before} (common Lyapunov matrix P, margin "
+            f"ε = {margin:g}): the largest eigenvalue of its LMI block cannot be brought below {by} > 0. "
+            "Enlarge the region or relax γ/γn.",
+            constraint=stage,
+            violation=t,
+        )
+    raise DesignInfeasible(
+        f"the solver ({main.solver.value}) returned '{main.raw_status}' although every constraint stage "
+        f"({', '.join(stages) or 'LMI (14)'}) is feasible on its own path; try solver=Solver.CLARABEL/SCS, a larger "
+        f"margin than ε = {margin:g}, or rescale the channels",
+        constraint="solver",
+    )
+
+
+# --------------------------------------------------------------------------- design
+
+
+@dataclass(frozen=True)
+class _Solved:
+    K: NDArray[np.float64]
+    P: NDArray[np.float64]
+    gamma: float
+    gamma_n: float | None
+    result: SolveResult
+
+
+def _solve_once(d: _Data, objective: Objective, gamma: float | None, gamma_n: float | None, margin: float,
+                solver: Solver, options: Mapping[str, Any] | None) -> _Solved | SolveResult:
+    """One SDP at margin ``ε``; returns the solution or the failed :class:`SolveResult`."""
+    g2: Any = gamma**2 if gamma is not None else None
+    gn2: Any = gamma_n**2 if gamma_n is not None else None
+    extra: list[Any] = []
+    var: cp.Variable | None = None
+    if objective is Objective.MIN_GAMMA:
+        var = cp.Variable(nonneg=True, name="gamma2")
+        if g2 is not None:
+            extra.append(var <= g2)
+        g2 = var
+    elif objective is Objective.MIN_GAMMA_N:
+        var = cp.Variable(nonneg=True, name="gamma_n2")
+        if gn2 is not None:
+            extra.append(var <= gn2)
+        gn2 = var
+    with15 = d.N is not None and gn2 is not None
+    f = _formulate(d, margin=margin, gamma2=g2, gamma_n2=gn2, with15=with15, regions=d.regions,
+                   gain_bound=d.gain_bound)
+    obj = _central_objective(f) if var is None else cp.Minimize(var)
+    res = solve(cp.Problem(obj, f.constraints + extra), solver, options)
+    if not res.status.has_solution or f.P.value is None:
+        return res
+    P = 0.5 * (f.P.value + f.P.value.T)
+    X = np.asarray(f.X.value, dtype=float)
+    try:
+        K = np.linalg.solve(P, X)
+    except np.linalg.LinAlgError:
+        return SolveResult(SolveStatus.SOLVER_ERROR, "singular P", res.solver, None, res.seconds)
+    g_out = math.sqrt(float(var.value)) if objective is Objective.MIN_GAMMA and var is not None else gamma
+    gn_out = math.sqrt(float(var.value)) if objective is Objective.MIN_GAMMA_N and var is not None else gamma_n
+    assert g_out is not None
+    return _Solved(K, P, float(g_out), gn_out, res)
+
+
+def _check_attained(d: _Data, objective: Objective, gamma: float | None, gamma_n: float | None, margin: float,
+                    first: _Solved, solver: Solver, options: Mapping[str, Any] | None) -> None:
+    """Raise :class:`DesignUnbounded` when the minimiser is set by the margin ``ε``, not by the problem.
+
+    Re-solves at ``100 ε`` (or, if that is infeasible, at ``ε/100``). The
+    minimum is declared not attained when, between the two margins,
+
+    * the gain grows by more than 10× (``ε`` shrinks 100×), or
+    * the optimal value moves by more than 1 % (relative), or
+    * either solve ends ``optimal_inaccurate`` (the solver is chasing an
+      infimum with exploding gains; seen on non-minimum-phase examples).
+    """
+    if objective is Objective.MIN_GAMMA_N:
+        sym, lmis, fix = "γn", "(14), (15)", "gamma_n"
+
+        def val(s: _Solved) -> float:
+            assert s.gamma_n is not None
+            return s.gamma_n
+    else:
+        sym, lmis, fix = "γ", "(14)", "gamma"
+
+        def val(s: _Solved) -> float:
+            return s.gamma
+
+    advice = (
+        f"Use objective=Objective.CENTRAL with {fix} fixed slightly above the infimum "
+        f"(e.g. {val(first) * 1.002:.5g}), or pass gain_bound=GainBound(κ) so that the minimum is attained."
+    )
+    other = _solve_once(d, objective, gamma, gamma_n, 100 * margin, solver, options)
+    if isinstance(other, _Solved):
+        (e_big, big), (e_small, small) = (100 * margin, other), (margin, first)
+    else:
+        other = _solve_once(d, objective, gamma, gamma_n, margin / 100, solver, options)
+        if not isinstance(other, _Solved):
+            return
+        (e_big, big), (e_small, small) = (margin, first), (margin / 100, other)
+    k_big, k_small = float(np.linalg.norm(big.K, 2)), float(np.linalg.norm(small.K, 2))
+    v_big, v_small = val(big), val(small)
+    numbers = (
+        f"At ε = {e_big:g}: ‖K‖₂ = {k_big:.4g}, {sym} = {v_big:.7g} ({big.result.raw_status}); at ε = "
+        f"{e_small:g}: ‖K‖₂ = {k_small:.4g}, {sym} = {v_small:.7g} ({small.result.raw_status})."
+    )
+    change = abs(v_big - v_small) / max(abs(v_big), 1e-300)
+    if k_small > _UNBOUNDED_GROWTH * k_big or change > 1e-2:
+        raise DesignUnbounded(
+            f"minimising {sym}² subject to LMIs {lmis} has no minimum here: the optimum is set by the strictness "
+            f"margin ε, not by the problem. {numbers} (gain ×{k_small / max(k_big, 1e-300):.3g}, {sym} changed by "
+            f"{100 * change:.2g} %). The infimum {sym} ≈ {v_small:.6g} is approached only as ‖K‖ → ∞. {advice}"
+        )
+    if SolveStatus.OPTIMAL_INACCURATE in (big.result.status, small.result.status):
+        raise DesignUnbounded(
+            f"minimising {sym}² subject to LMIs {lmis} is numerically ill-posed: the solver could only reach "
+            f"'optimal_inaccurate' with ‖K‖₂ up to {max(k_big, k_small):.4g}. {numbers} Such an infimum is "
+            f"typically approached only as ‖K‖ → ∞ (≈ {min(v_big, v_small):.6g}). {advice}"
+        )
+
+
+def design_observer_gain(
+    A: ArrayLike,
+    C: ArrayLike,
+    Bd: ArrayLike,
+    *,
+    gamma: float | None = None,
+    N: ArrayLike | None = None,
+    gamma_n: float | None = None,
+    region: RegionArg = None,
+    gain_bound: GainBound | float | None = None,
+    objective: Objective | str = Objective.CENTRAL,
+    solver: Solver | str = Solver.CLARABEL,
+    margin: float = 1e-6,
+    solver_options: Mapping[str, Any] | None = None,
+) -> ObserverGainCertificate:
+    r"""Design an observer gain ``K`` from LMIs (14), (15) of seed 001 and certify it.
+
+    Parameters
+    ----------
+    A, C, Bd : array_like
+        ``𝔄 (n×n)``, ``ℭ (p×n)``, ``𝔅_d (n×m)`` of the error dynamics (12a); see
+        :func:`extended_system` for (8c).
+    gamma : float
+        ``γ`` of LMI (14), ``‖H‖∞ < γ``. Required except for
+        :attr:`Objective.MIN_GAMMA`, where a given value is an upper bound.
+    N : array_like, shape (p, q), optional
+        Noise input matrix (``y = ℭ w_e + N n``); ``I_p`` when ``gamma_n`` is given
+        or ``γn`` is minimised.
+    gamma_n : float, optional
+        ``γn`` of LMI (15), ``‖G‖∞ ≤ γn``. With :attr:`Objective.MIN_GAMMA_N` a
+        given value is an upper bound.
+    region : PoleRegion or sequence of PoleRegion, optional
+        Chilali–Gahinet region(s) for the eigenvalues of ``A − K C`` (the
+        intersection when several), with the common ``P``.
+    gain_bound : GainBound or float, optional
+        ``‖K‖₂ ≤ κ`` (see :class:`GainBound`).
+    objective : Objective or str
+        :attr:`~Objective.CENTRAL` (default; analytic centre at fixed ``γ`` and
+        ``γn``; needs ``gamma_n`` or ``gain_bound`` so that the centre exists),
+        :attr:`~Objective.MIN_GAMMA_N` or :attr:`~Objective.MIN_GAMMA` (checked
+        for attainment, see Raises).
+    solver : Solver or str
+        :attr:`Solver.CLARABEL` (default) or :attr:`Solver.SCS`.
+    margin : float
+        Strictness margin ``ε``: ``F ⪯ −ε I`` for each block, ``P ⪰ ε I``.
+    solver_options : mapping, optional
+        Extra solver options.
+
+    Returns
+    -------
+    ObserverGainCertificate
+        Status :attr:`~CertificateStatus.VERIFIED`; ``K = P⁻¹ X``.
+
+    Raises
+    ------
+    DesignInfeasible
+        ``(A, C)`` not detectable (``constraint='detectability'``), or the first
+        constraint that makes the problem infeasible — ``'LMI (14)'`` (message
+        gives the smallest achievable ``γ``), ``'LMI (15)'`` (smallest ``γn``), a
+        region (minimal slack of its block) or ``'gain bound'`` (smallest ``κ``).
+    DesignUnbounded
+        A minimisation whose optimum moves with ``ε`` (gain ×>10 when ``ε``
+        shrinks 100×): the infimum is not attained.
+    CertificateError
+        The solver's answer failed the independent re-verification.
+    DimensionError, NonFiniteError, InvalidArgumentError
+        Bad input.
+    """
+    t0 = time.perf_counter()
+    obj = _as_objective(objective)
+    slv = as_solver(solver)
+    eps = _margin(margin)
+    g = positive("gamma", gamma) if gamma is not None else None
+    gn = positive("gamma_n", gamma_n) if gamma_n is not None else None
+    if g is None and obj is not Objective.MIN_GAMMA:
+        raise InvalidArgumentError(f"gamma: required for objective {obj.value!r} (the bound of LMI (14))")
+    need_noise = gn is not None or obj is Objective.MIN_GAMMA_N
+    if N is not None and not need_noise:
+        raise InvalidArgumentError("N: given without gamma_n; pass gamma_n (LMI (15)) or objective=MIN_GAMMA_N")
+    d = _validate_data(A, C, Bd, N, need_noise, region, gain_bound)
+    if obj is Objective.CENTRAL and gn is None and d.gain_bound is None:
+        raise InvalidArgumentError(
+            "objective CENTRAL needs a bounded feasible set: give gamma_n (LMI (15) bounds the gain) or "
+            "gain_bound=GainBound(κ); with LMI (14) alone the analytic centre does not exist (gains can grow "
+            "without bound)"
+        )
+    _require_detectable(d.A, d.C)
+
+    sol = _solve_once(d, obj, g, gn, eps, slv, solver_options)
+    if not isinstance(sol, _Solved):
+        if sol.status.name.startswith("UNBOUNDED"):
+            raise DesignUnbounded(
+                f"the solver reports the {obj.value} problem unbounded ({sol.raw_status}); add gamma_n or a gain bound"
+            )
+        _diagnose(d, gamma=g, gamma_n=gn, margin=eps, solver=slv,
+                  options=solver_options, main=sol)
+    if obj is not Objective.CENTRAL and d.gain_bound is None:
+        _check_attained(d, obj, g, gn, eps, sol, slv, solver_options)
+
+    checks, hH, hG, eigs = _certify(d, sol.K, sol.P, sol.gamma, sol.gamma_n)
+    cert = ObserverGainCertificate(
+        status=CertificateStatus.VERIFIED if all(c.passed for c in checks) else CertificateStatus.FAILED,
+        K=_ro(sol.K), P=_ro(sol.P), gamma=sol.gamma, gamma_n=sol.gamma_n, hinf_H=hH, hinf_G=hG,
+        eigenvalues=_ro(eigs), checks=tuple(checks), objective=obj, solver=slv,
+        solver_status=sol.result.raw_status, margin=eps, seconds=time.perf_counter() - t0,
+    )
+    if not cert.verified:
+        raise CertificateError(
+            f"the {slv.value} answer ('{sol.result.raw_status}') failed the independent re-verification: "
+            f"{_failure_text(checks)}"
+        )
+    return cert
+
+
+def verify_observer_gain(
+    A: ArrayLike,
+    C: ArrayLike,
+    Bd: ArrayLike,
+    K: ArrayLike,
+    *,
+    gamma: float,
+    N: ArrayLike | None = None,
+    gamma_n: float | None = None,
+    region: RegionArg = None,
+    gain_bound: GainBound | float | None = None,
+    solver: Solver | str = Solver.CLARABEL,
+    margin: float = 1e-6,
+    strict: bool = True,
+    solver_options: Mapping[str, Any] | None = None,
+) -> ObserverGainCertificate:
+    r"""Certify a *given* gain ``K`` (e.g. a published one) against LMIs (14), (15) and regions.
+
+    With ``K`` fixed, ``X = P K`` and every block is linear in ``P`` alone; the
+    analytic centre ``P`` of those LMIs is computed, then everything is
+    re-verified as in :func:`design_observer_gain` (closed-loop eigenvalues,
+    region margins, ``‖H‖∞ < γ`` and ``‖G‖∞ ≤ γn`` with
+    :func:`~nlobs.linear.norms.hinf_norm`, each LMI block with that ``P``).
+
+    Parameters
+    ----------
+    A, C, Bd : array_like
+        As in :func:`design_observer_gain`.
+    K : array_like, shape (n, p)
+        The gain to certify.
+    gamma, N, gamma_n, region, gain_bound, solver, margin, solver_options
+        As in :func:`design_observer_gain` (``N = I`` when ``gamma_n`` is given).
+    strict : bool
+        Raise :class:`~nlobs.errors.CertificateError` on failure (default);
+        with ``False`` return a certificate with status
+        :attr:`~CertificateStatus.FAILED` and the failed checks.
+
+    Returns
+    -------
+    ObserverGainCertificate
+        ``P`` is ``None`` when no common Lyapunov matrix exists (e.g. a
+        non-Hurwitz ``A − K C``); then a check named ``'common P for the LMIs'``
+        reports the smallest achievable largest eigenvalue over the blocks.
+    """
+    t0 = time.perf_counter()
+    slv = as_solver(solver)
+    eps = _margin(margin)
+    g = positive("gamma", gamma)
+    gn = positive("gamma_n", gamma_n) if gamma_n is not None else None
+    if N is not None and gn is None:
+        raise InvalidArgumentError("N: given without gamma_n; pass gamma_n (LMI (15))")
+    d = _validate_data(A, C, Bd, N, gn is not None, region, gain_bound)
+    K_ = as_matrix("K", K, (d.n, d.C.shape[0]))
+
+    eig_max = float(np.max(np.linalg.eigvals(d.A - K_ @ d.C).real))
+    P_val: NDArray[np.float64] | None = None
+    raw = "not run (A − K C is not Hurwitz: no P ≻ 0 can exist)"
+    extra: list[Check] = []
+    if eig_max < 0:
+        gn2 = gn**2 if gn is not None else None
+        f = _formulate(d, margin=eps, gamma2=g**2, gamma_n2=gn2, with15=gn is not None, regions=d.regions,
+                       gain_bound=None, K=K_)
+        res = solve(cp.Problem(_central_objective(f), f.constraints), slv, solver_options)
+        raw = res.raw_status
+        if res.status.has_solution and f.P.value is not None:
+            P_val = 0.5 * (f.P.value + f.P.value.T)
+        else:
+            # how far from feasible: min t with every block ⪯ t I (common P)
+            t = cp.Variable()
+            P = cp.Variable((d.n, d.n), symmetric=True)
+            blocks = _blocks(d, P, P @ K_, g**2, gn2 if gn2 is not None else 0.0)
+            cons = [P >> eps * np.eye(d.n)] + [b << t * np.eye(b.shape[0]) for _, b in blocks]
+            r2 = solve(cp.Problem(cp.Minimize(t), cons + [t >= -1.0]), slv, solver_options)
+            tv = float(t.value) if r2.status.has_solution and t.value is not None else math.inf
+            extra.append(Check("common P for the LMIs (min over P of the largest block eigenvalue)",
+                               CheckKind.LMI, tv, -eps))
+    checks, hH, hG, eigs = _certify(d, K_, P_val, g, gn)
+    checks = extra + checks
+    ok = all(c.passed for c in checks)
+    cert = ObserverGainCertificate(
+        status=CertificateStatus.VERIFIED if ok else CertificateStatus.FAILED,
+        K=_ro(K_), P=None if P_val is None else _ro(P_val), gamma=g, gamma_n=gn, hinf_H=hH, hinf_G=hG,
+        eigenvalues=_ro(eigs), checks=tuple(checks), objective=None, solver=slv, solver_status=raw,
+        margin=eps, seconds=time.perf_counter() - t0,
+    )
+    if strict and not ok:
+        raise CertificateError(f"the given gain K failed verification: {_failure_text(checks)}")
+    return cert
+
+
+def _ro(a: NDArray[Any]) -> NDArray[Any]:
+    out = np.array(a)
+    out.setflags(write=False)
+    return out
