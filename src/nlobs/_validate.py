@@ -98,6 +98,24 @@ def positive(name: str, value: float, *, allow_zero: bool = False) -> float:
     return v
 
 
+def in_range(name: str, value: float, lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = True) -> float:
+    """Return ``value`` as a finite float in the interval from ``lo`` to ``hi``.
+
+    ``lo_open``/``hi_open`` make the bounds exclusive. Raises
+    :class:`~nlobs.errors.NonFiniteError` or :class:`~nlobs.errors.InvalidArgumentError`.
+    """
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InvalidArgumentError(f"{name}: expected a number, got {value!r}") from None
+    if not np.isfinite(v):
+        raise NonFiniteError(f"{name}: must be finite, got {v!r}")
+    if (v < lo or (lo_open and v == lo)) or (v > hi or (hi_open and v == hi)):
+        interval = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+        raise InvalidArgumentError(f"{name}: must lie in {interval}, got {v!r}")
+    return v
+
+
 def check_names(kind: str, names: Sequence[str]) -> tuple[str, ...]:
     """Check names are unique Python identifiers and return them as a tuple."""
     out = tuple(names)

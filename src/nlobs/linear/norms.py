@@ -30,8 +30,8 @@ import scipy.linalg
 import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_matrix, as_square
-from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError
+from nlobs._validate import as_matrix, as_square, in_range
+from nlobs.errors import DimensionError
 
 __all__ = ["hinf_norm", "h2_norm"]
 
@@ -216,18 +216,6 @@ def _bilinear(A: NDArray, B: NDArray, C: NDArray, D: NDArray) -> tuple[NDArray, 
     return Ac, Bc, Cc, Dc
 
 
-def _check_rtol(rtol: float) -> float:
-    try:
-        r = float(rtol)
-    except (TypeError, ValueError):
-        raise InvalidArgumentError(f"rtol: expected a number, got {rtol!r}") from None
-    if not math.isfinite(r):
-        raise NonFiniteError(f"rtol: must be finite, got {r!r}")
-    if not (0.0 < r < 0.5):
-        raise InvalidArgumentError(f"rtol: must lie in (0, 0.5), got {r!r}")
-    return max(r, 10 * _EPS)
-
-
 def hinf_norm(
     A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, *, discrete: bool = False, rtol: float = 1e-9
 ) -> float:
@@ -268,7 +256,7 @@ def hinf_norm(
     ``D_c = D − C (I + A)⁻¹ B`` — which preserves the H∞ norm exactly.
     """
     A_, B_, C_, D_ = _check_abcd(A, B, C, D)
-    r = _check_rtol(rtol)
+    r = max(in_range("rtol", rtol, 0.0, 0.5, lo_open=True), 10 * _EPS)
     if B_.shape[1] == 0 or C_.shape[0] == 0:
         return 0.0
     if not _is_strictly_stable(A_, discrete):

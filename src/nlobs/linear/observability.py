@@ -31,15 +31,13 @@ autonomous systems", Indag. Math. 31 (1969) 443–448.
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 import scipy.linalg
 import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_matrix, as_square
-from nlobs.errors import InvalidArgumentError, NonFiniteError
+from nlobs._validate import as_matrix, as_square, in_range
 from nlobs.linear.stability import BOUNDARY_TOL, strictly_inside
 
 __all__ = ["observability_matrix", "is_observable", "unobservable_modes", "is_detectable"]
@@ -54,18 +52,6 @@ def _check_ac(A: ArrayLike, C: ArrayLike) -> tuple[NDArray[np.float64], NDArray[
     A_ = as_square("A", A)
     C_ = as_matrix("C", C, (None, A_.shape[0]))
     return A_, C_
-
-
-def _check_rtol(rtol: float) -> float:
-    try:
-        r = float(rtol)
-    except (TypeError, ValueError):
-        raise InvalidArgumentError(f"rtol: expected a number, got {rtol!r}") from None
-    if not math.isfinite(r):
-        raise NonFiniteError(f"rtol: must be finite, got {r!r}")
-    if not (0.0 <= r < 1.0):
-        raise InvalidArgumentError(f"rtol: must lie in [0, 1), got {r!r}")
-    return r
 
 
 def observability_matrix(A: ArrayLike, C: ArrayLike) -> NDArray[np.float64]:
@@ -243,7 +229,7 @@ def unobservable_modes(
     correct multiplicities, using orthogonal transformations only.
     """
     A_, C_ = _check_ac(A, C)
-    r = _check_rtol(rtol)
+    r = in_range("rtol", rtol, 0.0, 1.0)
     lam = _unobservable_eigs(A_, C_, r)
     return lam[np.lexsort((lam.imag, lam.real))]
 
@@ -265,7 +251,7 @@ def is_observable(A: ArrayLike, C: ArrayLike, *, rtol: float = DEFAULT_RTOL) -> 
         rank for every ``λ``; equivalently rank of the Kalman matrix is ``n``).
     """
     A_, C_ = _check_ac(A, C)
-    return bool(_unobservable_eigs(A_, C_, _check_rtol(rtol)).size == 0)
+    return bool(_unobservable_eigs(A_, C_, in_range("rtol", rtol, 0.0, 1.0)).size == 0)
 
 
 def is_detectable(

@@ -11,8 +11,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_square
-from nlobs.errors import InvalidArgumentError, NonFiniteError
+from nlobs._validate import as_square, in_range
 
 __all__ = ["BOUNDARY_TOL", "strictly_inside", "eigenvalues", "is_stable", "spectral_abscissa", "spectral_radius", "stability_margin"]
 
@@ -48,12 +47,7 @@ def strictly_inside(points: ArrayLike, *, discrete: bool = False, tol: float = B
     ndarray of bool
     """
     z = np.asarray(points, dtype=complex)
-    try:
-        t = float(tol)
-    except (TypeError, ValueError):
-        raise InvalidArgumentError(f"tol: expected a number, got {tol!r}") from None
-    if not np.isfinite(t) or t < 0:
-        raise InvalidArgumentError(f"tol: must be finite and non-negative, got {tol!r}")
+    t = in_range("tol", tol, 0.0, np.inf)
     if discrete:
         return np.abs(z) < 1.0 - t
     return z.real < -t * np.maximum(1.0, np.abs(z))
@@ -142,10 +136,5 @@ def is_stable(A: ArrayLike, *, discrete: bool = False, tol: float = 0.0) -> bool
     -------
     bool
     """
-    try:
-        t = float(tol)
-    except (TypeError, ValueError):
-        raise InvalidArgumentError(f"tol: expected a number, got {tol!r}") from None
-    if not np.isfinite(t):
-        raise NonFiniteError(f"tol: must be finite, got {t!r}")
+    t = in_range("tol", tol, -np.inf, np.inf)
     return bool(stability_margin(A, discrete=discrete) > t)

@@ -121,7 +121,7 @@ def _reduce(
     """
     removed = 0
     while True:
-        n, m, p = A.shape[0], B.shape[1], C.shape[0]
+        n, p = A.shape[0], C.shape[0]
         if p == 0:
             return A, B, C, D, removed
         U, rho = _row_compress(D, tol)

@@ -287,7 +287,7 @@ def _linear(src: _Source, data: Mapping[str, Any], name: str, time: TimeBase) ->
         raise src.error("[linear] must be a table", key="linear")
     unknown = sorted(set(lin) - _LIN_KEYS)
     if unknown:
-        raise src.error(f"unknown key in [linear] (allowed: A, B, C, D)", key=unknown[0], text=unknown[0])
+        raise src.error("unknown key in [linear] (allowed: A, B, C, D)", key=unknown[0], text=unknown[0])
     for k in ("A", "C"):
         if k not in lin:
             raise src.error(f"[linear] needs '{k}'", key="linear", text=k)
