@@ -114,6 +114,33 @@ def analyze_cmd(
         _console().print(report.to_text(), markup=False)
 
 
+@app.command("reproduce")
+def reproduce_cmd(
+    paper: Annotated[str, typer.Argument(help="Which paper: grip2013.")],
+    as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list of rows.")] = False,
+) -> None:
+    """Print each number a paper reports beside the value nlobs computes."""
+    from rich.table import Table
+
+    from nlobs.examples.reproduce import PAPERS, format_value, reproduce
+
+    if paper not in PAPERS:
+        _fail(f"unknown paper {paper!r} (known: {', '.join(sorted(PAPERS))})")
+    try:
+        rows = reproduce(paper)
+    except NlobsError as exc:
+        _fail(f"reproduce {paper}: {exc}", EXIT_FAILURE)
+    if as_json:
+        typer.echo(json.dumps(_jsonable([r.to_dict() for r in rows]), indent=2, allow_nan=False))
+        return
+    table = Table(title=f"nlobs reproduce {paper}", show_lines=False)
+    for col in ("quantity", "paper", "nlobs", "note"):
+        table.add_column(col, overflow="fold")
+    for r in rows:
+        table.add_row(r.quantity, format_value(r.paper), format_value(r.nlobs), r.note)
+    _console().print(table)
+
+
 @app.command("models")
 def models_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list.")] = False,

@@ -1,0 +1,250 @@
+"""Gains of the GNSS/INS observer (24): the paper's, and certified nlobs designs.
+
+Seed 001, Sec. 5. The linear part Σ2 of (21) is, on each NED axis, a double
+integrator ``ṗ = v``, ``v̇ = z + g`` driven by ``z = aⁿ`` (the unmeasured input),
+with ``p, v`` measured (``C = [I 0; 0 I]``) or only ``p`` (Sec. 5.2,
+``C = [I 0]``). The extended system (8c) therefore decouples into three
+identical 3-state problems (states ``p, v, z`` of one axis; measurements ``p, v``
+or ``p``). A per-axis gain ``K3`` (3×2 or 3×1, rows ``p, v, z``) gives the
+9-state gain of (24) as ``K9 = kron(K3, I3)``:
+
+* state ordering ``[p(3), v(3), z(3)]`` (N, E, D inside each block),
+* measurement ordering ``[p(3), v(3)]`` (or ``[p(3)]``),
+
+so the block ``K9[3i:3i+3, 3j:3j+3] = K3[i, j] I3`` is ``K_pp, K_pv`` (i = 0),
+``K_vp, K_vv`` (i = 1), ``K_zp, K_zv`` (i = 2) of (24a)–(24c). Designing the
+9-state problem directly gives the same gain (checked in the tests), 2–5× slower.
+
+The noise matrix ``N`` of LMI (15) is given *per axis* (2×2 or 1×1); the 9-state
+``N`` is ``kron(N, I3)``.
+
+Position-only gains: the paper prints none. :func:`design_gains` with
+``position_only=True`` designs one with the paper's recipe (``γ = 50``,
+``N = I``, central solution). For ``C = [I 0]`` the smallest achievable ``γn``
+with LMI (14) at ``γ = 50`` is ≈ 1.0225 (measured; an infimum approached only as
+the gain grows); the default ``γn = 1.05`` gives
+``K3 ≈ [25.75, 5.92, 0.719]ᵀ``, poles ≈ −25.5, −0.116 ± 0.122j,
+``‖H‖∞ ≈ 36.9``, ``‖G‖∞ ≈ 1.038``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from nlobs._validate import as_matrix, positive
+from nlobs.errors import DimensionError, InvalidArgumentError
+from nlobs.synthesis import (
+    ExtendedSystem,
+    GainBound,
+    Objective,
+    ObserverGainCertificate,
+    PoleRegion,
+    Solver,
+    design_observer_gain,
+    extended_system,
+    verify_observer_gain,
+)
+
+Array = NDArray[np.float64]
+
+__all__ = [
+    "PAPER_GAMMA",
+    "PAPER_K3",
+    "DEFAULT_GAMMA_N",
+    "DEFAULT_GAMMA_N_POSITION_ONLY",
+    "axis_gain",
+    "axis_system",
+    "design_gains",
+    "full_system",
+    "kron_gain",
+    "paper_gains",
+    "verify_paper_gains",
+]
+
+#: The paper's per-axis gain (Sec. 5.2), rows ``p, v, z``, columns ``p, v`` measured:
+#: ``K_pp ≈ 128.9, K_pv ≈ 17.5, K_vp ≈ 15.7, K_vv ≈ 2.4, K_zp ≈ 1.3, K_zv ≈ 0.2`` (× I3).
+PAPER_K3: Array = np.array([[128.9, 17.5], [15.7, 2.4], [1.3, 0.2]])
+PAPER_K3.setflags(write=False)
+
+#: The paper's attitude gain Γ = diag(20, 0.2, 0.2) of (22)/(24c, d) (Sec. 5.2).
+PAPER_GAMMA: Array = np.diag([20.0, 0.2, 0.2])
+PAPER_GAMMA.setflags(write=False)
+
+#: γ of LMI (14) used in the paper (Sec. 5.2).
+PAPER_GAMMA_HINF = 50.0
+
+#: Default γn (LMI (15), ``N = I``) for ``p, v`` measured: slightly above the infimum 1
+#: (docs/synthesis.md: central gain within ~11 % of the paper's).
+DEFAULT_GAMMA_N = 1.0019
+
+#: Default γn for the position-only receiver (infimum ≈ 1.0225 at γ = 50, measured).
+DEFAULT_GAMMA_N_POSITION_ONLY = 1.05
+
+
+def axis_system(position_only: bool = False) -> ExtendedSystem:
+    """The per-axis extended system (8c) of Σ2 (seed 001, Sec. 5).
+
+    States ``p, v, z`` of one NED axis, ``𝔄 = [[0,1,0],[0,0,1],[0,0,0]]``,
+    ``𝔅_d = [0,0,1]ᵀ``, ``ℭ = [[1,0,0],[0,1,0]]`` (or ``[[1,0,0]]`` when
+    ``position_only``).
+    """
+    C = np.array([[1.0, 0.0]]) if position_only else np.eye(2)
+    return extended_system([[0.0, 1.0], [0.0, 0.0]], [[0.0], [1.0]], C, np.zeros((C.shape[0], 1)))
+
+
+def full_system(position_only: bool = False) -> ExtendedSystem:
+    """The 9-state extended system (8c) with ``A = [[0, I],[0, 0]]``, ``B_z = [0; I]``, ``C`` as in Sec. 5.
+
+    State ordering ``[p(3), v(3), z(3)]``; equal to ``kron`` of :func:`axis_system` with ``I3``.
+    """
+    I3, Z3 = np.eye(3), np.zeros((3, 3))
+    A = np.block([[Z3, I3], [Z3, Z3]])
+    Bz = np.vstack([Z3, I3])
+    C = np.hstack([I3, Z3]) if position_only else np.eye(6)
+    return extended_system(A, Bz, C, np.zeros((C.shape[0], 3)))
+
+
+def kron_gain(K3: ArrayLike) -> Array:
+    """The 9-state gain ``kron(K3, I3)`` of a per-axis gain ``K3`` (3×2 or 3×1)."""
+    K = as_matrix("K3", K3)
+    if K.shape not in ((3, 2), (3, 1)):
+        raise DimensionError(f"K3: expected shape (3, 2) or (3, 1), got {K.shape}")
+    return np.kron(K, np.eye(3))
+
+
+def axis_gain(K9: ArrayLike, *, rtol: float = 1e-9) -> Array:
+    """The per-axis gain ``K3`` of a 9-state gain of the form ``kron(K3, I3)``.
+
+    Raises
+    ------
+    DimensionError
+        ``K9`` is not 9×6 or 9×3.
+    InvalidArgumentError
+        ``K9`` is not of the form ``kron(K3, I3)`` (to ``rtol`` relative to its largest entry).
+    """
+    K = as_matrix("K9", K9)
+    if K.shape not in ((9, 6), (9, 3)):
+        raise DimensionError(f"K9: expected shape (9, 6) or (9, 3), got {K.shape}")
+    K3 = K[::3, ::3].copy()
+    dev = float(np.max(np.abs(K - np.kron(K3, np.eye(3)))))
+    if dev > rtol * max(1.0, float(np.max(np.abs(K)))):
+        raise InvalidArgumentError(f"K9: not of the form kron(K3, I3) (max deviation {dev:.3g})")
+    return K3
+
+
+def paper_gains(position_only: bool = False) -> Array:
+    """The 9-state gain ``K`` of (24) used in the paper (Sec. 5.2): ``kron(PAPER_K3, I3)``, 9×6.
+
+    Parameters
+    ----------
+    position_only : bool
+        The paper prints no gain for the position-only receiver ``C = [I 0]``.
+        With ``True`` this returns the gain designed by the paper's recipe
+        (``γ = 50``, ``N = I``, central solution at
+        ``γn = DEFAULT_GAMMA_N_POSITION_ONLY``), 9×3, computed once by
+        :func:`design_gains` (certified) and cached.
+    """
+    if position_only:
+        return _position_only_gain().copy()
+    return kron_gain(PAPER_K3)
+
+
+@lru_cache(maxsize=1)
+def _position_only_gain() -> Array:
+    K9, _ = design_gains(position_only=True)
+    K9.setflags(write=False)
+    return K9
+
+
+def verify_paper_gains(*, gamma: float = PAPER_GAMMA_HINF, gamma_n: float | None = 1.01,
+                       N: ArrayLike | None = None) -> ObserverGainCertificate:
+    """Certificate of the paper's per-axis gain :data:`PAPER_K3` (seed 001, Theorem 3, LMIs (14), (15)).
+
+    Measured: ``‖H‖∞ ≈ 32.18 < 50``, ``‖G‖∞ ≈ 1.0021`` (``N = I``), poles
+    ≈ −130.9, −0.257, −0.129. The paper's gain has ``‖G‖∞ > 1.0019``, so the
+    default ``γn`` is 1.01. The certificate holds for the 9-state ``kron(K3, I3)``
+    as well (same transfer functions, each axis decoupled).
+
+    Raises
+    ------
+    CertificateError
+        If the gain does not satisfy the requested bounds.
+    """
+    A, Bd, C = axis_system(False)
+    return verify_observer_gain(A, C, Bd, PAPER_K3, gamma=gamma, gamma_n=gamma_n, N=N)
+
+
+def design_gains(
+    gamma: float = PAPER_GAMMA_HINF,
+    gamma_n: float | None = None,
+    *,
+    position_only: bool = False,
+    N: ArrayLike | None = None,
+    region: PoleRegion | Sequence[PoleRegion] | None = None,
+    gain_bound: GainBound | float | None = None,
+    objective: Objective | str = Objective.CENTRAL,
+    solver: Solver | str = Solver.CLARABEL,
+    margin: float = 1e-6,
+    per_axis: bool = True,
+    solver_options: Mapping[str, Any] | None = None,
+) -> tuple[Array, ObserverGainCertificate]:
+    """Design a certified gain ``K`` of (24) with :func:`nlobs.synthesis.design_observer_gain`.
+
+    Parameters
+    ----------
+    gamma : float
+        ``γ`` of LMI (14) (``‖H‖∞ < γ``); the paper uses 50.
+    gamma_n : float, optional
+        ``γn`` of LMI (15) (``‖G‖∞ ≤ γn``, ``N = I`` by default). ``None`` picks
+        :data:`DEFAULT_GAMMA_N` (1.0019) or, for ``position_only``,
+        :data:`DEFAULT_GAMMA_N_POSITION_ONLY` (1.05) when the objective is
+        ``CENTRAL`` and no gain bound is given; otherwise LMI (15) is left out
+        unless ``objective`` is ``MIN_GAMMA_N``.
+    position_only : bool
+        ``C = [I 0]`` (Sec. 5.2): ``K`` is 9×3 instead of 9×6.
+    N : array_like, optional
+        Per-axis noise matrix (2×2, or 1×1 for position-only).
+    region, gain_bound, objective, solver, margin, solver_options
+        Passed to :func:`~nlobs.synthesis.design_observer_gain` (see ``docs/synthesis.md``).
+    per_axis : bool
+        Design the 3-state axis problem and return ``kron(K3, I3)`` (default), or
+        the 9-state problem directly (same answer, slower; ``N`` then is
+        ``kron(N, I3)``).
+
+    Returns
+    -------
+    K9 : ndarray, shape (9, 6) or (9, 3)
+        The gain of (24), state order ``[p, v, z]``, measurement order ``[p, v]``.
+    certificate : ObserverGainCertificate
+        The certificate of the problem solved (the per-axis one when ``per_axis``).
+
+    Raises
+    ------
+    DesignInfeasible, DesignUnbounded, CertificateError
+        As :func:`~nlobs.synthesis.design_observer_gain`.
+    """
+    g = positive("gamma", gamma)
+    try:
+        obj = Objective(objective)
+    except ValueError:
+        raise InvalidArgumentError(
+            f"objective: unknown {objective!r}; expected one of {[o.value for o in Objective]}") from None
+    if gamma_n is None and obj is Objective.CENTRAL and gain_bound is None:
+        gamma_n = DEFAULT_GAMMA_N_POSITION_ONLY if position_only else DEFAULT_GAMMA_N
+    p = 1 if position_only else 2
+    N3 = None if N is None else as_matrix("N", N, (p, None))
+    kw: dict[str, Any] = dict(gamma=g, gamma_n=gamma_n, region=region, gain_bound=gain_bound,
+                              objective=obj, solver=solver, margin=margin, solver_options=solver_options)
+    if per_axis:
+        A, Bd, C = axis_system(position_only)
+        cert = design_observer_gain(A, C, Bd, N=N3, **kw)
+        return kron_gain(cert.K), cert
+    A, Bd, C = full_system(position_only)
+    N9 = None if N3 is None else np.kron(N3, np.eye(3))
+    cert = design_observer_gain(A, C, Bd, N=N9, **kw)
+    return np.array(cert.K), cert
