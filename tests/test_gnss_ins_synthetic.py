@@ -47,11 +47,11 @@ def turn_truth(t, *, V=50.0, r=0.05, vd=-2.0, psi0=0.3, p0=(0.0, 0.0, -300.0)):
 
 def turn_data(duration=20.0, *, imu_rate_hz=100.0, gnss_rate_hz=5.0, position_only=False, **kw) -> SensorData:
     """Noise-free :class:`SensorData` of :func:`turn_truth` (GNSS fixes on the IMU grid)."""
-    K = int(round(duration * imu_rate_hz)) + 1
+    K = round(duration * imu_rate_hz) + 1
     t = np.arange(K) / imu_rate_hz
     p, v, R, w_b, a_b = turn_truth(t, **kw)
     m_b = np.einsum("kji,j->ki", R, M_N)
-    step = int(round(imu_rate_hz / gnss_rate_hz))
+    step = round(imu_rate_hz / gnss_rate_hz)
     gi = np.arange(0, K, step)
     return SensorData(
         t_imu=t, omega_b=w_b, a_b=a_b, m_b=m_b, t_gnss=t[gi], p_gnss=p[gi], v_gnss=None if position_only else v[gi],
@@ -63,7 +63,7 @@ def test_synthetic_turn_has_exact_kinematics():
     # central differences of the closed form (independent of the formulas for ω^b, a^b)
     t = np.linspace(0.0, 30.0, 31)
     h = 1e-4
-    p, v, R, w_b, a_b = turn_truth(t)
+    _p, v, R, w_b, a_b = turn_truth(t)
     pp, vp, Rp, _, _ = turn_truth(t + h)
     pm, vm, Rm, _, _ = turn_truth(t - h)
     np.testing.assert_allclose((pp - pm) / (2 * h), v, atol=1e-6)

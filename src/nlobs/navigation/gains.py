@@ -53,10 +53,10 @@ from nlobs.synthesis import (
 Array = NDArray[np.float64]
 
 __all__ = [
-    "PAPER_GAMMA",
-    "PAPER_K3",
     "DEFAULT_GAMMA_N",
     "DEFAULT_GAMMA_N_POSITION_ONLY",
+    "PAPER_GAMMA",
+    "PAPER_K3",
     "axis_gain",
     "axis_system",
     "design_gains",
@@ -238,8 +238,8 @@ def design_gains(
         gamma_n = DEFAULT_GAMMA_N_POSITION_ONLY if position_only else DEFAULT_GAMMA_N
     p = 1 if position_only else 2
     N3 = None if N is None else as_matrix("N", N, (p, None))
-    kw: dict[str, Any] = dict(gamma=g, gamma_n=gamma_n, region=region, gain_bound=gain_bound,
-                              objective=obj, solver=solver, margin=margin, solver_options=solver_options)
+    kw: dict[str, Any] = {"gamma": g, "gamma_n": gamma_n, "region": region, "gain_bound": gain_bound,
+                              "objective": obj, "solver": solver, "margin": margin, "solver_options": solver_options}
     if per_axis:
         A, Bd, C = axis_system(position_only)
         cert = design_observer_gain(A, C, Bd, N=N3, **kw)

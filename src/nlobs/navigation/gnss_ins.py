@@ -41,23 +41,36 @@ the state by :meth:`~GnssInsObserver.update`; between fixes it is either
 
 * ``intersample="hold"`` — held constant (zero-order hold, the literal reading
   of (24) with sampled ``p, v``), or
-* ``intersample="predict"`` — extrapolated with the model of Σ2 from the last
-  fix: ``ẏ_p = y_v`` (``= v̂`` for a position-only receiver), ``ẏ_v = ẑ + gⁿ``
-  (an inter-sample output predictor in the spirit of Karafyllis & Kravaris).
-  On exact data with exact estimates the predicted measurement equals the true
-  one, so the observer stays at the truth; with the zero-order hold it does
-  not (a held position lags the aircraft by ``v·Δt_gnss``, ≈ 10 m at 50 m/s and
-  5 Hz, and the large ``K_pp`` pulls ``p̂`` back towards it).
+* ``intersample="predict"`` (default) — extrapolated with the model of Σ2 from
+  the last fix: ``ẏ_p = y_v`` (``= v̂`` for a position-only receiver),
+  ``ẏ_v = ẑ + gⁿ`` (an inter-sample output predictor in the spirit of
+  Karafyllis & Kravaris). On exact data with exact estimates the predicted
+  measurement equals the true one, so the observer stays at the truth; with
+  the zero-order hold it does not: a held position lags the aircraft by up to
+  ``v·Δt_gnss`` (10 m at 50 m/s and 5 Hz) and the large ``K_pp`` pulls ``p̂``
+  back towards it. Measured on the exact traffic-pattern flight (100 Hz IMU,
+  5 Hz fixes, t ≥ 120 s): position/velocity/attitude RMS 0.0006 m, 0.005 m/s,
+  0.025° with the predictor; 4.2 m, 0.30 m/s, 0.34° with the zero-order hold.
+  With ``K`` of the form ``kron(K3, I3)`` and constant ``aⁿ`` the predictor's
+  error system is linear (``η = y_pred − ℭw``: ``w̃' = (𝔄 − Kℭ)w̃ − Kη``,
+  ``η_p' = η_v``, ``η_v' = −z̃``, ``η = 0`` at each exact fix); the tests compare
+  the observer with ``expm`` of it.
 
 **Before the first valid fix** (per batch member) there is no injection: the
 ``K`` terms are zero and (24) runs open loop on the IMU. Invalid fixes
 (``GnssSample.valid`` False) are skipped per batch member and counted in the
 state (``skipped``).
 
-RK4 is stable for the linear part when ``(dt / substeps) · ρ(𝔄 − Kℭ) ≲ 2.78``;
-``propagate`` raises otherwise. The attitude loop adds rates up to
-``λ_max(Γ) · λ_max(A_b A_bᵀ)`` (with ``λ(A_b A_bᵀ) = |m|², |m × a|², |m|²|m × a|²``),
-which depends on the data; increase ``substeps`` if the state diverges.
+RK4 step size. The stiffest rates of (24) over one step are ``ρ(𝔄 − Kℭ)`` (the
+linear part, ≈ 131 s⁻¹ for the paper's ``K``) and ``λmax(Γ) · λmax(A_b A_bᵀ)``
+(the attitude loop: with ``ẑ`` frozen, ``R̂ ↦ −Γ R̂ A_b A_bᵀ`` has eigenvalues
+``γ_i μ_j``, and ``μ = |m|², |m × a|², |m|² |m × a|²`` because the columns of
+``A_b`` are orthogonal). The second depends on the data and on the units of
+``m``: with a unit-norm magnetometer and ``|a| ≈ g`` it reaches ≈ 20 · 30 = 600 s⁻¹
+for ``Γ = diag(20, 0.2, 0.2)``, beyond RK4's stability limit (``h ρ ≤ 2.785``)
+at 100 Hz — a single RK4 step per IMU period then diverges (measured). With
+``substeps=None`` (default) each IMU period is split into the fewest RK4 steps
+with ``h ρ ≤ 2``.
 """
 
 from __future__ import annotations
@@ -79,6 +92,8 @@ __all__ = ["GnssInsObserver", "GnssInsState", "triad_J", "triad_matrix"]
 
 #: RK4's stability interval on the negative real axis.
 RK4_STABILITY = 2.785
+#: Largest ``h·ρ`` the automatic sub-stepping allows (inside the stability interval, with margin).
+RK4_AUTO = 2.0
 
 
 def _cross(a: Array, b: Array) -> Array:
@@ -174,8 +189,11 @@ class GnssInsObserver:
         Position-only receiver (Sec. 5.2, ``C = [I 0]``); fixes' velocities are ignored.
     intersample : {"hold", "predict"}
         How the GNSS measurement is carried between fixes (see the module docstring).
-    substeps : int
-        RK4 steps per IMU period.
+    substeps : int or None
+        RK4 steps per IMU period; ``None`` (default) chooses, per IMU period, the
+        fewest steps with ``h · ρ ≤ 2`` where ``ρ`` is the stiffest rate of the
+        step: ``max(ρ(𝔄 − Kℭ), λmax(Γ) · λmax(A_b A_bᵀ))``. With a fixed number,
+        ``propagate`` raises when ``h · ρ`` exceeds RK4's stability limit 2.785.
     name : str
         ``"observer"``.
 
@@ -194,10 +212,12 @@ class GnssInsObserver:
     m_n: Array
     g_n: Array
     position_only: bool = False
-    intersample: Literal["hold", "predict"] = "hold"
-    substeps: int = 1
+    intersample: Literal["hold", "predict"] = "predict"
+    substeps: int | None = None
     name: str = "observer"
     _rho: float = field(init=False, repr=False, compare=False)
+    _gamma_max: float = field(init=False, repr=False, compare=False)
+    _SmPowers: Array = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         p = 3 if self.position_only else 6
@@ -215,11 +235,15 @@ class GnssInsObserver:
         g_n = as_vector("g_n", self.g_n, 3)
         if self.intersample not in ("hold", "predict"):
             raise InvalidArgumentError(f"intersample: expected 'hold' or 'predict', got {self.intersample!r}")
-        if not isinstance(self.substeps, (int, np.integer)) or isinstance(self.substeps, bool) or self.substeps < 1:
-            raise InvalidArgumentError(f"substeps: expected a positive integer, got {self.substeps!r}")
+        if self.substeps is not None:
+            if not isinstance(self.substeps, (int, np.integer)) or isinstance(self.substeps, bool) or self.substeps < 1:
+                raise InvalidArgumentError(f"substeps: expected a positive integer or None, got {self.substeps!r}")
+            object.__setattr__(self, "substeps", int(self.substeps))
         for nm, val in (("K", K), ("Gamma", G), ("m_n", m_n), ("g_n", g_n)):
             object.__setattr__(self, nm, _ro(val))
-        object.__setattr__(self, "substeps", int(self.substeps))
+        object.__setattr__(self, "_gamma_max", float(lam[-1]))
+        Sm = _skew(m_n)
+        object.__setattr__(self, "_SmPowers", _ro(np.stack([Sm, Sm @ Sm])))
         # spectral radius of the linear error dynamics 𝔄 − Kℭ (9 states), for the RK4 step check
         I3, Z3 = np.eye(3), np.zeros((3, 3))
         A = np.block([[Z3, I3, Z3], [Z3, Z3, I3], [Z3, Z3, Z3]])
@@ -229,7 +253,7 @@ class GnssInsObserver:
     # ----------------------------------------------------------------- factory
     @classmethod
     def paper(cls, m_n: ArrayLike, g_n: ArrayLike, *, position_only: bool = False,
-              intersample: Literal["hold", "predict"] = "hold", substeps: int = 1) -> GnssInsObserver:
+              intersample: Literal["hold", "predict"] = "predict", substeps: int | None = None) -> GnssInsObserver:
         """The observer with the paper's gains: ``Γ = diag(20, 0.2, 0.2)`` and ``K`` of Sec. 5.2.
 
         For ``position_only`` the paper gives no ``K``; the one designed by
@@ -310,33 +334,42 @@ class GnssInsObserver:
         dt = float(dt)
         if not dt > 0:
             raise InvalidArgumentError(f"dt: must be positive, got {dt!r}")
-        h = dt / self.substeps
-        if h * self._rho > RK4_STABILITY:
-            raise InvalidArgumentError(
-                f"dt: RK4 step {h:g} s is unstable for the gain (ρ(𝔄 − Kℭ) = {self._rho:.4g}, "
-                f"h·ρ = {h * self._rho:.3g} > {RK4_STABILITY}); increase substeps")
         w = np.asarray(imu.omega_b, dtype=float)
         a = np.asarray(imu.a_b, dtype=float)
         m = np.asarray(imu.m_b, dtype=float)
         # IMU-only quantities are constant over the step: precompute them once
         Ab = triad_matrix(m, a)
         AbT = np.swapaxes(Ab, -1, -2)
-        M = Ab @ AbT  # A_b A_bᵀ
-        Sw = _skew(w)
-        act = state.has_fix[..., None].astype(float)
-        predict = self.intersample == "predict"
-        y = (state.p, state.v, state.xi, state.R, state.y_p, state.y_v)
-        for _ in range(self.substeps):
-            k1 = self._rhs(y, a, AbT, M, Sw, act, predict)
-            k2 = self._rhs(_axpy(y, 0.5 * h, k1), a, AbT, M, Sw, act, predict)
-            k3 = self._rhs(_axpy(y, 0.5 * h, k2), a, AbT, M, Sw, act, predict)
-            k4 = self._rhs(_axpy(y, h, k3), a, AbT, M, Sw, act, predict)
-            y = tuple(
-                None if yi is None else yi + (h / 6.0) * (d1 + 2.0 * d2 + 2.0 * d3 + d4)  # type: ignore[operator]
-                for yi, d1, d2, d3, d4 in zip(y, k1, k2, k3, k4)
-            )
-        p, v, xi, R, yp, yv = y
-        return GnssInsState(p=p, v=v, xi=xi, R=R, y_p=yp, y_v=yv, has_fix=state.has_fix, skipped=state.skipped)
+        M = Ab @ AbT  # A_b A_bᵀ, eigenvalues = squared column norms of A_b
+        rho_att = self._gamma_max * float(np.max(np.sum(Ab * Ab, axis=-2)))
+        rho = max(self._rho, rho_att)
+        if self.substeps is None:
+            n = max(1, int(np.ceil(dt * rho / RK4_AUTO)))
+        else:
+            n = self.substeps
+            if dt / n * rho > RK4_STABILITY:
+                raise InvalidArgumentError(
+                    f"dt: RK4 step {dt / n:g} s is unstable here (stiffest rate {rho:.4g} 1/s: "
+                    f"ρ(𝔄 − Kℭ) = {self._rho:.4g}, λmax(Γ)·λmax(A_b A_bᵀ) = {rho_att:.4g}; "
+                    f"h·ρ = {dt / n * rho:.3g} > {RK4_STABILITY}); increase substeps or use substeps=None")
+        h = dt / n
+        # per-step constants of (24): A_n A_bᵀ = mⁿ m^bᵀ + (S(mⁿ) ẑ) c₂ᵀ + (S(mⁿ)² ẑ) c₃ᵀ, c_j the columns of A_b
+        c = _Step(
+            a=a[..., None],
+            GM0=np.einsum("ij,j,...k->...ik", self.Gamma, self.m_n, m),  # Γ mⁿ m^bᵀ
+            C23=AbT[..., 1:, :],                                         # rows c₂ᵀ, c₃ᵀ
+            M=M,
+            Sw=_skew(w),
+            act=np.asarray(state.has_fix, dtype=float)[..., None],
+        )
+        X = self._pack(state)
+        for _ in range(n):
+            k1 = self._rhs(X, c)
+            k2 = self._rhs(X + (0.5 * h) * k1, c)
+            k3 = self._rhs(X + (0.5 * h) * k2, c)
+            k4 = self._rhs(X + h * k3, c)
+            X = X + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+        return self._unpack(X, state)
 
     def estimate(self, state: GnssInsState) -> NavEstimate:
         """``p̂``, ``v̂`` and ``R̂`` projected onto SO(3) (post-orthogonalisation, Sec. 5.2)."""
@@ -350,25 +383,54 @@ class GnssInsObserver:
         return out
 
     # ----------------------------------------------------------------- private
-    def _rhs(self, y: tuple, a: Array, AbT: Array, M: Array, Sw: Array, act: Array,
-             predict: bool) -> tuple:
-        p, v, xi, R, yp, yv = y
-        z = np.einsum("...ij,...j->...i", R, a) + xi  # ẑ = R̂ a^b + ξ
-        An = triad_matrix(self.m_n, z)
-        GJ = self.Gamma @ (An @ AbT - R @ M)  # Γ J(m^b, mⁿ, a^b, ẑ, R̂)
-        e = yp - p if self.position_only else np.concatenate([yp - p, yv - v], axis=-1)
-        inj = (e * act) @ self.K.T  # no injection before the first fix (act = 0)
-        dp = v + inj[..., 0:3]                                              # (24a)
-        dv = z + self.g_n + inj[..., 3:6]                                   # (24b)
-        dxi = -np.einsum("...ij,...j->...i", GJ, a) + inj[..., 6:9]         # (24c)
-        dR = R @ Sw + GJ                                                    # (24d)
-        if predict:
-            dyp = v if self.position_only else yv
-            dyv = None if self.position_only else z + self.g_n
+    # Packed state X = [p̂, v̂, ξ, vec_row(R̂), y_p, (y_v)] of shape (..., 21) or (..., 24).
+    def _pack(self, st: GnssInsState) -> Array:
+        parts = [st.p, st.v, st.xi, st.R.reshape(*st.R.shape[:-2], 9), st.y_p]
+        if st.y_v is not None:
+            parts.append(st.y_v)
+        return np.concatenate(parts, axis=-1)
+
+    def _unpack(self, X: Array, st: GnssInsState) -> GnssInsState:
+        return GnssInsState(p=X[..., 0:3], v=X[..., 3:6], xi=X[..., 6:9], R=X[..., 9:18].reshape(*X.shape[:-1], 3, 3),
+                            y_p=X[..., 18:21], y_v=None if self.position_only else X[..., 21:24],
+                            has_fix=st.has_fix, skipped=st.skipped)
+
+    def _rhs(self, X: Array, c: _Step) -> Array:
+        """Right-hand side of (24a)–(24d) (and of the measurement predictor) on the packed state."""
+        p, v, xi = X[..., 0:3], X[..., 3:6], X[..., 6:9]
+        R = X[..., 9:18].reshape(*X.shape[:-1], 3, 3)
+        z = (R @ c.a)[..., 0] + xi                                  # ẑ = R̂ a^b + ξ
+        U = np.einsum("kij,...j->...ik", self._SmPowers, z)          # [S(mⁿ) ẑ, S(mⁿ)² ẑ]
+        GJ = c.GM0 + self.Gamma @ (U @ c.C23 - R @ c.M)              # Γ J(m^b, mⁿ, a^b, ẑ, R̂)
+        yp = X[..., 18:21]
+        e = yp - p if self.position_only else np.concatenate([yp - p, X[..., 21:24] - v], axis=-1)
+        inj = (e * c.act) @ self.K.T                                 # no injection before the first fix
+        out = np.empty_like(X)
+        out[..., 0:3] = v + inj[..., 0:3]                            # (24a)
+        out[..., 3:6] = z + self.g_n + inj[..., 3:6]                 # (24b)
+        out[..., 6:9] = inj[..., 6:9] - (GJ @ c.a)[..., 0]           # (24c)
+        out[..., 9:18] = (R @ c.Sw + GJ).reshape(*X.shape[:-1], 9)   # (24d)
+        if self.intersample == "predict":                            # ẏ_p = y_v (or v̂), ẏ_v = ẑ + gⁿ
+            if self.position_only:
+                out[..., 18:21] = v
+            else:
+                out[..., 18:21] = X[..., 21:24]
+                out[..., 21:24] = z + self.g_n
         else:
-            dyp = np.zeros_like(yp)
-            dyv = None if yv is None else np.zeros_like(yv)
-        return (dp, dv, dxi, dR, dyp, dyv)
+            out[..., 18:] = 0.0
+        return out
+
+
+@dataclass(frozen=True)
+class _Step:
+    """Quantities of (24) that are constant over one IMU period (the held IMU sample)."""
+
+    a: Array     # a^b as a column, (..., 3, 1)
+    GM0: Array   # Γ mⁿ m^bᵀ, (..., 3, 3)
+    C23: Array   # [c₂ᵀ; c₃ᵀ] of A_b, (..., 2, 3)
+    M: Array     # A_b A_bᵀ, (..., 3, 3)
+    Sw: Array    # S(ω^b), (..., 3, 3)
+    act: Array   # 1.0 once a fix has arrived, else 0.0, (..., 1)
 
 
 def _skew(w: Array) -> Array:
@@ -377,5 +439,3 @@ def _skew(w: Array) -> Array:
     return np.stack([np.stack([Z, -w2, w1], -1), np.stack([w2, Z, -w0], -1), np.stack([-w1, w0, Z], -1)], -2)
 
 
-def _axpy(y: tuple, h: float, k: tuple) -> tuple:
-    return tuple(None if yi is None else yi + h * ki for yi, ki in zip(y, k))

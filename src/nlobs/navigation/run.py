@@ -35,20 +35,25 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._io import atomic_write
 from nlobs._validate import as_batch, as_finite_array, in_range, positive
-from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError, SimulationDiverged
+from nlobs.errors import (
+    DimensionError,
+    InvalidArgumentError,
+    NonFiniteError,
+    SimulationDiverged,
+)
 from nlobs.navigation.base import GnssSample, ImuSample, NavFilter, SensorData
 from nlobs.navigation.so3 import angle_between
 
 Array = NDArray[np.float64]
 
-__all__ = ["NavResult", "run_navigation", "DEFAULT_CONVERGE_DEG", "FORMAT_VERSION"]
+__all__ = ["DEFAULT_CONVERGE_DEG", "FORMAT_VERSION", "NavResult", "run_navigation"]
 
 #: Attitude-error threshold [deg] defining :meth:`NavResult.converge_s` by default.
 DEFAULT_CONVERGE_DEG = 2.0
@@ -327,10 +332,16 @@ class _Bar:
         self.bar: Any = None
         self.task: Any = None
 
-    def __enter__(self) -> _Bar:
+    def __enter__(self) -> Self:
         if self.on:
             from rich.console import Console
-            from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+            from rich.progress import (
+                BarColumn,
+                Progress,
+                TextColumn,
+                TimeElapsedColumn,
+                TimeRemainingColumn,
+            )
 
             self.bar = Progress(TextColumn(self.label), BarColumn(), TextColumn("{task.percentage:>5.1f}%"),
                                 TimeElapsedColumn(), TimeRemainingColumn(), console=Console(file=sys.stderr))
@@ -427,6 +438,7 @@ def run_navigation(filt: NavFilter, data: SensorData, p0: ArrayLike, v0: ArrayLi
                       np.broadcast_to(R0_, (*batch, 3, 3)))
     busy = 0.0
     check_every = max(1, min(100, K // 20))
+    k0 = 0
     with _Bar(K, progress, f"{filt.name}") as bar:
         for k in range(K):
             imu = ImuSample(om[..., k, :], ab[..., k, :], mb[..., k, :])
@@ -448,7 +460,8 @@ def run_navigation(filt: NavFilter, data: SensorData, p0: ArrayLike, v0: ArrayLi
                 else:
                     R_raw = z_hat = None
             if k % check_every == 0 or k == K - 1:
-                _check_finite(t[k], filt.name, p_hat[..., k, :], v_hat[..., k, :], R_hat[..., k, :, :])
+                _check_finite(t, k0, k, filt.name, p_hat, v_hat, R_hat)
+                k0 = k
             if k < K - 1:
                 t0 = time.perf_counter()
                 state = filt.propagate(state, imu, float(t[k + 1] - t[k]))
@@ -465,7 +478,9 @@ def run_navigation(filt: NavFilter, data: SensorData, p0: ArrayLike, v0: ArrayLi
     )
 
 
-def _check_finite(tk: float, name: str, p: Array, v: Array, R: Array) -> None:
-    for label, arr in (("p", p), ("v", v), ("R", R)):
-        if not np.isfinite(arr).all():
-            raise SimulationDiverged(float(tk), name, label)
+def _check_finite(t: Array, k0: int, k1: int, name: str, p: Array, v: Array, R: Array) -> None:
+    """Raise SimulationDiverged at the first sample in ``[k0, k1]`` with a non-finite estimate."""
+    for k in range(k0, k1 + 1):
+        for label, arr in (("p", p[..., k, :]), ("v", v[..., k, :]), ("R", R[..., k, :, :])):
+            if not np.isfinite(arr).all():
+                raise SimulationDiverged(float(t[k]), name, label)
