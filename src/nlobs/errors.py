@@ -112,3 +112,20 @@ class SimulationDiverged(NlobsError, ArithmeticError):
         self.which = which
         self.state = state
         super().__init__(f"simulation diverged at t={time:g}: {which} state {state!r} is not finite")
+
+
+class AssumptionViolated(DesignError):
+    """A structural assumption of a design method fails (e.g. seed 001, Assumption 4).
+
+    Attributes
+    ----------
+    item : str
+        Key of the failed item (e.g. ``"no_zero_at_origin"``).
+    evidence : str
+        The numbers behind the verdict.
+    """
+
+    def __init__(self, message: str, *, item: str = "", evidence: str = "") -> None:
+        self.item = item
+        self.evidence = evidence
+        super().__init__(message)
