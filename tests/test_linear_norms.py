@@ -152,6 +152,72 @@ def test_empty_dimensions() -> None:
     assert hinf_norm([[-1.0, 0.0], [0.0, -1.0]], [[1.0], [1.0]], [[1.0, -1.0]], [[0.0]]) == 0.0
 
 
+# --- badly scaled realisations (regression) ----------------------------------
+# Observer error dynamics A − KC for a chain-of-integrators-like plant with very
+# large gains K: entries of A span ~1e10. The unscaled Hamiltonian pencil then
+# lost its imaginary eigenvalues in QZ and hinf_norm returned e.g. 6.8258e-4
+# instead of 6.8340e-4 (0.12 % low: an unsound certificate).
+_A3 = np.array([[0.0, 1.0, 0.0], [-1.0, -1.0, 1.0], [0.0, 0.0, 0.0]])
+_C3 = np.array([[1.0, 0.0, 0.0]])
+_BD3 = np.array([[0.0], [0.0], [1.0]])
+_LARGE_GAINS = [
+    [5.859e3, 1.716e7, 2.515e10],  # was 6.8258e-4, true 6.83400530779985e-4
+    [5.707e3, 1.628e7, 2.325e10],  # was 7.0051e-4, true 7.01450740920063e-4
+    [2e3, 2e6, 1e9],  # was 2.00200e-3, true 2.00333665951807e-3
+    [2e4, 2e8, 1e12],  # was 2.00027e-4, true 2.00240266204461e-4
+    [4e2, 8e4, 8e6],
+]
+
+
+def _refined_grid_peak(A, B, C, D, w_hint: float) -> float:
+    """Grid lower bound (log grid, then a fine linear grid around its best point)."""
+    n = A.shape[0]
+
+    def sig(w: float) -> float:
+        return float(np.linalg.norm(C @ np.linalg.solve(1j * w * np.eye(n) - A, B) + D, 2))
+
+    lam = np.abs(np.linalg.eigvals(A))
+    ws = np.concatenate([[0.0], np.logspace(-3, 3, 3000) * lam.max(), [w_hint]])
+    vals = [sig(w) for w in ws]
+    k = int(np.argmax(vals))
+    best = max(vals)
+    for lo, hi in ((ws[max(k - 1, 0)], ws[min(k + 1, len(ws) - 1)]), (0.999 * w_hint, 1.001 * w_hint)):
+        best = max(best, max(sig(w) for w in np.linspace(lo, hi, 2001)))
+    return best
+
+
+@pytest.mark.parametrize("gain", _LARGE_GAINS)
+def test_hinf_large_observer_gain_not_underestimated(gain) -> None:
+    K = np.array(gain).reshape(3, 1)
+    A, B, C, D = _A3 - K @ _C3, _BD3, np.eye(3), np.zeros((3, 1))
+    ours = hinf_norm(A, B, C, D)
+    ref, w_peak = control.linfnorm(control.ss(A, B, C, D), tol=1e-10)
+    assert ours == pytest.approx(float(ref), rel=1e-8)
+    # independent of any library: the grid peak is a lower bound of ‖G‖∞, and
+    # ours may be at most 2·rtol (relative) below ‖G‖∞.
+    grid = _refined_grid_peak(A, B, C, D, float(w_peak))
+    assert ours >= grid * (1 - 2.5e-9)
+    assert grid >= ours * (1 - 1e-6)  # the grid does get close to the peak
+    # and the same system, scaled back to moderate entries, gives the same value
+    t = np.array([1.0, abs(K[0, 0]), abs(K[1, 0])])
+    assert hinf_norm(A * t[None, :] / t[:, None], B / t[:, None], C * t[None, :], D) == pytest.approx(ours, rel=1e-9)
+
+
+@settings(max_examples=30, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**32 - 1), discrete=st.booleans(), with_d=st.booleans())
+def test_hinf_invariant_under_bad_diagonal_similarity(seed: int, discrete: bool, with_d: bool) -> None:
+    # G is invariant under (T A T⁻¹, T B, C T⁻¹); T = diag(10^k), k ∈ [−6, 6],
+    # makes the realisation badly scaled (entries spanning up to 1e24).
+    A, B, C, D = _random_system(seed, discrete=discrete, feedthrough=with_d)
+    k = np.random.default_rng(seed ^ 0x5EED).uniform(-6.0, 6.0, size=A.shape[0])
+    t = 10.0**k
+    As, Bs, Cs = t[:, None] * A / t[None, :], t[:, None] * B, C / t[None, :]
+    ref = hinf_norm(A, B, C, D, discrete=discrete)
+    got = hinf_norm(As, Bs, Cs, D, discrete=discrete)
+    assert got == pytest.approx(ref, rel=1e-7)
+    assert got >= _grid_peak(A, B, C, D, discrete=discrete) * (1 - 2.5e-9)
+
+
 def test_bad_input() -> None:
     A, B, C, D = [[-1.0]], [[1.0]], [[1.0]], [[0.0]]
     with pytest.raises(DimensionError, match="A: expected a square matrix"):

@@ -61,6 +61,47 @@ def _is_strictly_stable(A: NDArray, discrete: bool) -> bool:
     return bool(np.max(lam.real) < 0.0)
 
 
+def _balance(A: NDArray, B: NDArray, C: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+    """Diagonal state similarity ``(T⁻¹AT, T⁻¹B, CT)`` balancing ``[A B; C 0]``.
+
+    Osborne/Parlett–Reinsch iteration (as in LAPACK ``xGEBAL`` and SLICOT
+    ``TB01ID``) restricted to the state coordinates: for each state ``i`` the
+    off-diagonal 1-norm of column ``i`` of ``[A; C]`` and of row ``i`` of
+    ``[A B]`` are equalised by a power-of-2 factor, so the transformation is
+    exact in floating point and leaves the transfer function unchanged.
+    Without it, a system whose entries span many orders of magnitude (e.g. an
+    observer ``A − KC`` with ``‖K‖ ~ 1e10``) gives a Hamiltonian pencil whose QZ
+    backward error, relative to its largest entries, swamps its small ones: the
+    computed spectrum loses its Hamiltonian symmetry and imaginary-axis
+    eigenvalues (level crossings) are missed, so ``‖G‖∞`` is under-estimated.
+    """
+    n = A.shape[0]
+    A = A.copy()
+    B = B.copy()
+    C = C.copy()
+    if n == 0:
+        return A, B, C
+    radix = 2.0
+    for _ in range(200):
+        converged = True
+        for i in range(n):
+            c = float(np.sum(np.abs(A[:, i])) - abs(A[i, i]) + np.sum(np.abs(C[:, i])))
+            r = float(np.sum(np.abs(A[i, :])) - abs(A[i, i]) + np.sum(np.abs(B[i, :])))
+            if c == 0.0 or r == 0.0 or not (math.isfinite(c) and math.isfinite(r)):
+                continue
+            # f = power of 2 closest to sqrt(r / c) (balances f·c against r/f)
+            f = radix ** round(0.5 * math.log2(r / c))
+            if f != 1.0 and c * f + r / f < 0.95 * (c + r):
+                converged = False
+                A[:, i] *= f
+                C[:, i] *= f
+                A[i, :] /= f
+                B[i, :] /= f
+        if converged:
+            break
+    return A, B, C
+
+
 def _sigma_max(A: NDArray, B: NDArray, C: NDArray, D: NDArray, omega: float) -> float:
     """Largest singular value of ``D + C (jω I − A)⁻¹ B`` (``inf`` if singular)."""
     n = A.shape[0]
@@ -77,6 +118,42 @@ def _sigma_max(A: NDArray, B: NDArray, C: NDArray, D: NDArray, omega: float) -> 
     if G.size == 0:
         return 0.0
     return float(np.linalg.norm(G, 2))
+
+
+def _pencil_scaling(M: NDArray, k: int) -> tuple[NDArray, NDArray]:
+    """Row/column power-of-2 scalings ``l, r`` equilibrating the pencil ``M``.
+
+    Ward's (1981) least-squares balancing, as in LAPACK ``xGGBAL``: minimise
+    ``Σ (log₂|M_ij| + ρ_i + c_j)²`` over the nonzero entries, with
+    ``ρ_i = −c_i`` for the first ``k`` coordinates (a similarity there, so the
+    ``N = diag(I_k, 0)`` part of the pencil is unchanged); ``l = 2^ρ``,
+    ``r = 2^c`` rounded to integer exponents (exact in floating point). The
+    remaining rows and columns (the ``u``/``v`` constraint blocks, whose
+    entries ``γ``, ``B``, ``C`` can differ from ``A`` by many orders of
+    magnitude) are scaled freely.
+    """
+    N = M.shape[0]
+    # variable layout: c_0..c_{k-1} (states), then ρ_k..ρ_{N-1}, then c_k..c_{N-1}
+    nv = k + 2 * (N - k)
+    ii, jj = np.nonzero(M)
+    if ii.size == 0:
+        return np.ones(N), np.ones(N)
+    target = -np.log2(np.abs(M[ii, jj]))
+    G = np.zeros((ii.size, nv))
+    rows = np.arange(ii.size)
+    st_i = ii < k
+    G[rows[st_i], ii[st_i]] -= 1.0  # ρ_i = −c_i
+    G[rows[~st_i], k + (ii[~st_i] - k)] += 1.0
+    st_j = jj < k
+    G[rows[st_j], jj[st_j]] += 1.0
+    G[rows[~st_j], k + (N - k) + (jj[~st_j] - k)] += 1.0
+    sol = np.linalg.lstsq(G, target, rcond=None)[0]
+    if not np.all(np.isfinite(sol)):
+        return np.ones(N), np.ones(N)
+    e = np.round(sol)
+    rho = np.concatenate([-e[:k], e[k:N]])
+    col = np.concatenate([e[:k], e[N:]])
+    return np.ldexp(1.0, rho.astype(int)), np.ldexp(1.0, col.astype(int))
 
 
 def _crossing_frequencies(A: NDArray, B: NDArray, C: NDArray, D: NDArray, gamma: float) -> NDArray:
@@ -108,6 +185,10 @@ def _crossing_frequencies(A: NDArray, B: NDArray, C: NDArray, D: NDArray, gamma:
             [Z((m, n)), B.conj().T, -gamma * np.eye(m), D.conj().T],
         ]
     ).astype(dt)
+    # Two-sided diagonal scaling diag(l) M diag(r): same eigenvalues, and with
+    # l·r = 1 on the state/costate coordinates N keeps its form.
+    lsc, rsc = _pencil_scaling(M, 2 * n)
+    M = (lsc[:, None] * M) * rsc[None, :]
     N = np.zeros_like(M)
     N[: 2 * n, : 2 * n] = np.eye(2 * n)
     ab = scipy.linalg.eigvals(M, N, homogeneous_eigvals=True)
@@ -128,6 +209,9 @@ def _hinf_continuous(A: NDArray, B: NDArray, C: NDArray, D: NDArray, rtol: float
     sD = float(np.linalg.norm(D, 2)) if D.size else 0.0
     if n == 0:
         return sD
+    # Balance first: every quantity below (poles, σ_max evaluations, the
+    # Hamiltonian pencil) is computed from the balanced realisation.
+    A, B, C = _balance(A, B, C)
     # --- initial lower bound: ω = 0, ∞ and the frequencies of the poles -----
     lam = scipy.linalg.eigvals(A)
     cand = {0.0}
@@ -250,6 +334,15 @@ def hinf_norm(
     The returned value is always an attained ``σ_max(G(jω))`` (a certified
     lower bound), locally polished around the peak frequency.
 
+    Badly scaled realisations (entries spanning many orders of magnitude, e.g.
+    observer error dynamics ``A − KC`` with a large gain ``K``) are handled by
+    (i) an exact power-of-2 diagonal state similarity balancing ``[A B; C 0]``
+    (which does not change ``G``) before anything is computed, and (ii) an
+    exact two-sided power-of-2 equilibration of the Hamiltonian pencil (Ward's
+    balancing) before each QZ. Without them the QZ backward error can push the
+    imaginary eigenvalues off the axis, crossings are missed and the norm is
+    under-estimated.
+
     Discrete systems are first mapped by the bilinear transform
     ``z = (1 + s)/(1 − s)`` — ``A_c = (I + A)⁻¹(A − I)``,
     ``B_c = √2 (I + A)⁻¹ B``, ``C_c = √2 C (I + A)⁻¹``,
@@ -264,6 +357,7 @@ def hinf_norm(
     if discrete:
         if A_.shape[0] == 0:
             return float(np.linalg.norm(D_, 2))
+        A_, B_, C_ = _balance(A_, B_, C_)  # conditions I + A in the transform
         A_, B_, C_, D_ = _bilinear(A_, B_, C_, D_)
     try:
         return float(_hinf_continuous(A_, B_, C_, D_, r))
