@@ -141,6 +141,63 @@ def reproduce_cmd(
     _console().print(table)
 
 
+DEMOS = ("gnss-ins",)
+
+
+@app.command("demo")
+def demo_cmd(
+    name: Annotated[str, typer.Argument(help="Which demo: gnss-ins.")],
+    as_json: Annotated[bool, typer.Option("--json", help="Print the results as JSON.")] = False,
+    seed: Annotated[int, typer.Option(help="Seed of the flight and of the sensor noise.")] = 0,
+    duration: Annotated[float | None, typer.Option(help="Flight length [s] (default: the whole pattern).")] = None,
+    out: Annotated[Path, typer.Option(help="Folder for the figures and results.json.")] = Path("out/gnss-ins"),
+    yaw_error: Annotated[float, typer.Option(help="Initial yaw error [deg].")] = 60.0,
+    gains: Annotated[str, typer.Option(help="'paper' (Sec. 5.2) or 'designed' (nlobs's LMI design).")] = "paper",
+    position_only: Annotated[bool, typer.Option(help="GNSS position only (Sec. 5.2, C = [I 0]).")] = False,
+    ekf: Annotated[bool, typer.Option(help="Also run the EKF baseline.")] = True,
+) -> None:
+    """Run a demo: gnss-ins simulates a flight and compares observer (24) with an EKF."""
+    from rich.markup import escape
+    from rich.table import Table
+
+    from nlobs.examples.gnss_ins_demo import DemoConfig, run_demo, write_json
+
+    if name not in DEMOS:
+        _fail(f"unknown demo {name!r} (known: {', '.join(DEMOS)})")
+    try:
+        config = DemoConfig(seed=seed, duration=duration, yaw_error_deg=yaw_error, gains=gains,
+                            position_only=position_only, ekf=ekf)
+    except NlobsError as exc:
+        _fail(str(exc))
+    try:
+        result = run_demo(config, out, progress=not as_json)
+    except NlobsError as exc:
+        _fail(f"demo {name}: {exc}", EXIT_FAILURE)
+    write_json(result, out / "results.json")
+    if as_json:
+        _emit_json(result.to_dict())
+        return
+    rows = [("position RMS after convergence [m]", "position_rms_m", "{:.3f}"),
+            ("velocity RMS after convergence [m/s]", "velocity_rms_mps", "{:.3f}"),
+            ("attitude RMS after convergence [deg]", "attitude_rms_deg", "{:.3f}"),
+            (f"time to converge below {config.converge_deg:g}° [s]", "converge_s", "{:.2f}"),
+            ("cost per step [µs]", "cost_per_step_us", "{:.1f}")]
+    filters = ["observer"] + (["ekf"] if result.ekf is not None else [])
+    table = Table(title=f"GNSS/INS, {result.flight_duration:.0f} s flight, {config.yaw_error_deg:g}° initial yaw "
+                        f"error, IMU {config.imu_rate_hz:g} Hz, GNSS {config.gnss_rate_hz:g} Hz, seed {seed}")
+    table.add_column("quantity")
+    for f in filters:
+        table.add_column("observer (24)" if f == "observer" else "EKF", justify="right")
+    metrics = {f: result.metrics(f) for f in filters}
+    for label, key, fmt in rows:
+        table.add_row(escape(label), *(fmt.format(metrics[f][key]) for f in filters))
+    con = _console()
+    con.print(table)
+    for fig in result.figures.values():
+        con.print(f"wrote {fig}", markup=False)
+    con.print(f"wrote {out / 'results.json'}", markup=False)
+
+
 @app.command("models")
 def models_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list.")] = False,

@@ -171,10 +171,9 @@ class _Plan:
     phases: tuple[tuple[str, float], ...]
 
 
-def _plan(p: _Params, unknowns: Array) -> _Plan:
+def _plan(p: _Params, unknowns: Array, g: float) -> _Plan:
     gam_c, gam_d, t_dw, t_base = (float(u) for u in unknowns)
     V, R, Gm, Al = _Builder(), _Builder(), _Builder(), _Builder()
-    g = G0
     tau_turn = 4.0
     phases: list[tuple[str, float]] = []
 
@@ -247,9 +246,9 @@ def _random_params(seed: int) -> _Params:
         v_touchdown=u(27.0, 29.0),
         bank=u(25.0, 29.0) * _DEG,
         t_roll=u(22.0, 26.0),
-        t_upwind=u(28.0, 36.0),
-        t_crosswind=u(8.0, 14.0),
-        t_final=u(40.0, 50.0),
+        t_upwind=u(38.0, 48.0),
+        t_crosswind=u(12.0, 18.0),
+        t_final=u(50.0, 60.0),
         t_brake=u(18.0, 24.0),
         touchdown_along=u(200.0, 300.0),
     )
@@ -320,12 +319,12 @@ class _Positions:
         return self.p_knots[k] + _integrate_on(plan, self.knots[k], t)
 
 
-def _solve(p: _Params) -> tuple[_Plan, _Positions]:
+def _solve(p: _Params, g: float) -> tuple[_Plan, _Positions]:
     ax = np.array([np.cos(p.heading), np.sin(p.heading)])
     cross = np.array([-ax[1], ax[0]])
 
     def residual(x: Array) -> Array:
-        plan = _plan(p, x)
+        plan = _plan(p, x, g)
         pos = _Positions.build(plan, plan.t_touchdown, h=4.0)
         p_lvl = pos.at(plan, np.array([plan.t_level]))[0]
         p_td = pos.p_knots[-1]
@@ -348,7 +347,7 @@ def _solve(p: _Params) -> tuple[_Plan, _Positions]:
             f"traffic pattern: implausible closure (climb γ={x[0]:.3g} rad, descent γ={x[1]:.3g} rad, "
             f"downwind {x[2]:.3g} s, base {x[3]:.3g} s)"
         )
-    plan = _plan(p, x)
+    plan = _plan(p, x, g)
     return plan, _Positions.build(plan, plan.t_end)
 
 
@@ -509,10 +508,8 @@ def traffic_pattern(
     if nrm == 0.0:
         raise InvalidArgumentError("m_n: the magnetic field must be non-zero")
     mn = mn / nrm
-    if g != G0:
-        raise InvalidArgumentError(f"g: the pattern is designed for g = {G0}; got {g}")
     params = _random_params(int(seed))
-    plan, pos = _solve(params)
+    plan, pos = _solve(params, g)
     dur = plan.t_end if duration is None else positive("duration", duration)
     return Flight(
         duration=float(dur),

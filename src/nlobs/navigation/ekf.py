@@ -1,0 +1,253 @@
+r"""The EKF baseline for GNSS/INS: what a navigation engineer would use instead of observer (24).
+
+Same states (p, v, R) and measurements (IMU and magnetometer at the IMU rate,
+GNSS p, v or p only at the GNSS rate) as the seed-001 observer.
+
+Error state and model
+---------------------
+Nominal state ``(p̂, v̂, R̂)`` with ``R̂ ∈ SO(3)``; 9-dimensional error state
+``δx = [δp, δv, δθ]`` with the attitude error in **body** axes,
+``R = R̂ exp(S(δθ))``. With the IMU sample ``(ω, a)`` held over ``dt``:
+
+* nominal: ``R̂⁺ = R̂ exp(S(ω dt))``, ``v̂⁺ = v̂ + (R̂a + gⁿ) dt``,
+  ``p̂⁺ = p̂ + v̂ dt + ½(R̂a + gⁿ) dt²``;
+* error: ``δṗ = δv``, ``δv̇ = −R̂ S(a) δθ − R̂ n_a``, ``δθ̇ = −S(ω) δθ − n_g``;
+  ``Φ = I + F dt + ½ (F dt)²``, ``Q = G diag(σ_a² I, σ_g² I) Gᵀ dt``
+  (discretised white noise; ``σ`` per sample is converted with ``σ² dt``... see
+  :meth:`EkfConfig.for_noise`).
+
+Measurements: GNSS ``y = [p; v]`` with ``H = [[I, 0, 0], [0, I, 0]]``;
+magnetometer ``m^b = exp(−S(δθ)) R̂ᵀ mⁿ ≈ R̂ᵀmⁿ + S(R̂ᵀmⁿ) δθ``,
+``H = [0, 0, S(R̂ᵀmⁿ)]``.
+
+Update in **Joseph form**, ``P⁺ = (I − KH) P (I − KH)ᵀ + K R Kᵀ``, then
+``P⁺ ← (P⁺ + P⁺ᵀ)/2``: it keeps P symmetric positive semi-definite under rounding
+and for any (even suboptimal) gain, unlike ``(I − KH) P``. After each update the
+error is injected into the nominal state and reset to zero.
+
+Everything is vectorised over a leading batch axis: ``P`` has shape ``(..., 9, 9)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from nlobs._validate import as_vector, positive
+from nlobs.navigation.base import Array, GnssSample, ImuSample, NavEstimate
+from nlobs.navigation.sensors import SensorNoise
+from nlobs.navigation.so3 import exp_so3, skew
+
+_I3 = np.eye(3)
+
+
+@dataclass(frozen=True)
+class EkfConfig:
+    """Tuning of the EKF: initial standard deviations and noise densities.
+
+    Attributes
+    ----------
+    p0_std, v0_std : float
+        Initial position [m] and velocity [m/s] standard deviations.
+    tilt0_std_deg, yaw0_std_deg : float
+        Initial roll/pitch and yaw standard deviations [deg].
+    gyro_std, accel_std : float
+        IMU white noise per sample [rad/s], [m/s²] (the process noise).
+    mag_std : float
+        Magnetometer noise per sample.
+    gnss_p_std, gnss_v_std : float
+        GNSS noise per fix.
+    """
+
+    p0_std: float = 5.0
+    v0_std: float = 1.0
+    tilt0_std_deg: float = 10.0
+    yaw0_std_deg: float = 60.0
+    gyro_std: float = 0.002
+    accel_std: float = 0.05
+    mag_std: float = 0.01
+    gnss_p_std: float = 1.5
+    gnss_v_std: float = 0.1
+
+    def __post_init__(self) -> None:
+        for name in self.__dataclass_fields__:
+            positive(name, getattr(self, name))
+
+    @classmethod
+    def for_noise(cls, noise: SensorNoise, *, yaw_std_deg: float = 60.0, floor: float = 1e-4) -> EkfConfig:
+        """A configuration matched to a sensor error model (zero std's are floored to ``floor``)."""
+        f = max(floor, 0.0)
+        return cls(
+            yaw0_std_deg=yaw_std_deg,
+            gyro_std=max(noise.gyro_std, f),
+            accel_std=max(noise.accel_std, f),
+            mag_std=max(noise.mag_std, f),
+            gnss_p_std=max(noise.gnss_p_std, f),
+            gnss_v_std=max(noise.gnss_v_std, f),
+        )
+
+
+@dataclass(frozen=True)
+class EkfState:
+    """EKF state: nominal ``p``, ``v`` ``(..., 3)``, ``R`` ``(..., 3, 3)``, covariance ``P`` ``(..., 9, 9)``;
+    ``skipped`` counts invalid GNSS fixes per batch member."""
+
+    p: Array
+    v: Array
+    R: Array
+    P: Array
+    skipped: Array
+
+
+def joseph_update(P: Array, H: Array, Rm: Array, innovation: Array) -> tuple[Array, Array]:
+    """Kalman gain, correction and Joseph-form covariance, batched.
+
+    Parameters
+    ----------
+    P : (..., n, n)
+    H : (..., q, n)
+    Rm : (q, q) measurement covariance
+    innovation : (..., q)
+
+    Returns
+    -------
+    dx : (..., n)
+        ``K ν`` with ``K = P Hᵀ (H P Hᵀ + R)⁻¹``.
+    P_new : (..., n, n)
+        ``(I − KH) P (I − KH)ᵀ + K R Kᵀ``, symmetrised.
+    """
+    Ht = np.swapaxes(H, -1, -2)
+    PHt = P @ Ht
+    S = H @ PHt + Rm
+    # K = P Hᵀ S⁻¹  ⇔  Kᵀ = S⁻ᵀ (P Hᵀ)ᵀ = S⁻¹ H P (S, P symmetric)
+    K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)
+    n = P.shape[-1]
+    IKH = np.eye(n) - K @ H
+    P_new = IKH @ P @ np.swapaxes(IKH, -1, -2) + K @ Rm @ np.swapaxes(K, -1, -2)
+    P_new = 0.5 * (P_new + np.swapaxes(P_new, -1, -2))
+    dx = np.einsum("...ij,...j->...i", K, innovation)
+    return dx, P_new
+
+
+@dataclass(frozen=True)
+class ExtendedKalmanFilter:
+    """Error-state EKF with multiplicative attitude (module docstring); a :class:`NavFilter`.
+
+    Parameters
+    ----------
+    config : EkfConfig
+    m_n, g_n : (3,) array_like
+        Earth magnetic field and gravity in NED.
+    position_only : bool
+        GNSS position only (``GnssSample.v`` is None).
+    use_magnetometer : bool
+        Fuse the magnetometer at every IMU sample (default True, as the observer uses it).
+    """
+
+    config: EkfConfig
+    m_n: Array
+    g_n: Array
+    position_only: bool = False
+    use_magnetometer: bool = True
+    name: str = "ekf"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "m_n", as_vector("m_n", self.m_n, 3))
+        object.__setattr__(self, "g_n", as_vector("g_n", self.g_n, 3))
+
+    # ------------------------------------------------------------------ protocol
+    def init(self, p0: ArrayLike, v0: ArrayLike, R0: ArrayLike) -> EkfState:
+        """Initial state; the covariance is diagonal from :class:`EkfConfig`."""
+        p = np.array(p0, dtype=float)
+        v = np.array(v0, dtype=float)
+        R = np.array(R0, dtype=float)
+        batch = np.broadcast_shapes(p.shape[:-1], v.shape[:-1], R.shape[:-2])
+        c = self.config
+        d = np.r_[np.full(3, c.p0_std**2), np.full(3, c.v0_std**2),
+                  np.deg2rad([c.tilt0_std_deg, c.tilt0_std_deg, c.yaw0_std_deg]) ** 2]
+        P = np.broadcast_to(np.diag(d), batch + (9, 9)).copy()
+        return EkfState(
+            p=np.broadcast_to(p, batch + (3,)).copy(),
+            v=np.broadcast_to(v, batch + (3,)).copy(),
+            R=np.broadcast_to(R, batch + (3, 3)).copy(),
+            P=P,
+            skipped=np.zeros(batch, dtype=int),
+        )
+
+    def propagate(self, state: EkfState, imu: ImuSample, dt: float) -> EkfState:
+        """Predict over ``dt`` with the IMU sample held, then fuse the magnetometer."""
+        c = self.config
+        w, a = imu.omega_b, imu.a_b
+        R = state.R
+        acc_n = np.einsum("...ij,...j->...i", R, a) + self.g_n
+        p = state.p + state.v * dt + 0.5 * acc_n * dt**2
+        v = state.v + acc_n * dt
+        R_new = R @ exp_so3(w * dt)
+        batch = state.P.shape[:-2]
+        F = np.zeros(batch + (9, 9))
+        F[..., 0:3, 3:6] = _I3
+        F[..., 3:6, 6:9] = -R @ skew(a)
+        F[..., 6:9, 6:9] = -skew(w)
+        Fdt = F * dt
+        Phi = np.eye(9) + Fdt + 0.5 * Fdt @ Fdt
+        G = np.zeros(batch + (9, 6))
+        G[..., 3:6, 0:3] = -R
+        G[..., 6:9, 3:6] = -_I3
+        # per-sample white noise of std σ on a held sample over dt: velocity/angle random walk σ·dt per step
+        Qc = np.diag(np.r_[np.full(3, c.accel_std**2), np.full(3, c.gyro_std**2)]) * dt**2
+        Q = G @ Qc @ np.swapaxes(G, -1, -2)
+        P = Phi @ state.P @ np.swapaxes(Phi, -1, -2) + Q
+        P = 0.5 * (P + np.swapaxes(P, -1, -2))
+        st = replace(state, p=p, v=v, R=R_new, P=P)
+        if self.use_magnetometer:
+            st = self._magnetometer(st, imu.m_b)
+        return st
+
+    def update(self, state: EkfState, gnss: GnssSample) -> EkfState:
+        """GNSS update (Joseph form); batch members with ``valid == False`` are left unchanged."""
+        c = self.config
+        valid = np.broadcast_to(np.asarray(gnss.valid, dtype=bool), state.P.shape[:-2])
+        if self.position_only or gnss.v is None:
+            y, yhat = gnss.p, state.p
+            H = np.zeros((3, 9))
+            H[:, 0:3] = _I3
+            Rm = np.eye(3) * c.gnss_p_std**2
+        else:
+            y = np.concatenate([gnss.p, gnss.v], axis=-1)
+            yhat = np.concatenate([state.p, state.v], axis=-1)
+            H = np.zeros((6, 9))
+            H[0:3, 0:3] = _I3
+            H[3:6, 3:6] = _I3
+            Rm = np.diag(np.r_[np.full(3, c.gnss_p_std**2), np.full(3, c.gnss_v_std**2)])
+        nu = np.where(valid[..., None], np.nan_to_num(y - yhat), 0.0)
+        Hb = np.broadcast_to(H, state.P.shape[:-2] + H.shape)
+        dx, P_new = joseph_update(state.P, Hb, Rm, nu)
+        new = self._inject(state, dx, P_new)
+        keep = valid
+        return EkfState(
+            p=np.where(keep[..., None], new.p, state.p),
+            v=np.where(keep[..., None], new.v, state.v),
+            R=np.where(keep[..., None, None], new.R, state.R),
+            P=np.where(keep[..., None, None], new.P, state.P),
+            skipped=state.skipped + (~valid).astype(int),
+        )
+
+    def estimate(self, state: EkfState) -> NavEstimate:
+        """The nominal state (``R`` is a rotation matrix by construction)."""
+        return NavEstimate(p=state.p, v=state.v, R=state.R)
+
+    # ------------------------------------------------------------------ pieces
+    def _magnetometer(self, state: EkfState, m_b: Array) -> EkfState:
+        m_pred = np.einsum("...ji,j->...i", state.R, self.m_n)  # R̂ᵀ mⁿ
+        H = np.zeros(state.P.shape[:-2] + (3, 9))
+        H[..., 6:9] = skew(m_pred)
+        Rm = np.eye(3) * self.config.mag_std**2
+        dx, P_new = joseph_update(state.P, H, Rm, m_b - m_pred)
+        return self._inject(state, dx, P_new)
+
+    @staticmethod
+    def _inject(state: EkfState, dx: Array, P: Array) -> EkfState:
+        return replace(state, p=state.p + dx[..., 0:3], v=state.v + dx[..., 3:6],
+                       R=state.R @ exp_so3(dx[..., 6:9]), P=P)

@@ -1,0 +1,164 @@
+"""Sampled, noisy sensor streams of a generated flight (IMU + magnetometer, GNSS).
+
+Rates are required arguments, never defaulted (a silent default sample rate is
+a known source of wrong results in navigation libraries). The GNSS rate must
+divide the IMU rate so that every fix falls on an IMU instant.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from nlobs._validate import as_finite_array, as_vector, positive
+from nlobs.errors import InvalidArgumentError, NonFiniteError
+from nlobs.navigation.base import Array, SensorData
+from nlobs.navigation.trajectory import Trajectory
+
+
+@dataclass(frozen=True)
+class SensorNoise:
+    """Sensor error model: white-noise standard deviations and constant biases.
+
+    Attributes
+    ----------
+    gyro_std : float
+        Gyro white noise per sample [rad/s].
+    accel_std : float
+        Accelerometer white noise per sample [m/s²].
+    mag_std : float
+        Magnetometer white noise per sample [units of the (unit) field].
+    gnss_p_std, gnss_v_std : float
+        GNSS position [m] and velocity [m/s] noise per fix.
+    gyro_bias, accel_bias : (3,) array_like
+        Constant biases added to every sample (zero by default).
+    """
+
+    gyro_std: float = 0.0
+    accel_std: float = 0.0
+    mag_std: float = 0.0
+    gnss_p_std: float = 0.0
+    gnss_v_std: float = 0.0
+    gyro_bias: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    accel_bias: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    def __post_init__(self) -> None:
+        for name in ("gyro_std", "accel_std", "mag_std", "gnss_p_std", "gnss_v_std"):
+            positive(name, getattr(self, name), allow_zero=True)
+        for name in ("gyro_bias", "accel_bias"):
+            object.__setattr__(self, name, tuple(float(v) for v in as_vector(name, getattr(self, name), 3)))
+
+
+def generate_sensors(
+    traj: Trajectory,
+    *,
+    imu_rate_hz: float,
+    gnss_rate_hz: float,
+    noise: SensorNoise,
+    seed: int | np.random.Generator,
+    batch: int | None = None,
+    position_only: bool = False,
+) -> SensorData:
+    """Sample a flight's IMU, magnetometer and GNSS with noise.
+
+    Parameters
+    ----------
+    traj : Trajectory
+        The flight sampled on the IMU grid ``t_k = t_0 + k / imu_rate_hz``
+        (e.g. ``flight.sample(imu_rate_hz)``).
+    imu_rate_hz, gnss_rate_hz : float
+        Sensor rates (required). ``imu_rate_hz / gnss_rate_hz`` must be an integer.
+    noise : SensorNoise
+        Error model.
+    seed : int or numpy.random.Generator
+        Seed of the noise (deterministic given the seed).
+    batch : int, optional
+        Number of independent noise realisations of the same flight (a leading
+        batch axis on every measured array); ``None`` for a single one.
+    position_only : bool
+        GNSS position only (``v_gnss`` is ``None``), seed 001 Sec. 5.2.
+
+    Returns
+    -------
+    SensorData
+        GNSS fixes at ``t_gnss = t_imu[::imu_rate_hz / gnss_rate_hz]``.
+    """
+    imu = positive("imu_rate_hz", imu_rate_hz)
+    gnss = positive("gnss_rate_hz", gnss_rate_hz)
+    ratio = imu / gnss
+    step = int(round(ratio))
+    if step < 1 or abs(ratio - step) > 1e-9 * ratio:
+        raise InvalidArgumentError(
+            f"gnss_rate_hz={gnss:g} must divide imu_rate_hz={imu:g} (fixes must fall on IMU samples)")
+    t = as_vector("traj.t", traj.t)
+    if t.size < 2:
+        raise InvalidArgumentError("traj: needs at least two samples")
+    dt = np.diff(t)
+    if np.any(dt <= 0):
+        k = int(np.argmax(dt <= 0))
+        raise InvalidArgumentError(f"traj.t: times must increase (t[{k + 1}] = {t[k + 1]:g} ≤ t[{k}] = {t[k]:g})")
+    if np.max(np.abs(dt - 1.0 / imu)) > 1e-9 * max(1.0, float(t[-1])):
+        raise InvalidArgumentError(
+            f"traj: sampled every {float(np.median(dt)):g} s but imu_rate_hz={imu:g} needs {1 / imu:g} s "
+            "(use flight.sample(imu_rate_hz))")
+    for name in ("p", "v", "R", "omega_b", "a_b", "m_b", "m_n", "g_n"):
+        arr = np.asarray(getattr(traj, name))
+        if not np.all(np.isfinite(arr)):
+            raise NonFiniteError(f"traj.{name} has non-finite entries")
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    shape: tuple[int, ...] = () if batch is None else (int(batch),)
+    if batch is not None and batch < 1:
+        raise InvalidArgumentError(f"batch: must be a positive integer, got {batch!r}")
+    K = t.size
+    idx = np.arange(0, K, step)
+
+    def noisy(x: Array, std: float, bias: Sequence[float] = (0.0, 0.0, 0.0)) -> Array:
+        out = np.broadcast_to(x + np.asarray(bias), shape + x.shape).copy()
+        if std > 0:
+            out += std * rng.standard_normal(out.shape)
+        return out
+
+    return SensorData(
+        t_imu=t.copy(),
+        omega_b=noisy(traj.omega_b, noise.gyro_std, noise.gyro_bias),
+        a_b=noisy(traj.a_b, noise.accel_std, noise.accel_bias),
+        m_b=noisy(traj.m_b, noise.mag_std),
+        t_gnss=t[idx].copy(),
+        p_gnss=noisy(traj.p[idx], noise.gnss_p_std),
+        v_gnss=None if position_only else noisy(traj.v[idx], noise.gnss_v_std),
+        m_n=np.array(traj.m_n, dtype=float),
+        g_n=np.array(traj.g_n, dtype=float),
+        p=traj.p.copy(),
+        v=traj.v.copy(),
+        R=traj.R.copy(),
+        imu_rate_hz=imu,
+        gnss_rate_hz=gnss,
+    )
+
+
+def drop_fixes(data: SensorData, fixes: ArrayLike, *, batch_index: int | None = None) -> SensorData:
+    """Mark GNSS fixes as missing (NaN), e.g. to test outage handling.
+
+    Parameters
+    ----------
+    fixes : array_like of int
+        Indices into ``data.t_gnss``.
+    batch_index : int, optional
+        Only this batch member loses the fixes (default: all members).
+    """
+    idx = np.asarray(as_finite_array("fixes", fixes), dtype=int).ravel()
+    if idx.size and (idx.min() < 0 or idx.max() >= data.t_gnss.size):
+        raise InvalidArgumentError(f"fixes: indices must lie in [0, {data.t_gnss.size - 1}]")
+    sel = (Ellipsis,) if batch_index is None else (batch_index,)
+
+    def blank(a: Array | None) -> Array | None:
+        if a is None:
+            return None
+        out = a.copy()
+        out[sel + (idx, slice(None))] = np.nan
+        return out
+
+    return replace(data, p_gnss=blank(data.p_gnss), v_gnss=blank(data.v_gnss))
