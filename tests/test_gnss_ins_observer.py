@@ -119,7 +119,7 @@ def test_linear_part_with_predicted_measurement_matches_expm_of_the_error_system
     dp0, dv0, xi0 = np.array([5.0, -3.0, 2.0]), np.array([1.0, 0.5, -0.8]), np.array([0.3, -0.2, 0.4])
     dev = {}
     for n in (4, 8):
-        obs = GnssInsObserver(K9, PAPER_GAMMA, M_N, G_N, intersample="predict", substeps=n)
+        obs = GnssInsObserver(K9, PAPER_GAMMA, M_N, G_N, intersample="predict", substeps=n, integrator="rk4")
         err, fix = _error_trajectory(obs, d, a_n, dp0, dv0, xi0)
         x = np.concatenate([err[0], np.zeros(6)])
         ref = np.zeros_like(err)
@@ -140,7 +140,7 @@ def test_linear_part_with_held_fix_matches_expm_when_hovering():
     d, a_n = _const_an_data(6.0, a_b=(0.0, 0.0, -G0), r=0.3, v0=(0.0, 0.0, 0.0))
     assert np.ptp(d.p, axis=0).max() == 0.0
     K9 = paper_gains()
-    obs = GnssInsObserver(K9, PAPER_GAMMA, M_N, G_N, intersample="hold", substeps=4)
+    obs = GnssInsObserver(K9, PAPER_GAMMA, M_N, G_N, intersample="hold", substeps=4, integrator="rk4")
     err, _ = _error_trajectory(obs, d, a_n, np.array([4.0, -2.0, 1.0]), np.array([-1.0, 0.5, 0.2]),
                                np.array([0.2, 0.1, -0.3]))
     ref = sla.expm((A9 - K9 @ C9) * d.t_imu[:, None, None]) @ err[0]
@@ -230,7 +230,7 @@ def test_constructor_rejects_bad_gains():
 
 
 def test_propagate_refuses_an_unstable_rk4_step_and_update_needs_velocity():
-    obs = GnssInsObserver(paper_gains(), PAPER_GAMMA, M_N, G_N, substeps=1)
+    obs = GnssInsObserver(paper_gains(), PAPER_GAMMA, M_N, G_N, substeps=1, integrator="rk4")
     st = obs.init(np.zeros(3), np.zeros(3), np.eye(3))
     imu = ImuSample(np.zeros(3), -G_N, M_N)
     with pytest.raises(InvalidArgumentError, match="unstable"):

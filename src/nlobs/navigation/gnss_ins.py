@@ -35,8 +35,9 @@ Sampled-data implementation
 ---------------------------
 The observer is a continuous-time system; the data are sampled (IMU at, e.g.,
 100 Hz, GNSS at 5 Hz). :meth:`~GnssInsObserver.propagate` integrates (24) over
-one IMU period with classical RK4 (``substeps`` steps), the IMU sample held
-constant. GNSS fixes enter through a *held measurement* ``(y_p, y_v)`` stored in
+one IMU period, the IMU sample held constant, with ``integrator="split"``
+(default: one exponential Strang-splitting step, see :class:`GnssInsObserver`)
+or ``integrator="rk4"`` (classical RK4, ``substeps`` steps). GNSS fixes enter through a *held measurement* ``(y_p, y_v)`` stored in
 the state by :meth:`~GnssInsObserver.update`; between fixes it is either
 
 * ``intersample="hold"`` — held constant (zero-order hold, the literal reading
@@ -61,7 +62,7 @@ the state by :meth:`~GnssInsObserver.update`; between fixes it is either
 (``GnssSample.valid`` False) are skipped per batch member and counted in the
 state (``skipped``).
 
-RK4 step size. The stiffest rates of (24) over one step are ``ρ(𝔄 − Kℭ)`` (the
+RK4 step size (``integrator="rk4"``). The stiffest rates of (24) over one step are ``ρ(𝔄 − Kℭ)`` (the
 linear part, ≈ 131 s⁻¹ for the paper's ``K``) and ``λmax(Γ) · λmax(A_b A_bᵀ)``
 (the attitude loop: with ``ẑ`` frozen, ``R̂ ↦ −Γ R̂ A_b A_bᵀ`` has eigenvalues
 ``γ_i μ_j``, and ``μ = |m|², |m × a|², |m|² |m × a|²`` because the columns of
@@ -190,10 +191,14 @@ class GnssInsObserver:
     intersample : {"hold", "predict"}
         How the GNSS measurement is carried between fixes (see the module docstring).
     substeps : int or None
-        RK4 steps per IMU period; ``None`` (default) chooses, per IMU period, the
+        ``integrator="rk4"`` only (ignored by ``"split"``): RK4 steps per IMU period; ``None`` (default) chooses, per IMU period, the
         fewest steps with ``h · ρ ≤ 2`` where ``ρ`` is the stiffest rate of the
         step: ``max(ρ(𝔄 − Kℭ), λmax(Γ) · λmax(A_b A_bᵀ))``. With a fixed number,
         ``propagate`` raises when ``h · ρ`` exceeds RK4's stability limit 2.785.
+    integrator : {"split", "rk4"}
+        Discretisation of (24) over one IMU period ``h`` (see Notes). ``"split"``
+        (default): one Strang step of exactly solved sub-flows, unconditionally
+        stable on the stiff parts, ~4× cheaper than ``"rk4"`` with automatic substeps.
     name : str
         ``"observer"``.
 
@@ -204,7 +209,46 @@ class GnssInsObserver:
     NotSymmetricError
         ``Gamma`` is not symmetric.
     InvalidArgumentError
-        ``Gamma`` is not positive definite, ``mⁿ`` is zero, bad ``intersample`` or ``substeps``.
+        ``Gamma`` is not positive definite, ``mⁿ`` is zero, bad ``intersample``,
+        ``substeps`` or ``integrator``.
+
+    Notes
+    -----
+    **The split integrator.** With the IMU sample held, the right-hand side of
+    (24a)–(24d) (plus the measurement predictor) is the sum of three vector fields,
+    each solved exactly over a step:
+
+    * ``C`` — the linear part (24a)–(24c) without ``ΓJ``, with ``R̂`` frozen.
+      In ``L = [p̂, v̂, ẑ, y_p, (y_v)]``, ``ẑ = R̂ a^b + ξ``, it is linear with
+      constant coefficients: ``ṗ = v̂ + K_p e``, ``v̇ = ẑ + gⁿ + K_v e``,
+      ``ż = K_z e`` (``e = y − ℭ[p̂, v̂]``, ``K = 0`` before the first fix) and the
+      predictor ``ẏ_p = y_v`` (or ``v̂``), ``ẏ_v = ẑ + gⁿ``. Its exact transition
+      ``expm(F h)`` (augmented with the constant ``gⁿ``) is computed once per ``h``
+      and cached, so the stiff ``ρ(𝔄 − Kℭ) ≈ 131 s⁻¹`` costs one matrix product.
+    * ``A`` — the rotation ``dR̂/dt = R̂ S(ω^b)`` (ξ fixed): ``R̂ ← R̂ exp(S(ω^b) t)``.
+    * ``B`` — the injection ``dR̂/dt = ΓJ``, ``dξ/dt = −ΓJ a^b`` of (24c, d). It leaves
+      ``ẑ = R̂ a^b + ξ`` invariant, so ``A_n`` is constant and it is the affine ODE
+      ``dR̂/dt = Γ(A_n A_bᵀ − R̂ M)``, ``M = A_b A_bᵀ``. The columns ``c_j`` of ``A_b``
+      are orthogonal, so ``M = U diag(μ) Uᵀ`` with ``U = [c_j/|c_j|]``,
+      ``μ = (|m|², |m × a|², |m|² |m × a|²)``, and ``A_n A_bᵀ U = A_n diag(|c_j|)``.
+      With ``Γ = V diag(γ) Vᵀ`` (``V = I`` for a diagonal ``Γ``) the ODE decouples
+      elementwise in ``R̃ = Vᵀ R̂ U``::
+
+          R̃_ij(h) = e^{−γ_i μ_j h} R̃_ij(0) + (1 − e^{−γ_i μ_j h}) (Vᵀ A_n)_ij / |c_j|
+
+      (``expm1``; the term vanishes as ``μ_j → 0``), then ``ξ = ẑ − R̂ a^b``. If
+      ``m^b ∥ a^b`` (TRIAD condition violated) ``U`` is completed by any orthonormal
+      pair: ``μ₂ = μ₃ = 0`` there, so the choice does not matter.
+
+    One IMU period is ``C(h/2) A(h/2) B(h) A(h/2) C(h/2)`` (Strang; ``R̂ ↦ ẑ`` and
+    ``ẑ ↦ ξ`` are the couplings). Every sub-flow is exact, so the step is stable for
+    any ``h`` and ``Γ`` (the stiff parts contract exactly as the ODE does) and
+    consistent; it is exact for the linear part alone (the expm test of the
+    predictor's error system holds to 1e-12). On the paper's gains and a noisy
+    traffic pattern (100 Hz) it stays within 2e-4 m and 0.04° of an RK4 reference
+    with 10 substeps (RK4 with automatic substeps: 0.05 m, 0.23°); the error drops
+    by 2–4× per halving of ``h``. Cost: about 20 NumPy calls per step, vectorised
+    over the batch.
     """
 
     K: Array
@@ -214,8 +258,15 @@ class GnssInsObserver:
     position_only: bool = False
     intersample: Literal["hold", "predict"] = "predict"
     substeps: int | None = None
+    integrator: Literal["split", "rk4"] = "split"
     name: str = "observer"
     _rho: float = field(init=False, repr=False, compare=False)
+    _gamma: Array = field(init=False, repr=False, compare=False)
+    _V: Array | None = field(init=False, repr=False, compare=False)
+    _F: tuple[Array, Array] = field(init=False, repr=False, compare=False)
+    _cache: dict = field(init=False, repr=False, compare=False)
+    _SmP: Array = field(init=False, repr=False, compare=False)
+    _An0: Array = field(init=False, repr=False, compare=False)
     _gamma_max: float = field(init=False, repr=False, compare=False)
     _SmPowers: Array = field(init=False, repr=False, compare=False)
 
@@ -239,6 +290,8 @@ class GnssInsObserver:
             if not isinstance(self.substeps, (int, np.integer)) or isinstance(self.substeps, bool) or self.substeps < 1:
                 raise InvalidArgumentError(f"substeps: expected a positive integer or None, got {self.substeps!r}")
             object.__setattr__(self, "substeps", int(self.substeps))
+        if self.integrator not in ("split", "rk4"):
+            raise InvalidArgumentError(f"integrator: expected 'split' or 'rk4', got {self.integrator!r}")
         for nm, val in (("K", K), ("Gamma", G), ("m_n", m_n), ("g_n", g_n)):
             object.__setattr__(self, nm, _ro(val))
         object.__setattr__(self, "_gamma_max", float(lam[-1]))
@@ -249,11 +302,27 @@ class GnssInsObserver:
         A = np.block([[Z3, I3, Z3], [Z3, Z3, I3], [Z3, Z3, Z3]])
         C = np.hstack([I3, Z3, Z3]) if self.position_only else np.hstack([np.eye(6), np.zeros((6, 3))])
         object.__setattr__(self, "_rho", float(np.max(np.abs(np.linalg.eigvals(A - K @ C)))))
+        # split integrator: Γ = V diag(γ) Vᵀ (V = None when Γ is diagonal) and the generators of the
+        # linear sub-flow on L = [p̂, v̂, ẑ, y_p, (y_v)] augmented with a constant 1 (with / without a fix)
+        if np.count_nonzero(G - np.diag(np.diag(G))) == 0:
+            object.__setattr__(self, "_gamma", _ro(np.diag(G)))
+            object.__setattr__(self, "_V", None)
+        else:
+            gam, V = np.linalg.eigh(G)
+            object.__setattr__(self, "_gamma", _ro(gam))
+            object.__setattr__(self, "_V", _ro(V))
+        object.__setattr__(self, "_F", (_ro(self._linear_generator(K)), _ro(self._linear_generator(0.0 * K))))
+        object.__setattr__(self, "_cache", {})
+        Sm_n = self._SmPowers  # A_n = [mⁿ, S(mⁿ) ẑ, S(mⁿ)² ẑ] = (ẑ @ _SmP).reshape(3, 3) + _An0
+        object.__setattr__(self, "_SmP", _ro(np.stack([np.zeros((3, 3)), Sm_n[0], Sm_n[1]], axis=-1)
+                                             .transpose(1, 0, 2).reshape(3, 9)))
+        object.__setattr__(self, "_An0", _ro(np.outer(m_n, [1.0, 0.0, 0.0])))
 
     # ----------------------------------------------------------------- factory
     @classmethod
     def paper(cls, m_n: ArrayLike, g_n: ArrayLike, *, position_only: bool = False,
-              intersample: Literal["hold", "predict"] = "predict", substeps: int | None = None) -> GnssInsObserver:
+              intersample: Literal["hold", "predict"] = "predict", substeps: int | None = None,
+              integrator: Literal["split", "rk4"] = "split") -> GnssInsObserver:
         """The observer with the paper's gains: ``Γ = diag(20, 0.2, 0.2)`` and ``K`` of Sec. 5.2.
 
         For ``position_only`` the paper gives no ``K``; the one designed by
@@ -262,7 +331,7 @@ class GnssInsObserver:
         from nlobs.navigation.gains import PAPER_GAMMA, paper_gains
 
         return cls(paper_gains(position_only), PAPER_GAMMA, m_n, g_n, position_only=position_only,
-                   intersample=intersample, substeps=substeps)
+                   intersample=intersample, substeps=substeps, integrator=integrator)
 
     # ---------------------------------------------------------------- protocol
     def init(self, p0: ArrayLike, v0: ArrayLike, R0: ArrayLike, xi0: ArrayLike | None = None) -> GnssInsState:
@@ -323,17 +392,19 @@ class GnssInsObserver:
                             has_fix=state.has_fix | valid, skipped=state.skipped + (~valid).astype(np.int64))
 
     def propagate(self, state: GnssInsState, imu: ImuSample, dt: float) -> GnssInsState:
-        """Integrate (24a)–(24d) over ``[t, t + dt]`` with RK4, the IMU sample held.
+        """Integrate (24a)–(24d) over ``[t, t + dt]``, the IMU sample held (``integrator``: split or RK4).
 
         Raises
         ------
         InvalidArgumentError
-            ``dt`` is not positive, or too large for RK4 on the linear part
-            (``(dt/substeps)·ρ(𝔄 − Kℭ) > 2.78``).
+            ``dt`` is not positive, or (RK4 with fixed ``substeps``) too large for
+            RK4's stability (``(dt/substeps)·ρ > 2.785``).
         """
         dt = float(dt)
         if not dt > 0:
             raise InvalidArgumentError(f"dt: must be positive, got {dt!r}")
+        if self.integrator == "split":
+            return self._propagate_split(state, imu, dt)
         w = np.asarray(imu.omega_b, dtype=float)
         a = np.asarray(imu.a_b, dtype=float)
         m = np.asarray(imu.m_b, dtype=float)
@@ -383,6 +454,94 @@ class GnssInsObserver:
         return out
 
     # ----------------------------------------------------------------- private
+    def _linear_generator(self, K: Array) -> Array:
+        """Generator of the linear sub-flow (R̂ frozen): ``L' = F L`` on ``L = [p̂, v̂, ẑ, y_p, (y_v), 1]``."""
+        po, pred = self.position_only, self.intersample == "predict"
+        n = 12 if po else 15
+        F = np.zeros((n + 1, n + 1))
+        I3 = np.eye(3)
+        F[0:3, 3:6] = I3                       # ṗ = v̂ + …
+        F[3:6, 6:9] = I3                       # v̇ = ẑ + gⁿ + …
+        F[3:6, n] = self.g_n
+        q = 3 if po else 6
+        F[0:9, 9:9 + q] += K                   # + K y
+        F[0:9, 0:q] -= K                       # − K ℭ [p̂, v̂]
+        if pred:
+            if po:
+                F[9:12, 3:6] = I3              # ẏ_p = v̂
+            else:
+                F[9:12, 12:15] = I3            # ẏ_p = y_v
+                F[12:15, 6:9] = I3             # ẏ_v = ẑ + gⁿ
+                F[12:15, n] = self.g_n
+        return F
+
+    def _transitions(self, dt: float) -> tuple[Array, Array, Array, Array]:
+        """``(Φᵀ, d)`` of the exact linear sub-flow over ``dt``, with and without injection (cached by ``dt``)."""
+        out = self._cache.get(dt)
+        if out is None:
+            from scipy.linalg import expm
+
+            n = self._F[0].shape[0] - 1
+            E1, E0 = expm(self._F[0] * dt), expm(self._F[1] * dt)
+            out = (_ro(E1[:n, :n].T), _ro(E1[:n, n]), _ro(E0[:n, :n].T), _ro(E0[:n, n]))
+            if len(self._cache) > 16:
+                self._cache.clear()
+            self._cache[dt] = out
+        return out
+
+    def _propagate_split(self, state: GnssInsState, imu: ImuSample, h: float) -> GnssInsState:
+        """One Strang step ``C(h/2) A(h/2) B(h) A(h/2) C(h/2)`` of exactly solved sub-flows (class docstring)."""
+        w = np.asarray(imu.omega_b, dtype=float)
+        a = np.asarray(imu.a_b, dtype=float)
+        m = np.asarray(imu.m_b, dtype=float)
+        a_col = a[..., None]
+        R = state.R
+        P1, d1, P0, d0 = self._transitions(0.5 * h)
+        has = state.has_fix
+        sel = 1 if has.all() else (0 if not has.any() else -1)
+
+        def lin(L: Array) -> Array:  # C(h/2): p̂, v̂, ẑ, y linear with R̂ frozen, exact
+            if sel == 1:
+                return L @ P1 + d1
+            if sel == 0:
+                return L @ P0 + d0
+            return np.where(has[..., None], L @ P1 + d1, L @ P0 + d0)
+
+        parts = [state.p, state.v, (R @ a_col)[..., 0] + state.xi, state.y_p]
+        if state.y_v is not None:
+            parts.append(state.y_v)
+        L = lin(np.concatenate(parts, axis=-1))                      # L = [p̂, v̂, ẑ, y_p, (y_v)]
+        E = _exp_so3(w * (0.5 * h))                                  # A(h/2): R̂ ← R̂ exp(S(ω^b) h/2), ξ fixed
+        RE = R @ E
+        z = L[..., 6:9] + ((RE - R) @ a_col)[..., 0]                # ẑ after A(h/2)
+        # B(h): Ṙ̂ = Γ J, ξ̇ = −Γ J a^b with ẑ exactly invariant: elementwise in R̃ = Vᵀ R̂ U, U = [c_j/|c_j|]
+        Sm = (m @ _EPS).reshape(*m.shape[:-1], 3, 3)                 # S(m^b)
+        c2 = Sm @ a_col                                              # m^b × a^b
+        m2 = np.sum(m * m, axis=-1)[..., None]
+        q = np.sum(c2 * c2, axis=-2)                                 # |m^b × a^b|²
+        if not np.all(q > 1e-18 * m2 * np.sum(a * a, axis=-1)[..., None]):
+            # m^b ∥ a^b (TRIAD condition violated): μ₂ = μ₃ = 0, any orthonormal completion of U will do
+            alt = Sm @ np.where(np.abs(m[..., :1]) < 0.9 * np.sqrt(m2), [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])[..., None]
+            c2 = np.where(q[..., None] > 1e-18 * m2[..., None] * np.sum(a * a, axis=-1)[..., None, None], c2, alt)
+        Ub = np.concatenate([m[..., None], c2, Sm @ c2], axis=-1)   # columns ∥ A_b's (orthogonal)
+        U = Ub / np.sqrt(np.sum(Ub * Ub, axis=-2, keepdims=True))
+        s2 = np.concatenate([m2, q, m2 * q], axis=-1)                # μ_j = |c_j|²
+        An = (z @ self._SmP).reshape(*z.shape[:-1], 3, 3) + self._An0  # A_n = [mⁿ, mⁿ × ẑ, mⁿ × (mⁿ × ẑ)]
+        x = np.expm1((-h * self._gamma[:, None]) * s2[..., None, :])  # e^{−γ_i μ_j h} − 1
+        f = x / -np.sqrt(np.maximum(s2, 1e-300))[..., None, :]        # (1 − e)/|c_j| (→ 0 as μ_j → 0)
+        V = self._V
+        if V is None:
+            R1 = ((1.0 + x) * (RE @ U) + f * An) @ np.swapaxes(U, -1, -2)  # C̃/μ = A_n diag(1/|c|)
+        else:
+            R1 = V @ ((1.0 + x) * (V.T @ RE @ U) + f * (V.T @ An)) @ np.swapaxes(U, -1, -2)
+        xi = z - (R1 @ a_col)[..., 0]
+        R2 = R1 @ E                                                  # A(h/2) again, ξ fixed
+        L[..., 6:9] = xi + (R2 @ a_col)[..., 0]
+        L = lin(L)                                                   # C(h/2)
+        return GnssInsState(p=L[..., 0:3], v=L[..., 3:6], xi=L[..., 6:9] - (R2 @ a_col)[..., 0], R=R2,
+                            y_p=L[..., 9:12], y_v=None if state.y_v is None else L[..., 12:15],
+                            has_fix=state.has_fix, skipped=state.skipped)
+
     # Packed state X = [p̂, v̂, ξ, vec_row(R̂), y_p, (y_v)] of shape (..., 21) or (..., 24).
     def _pack(self, st: GnssInsState) -> Array:
         parts = [st.p, st.v, st.xi, st.R.reshape(*st.R.shape[:-2], 9), st.y_p]
@@ -431,6 +590,26 @@ class _Step:
     M: Array     # A_b A_bᵀ, (..., 3, 3)
     Sw: Array    # S(ω^b), (..., 3, 3)
     act: Array   # 1.0 once a fix has arrived, else 0.0, (..., 1)
+
+
+#: ``S(x) = (x @ _EPS).reshape(3, 3)`` (minus the Levi-Civita symbol, flattened).
+_EPS = np.zeros((3, 9))
+_EPS[2, 1], _EPS[1, 2], _EPS[2, 3], _EPS[0, 5], _EPS[1, 6], _EPS[0, 7] = -1.0, 1.0, 1.0, -1.0, -1.0, 1.0
+_EPS.setflags(write=False)
+_I9 = np.eye(3).reshape(9)
+
+
+def _exp_so3(phi: Array) -> Array:
+    """Rodrigues' ``exp(S(φ)) = cos θ I + (sin θ/θ) S(φ) + ((1 − cos θ)/θ²) φφᵀ``, batched, few NumPy calls.
+
+    ``(1 − cos θ)/θ² = 2 sin²(θ/2)/θ²`` (no cancellation); exact at ``θ = 0``.
+    """
+    th = np.sqrt(np.sum(phi * phi, axis=-1))[..., None, None] + 1e-300  # θ = 0: sin(1e-300)/1e-300 = 1
+    A = np.sin(th) / th
+    sh = np.sin(0.5 * th)
+    B = 2.0 * (sh / th) ** 2                                     # (1 − cos θ)/θ² = 2 sin²(θ/2)/θ²
+    return (1.0 - 2.0 * sh * sh) * np.eye(3) + A * (phi @ _EPS).reshape(*phi.shape[:-1], 3, 3) \
+        + B * (phi[..., :, None] * phi[..., None, :])
 
 
 def _skew(w: Array) -> Array:
