@@ -35,7 +35,7 @@ from nlobs.navigation.trajectory import traffic_pattern
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--flights", type=int, default=1000)
-    ap.add_argument("--duration", type=float, default=30.0)
+    ap.add_argument("--duration", type=float, default=60.0)
     ap.add_argument("--loop-sample", type=int, default=20)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", action="store_true")
