@@ -128,5 +128,15 @@ def check_names(kind: str, names: Sequence[str]) -> tuple[str, ...]:
     return out
 
 
+def default_names(kind: str, prefix: str, names: Sequence[str] | None, count: int) -> tuple[str, ...]:
+    """``names`` checked (unique identifiers, ``count`` of them), or ``prefix1..prefixN`` when ``None``."""
+    if names is None:
+        return tuple(f"{prefix}{i + 1}" for i in range(count))
+    out = check_names(kind, names)
+    if len(out) != count:
+        raise DimensionError(f"{len(out)} {kind} names given for {count} {kind}s")
+    return out
+
+
 def _fmt_shape(shape: tuple[int | None, int | None]) -> str:
     return "(" + ", ".join("?" if s is None else str(s) for s in shape) + ")"

@@ -64,7 +64,7 @@ import scipy.signal
 import sympy as sp
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_batch, as_matrix, as_square, check_names, positive
+from nlobs._validate import as_batch, as_matrix, as_square, check_names, default_names, positive
 from nlobs.errors import (
     DesignError,
     DimensionError,
@@ -333,9 +333,9 @@ class NonlinearSubsystem:
             raise InvalidArgumentError("h_w: the feedback case needs ∂h/∂w (a callable h_w(u, w, x))")
         if not feedback and h_w is not None:
             raise InvalidArgumentError("h_w: given without n_w; pass n_w for the feedback interconnection Σ1*")
-        st = _default_names("state", "x", states, nx)
-        ins = _default_names("input", "u", inputs, mm)
-        outs = _default_names("output", "z", outputs, pz)
+        st = default_names("state", "x", states, nx)
+        ins = default_names("input", "u", inputs, mm)
+        outs = default_names("output", "z", outputs, pz)
         lin = tuple(f"w{i + 1}" for i in range(nw))
         obj = cls(st, ins, outs, lin, feedback, f, h, g, h_x, h_w, str(name))
         for batch in ((), (2,)):
@@ -387,15 +387,6 @@ def _count(name: str, value: Any, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
         raise InvalidArgumentError(f"{name}: expected an integer ≥ {minimum}, got {value!r}")
     return int(value)
-
-
-def _default_names(kind: str, prefix: str, names: Sequence[str] | None, count: int) -> tuple[str, ...]:
-    if names is None:
-        return tuple(f"{prefix}{i + 1}" for i in range(count))
-    out = check_names(kind, names)
-    if len(out) != count:
-        raise DimensionError(f"{len(out)} {kind} names given for {count} {kind}s")
-    return out
 
 
 # --------------------------------------------------------------------------- Σ2
@@ -460,8 +451,8 @@ class LinearSubsystem:
         object.__setattr__(self, "D_z", _readonly(Dz))
         object.__setattr__(self, "B_u", None if Bu is None else _readonly(Bu))
         object.__setattr__(self, "D_u", None if Du is None else _readonly(Du))
-        object.__setattr__(self, "states", _default_names("state", "w", states, n))
-        object.__setattr__(self, "outputs", _default_names("output", "y", outputs, py))
+        object.__setattr__(self, "states", default_names("state", "w", states, n))
+        object.__setattr__(self, "outputs", default_names("output", "y", outputs, py))
 
     @property
     def n_w(self) -> int:

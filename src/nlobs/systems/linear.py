@@ -13,8 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_matrix, as_square, check_names
-from nlobs.errors import DimensionError
+from nlobs._validate import as_matrix, as_square, default_names
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
 
 
@@ -22,15 +21,6 @@ def _readonly(a: NDArray[np.float64]) -> NDArray[np.float64]:
     a = np.array(a, dtype=float)
     a.setflags(write=False)
     return a
-
-
-def _names(kind: str, prefix: str, names: Sequence[str] | None, count: int) -> tuple[str, ...]:
-    if names is None:
-        return tuple(f"{prefix}{i + 1}" for i in range(count))
-    out = check_names(kind, names)
-    if len(out) != count:
-        raise DimensionError(f"{len(out)} {kind} names given for {count} {kind}s")
-    return out
 
 
 @dataclass(frozen=True)
@@ -84,9 +74,9 @@ class LinearSystem:
         object.__setattr__(self, "C", _readonly(C_))
         object.__setattr__(self, "D", _readonly(D_))
         object.__setattr__(self, "time", time)
-        object.__setattr__(self, "states", _names("state", "x", states, n))
-        object.__setattr__(self, "inputs", _names("input", "u", inputs, m))
-        object.__setattr__(self, "outputs", _names("output", "y", outputs, p))
+        object.__setattr__(self, "states", default_names("state", "x", states, n))
+        object.__setattr__(self, "inputs", default_names("input", "u", inputs, m))
+        object.__setattr__(self, "outputs", default_names("output", "y", outputs, p))
         object.__setattr__(self, "name", str(name))
 
     @property
