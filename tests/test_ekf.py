@@ -100,3 +100,34 @@ def test_batch_equals_single_runs_and_nan_fix_is_skipped_for_that_member(flight)
         np.testing.assert_allclose(rb.p_hat[i], ri.p_hat, atol=1e-9)
         ang = np.linalg.norm(log_so3(np.swapaxes(rb.R_hat[i], -1, -2) @ ri.R_hat), axis=-1)
         assert ang.max() < 1e-9
+
+
+def test_invalid_fix_leaves_exactly_that_member_unchanged(flight) -> None:  # type: ignore[no-untyped-def]
+    """GnssSample.valid = False for one batch member: its p, v, R, P are bit-identical after update."""
+    ekf = _ekf(flight)
+    rng = np.random.default_rng(3)
+    B = 4
+    st = ekf.init(rng.normal(size=(B, 3)), rng.normal(size=(B, 3)), rot_z(rng.uniform(-1, 1, B)))
+    imu = ImuSample(np.full((B, 3), 0.01), np.tile([0.5, 0.0, -9.8], (B, 1)), np.tile(flight.m_n, (B, 1)))
+    st = ekf.propagate(st, imu, 0.5)  # correlates attitude with velocity, so a fix moves R too
+    p = rng.normal(size=(B, 3))
+    p[2] = np.nan  # member 2 reports a NaN fix ...
+    valid = np.array([True, True, False, False])  # ... member 3 a finite one that is flagged invalid
+    new = ekf.update(st, GnssSample(p, rng.normal(size=(B, 3)), valid))
+    for name in ("p", "v", "R", "P"):
+        old_a, new_a = getattr(st, name), getattr(new, name)
+        np.testing.assert_array_equal(new_a[2:], old_a[2:])
+        assert np.all(np.isfinite(new_a))
+        assert not np.array_equal(new_a[:2], old_a[:2])
+    assert new.skipped.tolist() == [0, 0, 1, 1]
+
+
+def test_batched_step_is_vectorised_and_keeps_shapes(flight) -> None:  # type: ignore[no-untyped-def]
+    ekf = _ekf(flight)
+    st = ekf.init(np.zeros((2, 5, 3)), np.zeros(3), np.eye(3))
+    assert st.P.shape == (2, 5, 9, 9)
+    imu = ImuSample(np.full((2, 5, 3), 0.01), np.tile([0.0, 0.0, -9.8], (2, 5, 1)), np.tile(flight.m_n, (2, 5, 1)))
+    st = ekf.propagate(st, imu, 0.01)
+    st = ekf.update(st, GnssSample(np.zeros((2, 5, 3)), np.zeros((2, 5, 3)), np.ones((2, 5), bool)))
+    assert st.R.shape == (2, 5, 3, 3) and st.P.shape == (2, 5, 9, 9)
+    np.testing.assert_allclose(st.R @ np.swapaxes(st.R, -1, -2), np.broadcast_to(np.eye(3), st.R.shape), atol=1e-14)

@@ -65,3 +65,29 @@ def test_validation(traj) -> None:  # type: ignore[no-untyped-def]
         SensorNoise(gnss_p_std=float("nan"))
     with pytest.raises(InvalidArgumentError, match="fixes: indices must lie"):
         drop_fixes(generate_sensors(traj, imu_rate_hz=50.0, gnss_rate_hz=5.0, noise=SensorNoise(), seed=0), [10_000])
+
+
+def test_bad_trajectories_raise_typed_errors(traj) -> None:  # type: ignore[no-untyped-def]
+    from dataclasses import replace
+
+    kw = dict(imu_rate_hz=50.0, gnss_rate_hz=5.0, noise=SensorNoise(), seed=0)
+    a_b = traj.a_b.copy()
+    a_b[7, 1] = np.nan
+    with pytest.raises(NonFiniteError, match="a_b"):
+        generate_sensors(replace(traj, a_b=a_b), **kw)
+    t = traj.t.copy()
+    t[5] = t[4]
+    with pytest.raises(InvalidArgumentError, match="times must increase"):
+        generate_sensors(replace(traj, t=t), **kw)
+    with pytest.raises(InvalidArgumentError, match="batch"):
+        generate_sensors(traj, batch=0, **kw)
+
+
+def test_fixes_fall_on_imu_instants_and_single_equals_batch_member_shapes(traj) -> None:  # type: ignore[no-untyped-def]
+    d = generate_sensors(traj, imu_rate_hz=50.0, gnss_rate_hz=2.0, noise=SensorNoise(gnss_p_std=1.0),
+                         seed=0)
+    assert d.imu_rate_hz == 50.0 and d.gnss_rate_hz == 2.0
+    k = np.rint(d.t_gnss * 50.0).astype(int)
+    np.testing.assert_array_equal(d.t_imu[k], d.t_gnss)
+    np.testing.assert_array_equal(np.diff(k), 25)
+    assert d.omega_b.shape == traj.omega_b.shape and d.p_gnss.shape == (k.size, 3)

@@ -12,9 +12,11 @@ Nominal state ``(p̂, v̂, R̂)`` with ``R̂ ∈ SO(3)``; 9-dimensional error st
 * nominal: ``R̂⁺ = R̂ exp(S(ω dt))``, ``v̂⁺ = v̂ + (R̂a + gⁿ) dt``,
   ``p̂⁺ = p̂ + v̂ dt + ½(R̂a + gⁿ) dt²``;
 * error: ``δṗ = δv``, ``δv̇ = −R̂ S(a) δθ − R̂ n_a``, ``δθ̇ = −S(ω) δθ − n_g``;
-  ``Φ = I + F dt + ½ (F dt)²``, ``Q = G diag(σ_a² I, σ_g² I) Gᵀ dt``
-  (discretised white noise; ``σ`` per sample is converted with ``σ² dt``... see
-  :meth:`EkfConfig.for_noise`).
+  ``Φ = I + F dt + ½ (F dt)²``, ``Q = G diag(σ_a² I, σ_g² I) Gᵀ dt²``,
+  ``G = [[0, 0], [−R̂, 0], [0, −I]]``: the sensors' white noise is given **per
+  sample** (std ``σ``, as :class:`~nlobs.navigation.sensors.SensorNoise`), and a
+  sample held over ``dt`` moves the velocity / angle by ``σ dt`` (variance
+  ``σ² dt²``); a spectral density ``N`` would correspond to ``σ² = N / dt``.
 
 Measurements: GNSS ``y = [p; v]`` with ``H = [[I, 0, 0], [0, I, 0]]``;
 magnetometer ``m^b = exp(−S(δθ)) R̂ᵀ mⁿ ≈ R̂ᵀmⁿ + S(R̂ᵀmⁿ) δθ``,

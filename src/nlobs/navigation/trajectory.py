@@ -81,26 +81,28 @@ _GL_W = 0.5 * _GL_W
 # smooth steps
 
 
-def _s(x: Array, order: int) -> Array:
-    """The C³ step ``s(x)`` (order 0), its derivatives (1..3) and integral (order −1), ``x`` clipped to [0, 1]."""
-    xc = np.clip(x, 0.0, 1.0)
+def _s_inner(x: Array, order: int) -> Array:
+    """The C³ step ``s(x)`` (order 0), its derivatives (1..3) and integral ``∫₀ˣ s`` (order −1) for ``0 ≤ x ≤ 1``."""
     if order == -1:
-        inner = xc**5 * (7.0 - 14.0 * xc + 10.0 * xc**2 - 2.5 * xc**3)
-        return inner + np.maximum(x - 1.0, 0.0)  # ∫₀¹ s = 1/2, then slope 1
+        return x**5 * (7.0 + x * (-14.0 + x * (10.0 - 2.5 * x)))
     if order == 0:
-        return xc**4 * (35.0 - 84.0 * xc + 70.0 * xc**2 - 20.0 * xc**3)
+        return x**4 * (35.0 + x * (-84.0 + x * (70.0 - 20.0 * x)))
     if order == 1:
-        return xc**3 * (140.0 - 420.0 * xc + 420.0 * xc**2 - 140.0 * xc**3)
+        return x**3 * (140.0 + x * (-420.0 + x * (420.0 - 140.0 * x)))
     if order == 2:
-        return xc**2 * (420.0 - 1680.0 * xc + 2100.0 * xc**2 - 840.0 * xc**3)
+        return x**2 * (420.0 + x * (-1680.0 + x * (2100.0 - 840.0 * x)))
     if order == 3:
-        return xc * (840.0 - 5040.0 * xc + 8400.0 * xc**2 - 4200.0 * xc**3)
+        return x * (840.0 + x * (-5040.0 + x * (8400.0 - 4200.0 * x)))
     raise InvalidArgumentError(f"smooth step: order must be in -1..3, got {order}")
 
 
 @dataclass(frozen=True)
 class _Profile:
-    """``f(t) = base + Σ amp_i s((t − t0_i)/τ_i)``; ``integral`` is ``∫₀ᵗ (f − base)``."""
+    """``f(t) = base + Σ amp_i s((t − t0_i)/τ_i)``; order −1 gives ``∫₀ᵗ (f − base)``.
+
+    Each step is evaluated only inside its window ``0 < x < 1``; beyond it the
+    step is constant (``s = 1``, derivatives 0, ``∫₀ˣ s = x − 1/2``).
+    """
 
     base: float
     t0: tuple[float, ...]
@@ -108,14 +110,20 @@ class _Profile:
     amp: tuple[float, ...]
 
     def __call__(self, t: Array, order: int = 0) -> Array:
-        out = np.full(t.shape, self.base if order == 0 else 0.0)
+        tf = np.ravel(t)
+        out = np.full(tf.shape, self.base if order == 0 else 0.0)
         for t0, tau, amp in zip(self.t0, self.tau, self.amp):
-            x = (t - t0) / tau
+            x = (tf - t0) / tau
+            inside = np.flatnonzero((x > 0.0) & (x < 1.0))
+            after = x >= 1.0
             if order == -1:
-                out = out + amp * tau * _s(x, -1)
+                out[after] += amp * tau * (x[after] - 0.5)
+                out[inside] += amp * tau * _s_inner(x[inside], -1)
             else:
-                out = out + amp * _s(x, order) / tau**order
-        return out
+                if order == 0:
+                    out[after] += amp
+                out[inside] += amp * _s_inner(x[inside], order) / tau**order
+        return out.reshape(np.shape(t))
 
     def breakpoints(self) -> list[float]:
         return [b for t0, tau in zip(self.t0, self.tau) for b in (t0, t0 + tau)]
@@ -208,7 +216,7 @@ def _plan(p: _Params, unknowns: Array, g: float) -> _Plan:
     phases.append(("downwind turn", t))
     t = turn(t, p.v_pattern, 0.0)
     t_ab = t + t_dw
-    phases.append(("abeam: descent", t_ab))
+    phases.append(("descent", t_ab))
     V.step(t_ab, 10.0, p.v_approach - p.v_pattern)
     Al.step(t_ab, 8.0, a_app - a_cruise)
     Gm.step(t_ab + 4.0, 6.0, -gam_d)
@@ -518,7 +526,7 @@ def traffic_pattern(
         runway_heading=params.heading,
         pattern_altitude=params.h_pattern,
         side=params.side,
-        phases=tuple((name, t0) for name, t0 in plan.phases if t0 <= dur),
+        phases=tuple((name, float(t0)) for name, t0 in plan.phases if t0 <= dur),
         _plan=plan,
         _pos=pos,
     )
