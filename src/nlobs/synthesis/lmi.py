@@ -19,7 +19,7 @@ import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
-from typing import Any
+from typing import Any, TypeVar
 
 import cvxpy as cp
 import numpy as np
@@ -38,6 +38,9 @@ __all__ = [
     "solve",
     "as_solver",
 ]
+
+
+E = TypeVar("E", bound=Enum)
 
 
 class Solver(str, Enum):
@@ -116,17 +119,23 @@ class SolveResult:
     seconds: float
 
 
+def as_enum(kind: str, cls: type[E], value: E | str) -> E:
+    """Return ``value`` as a member of the string enum ``cls`` (case-insensitive), or raise naming ``kind``."""
+    if isinstance(value, cls):
+        return value
+    if isinstance(value, str):
+        for candidate in (value, value.upper(), value.lower()):
+            try:
+                return cls(candidate)
+            except ValueError:
+                pass
+    known = ", ".join(str(m.value) for m in cls)
+    raise InvalidArgumentError(f"{kind}: unknown {kind} {value!r}; expected one of {known}")
+
+
 def as_solver(solver: Solver | str) -> Solver:
     """Return ``solver`` as a :class:`Solver` (accepts ``"clarabel"``, ``"SCS"``...)."""
-    if isinstance(solver, Solver):
-        return solver
-    if isinstance(solver, str):
-        try:
-            return Solver(solver.upper())
-        except ValueError:
-            pass
-    known = ", ".join(s.value for s in Solver)
-    raise InvalidArgumentError(f"solver: unknown solver {solver!r}; expected one of {known}")
+    return as_enum("solver", Solver, solver)
 
 
 def is_expression(x: object) -> bool:

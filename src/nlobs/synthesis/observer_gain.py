@@ -62,7 +62,7 @@ from nlobs.synthesis.certificate import (
     Objective,
     ObserverGainCertificate,
 )
-from nlobs.synthesis.lmi import Solver, SolveResult, SolveStatus, as_solver, bmat, max_eig, solve, symmetrise
+from nlobs.synthesis.lmi import Solver, as_enum, SolveResult, SolveStatus, as_solver, bmat, max_eig, solve, symmetrise
 from nlobs.synthesis.regions import PoleRegion, as_regions
 
 __all__ = [
@@ -199,15 +199,7 @@ def _as_gain_bound(gain_bound: GainBound | float | None) -> GainBound | None:
 
 
 def _as_objective(objective: Objective | str) -> Objective:
-    if isinstance(objective, Objective):
-        return objective
-    if isinstance(objective, str):
-        try:
-            return Objective(objective.lower())
-        except ValueError:
-            pass
-    known = ", ".join(o.value for o in Objective)
-    raise InvalidArgumentError(f"objective: unknown objective {objective!r}; expected one of {known}")
+    return as_enum("objective", Objective, objective)
 
 
 def _margin(margin: float) -> float:
