@@ -1,0 +1,287 @@
+"""Observability maps, observation relative degrees and the Brunovsky form (seeds 002, 003).
+
+For an input-affine model ``ẋ = f(x) + g(x) u``, ``y = h(x)`` with ``q`` outputs
+(seed 002 (1.1), seed 003 (1)):
+
+* Observability map of a multi-index ``s = (s_1, …, s_q)`` with ``Σ s_j = n``
+  (002 (2.2)–(2.3))::
+
+      Φ_s^j(x) = [h_j, L_f h_j, …, L_f^{s_j−1} h_j]ᵀ,   Φ_s = [Φ_s^1ᵀ … Φ_s^qᵀ]ᵀ
+
+  and its Jacobian ``Q_s = ∂Φ_s/∂x`` (2.5). With ``s = r`` and ``Σ r_j < n`` the
+  same construction gives seed 003's reduced observability matrix ``Q`` (13).
+* Observation relative degree ``r_j`` (002 Def. 2.5, 003 A1): the smallest
+  integer with ``L_g L_f^{r_j−1} h_j ≢ 0`` on the region (``None`` when
+  ``L_g L_f^k h_j`` vanishes for every ``k`` up to ``max_order``).
+* ``Q_s g = F_{s,r} H_{s,r}`` (2.13) with ``H_j = [L_g L_f^{r_j−1} h_j; …;
+  L_g L_f^{s_j−1} h_j]`` (2.11) for the outputs with ``s_j ≥ r_j``
+  (``d_j = s_j − r_j + 1`` rows) and the 0/1 matrix ``F_{s,r}`` (2.12). nlobs keeps
+  the outputs in the model's order (the paper reorders them so that those with
+  ``s_j ≥ r_j`` come first); the identity (2.13) holds either way and is tested.
+* ``L_s = [L_f^{s_1} h_1, …, L_f^{s_q} h_q]ᵀ`` (before (2.14)) and the Brunovsky
+  triple ``(A_s, B_s, C_s)`` (2.16), so that ``ż = A_s z + B_s L_s + F_{s,r} H_{s,r} u``
+  (2.15) in the coordinates ``z = Φ_s(x)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sp
+from numpy.typing import NDArray
+
+from nlobs.errors import DimensionError, InvalidArgumentError, ModelError
+from nlobs.geometry.lie import lie_derivative_along_columns, lie_derivatives, tidy
+from nlobs.geometry.region import Box, ZeroTest, vanishes_on
+from nlobs.systems.symbolic import SymbolicModel
+from nlobs.systems.timebase import Continuous
+
+Array = NDArray[np.float64]
+
+
+def _exact(value: float) -> sp.Rational:
+    """A parameter value as an exact rational (``9.81 → 981/100``), so symbolic zero tests are exact."""
+    return sp.Rational(repr(float(value)))
+
+
+@dataclass(frozen=True)
+class AffineFields:
+    """The vector fields ``f``, ``g`` and the output map ``h`` of an input-affine model.
+
+    Parameters are substituted by exact rationals of their values. Build with
+    :meth:`from_model`.
+
+    Attributes
+    ----------
+    name : str
+    x : tuple of sympy.Symbol
+        State coordinates.
+    f : sympy.ImmutableMatrix, (n, 1)
+    g : sympy.ImmutableMatrix, (n, m)
+    h : sympy.ImmutableMatrix, (q, 1)
+    states, outputs : tuple of str
+    """
+
+    name: str
+    x: tuple[sp.Symbol, ...]
+    f: sp.ImmutableMatrix
+    g: sp.ImmutableMatrix
+    h: sp.ImmutableMatrix
+    states: tuple[str, ...]
+    outputs: tuple[str, ...]
+
+    @classmethod
+    def from_model(cls, model: SymbolicModel, parameters: Mapping[str, float] | None = None) -> AffineFields:
+        """Take ``f, g, h`` from a continuous-time input-affine :class:`SymbolicModel`.
+
+        Raises
+        ------
+        ModelError
+            If the model is not input-affine, is discrete-time, or its output depends on the input.
+        """
+        if not isinstance(model.time, Continuous):
+            raise ModelError(f"{model.name}: Lie derivatives need a continuous-time model, got {model.time}")
+        if not model.is_input_affine:
+            raise ModelError(
+                f"{model.name}: the method needs an input-affine model ẋ = f(x) + g(x) u "
+                "(give [dynamics] f and g in the model file, not rhs)"
+            )
+        uses_u = model.h.free_symbols & set(model.u)
+        if uses_u:
+            raise ModelError(f"{model.name}: the output h must not depend on inputs {sorted(map(str, uses_u))}")
+        subs = {s: _exact(v) for s, v in model.substituted(parameters).items()}
+        assert model.drift is not None and model.input_matrix is not None
+        return cls(
+            name=model.name,
+            x=model.x,
+            f=sp.ImmutableMatrix(model.drift.xreplace(subs)),
+            g=sp.ImmutableMatrix(model.input_matrix.xreplace(subs)),
+            h=sp.ImmutableMatrix(model.h.xreplace(subs)),
+            states=model.states,
+            outputs=model.outputs,
+        )
+
+    @property
+    def n(self) -> int:
+        return len(self.x)
+
+    @property
+    def m(self) -> int:
+        return int(self.g.shape[1])
+
+    @property
+    def q(self) -> int:
+        return int(self.h.shape[0])
+
+    def lie_chain(self, j: int, count: int) -> tuple[sp.Expr, ...]:
+        """``(h_j, L_f h_j, …, L_f^{count−1} h_j)``."""
+        return lie_derivatives(self.h[j, 0], self.f, self.x, count)
+
+
+def check_multi_index(s: Sequence[int], q: int, n: int | None = None, *, name: str = "s") -> tuple[int, ...]:
+    """Validate a multi-index: ``q`` non-negative integers, summing to ``n`` when given."""
+    try:
+        out = tuple(int(v) for v in s)
+    except (TypeError, ValueError):
+        raise InvalidArgumentError(f"{name}: expected a sequence of integers, got {s!r}") from None
+    if any(float(a) != b for a, b in zip(s, out)):
+        raise InvalidArgumentError(f"{name}: entries must be integers, got {list(s)}")
+    if len(out) != q:
+        raise DimensionError(f"{name}: expected {q} entries (one per output), got {len(out)}")
+    if any(v < 0 for v in out):
+        raise InvalidArgumentError(f"{name}: entries must be non-negative, got {list(out)}")
+    if n is not None and sum(out) != n:
+        raise InvalidArgumentError(f"multi-index {name}={list(out)} sums to {sum(out)}; it must sum to n = {n}")
+    return out
+
+
+def lie_map(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
+    """Stacked ``[h_j, …, L_f^{s_j−1} h_j]`` over the outputs (no constraint on ``Σ s_j``)."""
+    s_ = check_multi_index(s, fields.q)
+    rows: list[sp.Expr] = []
+    for j, sj in enumerate(s_):
+        rows.extend(fields.lie_chain(j, sj))
+    return sp.ImmutableMatrix(sp.Matrix(rows) if rows else sp.zeros(0, 1))
+
+
+def observability_map(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
+    """``Φ_s(x)`` of seed 002 (2.2)–(2.3); ``s`` must sum to ``n``."""
+    return lie_map(fields, check_multi_index(s, fields.q, fields.n))
+
+
+def observability_jacobian(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
+    """``Q_s(x) = ∂Φ_s/∂x`` of seed 002 (2.5); ``s`` must sum to ``n``."""
+    return sp.ImmutableMatrix(observability_map(fields, s).jacobian(sp.Matrix(fields.x)).applyfunc(tidy))
+
+
+def reduced_observability_matrix(fields: AffineFields, r: Sequence[int]) -> sp.ImmutableMatrix:
+    """``Q(x) = [dh; dL_f h; …; dL_f^{r−1} h]`` of seed 003 (13), stacked over outputs."""
+    return sp.ImmutableMatrix(lie_map(fields, r).jacobian(sp.Matrix(fields.x)).applyfunc(tidy))
+
+
+def output_derivative_terms(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
+    """``L_s(x) = [L_f^{s_1} h_1, …, L_f^{s_q} h_q]ᵀ`` (seed 002, before (2.14))."""
+    s_ = check_multi_index(s, fields.q)
+    return sp.ImmutableMatrix([fields.lie_chain(j, sj + 1)[-1] for j, sj in enumerate(s_)])
+
+
+@dataclass(frozen=True)
+class RelativeDegree:
+    """Observation relative degrees of every output (seed 002 Def. 2.5, seed 003 A1).
+
+    Attributes
+    ----------
+    r : tuple of int or None
+        ``r_j``, or ``None`` where ``L_g L_f^k h_j`` vanished on the region for every
+        ``k < max_order`` (not defined there: infinite for an input-free model).
+    tests : tuple of tuple of ZeroTest
+        Per output, the zero tests of ``L_g L_f^k h_j`` (all inputs' columns
+        together, the largest in magnitude) for ``k = 0, …, r_j − 1``.
+    region : Box
+    max_order : int
+    """
+
+    r: tuple[int | None, ...]
+    tests: tuple[tuple[ZeroTest, ...], ...]
+    region: Box
+    max_order: int
+
+    def require(self, outputs: Sequence[str]) -> tuple[int, ...]:
+        """All ``r_j`` as integers; raise :class:`ModelError` naming an output whose degree is undefined."""
+        bad = [o for o, rj in zip(outputs, self.r) if rj is None]
+        if bad:
+            raise ModelError(
+                f"observation relative degree of output(s) {bad} is not defined on {self.region.describe()}: "
+                f"L_g L_f^k h vanishes there for every k < {self.max_order}"
+            )
+        return tuple(int(v) for v in self.r)  # type: ignore[arg-type]
+
+
+def observation_relative_degree(
+    fields: AffineFields,
+    region: Box | None = None,
+    *,
+    max_order: int | None = None,
+    samples: int = 64,
+    seed: int = 0,
+) -> RelativeDegree:
+    """Observation relative degree vector ``r`` on a region (default ``[−1, 1]ⁿ``).
+
+    ``r_j`` is the smallest integer with ``L_g L_f^{r_j−1} h_j ≢ 0`` on the region
+    (seed 002 (2.8)). Each zero test is symbolic where SymPy proves it and numeric
+    (``samples`` seeded random points) otherwise; see :func:`vanishes_on`.
+    """
+    reg = region or Box.unit(fields.n)
+    kmax = fields.n if max_order is None else int(max_order)
+    rs: list[int | None] = []
+    all_tests: list[tuple[ZeroTest, ...]] = []
+    for j in range(fields.q):
+        chain = fields.lie_chain(j, kmax)
+        tests: list[ZeroTest] = []
+        rj: int | None = None
+        for k, phi in enumerate(chain):
+            row = lie_derivative_along_columns(phi, fields.g, fields.x) if fields.m else sp.zeros(1, 0)
+            per_input = [vanishes_on(e, fields.x, reg, samples=samples, seed=seed + 7919 * k + j) for e in row]
+            nonzero = [t for t in per_input if not t.zero]
+            if nonzero:
+                tests.append(max(nonzero, key=lambda t: abs(t.value or 0.0)))
+                rj = k + 1
+                break
+            tests.append(per_input[0] if per_input else ZeroTest(True, "symbolic", 0, None, None))
+        rs.append(rj)
+        all_tests.append(tuple(tests))
+    return RelativeDegree(tuple(rs), tuple(all_tests), reg, kmax)
+
+
+def input_gain_structure(
+    fields: AffineFields, s: Sequence[int], r: Sequence[int | None]
+) -> tuple[sp.ImmutableMatrix, Array]:
+    """``(H_{s,r}(x), F_{s,r})`` of seed 002 (2.11)–(2.13), with ``Q_s g = F_{s,r} H_{s,r}``.
+
+    ``r_j = None`` (undefined relative degree) counts as ``s_j < r_j``: the output
+    contributes no rows to ``H`` and zero rows to ``F``.
+    """
+    s_ = check_multi_index(s, fields.q, fields.n)
+    if len(r) != fields.q:
+        raise DimensionError(f"r: expected {fields.q} entries, got {len(r)}")
+    h_blocks: list[sp.Matrix] = []
+    d_sizes: list[int] = []
+    for j, (sj, rj) in enumerate(zip(s_, r)):
+        if rj is None or sj < rj:
+            d_sizes.append(0)
+            continue
+        chain = fields.lie_chain(j, sj)
+        h_blocks.append(sp.Matrix.vstack(*[lie_derivative_along_columns(chain[k], fields.g, fields.x) for k in range(rj - 1, sj)]))
+        d_sizes.append(sj - rj + 1)
+    d = sum(d_sizes)
+    H = sp.ImmutableMatrix(sp.Matrix.vstack(*h_blocks) if h_blocks else sp.zeros(0, fields.m))
+    F = np.zeros((fields.n, d))
+    row = col = 0
+    for sj, dj in zip(s_, d_sizes):
+        if dj:
+            F[row + sj - dj : row + sj, col : col + dj] = np.eye(dj)  # S_j = [0_{(r_j−1)×d_j}; I_{d_j}]
+        row += sj
+        col += dj
+    return H, F
+
+
+def brunovsky(s: Sequence[int]) -> tuple[Array, Array, Array]:
+    """The block-diagonal Brunovsky triple ``(A_s, B_s, C_s)`` of seed 002 (2.16).
+
+    ``A_j`` is the ``s_j × s_j`` upper shift, ``B_j = e_{s_j}``, ``C_j = e_1ᵀ``;
+    ``A_s`` is ``n × n``, ``B_s`` is ``n × q`` and ``C_s`` is ``q × n``.
+    """
+    s_ = check_multi_index(s, len(s))
+    if any(v < 1 for v in s_):
+        raise InvalidArgumentError(f"s: every entry must be at least 1 for the Brunovsky form, got {list(s_)}")
+    n, q = sum(s_), len(s_)
+    A, B, C = np.zeros((n, n)), np.zeros((n, q)), np.zeros((q, n))
+    i = 0
+    for j, sj in enumerate(s_):
+        A[i : i + sj - 1, i + 1 : i + sj] += np.eye(sj - 1)
+        B[i + sj - 1, j] = 1.0
+        C[j, i] = 1.0
+        i += sj
+    return A, B, C

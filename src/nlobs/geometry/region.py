@@ -1,0 +1,145 @@
+"""Regions of the state space and the evidence-backed tests run on them.
+
+The differential-geometric conditions of seeds 002 and 003 are stated on a set
+``Ω`` ("``L_g L_f^k h(x) = 0`` for all ``x ∈ Ω``", "``Q_s`` nonsingular in ``Ω``").
+nlobs decides them by a symbolic test where SymPy can prove it, backed by
+evaluation at seeded random points of a :class:`Box`; every verdict carries its
+evidence (the method, the number of points, and a witness point).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import sympy as sp
+from numpy.typing import ArrayLike, NDArray
+
+from nlobs._validate import as_vector
+from nlobs.errors import InvalidArgumentError
+from nlobs.systems.codegen import compile_matrix
+
+Array = NDArray[np.float64]
+
+#: Largest expression (``count_ops``) handed to ``sympy.simplify`` in a zero test.
+SIMPLIFY_OPS_LIMIT = 400
+
+
+@dataclass(frozen=True)
+class Box:
+    """An axis-aligned box ``{x : lower ≤ x ≤ upper}`` of ``ℝⁿ``.
+
+    Parameters
+    ----------
+    lower, upper : array_like, shape (n,)
+        Finite bounds with ``lower < upper`` componentwise.
+    """
+
+    lower: Array
+    upper: Array
+
+    def __post_init__(self) -> None:
+        lo = as_vector("lower", self.lower)
+        hi = as_vector("upper", self.upper, lo.size)
+        if np.any(hi <= lo):
+            i = int(np.argmax(hi <= lo))
+            raise InvalidArgumentError(f"Box: upper[{i}] = {hi[i]:g} must exceed lower[{i}] = {lo[i]:g}")
+        lo.setflags(write=False)
+        hi.setflags(write=False)
+        object.__setattr__(self, "lower", lo)
+        object.__setattr__(self, "upper", hi)
+
+    @classmethod
+    def around(cls, center: ArrayLike, half_width: float | ArrayLike) -> Box:
+        """The box ``center ± half_width``."""
+        c = as_vector("center", center)
+        w = np.broadcast_to(np.asarray(half_width, dtype=float), c.shape)
+        return cls(c - w, c + w)
+
+    @classmethod
+    def unit(cls, n: int) -> Box:
+        """The default region ``[−1, 1]ⁿ``."""
+        return cls(-np.ones(n), np.ones(n))
+
+    @property
+    def n(self) -> int:
+        return int(self.lower.size)
+
+    def sample(self, count: int, seed: int | np.random.Generator = 0) -> Array:
+        """``count`` uniform points, shape ``(count, n)``, from a seeded generator."""
+        rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+        return self.lower + (self.upper - self.lower) * rng.random((int(count), self.n))
+
+    def describe(self) -> str:
+        return " × ".join(f"[{a:g}, {b:g}]" for a, b in zip(self.lower, self.upper))
+
+
+@dataclass(frozen=True)
+class ZeroTest:
+    """Whether a scalar expression vanishes on a region, with its evidence.
+
+    Attributes
+    ----------
+    zero : bool
+        ``True`` if the expression vanishes on the region.
+    method : {"symbolic", "numeric"}
+        ``"symbolic"``: SymPy simplified it to ``0`` (a proof); ``"numeric"``:
+        decided by evaluation at ``points`` random points (``zero`` then means
+        "below tolerance at every point").
+    points : int
+        Number of finite evaluations made (0 for a symbolic proof).
+    witness : tuple of float or None
+        A point where the expression is largest in magnitude (``None`` when proven zero).
+    value : float or None
+        The expression's value at ``witness``.
+    """
+
+    zero: bool
+    method: Literal["symbolic", "numeric"]
+    points: int
+    witness: tuple[float, ...] | None
+    value: float | None
+
+    def describe(self) -> str:
+        if self.method == "symbolic":
+            return "≡ 0 (symbolic)"
+        if self.zero:
+            return f"= 0 at {self.points} sampled points (numeric)"
+        pt = ", ".join(f"{v:.4g}" for v in (self.witness or ()))
+        return f"≠ 0, e.g. {self.value:.4g} at x = ({pt})"
+
+
+def vanishes_on(
+    expr: sp.Expr,
+    x: Sequence[sp.Symbol],
+    region: Box,
+    *,
+    samples: int = 64,
+    seed: int = 0,
+    atol: float = 1e-9,
+) -> ZeroTest:
+    """Decide whether ``expr`` vanishes on ``region`` (symbolic test, then random points).
+
+    A nonzero value at one sampled point proves the expression is not identically
+    zero; no nonzero value at ``samples`` points is reported as a numeric verdict.
+    """
+    if region.n != len(x):
+        raise InvalidArgumentError(f"region has dimension {region.n}, the model {len(x)}")
+    if expr == 0:
+        return ZeroTest(True, "symbolic", 0, None, None)
+    if sp.count_ops(expr) <= SIMPLIFY_OPS_LIMIT and sp.simplify(expr) == 0:
+        return ZeroTest(True, "symbolic", 0, None, None)
+    fn = compile_matrix(sp.Matrix([expr]), (tuple(x),), vector=True, what="zero test")
+    pts = region.sample(samples, seed)
+    with np.errstate(all="ignore"):
+        vals = fn(pts)[:, 0]
+    ok = np.isfinite(vals)
+    if not np.any(ok):
+        return ZeroTest(True, "numeric", 0, None, None)
+    mag = np.where(ok, np.abs(vals), -1.0)
+    i = int(np.argmax(mag))
+    if mag[i] <= atol:
+        return ZeroTest(True, "numeric", int(ok.sum()), None, None)
+    return ZeroTest(False, "numeric", int(ok.sum()), tuple(float(v) for v in pts[i]), float(vals[i]))
