@@ -3,9 +3,9 @@
 For a linear model, the structural properties and norms of
 :func:`nlobs.linear.analyze_linear`. For a nonlinear model, its dimensions and
 form, and the same linear analysis of its Jacobian linearisation at an
-operating point (the origin by default), clearly labelled as *local*. The
-symbolic (Lie-derivative) analyses of nonlinear models are added by the
-geometry layer.
+operating point (the origin by default), clearly labelled as *local*, and for
+a continuous-time input-affine model the symbolic (Lie-derivative) analyses of
+seeds 002/003 on a region (:func:`nlobs.geometry.report.geometry_report`).
 """
 
 from __future__ import annotations
@@ -18,7 +18,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nlobs._validate import as_vector
-from nlobs.errors import DimensionError, NonFiniteError
+from nlobs.errors import DimensionError, ModelError, NonFiniteError
+from nlobs.geometry.region import Box
+from nlobs.geometry.report import GeometryReport, geometry_report
 from nlobs.linear import LinearReport, analyze_linear
 from nlobs.systems.linear import LinearSystem
 from nlobs.systems.symbolic import SymbolicModel
@@ -66,6 +68,8 @@ class NonlinearReport:
     operating_point: tuple[tuple[float, ...], tuple[float, ...]]
     linearization: LinearReport | None
     linearization_error: str | None
+    geometry: GeometryReport | None = None
+    geometry_error: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable dict with stable keys (documented in the README)."""
@@ -92,6 +96,10 @@ class NonlinearReport:
                 **self.linearization.to_dict(),
             },
             "linearization_error": self.linearization_error,
+            **(self.geometry.to_dict() if self.geometry is not None else {
+                "observation_relative_degree": None, "observability_rank": None, "involutive": None,
+                "pinv_gain": None}),
+            "geometry_error": self.geometry_error,
         }
 
     def to_text(self) -> str:
@@ -114,6 +122,10 @@ class NonlinearReport:
             lines.extend("  " + ln for ln in self.linearization.to_text().splitlines())
         else:
             lines.append(f"linearisation at x0={list(x0)}: not available ({self.linearization_error})")
+        if self.geometry is not None:
+            lines.append(self.geometry.to_text())
+        elif self.geometry_error:
+            lines.append(f"differential geometry: not available ({self.geometry_error})")
         return "\n".join(lines)
 
 
@@ -122,6 +134,7 @@ def analyze(
     *,
     x0: Sequence[float] | None = None,
     u0: Sequence[float] | None = None,
+    region: Box | None = None,
 ) -> LinearReport | NonlinearReport:
     """Analyse a model as ``nlobs analyze`` does.
 
@@ -130,10 +143,12 @@ def analyze(
     model : SymbolicModel or LinearSystem
     x0, u0 : sequence of float, optional
         Operating point of the linearisation of a nonlinear model (default: origin).
+    region : Box, optional
+        Region of the symbolic analyses of a nonlinear model (default ``[−1, 1]ⁿ``).
     """
     if isinstance(model, LinearSystem):
-        if x0 is not None or u0 is not None:
-            raise DimensionError("x0/u0 are only used for nonlinear models")
+        if x0 is not None or u0 is not None or region is not None:
+            raise DimensionError("x0/u0/region are only used for nonlinear models")
         return analyze_linear(model)
     x = tuple(float(v) for v in (np.zeros(model.n) if x0 is None else as_vector("x0", x0, model.n)))
     u = tuple(float(v) for v in (np.zeros(model.m) if u0 is None else as_vector("u0", u0, model.m)))
@@ -143,6 +158,12 @@ def analyze(
         lin = analyze_linear(linearize(model, x, u))
     except NonFiniteError as exc:
         err = str(exc)
+    geo: GeometryReport | None = None
+    geo_err: str | None = None
+    try:
+        geo = geometry_report(model, region)
+    except ModelError as exc:
+        geo_err = str(exc)
     return NonlinearReport(
         name=model.name,
         time=str(model.time).split(" ")[0],
@@ -157,4 +178,6 @@ def analyze(
         operating_point=(x, u),
         linearization=lin,
         linearization_error=err,
+        geometry=geo,
+        geometry_error=geo_err,
     )

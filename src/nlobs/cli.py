@@ -20,6 +20,7 @@ from rich.console import Console
 from nlobs import __version__
 from nlobs.analysis import analyze
 from nlobs.errors import ModelFileError, NlobsError
+from nlobs.geometry.region import Box
 from nlobs.systems.modelfile import Model, load_model
 
 app = typer.Typer(
@@ -77,6 +78,18 @@ def _floats(option: str, text: str | None) -> list[float] | None:
     return vals
 
 
+def _box(option: str, text: str, n: int) -> Box:
+    vals = _floats(option, text) or []
+    if len(vals) == 2:
+        vals = vals * n
+    if len(vals) != 2 * n:
+        _fail(f"{option}: expected 'lo,hi' or {2 * n} numbers lo1,hi1,...; got {len(vals)} numbers")
+    try:
+        return Box(np.array(vals[0::2]), np.array(vals[1::2]))
+    except NlobsError as exc:
+        _fail(f"{option}: {exc}")
+
+
 def _jsonable(obj: Any) -> Any:
     if isinstance(obj, dict):
         return {str(k): _jsonable(v) for k, v in obj.items()}
@@ -99,11 +112,15 @@ def analyze_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON report.")] = False,
     x0: Annotated[str | None, typer.Option(help="Linearisation point of a nonlinear model, e.g. '0,1,0,0'.")] = None,
     u0: Annotated[str | None, typer.Option(help="Input at the linearisation point.")] = None,
+    box: Annotated[str | None, typer.Option(
+        help="Region of the symbolic analyses of a nonlinear model: 'lo,hi' for every state, or 2n numbers "
+             "lo1,hi1,lo2,hi2,... (default -1,1).")] = None,
 ) -> None:
     """Report a model's dimensions, structural properties and norms."""
     m = _load(model)
     try:
-        report = analyze(m, x0=_floats("--x0", x0), u0=_floats("--u0", u0))
+        region = _box("--box", box, m.n) if box is not None else None
+        report = analyze(m, x0=_floats("--x0", x0), u0=_floats("--u0", u0), region=region)
     except NlobsError as exc:
         _fail(f"{model}: {exc}")
     if as_json:

@@ -124,7 +124,7 @@ def check_drift_observability(
         if det.is_number:
             holds = bool(det != 0)
             return Check("drift-observability", holds, "symbolic",
-                         f"det Q_s = {det_txt} (constant): Φ_s is {'a global' if holds else 'nowhere a'} local diffeomorphism",
+                         f"det Q_s = {det_txt} (constant): " + ("Q_s is nonsingular everywhere" if holds else "Q_s is singular everywhere"),
                          None, float(abs(det)), det_txt)
     pts = reg.sample(samples, seed)
     sv, _ = _min_singular(Q, fields.x, pts, "Q_s")

@@ -1,0 +1,150 @@
+"""The differential-geometric part of ``nlobs analyze`` for a nonlinear model.
+
+Per output the observation relative degree (seed 002 Def. 2.5 / seed 003 A1),
+the generic rank of the observability codistribution, whether ``Φ_s`` for the
+default multi-index is a local diffeomorphism at sampled points (and the worst
+point), A1 and A5 of seed 003, and the Moore–Penrose gain field ``Q⁺(x) k`` (17).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import sympy as sp
+
+from nlobs.errors import ModelError
+from nlobs.geometry.checks import (
+    Check,
+    check_a1,
+    check_drift_observability,
+    check_involutive,
+    default_multi_index,
+    observability_rank,
+)
+from nlobs.geometry.observability import AffineFields, observation_relative_degree, reduced_observability_matrix
+from nlobs.geometry.pinv import pinv_gain_field, symbolic_pinv
+from nlobs.geometry.region import Box
+from nlobs.systems.symbolic import SymbolicModel
+
+
+@dataclass(frozen=True)
+class GeometryReport:
+    """What the symbolic layer says about an input-affine model (see :func:`geometry_report`).
+
+    Attributes
+    ----------
+    region : Box
+    relative_degree : tuple of int or None
+        Observation relative degree per output (``None``: not defined on the region).
+    relative_degree_evidence : tuple of str
+        Per output, the zero test that decided it.
+    observability_rank : int
+        Generic rank of ``span{dL_f^k h_j : k < n}``.
+    multi_index : tuple of int
+        Default ``s`` (observability indices; ``Σ s_j`` is the generic rank).
+    drift : Check or None
+        Drift-observability for ``s`` (``None`` when ``Σ s_j < n``: not drift-observable).
+    a1, a5 : Check or None
+        Seed 003's A1 and A5 (``None`` when a relative degree is undefined).
+    pinv_gain : tuple of str or None
+        ``Q⁺(x) k`` with ``k = (k1, k2, …)``: one string per state (one output), or one
+        row of ``q`` strings per state (several outputs, ``K = blockdiag``).
+    notes : tuple of str
+    """
+
+    region: Box
+    relative_degree: tuple[int | None, ...]
+    relative_degree_evidence: tuple[str, ...]
+    observability_rank: int
+    multi_index: tuple[int, ...]
+    drift: Check | None
+    a1: Check | None
+    a5: Check | None
+    pinv_gain: tuple[Any, ...] | None
+    outputs: tuple[str, ...]
+    states: tuple[str, ...]
+    notes: tuple[str, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON keys (stable, documented in the README)."""
+        return {
+            "region": {"lower": self.region.lower.tolist(), "upper": self.region.upper.tolist()},
+            "observation_relative_degree": list(self.relative_degree),
+            "relative_degree_evidence": list(self.relative_degree_evidence),
+            "observability_rank": self.observability_rank,
+            "multi_index": list(self.multi_index),
+            "drift_observable": None if self.drift is None else self.drift.holds,
+            "drift_observability": None if self.drift is None else self.drift.to_dict(),
+            "a1": None if self.a1 is None else self.a1.to_dict(),
+            "involutive": None if self.a5 is None else self.a5.holds,
+            "a5": None if self.a5 is None else self.a5.to_dict(),
+            "pinv_gain": None if self.pinv_gain is None else [list(v) if isinstance(v, tuple) else v for v in self.pinv_gain],
+            "notes": list(self.notes),
+        }
+
+    def to_text(self) -> str:
+        n = len(self.states)
+        lines = [f"differential geometry on {self.region.describe()} (seeds 002, 003):"]
+        for o, r, ev in zip(self.outputs, self.relative_degree, self.relative_degree_evidence):
+            lines.append(f"  observation relative degree of {o}: {'undefined' if r is None else r}   ({ev})")
+        lines.append(f"  observability codistribution: generic rank {self.observability_rank} of n = {n}")
+        lines.append(f"  default multi-index s = {list(self.multi_index)}")
+        if self.drift is None:
+            lines.append("  drift-observable: no (the codistribution has rank < n, no Φ_s is a diffeomorphism)")
+        else:
+            lines.append(f"  drift-observable (Φ_s local diffeomorphism): {'yes' if self.drift.holds else 'NO'} — {self.drift.evidence}")
+        for c in (self.a1, self.a5):
+            if c is not None:
+                lines.append(f"  {c.name}: {'holds' if c.holds else 'FAILS'} — {c.evidence}")
+        if self.pinv_gain is not None:
+            lines.append("  Moore–Penrose gain l(x) = Q⁺(x) k (seed 003 (17)):")
+            for s, e in zip(self.states, self.pinv_gain):
+                lines.append(f"    l_{s} = {e if not isinstance(e, tuple) else ', '.join(e)}")
+        lines.extend(f"  note: {t}" for t in self.notes)
+        return "\n".join(lines)
+
+
+def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: int = 0) -> GeometryReport:
+    """Run the symbolic analyses of seeds 002/003 on a continuous-time input-affine model.
+
+    Raises
+    ------
+    ModelError
+        If the model is not continuous-time input-affine with an input-free output.
+    """
+    fields = AffineFields.from_model(model)
+    reg = region or Box.unit(fields.n)
+    if reg.n != fields.n:
+        raise ModelError(f"{model.name}: region has dimension {reg.n}, the model {fields.n}")
+    rd = observation_relative_degree(fields, reg, seed=seed)
+    evidence = []
+    for r, tests in zip(rd.r, rd.tests):
+        last = tests[-1] if tests else None
+        if r is None:
+            evidence.append(f"L_g L_f^k h = 0 for k < {rd.max_order} on the region")
+        else:
+            evidence.append(f"L_g L_f^{r - 1} h {last.describe() if last else ''}")
+    rank = observability_rank(fields, reg, seed=seed)
+    s = default_multi_index(fields, reg, seed=seed)
+    notes: list[str] = []
+    drift = check_drift_observability(fields, s, reg, seed=seed) if sum(s) == fields.n else None
+    a1 = a5 = None
+    gain: tuple[Any, ...] | None = None
+    if all(r is not None for r in rd.r):
+        r_ = rd.require(fields.outputs)
+        a1 = check_a1(fields, r_, reg, seed=seed)
+        if sum(r_) > fields.n:
+            notes.append(f"Σ r_j = {sum(r_)} > n: seed 003's decomposition needs Σ r_j ≤ n")
+        elif a1.holds:
+            Qp = symbolic_pinv(reduced_observability_matrix(fields, r_))
+            a5 = check_involutive(fields, r_, reg, Qp=Qp, seed=seed)
+            field_ = pinv_gain_field(Qp, r_)
+            if fields.q == 1:
+                gain = tuple(str(sp.factor(e)) if e.is_rational_function() else str(e) for e in field_[:, 0])
+            else:
+                gain = tuple(tuple(str(e) for e in field_.row(i)) for i in range(fields.n))
+    else:
+        notes.append("a relative degree is undefined on the region: seed 003's gain Q⁺k is not available")
+    return GeometryReport(reg, rd.r, tuple(evidence), rank, s, drift, a1, a5, gain, fields.outputs, fields.states,
+                          tuple(notes))
