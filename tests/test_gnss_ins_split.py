@@ -6,10 +6,12 @@ Reference: the same observer (24) integrated by RK4 with many substeps per IMU p
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
-from nlobs.errors import InvalidArgumentError
+from nlobs.errors import DimensionError, InvalidArgumentError
 from nlobs.navigation.base import GnssSample, ImuSample
 from nlobs.navigation.gains import PAPER_GAMMA, paper_gains
 from nlobs.navigation.gnss_ins import GnssInsObserver
@@ -157,3 +159,76 @@ def test_magnetometer_parallel_to_specific_force_is_handled():
     assert np.all(np.isfinite(nxt.R))
     np.testing.assert_allclose(nxt.R, ref.R, atol=1e-6)
     np.testing.assert_allclose(nxt.p, ref.p, atol=1e-9)
+    # the single-flight state goes through the scalar kernel; the batched path handles the case alike
+    bat = GnssInsObserver.paper([0.0, 0.0, 1.0], [0.0, 0.0, 9.8], kernel="batched").propagate(st, imu, 0.01)
+    np.testing.assert_allclose(nxt.R, bat.R, rtol=0.0, atol=1e-15)
+    np.testing.assert_allclose(nxt.xi, bat.xi, rtol=0.0, atol=1e-14)
+
+
+# ------------------------------------------------------------ fused single-flight kernel
+KERNEL_CASES = {
+    "predict": {},
+    "hold": {"intersample": "hold"},
+    "position_only_predict": {"position_only": True},
+    "position_only_hold": {"position_only": True, "intersample": "hold"},
+    "nondiagonal_gamma": {"gamma": "rotated"},
+    "coupled_K": {"K": "coupled"},  # Φ couples the axes: the kernel's dense fallback
+}
+
+
+@pytest.mark.parametrize("case", sorted(KERNEL_CASES))
+def test_scalar_kernel_equals_the_batched_path_on_a_noisy_flight(flight, case):
+    kw = dict(KERNEL_CASES[case])
+    po = kw.get("position_only", False)
+    K = paper_gains(po).copy()
+    if kw.pop("K", None) == "coupled":
+        K[0, 1] += 0.3
+        K[4, 2] -= 0.2
+    G = PAPER_GAMMA
+    if kw.pop("gamma", None) == "rotated":
+        Q = exp_so3(np.array([0.4, -0.7, 0.2]))
+        G = Q @ PAPER_GAMMA @ Q.T
+    traj = traffic_pattern(seed=2, duration=20.0).sample(100.0)
+    data = generate_sensors(traj, imu_rate_hz=100.0, gnss_rate_hz=5.0, noise=NOISE, seed=4, position_only=po)
+    data = drop_fixes(data, [0, 1, 7])  # open loop for 0.4 s, then a gap
+    R0 = traj.R[0] @ exp_so3(np.array([0.1, -0.1, 1.0]))
+    runs = {k: run_navigation(GnssInsObserver(K, G, flight.m_n, flight.g_n, kernel=k, **kw), data,
+                              traj.p[0] + 4.0, traj.v[0] - 1.0, R0)
+            for k in ("batched", "scalar", "auto")}
+    b, s = runs["batched"], runs["scalar"]
+    scale = np.abs(b.p_hat).max()
+    np.testing.assert_allclose(s.p_hat, b.p_hat, rtol=0.0, atol=1e-12 * scale)
+    np.testing.assert_allclose(s.v_hat, b.v_hat, rtol=0.0, atol=1e-12 * scale)
+    np.testing.assert_allclose(s.R_raw, b.R_raw, rtol=0.0, atol=1e-12)
+    np.testing.assert_allclose(s.z_hat, b.z_hat, rtol=0.0, atol=1e-12 * np.abs(b.z_hat).max())
+    np.testing.assert_allclose(s.R_hat, b.R_hat, rtol=0.0, atol=1e-12)
+    assert s.attitude_error_deg()[-1] < 5.0  # a real segment: converged from 58°
+    # "auto" takes the scalar kernel for one flight: identical arithmetic
+    np.testing.assert_array_equal(runs["auto"].R_raw, s.R_raw)
+    np.testing.assert_array_equal(runs["auto"].p_hat, s.p_hat)
+
+
+def test_scalar_kernel_keeps_a_batch_axis_of_size_one_and_refuses_larger_batches(flight):
+    traj = traffic_pattern(seed=1, duration=2.0).sample(100.0)
+    data = generate_sensors(traj, imu_rate_hz=100.0, gnss_rate_hz=5.0, noise=NOISE, seed=9, batch=2)
+    one = dataclasses.replace(data, omega_b=data.omega_b[:1], a_b=data.a_b[:1], m_b=data.m_b[:1],
+                              p_gnss=data.p_gnss[:1], v_gnss=data.v_gnss[:1])
+    R0 = traj.R[0] @ rot_z(0.5)
+    b = run_navigation(GnssInsObserver(paper_gains(), PAPER_GAMMA, flight.m_n, flight.g_n, kernel="batched"),
+                       one, traj.p[0], traj.v[0], R0)
+    s = run_navigation(GnssInsObserver(paper_gains(), PAPER_GAMMA, flight.m_n, flight.g_n, kernel="scalar"),
+                       one, traj.p[0], traj.v[0], R0)
+    assert s.batch_shape == b.batch_shape == (1,)
+    np.testing.assert_allclose(s.p_hat, b.p_hat, rtol=0.0, atol=1e-12 * np.abs(b.p_hat).max())
+    np.testing.assert_allclose(s.R_raw, b.R_raw, rtol=0.0, atol=1e-13)
+    scalar = GnssInsObserver(paper_gains(), PAPER_GAMMA, flight.m_n, flight.g_n, kernel="scalar")
+    with pytest.raises(DimensionError, match="single flight"):
+        run_navigation(scalar, data, traj.p[0], traj.v[0], R0)
+
+
+def test_kernel_option_is_validated(flight):
+    with pytest.raises(InvalidArgumentError, match="kernel"):
+        GnssInsObserver(paper_gains(), PAPER_GAMMA, flight.m_n, flight.g_n, kernel="numba")
+    with pytest.raises(InvalidArgumentError, match="kernel"):
+        GnssInsObserver(paper_gains(), PAPER_GAMMA, flight.m_n, flight.g_n, integrator="rk4", kernel="scalar")
+    assert GnssInsObserver.paper(flight.m_n, flight.g_n).kernel == "auto"
