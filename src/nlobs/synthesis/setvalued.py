@@ -1,0 +1,576 @@
+r"""Sound gain design for the set-valued unknown-input observer of seed 004 (Khajenejad & Yong).
+
+The error dynamics (16) of the observer (10)-(15), with ``f = A x + φ`` and
+the gains of Lemma 5.1, is (derived in ``docs/setvalued.md``)
+
+.. math::
+
+    \tilde x_k = \Xi(\tilde L)\,[\zeta;\ \pi;\ \omega], \qquad
+    \Xi(\tilde L) = \Xi_0 - \tilde L\,\Xi_c,
+
+with ``ζ = x̃_{k−1}``, ``π = φ(x_{k−1}) − φ(x̂_{k−1})``,
+``ω = (v_{k−1}, w_{k−1}, v_k)``,
+``Ξ₀ = [Φ(A − Ψ), Φ, −ΦG₁M₁T₁, ΦW, −G₂M₂T₂]`` and ``Ξ_c = C₂Ξ₀ + [0, 0, 0, 0, T₂]``.
+
+With ``V = x̃ᵀPx̃`` and the multiplier ``(M, γ)`` of the class of ``φ``, the
+S-procedure condition
+
+.. math::
+
+    \Xi^\top P\,\Xi + \mathrm{diag}(qI - \lambda P,\ 0,\ -\Theta) + \kappa \hat M \preceq 0
+    \qquad (\star)
+
+gives ``V_k ≤ λ V_{k−1} − q‖x̃_{k−1}‖² + ωᵀΘω − κγ`` for every admissible
+``π``. A Schur complement makes (⋆) an LMI in ``(P, Y = P L̃, κ, Θ)`` for fixed
+``λ``:
+
+.. math::
+
+    \begin{bmatrix} -P & P\Xi_0 - Y\Xi_c \\ \star & \mathrm{diag}(qI-\lambda P, 0, -\Theta) + \kappa\hat M \end{bmatrix}
+    \preceq -\varepsilon I.
+
+Two objectives:
+
+* ``"radius"`` (default): ``q = 0``, ``Θ = diag(θ₁I, θ_wI, θ₂I)``, ``P ⪰ I``;
+  minimise the steady-state bound ``c/(1 − λ)`` on ``V`` with
+  ``c = (θ₁ + θ₂)η_v² + θ_wη_w² − κγ``; ``λ`` is found by bisection (smallest
+  feasible) and a golden-section search, on one problem compiled with
+  ``cp.Parameter``.
+* ``"hinf"``: ``q = 1``, ``λ = 1``, ``Θ = ρ² diag(I/2, I, I/2)`` — the
+  ℓ₂-gain bound of Definition 5.9 / Theorem 5.10 (needs ``γ ≥ 0``);
+  minimise ``ρ²``.
+
+For :class:`~nlobs.systems.discrete_ui.LPV` the condition is imposed at each
+vertex ``π = Aᵢζ`` (polytopic, no multiplier).
+
+Every design is re-verified without the solver: ``P ≻ 0``; the exact condition
+(⋆) recomputed from the returned ``P``, ``L̃``, ``κ``, ``Θ``; the spectral
+radius of every linear member ``(I − L̃C₂)Φ(A + K − Ψ)`` of the class against
+``√λ``; and, for ``"hinf"``, the H∞ norm of those linear instances by
+:func:`nlobs.linear.norms.hinf_norm` against ``ρ``. A failed check raises
+:class:`~nlobs.errors.CertificateError`.
+
+The paper's printed LMIs (18), (26)-(28) are *not* implemented as a design here:
+they are not sufficient (``../shared/guide/facts.md``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+import cvxpy as cp
+import numpy as np
+from numpy.typing import NDArray
+
+from nlobs._validate import in_range, positive
+from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
+from nlobs.linear.norms import hinf_norm
+from nlobs.linear.transform_ui import StructuralCheck, UITransform, require_structure, structural_check, ui_transform
+from nlobs.synthesis.certificate import Check, CheckKind
+from nlobs.synthesis.lmi import Solver, as_enum, as_solver, max_eig, solve
+from nlobs.systems.discrete_ui import LPV, DiscreteUISystem
+
+__all__ = [
+    "SetValuedObjective",
+    "ErrorDynamics",
+    "SetValuedDesign",
+    "error_dynamics",
+    "design_setvalued",
+    "verify_setvalued",
+]
+
+Array = NDArray[np.float64]
+
+
+class SetValuedObjective(str, Enum):
+    """What :func:`design_setvalued` optimises."""
+
+    RADIUS = "radius"
+    """Smallest steady-state bound on ``V`` (hence on the radius), with a line search over ``λ``."""
+    HINF = "hinf"
+    """Smallest ℓ₂ gain ``ρ`` from the noises to the error (Definition 5.9)."""
+
+
+@dataclass(frozen=True)
+class ErrorDynamics:
+    r"""Matrices of the error dynamics (16) in the split form used for the design.
+
+    ``x̃_k = (Ξ₀ − L̃ Ξ_c) [ζ; π; ω]`` with ``ω = (v_{k−1}, w_{k−1}, v_k)``.
+
+    Attributes
+    ----------
+    Xi0 : ndarray, shape (n, 2n + 2l + n_w)
+    Xic : ndarray, shape (l − p_H, 2n + 2l + n_w)
+    n, l, n_w : int
+    transform : UITransform
+    """
+
+    Xi0: Array
+    Xic: Array
+    n: int
+    l: int  # noqa: E741
+    n_w: int
+    transform: UITransform
+
+    def closed_loop(self, L_tilde: Array) -> Array:
+        """``Ξ(L̃) = Ξ₀ − L̃ Ξ_c``."""
+        return self.Xi0 - L_tilde @ self.Xic
+
+    def split(self, L_tilde: Array) -> tuple[Array, Array, Array]:
+        """``(𝒜, ℬ, ℰ)``: the ``ζ``, ``π`` and ``ω`` columns of ``Ξ(L̃)``."""
+        X = self.closed_loop(L_tilde)
+        n = self.n
+        return X[:, :n], X[:, n:2 * n], X[:, 2 * n:]
+
+
+def error_dynamics(system: DiscreteUISystem, transform: UITransform | None = None) -> ErrorDynamics:
+    """Build ``Ξ₀`` and ``Ξ_c`` of the error dynamics (16) for ``system`` (see module docstring)."""
+    tr = ui_transform(system.G, system.C, system.H, system.D) if transform is None else transform
+    n, l, nw = system.n, system.l, system.n_w
+    Phi, Psi = tr.Phi, tr.Psi
+    Xi0 = np.hstack([Phi @ (system.A - Psi), Phi, -Phi @ tr.G1 @ tr.M1 @ tr.T1, Phi @ system.W,
+                     -tr.G2 @ tr.M2 @ tr.T2])
+    q = tr.C2.shape[0]
+    Xi1 = np.hstack([np.zeros((q, 2 * n + l + nw)), tr.T2])
+    Xic = tr.C2 @ Xi0 + Xi1
+    return ErrorDynamics(Xi0, Xic, n, l, nw, tr)
+
+
+@dataclass(frozen=True, eq=False)
+class SetValuedDesign:
+    r"""A verified gain ``L̃`` for the observer (10)-(15) with its Lyapunov certificate.
+
+    Attributes
+    ----------
+    objective : SetValuedObjective
+    L_tilde : ndarray, shape (n, l − p_H)
+        Measurement-update gain of (15) (``L = L̃ U₂ᵀ``).
+    P : ndarray, shape (n, n)
+        Lyapunov matrix.
+    kappa : float
+        S-procedure multiplier weight (``0`` for LPV vertices).
+    lam : float
+        Contraction factor ``λ`` of (⋆) (``1`` for ``"hinf"``).
+    q : float
+        Weight of ``‖x̃‖²`` in (⋆) (``1`` for ``"hinf"``, else ``0``).
+    theta : tuple of float
+        ``(θ₁, θ_w, θ₂)``, the noise weights ``Θ``.
+    rho : float or None
+        ℓ₂-gain bound ``ρ`` (``"hinf"`` only).
+    lam_eff : float
+        ``V_k ≤ lam_eff V_{k−1} + c`` (``λ − q/λ_max(P)``).
+    c : float
+        ``(θ₁ + θ₂)η_v² + θ_wη_w² − κγ``, the per-step increment bound of ``V``.
+    steady_radius : float
+        ``√(c / ((1 − lam_eff) λ_min(P)))``, the limit of the Lyapunov radius bound.
+    spectral_radii : tuple of float
+        Of ``(I − L̃C₂)Φ(A + K − Ψ)`` for the class's linear members ``K``.
+    hinf_linear : tuple of float
+        H∞ norms (scaled noise → error) of those linear instances.
+    checks : tuple of Check
+        Independent re-verification.
+    dynamics : ErrorDynamics
+    structure : StructuralCheck
+    solver : Solver
+    solver_status : str
+    margin : float
+    seconds : float
+    solves : int
+        Number of SDP solves (one compiled problem).
+    """
+
+    objective: SetValuedObjective
+    L_tilde: Array
+    P: Array
+    kappa: float
+    lam: float
+    q: float
+    theta: tuple[float, float, float]
+    rho: float | None
+    lam_eff: float
+    c: float
+    steady_radius: float
+    spectral_radii: tuple[float, ...]
+    hinf_linear: tuple[float, ...]
+    checks: tuple[Check, ...]
+    dynamics: ErrorDynamics
+    structure: StructuralCheck
+    solver: Solver
+    solver_status: str
+    margin: float
+    seconds: float
+    solves: int
+
+    @property
+    def verified(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+    @property
+    def transform(self) -> UITransform:
+        return self.dynamics.transform
+
+    def summary(self) -> str:
+        """Multi-line report of the design and its checks."""
+        lines = [
+            f"set-valued observer design ({self.objective.value}), solver {self.solver.value} "
+            f"({self.solver_status}), {self.solves} solves, {self.seconds:.2f} s",
+            f"  L~ = {np.array2string(self.L_tilde.ravel(), precision=5)}",
+            f"  λ = {self.lam:.6g}, λ_eff = {self.lam_eff:.6g}, κ = {self.kappa:.4g}, c = {self.c:.4g}, "
+            f"steady radius ≤ {self.steady_radius:.5g}" + (f", ρ = {self.rho:.5g}" if self.rho is not None else ""),
+            "  spectral radii of linear members: " + ", ".join(f"{r:.5g}" for r in self.spectral_radii),
+        ]
+        lines += ["  " + c.describe() for c in self.checks]
+        return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------- problem
+
+
+def _scenarios(system: DiscreteUISystem, dyn: ErrorDynamics) -> list[tuple[Array, Array, Array | None]]:
+    """``(Ξ₀, Ξ_c, M̂)`` per scenario: one with ``π`` and the multiplier, or one per LPV vertex."""
+    n = dyn.n
+    fc = system.function_class
+    if isinstance(fc, LPV):
+        out = []
+        for Ai in fc.constituents:
+            # substitute π = Aᵢ ζ: the ζ columns become Ξ[:, :n] + Ξ[:, n:2n] Aᵢ, π columns dropped
+            def sub(X: Array, Ai: Array = Ai) -> Array:
+                return np.hstack([X[:, :n] + X[:, n:2 * n] @ Ai, X[:, 2 * n:]])
+            out.append((sub(dyn.Xi0), sub(dyn.Xic), None))
+        return out
+    M, _ = fc.multiplier()
+    M11, M12, M22 = M[:n, :n], M[:n, n:], M[n:, n:]
+    N = dyn.Xi0.shape[1]
+    Mh = np.zeros((N, N))
+    Mh[:n, :n] = M22
+    Mh[:n, n:2 * n] = M12.T
+    Mh[n:2 * n, :n] = M12
+    Mh[n:2 * n, n:2 * n] = M11
+    return [(dyn.Xi0, dyn.Xic, Mh)]
+
+
+@dataclass
+class _Problem:
+    prob: cp.Problem
+    lam: cp.Parameter
+    P: cp.Variable
+    Y: cp.Variable | None
+    kappa: cp.Variable
+    th: cp.Variable
+    obj_kind: SetValuedObjective
+
+
+def _theta_diag(th: Any, l: int, nw: int) -> Any:  # noqa: E741
+    return cp.diag(cp.hstack([th[0] * np.ones(l), th[1] * np.ones(nw), th[2] * np.ones(l)]))
+
+
+def _build(system: DiscreteUISystem, dyn: ErrorDynamics, obj: SetValuedObjective, margin: float) -> _Problem:
+    n, l, nw = dyn.n, dyn.l, dyn.n_w
+    qdim = dyn.Xic.shape[0]
+    P = cp.Variable((n, n), symmetric=True)
+    Y = cp.Variable((n, qdim)) if qdim else None
+    kappa = cp.Variable(nonneg=True)
+    th = cp.Variable(3, nonneg=True)
+    lam = cp.Parameter(nonneg=True, value=0.5)
+    gamma = system.function_class.gamma
+    cons = []
+    for Xi0, Xic, Mh in _scenarios(system, dyn):
+        N = Xi0.shape[1]
+        top = P @ Xi0 - (Y @ Xic if Y is not None else 0)
+        nz = N - 2 * l - nw  # n (ζ) [+ n (π)]
+        if obj is SetValuedObjective.HINF:
+            Sz = P - np.eye(n)  # q = 1, λ = 1
+            Th = cp.diag(cp.hstack([th[0] * np.ones(l), th[1] * np.ones(nw), th[0] * np.ones(l)]))
+        else:
+            Sz = lam * P
+            Th = _theta_diag(th, l, nw)
+        S = cp.bmat([[-Sz, np.zeros((n, nz - n)), np.zeros((n, N - nz))],
+                     [np.zeros((nz - n, n)), np.zeros((nz - n, nz - n)), np.zeros((nz - n, N - nz))],
+                     [np.zeros((N - nz, n)), np.zeros((N - nz, nz - n)), -Th]]) if nz > n else cp.bmat(
+            [[-Sz, np.zeros((n, N - n))], [np.zeros((N - n, n)), -Th]])
+        if Mh is not None:
+            S = S + kappa * Mh
+        F = cp.bmat([[-P, top], [top.T, S]])
+        F = (F + F.T) / 2
+        cons.append(F << -margin * np.eye(n + N))
+    if obj is SetValuedObjective.HINF:
+        cons.append(P >> margin * np.eye(n))
+        cons.append(th[1] == 2 * th[0])  # Θ = ρ² diag(I/2, I, I/2): th[1] = ρ², th[0] = ρ²/2
+        cons.append(th[2] == th[0])
+        objective = cp.Minimize(th[1])
+    else:
+        cons.append(P >> np.eye(n))
+        ev = max(system.eta_v, 1e-3 * max(system.eta_v, system.eta_w, 1.0))
+        ew = max(system.eta_w, 1e-3 * max(system.eta_v, system.eta_w, 1.0))
+        reg = 1e-9 * cp.trace(P)
+        objective = cp.Minimize((th[0] + th[2]) * ev**2 + th[1] * ew**2 - kappa * min(gamma, 0.0) + reg)
+    if isinstance(system.function_class, LPV):
+        cons.append(kappa == 0)
+    return _Problem(cp.Problem(objective, cons), lam, P, Y, kappa, th, obj)
+
+
+@dataclass
+class _Sol:
+    P: Array
+    L: Array
+    kappa: float
+    theta: tuple[float, float, float]
+    lam: float
+    status: str
+
+
+def _solve_at(pb: _Problem, lam: float, solver: Solver, options: Mapping[str, Any] | None,
+              qdim: int, n: int) -> _Sol | None:
+    pb.lam.value = lam
+    res = solve(pb.prob, solver, options)
+    if not res.status.has_solution or pb.P.value is None:
+        return None
+    P = 0.5 * (pb.P.value + pb.P.value.T)
+    try:
+        L = np.linalg.solve(P, pb.Y.value) if pb.Y is not None else np.zeros((n, 0))
+    except np.linalg.LinAlgError:
+        return None
+    th = tuple(float(max(t, 0.0)) for t in pb.th.value)
+    return _Sol(P, L, float(max(pb.kappa.value, 0.0)), th, lam, res.raw_status)  # type: ignore[arg-type]
+
+
+# --------------------------------------------------------------------------- verification
+
+
+def _condition(system: DiscreteUISystem, dyn: ErrorDynamics, P: Array, L: Array, kappa: float, lam: float,
+               q: float, theta: tuple[float, float, float]) -> list[Array]:
+    """The exact matrices of (⋆) recomputed from ``(P, L̃, κ, λ, Θ)``, one per scenario (must be ⪯ 0)."""
+    n, l, nw = dyn.n, dyn.l, dyn.n_w
+    out = []
+    Thd = np.concatenate([np.full(l, theta[0]), np.full(nw, theta[1]), np.full(l, theta[2])])
+    for Xi0, Xic, Mh in _scenarios(system, dyn):
+        Xi = Xi0 - L @ Xic
+        N = Xi.shape[1]
+        S = np.zeros((N, N))
+        S[:n, :n] = q * np.eye(n) - lam * P
+        S[N - Thd.size:, N - Thd.size:] -= np.diag(Thd)
+        if Mh is not None:
+            S = S + kappa * Mh
+        out.append(Xi.T @ P @ Xi + S)
+    return out
+
+
+def _linear_instances(system: DiscreteUISystem, dyn: ErrorDynamics, L: Array) -> list[tuple[Array, Array]]:
+    """``(𝒜 + ℬK, ℰ)`` for the class's linear members ``K`` whose QC value is ``≥ 0``."""
+    Acl, Bcl, E = dyn.split(L)
+    return [(Acl + Bcl @ K, E) for K in system.function_class.linear_members()]
+
+
+def _verify(system: DiscreteUISystem, dyn: ErrorDynamics, P: Array, L: Array, kappa: float, lam: float, q: float,
+            theta: tuple[float, float, float], rho: float | None) -> tuple[list[Check], float, float,
+                                                                           tuple[float, ...], tuple[float, ...]]:
+    checks: list[Check] = []
+    ev = np.linalg.eigvalsh(P)
+    checks.append(Check("P ≻ 0", CheckKind.POSITIVITY, -float(ev[0]), 0.0))
+    for i, Nm in enumerate(_condition(system, dyn, P, L, kappa, lam, q, theta)):
+        tol = 1e-9 * max(1.0, float(np.linalg.norm(Nm, 2)))
+        checks.append(Check(f"S-procedure condition (⋆) [{i}] (max eig)", CheckKind.LMI, max_eig(Nm), tol,
+                            strict=False))
+    lam_eff = lam - q / float(ev[-1])
+    nv, nw = system.eta_v, system.eta_w
+    c = (theta[0] + theta[2]) * nv**2 + theta[1] * nw**2 - kappa * system.function_class.gamma
+    c = max(c, 0.0)
+    radii, norms = [], []
+    scale = np.concatenate([np.full(dyn.l, math.sqrt(2.0)), np.ones(dyn.n_w), np.full(dyn.l, math.sqrt(2.0))])
+    for j, (Ak, E) in enumerate(_linear_instances(system, dyn, L)):
+        r = float(np.max(np.abs(np.linalg.eigvals(Ak))))
+        radii.append(r)
+        checks.append(Check(f"spectral radius of linear member {j} ≤ √λ_eff", CheckKind.SPECTRUM, r,
+                            math.sqrt(max(lam_eff, 0.0)) * (1 + 1e-7) + 1e-12, strict=False))
+        h = hinf_norm(Ak, E * scale, np.eye(dyn.n), np.zeros((dyn.n, E.shape[1])), discrete=True) if r < 1 else math.inf
+        norms.append(float(h))
+        if rho is not None:
+            checks.append(Check(f"H∞ norm of linear member {j} ≤ ρ", CheckKind.NORM, float(h), rho * (1 + 1e-7),
+                                strict=False))
+    return checks, lam_eff, c, tuple(radii), tuple(norms)
+
+
+# --------------------------------------------------------------------------- public API
+
+
+def _structure(system: DiscreteUISystem, tr: UITransform) -> StructuralCheck:
+    return structural_check(system.A, system.G, system.C, system.H,
+                            members=system.function_class.linear_members(), transform=tr)
+
+
+def design_setvalued(
+    system: DiscreteUISystem,
+    *,
+    objective: SetValuedObjective | str = SetValuedObjective.RADIUS,
+    lam: float | None = None,
+    solver: Solver | str = Solver.CLARABEL,
+    margin: float = 1e-7,
+    bisection_steps: int = 14,
+    golden_steps: int = 14,
+    solver_options: Mapping[str, Any] | None = None,
+) -> SetValuedDesign:
+    r"""Design and certify ``L̃`` for the observer (10)-(15) of seed 004 (sound replacement of Thms. 5.4/5.10).
+
+    Parameters
+    ----------
+    system : DiscreteUISystem
+        The model (8) with the class of its nonlinear part and the noise bounds.
+    objective : SetValuedObjective or str
+        ``"radius"`` (default): minimise the steady-state radius bound with a
+        search over ``λ`` (bisection for the smallest feasible ``λ``, then a
+        golden-section search of ``c(λ)/(1 − λ)``); ``"hinf"``: minimise the
+        ℓ₂ gain ``ρ`` (Definition 5.9), needs ``γ ≥ 0``.
+    lam : float, optional
+        Fix ``λ ∈ (0, 1)`` instead of searching (``"radius"`` only).
+    solver : Solver or str
+        Clarabel by default.
+    margin : float
+        Strictness margin ``ε`` of the LMI (``⪯ −εI``).
+    bisection_steps, golden_steps : int
+        Iterations of the two line searches.
+    solver_options : mapping, optional
+
+    Returns
+    -------
+    SetValuedDesign
+        Verified: every check passed.
+
+    Raises
+    ------
+    AssumptionViolated
+        Lemma 5.1's rank condition fails (``item="lemma_5_1_rank"``), or no
+        stable observer of this structure exists (``item="no_stable_observer"``:
+        a linear member of the class is not strongly detectable; the evidence
+        lists the offending invariant zeros and error modes).
+    DesignInfeasible
+        The LMI (⋆) has no solution for any ``λ < 1`` (``constraint="(⋆)"``).
+    CertificateError
+        The solver's answer failed the independent re-verification.
+    InvalidArgumentError
+        ``"hinf"`` with ``γ < 0`` (no finite ℓ₂ gain follows from the multiplier).
+    """
+    t0 = time.perf_counter()
+    obj = as_enum("objective", SetValuedObjective, objective)
+    slv = as_solver(solver)
+    eps = positive("margin", margin)
+    tr = ui_transform(system.G, system.C, system.H, system.D)
+    st = _structure(system, tr)
+    require_structure(st)
+    dyn = error_dynamics(system, tr)
+    gamma = system.function_class.gamma
+    if obj is SetValuedObjective.HINF and gamma < 0:
+        raise InvalidArgumentError(
+            f"objective: 'hinf' needs γ ≥ 0 (got γ = {gamma:g}); with γ < 0 the multiplier leaves a constant term "
+            "-κγ and no finite ℓ2 gain follows — use objective='radius'")
+    pb = _build(system, dyn, obj, eps)
+    n, qdim = dyn.n, dyn.Xic.shape[0]
+    solves = 0
+
+    def at(lv: float) -> _Sol | None:
+        nonlocal solves
+        solves += 1
+        return _solve_at(pb, lv, slv, solver_options, qdim, n)
+
+    if obj is SetValuedObjective.HINF:
+        sol = at(1.0)
+        if sol is None:
+            raise DesignInfeasible("the H∞ condition (⋆) with q = 1, λ = 1 is infeasible: no quadratic Lyapunov "
+                                   "function with this multiplier proves a finite ℓ2 gain", constraint="(⋆)")
+        rho = math.sqrt(sol.theta[1])
+        qq, lam_used = 1.0, 1.0
+    else:
+        rho, qq = None, 0.0
+        if lam is not None:
+            lv = in_range("lam", lam, 0.0, 1.0, lo_open=True)
+            sol = at(lv)
+            if sol is None:
+                raise DesignInfeasible(f"the LMI (⋆) is infeasible at λ = {lv:g}", constraint="(⋆)")
+        else:
+            hi_l = 1.0 - 1e-6
+            best = at(hi_l)
+            if best is None:
+                raise DesignInfeasible(
+                    "the LMI (⋆) is infeasible for every λ < 1: no quadratic Lyapunov function with the class's "
+                    "multiplier contracts the error dynamics (16); try a tighter class (smaller constants) or a "
+                    "Class 0 multiplier that describes φ better", constraint="(⋆)")
+            lo_l = 0.0
+            for _ in range(int(bisection_steps)):
+                mid = 0.5 * (lo_l + hi_l)
+                s = at(mid)
+                if s is None:
+                    lo_l = mid
+                else:
+                    hi_l, best = mid, s
+            lam_min = hi_l
+            cache: dict[float, tuple[float, _Sol | None]] = {}
+
+            def J(lv: float) -> float:
+                if lv not in cache:
+                    s = at(lv)
+                    val = math.inf if s is None else _cost(system, s) / (1.0 - lv)
+                    cache[lv] = (val, s)
+                return cache[lv][0]
+
+            a, b = lam_min, 1.0 - 1e-6
+            gr = (math.sqrt(5.0) - 1) / 2
+            x1, x2 = b - gr * (b - a), a + gr * (b - a)
+            for _ in range(int(golden_steps)):
+                if J(x1) <= J(x2):
+                    b, x2 = x2, x1
+                    x1 = b - gr * (b - a)
+                else:
+                    a, x1 = x1, x2
+                    x2 = a + gr * (b - a)
+            cands = [(v, s) for v, s in cache.values() if s is not None]
+            cands.append((_cost(system, best) / (1.0 - best.lam), best))
+            sol = min(cands, key=lambda t: t[0])[1]
+        lam_used = sol.lam
+    checks, lam_eff, c, radii, norms = _verify(system, dyn, sol.P, sol.L, sol.kappa, lam_used, qq, sol.theta, rho)
+    evP = np.linalg.eigvalsh(sol.P)
+    steady = math.sqrt(c / ((1.0 - lam_eff) * evP[0])) if lam_eff < 1 else math.inf
+    design = SetValuedDesign(
+        objective=obj, L_tilde=_ro(sol.L), P=_ro(sol.P), kappa=sol.kappa, lam=lam_used, q=qq, theta=sol.theta,
+        rho=rho, lam_eff=lam_eff, c=c, steady_radius=steady, spectral_radii=radii, hinf_linear=norms,
+        checks=tuple(checks), dynamics=dyn, structure=st, solver=slv, solver_status=sol.status, margin=eps,
+        seconds=time.perf_counter() - t0, solves=solves,
+    )
+    if not design.verified:
+        bad = "; ".join(c.describe() for c in checks if not c.passed)
+        raise CertificateError(f"the {slv.value} answer ('{sol.status}') failed the independent re-verification: {bad}")
+    return design
+
+
+def _cost(system: DiscreteUISystem, s: _Sol) -> float:
+    return max((s.theta[0] + s.theta[2]) * system.eta_v**2 + s.theta[1] * system.eta_w**2
+               - s.kappa * system.function_class.gamma, 0.0)
+
+
+def verify_setvalued(system: DiscreteUISystem, L_tilde: Any, P: Any, *, kappa: float, lam: float,
+                     theta: tuple[float, float, float], q: float = 0.0, rho: float | None = None,
+                     strict: bool = True) -> tuple[Check, ...]:
+    """Re-verify a given ``(L̃, P, κ, λ, Θ)`` against (⋆), the spectral radii and (with ``rho``) the H∞ norms.
+
+    Used to check published gains. Returns the checks; with ``strict`` raises
+    :class:`~nlobs.errors.CertificateError` when one fails.
+    """
+    tr = ui_transform(system.G, system.C, system.H, system.D)
+    dyn = error_dynamics(system, tr)
+    L = np.asarray(L_tilde, dtype=float).reshape(system.n, dyn.Xic.shape[0])
+    P_ = np.asarray(P, dtype=float)
+    checks, *_ = _verify(system, dyn, 0.5 * (P_ + P_.T), L, float(kappa), float(lam), float(q),
+                         tuple(float(t) for t in theta), rho)  # type: ignore[arg-type]
+    if strict and not all(c.passed for c in checks):
+        raise CertificateError("; ".join(c.describe() for c in checks if not c.passed))
+    return tuple(checks)
+
+
+def _ro(a: Array) -> Array:
+    out = np.array(a, dtype=float)
+    out.setflags(write=False)
+    return out
+

@@ -1,0 +1,115 @@
+"""Sound design of the seed-004 observer gain: error dynamics, certificate, failures."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nlobs.errors import AssumptionViolated, CertificateError, DesignInfeasible, InvalidArgumentError
+from nlobs.examples.khajenejad_yong import example_61, example_62
+from nlobs.observers.setvalued import run_setvalued
+from nlobs.synthesis.setvalued import design_setvalued, verify_setvalued
+from nlobs.systems.discrete_ui import DiscreteUISystem, Lipschitz
+
+
+def _lti(L: float = 0.0) -> DiscreteUISystem:
+    """A small strongly detectable system with one unknown input and partial feed-through."""
+    A = np.array([[0.9, 0.2, 0.0], [0.0, 0.8, 0.3], [0.1, 0.0, 1.05]])
+    G = np.array([[1.0], [0.0], [0.5]])
+    C = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    H = np.array([[0.0], [0.2]])
+    phi = (lambda x: L * np.sin(x[..., [1, 2, 0]])) if L else None
+    return DiscreteUISystem(A, G, C, H, phi=phi, function_class=Lipschitz(L, 3), eta_w=0.05, eta_v=0.02,
+                            delta0=1.0)
+
+
+@pytest.mark.parametrize("which", ["lti", "ex61"])
+def test_error_dynamics_match_a_simulation(which: str) -> None:
+    """x̃_k = Ξ(L̃)[ζ; π; ω] exactly, for any gain: checks the derivation of (16) independently."""
+    if which == "lti":
+        sysm = _lti(0.05)
+    else:
+        sysm = example_61("II").system
+    design = design_setvalued(sysm)
+    rng = np.random.default_rng(4)
+    B, K = 4, 6
+    x0 = sysm.x0 + rng.normal(size=(B, sysm.n))
+    d = rng.normal(size=(B, K + 1, sysm.p)) * 3
+    w = rng.normal(size=(B, K, sysm.n_w)) * 0.1
+    v = rng.normal(size=(B, K + 1, sysm.l)) * 0.1
+    x, y = sysm.simulate(x0, d, w, v)
+    run = run_setvalued(sysm, design, y)
+    e = x - run.x_hat
+    Acl, Bcl, E = design.dynamics.split(design.L_tilde)
+    for k in range(1, K + 1):
+        zeta = e[:, k - 1]
+        pi = sysm.nonlinear(x[:, k - 1]) - sysm.nonlinear(run.x_hat[:, k - 1])
+        om = np.concatenate([v[:, k - 1], w[:, k - 1], v[:, k]], axis=-1)
+        pred = zeta @ Acl.T + pi @ Bcl.T + om @ E.T
+        np.testing.assert_allclose(e[:, k], pred, atol=1e-9 * (1 + np.abs(e[:, k]).max()))
+
+
+def test_radius_design_is_certified() -> None:
+    design = design_setvalued(_lti(0.05))
+    assert design.verified and design.objective.value == "radius"
+    assert 0 < design.lam < 1 and design.spectral_radii[0] <= np.sqrt(design.lam) + 1e-9
+    # recompute the exact condition (⋆) here from the returned numbers
+    dyn = design.dynamics
+    Xi = dyn.closed_loop(design.L_tilde)
+    n, l, nw = dyn.n, dyn.l, dyn.n_w
+    N = Xi.shape[1]
+    S = np.zeros((N, N))
+    S[:n, :n] = -design.lam * design.P
+    t1, tw, t2 = design.theta
+    S[2 * n:, 2 * n:] = -np.diag(np.r_[np.full(l, t1), np.full(nw, tw), np.full(l, t2)])
+    S[:n, :n] += design.kappa * 0.05**2 * np.eye(n)  # M22 = L² I
+    S[n:2 * n, n:2 * n] += -design.kappa * np.eye(n)  # M11 = -I
+    assert np.linalg.eigvalsh(Xi.T @ design.P @ Xi + S).max() <= 1e-8
+
+
+def test_hinf_design_bound_matches_python_control() -> None:
+    control = pytest.importorskip("control")
+    sysm = _lti(0.0)
+    design = design_setvalued(sysm, objective="hinf")
+    assert design.rho is not None and design.verified
+    Acl, _, E = design.dynamics.split(design.L_tilde)
+    s = np.r_[np.full(sysm.l, np.sqrt(2)), np.ones(sysm.n_w), np.full(sysm.l, np.sqrt(2))]
+    ss = control.ss(Acl, E * s, np.eye(3), np.zeros((3, E.shape[1])), 1.0)
+    w = np.linspace(0, np.pi, 4001)
+    peak = max(np.linalg.norm(ss(np.exp(1j * wk)), 2) for wk in w)  # frequency sweep (lower bound of the norm)
+    assert peak <= design.rho * (1 + 1e-6)
+    assert design.hinf_linear[0] == pytest.approx(peak, rel=1e-3)
+    # the Lyapunov matrix also proves contraction: V_k ≤ (1 - 1/λmax(P)) V_{k-1} + c
+    assert design.lam_eff == pytest.approx(1 - 1 / np.linalg.eigvalsh(design.P)[-1])
+
+
+def test_hinf_needs_nonnegative_gamma() -> None:
+    with pytest.raises(InvalidArgumentError, match="'hinf' needs γ ≥ 0"):
+        design_setvalued(example_61("II").system, objective="hinf")
+
+
+def test_infeasible_design_raises() -> None:
+    with pytest.raises(DesignInfeasible, match="infeasible for every λ < 1") as info:
+        design_setvalued(_lti(5.0))
+    assert info.value.constraint == "(⋆)"
+
+
+def test_example_61_class_I_as_printed_has_no_quadratic_certificate() -> None:
+    with pytest.raises(DesignInfeasible, match="infeasible"):
+        design_setvalued(example_61("I").system)
+
+
+def test_example_62_as_printed_is_refused_with_evidence() -> None:
+    with pytest.raises(AssumptionViolated, match="no stable observer") as info:
+        design_setvalued(example_62().system)
+    assert info.value.item == "no_stable_observer"
+
+
+def test_verify_rejects_a_bad_gain() -> None:
+    sysm = _lti(0.0)
+    good = design_setvalued(sysm)
+    checks = verify_setvalued(sysm, good.L_tilde, good.P, kappa=good.kappa, lam=good.lam, theta=good.theta)
+    assert all(c.passed for c in checks)
+    with pytest.raises(CertificateError, match="S-procedure condition"):
+        verify_setvalued(sysm, np.zeros_like(good.L_tilde), good.P, kappa=good.kappa, lam=good.lam,
+                         theta=good.theta)
