@@ -1,0 +1,685 @@
+r"""Gains of the drift-observability observer (Dalla Mora, Germani & Manes, seed 002).
+
+The observer (3.1) needs a gain ``K`` (``n × q``) and a matrix ``P ≻ 0`` solving the
+H∞ Riccati-like inequality (2.17)
+
+.. math::
+
+    (A_s − K C_s) P + P (A_s − K C_s)ᵀ + B_s B_sᵀ + μ² F_{s,r} F_{s,r}ᵀ + 2αP + γ² P² ⪯ 0,
+
+with ``(A_s, B_s, C_s)`` the block Brunovsky triple of the multi-index ``s`` (2.16),
+``F_{s,r}`` the 0/1 matrix of (2.12), ``α`` the decay rate, ``μ`` the input bound and
+``γ² = γ_L² + γ_H²`` the Lipschitz (ALG) constants of ``L_s`` and ``H_{s,r}`` in the
+``z = Φ_s(x)`` coordinates (Assumption H0/H1). A *stabilising solution pair*
+(Def. 2.6) also has ``A_s − K C_s`` Hurwitz and ``P`` symmetric positive definite.
+
+Two designs, both verified by the eigenvalues of the left side of (2.17):
+
+* :func:`vandermonde_gain` — Remark 2.11: per output block, ``K_j(w)`` assigns the
+  eigenvalues ``−w, −2w, …, −s_j w``; the block Vandermonde matrix ``V_s(w)``
+  diagonalises ``A_s − K(w) C_s`` and ``P(w) = (V_sᵀ V_s)⁻¹``. For ``w`` large
+  enough the pair solves (2.17) (always when ``s ≤ r``, Theorem 2.9);
+  :func:`smallest_w` finds the smallest such ``w`` (bracketing + bisection).
+* :func:`design_drift_gain_sdp` — with ``S = P⁻¹`` and ``Y = S K``, multiplying
+  (2.17) by ``S`` on both sides and taking a Schur complement gives the LMI
+
+  .. math::
+
+      \begin{bmatrix} S A_s + A_sᵀ S − Y C_s − C_sᵀ Yᵀ + 2αS + γ² I & S [B_s\ \ μF_{s,r}] \\
+      [B_s\ \ μF_{s,r}]ᵀ S & −I \end{bmatrix} ⪯ −ε I,
+
+  solved with Clarabel (default) for the smallest bound on ``cn(P)`` (the paper's
+  advice in Sec. IV: the region of convergence shrinks with ``cn(P)``) or on ``‖K‖``.
+
+Conventions. ``V(λ)`` of one block has rows ``[λ_i^{s_j−1}, …, λ_i, 1]``: these are
+the left eigenvectors of the observer-companion matrix ``A_j − K_j C_j`` (first
+column ``−K_j``, ones on the superdiagonal), so ``V (A_s − K C_s) V⁻¹ = Λ`` and
+``(A_s − K C_s) P + P (A_s − K C_s)ᵀ = 2 V⁻¹ Λ V⁻ᵀ ≺ 0`` for ``P = V⁻¹ V⁻ᵀ``.
+
+The Brunovsky triple is rebuilt here (:func:`brunovsky_triple`) because this layer
+may not import :mod:`nlobs.geometry`; a test checks it equals
+:func:`nlobs.geometry.brunovsky`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any, NamedTuple
+
+import cvxpy as cp
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from nlobs._validate import as_matrix, positive
+from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
+from nlobs.synthesis.certificate import Check, CheckKind
+from nlobs.synthesis.lmi import Solver, as_enum, as_solver, bmat, max_eig, solve, symmetrise
+
+Array = NDArray[np.float64]
+
+__all__ = [
+    "DriftGainCertificate",
+    "DriftObjective",
+    "RiccatiConstants",
+    "VandermondeGain",
+    "WSearch",
+    "brunovsky_triple",
+    "design_drift_gain",
+    "design_drift_gain_sdp",
+    "riccati_lhs",
+    "smallest_w",
+    "vandermonde_gain",
+    "verify_drift_gain",
+]
+
+_EPS = float(np.finfo(float).eps)
+#: The certificate is computed at this multiple of the smallest feasible κ (bisection), so that
+#: the returned pair has slack instead of sitting on the boundary of the LMI.
+_FINAL_KAPPA_FACTOR = 1.1
+
+
+# --------------------------------------------------------------------------- data
+
+
+def _multi_index(s: Sequence[int]) -> tuple[int, ...]:
+    try:
+        out = tuple(int(v) for v in s)
+    except (TypeError, ValueError):
+        raise InvalidArgumentError(f"s: expected a sequence of positive integers, got {s!r}") from None
+    if not out or any(v < 1 for v in out) or any(float(a) != b for a, b in zip(s, out)):
+        raise InvalidArgumentError(f"s: every entry must be a positive integer, got {list(s)}")
+    return out
+
+
+def brunovsky_triple(s: Sequence[int]) -> tuple[Array, Array, Array]:
+    """Block-diagonal Brunovsky ``(A_s, B_s, C_s)`` of seed 002 (2.16): ``n × n``, ``n × q``, ``q × n``."""
+    s_ = _multi_index(s)
+    n, q = sum(s_), len(s_)
+    A, B, C = np.zeros((n, n)), np.zeros((n, q)), np.zeros((q, n))
+    i = 0
+    for j, sj in enumerate(s_):
+        A[i : i + sj - 1, i + 1 : i + sj] = np.eye(sj - 1)
+        B[i + sj - 1, j] = 1.0
+        C[j, i] = 1.0
+        i += sj
+    return A, B, C
+
+
+@dataclass(frozen=True)
+class RiccatiConstants:
+    """The data of inequality (2.17): multi-index, ``F_{s,r}`` and ``(α, μ, γ)``.
+
+    Parameters
+    ----------
+    s : sequence of int
+        Multi-index (``n = Σ s_j``).
+    F : array_like, shape (n, d)
+        ``F_{s,r}`` of (2.12) (``d = 0`` columns when no output has ``s_j ≥ r_j``);
+        ``None`` means ``d = 0``.
+    alpha : float
+        Decay rate ``α > 0`` (Theorem 3.1).
+    mu : float
+        Input bound ``μ = u_M ≥ 0`` (``‖u(t)‖ ≤ μ``).
+    gamma : float
+        ``γ = √(γ_L² + γ_H²) ≥ 0``, the ALG/Lipschitz constants of ``L_s`` and ``H_{s,r}``
+        in ``z``-coordinates (Assumption H0).
+    """
+
+    s: tuple[int, ...]
+    F: Array
+    alpha: float
+    mu: float
+    gamma: float
+
+    def __init__(self, s: Sequence[int], F: ArrayLike | None, alpha: float, mu: float, gamma: float) -> None:
+        s_ = _multi_index(s)
+        n = sum(s_)
+        F_ = np.zeros((n, 0)) if F is None else as_matrix("F", F, (n, None))
+        F_.setflags(write=False)
+        object.__setattr__(self, "s", s_)
+        object.__setattr__(self, "F", F_)
+        object.__setattr__(self, "alpha", positive("alpha", alpha))
+        object.__setattr__(self, "mu", positive("mu", mu, allow_zero=True))
+        object.__setattr__(self, "gamma", positive("gamma", gamma, allow_zero=True))
+
+    @property
+    def n(self) -> int:
+        return sum(self.s)
+
+    @property
+    def q(self) -> int:
+        return len(self.s)
+
+    def triple(self) -> tuple[Array, Array, Array]:
+        return brunovsky_triple(self.s)
+
+    def describe(self) -> str:
+        return f"s = {self.s}, α = {self.alpha:g}, μ = {self.mu:g}, γ = {self.gamma:g}"
+
+
+def riccati_lhs(c: RiccatiConstants, K: ArrayLike, P: ArrayLike) -> Array:
+    """The (symmetrised) left side of (2.17) for a pair ``(K, P)``."""
+    A, B, C = c.triple()
+    K_ = as_matrix("K", K, (c.n, c.q))
+    P_ = as_matrix("P", P, (c.n, c.n))
+    P_ = 0.5 * (P_ + P_.T)
+    Acl = A - K_ @ C
+    M = Acl @ P_ + P_ @ Acl.T + B @ B.T + c.mu**2 * (c.F @ c.F.T) + 2.0 * c.alpha * P_ + c.gamma**2 * (P_ @ P_)
+    return 0.5 * (M + M.T)
+
+
+# --------------------------------------------------------------------------- certificate
+
+
+@dataclass(frozen=True, eq=False)
+class DriftGainCertificate:
+    """A gain pair ``(K, P)`` for the observer (3.1), re-verified against (2.17).
+
+    Attributes
+    ----------
+    constants : RiccatiConstants
+        ``s``, ``F_{s,r}``, ``α``, ``μ``, ``γ`` the pair was checked for.
+    K : ndarray, shape (n, q)
+    P : ndarray, shape (n, n)
+    method : str
+        ``"vandermonde"`` (Remark 2.11), ``"sdp"`` or ``"given"``.
+    w : float or None
+        The Vandermonde parameter (``None`` otherwise).
+    lhs_max_eig : float
+        Largest eigenvalue of the left side of (2.17); ``< 0`` when verified.
+    eigenvalues : ndarray of complex
+        ``eig(A_s − K C_s)`` sorted by real part.
+    checks : tuple of Check
+        (2.17) by eigenvalues, ``P ≻ 0``, ``A_s − K C_s`` Hurwitz (and, for the SDP,
+        the LMI block recomputed from ``S = P⁻¹``, ``Y = S K``).
+    objective : str or None
+    solver : Solver or None
+    solver_status : str
+    margin : float
+        Strictness margin ``ε`` of the SDP (0 for the Vandermonde construction).
+    seconds : float
+    """
+
+    constants: RiccatiConstants
+    K: Array
+    P: Array
+    method: str
+    w: float | None
+    lhs_max_eig: float
+    eigenvalues: NDArray[np.complex128]
+    checks: tuple[Check, ...]
+    objective: str | None = None
+    solver: Solver | None = None
+    solver_status: str = ""
+    margin: float = 0.0
+    seconds: float = 0.0
+
+    @property
+    def verified(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+    @property
+    def failed_checks(self) -> tuple[Check, ...]:
+        return tuple(c for c in self.checks if not c.passed)
+
+    @property
+    def cond_P(self) -> float:
+        """``cn(P) = λ_max(P) / λ_min(P)``."""
+        ev = np.linalg.eigvalsh(self.P)
+        return float(ev[-1] / ev[0]) if ev[0] > 0 else math.inf
+
+    @property
+    def norm_P(self) -> float:
+        """``‖P‖ = λ_max(P)``."""
+        return float(np.linalg.eigvalsh(self.P)[-1])
+
+    @property
+    def gain_norm(self) -> float:
+        """``‖K‖₂``."""
+        return float(np.linalg.norm(self.K, 2))
+
+    @property
+    def decay_margin(self) -> float:
+        """``δ/2`` with ``δ = −λ_max(P^{−1/2} L P^{−1/2})``, ``L`` the left side of (2.17).
+
+        ``L ⪯ −δ P`` means (2.17) still holds with ``α + δ/2`` in place of ``α``: the
+        scale-free slack of the pair (``λ_max(L)`` itself scales with ``P``).
+        """
+        ev, U = np.linalg.eigh(self.P)
+        Pm = (U / np.sqrt(ev)) @ U.T
+        L = riccati_lhs(self.constants, self.K, self.P)
+        return float(-np.linalg.eigvalsh(Pm @ L @ Pm)[-1] / 2.0)
+
+    @property
+    def spectral_abscissa(self) -> float:
+        """``max Re λ(A_s − K C_s)``; (2.17) implies it is ``< −α`` when ``γ > 0``."""
+        return float(np.max(self.eigenvalues.real))
+
+    def describe(self) -> str:
+        head = f"{self.method} gain" + (f" (w = {self.w:.6g})" if self.w is not None else "")
+        lines = [
+            f"{head} for {self.constants.describe()}: {'verified' if self.verified else 'NOT verified'}",
+            f"  λ_max(left side of (2.17)) = {self.lhs_max_eig:.6g}, cn(P) = {self.cond_P:.6g}, ‖P‖ = {self.norm_P:.6g}, "
+            f"‖K‖ = {self.gain_norm:.6g}, decay margin {self.decay_margin:.4g}",
+            "  eig(A_s − K C_s) = " + ", ".join(_fmt_complex(z) for z in self.eigenvalues),
+        ]
+        lines += ["  " + c.describe() for c in self.checks]
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        c = self.constants
+        return {
+            "method": self.method,
+            "s": list(c.s),
+            "alpha": c.alpha,
+            "mu": c.mu,
+            "gamma": c.gamma,
+            "w": self.w,
+            "K": self.K.tolist(),
+            "P": self.P.tolist(),
+            "verified": self.verified,
+            "lhs_max_eig": self.lhs_max_eig,
+            "cond_P": self.cond_P,
+            "norm_P": self.norm_P,
+            "gain_norm": self.gain_norm,
+            "decay_margin": self.decay_margin,
+            "eigenvalues": [[float(z.real), float(z.imag)] for z in self.eigenvalues],
+            "checks": [{"name": k.name, "value": k.value, "limit": k.limit, "passed": k.passed} for k in self.checks],
+            "objective": self.objective,
+            "solver": None if self.solver is None else self.solver.value,
+            "solver_status": self.solver_status,
+            "margin": self.margin,
+        }
+
+
+def _fmt_complex(z: complex) -> str:
+    return f"{z.real:.4g}" if abs(z.imag) < 1e-9 * max(1.0, abs(z)) else f"{z.real:.4g}{z.imag:+.4g}j"
+
+
+def _checks(c: RiccatiConstants, K: Array, P: Array) -> tuple[list[Check], float, NDArray[np.complex128]]:
+    A, _, C = c.triple()
+    lhs = riccati_lhs(c, K, P)
+    lam = float(np.linalg.eigvalsh(lhs)[-1])
+    eigs = np.linalg.eigvals(A - K @ C)
+    eigs = eigs[np.lexsort((eigs.imag, eigs.real))]
+    checks = [
+        Check("(2.17): λ_max(left side)", CheckKind.LMI, lam, 0.0),
+        Check("P ≻ 0 (−λ_min(P))", CheckKind.POSITIVITY, -float(np.linalg.eigvalsh(0.5 * (P + P.T))[0]), 0.0),
+        Check("A_s − K C_s Hurwitz (max Re λ)", CheckKind.SPECTRUM, float(np.max(eigs.real)), 0.0),
+    ]
+    return checks, lam, eigs
+
+
+def verify_drift_gain(c: RiccatiConstants, K: ArrayLike, P: ArrayLike, *, method: str = "given",
+                      w: float | None = None) -> DriftGainCertificate:
+    """Verify a pair ``(K, P)`` against (2.17) by eigenvalues (Def. 2.6); never raises on failure."""
+    K_ = as_matrix("K", K, (c.n, c.q)).copy()
+    P_ = as_matrix("P", P, (c.n, c.n))
+    P_ = 0.5 * (P_ + P_.T)
+    checks, lam, eigs = _checks(c, K_, P_)
+    K_.setflags(write=False)
+    P_.setflags(write=False)
+    return DriftGainCertificate(c, K_, P_, method, w, lam, eigs, tuple(checks))
+
+
+# --------------------------------------------------------------------------- Remark 2.11
+
+
+class VandermondeGain(NamedTuple):
+    """``K(w)``, ``V_s(w)``, ``P(w) = (V_sᵀ V_s)⁻¹`` and the assigned eigenvalues (Remark 2.11)."""
+
+    K: Array
+    V: Array
+    P: Array
+    eigenvalues: Array
+
+
+def vandermonde_gain(s: Sequence[int], w: float) -> VandermondeGain:
+    """Remark 2.11: the block gain assigning ``−w, …, −s_j w`` per block, ``V_s(w)`` and ``P(w)``.
+
+    ``K_j`` holds the coefficients of ``∏_{i=1}^{s_j} (λ + i w) = λ^{s_j} + k_{j,1} λ^{s_j−1} + … + k_{j,s_j}``
+    (the characteristic polynomial of ``A_j − K_j C_j``); ``V(λ_j)`` has rows
+    ``[λ^{s_j−1}, …, λ, 1]`` so that ``V_s (A_s − K C_s) V_s⁻¹ = diag(λ)``;
+    ``P = V_s⁻¹ V_s⁻ᵀ`` (computed from ``V_s⁻¹``, better conditioned than inverting ``V_sᵀ V_s``).
+    """
+    s_ = _multi_index(s)
+    w = positive("w", w)
+    n, q = sum(s_), len(s_)
+    K = np.zeros((n, q))
+    V = np.zeros((n, n))
+    lam_all = np.zeros(n)
+    i = 0
+    for j, sj in enumerate(s_):
+        lam = -w * np.arange(1, sj + 1, dtype=float)
+        K[i : i + sj, j] = np.poly(lam)[1:].real
+        V[i : i + sj, i : i + sj] = np.vander(lam, sj)  # rows [λ^{s−1}, …, λ, 1]
+        lam_all[i : i + sj] = lam
+        i += sj
+    Vinv = np.linalg.inv(V)
+    P = Vinv @ Vinv.T
+    P = 0.5 * (P + P.T)
+    for a in (K, V, P, lam_all):
+        a.setflags(write=False)
+    return VandermondeGain(K, V, P, lam_all)
+
+
+@dataclass(frozen=True, eq=False)
+class WSearch:
+    """The smallest ``w`` for which ``(K(w), P(w))`` solves (2.17), and how it was found.
+
+    Attributes
+    ----------
+    w : float
+        Smallest ``w`` found (to relative tolerance ``rtol``).
+    certificate : DriftGainCertificate
+        The verified pair at ``w``.
+    bracket : tuple of float
+        ``(w_fail, w)``: (2.17) fails at ``w_fail`` and holds at ``w``.
+    evaluations : int
+        Number of eigenvalue evaluations of the left side.
+    above : tuple of (float, float)
+        ``(w', λ_max)`` at ``w' = 2w, 4w, 10w``: (2.17) keeps holding above ``w``
+        (the search assumes this; a positive entry would say otherwise).
+    """
+
+    w: float
+    certificate: DriftGainCertificate
+    bracket: tuple[float, float]
+    evaluations: int
+    above: tuple[tuple[float, float], ...]
+
+    @property
+    def monotone(self) -> bool:
+        """Whether (2.17) also holds at every checked ``w' > w``."""
+        return all(v < 0 for _, v in self.above)
+
+
+def _lhs_w(c: RiccatiConstants, w: float) -> float:
+    g = vandermonde_gain(c.s, w)
+    return float(np.linalg.eigvalsh(riccati_lhs(c, g.K, g.P))[-1])
+
+
+def smallest_w(c: RiccatiConstants, *, w_max: float = 1e5, rtol: float = 1e-3) -> WSearch:
+    """Smallest ``w`` with ``λ_max`` of the left side of (2.17) at ``(K(w), P(w))`` below 0.
+
+    Bracketing: from ``w₀ = max(α, 10⁻³)`` (``A_s − K C_s`` must have abscissa
+    ``< −α``, so no ``w ≤ α`` works) ``w`` doubles until (2.17) holds or exceeds
+    ``w_max``; then bisection in ``log w`` to relative width ``rtol``.
+
+    Raises
+    ------
+    DesignInfeasible
+        No ``w ≤ w_max`` works: the message gives the smallest ``λ_max`` seen and where
+        (``constraint="(2.17) with P(w) = (V_sᵀV_s)⁻¹"``, ``violation`` = that ``λ_max``).
+    """
+    w_max = positive("w_max", w_max)
+    rtol = positive("rtol", rtol)
+    evals = 0
+    w_lo = max(c.alpha, 1e-3)
+    w = w_lo
+    best = (math.inf, w)
+    w_fail: float | None = None
+    while True:
+        v = _lhs_w(c, w)
+        evals += 1
+        if v < best[0]:
+            best = (v, w)
+        if v < 0:
+            break
+        w_fail = w
+        if w >= w_max:
+            raise DesignInfeasible(
+                f"(2.17) has no Vandermonde solution (K(w), P(w)) for w ≤ {w_max:g} with {c.describe()}: "
+                f"the smallest λ_max of its left side is {best[0]:.4g} (at w = {best[1]:.4g}); "
+                + ("s ≰ r: lower the input bound μ (Theorem 2.7) or use the SDP design" if c.F.size and not _s_le_r_F(c)
+                   else "raise w_max, or lower α, μ or γ"),
+                constraint="(2.17) with P(w) = (V_sᵀV_s)⁻¹",
+                violation=best[0],
+            )
+        w = min(2.0 * w, w_max)
+    hi = w
+    if w_fail is None:  # holds at w₀ = α: cannot go lower in theory, but check a bit below
+        lo = w_lo / 2.0
+        v = _lhs_w(c, lo)
+        evals += 1
+        if v < 0:
+            lo = hi  # nothing to bisect
+        w_fail = lo
+    lo = w_fail
+    while hi / lo > 1.0 + rtol:
+        mid = math.sqrt(lo * hi)
+        v = _lhs_w(c, mid)
+        evals += 1
+        if v < 0:
+            hi = mid
+        else:
+            lo = mid
+    g = vandermonde_gain(c.s, hi)
+    cert = verify_drift_gain(c, g.K, g.P, method="vandermonde", w=hi)
+    if not cert.verified:  # cannot happen: λ_max < 0 was measured at hi
+        raise CertificateError(f"Vandermonde pair at w = {hi:g} failed: " + "; ".join(x.describe() for x in cert.failed_checks))
+    above = tuple((f * hi, _lhs_w(c, f * hi)) for f in (2.0, 4.0, 10.0))
+    return WSearch(hi, cert, (lo, hi), evals + 3, above)
+
+
+def _s_le_r_F(c: RiccatiConstants) -> bool:
+    """``s ≤ r`` in terms of ``F``: every column of ``F`` is some ``B_s`` column (input only at chain ends)."""
+    _, B, _ = c.triple()
+    ends = set(np.flatnonzero(B.sum(axis=1)))
+    rows = set(np.flatnonzero(np.abs(c.F).sum(axis=1)))
+    return rows <= ends
+
+
+# --------------------------------------------------------------------------- SDP
+
+
+class DriftObjective(str, Enum):
+    """What :func:`design_drift_gain_sdp` minimises over the LMI-feasible set."""
+
+    MIN_CONDITION = "min_condition"
+    """Smallest ``κ`` with ``σ I ⪯ S ⪯ κ σ I`` (so ``cn(P) ≤ κ``), by bisection on ``κ``."""
+    MIN_GAIN = "min_gain"
+    """Smallest ``κ`` with ``S ⪰ σ I``, ``‖Y‖₂ ≤ κ σ`` (so ``‖K‖₂ ≤ κ``), by bisection on ``κ``."""
+
+
+@dataclass
+class _Sdp:
+    problem: cp.Problem
+    S: cp.Variable
+    Y: cp.Variable
+    kappa: cp.Parameter
+    slack: cp.Variable
+
+
+def _lmi_block(c: RiccatiConstants, S: Any, Y: Any) -> Any:
+    """The LMI of (2.17) in ``(S, Y)`` (must be ``⪯ 0``); CVXPY or NumPy."""
+    A, B, C = c.triple()
+    n = c.n
+    W = np.hstack([B, c.mu * c.F])
+    SA = S @ A - Y @ C
+    M11 = SA + SA.T + 2.0 * c.alpha * S + c.gamma**2 * np.eye(n)
+    SW = S @ W
+    return symmetrise(bmat([[M11, SW], [SW.T, -np.eye(W.shape[1])]]))
+
+
+def _build_sdp(c: RiccatiConstants, objective: DriftObjective, margin: float, gain_bound: float | None) -> _Sdp:
+    n, q = c.n, c.q
+    S = cp.Variable((n, n), symmetric=True, name="S")
+    Y = cp.Variable((n, q), name="Y")
+    sigma = cp.Variable(name="sigma")
+    t = cp.Variable(name="t")  # slack: the LMI is imposed as ⪯ (t − ε) I; t ≤ 0 means feasible
+    kappa = cp.Parameter(nonneg=True, name="kappa", value=1.0)
+    L = _lmi_block(c, S, Y)
+    k = L.shape[0]
+    cons = [L << (t - margin) * np.eye(k), S >> sigma * np.eye(n), sigma >= margin, t >= -1.0]
+    if objective is DriftObjective.MIN_CONDITION:
+        cons.append(S << kappa * sigma * np.eye(n))
+        if gain_bound is not None:
+            cons.append(symmetrise(cp.bmat([[gain_bound * sigma * np.eye(q), Y.T], [Y, gain_bound * sigma * np.eye(n)]])) >> 0)
+    else:
+        cons.append(symmetrise(cp.bmat([[kappa * sigma * np.eye(q), Y.T], [Y, kappa * sigma * np.eye(n)]])) >> 0)
+    # normalisation: (2.17) is not homogeneous in S, but S can grow without bound when s ≤ r; cap it
+    cons.append(sigma <= 1e6)
+    return _Sdp(cp.Problem(cp.Minimize(t), cons), S, Y, kappa, t)
+
+
+def _sdp_solve(sdp: _Sdp, kappa: float, solver: Solver, options: Mapping[str, Any] | None) -> tuple[float | None, Any]:
+    sdp.kappa.value = kappa
+    res = solve(sdp.problem, solver, options)
+    if not res.status.has_solution or sdp.slack.value is None:
+        return None, res
+    return float(sdp.slack.value), res
+
+
+def design_drift_gain_sdp(
+    c: RiccatiConstants,
+    *,
+    objective: DriftObjective | str = DriftObjective.MIN_GAIN,
+    margin: float = 1e-6,
+    gain_bound: float | None = None,
+    solver: Solver | str = Solver.CLARABEL,
+    options: Mapping[str, Any] | None = None,
+    kappa_max: float = 1e8,
+    rtol: float = 1e-2,
+) -> DriftGainCertificate:
+    """(2.17) as an LMI in ``(S, Y) = (P⁻¹, P⁻¹K)`` (see the module docstring), solved and re-verified.
+
+    Parameters
+    ----------
+    c : RiccatiConstants
+    objective : DriftObjective or str
+        ``"min_gain"`` (default): smallest ``κ ≥ ‖K‖₂``; ``"min_condition"``: smallest
+        ``κ ≥ cn(P)``. Both quasi-convex: bisection in ``log κ`` (one compiled problem,
+        ``κ`` a :class:`cvxpy.Parameter`). Without ``gain_bound``, ``"min_condition"``
+        drives the gain up for a negligible gain in ``cn(P)`` (measured on ``s = (2,)``,
+        ``α = μ = γ = 1``: ``cn(P) = 25.48`` with ``‖K‖ = 3.5·10⁵`` against ``25.51`` with
+        ``‖K‖ = 15.8`` for ``"min_gain"``), so give it a ``gain_bound``.
+    margin : float
+        ``ε``: the LMI is imposed as ``⪯ −ε I`` and ``S ⪰ σ I`` with ``σ ≥ ε``.
+    gain_bound : float, optional
+        With ``"min_condition"``, also impose ``‖K‖₂ ≤ gain_bound`` (via ``‖Y‖ ≤ gain_bound σ``).
+    solver, options
+        Clarabel by default (:func:`nlobs.synthesis.lmi.solve`).
+    kappa_max : float
+        Largest ``κ`` tried.
+    rtol : float
+        Relative width of the final ``κ`` bracket.
+
+    Returns
+    -------
+    DriftGainCertificate
+        ``K = S⁻¹ Y``, ``P = S⁻¹``, verified by the eigenvalues of the left side of
+        (2.17) (independently of the solver), ``P ≻ 0`` and ``eig(A_s − K C_s)``.
+
+    Raises
+    ------
+    DesignInfeasible
+        The LMI has no solution with ``κ ≤ kappa_max``: ``constraint`` names it and
+        ``violation`` is the smallest slack ``t`` found (the LMI holds as ``⪯ (t − ε) I``).
+    CertificateError
+        The solver's answer failed the re-verification.
+    """
+    t0 = time.perf_counter()
+    obj = as_enum("objective", DriftObjective, objective)
+    sol = as_solver(solver)
+    margin = positive("margin", margin)
+    gb = None if gain_bound is None else positive("gain_bound", gain_bound)
+    sdp = _build_sdp(c, obj, margin, gb)
+    tol = 1e-9
+    hi = 10.0
+    t_hi, res = _sdp_solve(sdp, hi, sol, options)
+    while t_hi is None or t_hi > tol:
+        if hi >= kappa_max:
+            what = "cn(P)" if obj is DriftObjective.MIN_CONDITION else "‖K‖"
+            viol = t_hi if t_hi is not None else math.nan
+            raise DesignInfeasible(
+                f"(2.17) as an LMI in (S, Y) is infeasible for {c.describe()} with {what} ≤ {kappa_max:g}"
+                + (f" (gain bound {gb:g})" if gb is not None else "")
+                + f": the smallest slack is t = {viol:.4g} (LMI ⪯ (t − ε)I, ε = {margin:g}; solver: {res.raw_status}); "
+                + ("s ≰ r: lower μ (Theorem 2.7)" if c.F.size and not _s_le_r_F(c) else
+                   "s ≤ r, so Theorem 2.9 says (2.17) is solvable: the solution is out of the solver's numerical "
+                   "reach (high gains need cn(P) ~ w^(2(s_max−1))); use method='vandermonde'"),
+                constraint="(2.17) as LMI in (S = P⁻¹, Y = S K)",
+                violation=viol,
+            )
+        hi = min(hi * 10.0, kappa_max)
+        t_hi, res = _sdp_solve(sdp, hi, sol, options)
+    lo = 1.0 if obj is DriftObjective.MIN_CONDITION else hi / 10.0
+    if obj is DriftObjective.MIN_GAIN:
+        while lo > 1e-6:
+            t_lo, _ = _sdp_solve(sdp, lo, sol, options)
+            if t_lo is None or t_lo > tol:
+                break
+            hi, lo = lo, lo / 10.0
+    while hi / lo > 1.0 + rtol:
+        mid = math.sqrt(lo * hi)
+        t_mid, _ = _sdp_solve(sdp, mid, sol, options)
+        if t_mid is not None and t_mid <= tol:
+            hi = mid
+        else:
+            lo = mid
+    hi *= _FINAL_KAPPA_FACTOR  # a little inside the bound: an interior answer, not one on the boundary
+    t_fin, res = _sdp_solve(sdp, hi, sol, options)
+    if t_fin is None or sdp.S.value is None or sdp.Y.value is None:
+        raise DesignInfeasible(f"the solver failed at the final κ = {hi:g}: {res.raw_status}",
+                               constraint="(2.17) as LMI in (S, Y)", violation=None)
+    S = 0.5 * (sdp.S.value + sdp.S.value.T)
+    K = np.linalg.solve(S, sdp.Y.value)
+    P = np.linalg.inv(S)
+    P = 0.5 * (P + P.T)
+    checks, lam, eigs = _checks(c, K, P)
+    Y = S @ K  # recomputed from the returned K
+    blk = _lmi_block(c, S, Y)
+    checks.append(Check("LMI in (S, Y) recomputed (λ_max)", CheckKind.LMI, max_eig(blk),
+                        100 * _EPS * max(1.0, float(np.linalg.norm(blk, 2)))))
+    cert = DriftGainCertificate(c, _ro(K), _ro(P), "sdp", None, lam, eigs, tuple(checks), obj.value, sol,
+                                res.raw_status, margin, time.perf_counter() - t0)
+    if not cert.verified:
+        raise CertificateError("SDP answer failed re-verification: " + "; ".join(x.describe() for x in cert.failed_checks))
+    return cert
+
+
+def _ro(a: Array) -> Array:
+    a = np.array(a, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+def design_drift_gain(
+    c: RiccatiConstants,
+    method: str = "vandermonde",
+    *,
+    w: float | None = None,
+    w_max: float = 1e5,
+    **sdp_options: Any,
+) -> DriftGainCertificate:
+    """One entry point: ``"vandermonde"`` (smallest ``w``, or the given ``w`` verified) or ``"sdp"``.
+
+    Raises
+    ------
+    DesignInfeasible
+        No solution (Vandermonde: none up to ``w_max``, or the given ``w`` fails (2.17)).
+    """
+    m = str(method).lower()
+    if m == "vandermonde":
+        if sdp_options:
+            raise InvalidArgumentError(f"options {sorted(sdp_options)} apply to method='sdp' only")
+        if w is None:
+            return smallest_w(c, w_max=w_max).certificate
+        g = vandermonde_gain(c.s, w)
+        cert = verify_drift_gain(c, g.K, g.P, method="vandermonde", w=float(w))
+        if not cert.verified:
+            raise DesignInfeasible(
+                f"(K(w), P(w)) with w = {w:g} does not solve (2.17) for {c.describe()}: "
+                + "; ".join(x.describe() for x in cert.failed_checks),
+                constraint="(2.17) with P(w) = (V_sᵀV_s)⁻¹", violation=cert.lhs_max_eig)
+        return cert
+    if m == "sdp":
+        if w is not None:
+            raise InvalidArgumentError("w: applies to method='vandermonde' only")
+        return design_drift_gain_sdp(c, **sdp_options)
+    raise InvalidArgumentError(f"method: expected 'vandermonde' or 'sdp', got {method!r}")

@@ -1,0 +1,147 @@
+"""Gains of the drift-observability observer (seed 002): Remark 2.11, (2.17) and its LMI."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from nlobs.errors import DesignInfeasible, InvalidArgumentError
+from nlobs.geometry import brunovsky
+from nlobs.synthesis.drift_gain import (
+    RiccatiConstants,
+    brunovsky_triple,
+    design_drift_gain,
+    design_drift_gain_sdp,
+    riccati_lhs,
+    smallest_w,
+    vandermonde_gain,
+    verify_drift_gain,
+)
+
+
+def _F_ends(s: tuple[int, ...]) -> np.ndarray:
+    """F_{s,r} when s = r: one column per output, a 1 at the end of its chain (= B_s)."""
+    return brunovsky_triple(s)[1]
+
+
+@pytest.mark.parametrize("s", [(1,), (2,), (3,), (3, 1), (2, 3), (1, 1, 2)])
+def test_brunovsky_triple_equals_geometry(s: tuple[int, ...]) -> None:
+    for a, b in zip(brunovsky_triple(s), brunovsky(s)):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("s", [(2,), (3,), (3, 1), (2, 3), (4, 1)])
+@pytest.mark.parametrize("w", [0.7, 3.0, 25.0])
+def test_vandermonde_assigns_the_closed_form_eigenvalues_and_diagonalises(s: tuple[int, ...], w: float) -> None:
+    A, _, C = brunovsky_triple(s)
+    g = vandermonde_gain(s, w)
+    Acl = A - g.K @ C
+    expected = np.concatenate([-w * np.arange(1, sj + 1) for sj in s])
+    np.testing.assert_allclose(np.sort(np.linalg.eigvals(Acl).real), np.sort(expected), rtol=1e-7)
+    np.testing.assert_allclose(np.linalg.eigvals(Acl).imag, 0.0, atol=1e-6 * w)
+    # V_s (A_s − K C_s) V_s⁻¹ = Λ and (A − KC)P + P(A − KC)ᵀ = 2 V⁻¹ Λ V⁻ᵀ with P = (VᵀV)⁻¹
+    Vi = np.linalg.inv(g.V)
+    np.testing.assert_allclose(g.V @ Acl @ Vi, np.diag(g.eigenvalues), atol=1e-8 * max(1.0, w) ** max(s))
+    np.testing.assert_allclose(g.P, np.linalg.inv(g.V.T @ g.V), rtol=1e-6, atol=1e-12)
+    lyap = Acl @ g.P + g.P @ Acl.T
+    np.testing.assert_allclose(lyap, 2 * Vi @ np.diag(g.eigenvalues) @ Vi.T, rtol=1e-6, atol=1e-9)
+
+
+def test_vandermonde_gain_is_the_characteristic_polynomial() -> None:
+    w = 2.0
+    np.testing.assert_allclose(vandermonde_gain((2,), w).K[:, 0], [3 * w, 2 * w**2])
+    np.testing.assert_allclose(vandermonde_gain((3,), w).K[:, 0], [6 * w, 11 * w**2, 6 * w**3])
+    K = vandermonde_gain((2, 1), w).K
+    np.testing.assert_allclose(K, [[3 * w, 0], [2 * w**2, 0], [0, w]])
+
+
+def test_riccati_lhs_is_the_formula() -> None:
+    s = (2, 1)
+    A, B, C = brunovsky_triple(s)
+    F = _F_ends(s)
+    c = RiccatiConstants(s, F, alpha=0.7, mu=1.3, gamma=0.4)
+    rng = np.random.default_rng(1)
+    K = rng.normal(size=(3, 2))
+    R = rng.normal(size=(3, 3))
+    P = R @ R.T + np.eye(3)
+    Acl = A - K @ C
+    ref = Acl @ P + P @ Acl.T + B @ B.T + 1.3**2 * F @ F.T + 2 * 0.7 * P + 0.4**2 * P @ P
+    np.testing.assert_allclose(riccati_lhs(c, K, P), ref, rtol=1e-12)
+
+
+@pytest.mark.parametrize("triple", [(1.0, 1.0, 1.0), (3.0, 0.5, 2.0), (0.5, 5.0, 0.5), (2.0, 2.0, 4.0)])
+def test_theorem_2_9_smallest_w_exists_for_s_le_r(triple: tuple[float, float, float]) -> None:
+    alpha, mu, gamma = triple
+    s = (3, 1)
+    c = RiccatiConstants(s, _F_ends(s), alpha, mu, gamma)
+    ws = smallest_w(c, rtol=1e-3)
+    cert = ws.certificate
+    assert cert.verified and cert.w == ws.w
+    # verified independently: eigenvalues of the left side, P ≻ 0, Hurwitz
+    g = vandermonde_gain(s, ws.w)
+    assert np.linalg.eigvalsh(riccati_lhs(c, g.K, g.P))[-1] < 0
+    assert np.linalg.eigvalsh(g.P)[0] > 0
+    # bracket: (2.17) fails just below w
+    lo = ws.bracket[0]
+    g_lo = vandermonde_gain(s, lo)
+    assert np.linalg.eigvalsh(riccati_lhs(c, g_lo.K, g_lo.P))[-1] >= 0
+    assert ws.bracket[1] / lo <= 1.0 + 1.1e-3
+    assert ws.monotone
+    assert cert.spectral_abscissa < -alpha  # (2.17) with γ > 0 implies abscissa < −α
+
+
+def test_smallest_w_reports_failure_with_violation_when_s_not_le_r() -> None:
+    # SISO, s = 2 > r = 1: F = I₂ (input enters at the top of the chain), μ too large
+    c = RiccatiConstants((2,), np.eye(2), alpha=1.0, mu=1.0, gamma=1.0)
+    with pytest.raises(DesignInfeasible, match=r"no Vandermonde solution.*w ≤ 1000.*smallest λ_max.*s ≰ r") as ei:
+        smallest_w(c, w_max=1000.0)
+    assert ei.value.violation is not None and ei.value.violation > 0
+    assert "(2.17)" in ei.value.constraint
+    # Theorem 2.7: a small enough μ works
+    ok = smallest_w(RiccatiConstants((2,), np.eye(2), alpha=1.0, mu=0.1, gamma=1.0))
+    assert ok.certificate.verified
+
+
+@pytest.mark.parametrize("objective", ["min_gain", "min_condition"])
+def test_sdp_design_is_verified_independently(objective: str) -> None:
+    s = (3, 1)
+    c = RiccatiConstants(s, _F_ends(s), alpha=1.0, mu=2.0, gamma=1.0)
+    cert = design_drift_gain_sdp(c, objective=objective, gain_bound=1e4 if objective == "min_condition" else None)
+    assert cert.verified
+    lhs = riccati_lhs(c, cert.K, cert.P)
+    assert np.linalg.eigvalsh(lhs)[-1] < 0
+    assert np.linalg.eigvalsh(cert.P)[0] > 0
+    A, _, C = brunovsky_triple(s)
+    assert np.max(np.linalg.eigvals(A - cert.K @ C).real) < -c.alpha
+    again = verify_drift_gain(c, cert.K, cert.P)
+    assert again.verified and again.lhs_max_eig == pytest.approx(cert.lhs_max_eig)
+
+
+def test_sdp_min_gain_beats_vandermonde_on_gain_and_condition() -> None:
+    s = (2,)
+    c = RiccatiConstants(s, _F_ends(s), alpha=1.0, mu=1.0, gamma=1.0)
+    sdp = design_drift_gain_sdp(c)
+    vdm = smallest_w(c).certificate
+    assert sdp.gain_norm < vdm.gain_norm
+    assert sdp.cond_P < vdm.cond_P
+
+
+def test_sdp_infeasible_names_constraint_and_margin() -> None:
+    c = RiccatiConstants((2,), np.eye(2), alpha=1.0, mu=1.0, gamma=1.0)
+    with pytest.raises(DesignInfeasible, match=r"LMI in \(S, Y\) is infeasible.*slack is t = .*s ≰ r") as ei:
+        design_drift_gain_sdp(c, kappa_max=1e4)
+    assert ei.value.violation is not None and ei.value.violation > 0
+    assert "S = P⁻¹" in ei.value.constraint
+
+
+def test_given_w_that_fails_raises_and_bad_arguments() -> None:
+    c = RiccatiConstants((2,), _F_ends((2,)), alpha=1.0, mu=1.0, gamma=1.0)
+    with pytest.raises(DesignInfeasible, match=r"w = 1.5 does not solve \(2.17\)"):
+        design_drift_gain(c, "vandermonde", w=1.5)
+    assert design_drift_gain(c, "vandermonde", w=50.0).verified
+    with pytest.raises(InvalidArgumentError, match="method"):
+        design_drift_gain(c, "riccati")
+    with pytest.raises(InvalidArgumentError, match="alpha"):
+        RiccatiConstants((2,), None, alpha=0.0, mu=1.0, gamma=1.0)
+    with pytest.raises(InvalidArgumentError, match="s: every entry"):
+        vandermonde_gain((2, 0), 1.0)

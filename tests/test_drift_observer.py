@@ -1,0 +1,139 @@
+"""The drift-observability observer (3.1) of seed 002: convergence, the bound (3.2)/(3.17), bad input."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from nlobs.errors import InvalidArgumentError, ModelError
+from nlobs.geometry import AffineFields, Box
+from nlobs.observers.base import Observer
+from nlobs.observers.drift import (
+    DriftObserver,
+    SingularObservabilityError,
+    design_drift_report,
+    error_bound_constants,
+    lipschitz_estimates,
+)
+from nlobs.simulate import simulate
+from nlobs.synthesis.drift_gain import RiccatiConstants, smallest_w, vandermonde_gain
+from nlobs.systems.modelfile import load_model
+from nlobs.systems.symbolic import SymbolicModel
+
+MODELS = Path(__file__).resolve().parents[1] / "src" / "nlobs" / "data" / "models"
+x1, x2 = sp.symbols("x1 x2", real=True)
+
+# Φ_s = identity (y = x1, s = r = 2); L_s = −x1 − x2 + 0.5 sin x1 has Lipschitz constant √(1.5² + 1) (attained at
+# cos x1 = −1) and H = 1 + 0.5 sin x1 has 0.5, globally: Theorem 3.1's constants are exact.
+GAMMA_L = math.hypot(1.5, 1.0)
+GAMMA_H = 0.5
+
+
+def _lipschitz_model() -> SymbolicModel:
+    return SymbolicModel.input_affine(["x1", "x2"], ["u"], ["y"], f=[x2, -x1 - x2 + sp.sin(x1) / 2],
+                                      g=[[0], [1 + sp.sin(x1) / 2]], h=[x1], name="lipschitz-oscillator")
+
+
+def _u(t: float) -> np.ndarray:
+    return np.array([0.8 * math.sin(2.0 * t)])  # ‖u‖ ≤ μ = 1
+
+
+def test_lipschitz_estimates_match_the_exact_constants() -> None:
+    fields = AffineFields.from_model(_lipschitz_model())
+    est = lipschitz_estimates(fields, (2,), (2,), Box([-math.pi, -3.0], [math.pi, 3.0]), samples=4000)
+    assert est.gamma_phi == pytest.approx(1.0) and est.gamma_phi_inv == pytest.approx(1.0)
+    assert est.gamma_L == pytest.approx(GAMMA_L, rel=1e-3) and est.gamma_L <= GAMMA_L + 1e-12
+    assert est.gamma_H == pytest.approx(GAMMA_H, rel=1e-3) and est.gamma_H <= GAMMA_H + 1e-12
+
+
+def test_theorem_3_1_bound_holds_and_decay_rate_at_least_alpha() -> None:
+    model = _lipschitz_model()
+    alpha = 1.0
+    c = RiccatiConstants((2,), [[0.0], [1.0]], alpha=alpha, mu=1.0, gamma=math.hypot(GAMMA_L, GAMMA_H))
+    cert = smallest_w(c).certificate
+    obs = DriftObserver.from_model(model, cert.K)
+    assert isinstance(obs, Observer)
+    bound = error_bound_constants(cert, 1.0, 1.0, estimated=False)  # Φ_s = identity: γ_Φ = γ_Φ⁻¹ = 1
+    assert bound.kappa1 == pytest.approx(math.sqrt(cert.cond_P))
+    x0 = np.array([[1.0, 0.0], [-2.0, 1.5], [0.5, -1.0]])
+    res = simulate(model.compile(), obs, x0=x0, x_hat0=[-1.0, 1.0], duration=6.0, dt=2e-3, u=_u)
+    e = res.error_norm
+    env = bound.bound(res.t, e[:, 0])
+    assert np.all(e <= env * (1 + 1e-6) + 1e-12)
+    # measured rate over the run: ‖e(t)‖ ≤ C e^{−αt}, and the log-slope after the transient is ≤ −α
+    late = (res.t >= 1.0) & (e[0] > 1e-10)
+    slope = np.polyfit(res.t[late], np.log(e[0][late]), 1)[0]
+    assert -slope >= alpha
+    assert np.all(res.decay_rate(floor=1e-10) >= alpha)
+
+
+def test_vanderpol_with_nonconstant_Q_s_converges_and_matches_z_error_dynamics() -> None:
+    model = load_model(MODELS / "vanderpol-lienard.toml")
+    w = 4.0
+    obs = DriftObserver.from_model(model, vandermonde_gain((2,), w).K)
+    Q = obs.jacobian_Q([[1.5, 0.3]])
+    np.testing.assert_allclose(Q[0], [[1.0, 0.0], [-(1.5**2 - 1.0), 1.0]])  # Φ = (x1, x2 − (x1³/3 − x1))
+    res = simulate(model.compile(), obs, x0=[2.0, 0.0], x_hat0=[0.0, 1.0], duration=8.0, dt=2e-3, u=_u)
+    assert res.error_norm[-1] < 1e-6 * res.error_norm[0]
+    assert res.decay_rate(floor=1e-10)[()] >= 1.0
+
+
+def test_rhs_batched_equals_rowwise_and_regularisation_is_close() -> None:
+    model = load_model(MODELS / "duffing-actuator.toml")
+    K = vandermonde_gain((3, 1), 3.0).K
+    obs = DriftObserver.from_model(model, K)
+    assert obs.s == (3, 1)
+    rng = np.random.default_rng(0)
+    z = rng.normal(size=(5, 4))
+    u = rng.normal(size=(5, 2))
+    y = rng.normal(size=(5, 2))
+    batched = obs.rhs(0.0, z, u, y)
+    for i in range(5):
+        np.testing.assert_allclose(obs.rhs(0.0, z[i], u[i], y[i]), batched[i], rtol=1e-12)
+    reg = DriftObserver.from_model(model, K, regularization=1e-6)
+    np.testing.assert_allclose(reg.rhs(0.0, z, u, y), batched, rtol=1e-6, atol=1e-8)
+
+
+def _singular_model() -> SymbolicModel:
+    # h = x1²: Q_s = [[2x1, 0], [2x2, 2x1]] is singular on x1 = 0
+    return SymbolicModel.input_affine(["x1", "x2"], ["u"], ["y"], f=[x2, -x1], g=[[0], [1]], h=[x1**2], name="square-sensor")
+
+
+def test_singular_Q_s_at_initial_estimate_is_a_clear_error() -> None:
+    obs = DriftObserver.from_model(_singular_model(), vandermonde_gain((2,), 2.0).K)
+    with pytest.raises(SingularObservabilityError, match=r"square-sensor: Q_s \(s = \[2\]\) is singular at the initial "
+                                                         r"estimate, x̂ = \(x1=0, x2=1\).*regularization") as ei:
+        obs.init([0.0, 1.0])
+    assert ei.value.point == (0.0, 1.0) and ei.value.time is None
+    with pytest.raises(SingularObservabilityError, match=r"singular at t=1.5, x̂ = \(x1=0, x2=0.5\)"):
+        obs.rhs(1.5, np.array([0.0, 0.5]), np.array([0.0]), np.array([1.0]))
+    reg = DriftObserver.from_model(_singular_model(), vandermonde_gain((2,), 2.0).K, regularization=1e-3)
+    assert np.all(np.isfinite(reg.rhs(1.5, reg.init([0.0, 0.5]), np.array([0.0]), np.array([1.0]))))
+
+
+def test_multi_index_must_sum_to_n_and_model_must_be_input_affine() -> None:
+    K = np.ones((1, 1))
+    with pytest.raises(InvalidArgumentError, match=r"multi-index s=\[1\] sums to 1; it must sum to n = 2"):
+        DriftObserver.from_model(_lipschitz_model(), K, s=(1,))
+    general = SymbolicModel.general(["x1", "x2"], ["u"], ["y"], rhs=[x2, -x1 + sp.Symbol("u", real=True) ** 3], h=[x1],
+                                    name="cubic-input")
+    with pytest.raises(ModelError, match=r"cubic-input: the method needs an input-affine model"):
+        DriftObserver.from_model(general, vandermonde_gain((2,), 1.0).K)
+    with pytest.raises(ModelError, match="input-affine"):
+        design_drift_report(general)
+
+
+def test_design_report_text_and_dict() -> None:
+    model = load_model(MODELS / "duffing-actuator.toml")
+    rep = design_drift_report(model, alpha=1.0, mu=1.0, gamma=2.0, region=Box.around(np.zeros(4), 1.0), samples=200)
+    assert rep.s == (3, 1) and rep.r == (3, 1)
+    assert rep.certificate.verified and rep.gamma_source == "given"
+    d = rep.to_dict()
+    assert d["s"] == [3, 1] and d["certificate"]["verified"] is True and d["bound"]["kappa1"] > 1
+    txt = rep.to_text()
+    assert "s = (3, 1)" in txt and "(2.17)" in txt and "κ₁" in txt
+    assert rep.observer().s == (3, 1)
