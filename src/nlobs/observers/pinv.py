@@ -1,0 +1,660 @@
+"""Röbenack's observer with a Moore–Penrose gain field (seed 003), and the Byrnes–Isidori gain.
+
+For an input-affine model ``ẋ = f(x) + g(x) u``, ``y = h(x)`` with observation
+relative degree ``r`` (A1), both observers have the form (7)::
+
+    x̂̇ = f(x̂) + g(x̂) u + l(x̂) (y − h(x̂))
+
+and differ in the gain vector field ``l``:
+
+* :class:`PinvObserver` — ``l(x) = Q⁺(x) k`` (17), ``Q = [dh; …; dL_f^{r−1} h]``
+  the reduced observability matrix (13) and ``Q⁺ = Qᵀ(QQᵀ)⁻¹`` its Moore–Penrose
+  inverse (25). Theorem 4.1: under A1, A5 (the columns ``τ_i`` of ``Q⁺`` span an
+  involutive distribution) and A6 (the ``τ_i`` are complete) this is the gain
+  (15) of a global change of coordinates (2) whose last rows are orthogonal to
+  ``Q`` (16). It needs no ``φ_{r+1}, …, φ_n``.
+* :class:`ByrnesIsidoriObserver` — ``l(x) = (Φ'(x))⁻¹ [k; 0]`` (8)/(15) for
+  user-supplied ``φ_{r+1}, …, φ_n`` (for the Byrnes–Isidori normal form they
+  satisfy ``L_g φ_i ≡ 0`` (5)); the gain has a pole wherever ``det Φ' = 0``.
+
+``k`` is a high-gain vector: the coefficients of ``(10)``,
+``det(λI − (A − kcᵀ)) = λ^r + k_1 λ^{r−1} + … + k_r``, for roots ``−θ^i``
+(``i = 1..r``; Dalla Mora–Germani–Manes [9, 10]) or a multiple root ``−θ``
+(Gauthier–Hammouri–Othman [13]) — :class:`HighGain`. With several outputs the
+vectors are stacked (one block of ``r_j`` entries per output) and the gain is
+``Q⁺ K`` with ``K = blockdiag(k¹, …, k^q)``.
+
+Everything symbolic happens at construction (SymPy); the run-time right-hand side
+is one NumPy function compiled with :func:`nlobs.systems.codegen.compile_matrix`.
+See ``docs/pinv.md``.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import sympy as sp
+from numpy.typing import ArrayLike, NDArray
+
+from nlobs._validate import as_batch, as_vector, positive
+from nlobs.errors import AssumptionViolated, DimensionError, InvalidArgumentError, ModelError
+from nlobs.geometry import (
+    AffineFields,
+    Box,
+    Check,
+    RelativeDegree,
+    block_gain,
+    check_a1,
+    check_involutive,
+    gain_symbols,
+    lie_derivative,
+    observability_rank,
+    observation_relative_degree,
+    pinv_gain_field,
+    reduced_observability_matrix,
+    symbolic_pinv,
+)
+from nlobs.geometry.lie import tidy
+from nlobs.systems.codegen import BatchedFunction, compile_matrix
+from nlobs.systems.symbolic import SymbolicModel
+from nlobs.systems.timebase import Continuous, TimeBase
+
+Array = NDArray[np.float64]
+
+#: Default high-gain parameter θ.
+DEFAULT_THETA = 2.0
+#: Largest entry (``count_ops``) handed to ``sympy.simplify``.
+SIMPLIFY_OPS_LIMIT = 300
+
+Placement = Literal["powers", "multiple"]
+PLACEMENTS: tuple[str, ...] = ("powers", "multiple")
+
+
+class AssumptionWarning(UserWarning):
+    """A design assumption that the observer does not need in order to run fails (its guarantee is lost)."""
+
+
+# ----------------------------------------------------------------------------- high gain
+def _check_placement(placement: str) -> str:
+    p = str(placement).lower()
+    if p not in PLACEMENTS:
+        raise InvalidArgumentError(f"placement: expected one of {list(PLACEMENTS)}, got {placement!r}")
+    return p
+
+
+def _check_order(r: int, name: str = "r") -> int:
+    if isinstance(r, bool) or not isinstance(r, (int, np.integer)) or r < 1:
+        raise InvalidArgumentError(f"{name}: expected a positive integer, got {r!r}")
+    return int(r)
+
+
+def high_gain_roots(r: int, theta: float, placement: Placement = "powers") -> Array:
+    """Roots of (10): ``−θ, −θ², …, −θ^r`` (``"powers"``, [9, 10]) or ``−θ`` ``r`` times (``"multiple"``, [13])."""
+    r_ = _check_order(r)
+    th = positive("theta", theta)
+    if _check_placement(placement) == "powers":
+        return -(th ** np.arange(1, r_ + 1, dtype=float))
+    return -np.full(r_, th)
+
+
+def high_gain_coefficients(r: int, theta: float, placement: Placement = "powers") -> Array:
+    """``k = (k_1, …, k_r)`` with ``λ^r + k_1 λ^{r−1} + … + k_r = Π (λ − λ_i)`` (10).
+
+    Closed forms: ``k_i = C(r, i) θ^i`` for the multiple root; for the roots
+    ``−θ^i``, ``k_i = e_i(θ, θ², …, θ^r)`` (elementary symmetric polynomials,
+    ``= θ^{i(i+1)/2}`` times the Gaussian binomial ``[r choose i]_θ``), computed
+    by expanding the product.
+    """
+    r_ = _check_order(r)
+    th = positive("theta", theta)
+    if _check_placement(placement) == "multiple":
+        return np.array([math.comb(r_, i) * th**i for i in range(1, r_ + 1)])
+    coeffs = [1.0]
+    for i in range(1, r_ + 1):  # multiply by (λ + θ^i)
+        p = th**i
+        coeffs = [a + p * b for a, b in zip(coeffs + [0.0], [0.0] + coeffs)]
+    return np.array(coeffs[1:])
+
+
+@dataclass(frozen=True)
+class HighGain:
+    """A high-gain design for ``k``: roots ``−θ^i`` (``"powers"``) or ``−θ`` (``"multiple"``) per output block.
+
+    Parameters
+    ----------
+    theta : float
+        ``θ > 0``; larger is faster (and amplifies noise).
+    placement : {"powers", "multiple"}
+    """
+
+    theta: float = DEFAULT_THETA
+    placement: Placement = "powers"
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "theta", positive("theta", self.theta))
+        object.__setattr__(self, "placement", _check_placement(self.placement))
+
+    def roots(self, r: Sequence[int]) -> Array:
+        """Stacked roots of (10), one block per output."""
+        return np.concatenate([high_gain_roots(_check_order(v), self.theta, self.placement) for v in r])
+
+    def vector(self, r: Sequence[int]) -> Array:
+        """Stacked ``k = (k¹, …, k^q)``, ``Σ r_j`` entries."""
+        return np.concatenate([high_gain_coefficients(_check_order(v), self.theta, self.placement) for v in r])
+
+
+def companion_error_matrix(k: ArrayLike) -> Array:
+    """``A − k cᵀ`` of (9a) for one block (Brunovsky ``A``, ``c = e_1``); its eigenvalues are the roots of (10)."""
+    kv = as_vector("k", k)
+    r = kv.size
+    M = np.diag(np.ones(r - 1), 1)
+    M[:, 0] -= kv
+    return M
+
+
+def _resolve_gain(k: ArrayLike | HighGain, r: Sequence[int]) -> tuple[Array, HighGain | None]:
+    if isinstance(k, HighGain):
+        return k.vector(r), k
+    kv = as_vector("k", k)
+    if kv.size != sum(r):
+        raise DimensionError(f"k: expected {sum(r)} entries (Σ r_j for r = {tuple(r)}), got {kv.size}")
+    return kv, None
+
+
+# ----------------------------------------------------------------------------- helpers
+def _simplify(e: sp.Expr) -> sp.Expr:
+    e = tidy(e)
+    if sp.count_ops(e) <= SIMPLIFY_OPS_LIMIT:
+        e = sp.simplify(e)
+    return e
+
+
+def _number(v: float) -> sp.Expr:
+    return sp.Integer(int(v)) if float(v).is_integer() and abs(v) < 2**53 else sp.Float(v)
+
+
+def _substitute_k(gain_symbolic: sp.MatrixBase, r: Sequence[int], kv: Array) -> sp.ImmutableMatrix:
+    """The gain field with the numeric ``k`` in place of ``k1, k2, …``."""
+    return sp.ImmutableMatrix(gain_symbolic.xreplace({s: _number(v) for s, v in zip(gain_symbols(r), kv)}))
+
+
+def _fmt(pt: Sequence[float]) -> str:
+    return "(" + ", ".join(f"{v:.4g}" for v in pt) + ")"
+
+
+def _require_a1(fields: AffineFields, region: Box, samples: int, seed: int) -> tuple[RelativeDegree, tuple[int, ...], Check]:
+    """A1: the observation relative degree is defined and ``dh, …, dL_f^{r−1}h`` are independent on the region."""
+    rd = observation_relative_degree(fields, region, seed=seed)
+    for out, rj in zip(fields.outputs, rd.r):
+        if rj is None:
+            raise AssumptionViolated(
+                f"{fields.name}: A1 fails: the observation relative degree of output {out!r} is not defined on "
+                f"{region.describe()} (L_g L_f^k h ≡ 0 there for every k < {rd.max_order})",
+                item="A1", evidence=f"r = {rd.r}")
+    r = rd.require(fields.outputs)
+    if sum(r) > fields.n:
+        raise AssumptionViolated(
+            f"{fields.name}: A1 fails: Σ r_j = {sum(r)} > n = {fields.n} for r = {r}; the rows of Q (13) cannot be "
+            "independent", item="A1", evidence=f"r = {r}")
+    chk = check_a1(fields, r, region, samples=samples, seed=seed)
+    if not chk.holds:
+        raise AssumptionViolated(f"{fields.name}: A1 fails on {region.describe()}: {chk.evidence}",
+                                 item="A1", evidence=chk.evidence)
+    return rd, r, chk
+
+
+def _as_x_expr(fields: AffineFields, e: Any, what: str) -> sp.Expr:
+    """A SymPy expression in the model's state names (symbols matched by name) — never text."""
+    if isinstance(e, str) or not isinstance(e, (sp.Basic, int, float)):
+        raise InvalidArgumentError(f"{what}: expected a SymPy expression in the states {list(fields.states)}, got {e!r}")
+    expr = e if isinstance(e, sp.Basic) else (sp.Float(e) if isinstance(e, float) else sp.Integer(e))
+    by_name = {s.name: s for s in fields.x}
+    unknown = sorted(str(s) for s in expr.free_symbols if str(s) not in by_name)
+    if unknown:
+        raise ModelError(f"{fields.name}: {what} uses symbols that are not states: {', '.join(unknown)}")
+    return expr.xreplace({s: by_name[str(s)] for s in expr.free_symbols})
+
+
+class _InjectionObserver:
+    """Shared run-time part of observer (7): ``x̂̇ = f(x̂) + g(x̂) u + l(x̂) (y − h(x̂))``; ``z = x̂``."""
+
+    fields: AffineFields
+
+    @property
+    def n_z(self) -> int:
+        """Observer state dimension (``n``)."""
+        return self.fields.n
+
+    @property
+    def n_x(self) -> int:
+        """Estimate dimension (``n``)."""
+        return self.fields.n
+
+    def init(self, x_hat0: ArrayLike) -> Array:
+        """Observer state from the initial estimate (``z0 = x̂0``), shape ``(..., n)``."""
+        return np.array(as_batch("x_hat0", x_hat0, self.fields.n), dtype=float)
+
+    def estimate(self, z: Array) -> Array:
+        """The estimate is the observer state, ``x̂ = z``."""
+        return z
+
+    def rhs(self, t: float, z: Array, u: Array, y: Array) -> Array:
+        """``x̂̇`` of (7) for batches: ``z`` ``(..., n)``, ``u`` ``(..., m)``, ``y`` ``(..., q)``."""
+        return self._rhs(z, u, y)  # type: ignore[attr-defined, no-any-return]
+
+
+def _compile_injection(fields: AffineFields, gain: sp.MatrixBase) -> BatchedFunction:
+    """``f + g u + l (y − h)`` compiled as one function of ``(x, u, y)`` (cse over all terms)."""
+    u = sp.symbols(f"_u0:{fields.m}", real=True) if fields.m else ()
+    y = sp.symbols(f"_y0:{fields.q}", real=True)
+    expr = sp.Matrix(fields.f) + (sp.Matrix(fields.g) * sp.Matrix(u) if fields.m else sp.zeros(fields.n, 1))
+    expr += sp.Matrix(gain) * (sp.Matrix(y) - sp.Matrix(fields.h))
+    return compile_matrix(expr, (fields.x, tuple(u), tuple(y)), vector=True, what=f"{fields.name}: observer (7)")
+
+
+# ----------------------------------------------------------------------------- Moore–Penrose observer
+@dataclass(frozen=True, eq=False)
+class PinvObserver(_InjectionObserver):
+    """Observer (7) with the Moore–Penrose gain ``l(x) = Q⁺(x) K`` (seed 003 (17)).
+
+    Construction checks A1 (relative degree defined on the region, rows of ``Q``
+    independent at every sampled point) and refuses with
+    :class:`~nlobs.errors.AssumptionViolated` otherwise; it checks A5
+    (involutivity of ``span{τ_1, …, τ_r}``) and refuses, or only warns with
+    :class:`AssumptionWarning` when ``require_a5=False`` (the observer runs, but
+    Theorem 4.1 and Corollary 4.1 no longer apply).
+
+    Parameters
+    ----------
+    fields : AffineFields
+        The model (see :meth:`from_model`).
+    k : array_like or HighGain
+        The stacked high-gain vector (``Σ r_j`` entries), or a :class:`HighGain`
+        design (default ``HighGain()``: roots ``−θ^i`` with ``θ = 2``).
+    region : Box, optional
+        Where A1/A5 are checked (default ``[−1, 1]ⁿ``).
+    pinv : {"symbolic", "numeric"}
+        ``"symbolic"``: ``Q⁺`` from the simplified closed form (compiled);
+        ``"numeric"``: ``np.linalg.pinv`` of the compiled ``Q`` at every evaluation.
+    require_a5 : bool
+        Refuse (default) or warn when A5 fails.
+    samples, seed : int
+        Sampling of the region for the checks.
+
+    Attributes
+    ----------
+    r : tuple of int
+        Observation relative degrees.
+    relative_degree : RelativeDegree
+        With the zero tests behind ``r``.
+    Q, Qp : sympy.ImmutableMatrix
+        ``Q`` (13) and ``Q⁺`` (25); the columns of ``Qp`` are ``τ_1, …, τ_r`` (18).
+    gain_symbolic : sympy.ImmutableMatrix
+        ``l(x) = Q⁺(x) K`` with the symbols ``k1, k2, …`` (n × q).
+    gain : sympy.ImmutableMatrix
+        The same with the numeric ``k``.
+    k_vector : ndarray
+        The numeric stacked ``k``.
+    high_gain : HighGain or None
+        The design ``k`` came from (``None`` when given numerically).
+    checks : tuple of Check
+        A1 and A5 with their evidence.
+    """
+
+    fields: AffineFields
+    k: ArrayLike | HighGain = field(default_factory=HighGain)
+    region: Box | None = None
+    pinv: Literal["symbolic", "numeric"] = "symbolic"
+    require_a5: bool = True
+    samples: int = 256
+    seed: int = 0
+    r: tuple[int, ...] = field(init=False)
+    relative_degree: RelativeDegree = field(init=False, repr=False)
+    Q: sp.ImmutableMatrix = field(init=False, repr=False)
+    Qp: sp.ImmutableMatrix = field(init=False, repr=False)
+    gain_symbolic: sp.ImmutableMatrix = field(init=False, repr=False)
+    gain: sp.ImmutableMatrix = field(init=False, repr=False)
+    k_vector: Array = field(init=False)
+    high_gain: HighGain | None = field(init=False)
+    checks: tuple[Check, ...] = field(init=False, repr=False)
+    time: TimeBase = field(init=False, repr=False)
+    state_names: tuple[str, ...] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        F = self.fields
+        if not isinstance(F, AffineFields):
+            raise InvalidArgumentError(f"fields: expected AffineFields (use PinvObserver.from_model), got {type(F).__name__}")
+        if self.pinv not in ("symbolic", "numeric"):
+            raise InvalidArgumentError(f"pinv: expected 'symbolic' or 'numeric', got {self.pinv!r}")
+        region = self.region or Box.unit(F.n)
+        if region.n != F.n:
+            raise DimensionError(f"region: has dimension {region.n}, the model {F.name!r} has n = {F.n}")
+        rd, r, a1 = _require_a1(F, region, self.samples, self.seed)
+        kv, hg = _resolve_gain(self.k, r)
+        Q = reduced_observability_matrix(F, r)
+        Qp = symbolic_pinv(Q)
+        a5 = check_involutive(F, r, region, Qp=Qp, samples=min(self.samples, 128), seed=self.seed)
+        if not a5.holds:
+            msg = f"{F.name}: A5 fails on {region.describe()}: {a5.evidence}"
+            if self.require_a5:
+                raise AssumptionViolated(msg + " (pass require_a5=False to build the observer anyway, without the "
+                                         "guarantee of Theorem 4.1)", item="A5", evidence=a5.evidence)
+            warnings.warn(AssumptionWarning(msg + ": Theorem 4.1 does not apply to this gain"), stacklevel=3)
+        gain_sym = pinv_gain_field(Qp, r)
+        gain = _substitute_k(gain_sym, r, kv)
+        kv.setflags(write=False)
+        for name, value in (("region", region), ("r", r), ("relative_degree", rd), ("Q", Q), ("Qp", Qp),
+                            ("gain_symbolic", gain_sym), ("gain", gain), ("k_vector", kv), ("high_gain", hg),
+                            ("checks", (a1, a5)), ("time", Continuous()),
+                            ("state_names", tuple(f"{s}_hat" for s in F.states))):
+            object.__setattr__(self, name, value)
+        Knum = np.asarray(np.array(block_gain(r, list(kv)), dtype=float))
+        object.__setattr__(self, "_K", Knum)
+        if self.pinv == "symbolic":
+            object.__setattr__(self, "_rhs", _compile_injection(F, gain))
+            object.__setattr__(self, "_gain_fn", compile_matrix(gain, (F.x,), what=f"{F.name}: Q⁺K"))
+        else:
+            u = sp.symbols(f"_u0:{F.m}", real=True) if F.m else ()
+            drift = sp.Matrix(F.f) + (sp.Matrix(F.g) * sp.Matrix(u) if F.m else sp.zeros(F.n, 1))
+            object.__setattr__(self, "_drift", compile_matrix(drift, (F.x, tuple(u)), vector=True, what=f"{F.name}: f + g u"))
+            object.__setattr__(self, "_h", compile_matrix(F.h, (F.x,), vector=True, what=f"{F.name}: h"))
+            object.__setattr__(self, "_Q", compile_matrix(Q, (F.x,), what=f"{F.name}: Q (13)"))
+            object.__setattr__(self, "_rhs", self._numeric_rhs)
+            object.__setattr__(self, "_gain_fn", self._numeric_gain)
+
+    @classmethod
+    def from_model(
+        cls, model: SymbolicModel, *, parameters: Mapping[str, float] | None = None, **kwargs: Any
+    ) -> PinvObserver:
+        """Build from a continuous-time input-affine :class:`SymbolicModel` (keyword arguments as the class)."""
+        return cls(AffineFields.from_model(model, parameters), **kwargs)
+
+    # -- numeric Moore–Penrose inverse (pinv="numeric")
+    def _numeric_gain(self, x: Array) -> Array:
+        return np.linalg.pinv(self._Q(x)) @ self._K  # type: ignore[attr-defined, no-any-return]
+
+    def _numeric_rhs(self, x: Array, u: Array, y: Array) -> Array:
+        innov = y - self._h(x)  # type: ignore[attr-defined]
+        return self._drift(x, u) + (self._numeric_gain(x) @ innov[..., None])[..., 0]  # type: ignore[attr-defined, no-any-return]
+
+    def gain_at(self, x: ArrayLike) -> Array:
+        """``l(x) = Q⁺(x) K`` at a batch of points, shape ``(..., n, q)``."""
+        return self._gain_fn(as_batch("x", x, self.fields.n))  # type: ignore[attr-defined, no-any-return]
+
+    @property
+    def error_matrices(self) -> tuple[Array, ...]:
+        """Per output, ``A − k cᵀ`` of (9a) (its eigenvalues are the placed roots)."""
+        out, i = [], 0
+        for rj in self.r:
+            out.append(companion_error_matrix(self.k_vector[i : i + rj]))
+            i += rj
+        return tuple(out)
+
+
+# ----------------------------------------------------------------------------- Byrnes–Isidori gain
+@dataclass(frozen=True, eq=False)
+class ByrnesIsidoriObserver(_InjectionObserver):
+    """Observer (7) with the gain ``l(x) = (Φ'(x))⁻¹ [K; 0]`` (seed 003 (8)/(15)) for given ``φ_{r+1}, …, φ_n``.
+
+    ``Φ = (h, L_f h, …, L_f^{r−1} h, φ_{r+1}, …, φ_n)`` (2). The Byrnes–Isidori
+    normal form needs ``L_g φ_i ≡ 0`` (5); when that fails the observer is still
+    (8) for the coordinates given, and an :class:`AssumptionWarning` says so.
+    ``det Φ'`` must not vanish identically (else :class:`AssumptionViolated`);
+    where it vanishes the gain has a pole (:attr:`singular_set`,
+    :attr:`checks`) — the paper's point against this gain.
+
+    Parameters
+    ----------
+    fields : AffineFields
+    phi : sequence of sympy.Expr
+        ``n − Σ r_j`` functions of the states (symbols matched by name).
+    k : array_like or HighGain
+    region : Box, optional
+        Where A1 and ``det Φ' ≠ 0`` are checked (default ``[−1, 1]ⁿ``).
+
+    Attributes
+    ----------
+    r : tuple of int
+    Phi : sympy.ImmutableMatrix
+        The map (2).
+    jacobian : sympy.ImmutableMatrix
+        ``Φ'`` (23).
+    det : sympy.Expr
+        ``det Φ'``, factored.
+    gain_symbolic, gain : sympy.ImmutableMatrix
+        ``(Φ')⁻¹ [K; 0]`` with the symbols ``k1, …`` and with the numeric ``k``.
+    k_vector : ndarray
+    checks : tuple of Check
+        A1, (5) and ``det Φ' ≠ 0`` on the region (with the point of smallest ``|det Φ'|``).
+    """
+
+    fields: AffineFields
+    phi: Sequence[sp.Expr]
+    k: ArrayLike | HighGain = field(default_factory=HighGain)
+    region: Box | None = None
+    samples: int = 256
+    seed: int = 0
+    r: tuple[int, ...] = field(init=False)
+    Phi: sp.ImmutableMatrix = field(init=False, repr=False)
+    jacobian: sp.ImmutableMatrix = field(init=False, repr=False)
+    det: sp.Expr = field(init=False, repr=False)
+    gain_symbolic: sp.ImmutableMatrix = field(init=False, repr=False)
+    gain: sp.ImmutableMatrix = field(init=False, repr=False)
+    k_vector: Array = field(init=False)
+    high_gain: HighGain | None = field(init=False)
+    checks: tuple[Check, ...] = field(init=False, repr=False)
+    time: TimeBase = field(init=False, repr=False)
+    state_names: tuple[str, ...] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        F = self.fields
+        if not isinstance(F, AffineFields):
+            raise InvalidArgumentError(f"fields: expected AffineFields, got {type(F).__name__}")
+        region = self.region or Box.unit(F.n)
+        if region.n != F.n:
+            raise DimensionError(f"region: has dimension {region.n}, the model {F.name!r} has n = {F.n}")
+        _, r, a1 = _require_a1(F, region, self.samples, self.seed)
+        if isinstance(self.phi, (str, sp.Basic)) or not isinstance(self.phi, Sequence):
+            raise InvalidArgumentError(f"phi: expected a sequence of {F.n - sum(r)} SymPy expressions, got {self.phi!r}")
+        phis = tuple(_as_x_expr(F, e, f"phi[{i}]") for i, e in enumerate(self.phi))
+        if len(phis) != F.n - sum(r):
+            raise DimensionError(f"phi: expected n − Σ r_j = {F.n - sum(r)} functions for r = {r}, got {len(phis)}")
+        kv, hg = _resolve_gain(self.k, r)
+        chains = [e for j, rj in enumerate(r) for e in F.lie_chain(j, rj)]
+        Phi = sp.ImmutableMatrix(chains + list(phis))
+        J = sp.ImmutableMatrix(Phi.jacobian(sp.Matrix(F.x)).applyfunc(tidy))
+        det = sp.factor(tidy(J.det(method="berkowitz")))
+        if det == 0:
+            raise AssumptionViolated(f"{F.name}: det Φ' ≡ 0: the gradients of (h, …, L_f^(r−1) h, φ) are dependent "
+                                     "everywhere; choose other φ", item="det Φ'", evidence="det Φ' = 0")
+        # (5): L_g φ_i ≡ 0
+        lg = [sp.simplify(lie_derivative(p, F.g[:, c], F.x)) for p in phis for c in range(F.m)]
+        bad = [i for i, e in enumerate(lg) if e != 0]
+        c5 = Check("(5) L_g φ_i ≡ 0", not bad, "symbolic",
+                   "L_g φ_i ≡ 0 for every φ: Byrnes–Isidori normal form" if not bad
+                   else f"L_g φ ≠ 0 for {[str(lg[i]) for i in bad]}: not the Byrnes–Isidori form (gain (8) still valid)")
+        if bad:
+            warnings.warn(AssumptionWarning(f"{F.name}: {c5.evidence}"), stacklevel=3)
+        # det Φ' on the region: the pole of the gain
+        pts = region.sample(self.samples, self.seed)
+        fn = compile_matrix(sp.Matrix([det]), (F.x,), vector=True, what=f"{F.name}: det Φ'")
+        with np.errstate(all="ignore"):
+            dv = np.abs(fn(pts)[:, 0])
+        i = int(np.argmin(np.where(np.isfinite(dv), dv, 0.0)))
+        sing = self.singular_set_of(det, F.x)
+        cdet = Check("det Φ' ≠ 0", bool(dv[i] > 1e-9 and not sing), "symbolic" if det.is_number else "numeric",
+                     f"det Φ' = {det}" + (f"; vanishes on {', '.join(sing)} (the gain has a pole there)" if sing else "")
+                     + f"; smallest |det Φ'| = {dv[i]:.3g} at sampled x = {_fmt(pts[i])}",
+                     tuple(map(float, pts[i])), float(dv[i]), str(det))
+        ks = gain_symbols(r)
+        rhs_sym = sp.Matrix.vstack(block_gain(r, list(ks)), sp.zeros(F.n - sum(r), len(r)))
+        gsym = sp.ImmutableMatrix(sp.Matrix(J).LUsolve(rhs_sym).applyfunc(_simplify))
+        gain = _substitute_k(gsym, r, kv)
+        kv.setflags(write=False)
+        for name, value in (("region", region), ("phi", phis), ("r", r), ("Phi", Phi), ("jacobian", J), ("det", det),
+                            ("gain_symbolic", gsym), ("gain", gain), ("k_vector", kv), ("high_gain", hg),
+                            ("checks", (a1, c5, cdet)), ("time", Continuous()),
+                            ("state_names", tuple(f"{s}_hat" for s in F.states))):
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "_rhs", _compile_injection(F, gain))
+        object.__setattr__(self, "_gain_fn", compile_matrix(gain, (F.x,), what=f"{F.name}: (Φ')⁻¹[K; 0]"))
+
+    @staticmethod
+    def singular_set_of(det: sp.Expr, x: Sequence[sp.Symbol]) -> tuple[str, ...]:
+        """The factors of ``det Φ'`` that can vanish, as equations (``"x3 = -1"`` where SymPy solves them)."""
+        out: list[str] = []
+        for fac, _ in sp.factor_list(det)[1]:
+            syms = [s for s in x if s in fac.free_symbols]
+            sol = sp.solve(fac, syms[0], dict=False) if len(syms) == 1 else None
+            if sol:
+                out.extend(f"{syms[0]} = {v}" for v in sol if v.is_real is not False)
+            elif syms:
+                out.append(f"{fac} = 0")
+        return tuple(out)
+
+    @property
+    def singular_set(self) -> tuple[str, ...]:
+        """Where ``det Φ' = 0`` (the poles of the gain)."""
+        return self.singular_set_of(self.det, self.fields.x)
+
+    @classmethod
+    def from_model(
+        cls, model: SymbolicModel, phi: Sequence[sp.Expr], *, parameters: Mapping[str, float] | None = None, **kwargs: Any
+    ) -> ByrnesIsidoriObserver:
+        """Build from a :class:`SymbolicModel` (keyword arguments as the class)."""
+        return cls(AffineFields.from_model(model, parameters), phi, **kwargs)
+
+    def gain_at(self, x: ArrayLike) -> Array:
+        """``l(x)`` at a batch of points, shape ``(..., n, q)`` (``inf``/``nan`` on the singular set)."""
+        with np.errstate(all="ignore"):
+            return self._gain_fn(as_batch("x", x, self.fields.n))  # type: ignore[attr-defined, no-any-return]
+
+
+# ----------------------------------------------------------------------------- report for the CLI
+def _strings(M: sp.MatrixBase) -> tuple[tuple[str, ...], ...]:
+    return tuple(tuple(str(M[i, j]) for j in range(M.shape[1])) for i in range(M.shape[0]))
+
+
+@dataclass(frozen=True)
+class PinvDesignReport:
+    """What ``nlobs design pinv`` prints: relative degree, checks, ``Q⁺``, the gain field and ``k``.
+
+    Attributes
+    ----------
+    model : str
+    states, outputs : tuple of str
+    relative_degree : tuple of int
+    input_gains : tuple of str
+        Per output, ``L_g L_f^{r_j−1} h_j`` (where it vanishes the relative degree
+        is not uniform, but the observation relative degree still is ``r_j``).
+    observability_rank : int
+        Generic rank of the codistribution spanned by the ``dL_f^k h``.
+    checks : tuple of Check
+        A1 and A5.
+    Q, pinv : tuple of tuple of str
+        ``Q`` (13) and ``Q⁺`` (25), row by row.
+    gain_field : tuple of tuple of str
+        ``l(x) = Q⁺(x) K`` with the symbols ``k1, k2, …`` (n rows, q columns).
+    gain_numeric : tuple of tuple of str
+        The same with the numeric ``k``.
+    k : tuple of float
+    roots : tuple of float
+        Eigenvalues of every ``A − k cᵀ`` (the roots of (10)).
+    theta : float or None
+    placement : str or None
+    usable : bool
+        A1 and A5 hold (Corollary 4.1's structural conditions; A2–A4, A6 are not checked).
+    """
+
+    model: str
+    states: tuple[str, ...]
+    outputs: tuple[str, ...]
+    relative_degree: tuple[int, ...]
+    input_gains: tuple[str, ...]
+    observability_rank: int
+    checks: tuple[Check, ...]
+    Q: tuple[tuple[str, ...], ...]
+    pinv: tuple[tuple[str, ...], ...]
+    gain_field: tuple[tuple[str, ...], ...]
+    gain_numeric: tuple[tuple[str, ...], ...]
+    k: tuple[float, ...]
+    roots: tuple[float, ...]
+    theta: float | None
+    placement: str | None
+    usable: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (stable keys)."""
+        return {
+            "model": self.model, "states": list(self.states), "outputs": list(self.outputs),
+            "observation_relative_degree": list(self.relative_degree), "input_gains": list(self.input_gains),
+            "observability_rank": self.observability_rank, "checks": [c.to_dict() for c in self.checks],
+            "involutive": next(c.holds for c in self.checks if c.name.startswith("A5")),
+            "Q": [list(r) for r in self.Q], "pinv": [list(r) for r in self.pinv],
+            "pinv_gain": [list(r) for r in self.gain_field], "pinv_gain_numeric": [list(r) for r in self.gain_numeric],
+            "k": list(self.k), "roots": list(self.roots), "theta": self.theta, "placement": self.placement,
+            "usable": self.usable,
+        }
+
+    def to_text(self) -> str:
+        """A plain-text report."""
+        lines = [f"Moore–Penrose observer (Röbenack 2008, (7) with (17)) for {self.model}"]
+        for o, rj, lg in zip(self.outputs, self.relative_degree, self.input_gains):
+            lines.append(f"  output {o}: observation relative degree r = {rj}, L_g L_f^{rj - 1} h = {lg}")
+        lines.append(f"  generic rank of the observability codistribution: {self.observability_rank} "
+                     f"(n = {len(self.states)}; {len(self.states) - self.observability_rank} unobservable direction(s))")
+        for c in self.checks:
+            lines.append(f"  {'ok  ' if c.holds else 'FAIL'} {c.name}: {c.evidence}")
+        lines.append("  Q⁺(x) (columns τ_i, (18)):")
+        lines += [f"    [{', '.join(r)}]" for r in self.pinv]
+        lines.append("  gain field l(x) = Q⁺(x) k (17):")
+        for s, g, gn in zip(self.states, self.gain_field, self.gain_numeric):
+            lines.append(f"    {s}: {', '.join(g)}    = {', '.join(gn)}")
+        design = f" (θ = {self.theta:g}, placement {self.placement})" if self.theta is not None else ""
+        lines.append(f"  k = [{', '.join(f'{v:.6g}' for v in self.k)}]{design}; roots of (10): "
+                     f"[{', '.join(f'{v:.6g}' for v in self.roots)}]")
+        lines.append("  usable: " + ("yes (A1, A5 hold; A2–A4 and A6 are the user's to check)" if self.usable
+                                     else "no: A5 fails, Theorem 4.1 does not apply"))
+        return "\n".join(lines)
+
+
+def design_pinv_report(
+    model: SymbolicModel,
+    k: ArrayLike | None = None,
+    theta: float = DEFAULT_THETA,
+    placement: Placement = "powers",
+    region: Box | None = None,
+    *,
+    parameters: Mapping[str, float] | None = None,
+    pinv: Literal["symbolic", "numeric"] = "symbolic",
+) -> PinvDesignReport:
+    """Design the Moore–Penrose observer of ``model`` and report it (for ``nlobs design pinv``).
+
+    ``k`` (stacked, ``Σ r_j`` entries) overrides the high-gain design ``(theta, placement)``.
+    A5 failing is reported (``usable`` false), not raised; A1 failing raises
+    :class:`~nlobs.errors.AssumptionViolated` (no ``Q⁺`` exists).
+    """
+    gain: ArrayLike | HighGain = HighGain(theta, placement) if k is None else k
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AssumptionWarning)
+        obs = PinvObserver.from_model(model, parameters=parameters, k=gain, region=region, require_a5=False, pinv=pinv)
+    F = obs.fields
+    lg = []
+    for j, rj in enumerate(obs.r):
+        phi = F.lie_chain(j, rj)[-1]
+        lg.append(", ".join(str(sp.factor(lie_derivative(phi, F.g[:, c], F.x))) for c in range(F.m)))
+    roots = np.concatenate([np.sort(np.linalg.eigvals(M).real) for M in obs.error_matrices])
+    return PinvDesignReport(
+        model=F.name, states=F.states, outputs=F.outputs, relative_degree=obs.r, input_gains=tuple(lg),
+        observability_rank=observability_rank(F, obs.region), checks=obs.checks, Q=_strings(obs.Q),
+        pinv=_strings(obs.Qp), gain_field=_strings(obs.gain_symbolic), gain_numeric=_strings(obs.gain),
+        k=tuple(float(v) for v in obs.k_vector), roots=tuple(float(v) for v in roots),
+        theta=None if obs.high_gain is None else obs.high_gain.theta,
+        placement=None if obs.high_gain is None else obs.high_gain.placement,
+        usable=all(c.holds for c in obs.checks),
+    )
