@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlobs.errors import AssumptionViolated, CertificateError, DesignInfeasible, InvalidArgumentError
+from nlobs.errors import AssumptionViolated, CertificateError, DesignInfeasible, InvalidArgumentError, NonFiniteError
 from nlobs.examples.khajenejad_yong import example_61, example_62
 from nlobs.observers.setvalued import run_setvalued
 from nlobs.synthesis.setvalued import design_setvalued, verify_setvalued
-from nlobs.systems.discrete_ui import DiscreteUISystem, Lipschitz
+from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, Lipschitz
 
 
 def _lti(L: float = 0.0) -> DiscreteUISystem:
@@ -113,3 +113,31 @@ def test_verify_rejects_a_bad_gain() -> None:
     with pytest.raises(CertificateError, match="S-procedure condition"):
         verify_setvalued(sysm, np.zeros_like(good.L_tilde), good.P, kappa=good.kappa, lam=good.lam,
                          theta=good.theta)
+
+
+def test_nan_measurement_is_rejected() -> None:
+    sysm = _lti(0.0)
+    design = design_setvalued(sysm)
+    y = np.zeros((2, 5, 2))
+    y[1, 3, 0] = np.nan
+    with pytest.raises(NonFiniteError, match="y: entry \\(1, 3, 0\\)"):
+        run_setvalued(sysm, design, y)
+
+
+def test_lpv_vertices_are_certified_and_contain_every_member() -> None:
+    A = np.array([[0.5, 0.2, 0.0], [0.0, 0.4, 0.3], [0.1, 0.0, 0.6]])
+    Ai = (np.diag([0.2, 0.0, 0.0]), np.diag([0.0, 0.0, -0.2]))
+    sysm = DiscreteUISystem(A, [[1.0], [0.0], [0.5]], [[1.0, 0, 0], [0, 0, 1.0]], [[0.0], [0.2]],
+                            function_class=LPV(Ai), eta_w=0.05, eta_v=0.02, delta0=1.0)
+    design = design_setvalued(sysm)
+    assert design.kappa == 0.0 and len(design.spectral_radii) == 2
+    Acl, Bcl, _ = design.dynamics.split(design.L_tilde)
+    # every convex combination is contracted in the P-norm by at most λ (vertex LMIs imply the polytope)
+    for s in np.linspace(0, 1, 11):
+        Ak = Acl + Bcl @ (s * Ai[0] + (1 - s) * Ai[1])
+        assert np.linalg.eigvals(np.linalg.solve(design.P, Ak.T @ design.P @ Ak)).real.max() <= design.lam + 1e-7
+
+
+def test_example_61_printed_class_0_multiplier_is_infeasible() -> None:
+    with pytest.raises(DesignInfeasible, match="infeasible"):
+        design_setvalued(example_61("0").system)
