@@ -373,8 +373,8 @@ def _verify(system: DiscreteUISystem, dyn: ErrorDynamics, P: Array, L: Array, ka
     ev = np.linalg.eigvalsh(P)
     checks.append(Check("P ≻ 0", CheckKind.POSITIVITY, -float(ev[0]), 0.0))
     for i, Nm in enumerate(_condition(system, dyn, P, L, kappa, lam, q, theta)):
-        tol = 1e-9 * max(1.0, float(np.linalg.norm(Nm, 2)))
-        checks.append(Check(f"S-procedure condition (⋆) [{i}] (max eig)", CheckKind.LMI, max_eig(Nm), tol,
+        # exactly ⪯ 0 (no tolerance): (V) is then implied without any round-off allowance
+        checks.append(Check(f"S-procedure condition (⋆) [{i}] (max eig)", CheckKind.LMI, max_eig(Nm), 0.0,
                             strict=False))
     lam_eff = lam - q / float(ev[-1])
     nv, nw = system.eta_v, system.eta_w
