@@ -262,3 +262,33 @@ def containment_study(example: PaperExample, gain: SetValuedDesign | GivenGain, 
         final_radius_input=float(run.radii.input[-1]), first_violation_step=int(bad[0]) if bad.size else None,
         seconds=secs, label=label, errors=err, radii=run.radii,
     )
+
+
+# --------------------------------------------------------------------------- plots
+
+
+def plot_errors_vs_radii(results: tuple[ContainmentResult, ...], path: str, *, title: str = "",
+                         dt: float = 1.0, log: bool = False) -> str:
+    """Save a figure of the error norms over the runs (median, max) against each result's state radius.
+
+    Uses matplotlib's object API (no pyplot). Returns ``path``.
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(7.0, 4.0), layout="constrained")
+    ax = fig.add_subplot(1, 1, 1)
+    colours = ("C0", "C3", "C2", "C1")
+    for res, col in zip(results, colours):
+        t = np.arange(res.steps + 1) * dt
+        ax.fill_between(t, np.min(res.errors, axis=0), np.max(res.errors, axis=0), color=col, alpha=0.2,
+                        label=f"{res.label}: error range over {res.runs} runs")
+        ax.plot(t, np.median(res.errors, axis=0), color=col, lw=1.0, label=f"{res.label}: median error")
+        ax.plot(t, res.radii.state, color=col, lw=2.0, ls="--", label=f"{res.label}: radius δˣ_k")
+    if log:
+        ax.set_yscale("log")
+    ax.set_xlabel("t [s]" if dt != 1.0 else "step k")
+    ax.set_ylabel("‖x_k − x̂_k|k‖")
+    ax.set_title(title)
+    ax.legend(fontsize=7)
+    fig.savefig(path, dpi=120)
+    return path
