@@ -47,6 +47,11 @@ def test_corners_only_is_prop_2_18_as_printed() -> None:
     r = affine_abstraction(square, [-1.0], [1.0], gradient_lipschitz=2.0)
     assert r.points.shape == (2, 1)
     np.testing.assert_allclose([r.A[0, 0], r.e[0], r.residual_bound[0]], [0.0, 1.0, 1.0], atol=1e-9)
+    # (3) as printed subtracts 2σ in the objective constraint, so θ*/2 misses σ: here it
+    # claims a zero residual, while |z² − 1| = 1 at z = 0
+    np.testing.assert_allclose(r.eta_as_printed, [0.0], atol=1e-9)
+    assert abs(square(np.zeros((1, 1)))[0, 0] - r(np.zeros((1, 1)))[0, 0]) == pytest.approx(1.0)
+    assert r.sampled_max_residual[0] == pytest.approx(1.0, abs=1e-3)
 
 
 def test_lipschitz_correction_is_first_order_in_h() -> None:

@@ -187,6 +187,18 @@ class AffineAbstraction:
         """``‖η‖₂``: bound on ``‖v^a‖₂``, the norm the noise bounds of (7)–(8) use."""
         return float(np.linalg.norm(self.residual_bound))
 
+    @property
+    def eta_as_printed(self) -> Array:
+        """``θ*/2`` per component with the objective constraint of (3) as printed (``… − 2σ ≤ θ``).
+
+        Equals ``residual_bound − sigma``: it omits ``σ`` and is **not** a valid bound in
+        general (for ``q = z²`` on ``[−1, 1]`` with the corners only it is 0, while the
+        residual reaches 1). Reported for comparison with the paper only.
+        """
+        out = np.maximum(self.residual_bound - self.sigma, 0.0)
+        out.setflags(write=False)
+        return out
+
     def noise_bound(self, eta_v: float) -> float:
         """Measurement-noise bound of (7), ``η_v̂ + ‖η‖₂`` (``‖v̂ + v^a‖₂ ≤ ‖v̂‖₂ + ‖v^a‖₂``).
 
