@@ -220,6 +220,12 @@ def test_bad_input_is_reported() -> None:
     obs = DiscreteLipschitzObserver(A62, C62, cert.L, DT, phi=phi62)
     with pytest.raises(NonFiniteError, match="y: entry \\(0, 0\\) is nan"):
         obs.step(obs.init(np.zeros((2, 2))), None, np.array([[np.nan], [0.0]]))
+    with pytest.raises(DimensionError, match="E: expected shape \\(2, \\?\\)"):
+        design_discrete_lipschitz_gain(A62, C62, lipschitz=1.25, E=[[0.0, 1.0]], F=F62)
+    with pytest.raises(InvalidArgumentError, match="rho: must lie in"):
+        design_discrete_lipschitz_gain(A62, C62, lipschitz=0.1, rho=1.5)
+    with pytest.raises(InvalidArgumentError, match="lipschitz: must be non-negative"):
+        design_discrete_lipschitz_gain(A62, C62, lipschitz=-1.0)
     with pytest.raises(DimensionError, match="L: expected shape \\(2, 1\\)"):
         DiscreteLipschitzObserver(A62, C62, np.zeros((1, 2)), DT)
     with pytest.raises(InvalidArgumentError, match="time: expected a Discrete"):

@@ -78,7 +78,8 @@ class DiscreteLipschitzCertificate:
     rho : float
         Certified contraction factor: ``V(e_{k+1}) ≤ ρ² V(e_k)`` for ``d = w = v = 0``.
     rho_min : float
-        Smallest feasible ``ρ`` found by the bisection (to ``rho_tol``).
+        Smallest feasible ``ρ`` found by the bisection (to ``rho_tol``); equal to ``rho``
+        when a ``ρ`` was requested (no bisection).
     lipschitz : float
         The Lipschitz constant ``γ`` of ``φ`` the design holds for.
     transient : float
