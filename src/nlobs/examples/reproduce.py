@@ -47,6 +47,7 @@ class ReproRow:
 #: ``nlobs reproduce NAME`` → module under ``nlobs.examples`` with a ``reproduce()`` function.
 PAPERS: dict[str, str] = {
     "grip2013": "nlobs.examples.grip2013",
+    "dallamora2000": "nlobs.examples.dallamora2000",
 }
 
 

@@ -57,7 +57,7 @@ from numpy.typing import ArrayLike, NDArray
 from nlobs._validate import as_matrix, positive
 from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
 from nlobs.synthesis.certificate import Check, CheckKind
-from nlobs.synthesis.lmi import Solver, as_enum, as_solver, bmat, max_eig, solve, symmetrise
+from nlobs.synthesis.lmi import Solver, SolveStatus, as_enum, as_solver, bmat, max_eig, solve, symmetrise
 
 Array = NDArray[np.float64]
 
@@ -530,7 +530,7 @@ def _build_sdp(c: RiccatiConstants, objective: DriftObjective, margin: float, ga
 def _sdp_solve(sdp: _Sdp, kappa: float, solver: Solver, options: Mapping[str, Any] | None) -> tuple[float | None, Any]:
     sdp.kappa.value = kappa
     res = solve(sdp.problem, solver, options)
-    if not res.status.has_solution or sdp.slack.value is None:
+    if res.status is not SolveStatus.OPTIMAL or sdp.slack.value is None:  # "inaccurate" answers are not used
         return None, res
     return float(sdp.slack.value), res
 
