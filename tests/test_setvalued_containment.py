@@ -99,3 +99,16 @@ def test_example_62_error_grows_for_every_gain() -> None:
         e1 = np.abs(x[..., 0] - run.x_hat[..., 0])
         grow = e1[:, 2:] / np.maximum(e1[:, 1:-1], 1e-300)
         assert np.all(grow[e1[:, 1:-1] > 1e-12] >= 0.42 + 0.6 / 0.65 - 1e-9)
+
+
+def test_example_61_structured_class_0_multiplier() -> None:
+    """A Class 0 multiplier that uses φ's structure (not the paper's) is valid and gives a certified design."""
+    from nlobs.systems.discrete_ui import check_function_class
+
+    ex = example_61("0-structured")
+    assert check_function_class(ex.system.phi, ex.system.function_class, -5 * np.ones(4), 5 * np.ones(4)).holds
+    design = design_setvalued(ex.system)
+    res = containment_study(ex, design, runs=RUNS, steps=300, seed=3)
+    print(f"\n6.1 structured class 0: λ = {design.lam:.5g}, κ = {design.kappa:.4g}, steady radius "
+          f"{design.steady_radius:.4g}; {res}")
+    assert res.rate_state == 1.0 and res.rate_input == 1.0

@@ -116,12 +116,13 @@ def example_61(function_class: str = "II", *, delta0: float = 1.0) -> PaperExamp
 
     Parameters
     ----------
-    function_class : {"0", "I", "II"}
+    function_class : {"0", "I", "II", "0-structured"}
         ``"I"``: Lipschitz with ``L_f = 3.33 T_s`` on the nonlinear part (the
         paper's constant); ``"II"``: ``(0, γ)``-QC* on the nonlinear part, i.e.
         ``(A, γ)``-QC* on ``f`` as in the paper, with Lemma 2.14's
         ``γ = −(2·3.33 T_s)²`` (printed: ``γ = 0``, which would make ``f`` affine);
-        ``"0"``: the printed ``M = [[I, 0], [0, (3.333 T_s)² I]]``.
+        ``"0"``: the printed ``M = [[I, 0], [0, (3.333 T_s)² I]]``; ``"0-structured"``: nlobs's
+        multiplier ``−‖Δφ‖² + (3.33 T_s)² Δx₃² ≥ 0`` (not in the paper; no printed values).
     delta0 : float
         Radius of the initial ball around ``0`` (not given in the paper).
     """
@@ -133,19 +134,27 @@ def example_61(function_class: str = "II", *, delta0: float = 1.0) -> PaperExamp
         fc = qcstar_from_bounded_split(np.zeros((n, n)), 3.33 * TS)
         note = ("Class II: f = A x + h + g(x), ‖g‖ ≤ 3.33 Ts, so (A, γ)-QC* with Lemma 2.14's γ = -(2·3.33 Ts)²; "
                 "the paper prints γ = 0")
+    elif function_class == "0-structured":
+        Ms = np.zeros((2 * n, 2 * n))
+        Ms[:n, :n] = -np.eye(n)
+        Ms[n + 2, n + 2] = (3.33 * TS) ** 2
+        fc = QuadraticConstraint(Ms, 0.0)
+        note = ("Class 0 with nlobs's structured multiplier −‖Δφ‖² + (3.33 Ts)² Δx₃² ≥ 0 (φ depends on x₃ only); "
+                "NOT in the paper")
     elif function_class == "0":
         fc = QuadraticConstraint(np.block([[np.eye(n), np.zeros((n, n))],
                                            [np.zeros((n, n)), (3.333 * TS) ** 2 * np.eye(n)]]), 0.0)
         note = "Class 0: the printed multiplier M = [[I, 0], [0, (3.333 Ts)² I]] (M11 = +I carries no information)"
     else:
-        raise InvalidArgumentError(f"function_class: expected '0', 'I' or 'II', got {function_class!r}")
+        raise InvalidArgumentError(
+            f"function_class: expected '0', 'I', 'II' or '0-structured', got {function_class!r}")
     system = DiscreteUISystem(
         _A61(), TS * np.array([[5.0, 5.0, 2.0, 1.0]]).T, np.array([[1.0, 0, 0, 0], [0, 1.0, 0, 0]]),
         TS * np.array([[1.1, 2.0]]).T, phi=_phi61, function_class=fc, eta_w=0.1, eta_v=0.1,
         x0=np.zeros(n), delta0=positive("delta0", delta0, allow_zero=True), time=Discrete(TS),
         name=f"khajenejad-yong 6.1 class {function_class}",
     )
-    return PaperExample(system, dict(_PRINTED_61[function_class]), _d61, note)
+    return PaperExample(system, dict(_PRINTED_61.get(function_class, {})), _d61, note)
 
 
 def _phi62(x: Array) -> Array:
