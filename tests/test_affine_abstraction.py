@@ -26,6 +26,18 @@ def test_affine_function_is_recovered_exactly() -> None:
     np.testing.assert_allclose(r.A_upper, r.A_lower, atol=1e-9)
 
 
+@pytest.mark.parametrize("scale", [1e-6, 1.0, 1e6])
+def test_exact_constants_of_an_affine_map_at_any_scale_are_accepted(scale: float) -> None:
+    # the stated constants are the true ones (|Δq|/h equals ‖M_i‖ along an axis, zero curvature):
+    # rounding must not turn them into a reported violation
+    M = scale * np.array([[3.0], [-7.0]])
+    c = np.array([1e8 * scale, -2.0])
+    r = affine_abstraction(lambda z: z @ M.T + c, [-5.0], [5.0], lipschitz=np.abs(M[:, 0]), gradient_lipschitz=0.0,
+                           points_per_axis=101, n_check=10_000)
+    np.testing.assert_allclose(r.A, M, rtol=1e-9)
+    assert np.all(r.residual_bound <= 1e-9 * (1.0 + np.abs(c)))
+
+
 @pytest.mark.parametrize("m", [3, 5, 21, 201])
 def test_square_on_unit_interval_matches_the_minimax_line(m: int) -> None:
     # Best uniform affine approximation of x² on [−1, 1]: the constant 1/2, error 1/2
@@ -70,7 +82,8 @@ def _trig(z: np.ndarray) -> np.ndarray:
 
 
 LO, HI = np.array([-1.0, -1.5]), np.array([2.0, 1.0])
-# ‖∇²(sin x1 · x2)‖₂ ≤ ‖·‖_F ≤ √(x2² + 2) ≤ √(1.5² + 2); ∇²(x1² − cos x2) = diag(2, cos x2)
+# ‖∇²(sin x1 · x2)‖₂ ≤ ‖·‖_F ≤ √(x2² + 2) ≤ √(1.5² + 2)
+# ∇²(x1² − cos x2) = diag(2, cos x2)
 GRAD_LIP = [np.sqrt(1.5**2 + 2.0), 2.0]
 # ‖∇(sin x1 · x2)‖ ≤ √(1.5² + 1); ‖∇(x1² − cos x2)‖ ≤ √(4² + 1)
 LIP = [np.sqrt(1.5**2 + 1.0), np.sqrt(17.0)]

@@ -200,7 +200,7 @@ class AffineAbstraction:
         return out
 
     def noise_bound(self, eta_v: float) -> float:
-        """Measurement-noise bound of (7), ``η_v̂ + ‖η‖₂`` (``‖v̂ + v^a‖₂ ≤ ‖v̂‖₂ + ‖v^a‖₂``).
+        """Measurement-noise bound of (7): ``η_v̂ + ‖η‖₂``, since ``‖v̂ + v^a‖₂ ≤ ‖v̂‖₂ + ‖v^a‖₂``.
 
         Parameters
         ----------
@@ -293,19 +293,21 @@ def _check_constants(values: Array, sizes: tuple[int, ...], h: Array, bound: Abs
     p = values.shape[1]
     grid = values.reshape(sizes + (p,))
     idx_grid = np.arange(points.shape[0]).reshape(sizes)
-    tol = 1e-9
+    scale = 8.0 * np.finfo(float).eps * max(1.0, float(np.max(np.abs(values))))   # rounding of q's values
     for k in range(len(sizes)):
         if bound is AbstractionBound.LIPSCHITZ:
             diff = np.abs(np.diff(grid, axis=k)) / h[k]              # |Δq| / ‖Δz‖ for neighbours along axis k
             idx = np.take(idx_grid, range(sizes[k] - 1), axis=k)
             what = "|q_i(z + h e_k) − q_i(z)| / h"
+            tol = 2.0 * scale / h[k]
         else:
             if sizes[k] < 3:
                 continue
             diff = np.abs(np.diff(grid, n=2, axis=k)) / h[k] ** 2   # second difference ≤ λ (mean-value theorem)
             idx = np.take(idx_grid, range(1, sizes[k] - 1), axis=k)
             what = "|q_i(z + h e_k) − 2 q_i(z) + q_i(z − h e_k)| / h²"
-        excess = diff - consts * (1 + tol) - tol
+            tol = 4.0 * scale / h[k] ** 2
+        excess = diff - consts * (1 + 1e-9) - tol
         if np.any(excess > 0):
             flat = excess.reshape(-1, p)
             r, c = np.unravel_index(int(np.argmax(flat)), flat.shape)
@@ -319,7 +321,8 @@ def _check_constants(values: Array, sizes: tuple[int, ...], h: Array, bound: Abs
             )
 
 
-def _solve_component(qs: Array, points: Array, vertices: Array, sigma: float) -> tuple[Array, float, Array, float, float]:
+def _solve_component(qs: Array, points: Array, vertices: Array,
+                     sigma: float) -> tuple[Array, float, Array, float, float]:
     """LP (3) for one component. Variables: ``[a_up (n), b_up, a_lo (n), b_lo, θ]``."""
     N, n = points.shape
     V = vertices.shape[0]
@@ -463,7 +466,10 @@ def affine_abstraction(
         vc = _evaluate(q, zc, p, "the random check points")
         rc = np.abs(vc - (zc @ A_mid.T + e_mid))
         resid = np.maximum(resid, np.max(rc, axis=0))
-        over = rc - eta * (1 + 1e-9) - 1e-12
+        # rounding allowance: q's values and A z + e evaluated in floating point
+        magnitude = 1.0 + float(np.max(np.abs(vc))) + n * float(np.max(np.abs(zc))) * float(np.max(np.abs(A_mid)))
+        scale = 8.0 * np.finfo(float).eps * magnitude
+        over = rc - eta * (1 + 1e-9) - scale
         if np.any(over > 0):
             r, c = np.unravel_index(int(np.argmax(over)), over.shape)
             raise AssumptionViolated(
