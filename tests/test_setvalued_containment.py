@@ -13,6 +13,7 @@ import pytest
 from nlobs.examples.khajenejad_yong import PaperExample, containment_study, example_61, example_62
 from nlobs.observers.setvalued import GivenGain, printed_radii, run_setvalued
 from nlobs.synthesis.setvalued import design_setvalued
+from nlobs.systems.timebase import Discrete
 from nlobs.systems.discrete_ui import DiscreteUISystem, Lipschitz
 
 RUNS = 1000
@@ -66,7 +67,7 @@ def _w_dominated() -> PaperExample:
     A = np.array([[0.2, 0.1, 0.0], [0.0, 0.3, 0.1], [0.1, 0.0, 0.2]])
     s = DiscreteUISystem(A, np.array([[1.0], [0.0], [0.5]]), np.array([[1.0, 0, 0], [0, 1.0, 0]]),
                          phi=lambda x: 0.1 * np.sin(x), function_class=Lipschitz(0.1, 3), eta_w=0.5, eta_v=0.01,
-                         delta0=0.2)
+                         delta0=0.2, time=Discrete(1.0))
     return PaperExample(s, {}, lambda t: (10 * np.sin(t) + t)[:, None], "w-dominated")
 
 

@@ -9,6 +9,7 @@ from nlobs.errors import AssumptionViolated, CertificateError, DesignInfeasible,
 from nlobs.examples.khajenejad_yong import example_61, example_62
 from nlobs.observers.setvalued import run_setvalued
 from nlobs.synthesis.setvalued import design_setvalued, verify_setvalued
+from nlobs.systems.timebase import Discrete
 from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, Lipschitz
 
 
@@ -20,7 +21,7 @@ def _lti(L: float = 0.0) -> DiscreteUISystem:
     H = np.array([[0.0], [0.2]])
     phi = (lambda x: L * np.sin(x[..., [1, 2, 0]])) if L else None
     return DiscreteUISystem(A, G, C, H, phi=phi, function_class=Lipschitz(L, 3), eta_w=0.05, eta_v=0.02,
-                            delta0=1.0)
+                            delta0=1.0, time=Discrete(1.0))
 
 
 @pytest.mark.parametrize("which", ["lti", "ex61"])
@@ -128,7 +129,8 @@ def test_lpv_vertices_are_certified_and_contain_every_member() -> None:
     A = np.array([[0.5, 0.2, 0.0], [0.0, 0.4, 0.3], [0.1, 0.0, 0.6]])
     Ai = (np.diag([0.2, 0.0, 0.0]), np.diag([0.0, 0.0, -0.2]))
     sysm = DiscreteUISystem(A, [[1.0], [0.0], [0.5]], [[1.0, 0, 0], [0, 0, 1.0]], [[0.0], [0.2]],
-                            function_class=LPV(Ai), eta_w=0.05, eta_v=0.02, delta0=1.0)
+                            function_class=LPV(Ai), eta_w=0.05, eta_v=0.02, delta0=1.0,
+                            time=Discrete(1.0))
     design = design_setvalued(sysm)
     assert design.kappa == 0.0 and len(design.spectral_radii) == 2
     Acl, Bcl, _ = design.dynamics.split(design.L_tilde)

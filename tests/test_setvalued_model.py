@@ -23,28 +23,31 @@ from nlobs.systems.timebase import Continuous, Discrete
 A2 = np.array([[0.5, 0.1], [0.0, 0.3]])
 G2 = np.array([[1.0], [0.0]])
 C2 = np.array([[1.0, 0.0], [0.0, 1.0]])
+T1 = Discrete(1.0)
 
 
 def test_noise_bounds_are_validated() -> None:
     with pytest.raises(InvalidArgumentError, match="eta_w"):
-        DiscreteUISystem(A2, G2, C2, eta_w=-0.1)
+        DiscreteUISystem(A2, G2, C2, eta_w=-0.1, time=T1)
     with pytest.raises(NonFiniteError, match="eta_v"):
-        DiscreteUISystem(A2, G2, C2, eta_v=float("inf"))
+        DiscreteUISystem(A2, G2, C2, eta_v=float("inf"), time=T1)
     with pytest.raises(NonFiniteError, match="eta_v"):
-        DiscreteUISystem(A2, G2, C2, eta_v=float("nan"))
+        DiscreteUISystem(A2, G2, C2, eta_v=float("nan"), time=T1)
     with pytest.raises(InvalidArgumentError, match="delta0"):
-        DiscreteUISystem(A2, G2, C2, delta0=-1.0)
+        DiscreteUISystem(A2, G2, C2, delta0=-1.0, time=T1)
 
 
 def test_shapes_and_time_base_are_validated() -> None:
+    with pytest.raises(TypeError, match="time"):
+        DiscreteUISystem(A2, G2, C2)  # type: ignore[call-arg]  # the sampling period is never defaulted
     with pytest.raises(DimensionError, match="G"):
-        DiscreteUISystem(A2, np.ones((3, 1)), C2)
+        DiscreteUISystem(A2, np.ones((3, 1)), C2, time=T1)
     with pytest.raises(DimensionError, match="H"):
-        DiscreteUISystem(A2, G2, C2, np.ones((2, 2)))
+        DiscreteUISystem(A2, G2, C2, np.ones((2, 2)), time=T1)
     with pytest.raises(DimensionError, match="phi"):
-        DiscreteUISystem(A2, G2, C2, phi=lambda x: x[..., :1])
+        DiscreteUISystem(A2, G2, C2, phi=lambda x: x[..., :1], time=T1)
     with pytest.raises(DimensionError, match="function_class"):
-        DiscreteUISystem(A2, G2, C2, function_class=Lipschitz(1.0, 3))
+        DiscreteUISystem(A2, G2, C2, function_class=Lipschitz(1.0, 3), time=T1)
     with pytest.raises(ModelError, match="Discrete"):
         DiscreteUISystem(A2, G2, C2, time=Continuous())  # type: ignore[arg-type]
 
@@ -138,7 +141,8 @@ def test_from_symbolic_compiles_phi_once() -> None:
 
 
 def test_simulate_matches_a_hand_written_loop() -> None:
-    sysm = DiscreteUISystem(A2, G2, C2, [[0.2], [0.0]], phi=lambda x: 0.1 * np.sin(x), function_class=Lipschitz(0.1, 2))
+    sysm = DiscreteUISystem(A2, G2, C2, [[0.2], [0.0]], phi=lambda x: 0.1 * np.sin(x),
+                            function_class=Lipschitz(0.1, 2), time=T1)
     rng = np.random.default_rng(2)
     B, K = 3, 5
     x0, d = rng.normal(size=(B, 2)), rng.normal(size=(B, K + 1, 1))

@@ -358,7 +358,7 @@ class DiscreteUISystem:
     delta0 : float
         Radius ``δ_0`` of the initial ball.
     time : Discrete
-        Time base (sampling period, for plots and reports).
+        Time base (required: the sampling period is never defaulted).
     name : str
     """
 
@@ -394,7 +394,7 @@ class DiscreteUISystem:
         eta_v: float = 0.0,
         x0: ArrayLike | None = None,
         delta0: float = 0.0,
-        time: Discrete = Discrete(1.0),
+        time: Discrete,
         name: str = "system",
     ) -> None:
         A_ = as_square("A", A)
