@@ -232,3 +232,20 @@ def test_kernel_option_is_validated(flight):
     with pytest.raises(InvalidArgumentError, match="kernel"):
         GnssInsObserver(paper_gains(), PAPER_GAMMA, flight.m_n, flight.g_n, integrator="rk4", kernel="scalar")
     assert GnssInsObserver.paper(flight.m_n, flight.g_n).kernel == "auto"
+
+
+def test_batched_step_broadcasts_a_single_state_against_a_batch_of_imu_samples(flight):
+    obs = GnssInsObserver.paper(flight.m_n, flight.g_n)
+    st = obs.update(obs.init(np.zeros(3), np.ones(3), rot_z(0.4)),
+                    GnssSample(np.full(3, 2.0), np.zeros(3), np.array(True)))
+    w = np.array([[0.01, 0.02, 0.1], [0.0, -0.3, 0.05]])
+    a = np.array([[0.3, -0.2, -9.7], [1.0, 0.5, -9.0]])
+    m = np.array([[0.1, 0.5, 0.8], [0.4, 0.0, 0.9]])
+    both = obs.propagate(st, ImuSample(w, a, m), 0.01)
+    assert both.batch_shape == (2,) and both.has_fix.shape == (2,) and both.R.shape == (2, 3, 3)
+    for i in range(2):
+        one = obs.propagate(st, ImuSample(w[i], a[i], m[i]), 0.01)  # the scalar kernel
+        np.testing.assert_allclose(both.R[i], one.R, rtol=0.0, atol=1e-15)
+        np.testing.assert_allclose(both.p[i], one.p, rtol=0.0, atol=1e-14)
+        np.testing.assert_allclose(both.xi[i], one.xi, rtol=0.0, atol=1e-13)
+        np.testing.assert_allclose(both.y_v[i], one.y_v, rtol=0.0, atol=1e-14)
