@@ -113,3 +113,27 @@ def test_example_61_structured_class_0_multiplier() -> None:
     print(f"\n6.1 structured class 0: λ = {design.lam:.5g}, κ = {design.kappa:.4g}, steady radius "
           f"{design.steady_radius:.4g}; {res}")
     assert res.rate_state == 1.0 and res.rate_input == 1.0
+
+
+def test_adversarial_noise_at_the_bound_stays_inside(ex61) -> None:  # type: ignore[no-untyped-def]
+    """Noise chosen at its bound to maximise the error at step K: the sound ball still contains it."""
+    from nlobs.examples.khajenejad_yong import adversarial_noise
+    from nlobs.observers.setvalued import sound_radii
+
+    ex, design = ex61
+    s = ex.system
+    K = 300
+    w, v, lower = adversarial_noise(s, design, K, restarts=5)
+    assert np.all(np.linalg.norm(w, axis=-1) <= s.eta_w * (1 + 1e-12))
+    assert np.all(np.linalg.norm(v, axis=-1) <= s.eta_v * (1 + 1e-12))
+    rad = sound_radii(s, design, K)
+    t = np.arange(K + 1) * s.time.dt
+    x0 = s.x0[None] + np.zeros((1, 4))
+    d = ex.unknown_input(t)[None]
+    x, y = s.simulate(x0, d, w[None], v[None])
+    run = run_setvalued(s, design, y)
+    err = np.linalg.norm(x - run.x_hat, axis=-1)[0]
+    print(f"\nadversarial noise: error at K = {err[-1]:.4g} (linear-member value {lower:.4g}), "
+          f"sound radius {rad.state[-1]:.4g}")
+    assert np.all(err <= rad.state * (1 + 1e-9))
+    assert err[-1] > 0.5 * rad.state[-1]  # the radius is within a factor 2 of an attained error

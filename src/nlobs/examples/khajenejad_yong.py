@@ -301,3 +301,73 @@ def plot_errors_vs_radii(results: tuple[ContainmentResult, ...], path: str, *, t
     ax.legend(fontsize=7)
     fig.savefig(path, dpi=120)
     return path
+
+
+# --------------------------------------------------------------------------- adversarial noise
+
+
+def adversarial_noise(system: DiscreteUISystem, design: SetValuedDesign, steps: int, *, seed: int = 0,
+                      restarts: int = 20, iterations: int = 30) -> tuple[Array, Array, float]:
+    r"""Noise sequences at their bounds that maximise ``‖x̃_K‖`` for the linear member of the class.
+
+    For ``x̃_k = 𝒜_K x̃_{k−1} + ℰω_k`` (``𝒜_K = 𝒜 + ℬK₀``, ``K₀`` the first linear member, ``x̃_0 = 0``),
+    ``x̃_K = Σ_j M_{w,j} w_{K−1−j} + Σ_i M_{v,i} v_{K−i}`` with ``M_{w,j} = 𝒜_K^jℰ_w`` and
+    ``M_{v,i} = 𝒜_K^iℰ_{v,k} + 𝒜_K^{i−1}ℰ_{v,k−1}``. For a unit direction ``u`` the choice
+    ``w = η_w M_{w,j}ᵀu/‖M_{w,j}ᵀu‖`` (and likewise ``v``) attains ``uᵀx̃_K = Σ_j ‖M_{w,j}ᵀu‖η_w + Σ_i ‖M_{v,i}ᵀu‖η_v``;
+    ``u`` is improved by a fixed-point ascent from random starts.
+
+    Returns
+    -------
+    w : ndarray, shape (K, n_w)
+    v : ndarray, shape (K + 1, l)
+    value : float
+        ``uᵀx̃_K`` attained by these sequences on the linear member: a lower bound of the worst-case error.
+    """
+    K = int(steps)
+    Acl, Bcl, E = design.dynamics.split(design.L_tilde)
+    members = system.function_class.linear_members()
+    AK = Acl + (Bcl @ members[0] if members else 0.0)
+    l, nw, n = system.l, system.n_w, system.n
+    E1, Ew, E2 = E[:, :l], E[:, l:l + nw], E[:, l + nw:]
+    pw = [np.eye(n)]
+    for _ in range(K):
+        pw.append(AK @ pw[-1])
+    Mw = [pw[j] @ Ew for j in range(K)]
+    Mv = [E2] + [pw[i] @ E2 + pw[i - 1] @ E1 for i in range(1, K)] + [pw[K - 1] @ E1]
+
+    def terms(u: Array) -> tuple[list[Array], list[Array]]:
+        return [M.T @ u for M in Mw], [M.T @ u for M in Mv]
+
+    def value(u: Array) -> float:
+        tw, tv = terms(u)
+        return sum(float(np.linalg.norm(t)) for t in tw) * system.eta_w + sum(
+            float(np.linalg.norm(t)) for t in tv) * system.eta_v
+
+    rng = np.random.default_rng(seed)
+    best_u, best = np.eye(n)[0], -1.0
+    for _ in range(int(restarts)):
+        u = rng.standard_normal(n)
+        u /= np.linalg.norm(u)
+        for _ in range(int(iterations)):
+            tw, tv = terms(u)
+            g = sum((M @ t / max(float(np.linalg.norm(t)), 1e-300) for M, t in zip(Mw, tw)), np.zeros(n)) * system.eta_w
+            g = g + sum((M @ t / max(float(np.linalg.norm(t)), 1e-300) for M, t in zip(Mv, tv)), np.zeros(n)) * system.eta_v
+            if not np.linalg.norm(g) > 0:
+                break
+            u = g / np.linalg.norm(g)
+        val = value(u)
+        if val > best:
+            best, best_u = val, u
+    tw, tv = terms(best_u)
+
+    def unit(t: Array, eta: float) -> Array:
+        nt = float(np.linalg.norm(t))
+        return eta * t / nt if nt > 0 else np.zeros_like(t)
+
+    w = np.empty((K, nw))
+    for j in range(K):
+        w[K - 1 - j] = unit(tw[j], system.eta_w)
+    v = np.empty((K + 1, l))
+    for i in range(K + 1):
+        v[K - i] = unit(tv[i], system.eta_v)
+    return w, v, best
