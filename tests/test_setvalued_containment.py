@@ -137,3 +137,28 @@ def test_adversarial_noise_at_the_bound_stays_inside(ex61) -> None:  # type: ign
           f"sound radius {rad.state[-1]:.4g}")
     assert np.all(err <= rad.state * (1 + 1e-9))
     assert err[-1] > 0.5 * rad.state[-1]  # the radius is within a factor 2 of an attained error
+
+
+def test_growing_unknown_input_breaks_a_naive_point_observer_but_not_the_set_observer(ex61) -> None:  # type: ignore[no-untyped-def]
+    """Sec. 6.2's claim on Example 6.1: with d growing without bound the set-valued observer stays bounded."""
+    from nlobs.examples.khajenejad_yong import ball_samples, naive_point_observer
+
+    ex, design = ex61
+    s = ex.system
+    K, B = 300, 200
+    rng = np.random.default_rng(11)
+    t = np.arange(K + 1) * s.time.dt
+    d = np.broadcast_to((50.0 * t**2)[None, :, None], (B, K + 1, 1))
+    x0 = ball_samples(rng, (B,), s.delta0, 4)
+    x, y = s.simulate(x0, d, ball_samples(rng, (B, K), s.eta_w, 4), ball_samples(rng, (B, K + 1), s.eta_v, 2))
+    run = run_setvalued(s, design, y)
+    assert run.contains_state(x).all() and run.contains_input(d[:, :-1]).all()
+    # a stable gain for (A, C) (the d-free part), from the set design's L~ through z2 = U2ᵀ y
+    L = design.L_tilde @ design.transform.T2
+    assert np.max(np.abs(np.linalg.eigvals((np.eye(4) - L @ s.C) @ s.A))) < 1
+    xn = naive_point_observer(s, L, y)
+    en = np.linalg.norm(x - xn, axis=-1)
+    es = np.linalg.norm(x - run.x_hat, axis=-1)
+    print(f"\ngrowing d: naive point observer max error at K {en[:, -1].max():.4g}, set observer {es[:, -1].max():.4g} "
+          f"(radius {run.radii.state[-1]:.4g})")
+    assert en[:, -1].min() > 3 * run.radii.state[-1]

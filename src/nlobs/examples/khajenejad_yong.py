@@ -371,3 +371,21 @@ def adversarial_noise(system: DiscreteUISystem, design: SetValuedDesign, steps: 
     for i in range(K + 1):
         v[K - i] = unit(tv[i], system.eta_v)
     return w, v, best
+
+
+def naive_point_observer(system: DiscreteUISystem, L: NDArray[np.float64], y: Array,
+                         x0_hat: Array | None = None) -> Array:
+    """A point observer that ignores the unknown input: ``x̂⁺ = f(x̂)``, ``x̂ ← x̂⁺ + L(y − Cx̂⁺)``.
+
+    A baseline for Sec. 6.2's claim (an observer that treats ``d`` as absent or bounded); not the
+    paper's benchmark observers [8], [10]. ``y``: ``(B, K + 1, l)``; returns ``(B, K + 1, n)``.
+    """
+    B, K1, _ = y.shape
+    xh = np.broadcast_to(system.x0 if x0_hat is None else x0_hat, (B, system.n)).copy()
+    out = np.empty((B, K1, system.n))
+    out[:, 0] = xh
+    for k in range(1, K1):
+        xp = system.f(xh)
+        xh = xp + (y[:, k] - xp @ system.C.T) @ np.asarray(L).T
+        out[:, k] = xh
+    return out
