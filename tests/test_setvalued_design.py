@@ -143,3 +143,21 @@ def test_lpv_vertices_are_certified_and_contain_every_member() -> None:
 def test_example_61_printed_class_0_multiplier_is_infeasible() -> None:
     with pytest.raises(DesignInfeasible, match="infeasible"):
         design_setvalued(example_61("0").system)
+
+
+@pytest.mark.parametrize("case", ["p_H = l", "p = 0"])
+def test_edge_structures_design_and_contain(case: str) -> None:
+    from nlobs.examples.khajenejad_yong import PaperExample, containment_study
+
+    A = np.array([[0.5, 0.2], [0.1, 0.3]])
+    C = np.array([[1.0, 0.5]])
+    if case == "p_H = l":  # H invertible: all of y goes to d1, no gain left (L~ is n x 0)
+        G, H, dfun = np.array([[1.0], [0.3]]), np.array([[2.0]]), (lambda t: (t**2)[:, None])
+    else:  # no unknown input: a plain set-valued Luenberger observer
+        G, H, dfun = np.zeros((2, 0)), None, (lambda t: np.zeros((t.size, 0)))
+    s = DiscreteUISystem(A, G, C, H, function_class=Lipschitz(0.05, 2), phi=lambda x: 0.05 * np.sin(x),
+                         eta_w=0.1, eta_v=0.1, delta0=1.0, time=Discrete(1.0))
+    design = design_setvalued(s)
+    assert design.L_tilde.shape == ((2, 0) if case == "p_H = l" else (2, 1))
+    res = containment_study(PaperExample(s, {}, dfun, case), design, runs=1000, steps=50, seed=9)
+    assert res.rate_state == 1.0 and res.rate_input == 1.0
