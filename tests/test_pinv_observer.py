@@ -235,3 +235,13 @@ def test_design_report(model: SymbolicModel) -> None:
     assert "r = 2" in txt and "2*k2*x1/(4*x1**2 + 1)" in txt
     rep2 = design_pinv_report(model, k=[1.0, 2.0], region=Box.around(np.zeros(4), 2.0))
     assert rep2.k == (1.0, 2.0) and rep2.theta is None
+
+
+def test_full_relative_degree_gives_the_inverse_jacobian() -> None:
+    # r = n (Sec. 4: Q = Φ', Q⁺ = (Φ')⁻¹, the gain of [9, 10, 13]); A5 holds structurally
+    m = SymbolicModel.input_affine(["x1", "x2"], ["u"], ["y"], f=[x2 + x1**2, -x1], g=[[0], [1]], h=[x1], name="chain")
+    obs = PinvObserver.from_model(m, k=HighGain(2.0))
+    assert obs.r == (2,) and obs.checks[1].method == "structural"
+    Q = sp.Matrix([[1, 0], [2 * x1, 1]])
+    assert _same(obs.Qp, Q.inv())
+    np.testing.assert_allclose(obs.gain_at([[0.5, 0.0]])[0, :, 0], [6.0, 8.0 - 2 * 0.5 * 6.0])
