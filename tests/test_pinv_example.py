@@ -88,3 +88,14 @@ def test_reproduce_rows() -> None:
     assert by["Φ of (23) injective (A2)"].nlobs is False
     assert sum(r.quantity.startswith("simulation") for r in rows) == len(R.SCENARIOS)
     assert R.reproduce is R.rows
+
+
+def test_simulate_pinv_with_sampled_noisy_measurements() -> None:
+    from nlobs.simulate import MeasurementGroup
+
+    kw = dict(dt=2e-3, u=R.SineInput(-0.5, 0.5), theta=3.0,
+              measurements=MeasurementGroup("y", ["y"], rate=100.0, noise_std=0.01))
+    a = R.simulate_pinv(R.model(), [0.5, -2.0, 0.0, 0.0], [0.3, -1.5, -1.5, 0.5], 3.0, seed=1, **kw)  # type: ignore[arg-type]
+    b = R.simulate_pinv(R.model(), [0.5, -2.0, 0.0, 0.0], [0.3, -1.5, -1.5, 0.5], 3.0, seed=1, **kw)  # type: ignore[arg-type]
+    np.testing.assert_array_equal(a.x_hat, b.x_hat)  # seeded
+    assert a.sampled[::5].any() and a.error_norm[-1] < 0.2 * a.error_norm[0]

@@ -647,7 +647,8 @@ def design_pinv_report(
     lg = []
     for j, rj in enumerate(obs.r):
         phi = F.lie_chain(j, rj)[-1]
-        lg.append(", ".join(str(sp.factor(lie_derivative(phi, F.g[:, c], F.x))) for c in range(F.m)))
+        row = ", ".join(str(sp.factor(lie_derivative(phi, F.g[:, c], F.x))) for c in range(F.m))
+        lg.append(row if F.m == 1 else f"[{row}]")
     roots = np.concatenate([np.sort(np.linalg.eigvals(M).real) for M in obs.error_matrices])
     return PinvDesignReport(
         model=F.name, states=F.states, outputs=F.outputs, relative_degree=obs.r, input_gains=tuple(lg),
