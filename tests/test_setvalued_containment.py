@@ -10,11 +10,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from nlobs.errors import InvalidArgumentError
 from nlobs.examples.khajenejad_yong import PaperExample, containment_study, example_61, example_62
 from nlobs.observers.setvalued import GivenGain, printed_radii, run_setvalued
 from nlobs.synthesis.setvalued import design_setvalued
-from nlobs.systems.timebase import Discrete
 from nlobs.systems.discrete_ui import DiscreteUISystem, Lipschitz
+from nlobs.systems.timebase import Discrete
 
 RUNS = 1000
 
@@ -162,3 +163,26 @@ def test_growing_unknown_input_breaks_a_naive_point_observer_but_not_the_set_obs
     print(f"\ngrowing d: naive point observer max error at K {en[:, -1].max():.4g}, set observer {es[:, -1].max():.4g} "
           f"(radius {run.radii.state[-1]:.4g})")
     assert en[:, -1].min() > 3 * run.radii.state[-1]
+
+
+def test_lpv_with_run_time_weights_is_contained() -> None:
+    """Class III end to end: vertex design, plant and observer driven by the same random weights."""
+    from nlobs.examples.khajenejad_yong import ball_samples
+    from nlobs.systems.discrete_ui import LPV
+
+    A = np.array([[0.5, 0.2, 0.0], [0.0, 0.4, 0.3], [0.1, 0.0, 0.6]])
+    Ai = (np.diag([0.3, 0.0, 0.0]), np.diag([0.0, 0.0, -0.3]), np.zeros((3, 3)))
+    s = DiscreteUISystem(A, [[1.0], [0.0], [0.5]], [[1.0, 0, 0], [0, 0, 1.0]], [[0.0], [0.2]],
+                         function_class=LPV(Ai), eta_w=0.05, eta_v=0.02, delta0=1.0, time=Discrete(1.0))
+    design = design_setvalued(s)
+    rng = np.random.default_rng(21)
+    B, K = RUNS, 80
+    lam = rng.dirichlet(np.ones(3), size=(B, K + 1))
+    lam[: B // 2] = np.eye(3)[rng.integers(0, 3, size=(B // 2, K + 1))]  # half the runs switch between vertices
+    d = np.broadcast_to((5 * np.sin(0.2 * np.arange(K + 1)) + 0.1 * np.arange(K + 1))[None, :, None], (B, K + 1, 1))
+    x, y = s.simulate(ball_samples(rng, (B,), 1.0, 3), d, ball_samples(rng, (B, K), 0.05, 3),
+                      ball_samples(rng, (B, K + 1), 0.02, 2), weights=lam)
+    run = run_setvalued(s, design, y, weights=lam)
+    assert run.contains_state(x).all() and run.contains_input(d[:, :-1]).all()
+    with pytest.raises(InvalidArgumentError, match="sum to 1"):
+        run_setvalued(s, design, y, weights=lam * 2)

@@ -9,8 +9,8 @@ from nlobs.errors import AssumptionViolated, CertificateError, DesignInfeasible,
 from nlobs.examples.khajenejad_yong import example_61, example_62
 from nlobs.observers.setvalued import run_setvalued
 from nlobs.synthesis.setvalued import design_setvalued, verify_setvalued
-from nlobs.systems.timebase import Discrete
 from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, Lipschitz
+from nlobs.systems.timebase import Discrete
 
 
 def _lti(L: float = 0.0) -> DiscreteUISystem:

@@ -246,7 +246,7 @@ class SetValuedRun:
 
 def run_setvalued(system: DiscreteUISystem, design: SetValuedDesign | GivenGain, y: ArrayLike, *,
                   u: ArrayLike | None = None, x0_hat: ArrayLike | None = None,
-                  radii: Radii | None = None) -> SetValuedRun:
+                  radii: Radii | None = None, weights: ArrayLike | None = None) -> SetValuedRun:
     """Run Algorithm 1 on measurements ``y`` of shape ``(B, K + 1, l)`` (``y_0..y_K``), batched over ``B``.
 
     Parameters
@@ -262,6 +262,8 @@ def run_setvalued(system: DiscreteUISystem, design: SetValuedDesign | GivenGain,
         Initial centre (``system.x0`` when omitted).
     radii : Radii, optional
         Radii to attach (default :func:`sound_radii` for a design, none for a :class:`GivenGain`).
+    weights : array_like, shape (B, K + 1, N) or (K + 1, N), optional
+        Run-time LPV weights ``λ_{i,k}`` (Class III, Definition 2.4): (13) uses ``f_{k−1}``.
     """
     y_ = as_finite_array("y", y)
     if y_.ndim != 3 or y_.shape[-1] != system.l or y_.shape[1] < 1:
@@ -289,8 +291,12 @@ def run_setvalued(system: DiscreteUISystem, design: SetValuedDesign | GivenGain,
     Dh = np.empty((Bn, K, system.p))
     X[:, 0] = xh
     d1 = (z1[:, 0] - xh @ tr.C1.T - u_[:, 0] @ tr.D1.T) @ tr.M1.T
+    lam = None
+    if weights is not None:
+        lw = system.lpv_weights(weights)
+        lam = np.broadcast_to(lw, (Bn, K1, lw.shape[-1]))
     for k in range(1, K1):
-        xp = system.f(xh) + u_[:, k - 1] @ system.B.T + d1 @ tr.G1.T  # (13)
+        xp = system.f(xh, None if lam is None else lam[:, k - 1]) + u_[:, k - 1] @ system.B.T + d1 @ tr.G1.T  # (13)
         d2 = (z2[:, k] - xp @ tr.C2.T - u_[:, k] @ tr.D2.T) @ tr.M2.T  # (11)
         Dh[:, k - 1] = d1 @ tr.V1.T + d2 @ tr.V2.T  # (12)
         xs = xp + d2 @ tr.G2.T  # (14)

@@ -458,13 +458,33 @@ class DiscreteUISystem:
         return self.W.shape[1]
 
     # ------------------------------------------------------------------ evaluation
-    def f(self, x: ArrayLike) -> Array:
-        """``f(x) = A x + φ(x)`` for a batch ``(..., n)``."""
+    def f(self, x: ArrayLike, weights: ArrayLike | None = None) -> Array:
+        """``f(x) = A x + φ(x)`` for a batch ``(..., n)``.
+
+        With ``weights`` (shape ``(..., N)``, Class III only) ``φ`` is the LPV map
+        ``Σᵢ λᵢ Aᵢ x`` of Definition 2.4 with these run-time weights instead of ``phi``.
+        """
         x_ = np.asarray(x, dtype=float)
         out = x_ @ self.A.T
+        if weights is not None:
+            return out + np.einsum("...i,ijk,...k->...j", self.lpv_weights(weights), self._vertices(), x_)
         if self.phi is not None:
             out = out + np.asarray(self.phi(x_), dtype=float)
         return out
+
+    def _vertices(self) -> Array:
+        fc = self.function_class
+        if not isinstance(fc, LPV):
+            raise InvalidArgumentError(f"weights: run-time LPV weights need a Class III (LPV) system, not {fc.label}")
+        return np.stack(fc.constituents)
+
+    def lpv_weights(self, weights: ArrayLike, tol: float = 1e-9) -> Array:
+        """Validated LPV weights: shape ``(..., N)``, entries in ``[0, 1]`` summing to 1 (Definition 2.4)."""
+        N = self._vertices().shape[0]
+        w = as_batch("weights", weights, N)
+        if np.any(w < -tol) or np.any(np.abs(w.sum(axis=-1) - 1.0) > tol * N):
+            raise InvalidArgumentError("weights: LPV weights must be non-negative and sum to 1 (Definition 2.4)")
+        return w
 
     def nonlinear(self, x: ArrayLike) -> Array:
         """``φ(x)`` (zeros when there is none)."""
@@ -473,20 +493,21 @@ class DiscreteUISystem:
             return np.zeros_like(x_)
         return np.asarray(self.phi(x_), dtype=float)
 
-    def step(self, x: Array, u: Array, d: Array, w: Array) -> Array:
-        """``x⁺`` for batches (``u (..., m)``, ``d (..., p)``, ``w (..., n_w)``)."""
-        return self.f(x) + u @ self.B.T + d @ self.G.T + w @ self.W.T
+    def step(self, x: Array, u: Array, d: Array, w: Array, weights: Array | None = None) -> Array:
+        """``x⁺`` for batches (``u (..., m)``, ``d (..., p)``, ``w (..., n_w)``; LPV ``weights (..., N)``)."""
+        return self.f(x, weights) + u @ self.B.T + d @ self.G.T + w @ self.W.T
 
     def output(self, x: Array, u: Array, d: Array, v: Array) -> Array:
         """``y = C x + D u + H d + v`` for batches."""
         return x @ self.C.T + u @ self.D.T + d @ self.H.T + v
 
     def simulate(self, x0: ArrayLike, d: ArrayLike, w: ArrayLike, v: ArrayLike,
-                 u: ArrayLike | None = None) -> tuple[Array, Array]:
+                 u: ArrayLike | None = None, weights: ArrayLike | None = None) -> tuple[Array, Array]:
         """Simulate ``K`` steps for a batch: returns ``x`` of shape ``(B, K + 1, n)`` and ``y`` of ``(B, K + 1, l)``.
 
         ``x0``: ``(B, n)``; ``d``: ``(B, K + 1, p)``; ``w``: ``(B, K, n_w)``;
-        ``v``: ``(B, K + 1, l)``; ``u``: ``(B, K + 1, m)`` (zero when omitted).
+        ``v``: ``(B, K + 1, l)``; ``u``: ``(B, K + 1, m)`` (zero when omitted); ``weights``:
+        LPV weights ``(B, K + 1, N)`` or ``(K + 1, N)`` (Class III only).
         """
         x0_ = as_batch("x0", x0, self.n)
         d_ = as_batch("d", d, self.p) if self.p else np.zeros(np.shape(d)[:-1] + (0,))
@@ -497,10 +518,12 @@ class DiscreteUISystem:
         if x0_.shape != (B, self.n) or w_.shape[:2] != (B, K1 - 1) or v_.shape[:2] != (B, K1) or u_.shape[:2] != (B, K1):
             raise DimensionError(f"simulate: inconsistent batch/time shapes x0 {x0_.shape}, d {d_.shape}, "
                                  f"w {w_.shape}, v {v_.shape}, u {u_.shape}")
+        lam = None if weights is None else np.broadcast_to(self.lpv_weights(weights), (B, K1, self._vertices().shape[0]))
         x = np.empty((B, K1, self.n))
         x[:, 0] = x0_
         for k in range(1, K1):
-            x[:, k] = self.step(x[:, k - 1], u_[:, k - 1], d_[:, k - 1], w_[:, k - 1])
+            x[:, k] = self.step(x[:, k - 1], u_[:, k - 1], d_[:, k - 1], w_[:, k - 1],
+                                None if lam is None else lam[:, k - 1])
         y = self.output(x, u_, d_, v_)
         return x, y
 
