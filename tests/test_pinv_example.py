@@ -88,6 +88,9 @@ def test_reproduce_rows() -> None:
     assert by["Φ of (23) injective (A2)"].nlobs is False
     assert sum(r.quantity.startswith("simulation") for r in rows) == len(R.SCENARIOS)
     assert R.reproduce is R.rows
+    from nlobs.examples.reproduce import PAPERS
+
+    assert PAPERS["robenack2008"] == "nlobs.examples.robenack2008"
 
 
 def test_simulate_pinv_with_sampled_noisy_measurements() -> None:

@@ -48,6 +48,7 @@ class ReproRow:
 PAPERS: dict[str, str] = {
     "grip2013": "nlobs.examples.grip2013",
     "dallamora2000": "nlobs.examples.dallamora2000",
+    "robenack2008": "nlobs.examples.robenack2008",
 }
 
 
