@@ -32,10 +32,11 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import positive
 from nlobs.errors import InvalidArgumentError
+from nlobs.examples.reproduce import ReproRow
 from nlobs.observers.setvalued import GivenGain, Radii, run_setvalued
 from nlobs.synthesis.setvalued import SetValuedDesign
 from nlobs.systems.discrete_ui import (
@@ -53,6 +54,10 @@ __all__ = [
     "example_62",
     "ball_samples",
     "containment_study",
+    "plot_errors_vs_radii",
+    "adversarial_noise",
+    "naive_point_observer",
+    "reproduce",
 ]
 
 Array = NDArray[np.float64]
@@ -389,3 +394,105 @@ def naive_point_observer(system: DiscreteUISystem, L: NDArray[np.float64], y: Ar
         xh = xp + (y[:, k] - xp @ system.C.T) @ np.asarray(L).T
         out[:, k] = xh
     return out
+
+
+# --------------------------------------------------------------------------- reproduction table
+
+
+def _lst(a: ArrayLike, digits: int = 4) -> list[object]:
+    arr = np.asarray(a, dtype=float)
+    if arr.ndim == 2:
+        return [[float(f"{x:.{digits}g}") for x in row] for row in arr]
+    return [float(f"{x:.{digits}g}") for x in arr.ravel()]
+
+
+def reproduce() -> list[ReproRow]:
+    """``nlobs reproduce khajenejad-yong``: Sec. 6's reported values beside nlobs's (printed and sound).
+
+    Every ``nlobs`` value is recomputed here: the printed formulation by
+    :func:`~nlobs.synthesis.setvalued_printed.design_printed` (Theorem 5.10 with (18)), the sound one by
+    :func:`~nlobs.synthesis.setvalued.design_setvalued`. See ``docs/setvalued.md`` for the reasons.
+    """
+    from nlobs.errors import AssumptionViolated, DesignInfeasible
+    from nlobs.linear.transform_ui import structural_check, ui_transform
+    from nlobs.observers.setvalued import printed_radii
+    from nlobs.synthesis.setvalued import design_setvalued
+    from nlobs.synthesis.setvalued_printed import design_printed
+    from nlobs.systems.discrete_ui import estimate_lipschitz
+
+    rows: list[ReproRow] = []
+    base = example_61("I").system
+    A = base.A
+    chk = structural_check(A, base.G, base.C, base.H)
+    rows.append(ReproRow("6.1 strongly detectable (Def. 2.1, Cor. 5.8)", None, chk.exists, chk.reasons[0]))
+    lip = np.block([[-np.eye(4), np.zeros((4, 4))], [np.zeros((4, 4)), (3.33 * TS) ** 2 * np.eye(4)]])
+    printed_M = {"0": np.block([[np.eye(4), np.zeros((4, 4))], [np.zeros((4, 4)), (3.333 * TS) ** 2 * np.eye(4)]]),
+                 "I": lip, "II": np.block([[-np.eye(4), A], [A.T, -A.T @ A]])}
+    for cls in ("0", "I", "II"):
+        ex = example_61(cls)
+        pr = ex.printed
+        P_, Y_, L_ = (np.asarray(pr[k], dtype=float) for k in ("P", "Y", "L_tilde"))
+        tag = f"6.1 Class {cls}"
+        rows.append(ReproRow(f"{tag}: P*⁻¹Y* (should equal L̃*)", _lst(L_), _lst(np.linalg.solve(P_, Y_)),
+                             "the printed P*, Y*, L̃* are mutually inconsistent"))
+        tr = ui_transform(ex.system.G, ex.system.C, ex.system.H)
+        sr = float(np.max(np.abs(np.linalg.eigvals((np.eye(4) - L_[:, None] @ tr.C2) @ tr.Phi @ (A - tr.Psi)))))
+        rows.append(ReproRow(f"{tag}: spectral radius of (I − L̃*C₂)(A − Ψ) with the printed L̃*", None, sr,
+                             "> 1: the printed gain destabilises the error dynamics (16)"))
+        try:
+            dp = design_printed(ex.system, printed_M[cls])
+            rows += [
+                ReproRow(f"{tag}: ρ* (Thm 5.10 as printed)", pr["rho"], dp.rho,
+                         f"(A.16) min eig {dp.exact_min_eig:.3g} < 0 and spectral radius {dp.spectral_radius:.4g}: "
+                         "the printed LMIs accept a gain they do not certify"),
+                ReproRow(f"{tag}: α* (Thm 5.10 as printed)", pr["alpha"], dp.alpha, "best α of the line search"),
+                ReproRow(f"{tag}: L̃* (Thm 5.10 as printed)", _lst(L_), _lst(dp.L_tilde.ravel()), ""),
+                ReproRow(f"{tag}: P* (Thm 5.10 as printed)", _lst(P_), _lst(dp.P), ""),
+            ]
+        except DesignInfeasible as exc:
+            rows.append(ReproRow(f"{tag}: ρ* (Thm 5.10 as printed)", pr["rho"], "infeasible", str(exc)))
+        try:
+            ds = design_setvalued(ex.system)
+            rows += [
+                ReproRow(f"{tag}: sound design (radius objective), steady radius bound", None, ds.steady_radius,
+                         f"λ = {ds.lam:.4g} (α = 1 − λ = {1 - ds.lam:.4g}), κ = {ds.kappa:.4g}; {ex.note}"),
+                ReproRow(f"{tag}: L̃ (sound)", _lst(L_), _lst(ds.L_tilde.ravel()),
+                             "certified by (⋆) and the spectral radius"),
+                ReproRow(f"{tag}: P (sound, scaled P ⪰ I)", _lst(P_), _lst(ds.P), ""),
+            ]
+            res = containment_study(ex, ds, runs=1000, steps=300, seed=0)
+            rows.append(ReproRow(f"{tag}: containment state/input, 1000 runs (sound)", None,
+                                 [res.rate_state, res.rate_input], "noises half at their bounds"))
+        except DesignInfeasible as exc:
+            rows.append(ReproRow(f"{tag}: sound design", None, "infeasible", f"{ex.note}; {exc}"))
+    exs = example_61("0-structured")
+    dss = design_setvalued(exs.system)
+    rows.append(ReproRow("6.1 Class 0 with nlobs's structured multiplier (not in the paper): steady radius bound",
+                         None, dss.steady_radius, f"λ = {dss.lam:.4g}, κ = {dss.kappa:.4g}; {exs.note}"))
+    rows.append(ReproRow("6.1 Class II γ", 0.0, example_61("II").system.function_class.gamma,
+                         "Lemma 2.14 with ‖g‖ ≤ 3.33 Ts gives γ = −(2r)²; γ = 0 would make f affine"))
+    ex = example_62()
+    s = ex.system
+    pr = ex.printed
+    rows.append(ReproRow("6.2 L_f", pr["L_f"], float(np.linalg.norm(s.A, 2)), "‖A‖ of the linear part"))
+    est = estimate_lipschitz(s.f, [-3, -3], [3, 3], n_pairs=20000, seed=0)
+    rows.append(ReproRow("6.2 Lipschitz constant of f on [−3, 3]² (sampled estimate)", None, est.value,
+                         "a lower estimate; f itself is not 1.1171-Lipschitz"))
+    try:
+        design_setvalued(s)
+        rows.append(ReproRow("6.2 stable observer of this structure exists", True, True, ""))
+    except AssumptionViolated as exc:
+        rows.append(ReproRow("6.2 stable observer of this structure exists", True, False, exc.evidence))
+    try:
+        dp = design_printed(s, np.block([[-np.eye(2), np.zeros((2, 2))], [np.zeros((2, 2)), pr["L_f"] ** 2 * np.eye(2)]]))
+        rows.append(ReproRow("6.2 ρ* (Thm 5.10 as printed)", pr["rho"], dp.rho, ""))
+    except DesignInfeasible as exc:
+        rows.append(ReproRow("6.2 ρ* (Thm 5.10 as printed)", pr["rho"], "infeasible", str(exc)))
+    gain = GivenGain.for_system(s, pr["L_tilde"])
+    with np.errstate(over="ignore"):
+        rad = printed_radii(s, pr["L_tilde"], pr["P"], pr["rho"], 50, L_f=pr["L_f"])
+    res = containment_study(ex, gain, runs=1000, steps=50, seed=0, radii=rad, label="printed")
+    rows.append(ReproRow("6.2 containment state/input, printed L̃* and Thm 5.13 bounds, 1000 runs", None,
+                         [res.rate_state, res.rate_input], "the errors diverge for every gain (invariant zero −1.343)"))
+    return rows
+
