@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from nlobs.errors import DimensionError, InvalidArgumentError, ModelError
+from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, NonFiniteError
 from nlobs.geometry import (
     AffineFields,
     Box,
@@ -195,24 +195,32 @@ def test_observability_rank_with_an_unobservable_state() -> None:
 def test_drift_observability_reports_the_worst_point() -> None:
     # y = x1, ẋ1 = x2²: Q_s = [[1, 0], [0, 2 x2]] is singular on x2 = 0
     F = _fields(["x1", "x2"], [x2**2, -x1], [[0], [1]], [x1], name="fold")
-    region = Box([-1.0, -1.0], [1.0, 1.0])
-    chk = check_drift_observability(F, (2,), region, samples=200, seed=1)
-    assert chk.symbolic == "2*x2" and "det Q_s = 2*x2" in chk.evidence
-    pts = region.sample(200, 1)
-    i = int(np.argmin(np.abs(pts[:, 1])))
-    assert chk.worst_point == pytest.approx(tuple(pts[i]))
-    assert chk.value == pytest.approx(2 * abs(pts[i, 1]))
+    chk = check_drift_observability(F, (2,), Box([-1.0, -1.0], [1.0, 1.0]), samples=200, seed=1)
+    assert chk.symbolic == "2*x2" and "det Q_s = 2*x2" in chk.evidence and not chk.holds
+    # On x2 ∈ [0.25, 1] it is nonsingular; σ_min(Q_s) = min(1, 2 x2) is smallest (0.5) on the edge x2 = 0.25.
+    chk = check_drift_observability(F, (2,), Box([-1.0, 0.25], [1.0, 1.0]), samples=200, seed=1)
+    assert chk.holds and chk.method == "numeric"
+    assert chk.value == pytest.approx(0.5, rel=1e-6)
+    assert chk.worst_point is not None and chk.worst_point[1] == pytest.approx(0.25, abs=1e-6)
     # singular everywhere: det Q_s ≡ 0
     G = _fields(["x1", "x2"], [0, x1], [[1], [0]], [x1], name="flat")
     bad = check_drift_observability(G, (2,))
     assert not bad.holds and bad.method == "symbolic" and bad.symbolic == "0" and bad.worst_point is None
 
 
-@pytest.mark.xfail(strict=True, reason="sampling cannot see the hyperplane x2 = 0 where Q_s is singular; a sign "
-                   "change of det Q_s between sampled points of a box would prove a zero (not implemented)")
 def test_drift_observability_sees_a_sign_change_of_det() -> None:
+    # Q_s = [[1, 0], [0, 2 x2]]: det = 2 x2 changes sign across the line x2 = 0, which sampling never hits.
     F = _fields(["x1", "x2"], [x2**2, -x1], [[0], [1]], [x1], name="fold")
-    assert not check_drift_observability(F, (2,), Box([-1.0, -1.0], [1.0, 1.0])).holds
+    chk = check_drift_observability(F, (2,), Box([-1.0, -1.0], [1.0, 1.0]))
+    assert not chk.holds and "changes sign" in chk.evidence
+    assert chk.worst_point is not None and abs(chk.worst_point[1]) < 1e-9
+
+
+def test_local_minimisation_finds_a_thin_singular_set_without_sign_change() -> None:
+    # det Q_s = x2² ≥ 0 touches 0 on x2 = 0 (no sign change): σ_min refined by local descent finds it.
+    F = _fields(["x1", "x2"], [x2**3 / 3, -x1], [[0], [1]], [x1], name="touch")
+    chk = check_drift_observability(F, (2,), Box([-1.0, -1.0], [1.0, 1.0]))
+    assert not chk.holds and chk.worst_point is not None and abs(chk.worst_point[1]) < 1e-3
 
 
 def test_a1_check() -> None:
@@ -259,7 +267,6 @@ def test_vanishes_on_symbolic_and_numeric() -> None:
         Box([0.0, 1.0], [1.0, 1.0])
 
 
-@pytest.mark.xfail(strict=True, reason="vanishes_on reports zero=True when the expression is finite at no sampled "
-                   "point (e.g. log(x1 − 5) on [−1, 1]³): 'no evidence' is read as 'vanishes'")
 def test_vanishes_on_does_not_call_a_nowhere_finite_expression_zero() -> None:
-    assert not vanishes_on(sp.log(x1 - 5), X, Box.unit(3)).zero
+    with pytest.raises(NonFiniteError, match="not finite at any of 64 sampled points"):
+        vanishes_on(sp.log(x1 - 5), X, Box.unit(3))

@@ -18,7 +18,7 @@ import sympy as sp
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_vector
-from nlobs.errors import InvalidArgumentError
+from nlobs.errors import InvalidArgumentError, NonFiniteError
 from nlobs.systems.codegen import compile_matrix
 
 Array = NDArray[np.float64]
@@ -124,6 +124,11 @@ def vanishes_on(
 
     A nonzero value at one sampled point proves the expression is not identically
     zero; no nonzero value at ``samples`` points is reported as a numeric verdict.
+
+    Raises
+    ------
+    NonFiniteError
+        If the expression is finite at none of the sampled points (no evidence either way).
     """
     if region.n != len(x):
         raise InvalidArgumentError(f"region has dimension {region.n}, the model {len(x)}")
@@ -137,7 +142,8 @@ def vanishes_on(
         vals = fn(pts)[:, 0]
     ok = np.isfinite(vals)
     if not np.any(ok):
-        return ZeroTest(True, "numeric", 0, None, None)
+        raise NonFiniteError(f"{expr} is not finite at any of {samples} sampled points of {region.describe()}: "
+                             "the model is not defined on this region")
     mag = np.where(ok, np.abs(vals), -1.0)
     i = int(np.argmax(mag))
     if mag[i] <= atol:
