@@ -126,6 +126,17 @@ def test_sdp_min_gain_beats_vandermonde_on_gain_and_condition() -> None:
     assert sdp.cond_P < vdm.cond_P
 
 
+def test_scaled_sdp_solves_high_gain_cases_the_unscaled_lmi_cannot() -> None:
+    s = (3, 1)
+    c = RiccatiConstants(s, _F_ends(s), alpha=1.0, mu=1.0, gamma=29.0)
+    with pytest.raises(DesignInfeasible, match=r"Theorem 2.9 says \(2.17\) is solvable.*scaling='auto'"):
+        design_drift_gain_sdp(c, scaling=None)
+    cert = design_drift_gain_sdp(c)  # scaling="auto"
+    assert cert.verified and cert.scaling > 1.0
+    assert np.linalg.eigvalsh(riccati_lhs(c, cert.K, cert.P))[-1] < 0
+    assert cert.gain_norm < smallest_w(c).certificate.gain_norm
+
+
 def test_sdp_infeasible_names_constraint_and_margin() -> None:
     c = RiccatiConstants((2,), np.eye(2), alpha=1.0, mu=1.0, gamma=1.0)
     with pytest.raises(DesignInfeasible, match=r"LMI in \(S, Y\) is infeasible.*slack is t = .*s ≰ r") as ei:

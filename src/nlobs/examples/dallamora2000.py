@@ -33,7 +33,13 @@ from numpy.typing import ArrayLike, NDArray
 from nlobs.errors import CertificateError, DesignInfeasible
 from nlobs.examples.reproduce import ReproRow
 from nlobs.geometry import AffineFields, Box, input_gain_structure, observability_jacobian, observation_relative_degree
-from nlobs.observers.drift import DriftDesignReport, DriftObserver, design_drift_report, error_bound_constants
+from nlobs.observers.drift import (
+    DriftDesignReport,
+    DriftObserver,
+    ErrorBoundConstants,
+    design_drift_report,
+    error_bound_constants,
+)
 from nlobs.simulate import MeasurementGroup, SimulationResult, simulate
 from nlobs.synthesis.drift_gain import (
     DriftGainCertificate,
@@ -42,6 +48,7 @@ from nlobs.synthesis.drift_gain import (
     design_drift_gain_sdp,
     smallest_w,
     vandermonde_gain,
+    verify_drift_gain,
 )
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.modelfile import load_model
@@ -123,12 +130,17 @@ class DriftSimulation:
         Vandermonde parameter of the simulated gain.
     result : SimulationResult
     bound : ndarray, shape (*batch, K)
-        ``κ₁ e^{−αt} ‖e(0)‖`` (3.2) with ``b = 0`` (Lipschitz case, H1).
+        ``κ₁ e^{−αt} ‖e(0)‖`` (3.2) with ``b = 0`` (Lipschitz case, H1); NaN when the simulated
+        gain does not satisfy (2.17) for the report's constants.
     bound_ratio : float
-        ``max_t ‖e(t)‖ / bound(t)`` (``≤ 1`` where the bound holds).
+        ``max_t ‖e(t)‖ / bound(t)`` (``≤ 1`` where the bound holds; NaN when not certified).
     decay_rate : float
         Fitted exponential rate of ``‖e‖`` (``floor`` 1e-9 relative, see
         :meth:`SimulationResult.decay_rate`), smallest over the batch.
+    certified : bool
+        Whether the simulated gain (with its ``P``) satisfies (2.17) for the report's constants.
+    constants : ErrorBoundConstants
+        ``κ₁``, ``κ₂`` of the simulated gain's ``P``.
     """
 
     report: DriftDesignReport
@@ -137,9 +149,12 @@ class DriftSimulation:
     bound: Array
     bound_ratio: float
     decay_rate: float
+    certified: bool
+    constants: ErrorBoundConstants
 
     def to_dict(self) -> dict[str, Any]:
-        return {"design": self.report.to_dict(), "w": self.w, "bound_ratio": self.bound_ratio,
+        return {"design": self.report.to_dict(), "w": self.w, "certified": self.certified,
+                "bound_constants": self.constants.to_dict(), "bound_ratio": self.bound_ratio,
                 "decay_rate": self.decay_rate, "final_error_norm": float(np.max(self.result.error_norm[..., -1]))}
 
 
@@ -174,8 +189,16 @@ def simulate_drift(
     """
     rep = report or design_drift_report(model, s, alpha=alpha, mu=mu, gamma=gamma, method=method, region=region,
                                         parameters=parameters)
-    K = rep.certificate.K if w is None else vandermonde_gain(rep.s, w).K
-    w_used = rep.certificate.w if w is None else float(w)
+    bound_consts = rep.bound
+    certified = rep.certificate.verified
+    if w is None:
+        K, w_used = rep.certificate.K, rep.certificate.w
+    else:  # the paper's tuning by simulation: K(w) is checked against (2.17), the bound applies only if it holds
+        g = vandermonde_gain(rep.s, w)
+        K, w_used = g.K, float(w)
+        cw = verify_drift_gain(rep.certificate.constants, g.K, g.P, method="vandermonde", w=w_used)
+        certified = cw.verified
+        bound_consts = error_bound_constants(cw, rep.lipschitz.gamma_phi, rep.lipschitz.gamma_phi_inv)
     obs = DriftObserver.from_fields(rep.fields, rep.s, K, regularization=regularization)
     plant = model.compile(parameters)
     meas = None
@@ -184,11 +207,13 @@ def simulate_drift(
     res = simulate(plant, obs, x0=x0, x_hat0=x_hat0, duration=duration, dt=dt, u=u, measurements=meas, seed=seed,
                    save_every=save_every)
     e = res.error_norm
-    bnd = rep.bound.bound(res.t, e[..., 0])
+    bnd = bound_consts.bound(res.t, e[..., 0])
+    if not certified:
+        bnd = np.full_like(bnd, np.nan)
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = float(np.nanmax(np.where(bnd > 0, e / bnd, np.nan)))
+        ratio = float(np.nanmax(np.where(bnd > 0, e / bnd, np.nan))) if certified else math.nan
     rate = float(np.nanmin(res.decay_rate(floor=1e-9 * float(np.max(e[..., 0])))))
-    return DriftSimulation(rep, w_used, res, bnd, ratio, rate)
+    return DriftSimulation(rep, w_used, res, bnd, ratio, rate, certified, bound_consts)
 
 
 # --------------------------------------------------------------------------- examples
@@ -196,39 +221,43 @@ def simulate_drift(
 
 @dataclass(frozen=True, eq=False)
 class DriftExample:
-    """One example: the theory's design, an SDP design, and two simulations.
+    """One example: the theory's designs (Vandermonde and SDP) and their simulations, and a tuned ``w``.
 
     Attributes
     ----------
     name : str
-    theory : DriftSimulation
-        Gain ``K(w*)`` with ``w*`` the smallest ``w`` solving (2.17) for the constants
-        estimated on the region (Remark 2.11), simulated (``None`` when ``w*`` is too stiff
-        for a run of reasonable length, see ``simulate_theory``).
+    report : DriftDesignReport
+        The Vandermonde design: ``w*`` the smallest ``w`` solving (2.17) for the constants
+        estimated on the region (Remark 2.11).
+    theory : DriftSimulation or None
+        ``K(w*)`` simulated (``None`` when ``w*`` is too stiff for a run of reasonable length).
+    sdp : DriftGainCertificate or str
+        The SDP design for the same constants (scaled, see
+        :func:`~nlobs.synthesis.drift_gain.design_drift_gain_sdp`), or why it failed.
+    sdp_run : DriftSimulation or None
+        The SDP gain simulated (with its own ``κ₁``).
     tuned : DriftSimulation
         Gain ``K(w)`` with a ``w`` tuned by simulation (not certified by (2.17)).
-    report : DriftDesignReport
-        The theory's design.
-    sdp : DriftGainCertificate or str
-        The SDP design for the same constants, or why it failed.
     """
 
     name: str
-    theory: DriftSimulation | None
-    tuned: DriftSimulation
     report: DriftDesignReport
+    theory: DriftSimulation | None
     sdp: DriftGainCertificate | str
+    sdp_run: DriftSimulation | None
+    tuned: DriftSimulation
 
 
-def _sdp_or_reason(report: DriftDesignReport) -> DriftGainCertificate | str:
+def _sdp_design(model: SymbolicModel, mu: float, region: Box) -> tuple[DriftDesignReport | None, DriftGainCertificate | str]:
     try:
-        return design_drift_gain_sdp(report.certificate.constants)
-    except DesignInfeasible as exc:
-        return f"{exc} [violation {exc.violation}]"
+        rep = design_drift_report(model, alpha=1.0, mu=mu, region=region, method="sdp")
+    except (DesignInfeasible, CertificateError) as exc:
+        return None, f"{exc}"
+    return rep, rep.certificate
 
 
 def run_siso(*, duration: float = 8.0, simulate_theory: bool = True) -> DriftExample:
-    """Van der Pol (Liénard): theory's ``w*`` (estimated ``γ``, α = 1, μ = 0.5) and ``w = 5`` tuned."""
+    """Van der Pol (Liénard): theory's ``w*`` and SDP gain (estimated ``γ``, α = 1, μ = 0.5), and ``w = 5`` tuned."""
     model = example_model("vanderpol-lienard")
     rep = design_drift_report(model, alpha=1.0, mu=SISO_MU, region=SISO_REGION)
     wstar = rep.certificate.w or 1.0
@@ -236,16 +265,31 @@ def run_siso(*, duration: float = 8.0, simulate_theory: bool = True) -> DriftExa
     if simulate_theory:
         dt = min(1e-3, 0.5 / (2.0 * wstar))  # RK4: |λ_max dt| ≤ 1 with λ_max = −2w
         theory = simulate_drift(model, SISO_X0, SISO_XHAT0, min(duration, 2.0), dt=dt, u=_u_siso, report=rep)
+    rep_sdp, sdp = _sdp_design(model, SISO_MU, SISO_REGION)
+    sdp_run = None
+    if rep_sdp is not None:
+        sdp_run = simulate_drift(model, SISO_X0, SISO_XHAT0, duration, dt=_dt_for(rep_sdp.certificate), u=_u_siso,
+                                 report=rep_sdp)
     tuned = simulate_drift(model, SISO_X0, SISO_XHAT0, duration, dt=1e-3, u=_u_siso, report=rep, w=SISO_W_TUNED)
-    return DriftExample("vanderpol-lienard", theory, tuned, rep, _sdp_or_reason(rep))
+    return DriftExample("vanderpol-lienard", rep, theory, sdp, sdp_run, tuned)
+
+
+def _dt_for(cert: DriftGainCertificate) -> float:
+    """RK4 step for the linear part: ``|λ| dt ≤ 0.5`` for every ``λ ∈ eig(A_s − KC_s)``, at most 1 ms."""
+    return min(1e-3, 0.5 / float(np.max(np.abs(cert.eigenvalues))))
 
 
 def run_mimo(*, duration: float = 12.0) -> DriftExample:
-    """Duffing + actuator, ``s = (3, 1)``: theory's ``w*`` reported (too stiff to simulate), ``w = 3`` simulated."""
+    """Duffing + actuator, ``s = (3, 1)``: theory's ``w*`` (too stiff to simulate), SDP gain and ``w = 3`` simulated."""
     model = example_model("duffing-actuator")
     rep = design_drift_report(model, alpha=1.0, mu=MIMO_MU, region=MIMO_REGION)
+    rep_sdp, sdp = _sdp_design(model, MIMO_MU, MIMO_REGION)
+    sdp_run = None
+    if rep_sdp is not None:
+        sdp_run = simulate_drift(model, MIMO_X0, MIMO_XHAT0, duration, dt=_dt_for(rep_sdp.certificate), u=_u_mimo,
+                                 report=rep_sdp)
     tuned = simulate_drift(model, MIMO_X0, MIMO_XHAT0, duration, dt=1e-3, u=_u_mimo, report=rep, w=MIMO_W_TUNED)
-    return DriftExample("duffing-actuator", None, tuned, rep, _sdp_or_reason(rep))
+    return DriftExample("duffing-actuator", rep, None, sdp, sdp_run, tuned)
 
 
 @dataclass(frozen=True, eq=False)
@@ -308,8 +352,9 @@ def plot_example(ex: DriftExample, path: str | Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    panels = [("tuned", ex.tuned)] + ([("theory", ex.theory)] if ex.theory is not None else [])
-    fig, axes = plt.subplots(1, len(panels) + 1, figsize=(6 * (len(panels) + 1), 4.2))
+    panels = [("tuned", ex.tuned)] + ([("theory", ex.theory)] if ex.theory is not None else []) \
+        + ([("sdp", ex.sdp_run)] if ex.sdp_run is not None else [])
+    fig, axes = plt.subplots(1, len(panels) + 1, figsize=(5 * (len(panels) + 1), 4.2))
     alpha = ex.report.certificate.constants.alpha
     for ax, (label, sim) in zip(axes, panels):
         res = sim.result
@@ -321,12 +366,16 @@ def plot_example(ex: DriftExample, path: str | Path) -> Path:
         else:
             err, bnd = res.error_norm, sim.bound
         ax.semilogy(t, np.maximum(err, 1e-16), label="‖x − x̂‖")
-        ax.semilogy(t, bnd, "--", label=f"κ₁e^(−αt)‖e(0)‖, κ₁ = {sim.report.bound.kappa1:.3g} (sampled constants)")
+        if sim.certified:
+            ax.semilogy(t, bnd, "--", label=f"κ₁e^(−αt)‖e(0)‖, κ₁ = {sim.constants.kappa1:.3g} (sampled constants)")
         ax.semilogy(t, err[0] * np.exp(-alpha * (t - t[0])), ":", color="gray", label=f"‖e(0)‖e^(−αt), α = {alpha:g}")
         ax.set_ylim(1e-12, None)
         ax.set_xlabel("t [s]")
-        cert = "certified by (2.17)" if label == "theory" else "tuned by simulation"
-        ax.set_title(f"{ex.name}, s = {ex.report.s}: w = {sim.w:.4g} ({cert})", fontsize=9)
+        if label == "sdp":
+            title = f"SDP gain, ‖K‖ = {sim.report.certificate.gain_norm:.3g} (certified by (2.17))"
+        else:
+            title = f"w = {sim.w:.4g} ({'certified by (2.17)' if sim.certified else 'tuned, fails (2.17)'})"
+        ax.set_title(f"{ex.name}, s = {ex.report.s}: {title}", fontsize=9)
         ax.legend(fontsize=7)
     ax = axes[-1]
     res = ex.tuned.result
@@ -378,7 +427,7 @@ def _largest_mu(s: tuple[int, ...], F: Array, alpha: float, gamma: float, *, sdp
     def ok(mu: float) -> bool:
         c = RiccatiConstants(s, F, alpha, mu, gamma)
         try:
-            (design_drift_gain_sdp(c, kappa_max=1e6) if sdp else smallest_w(c, w_max=1e4))
+            (design_drift_gain_sdp(c, kappa_max=1e6, scaling=None) if sdp else smallest_w(c, w_max=1e4))
         except (DesignInfeasible, CertificateError):  # no certified solution at this μ
             return False
         return True
@@ -444,7 +493,7 @@ def rows() -> list[ReproRow]:
     mimo = example_model("duffing-actuator")
     out.append(ReproRow("(2.13) Q_s g = F_{s,r} H_{s,r} (duffing-actuator, s = (3, 1))", "identity",
                         _r(_structure_residual(mimo, s31, MIMO_REGION), 3), "max |residual| at 200 sampled points"))
-    siso = run_siso(duration=6.0)
+    siso = run_siso(duration=4.0)
     th = siso.theory
     assert th is not None
     out.append(ReproRow(
@@ -467,10 +516,16 @@ def rows() -> list[ReproRow]:
     ratio = float(np.max(res.error_norm / b.bound(res.t, res.error_norm[0])))
     out.append(ReproRow("(3.2) with exact constants (Φ_s = id, γ_L = √3.25, γ_H = 0.5, μ = 1): max ‖e‖/(κ₁e^(−αt)‖e(0)‖)",
                         "≤ 1", _r(ratio, 3), f"κ₁ = √cn(P) = {b.kappa1:.4g}; measured decay rate {_r(float(res.decay_rate(floor=1e-10)), 4)}"))
-    mim = run_mimo(duration=10.0)
+    mim = run_mimo(duration=5.0)
     out.append(ReproRow("MIMO s = (3, 1): decay rate with w = 3 (duffing-actuator, μ = 0.6)", None, _r(mim.tuned.decay_rate),
                         f"theory's w* = {mim.report.certificate.w:.5g} for the sampled γ = {mim.report.gamma:.4g} "
                         f"(‖K(w*)‖ = {mim.report.certificate.gain_norm:.3g}): conservative"))
+    if mim.sdp_run is not None:
+        sr = mim.sdp_run
+        out.append(ReproRow("MIMO, SDP gain for the same constants (scaled LMI): decay rate; max ‖e‖/(κ₁e^(−αt)‖e(0)‖)",
+                            "≥ α; ≤ 1", [_r(sr.decay_rate), _r(sr.bound_ratio, 3)],
+                            f"‖K‖ = {sr.report.certificate.gain_norm:.4g} (θ = {sr.report.certificate.scaling:.4g}) "
+                            f"against {mim.report.certificate.gain_norm:.3g} for K(w*); κ₁ = {sr.report.bound.kappa1:.4g}"))
     out.append(ReproRow("(3.17) κ₁, κ₂", "γ_Φ γ_Φ⁻¹ √cn(P), γ_Φ⁻¹ √(‖P‖/2α)", "γ_Φ γ_Φ⁻¹ √cn(P), γ_Φ⁻¹ √(‖P‖/2α)",
                         "re-derived from (3.15)–(3.16) (squared norms); the text extraction of the paper drops the "
                         "radical signs in (3.2), (3.17), (3.20)"))

@@ -202,6 +202,8 @@ class DriftGainCertificate:
     margin : float
         Strictness margin ``ε`` of the SDP (0 for the Vandermonde construction).
     seconds : float
+    scaling : float
+        High-gain scaling ``θ`` of the SDP variables (1: none).
     """
 
     constants: RiccatiConstants
@@ -217,6 +219,7 @@ class DriftGainCertificate:
     solver_status: str = ""
     margin: float = 0.0
     seconds: float = 0.0
+    scaling: float = 1.0
 
     @property
     def verified(self) -> bool:
@@ -261,6 +264,8 @@ class DriftGainCertificate:
 
     def describe(self) -> str:
         head = f"{self.method} gain" + (f" (w = {self.w:.6g})" if self.w is not None else "")
+        if self.scaling != 1.0:
+            head += f" (scaling θ = {self.scaling:.4g})"
         lines = [
             f"{head} for {self.constants.describe()}: {'verified' if self.verified else 'NOT verified'}",
             f"  λ_max(left side of (2.17)) = {self.lhs_max_eig:.6g}, cn(P) = {self.cond_P:.6g}, ‖P‖ = {self.norm_P:.6g}, "
@@ -293,6 +298,7 @@ class DriftGainCertificate:
             "solver": None if self.solver is None else self.solver.value,
             "solver_status": self.solver_status,
             "margin": self.margin,
+            "scaling": self.scaling,
         }
 
 
@@ -493,6 +499,8 @@ class _Sdp:
     Y: cp.Variable
     kappa: cp.Parameter
     slack: cp.Variable
+    T: Array  # S = T S̃ T
+    Th: Array  # Y = T Ŷ diag(Th)
 
 
 def _lmi_block(c: RiccatiConstants, S: Any, Y: Any) -> Any:
@@ -506,25 +514,43 @@ def _lmi_block(c: RiccatiConstants, S: Any, Y: Any) -> Any:
     return symmetrise(bmat([[M11, SW], [SW.T, -np.eye(W.shape[1])]]))
 
 
-def _build_sdp(c: RiccatiConstants, objective: DriftObjective, margin: float, gain_bound: float | None) -> _Sdp:
+def _scaling(s: tuple[int, ...], theta: float) -> tuple[Array, Array]:
+    """``T = blockdiag(θ^{s_j−1}, …, θ, 1)`` and ``Θ = diag(θ^{s_j−1})``."""
+    T = np.concatenate([theta ** np.arange(sj - 1, -1, -1, dtype=float) for sj in s])
+    return T, np.array([theta ** (sj - 1) for sj in s], dtype=float)
+
+
+def _build_sdp(c: RiccatiConstants, objective: DriftObjective, margin: float, gain_bound: float | None,
+               theta: float = 1.0) -> _Sdp:
+    """The LMI in the scaled variables ``S = T S̃ T``, ``Y = T Ŷ Θ`` (the identity for ``θ = 1``).
+
+    The congruence by ``diag(T⁻¹, I)`` turns the LMI into
+    ``[[θ(S̃A_s + A_sᵀS̃) − ŶC_s − C_sᵀŶᵀ + 2αS̃ + γ²T⁻², S̃ T W], [·ᵀ, −I]]`` (``W = [B_s μF]``,
+    ``T A_s T⁻¹ = θA_s``, ``C_s T⁻¹ = Θ⁻¹ C_s``, ``T B_s = B_s``): the high-gain solution, whose ``S``
+    spans ``θ^{2(s_j−1)}``, has a well-conditioned ``S̃``.
+    """
+    A, B, C = c.triple()
     n, q = c.n, c.q
+    T, Th = _scaling(c.s, theta)
+    W = T[:, None] * np.hstack([B, c.mu * c.F])
     S = cp.Variable((n, n), symmetric=True, name="S")
     Y = cp.Variable((n, q), name="Y")
     sigma = cp.Variable(name="sigma")
     t = cp.Variable(name="t")  # slack: the LMI is imposed as ⪯ (t − ε) I; t ≤ 0 means feasible
     kappa = cp.Parameter(nonneg=True, name="kappa", value=1.0)
-    L = _lmi_block(c, S, Y)
+    SA = theta * (S @ A)
+    M11 = SA + SA.T - Y @ C - C.T @ Y.T + 2.0 * c.alpha * S + c.gamma**2 * np.diag(T**-2.0)
+    SW = S @ W
+    L = symmetrise(cp.bmat([[M11, SW], [SW.T, -np.eye(W.shape[1])]]))
     k = L.shape[0]
-    cons = [L << (t - margin) * np.eye(k), S >> sigma * np.eye(n), sigma >= margin, t >= -1.0]
+    cons = [L << (t - margin) * np.eye(k), S >> sigma * np.eye(n), sigma >= margin, sigma <= 1e6, t >= -1.0]
     if objective is DriftObjective.MIN_CONDITION:
         cons.append(S << kappa * sigma * np.eye(n))
         if gain_bound is not None:
             cons.append(symmetrise(cp.bmat([[gain_bound * sigma * np.eye(q), Y.T], [Y, gain_bound * sigma * np.eye(n)]])) >> 0)
     else:
         cons.append(symmetrise(cp.bmat([[kappa * sigma * np.eye(q), Y.T], [Y, kappa * sigma * np.eye(n)]])) >> 0)
-    # normalisation: (2.17) is not homogeneous in S, but S can grow without bound when s ≤ r; cap it
-    cons.append(sigma <= 1e6)
-    return _Sdp(cp.Problem(cp.Minimize(t), cons), S, Y, kappa, t)
+    return _Sdp(cp.Problem(cp.Minimize(t), cons), S, Y, kappa, t, T, Th)
 
 
 def _sdp_solve(sdp: _Sdp, kappa: float, solver: Solver, options: Mapping[str, Any] | None) -> tuple[float | None, Any]:
@@ -535,74 +561,24 @@ def _sdp_solve(sdp: _Sdp, kappa: float, solver: Solver, options: Mapping[str, An
     return float(sdp.slack.value), res
 
 
-def design_drift_gain_sdp(
-    c: RiccatiConstants,
-    *,
-    objective: DriftObjective | str = DriftObjective.MIN_GAIN,
-    margin: float = 1e-6,
-    gain_bound: float | None = None,
-    solver: Solver | str = Solver.CLARABEL,
-    options: Mapping[str, Any] | None = None,
-    kappa_max: float = 1e8,
-    rtol: float = 1e-2,
-) -> DriftGainCertificate:
-    """(2.17) as an LMI in ``(S, Y) = (P⁻¹, P⁻¹K)`` (see the module docstring), solved and re-verified.
-
-    Parameters
-    ----------
-    c : RiccatiConstants
-    objective : DriftObjective or str
-        ``"min_gain"`` (default): smallest ``κ ≥ ‖K‖₂``; ``"min_condition"``: smallest
-        ``κ ≥ cn(P)``. Both quasi-convex: bisection in ``log κ`` (one compiled problem,
-        ``κ`` a :class:`cvxpy.Parameter`). Without ``gain_bound``, ``"min_condition"``
-        drives the gain up for a negligible gain in ``cn(P)`` (measured on ``s = (2,)``,
-        ``α = μ = γ = 1``: ``cn(P) = 25.48`` with ``‖K‖ = 3.5·10⁵`` against ``25.51`` with
-        ``‖K‖ = 15.8`` for ``"min_gain"``), so give it a ``gain_bound``.
-    margin : float
-        ``ε``: the LMI is imposed as ``⪯ −ε I`` and ``S ⪰ σ I`` with ``σ ≥ ε``.
-    gain_bound : float, optional
-        With ``"min_condition"``, also impose ``‖K‖₂ ≤ gain_bound`` (via ``‖Y‖ ≤ gain_bound σ``).
-    solver, options
-        Clarabel by default (:func:`nlobs.synthesis.lmi.solve`).
-    kappa_max : float
-        Largest ``κ`` tried.
-    rtol : float
-        Relative width of the final ``κ`` bracket.
-
-    Returns
-    -------
-    DriftGainCertificate
-        ``K = S⁻¹ Y``, ``P = S⁻¹``, verified by the eigenvalues of the left side of
-        (2.17) (independently of the solver), ``P ≻ 0`` and ``eig(A_s − K C_s)``.
-
-    Raises
-    ------
-    DesignInfeasible
-        The LMI has no solution with ``κ ≤ kappa_max``: ``constraint`` names it and
-        ``violation`` is the smallest slack ``t`` found (the LMI holds as ``⪯ (t − ε) I``).
-    CertificateError
-        The solver's answer failed the re-verification.
-    """
-    t0 = time.perf_counter()
-    obj = as_enum("objective", DriftObjective, objective)
-    sol = as_solver(solver)
-    margin = positive("margin", margin)
-    gb = None if gain_bound is None else positive("gain_bound", gain_bound)
-    sdp = _build_sdp(c, obj, margin, gb)
+def _sdp_at(c: RiccatiConstants, obj: DriftObjective, margin: float, gb: float | None, theta: float, sol: Solver,
+            options: Mapping[str, Any] | None, kappa_max: float, rtol: float, t0: float) -> DriftGainCertificate:
+    sdp = _build_sdp(c, obj, margin, gb, theta)
     tol = 1e-9
     hi = 10.0
     t_hi, res = _sdp_solve(sdp, hi, sol, options)
     while t_hi is None or t_hi > tol:
         if hi >= kappa_max:
-            what = "cn(P)" if obj is DriftObjective.MIN_CONDITION else "‖K‖"
+            what = "cn(P̃)" if obj is DriftObjective.MIN_CONDITION else "‖K̃‖"
             viol = t_hi if t_hi is not None else math.nan
             raise DesignInfeasible(
-                f"(2.17) as an LMI in (S, Y) is infeasible for {c.describe()} with {what} ≤ {kappa_max:g}"
-                + (f" (gain bound {gb:g})" if gb is not None else "")
+                f"(2.17) as an LMI in (S, Y) is infeasible for {c.describe()} with {what} ≤ {kappa_max:g} "
+                f"(scaling θ = {theta:.4g})"
+                + (f", gain bound {gb:g}" if gb is not None else "")
                 + f": the smallest slack is t = {viol:.4g} (LMI ⪯ (t − ε)I, ε = {margin:g}; solver: {res.raw_status}); "
                 + ("s ≰ r: lower μ (Theorem 2.7)" if c.F.size and not _s_le_r_F(c) else
                    "s ≤ r, so Theorem 2.9 says (2.17) is solvable: the solution is out of the solver's numerical "
-                   "reach (high gains need cn(P) ~ w^(2(s_max−1))); use method='vandermonde'"),
+                   "reach (high gains need cn(P) ~ w^(2(s_max−1))); try scaling='auto' or method='vandermonde'"),
                 constraint="(2.17) as LMI in (S = P⁻¹, Y = S K)",
                 violation=viol,
             )
@@ -625,10 +601,11 @@ def design_drift_gain_sdp(
     hi *= _FINAL_KAPPA_FACTOR  # a little inside the bound: an interior answer, not one on the boundary
     t_fin, res = _sdp_solve(sdp, hi, sol, options)
     if t_fin is None or sdp.S.value is None or sdp.Y.value is None:
-        raise DesignInfeasible(f"the solver failed at the final κ = {hi:g}: {res.raw_status}",
+        raise DesignInfeasible(f"the solver failed at the final κ = {hi:g} (θ = {theta:.4g}): {res.raw_status}",
                                constraint="(2.17) as LMI in (S, Y)", violation=None)
-    S = 0.5 * (sdp.S.value + sdp.S.value.T)
-    K = np.linalg.solve(S, sdp.Y.value)
+    T, Th = sdp.T, sdp.Th
+    S = T[:, None] * (0.5 * (sdp.S.value + sdp.S.value.T)) * T[None, :]
+    K = np.linalg.solve(S, (T[:, None] * sdp.Y.value) * Th[None, :])
     P = np.linalg.inv(S)
     P = 0.5 * (P + P.T)
     checks, lam, eigs = _checks(c, K, P)
@@ -637,10 +614,109 @@ def design_drift_gain_sdp(
     checks.append(Check("LMI in (S, Y) recomputed (λ_max)", CheckKind.LMI, max_eig(blk),
                         100 * _EPS * max(1.0, float(np.linalg.norm(blk, 2)))))
     cert = DriftGainCertificate(c, _ro(K), _ro(P), "sdp", None, lam, eigs, tuple(checks), obj.value, sol,
-                                res.raw_status, margin, time.perf_counter() - t0)
+                                res.raw_status, margin, time.perf_counter() - t0, theta)
     if not cert.verified:
-        raise CertificateError("SDP answer failed re-verification: " + "; ".join(x.describe() for x in cert.failed_checks))
+        raise CertificateError(f"SDP answer (θ = {theta:.4g}) failed re-verification: "
+                               + "; ".join(x.describe() for x in cert.failed_checks))
     return cert
+
+
+def _thetas(c: RiccatiConstants, scaling: float | str | None) -> list[float]:
+    if scaling is None:
+        return [1.0]
+    if isinstance(scaling, str):
+        if scaling.lower() != "auto":
+            raise InvalidArgumentError(f"scaling: expected 'auto', None or a positive number, got {scaling!r}")
+        if max(c.s) == 1:
+            return [1.0]
+        try:
+            w = smallest_w(c, w_max=1e6, rtol=1e-2).w
+        except DesignInfeasible:
+            return [1.0]
+        cands = [w / 4.0**k for k in range(4) if w / 4.0**k >= 1.0]
+        return cands + [1.0] if 1.0 not in cands else cands
+    return [positive("scaling", scaling)]
+
+
+def design_drift_gain_sdp(
+    c: RiccatiConstants,
+    *,
+    objective: DriftObjective | str = DriftObjective.MIN_GAIN,
+    margin: float = 1e-6,
+    gain_bound: float | None = None,
+    scaling: float | str | None = "auto",
+    solver: Solver | str = Solver.CLARABEL,
+    options: Mapping[str, Any] | None = None,
+    kappa_max: float = 1e8,
+    rtol: float = 1e-2,
+) -> DriftGainCertificate:
+    """(2.17) as an LMI in ``(S, Y) = (P⁻¹, P⁻¹K)`` (see the module docstring), solved and re-verified.
+
+    Parameters
+    ----------
+    c : RiccatiConstants
+    objective : DriftObjective or str
+        ``"min_gain"`` (default): smallest ``κ ≥ ‖K̃‖₂``; ``"min_condition"``: smallest
+        ``κ ≥ cn(P̃)``, for the scaled ``K̃ = S̃⁻¹Ŷ``, ``P̃ = S̃⁻¹`` (``= K``, ``P`` without
+        scaling). Both quasi-convex: bisection in ``log κ`` (one compiled problem per ``θ``,
+        ``κ`` a :class:`cvxpy.Parameter`). Without ``gain_bound``, ``"min_condition"``
+        drives the gain up for a negligible gain in ``cn(P)`` (measured on ``s = (2,)``,
+        ``α = μ = γ = 1``, unscaled: ``cn(P) = 25.48`` with ``‖K‖ = 3.5·10⁵`` against ``25.51``
+        with ``‖K‖ = 15.8`` for ``"min_gain"``), so give it a ``gain_bound``.
+    margin : float
+        ``ε``: the LMI is imposed as ``⪯ −ε I`` and ``S̃ ⪰ σ I`` with ``σ ≥ ε``.
+    gain_bound : float, optional
+        With ``"min_condition"``, also impose ``‖K̃‖₂ ≤ gain_bound`` (via ``‖Ŷ‖ ≤ gain_bound σ``).
+    scaling : "auto", float or None
+        High-gain scaling ``θ`` of the variables, ``S = T S̃ T``, ``Y = T Ŷ Θ`` with
+        ``T = blockdiag(θ^{s_j−1}, …, θ, 1)``, ``Θ = diag(θ^{s_j−1})`` — an exact congruence that
+        keeps the solver's variables well conditioned when the solution needs high gain.
+        ``None``: ``θ = 1`` (no scaling). ``"auto"`` (default): ``θ = w*/4^k`` (``k = 0..3``,
+        ``θ ≥ 1``, ``w*`` the smallest Vandermonde ``w``) and ``θ = 1``; the verified answer with
+        the smallest ``‖K‖`` (``"min_gain"``) or ``cn(P)`` (``"min_condition"``) is kept. Measured
+        on ``s = (3, 1)``, ``α = μ = 1``: unscaled, the LMI is solved for ``γ ≤ 5`` only; scaled,
+        for ``γ = 60`` too.
+    solver, options
+        Clarabel by default (:func:`nlobs.synthesis.lmi.solve`).
+    kappa_max : float
+        Largest ``κ`` tried.
+    rtol : float
+        Relative width of the final ``κ`` bracket.
+
+    Returns
+    -------
+    DriftGainCertificate
+        ``K = S⁻¹ Y``, ``P = S⁻¹``, verified by the eigenvalues of the left side of
+        (2.17) (independently of the solver), ``P ≻ 0`` and ``eig(A_s − K C_s)``;
+        :attr:`DriftGainCertificate.scaling` is the ``θ`` used.
+
+    Raises
+    ------
+    DesignInfeasible
+        The LMI has no solution with ``κ ≤ kappa_max`` for any ``θ`` tried: ``constraint`` names
+        it and ``violation`` is the smallest slack ``t`` found (the LMI holds as ``⪯ (t − ε) I``).
+    CertificateError
+        Every solver answer failed the re-verification.
+    """
+    t0 = time.perf_counter()
+    obj = as_enum("objective", DriftObjective, objective)
+    sol = as_solver(solver)
+    margin = positive("margin", margin)
+    gb = None if gain_bound is None else positive("gain_bound", gain_bound)
+    found: list[DriftGainCertificate] = []
+    errors: list[Exception] = []
+    for theta in _thetas(c, scaling):
+        try:
+            found.append(_sdp_at(c, obj, margin, gb, theta, sol, options, kappa_max, rtol, t0))
+        except (DesignInfeasible, CertificateError) as exc:
+            errors.append(exc)
+    if not found:
+        infeasible = [e for e in errors if isinstance(e, DesignInfeasible) and e.violation is not None]
+        if infeasible:
+            raise min(infeasible, key=lambda e: e.violation if e.violation == e.violation else math.inf)  # type: ignore[operator]
+        raise errors[0]
+    key = (lambda x: x.gain_norm) if obj is DriftObjective.MIN_GAIN else (lambda x: x.cond_P)
+    return min(found, key=key)
 
 
 def _ro(a: Array) -> Array:
