@@ -137,3 +137,15 @@ def test_design_report_text_and_dict() -> None:
     txt = rep.to_text()
     assert "s = (3, 1)" in txt and "(2.17)" in txt and "κ₁" in txt
     assert rep.observer().s == (3, 1)
+
+
+def test_model_without_inputs_and_s_not_le_r_report() -> None:
+    free = SymbolicModel.input_affine(["x1", "x2"], [], ["y"], f=[x2, -x1 - x1**3], g=None, h=[x1], name="no-input")
+    rep = design_drift_report(free, alpha=1.0, mu=0.0, samples=200)
+    assert rep.r == (None,) and rep.F.shape == (2, 0) and rep.certificate.verified
+    obs = rep.observer()
+    assert obs.rhs(0.0, np.array([0.5, 0.1]), np.zeros(0), np.array([0.4])).shape == (2,)
+    early = SymbolicModel.input_affine(["x1", "x2"], ["u"], ["y"], f=[x2, -x1], g=[[1], [0]], h=[x1], name="early-input")
+    rep = design_drift_report(early, alpha=1.0, mu=0.2, gamma=1.0, samples=200)
+    assert rep.r == (1,) and not rep.checks[1].holds and rep.certificate.verified
+    np.testing.assert_array_equal(rep.F, np.eye(2))  # d = s − r + 1 = 2: F = I₂ (2.12)

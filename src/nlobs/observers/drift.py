@@ -359,8 +359,8 @@ def lipschitz_estimates(fields: AffineFields, s: Sequence[int], r: Sequence[int 
     with np.errstate(all="ignore"):
         v = fn(pts)
     Qv = v[:, : n * n].reshape(-1, n, n)
-    dLv = v[:, n * n : n * n + dL.shape[0] * n].reshape(-1, dL.shape[0], n)
-    dHv = v[:, n * n + dL.shape[0] * n :].reshape(-1, dH.shape[0], n)
+    dLv = v[:, n * n : n * n + dL.shape[0] * n].reshape(len(v), dL.shape[0], n)
+    dHv = v[:, n * n + dL.shape[0] * n :].reshape(len(v), dH.shape[0], n)
     ok = np.all(np.isfinite(v), axis=-1)
     sv = np.linalg.svd(Qv[ok], compute_uv=False)
     inv_norm = np.where(sv[:, -1] > 0, 1.0 / np.where(sv[:, -1] > 0, sv[:, -1], 1.0), np.inf)
