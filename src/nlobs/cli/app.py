@@ -8,20 +8,27 @@ a malformed option); 3 no observer of the requested structure exists.
 from __future__ import annotations
 
 import json
-import math
-from importlib import resources
 from pathlib import Path
-from typing import Annotated, Any, NoReturn
+from typing import Annotated
 
-import numpy as np
 import typer
-from rich.console import Console
 
 from nlobs import __version__
 from nlobs.analysis import analyze
-from nlobs.errors import ModelFileError, NlobsError
-from nlobs.geometry.region import Box
-from nlobs.systems.modelfile import Model, load_model
+from nlobs.cli.common import (
+    EXIT_FAILURE,
+    parse_box,
+    console,
+    emit_json,
+    fail,
+    parse_floats,
+    jsonable,
+    load_model_arg,
+    design_app,
+    shipped_models,
+    simulate_app,
+)
+from nlobs.errors import NlobsError
 
 app = typer.Typer(
     name="nlobs",
@@ -30,80 +37,6 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
 )
-
-EXIT_FAILURE = 1
-EXIT_BAD_INPUT = 2
-EXIT_NO_OBSERVER = 3
-
-
-def _console() -> Console:
-    return Console(highlight=False, soft_wrap=True)
-
-
-def _fail(message: str, status: int = EXIT_BAD_INPUT) -> NoReturn:
-    """Print a one-line error to stderr and exit."""
-    Console(stderr=True, highlight=False, soft_wrap=True).print(f"nlobs: error: {message}", markup=False)
-    raise typer.Exit(status)
-
-
-def shipped_models() -> dict[str, Path]:
-    """Model files shipped with nlobs, by name (the file stem)."""
-    root = resources.files("nlobs") / "data" / "models"
-    return {Path(str(p)).stem: Path(str(p)) for p in root.iterdir() if str(p).endswith(".toml")}
-
-
-def _load(model: str) -> Model:
-    path = Path(model)
-    if not path.exists():
-        shipped = shipped_models()
-        if model in shipped:
-            path = shipped[model]
-        else:
-            _fail(f"{model}: no such file (shipped models: {', '.join(sorted(shipped))})")
-    try:
-        return load_model(path)
-    except ModelFileError as exc:
-        _fail(str(exc))
-
-
-def _floats(option: str, text: str | None) -> list[float] | None:
-    if text is None:
-        return None
-    try:
-        vals = [float(s) for s in text.replace(",", " ").split()]
-    except ValueError:
-        _fail(f"{option}: expected comma-separated numbers, got {text!r}")
-    if not all(math.isfinite(v) for v in vals):
-        _fail(f"{option}: values must be finite, got {text!r}")
-    return vals
-
-
-def _box(option: str, text: str, n: int) -> Box:
-    vals = _floats(option, text) or []
-    if len(vals) == 2:
-        vals = vals * n
-    if len(vals) != 2 * n:
-        _fail(f"{option}: expected 'lo,hi' or {2 * n} numbers lo1,hi1,...; got {len(vals)} numbers")
-    try:
-        return Box(np.array(vals[0::2]), np.array(vals[1::2]))
-    except NlobsError as exc:
-        _fail(f"{option}: {exc}")
-
-
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
-
-
-def _emit_json(data: dict[str, Any]) -> None:
-    typer.echo(json.dumps(_jsonable(data), indent=2, allow_nan=False))
 
 
 @app.command("analyze")
@@ -117,18 +50,18 @@ def analyze_cmd(
              "lo1,hi1,lo2,hi2,... (default -1,1).")] = None,
 ) -> None:
     """Report a model's dimensions, structural properties and norms."""
-    m = _load(model)
+    m = load_model_arg(model)
     try:
-        region = _box("--box", box, m.n) if box is not None else None
-        report = analyze(m, x0=_floats("--x0", x0), u0=_floats("--u0", u0), region=region)
+        region = parse_box("--box", box, m.n) if box is not None else None
+        report = analyze(m, x0=parse_floats("--x0", x0), u0=parse_floats("--u0", u0), region=region)
     except NlobsError as exc:
-        _fail(f"{model}: {exc}")
+        fail(f"{model}: {exc}")
     if as_json:
         data = report.to_dict()
         data.setdefault("kind", "linear")
-        _emit_json(data)
+        emit_json(data)
     else:
-        _console().print(report.to_text(), markup=False)
+        console().print(report.to_text(), markup=False)
 
 
 @app.command("reproduce")
@@ -142,20 +75,20 @@ def reproduce_cmd(
     from nlobs.examples.reproduce import PAPERS, format_value, reproduce
 
     if paper not in PAPERS:
-        _fail(f"unknown paper {paper!r} (known: {', '.join(sorted(PAPERS))})")
+        fail(f"unknown paper {paper!r} (known: {', '.join(sorted(PAPERS))})")
     try:
         rows = reproduce(paper)
     except NlobsError as exc:
-        _fail(f"reproduce {paper}: {exc}", EXIT_FAILURE)
+        fail(f"reproduce {paper}: {exc}", EXIT_FAILURE)
     if as_json:
-        typer.echo(json.dumps(_jsonable([r.to_dict() for r in rows]), indent=2, allow_nan=False))
+        typer.echo(json.dumps(jsonable([r.to_dict() for r in rows]), indent=2, allow_nan=False))
         return
     table = Table(title=f"nlobs reproduce {paper}", show_lines=False)
     for col in ("quantity", "paper", "nlobs", "note"):
         table.add_column(col, overflow="fold")
     for r in rows:
         table.add_row(r.quantity, format_value(r.paper), format_value(r.nlobs), r.note)
-    _console().print(table)
+    console().print(table)
 
 
 DEMOS = ("gnss-ins",)
@@ -180,19 +113,19 @@ def demo_cmd(
     from nlobs.examples.gnss_ins_demo import DemoConfig, run_demo, write_json
 
     if name not in DEMOS:
-        _fail(f"unknown demo {name!r} (known: {', '.join(DEMOS)})")
+        fail(f"unknown demo {name!r} (known: {', '.join(DEMOS)})")
     try:
         config = DemoConfig(seed=seed, duration=duration, yaw_error_deg=yaw_error, gains=gains,
                             position_only=position_only, ekf=ekf)
     except NlobsError as exc:
-        _fail(str(exc))
+        fail(str(exc))
     try:
         result = run_demo(config, out, progress=not as_json)
     except NlobsError as exc:
-        _fail(f"demo {name}: {exc}", EXIT_FAILURE)
+        fail(f"demo {name}: {exc}", EXIT_FAILURE)
     write_json(result, out / "results.json")
     if as_json:
-        _emit_json(result.to_dict())
+        emit_json(result.to_dict())
         return
     rows = [("position RMS after convergence [m]", "position_rms_m", "{:.3f}"),
             ("velocity RMS after convergence [m/s]", "velocity_rms_mps", "{:.3f}"),
@@ -208,7 +141,7 @@ def demo_cmd(
     metrics = {f: result.metrics(f) for f in filters}
     for label, key, fmt in rows:
         table.add_row(escape(label), *(fmt.format(metrics[f][key]) for f in filters))
-    con = _console()
+    con = console()
     con.print(table)
     for fig in result.figures.values():
         con.print(f"wrote {fig}", markup=False)
@@ -224,7 +157,7 @@ def models_cmd(
     if as_json:
         typer.echo(json.dumps([{"name": k, "path": str(v)} for k, v in sorted(shipped.items())], indent=2))
         return
-    con = _console()
+    con = console()
     for name, path in sorted(shipped.items()):
         con.print(f"{name:28s} {path}", markup=False)
 
@@ -233,6 +166,10 @@ def models_cmd(
 def version_cmd() -> None:
     """Print the nlobs version."""
     typer.echo(__version__)
+
+
+app.add_typer(design_app, name="design")
+app.add_typer(simulate_app, name="simulate")
 
 
 def main() -> None:  # pragma: no cover - entry point convenience

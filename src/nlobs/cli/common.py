@@ -1,0 +1,98 @@
+"""Shared pieces of the ``nlobs`` command line: exit statuses, one-line errors, model loading,
+option parsing and JSON output. Every command module imports these; none defines its own.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from importlib import resources
+from pathlib import Path
+from typing import Any, NoReturn
+
+import numpy as np
+import typer
+from rich.console import Console
+
+from nlobs.errors import ModelFileError, NlobsError
+from nlobs.geometry.region import Box
+from nlobs.systems.modelfile import Model, load_model
+
+EXIT_FAILURE = 1
+EXIT_BAD_INPUT = 2
+EXIT_NO_OBSERVER = 3
+
+
+def console() -> Console:
+    return Console(highlight=False, soft_wrap=True)
+
+
+def fail(message: str, status: int = EXIT_BAD_INPUT) -> NoReturn:
+    """Print a one-line error to stderr and exit."""
+    Console(stderr=True, highlight=False, soft_wrap=True).print(f"nlobs: error: {message}", markup=False)
+    raise typer.Exit(status)
+
+
+def shipped_models() -> dict[str, Path]:
+    """Model files shipped with nlobs, by name (the file stem)."""
+    root = resources.files("nlobs") / "data" / "models"
+    return {Path(str(p)).stem: Path(str(p)) for p in root.iterdir() if str(p).endswith(".toml")}
+
+
+def load_model_arg(model: str) -> Model:
+    path = Path(model)
+    if not path.exists():
+        shipped = shipped_models()
+        if model in shipped:
+            path = shipped[model]
+        else:
+            fail(f"{model}: no such file (shipped models: {', '.join(sorted(shipped))})")
+    try:
+        return load_model(path)
+    except ModelFileError as exc:
+        fail(str(exc))
+
+
+def parse_floats(option: str, text: str | None) -> list[float] | None:
+    if text is None:
+        return None
+    try:
+        vals = [float(s) for s in text.replace(",", " ").split()]
+    except ValueError:
+        fail(f"{option}: expected comma-separated numbers, got {text!r}")
+    if not all(math.isfinite(v) for v in vals):
+        fail(f"{option}: values must be finite, got {text!r}")
+    return vals
+
+
+def parse_box(option: str, text: str, n: int) -> Box:
+    vals = parse_floats(option, text) or []
+    if len(vals) == 2:
+        vals = vals * n
+    if len(vals) != 2 * n:
+        fail(f"{option}: expected 'lo,hi' or {2 * n} numbers lo1,hi1,...; got {len(vals)} numbers")
+    try:
+        return Box(np.array(vals[0::2]), np.array(vals[1::2]))
+    except NlobsError as exc:
+        fail(f"{option}: {exc}")
+
+
+def jsonable(obj: Any) -> Any:
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def emit_json(data: dict[str, Any]) -> None:
+    typer.echo(json.dumps(jsonable(data), indent=2, allow_nan=False))
+
+
+
+design_app = typer.Typer(help="Design an observer for a model and print its verification.", no_args_is_help=True)
+simulate_app = typer.Typer(help="Simulate an observer on a model.", no_args_is_help=True)
