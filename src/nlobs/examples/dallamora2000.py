@@ -264,7 +264,7 @@ def run_siso(*, duration: float = 8.0, simulate_theory: bool = True) -> DriftExa
     theory = None
     if simulate_theory:
         dt = min(1e-3, 0.5 / (2.0 * wstar))  # RK4: |λ_max dt| ≤ 1 with λ_max = −2w
-        theory = simulate_drift(model, SISO_X0, SISO_XHAT0, min(duration, 2.0), dt=dt, u=_u_siso, report=rep)
+        theory = simulate_drift(model, SISO_X0, SISO_XHAT0, min(duration, 0.5), dt=dt, u=_u_siso, report=rep)
     rep_sdp, sdp = _sdp_design(model, SISO_MU, SISO_REGION)
     sdp_run = None
     if rep_sdp is not None:
