@@ -14,7 +14,7 @@ import pytest
 from nlobs.errors import DimensionError, InvalidArgumentError
 from nlobs.navigation.base import GnssSample, ImuSample
 from nlobs.navigation.gains import PAPER_GAMMA, paper_gains
-from nlobs.navigation.gnss_ins import GnssInsObserver
+from nlobs.navigation.gnss_ins import GnssInsObserver, GnssInsState
 from nlobs.navigation.run import run_navigation
 from nlobs.navigation.sensors import SensorNoise, drop_fixes, generate_sensors
 from nlobs.navigation.so3 import angle_between, exp_so3, rot_z
@@ -249,3 +249,53 @@ def test_batched_step_broadcasts_a_single_state_against_a_batch_of_imu_samples(f
         np.testing.assert_allclose(both.p[i], one.p, rtol=0.0, atol=1e-14)
         np.testing.assert_allclose(both.xi[i], one.xi, rtol=0.0, atol=1e-13)
         np.testing.assert_allclose(both.y_v[i], one.y_v, rtol=0.0, atol=1e-14)
+
+
+@pytest.mark.parametrize("case", ["predict", "nondiagonal_gamma", "position_only_hold"])
+def test_batch_last_layout_equals_the_batch_first_layout(flight, monkeypatch, case):
+    from nlobs.navigation import gnss_ins
+
+    po = case == "position_only_hold"
+    n = gnss_ins.BATCH_LAST_MIN + 8
+    traj = traffic_pattern(seed=1, duration=3.0).sample(100.0)
+    data = generate_sensors(traj, imu_rate_hz=100.0, gnss_rate_hz=5.0, noise=NOISE, seed=11, batch=n,
+                            position_only=po)
+    data = drop_fixes(data, [0, 1, 2], batch_index=1)  # member 1 runs open loop for 0.6 s
+    R0 = traj.R[0] @ exp_so3(np.random.default_rng(5).normal(size=(n, 3)))
+    Q = exp_so3(np.array([0.4, -0.7, 0.2]))
+    G = Q @ PAPER_GAMMA @ Q.T if case == "nondiagonal_gamma" else PAPER_GAMMA
+    obs = GnssInsObserver(paper_gains(po), G, flight.m_n, flight.g_n, position_only=po,
+                          intersample="hold" if po else "predict")
+    cols = run_navigation(obs, data, traj.p[0], traj.v[0], R0)
+    monkeypatch.setattr(gnss_ins, "BATCH_LAST_MIN", 10**9)
+    rows = run_navigation(obs, data, traj.p[0], traj.v[0], R0)
+    scale = np.abs(rows.p_hat).max()
+    np.testing.assert_allclose(cols.p_hat, rows.p_hat, rtol=0.0, atol=1e-12 * scale)
+    np.testing.assert_allclose(cols.v_hat, rows.v_hat, rtol=0.0, atol=1e-12 * scale)
+    np.testing.assert_allclose(cols.R_raw, rows.R_raw, rtol=0.0, atol=1e-12)
+    np.testing.assert_allclose(cols.z_hat, rows.z_hat, rtol=0.0, atol=1e-12 * np.abs(rows.z_hat).max())
+
+
+def test_both_batched_layouts_handle_a_magnetometer_parallel_to_the_specific_force(monkeypatch):
+    from nlobs.navigation import gnss_ins
+
+    obs = GnssInsObserver.paper([0.0, 0.0, 1.0], [0.0, 0.0, 9.8])
+    n = gnss_ins.BATCH_LAST_MIN
+    rng = np.random.default_rng(2)
+    st = obs.update(obs.init(np.zeros((n, 3)), np.zeros(3), exp_so3(rng.normal(size=(n, 3)))),
+                    GnssSample(np.zeros(3), np.zeros(3), np.array(True)))
+    m = np.tile([0.0, 0.0, 1.0], (n, 1))
+    m[1] = [1.0, 0.0, 0.0]  # ∥ a for member 1, with |m₁| large: the other completion of U
+    a = np.vstack([[0.0, 0.0, -9.8], [-9.8, 0.0, 0.0], rng.normal(size=(n - 2, 3)) + [0.0, 0.0, -9.8]])
+    imu = ImuSample(rng.normal(scale=0.1, size=(n, 3)), a, m)
+    cols = obs.propagate(st, imu, 0.01)
+    monkeypatch.setattr(gnss_ins, "BATCH_LAST_MIN", 10**9)
+    rows = obs.propagate(st, imu, 0.01)
+    for i in range(3):
+        one = obs.propagate(GnssInsState(p=st.p[i], v=st.v[i], xi=st.xi[i], R=st.R[i], y_p=st.y_p[i], y_v=st.y_v[i],
+                                         has_fix=st.has_fix[i], skipped=st.skipped[i]),
+                            ImuSample(imu.omega_b[i], a[i], m[i]), 0.01)
+        for res in (cols, rows):
+            assert np.all(np.isfinite(res.R[i]))
+            np.testing.assert_allclose(res.R[i], one.R, rtol=0.0, atol=1e-14)
+            np.testing.assert_allclose(res.xi[i], one.xi, rtol=0.0, atol=1e-12)

@@ -284,6 +284,10 @@ class GnssInsObserver:
     _cache: dict = field(init=False, repr=False, compare=False)
     _gamma_max: float = field(init=False, repr=False, compare=False)
     _SmPowers: Array = field(init=False, repr=False, compare=False)
+    _SmP: Array = field(init=False, repr=False, compare=False)
+    _An0: Array = field(init=False, repr=False, compare=False)
+    _m_n_col: Array = field(init=False, repr=False, compare=False)
+    _gamma_col: Array = field(init=False, repr=False, compare=False)
     _scalar: SplitConstants = field(init=False, repr=False, compare=False)
     _scalar_cache: dict = field(init=False, repr=False, compare=False)
 
@@ -334,6 +338,12 @@ class GnssInsObserver:
             object.__setattr__(self, "_V", _ro(V))
         object.__setattr__(self, "_F", (_ro(self._linear_generator(K)), _ro(self._linear_generator(0.0 * K))))
         object.__setattr__(self, "_cache", {})
+        Sm_n = self._SmPowers  # A_n = [mⁿ, S(mⁿ) ẑ, S(mⁿ)² ẑ] = (ẑ @ _SmP).reshape(3, 3) + _An0 (batch first)
+        object.__setattr__(self, "_SmP", _ro(np.stack([np.zeros((3, 3)), Sm_n[0], Sm_n[1]], axis=-1)
+                                             .transpose(1, 0, 2).reshape(3, 9)))
+        object.__setattr__(self, "_An0", _ro(np.outer(m_n, [1.0, 0.0, 0.0])))
+        object.__setattr__(self, "_m_n_col", _ro(m_n[:, None, None]))       # batch last
+        object.__setattr__(self, "_gamma_col", _ro(self._gamma[:, None, None]))
         object.__setattr__(self, "_scalar", SplitConstants.build(self._gamma, self._V, m_n, self._SmPowers))
         object.__setattr__(self, "_scalar_cache", {})
 
@@ -573,25 +583,48 @@ class GnssInsObserver:
     def _propagate_split(self, state: GnssInsState, imu: ImuSample, h: float) -> GnssInsState:
         """One Strang step ``C(h/2) A(h/2) B(h) A(h/2) C(h/2)`` of exactly solved sub-flows (class docstring).
 
-        Vectorised over the batch with the batch axis **last** for the 3×3 algebra: a 3-vector is
-        ``(3, n)``, a 3×3 matrix ``(3, 3, n)``, so every product is a few elementwise operations on
-        contiguous rows of length ``n`` (NumPy's stacked ``matmul`` on ``(n, 3, 3)`` is ~20× slower).
+        Vectorised over the batch in one of two layouts, the same arithmetic: up to
+        :data:`BATCH_LAST_MIN` flights, the batch axis first and ``(..., 3, 3)`` matrices
+        (:meth:`_split_rows`, the fewest NumPy calls); from there on, the batch axis **last**
+        (:meth:`_split_columns`: every 3×3 product an ``einsum`` over contiguous rows of length
+        ``n``; NumPy's stacked ``matmul`` on ``(n, 3, 3)`` and its reductions over small axes
+        cost several times more per flight).
         """
+        shapes = (np.shape(imu.omega_b), np.shape(imu.a_b), np.shape(imu.m_b))
+        try:
+            batch = np.broadcast_shapes(state.batch_shape, *(sh[:-1] for sh in shapes))
+        except ValueError:
+            raise DimensionError(f"imu: shapes {shapes} do not match the state's batch shape {state.batch_shape}") \
+                from None
+        if batch != state.batch_shape:  # an IMU batch wider than the state: widen the state first
+            b3 = (*batch, 3)
+            state = GnssInsState(
+                p=np.broadcast_to(state.p, b3), v=np.broadcast_to(state.v, b3), xi=np.broadcast_to(state.xi, b3),
+                R=np.broadcast_to(state.R, (*batch, 3, 3)), y_p=np.broadcast_to(state.y_p, b3),
+                y_v=None if state.y_v is None else np.broadcast_to(state.y_v, b3),
+                has_fix=np.broadcast_to(state.has_fix, batch).copy(), skipped=np.broadcast_to(state.skipped, batch).copy())
+        n = 1
+        for d in batch:
+            n *= d
+        if n < BATCH_LAST_MIN:
+            return self._split_rows(state, imu, h)
+        return self._split_columns(state, imu, h)
+
+    def _split_columns(self, state: GnssInsState, imu: ImuSample, h: float) -> GnssInsState:
+        """The split step with the batch axis last: 3-vectors ``(3, n)``, 3×3 matrices ``(3, 3, n)``."""
         w = np.asarray(imu.omega_b, dtype=float)
         a = np.asarray(imu.a_b, dtype=float)
         m = np.asarray(imu.m_b, dtype=float)
-        try:
-            batch = np.broadcast_shapes(state.batch_shape, w.shape[:-1], a.shape[:-1], m.shape[:-1])
-        except ValueError:
-            raise DimensionError(f"imu: shapes {w.shape}, {a.shape}, {m.shape} do not match the state's batch "
-                                 f"shape {state.batch_shape}") from None
+        batch = np.broadcast_shapes(state.batch_shape, w.shape[:-1], a.shape[:-1], m.shape[:-1])
         n = int(np.prod(batch, dtype=int))
+        b3 = (*batch, 3)
 
-        def cols(x: Array) -> Array:  # (..., 3) → (3, n)
-            return np.ascontiguousarray(np.broadcast_to(x, (*batch, 3)).reshape(n, 3).T)
+        def rows(x: Array) -> Array:  # (..., 3) → (n, 3)
+            return (x if x.shape == b3 else np.broadcast_to(x, b3)).reshape(n, 3)
 
-        w, a, m = cols(w), cols(a), cols(m)
-        R = np.ascontiguousarray(np.broadcast_to(state.R, (*batch, 3, 3)).reshape(n, 9).T).reshape(3, 3, n)
+        w, a, m = rows(w).T, rows(a).T, rows(m).T                    # (3, n)
+        Rb = state.R if state.R.shape == (*batch, 3, 3) else np.broadcast_to(state.R, (*batch, 3, 3))
+        R = Rb.reshape(n, 3, 3).transpose(1, 2, 0)                   # (3, 3, n)
         P1, d1, P0, d0 = self._transitions(0.5 * h)
         has = np.broadcast_to(state.has_fix, batch).reshape(n)
         sel = 1 if has.all() else (0 if not has.any() else -1)
@@ -603,34 +636,30 @@ class GnssInsObserver:
                 return L @ P0 + d0
             return np.where(has[:, None], L @ P1 + d1, L @ P0 + d0)
 
-        z0 = _mv_t(R, a) + cols(state.xi)                            # ẑ = R̂ a^b + ξ
-        parts = [np.broadcast_to(state.p, (*batch, 3)).reshape(n, 3), np.broadcast_to(state.v, (*batch, 3))
-                 .reshape(n, 3), z0.T, np.broadcast_to(state.y_p, (*batch, 3)).reshape(n, 3)]
+        parts = [rows(state.p), rows(state.v), (_mv_t(R, a) + rows(state.xi).T).T, rows(state.y_p)]
         if state.y_v is not None:
-            parts.append(np.broadcast_to(state.y_v, (*batch, 3)).reshape(n, 3))
-        L = lin(np.concatenate(parts, axis=-1))                      # L = [p̂, v̂, ẑ, y_p, (y_v)]
+            parts.append(rows(state.y_v))
+        L = lin(np.concatenate(parts, axis=-1))                      # L = [p̂, v̂, ẑ, y_p, (y_v)], ẑ = R̂ a^b + ξ
         E = _exp_so3_t(w * (0.5 * h))                                # A(h/2): R̂ ← R̂ exp(S(ω^b) h/2), ξ fixed
         RE = _mm_t(R, E)
         z = L[:, 6:9].T + _mv_t(RE - R, a)                           # ẑ after A(h/2)
         # B(h): Ṙ̂ = Γ J, ξ̇ = −Γ J a^b with ẑ exactly invariant: elementwise in R̃ = Vᵀ R̂ U, U = [c_j/|c_j|]
-        c2 = _cross_t(m, a)                                          # m^b × a^b
-        m2 = m[0] * m[0] + m[1] * m[1] + m[2] * m[2]
-        q = c2[0] * c2[0] + c2[1] * c2[1] + c2[2] * c2[2]            # |m^b × a^b|²
-        ok = q > 1e-18 * m2 * (a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+        Sm = (_S9 @ m).reshape(3, 3, n)                              # S(m^b)
+        c2 = _mv_t(Sm, a)                                            # m^b × a^b
+        m2 = np.einsum("in,in->n", m, m)
+        q = np.einsum("in,in->n", c2, c2)                            # |m^b × a^b|²
+        ok = q > 1e-18 * m2 * np.einsum("in,in->n", a, a)
         if not ok.all():
             # m^b ∥ a^b (TRIAD condition violated): μ₂ = μ₃ = 0, any orthonormal completion of U will do
             e1 = np.abs(m[0]) < 0.9 * np.sqrt(m2)                    # m × e₁ = (0, m₃, −m₂), else m × e₂
             alt = np.stack([np.where(e1, 0.0, -m[2]), np.where(e1, m[2], 0.0), np.where(e1, -m[1], m[0])])
             c2 = np.where(ok, c2, alt)
-        c3 = _cross_t(m, c2)
-        n0 = np.sqrt(m2)
-        n1 = np.sqrt(c2[0] * c2[0] + c2[1] * c2[1] + c2[2] * c2[2])
-        n2 = np.sqrt(c3[0] * c3[0] + c3[1] * c3[1] + c3[2] * c3[2])
-        U = np.stack([m / n0, c2 / n1, c3 / n2], axis=1)             # columns ∥ A_b's (orthogonal)
+        c3 = _mv_t(Sm, c2)
+        Ub = np.stack([m, c2, c3], axis=1)                           # columns ∥ A_b's (orthogonal)
+        U = Ub / np.sqrt(np.einsum("ijn,ijn->jn", Ub, Ub))
         s2 = np.stack([m2, q, m2 * q])                               # μ_j = |c_j|²
-        Sn = self._SmPowers                                          # A_n = [mⁿ, mⁿ × ẑ, mⁿ × (mⁿ × ẑ)]
-        An = np.stack([np.broadcast_to(self.m_n[:, None], (3, n)), Sn[0] @ z, Sn[1] @ z], axis=1)
-        x = np.expm1((-h * self._gamma)[:, None, None] * s2)         # e^{−γ_i μ_j h} − 1
+        An = np.concatenate([np.broadcast_to(self._m_n_col, (3, 1, n)), _const_mm_t(self._SmPowers, z)], axis=1)
+        x = np.expm1(self._gamma_col * (-h * s2))                    # e^{−γ_i μ_j h} − 1
         f = x / -np.sqrt(np.maximum(s2, 1e-300))                     # (1 − e)/|c_j| (→ 0 as μ_j → 0)
         V = self._V
         if V is None:
@@ -644,13 +673,63 @@ class GnssInsObserver:
         Ra = _mv_t(R2, a)
         L[:, 6:9] = (xi + Ra).T
         L = lin(L)                                                   # C(h/2)
-        b3 = (*batch, 3)
-        has_fix, skipped = _flags(state, batch)
         return GnssInsState(p=L[:, 0:3].reshape(b3), v=L[:, 3:6].reshape(b3),
-                            xi=(L[:, 6:9] - Ra.T).reshape(b3), R=np.ascontiguousarray(R2.reshape(9, n).T)
-                            .reshape(*batch, 3, 3), y_p=L[:, 9:12].reshape(b3),
-                            y_v=None if state.y_v is None else L[:, 12:15].reshape(b3),
-                            has_fix=has_fix, skipped=skipped)
+                            xi=(L[:, 6:9] - Ra.T).reshape(b3), R=R2.transpose(2, 0, 1).reshape(*batch, 3, 3),
+                            y_p=L[:, 9:12].reshape(b3), y_v=None if state.y_v is None else L[:, 12:15].reshape(b3),
+                            has_fix=state.has_fix, skipped=state.skipped)
+
+    def _split_rows(self, state: GnssInsState, imu: ImuSample, h: float) -> GnssInsState:
+        """The split step for a small batch: batch axis first, ``(..., 3, 3)`` matrices (fewest NumPy calls)."""
+        w = np.asarray(imu.omega_b, dtype=float)
+        a = np.asarray(imu.a_b, dtype=float)
+        m = np.asarray(imu.m_b, dtype=float)
+        a_col = a[..., None]
+        R = state.R
+        P1, d1, P0, d0 = self._transitions(0.5 * h)
+        has = state.has_fix
+        sel = 1 if has.all() else (0 if not has.any() else -1)
+
+        def lin(L: Array) -> Array:  # C(h/2): p̂, v̂, ẑ, y linear with R̂ frozen, exact
+            if sel == 1:
+                return L @ P1 + d1
+            if sel == 0:
+                return L @ P0 + d0
+            return np.where(has[..., None], L @ P1 + d1, L @ P0 + d0)
+
+        parts = [state.p, state.v, (R @ a_col)[..., 0] + state.xi, state.y_p]
+        if state.y_v is not None:
+            parts.append(state.y_v)
+        L = lin(np.concatenate(parts, axis=-1))                      # L = [p̂, v̂, ẑ, y_p, (y_v)]
+        E = _exp_so3(w * (0.5 * h))                                  # A(h/2): R̂ ← R̂ exp(S(ω^b) h/2), ξ fixed
+        RE = R @ E
+        z = L[..., 6:9] + ((RE - R) @ a_col)[..., 0]                # ẑ after A(h/2)
+        # B(h): Ṙ̂ = Γ J, ξ̇ = −Γ J a^b with ẑ exactly invariant: elementwise in R̃ = Vᵀ R̂ U, U = [c_j/|c_j|]
+        Sm = (m @ _EPS).reshape(*m.shape[:-1], 3, 3)                 # S(m^b)
+        c2 = Sm @ a_col                                              # m^b × a^b
+        m2 = np.sum(m * m, axis=-1)[..., None]
+        q = np.sum(c2 * c2, axis=-2)                                 # |m^b × a^b|²
+        if not np.all(q > 1e-18 * m2 * np.sum(a * a, axis=-1)[..., None]):
+            # m^b ∥ a^b (TRIAD condition violated): μ₂ = μ₃ = 0, any orthonormal completion of U will do
+            alt = Sm @ np.where(np.abs(m[..., :1]) < 0.9 * np.sqrt(m2), [1.0, 0.0, 0.0], [0.0, 1.0, 0.0])[..., None]
+            c2 = np.where(q[..., None] > 1e-18 * m2[..., None] * np.sum(a * a, axis=-1)[..., None, None], c2, alt)
+        Ub = np.concatenate([m[..., None], c2, Sm @ c2], axis=-1)   # columns ∥ A_b's (orthogonal)
+        U = Ub / np.sqrt(np.sum(Ub * Ub, axis=-2, keepdims=True))
+        s2 = np.concatenate([m2, q, m2 * q], axis=-1)                # μ_j = |c_j|²
+        An = (z @ self._SmP).reshape(*z.shape[:-1], 3, 3) + self._An0  # A_n = [mⁿ, mⁿ × ẑ, mⁿ × (mⁿ × ẑ)]
+        x = np.expm1((-h * self._gamma[:, None]) * s2[..., None, :])  # e^{−γ_i μ_j h} − 1
+        f = x / -np.sqrt(np.maximum(s2, 1e-300))[..., None, :]        # (1 − e)/|c_j| (→ 0 as μ_j → 0)
+        V = self._V
+        if V is None:
+            R1 = ((1.0 + x) * (RE @ U) + f * An) @ np.swapaxes(U, -1, -2)  # C̃/μ = A_n diag(1/|c|)
+        else:
+            R1 = V @ ((1.0 + x) * (V.T @ RE @ U) + f * (V.T @ An)) @ np.swapaxes(U, -1, -2)
+        xi = z - (R1 @ a_col)[..., 0]
+        R2 = R1 @ E                                                  # A(h/2) again, ξ fixed
+        L[..., 6:9] = xi + (R2 @ a_col)[..., 0]
+        L = lin(L)                                                   # C(h/2)
+        return GnssInsState(p=L[..., 0:3], v=L[..., 3:6], xi=L[..., 6:9] - (R2 @ a_col)[..., 0], R=R2,
+                            y_p=L[..., 9:12], y_v=None if state.y_v is None else L[..., 12:15],
+                            has_fix=state.has_fix, skipped=state.skipped)
 
     # Packed state X = [p̂, v̂, ξ, vec_row(R̂), y_p, (y_v)] of shape (..., 21) or (..., 24).
     def _pack(self, st: GnssInsState) -> Array:
@@ -714,55 +793,64 @@ def _single(state: GnssInsState, imu: ImuSample) -> tuple[list[float], list[floa
     return w.ravel().tolist(), a.ravel().tolist(), m.ravel().tolist()
 
 
+#: Batches of at least this many flights use the batch-last layout of the split step
+#: (:meth:`GnssInsObserver._propagate_split`); measured crossover 20–60 flights.
+BATCH_LAST_MIN = 32
+
+#: ``S(x) = (x @ _EPS).reshape(3, 3)`` (minus the Levi-Civita symbol, flattened), batch first.
+_EPS = np.zeros((3, 9))
+_EPS[2, 1], _EPS[1, 2], _EPS[2, 3], _EPS[0, 5], _EPS[1, 6], _EPS[0, 7] = -1.0, 1.0, 1.0, -1.0, -1.0, 1.0
+_EPS.setflags(write=False)
+#: ``S(x) = (_S9 @ x).reshape(3, 3, n)`` for ``x`` of shape ``(3, n)``, batch last.
+_S9 = np.ascontiguousarray(_EPS.T)
+_S9.setflags(write=False)
+_I33 = np.eye(3)[:, :, None]
+_I33.setflags(write=False)
+
+
+def _exp_so3(phi: Array) -> Array:
+    """Rodrigues' ``exp(S(φ)) = cos θ I + (sin θ/θ) S(φ) + ((1 − cos θ)/θ²) φφᵀ``, batched, few NumPy calls.
+
+    ``(1 − cos θ)/θ² = 2 sin²(θ/2)/θ²`` (no cancellation); exact at ``θ = 0``.
+    """
+    th = np.sqrt(np.sum(phi * phi, axis=-1))[..., None, None] + 1e-300  # θ = 0: sin(1e-300)/1e-300 = 1
+    A = np.sin(th) / th
+    sh = np.sin(0.5 * th)
+    B = 2.0 * (sh / th) ** 2                                     # (1 − cos θ)/θ² = 2 sin²(θ/2)/θ²
+    return (1.0 - 2.0 * sh * sh) * np.eye(3) + A * (phi @ _EPS).reshape(*phi.shape[:-1], 3, 3) \
+        + B * (phi[..., :, None] * phi[..., None, :])
+
+
 # 3×3 algebra with the batch axis last: vectors (3, n), matrices (3, 3, n) (row, column, flight).
 def _mm_t(A: Array, B: Array) -> Array:
     """``A @ B`` per flight."""
-    return A[:, 0, None] * B[None, 0] + A[:, 1, None] * B[None, 1] + A[:, 2, None] * B[None, 2]
+    return np.einsum("ijn,jkn->ikn", A, B)
 
 
 def _mmT_t(A: Array, B: Array) -> Array:
     """``A @ Bᵀ`` per flight."""
-    return A[:, 0, None] * B[None, :, 0] + A[:, 1, None] * B[None, :, 1] + A[:, 2, None] * B[None, :, 2]
+    return np.einsum("ijn,kjn->ikn", A, B)
 
 
 def _mv_t(A: Array, x: Array) -> Array:
     """``A @ x`` per flight."""
-    return A[:, 0] * x[0] + A[:, 1] * x[1] + A[:, 2] * x[2]
+    return np.einsum("ijn,jn->in", A, x)
 
 
 def _const_mm_t(C: Array, B: Array) -> Array:
-    """``C @ B`` per flight for a constant ``C`` (3, 3)."""
-    return (C @ B.reshape(3, -1)).reshape(B.shape)
-
-
-def _cross_t(a: Array, b: Array) -> Array:
-    """``a × b`` per flight."""
-    return np.stack([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
+    """``C @ B`` per flight for a constant ``C`` (``(3, 3)``, or ``(k, 3, 3)`` stacked: ``(3, k, n)`` columns)."""
+    if C.ndim == 2:
+        return (C @ B.reshape(3, -1)).reshape(B.shape)
+    return np.einsum("kij,jn->ikn", C, B)
 
 
 def _exp_so3_t(phi: Array) -> Array:
-    """Rodrigues' ``exp(S(φ)) = cos θ I + (sin θ/θ) S(φ) + ((1 − cos θ)/θ²) φφᵀ`` per flight, ``φ`` (3, n).
-
-    ``(1 − cos θ)/θ² = 2 sin²(θ/2)/θ²`` (no cancellation); exact at ``θ = 0`` (``θ + 1e-300``).
-    """
-    p0, p1, p2 = phi
-    th = np.sqrt(p0 * p0 + p1 * p1 + p2 * p2) + 1e-300
+    """Rodrigues' formula of :func:`_exp_so3` per flight, ``φ`` of shape ``(3, n)`` → ``(3, 3, n)``."""
+    th = np.sqrt(np.einsum("in,in->n", phi, phi)) + 1e-300
     A = np.sin(th) / th
     sh = np.sin(0.5 * th)
     B = 2.0 * (sh / th) ** 2
-    c = 1.0 - 2.0 * sh * sh
-    Ap0, Ap1, Ap2 = A * p0, A * p1, A * p2
-    Bp0, Bp1, Bp2 = B * p0, B * p1, B * p2
-    return np.stack([np.stack([c + Bp0 * p0, Bp0 * p1 - Ap2, Bp0 * p2 + Ap1]),
-                     np.stack([Bp1 * p0 + Ap2, c + Bp1 * p1, Bp1 * p2 - Ap0]),
-                     np.stack([Bp2 * p0 - Ap1, Bp2 * p1 + Ap0, c + Bp2 * p2])])
-
-
-def _flags(state: GnssInsState, batch: tuple[int, ...]) -> tuple[NDArray[np.bool_], NDArray[np.int64]]:
-    """``has_fix`` and ``skipped`` of ``state``, broadcast to ``batch`` if the IMU sample widened it."""
-    if state.batch_shape == batch:
-        return state.has_fix, state.skipped
-    return np.broadcast_to(state.has_fix, batch).copy(), np.broadcast_to(state.skipped, batch).copy()
+    return (_S9 @ (A * phi)).reshape(3, 3, -1) + phi[:, None] * (B * phi)[None, :] + _I33 * (1.0 - 2.0 * sh * sh)
 
 
 def _skew(w: Array) -> Array:
