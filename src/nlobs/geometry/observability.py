@@ -35,10 +35,17 @@ from numpy.typing import NDArray
 from nlobs.errors import DimensionError, InvalidArgumentError, ModelError
 from nlobs.geometry.lie import lie_derivative_along_columns, lie_derivatives, tidy
 from nlobs.geometry.region import Box, ZeroTest, vanishes_on
+from nlobs.systems.brunovsky import brunovsky
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.systems.timebase import Continuous
 
 Array = NDArray[np.float64]
+
+__all__ = [
+    "AffineFields", "RelativeDegree", "brunovsky", "check_multi_index", "input_gain_structure", "lie_map",
+    "observability_jacobian", "observability_map", "observation_relative_degree", "output_derivative_terms",
+    "reduced_observability_matrix",
+]
 
 
 def _exact(value: float) -> sp.Rational:
@@ -265,23 +272,3 @@ def input_gain_structure(
         row += sj
         col += dj
     return H, F
-
-
-def brunovsky(s: Sequence[int]) -> tuple[Array, Array, Array]:
-    """The block-diagonal Brunovsky triple ``(A_s, B_s, C_s)`` of seed 002 (2.16).
-
-    ``A_j`` is the ``s_j × s_j`` upper shift, ``B_j = e_{s_j}``, ``C_j = e_1ᵀ``;
-    ``A_s`` is ``n × n``, ``B_s`` is ``n × q`` and ``C_s`` is ``q × n``.
-    """
-    s_ = check_multi_index(s, len(s))
-    if any(v < 1 for v in s_):
-        raise InvalidArgumentError(f"s: every entry must be at least 1 for the Brunovsky form, got {list(s_)}")
-    n, q = sum(s_), len(s_)
-    A, B, C = np.zeros((n, n)), np.zeros((n, q)), np.zeros((q, n))
-    i = 0
-    for j, sj in enumerate(s_):
-        A[i : i + sj - 1, i + 1 : i + sj] += np.eye(sj - 1)
-        B[i + sj - 1, j] = 1.0
-        C[j, i] = 1.0
-        i += sj
-    return A, B, C

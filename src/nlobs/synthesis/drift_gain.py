@@ -36,9 +36,8 @@ the left eigenvectors of the observer-companion matrix ``A_j − K_j C_j`` (firs
 column ``−K_j``, ones on the superdiagonal), so ``V (A_s − K C_s) V⁻¹ = Λ`` and
 ``(A_s − K C_s) P + P (A_s − K C_s)ᵀ = 2 V⁻¹ Λ V⁻ᵀ ≺ 0`` for ``P = V⁻¹ V⁻ᵀ``.
 
-The Brunovsky triple is rebuilt here (:func:`brunovsky_triple`) because this layer
-may not import :mod:`nlobs.geometry`; a test checks it equals
-:func:`nlobs.geometry.brunovsky`.
+The Brunovsky triple (:func:`brunovsky_triple`) is :func:`nlobs.systems.brunovsky.brunovsky`,
+shared with the symbolic layer.
 """
 
 from __future__ import annotations
@@ -57,6 +56,8 @@ from numpy.typing import ArrayLike, NDArray
 from nlobs._validate import as_matrix, positive
 from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
 from nlobs.synthesis.certificate import Check, CheckKind
+from nlobs.systems.brunovsky import brunovsky as brunovsky_triple
+from nlobs.systems.brunovsky import positive_multi_index
 from nlobs.synthesis.lmi import Solver, SolveStatus, as_enum, as_solver, bmat, max_eig, solve, symmetrise
 
 Array = NDArray[np.float64]
@@ -83,30 +84,6 @@ _FINAL_KAPPA_FACTOR = 1.1
 
 
 # --------------------------------------------------------------------------- data
-
-
-def _multi_index(s: Sequence[int]) -> tuple[int, ...]:
-    try:
-        out = tuple(int(v) for v in s)
-    except (TypeError, ValueError):
-        raise InvalidArgumentError(f"s: expected a sequence of positive integers, got {s!r}") from None
-    if not out or any(v < 1 for v in out) or any(float(a) != b for a, b in zip(s, out)):
-        raise InvalidArgumentError(f"s: every entry must be a positive integer, got {list(s)}")
-    return out
-
-
-def brunovsky_triple(s: Sequence[int]) -> tuple[Array, Array, Array]:
-    """Block-diagonal Brunovsky ``(A_s, B_s, C_s)`` of seed 002 (2.16): ``n × n``, ``n × q``, ``q × n``."""
-    s_ = _multi_index(s)
-    n, q = sum(s_), len(s_)
-    A, B, C = np.zeros((n, n)), np.zeros((n, q)), np.zeros((q, n))
-    i = 0
-    for j, sj in enumerate(s_):
-        A[i : i + sj - 1, i + 1 : i + sj] = np.eye(sj - 1)
-        B[i + sj - 1, j] = 1.0
-        C[j, i] = 1.0
-        i += sj
-    return A, B, C
 
 
 @dataclass(frozen=True)
@@ -136,7 +113,7 @@ class RiccatiConstants:
     gamma: float
 
     def __init__(self, s: Sequence[int], F: ArrayLike | None, alpha: float, mu: float, gamma: float) -> None:
-        s_ = _multi_index(s)
+        s_ = positive_multi_index(s)
         n = sum(s_)
         F_ = np.zeros((n, 0)) if F is None else as_matrix("F", F, (n, None))
         F_.setflags(write=False)
@@ -352,7 +329,7 @@ def vandermonde_gain(s: Sequence[int], w: float) -> VandermondeGain:
     ``[λ^{s_j−1}, …, λ, 1]`` so that ``V_s (A_s − K C_s) V_s⁻¹ = diag(λ)``;
     ``P = V_s⁻¹ V_s⁻ᵀ`` (computed from ``V_s⁻¹``, better conditioned than inverting ``V_sᵀ V_s``).
     """
-    s_ = _multi_index(s)
+    s_ = positive_multi_index(s)
     w = positive("w", w)
     n, q = sum(s_), len(s_)
     K = np.zeros((n, q))
