@@ -1,0 +1,109 @@
+"""``nlobs design drift`` and ``nlobs design pinv``: closed-form gains, simulation, exit statuses."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from nlobs.cli import app
+
+runner = CliRunner()
+
+
+def _json(*args: str) -> dict:
+    res = runner.invoke(app, [*args, "--json"])
+    assert res.exit_code == 0, res.output
+    return json.loads(res.stdout)
+
+
+def _write(tmp_path: Path, body: str) -> str:
+    p = tmp_path / "m.toml"
+    p.write_text(body, encoding="utf-8")
+    return str(p)
+
+
+def test_pinv_high_gain_vector_is_the_closed_form_polynomial() -> None:
+    # θ = 2, roots −θ, −θ²: (λ + 2)(λ + 4) = λ² + 6λ + 8 → k = (6, 8) (seed 003 (10))
+    d = _json("design", "pinv", "isidori-146")["design"]
+    assert d["k"] == pytest.approx([6.0, 8.0])
+    assert sorted(d["roots"]) == pytest.approx([-4.0, -2.0])
+    assert d["usable"] is True
+    # (λ + 1)(λ + 2) = λ² + 3λ + 2: a given k has roots −1, −2
+    d = _json("design", "pinv", "isidori-146", "--k", "3,2")["design"]
+    assert sorted(d["roots"]) == pytest.approx([-2.0, -1.0])
+
+
+def test_pinv_simulation_writes_plot_and_trajectories(tmp_path: Path) -> None:
+    d = _json("design", "pinv", "pendulum", "--simulate", "--x0", "0.5,0", "--xhat0", "0,0", "--duration", "6",
+              "--theta", "3", "--out", str(tmp_path))
+    sim = d["simulation"]
+    # pendulum: y = θ, r = n = 2, Q⁺ = I; the error converges (high gain dominates the Lipschitz sin term)
+    assert sim["initial_error_norm"] == pytest.approx(0.5)
+    assert sim["final_error_norm"] < 1e-3 * sim["initial_error_norm"]
+    assert {Path(f).name for f in sim["files"]} == {"pinv.png", "pinv.npz"}
+    assert (tmp_path / "pinv.png").stat().st_size > 10_000
+    data = np.load(tmp_path / "pinv.npz")
+    assert data["x"].shape[-1] == 2
+
+
+def test_drift_vandermonde_gain_is_the_closed_form() -> None:
+    # Remark 2.11, s = (2): eigenvalues −w, −2w → (λ + w)(λ + 2w) → K = (3w, 2w²)
+    d = _json("design", "drift", "pendulum")["design"]
+    cert = d["certificate"]
+    w = cert["w"]
+    assert cert["verified"] is True and cert["lhs_max_eig"] < 0
+    K = np.array(cert["K"]).ravel()
+    assert K == pytest.approx([3 * w, 2 * w**2], rel=1e-9)
+
+
+def test_drift_simulation_decays_at_least_at_alpha() -> None:
+    d = _json("design", "drift", "pendulum", "--method", "sdp", "--alpha", "2", "--mu", "0.5", "--simulate",
+              "--x0", "0.8,0", "--duration", "3")
+    sim = d["simulation"]
+    assert sim["certified"] is True
+    assert sim["decay_rate"] >= 2.0
+    assert sim["bound_ratio"] <= 1.0  # ‖e(t)‖ ≤ κ₁ e^{−αt} ‖e(0)‖ (3.2) at every saved time
+
+
+FOLD = """
+name = "fold"
+time = "continuous"
+states = ["x1", "x2"]
+inputs = ["u"]
+outputs = ["y"]
+[dynamics]
+f = ["x2**2", "-x1"]
+g = [["0"], ["1"]]
+h = ["x1"]
+"""
+
+
+def test_pinv_refuses_a_model_violating_a1_with_status_3(tmp_path: Path) -> None:
+    # L_f h = x2², Q = [[1, 0], [0, 2 x2]]: dh, dL_f h dependent on x2 = 0 (seed 003 A1 fails).
+    res = runner.invoke(app, ["design", "pinv", _write(tmp_path, FOLD)])
+    assert res.exit_code == 3, res.output
+    assert "A1 fails" in res.output and "det Q = 2*x2 changes sign" in res.output
+
+
+@pytest.mark.parametrize(
+    ("args", "status", "msg"),
+    [
+        (["design", "drift", "pendulum", "--s", "1"], 2, "sums to 1; it must sum to n = 2"),
+        (["design", "drift", "pendulum", "--method", "magic"], 2, "--method: expected 'vandermonde' or 'sdp'"),
+        (["design", "drift", "grip-example1-filter"], 2, "a nonlinear (symbolic) model is needed"),
+        (["design", "pinv", "pendulum", "--simulate"], 2, "--simulate needs --x0"),
+        (["design", "pinv", "pendulum", "--simulate", "--x0", "1,2,3"], 2, "--x0: expected 2 numbers"),
+        (["design", "pinv", "pendulum", "--placement", "odd"], 2, "--placement"),
+        (["design", "drift", "isidori-146"], 1, "has no Vandermonde solution"),
+        (["design", "pinv", "no-such-model"], 2, "no such file"),
+    ],
+)
+def test_bad_input_and_failures_are_one_line_errors(args: list[str], status: int, msg: str) -> None:
+    res = runner.invoke(app, args)
+    assert res.exit_code == status, res.output
+    assert msg in res.output
+    assert res.output.count("\n") <= 2
