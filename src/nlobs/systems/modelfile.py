@@ -17,6 +17,42 @@ A nonlinear model::
 A linear model replaces ``[dynamics]`` by ``[linear]`` with numeric ``A``,
 ``B``, ``C`` and optional ``D`` (names are then optional).
 
+A discrete-time model with **unknown inputs** (seed 004, (8)) adds the tables
+``[unknown_inputs]``, ``[noise]``, ``[initial]`` and ``[function_class]``; they
+are read by :func:`load_discrete_ui`, which returns a
+:class:`~nlobs.systems.discrete_ui.DiscreteUISystem` (``load_model`` reads the
+nominal model of the same file, ``d = w = v = 0``)::
+
+    time = "discrete"
+    dt = 1.0
+    states = ["x1", "x2"]
+    outputs = ["y"]
+    [dynamics]
+    f = ["-0.42*x1 + x2", "-0.6*x1 - 1.25*tanh(x1)"]
+    h = ["x2"]                          # linear in x (and u): C, D read off exactly
+    [unknown_inputs]
+    G = [[1.0], [-0.65]]                # n x p
+    H = [[0.0]]                         # l x p (zero when omitted)
+    bounded = ["0.2*sin(t)"]            # optional signals d(t) for simulations
+    growing = ["0.1*t"]
+    [noise]
+    W = [[1, 0], [0, 1]]                # n x n_w (identity when omitted)
+    eta_w = 0.2                         # ||w_k|| <= eta_w
+    eta_v = 0.1                         # ||v_k|| <= eta_v
+    [initial]
+    centre = [0.0, 0.0]                 # zeros when omitted
+    radius = 0.5                        # ||x_0 - centre|| <= radius
+    [function_class]                    # the class of phi(x) = f(x) - linear_part x
+    kind = "I"                          # "0" | "I" | "II" | "III"
+    linear_part = [[-0.42, 1], [-0.6, 0]]
+    L = 1.25                            # I: Lipschitz constant of phi
+    # "0": M = 2n x 2n, gamma;  "II": A_aux = n x n and gamma or bound (Lemma 2.14:
+    # gamma = -(2 bound)^2);  "III": constituents = [A_1, A_2, ...]
+    box = [[-3, 3], [-3, 3]]            # optional: where the CLI samples the class
+
+Matrix entries are numbers or constant expressions of the parameters
+(``"5*Ts"``); signals are expressions of ``t`` (seconds) and the parameters.
+
 Expressions are parsed by :mod:`nlobs.systems.expressions` (a whitelisted AST),
 never evaluated. Every error is a :class:`~nlobs.errors.ModelFileError` that
 names the file, the line and the offending text.
@@ -26,14 +62,26 @@ from __future__ import annotations
 
 import re
 import tomllib
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import sympy as sp
+from numpy.typing import NDArray
 
 from nlobs.errors import ModelError, ModelFileError, NlobsError
+from nlobs.systems.codegen import compile_matrix
+from nlobs.systems.discrete_ui import (
+    LPV,
+    DiscreteUISystem,
+    FunctionClass,
+    Lipschitz,
+    QCStar,
+    QuadraticConstraint,
+    qcstar_from_bounded_split,
+)
 from nlobs.systems.expressions import ExpressionError, parse_expression
 from nlobs.systems.linear import LinearSystem
 from nlobs.systems.symbolic import SymbolicModel
@@ -41,7 +89,9 @@ from nlobs.systems.timebase import CONTINUOUS, Discrete, TimeBase
 
 Model = SymbolicModel | LinearSystem
 
-_TOP_KEYS = {"name", "description", "time", "dt", "states", "inputs", "outputs", "parameters", "dynamics", "linear"}
+_UI_TABLES = ("unknown_inputs", "noise", "initial", "function_class")
+_TOP_KEYS = {"name", "description", "time", "dt", "states", "inputs", "outputs", "parameters", "dynamics", "linear",
+             *_UI_TABLES}
 _DYN_KEYS = {"f", "g", "rhs", "h"}
 _LIN_KEYS = {"A", "B", "C", "D"}
 _MAX_BYTES = 5_000_000
@@ -67,6 +117,25 @@ class _Source:
             if pat.search(line):
                 return i
         return None
+
+    def line_in_table(self, table: str, key: str | None) -> int | None:
+        """The line of ``key = ...`` inside ``[table]`` (the header's line when ``key`` is ``None`` or absent)."""
+        head = re.compile(rf"^\s*\[\s*{re.escape(table)}\s*\]")
+        start = next((i for i, line in enumerate(self.lines, start=1) if head.search(line)), None)
+        if start is None or key is None:
+            return start
+        pat = re.compile(rf"^\s*{re.escape(key)}\s*=")
+        for i in range(start, len(self.lines)):
+            line = self.lines[i]
+            if re.match(r"^\s*\[", line):
+                break
+            if pat.search(line):
+                return i + 1
+        return start
+
+    def table_error(self, table: str, key: str | None, reason: str, text: str = "") -> ModelFileError:
+        """An error located at ``key`` inside ``[table]``."""
+        return ModelFileError(self.path, self.line_in_table(table, key), text, reason)
 
     def error(self, reason: str, *, key: str | None = None, text: str = "", string: str | None = None) -> ModelFileError:
         line = None
@@ -127,6 +196,10 @@ def parse_model(text: str, *, source: str = "<string>") -> Model:
         raise src.error(f"unknown key (allowed: {', '.join(sorted(_TOP_KEYS))})", key=unknown[0], text=unknown[0])
     name = _string(src, data, "name", default=Path(source).stem)
     time = _time(src, data)
+    ui = [k for k in _UI_TABLES if k in data]
+    if ui and not isinstance(time, Discrete):
+        raise src.error(f"the table [{ui[0]}] describes a discrete-time model with unknown inputs: it needs "
+                        "time = \"discrete\"", key=ui[0], text=ui[0])
     has_dyn, has_lin = "dynamics" in data, "linear" in data
     if has_dyn == has_lin:
         raise src.error("a model needs exactly one of the tables [dynamics] or [linear]", key="dynamics" if has_dyn else None)
@@ -314,3 +387,330 @@ def _linear(src: _Source, data: Mapping[str, Any], name: str, time: TimeBase) ->
                             inputs=inputs, outputs=_names(src, data, "outputs", required=False), name=name)
     except (ModelError, ValueError) as exc:
         raise src.error(str(exc), key="linear") from None
+
+
+# ------------------------------------------------------------- unknown-input models (seed 004)
+_UI_INPUT_KEYS = {"G", "H", "bounded", "growing"}
+_UI_NOISE_KEYS = {"W", "eta_w", "eta_v"}
+_UI_INITIAL_KEYS = {"centre", "radius"}
+_UI_CLASS_KEYS = {"kind", "linear_part", "L", "M", "gamma", "A_aux", "bound", "constituents", "box"}
+_UI_CLASS_CONSTANTS = {"0": {"M", "gamma"}, "I": {"L"}, "II": {"A_aux", "gamma", "bound"}, "III": {"constituents"}}
+
+
+@dataclass(frozen=True)
+class DiscreteUIModel:
+    """A model file with unknown inputs, as read by :func:`load_discrete_ui_model`.
+
+    Attributes
+    ----------
+    system : DiscreteUISystem
+        The model (8) of seed 004 with its noise bounds, initial ball and function class.
+    signals : mapping of str to callable
+        Unknown-input signals for simulations, ``"bounded"`` and ``"growing"``:
+        ``t`` of shape ``(K + 1,)`` (seconds) → ``d`` of shape ``(K + 1, p)``; the
+        file's, or the defaults ``sin(t)`` and ``t**2`` in every component.
+    box : tuple of ndarray or None
+        ``(lo, hi)`` of ``[function_class].box``, where the class of ``φ`` is
+        checked by sampling (``None`` when the file gives none).
+    path : str
+    """
+
+    system: DiscreteUISystem
+    signals: Mapping[str, Callable[[NDArray[np.float64]], NDArray[np.float64]]]
+    box: tuple[NDArray[np.float64], NDArray[np.float64]] | None
+    path: str
+
+
+def load_discrete_ui(path: str | Path) -> DiscreteUISystem:
+    """Read a model file with unknown inputs into a :class:`~nlobs.systems.discrete_ui.DiscreteUISystem`.
+
+    The file is an ordinary discrete-time model file (``[dynamics]`` with an
+    input-affine ``f`` and an ``h`` linear in the states and inputs, or
+    ``[linear]``) with the tables ``[unknown_inputs]`` (``G``, ``H``),
+    ``[noise]`` (``W``, ``eta_w``, ``eta_v``), ``[initial]`` (``centre``,
+    ``radius``) and ``[function_class]`` (``kind`` with its constants and the
+    ``linear_part`` ``A`` of the split ``f(x) = A x + φ(x)``); see the module
+    docstring and ``docs/setvalued.md``.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    DiscreteUISystem
+        ``x⁺ = A x + φ(x) + B u + G d + W w``, ``y = C x + D u + H d + v`` (seed 004, (8)).
+
+    Raises
+    ------
+    ModelFileError
+        As :func:`load_model`, and when a table is missing, a matrix has the
+        wrong shape, a noise bound or radius is negative or not finite, ``h`` is
+        not linear, or the class constants are missing or invalid; the message
+        names the file, the line and the offending text.
+    """
+    return load_discrete_ui_model(path).system
+
+
+def load_discrete_ui_model(path: str | Path) -> DiscreteUIModel:
+    """:func:`load_discrete_ui` with the file's simulation signals and class-check box."""
+    p = Path(path)
+    text = _read_text(p)
+    return parse_discrete_ui(text, source=str(p))
+
+
+def _read_text(p: Path) -> str:
+    try:
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise ModelFileError(str(p), None, "", f"cannot read file ({exc.strerror})") from None
+    if len(raw) > _MAX_BYTES:
+        raise ModelFileError(str(p), None, "", f"file larger than {_MAX_BYTES} bytes")
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ModelFileError(str(p), None, "", "file is not UTF-8 text") from None
+
+
+def parse_discrete_ui(text: str, *, source: str = "<string>") -> DiscreteUIModel:
+    """Parse the text of a model file with unknown inputs (see :func:`load_discrete_ui`)."""
+    model = parse_model(text, source=source)
+    src = _Source(source, text)
+    data = tomllib.loads(text)
+    if not isinstance(model.time, Discrete):
+        raise src.error("a model with unknown inputs needs time = \"discrete\"", key="time", text="time")
+    for key in ("unknown_inputs", "noise", "initial", "function_class"):
+        if key not in data:
+            raise src.error(f"a model with unknown inputs needs the table [{key}]", text=key)
+        if not isinstance(data[key], dict):
+            raise src.error(f"[{key}] must be a table", key=key, text=key)
+    for key, allowed in (("unknown_inputs", _UI_INPUT_KEYS), ("noise", _UI_NOISE_KEYS),
+                         ("initial", _UI_INITIAL_KEYS), ("function_class", _UI_CLASS_KEYS)):
+        unknown = sorted(set(data[key]) - allowed)
+        if unknown:
+            raise src.table_error(key, unknown[0], f"unknown key in [{key}] (allowed: {', '.join(sorted(allowed))})",
+                                  text=unknown[0])
+    params = _parameters(src, data) if isinstance(model, SymbolicModel) else {}
+    psyms = {k: sp.Symbol(k, real=True) for k in params}
+    n = model.n
+    if isinstance(model, SymbolicModel):
+        C, D = _linear_output(src, model, params)
+    else:
+        C, D = model.C, model.D
+    l = C.shape[0]  # noqa: E741 - the paper's name
+    ui, noise, init, fc = data["unknown_inputs"], data["noise"], data["initial"], data["function_class"]
+    if "G" not in ui:
+        raise src.table_error("unknown_inputs", None, "[unknown_inputs] needs 'G' (n x p)", text="G")
+    G = _const_matrix(src, "unknown_inputs", "G", ui["G"], params, psyms, rows=n)
+    p = G.shape[1]
+    H = _const_matrix(src, "unknown_inputs", "H", ui["H"], params, psyms, rows=l, cols=p) if "H" in ui else None
+    W = _const_matrix(src, "noise", "W", noise["W"], params, psyms, rows=n) if "W" in noise else None
+    eta_w = _bound(src, "noise", "eta_w", noise, params, psyms)
+    eta_v = _bound(src, "noise", "eta_v", noise, params, psyms)
+    radius = _bound(src, "initial", "radius", init, params, psyms)
+    centre = (_const_vector(src, "initial", "centre", init["centre"], params, psyms, n) if "centre" in init
+              else np.zeros(n))
+    function_class, A_lin = _function_class(src, fc, model, params, psyms)
+    box = _box_of(src, fc, params, psyms, n) if "box" in fc else None
+    try:
+        if isinstance(model, SymbolicModel):
+            system = DiscreteUISystem.from_symbolic(
+                model, G=G, C=C, H=H, A=A_lin, D=D, W=W, function_class=function_class, eta_w=eta_w, eta_v=eta_v,
+                x0=centre, delta0=radius, name=model.name)
+        else:
+            K = model.A - A_lin
+            phi = None if not np.any(K) else _LinearPhi(K)
+            system = DiscreteUISystem(A_lin, G, C, H, B=model.B, D=D, W=W, phi=phi, function_class=function_class,
+                                      eta_w=eta_w, eta_v=eta_v, x0=centre, delta0=radius, time=model.time,
+                                      name=model.name)
+    except ModelFileError:
+        raise
+    except NlobsError as exc:
+        raise src.table_error("unknown_inputs", None, str(exc)) from None
+    signals = {kind: _signal(src, ui, kind, params, p) for kind in ("bounded", "growing")}
+    return DiscreteUIModel(system, signals, box, source)
+
+
+@dataclass(frozen=True)
+class _LinearPhi:
+    """``φ(x) = K x`` for a ``[linear]`` model whose class is stated for a different linear part."""
+
+    K: NDArray[np.float64]
+
+    def __call__(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.asarray(x, dtype=float) @ self.K.T
+
+
+def _linear_output(src: _Source, model: SymbolicModel, params: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """``h(x, u) = C x + D u`` read off exactly; a nonlinear or offset ``h`` is an error (model (8))."""
+    subs = {sp.Symbol(k, real=True): v for k, v in params.items()}
+    h = sp.Matrix(model.h).subs(subs)
+    X, U = sp.Matrix(model.x), sp.Matrix(model.u)
+    Cs = h.jacobian(X)
+    Ds = h.jacobian(U) if model.m else sp.zeros(h.shape[0], 0)
+    rest = sp.simplify(h - Cs * X - (Ds * U if model.m else sp.zeros(h.shape[0], 1)))
+    for i in range(h.shape[0]):
+        if Cs[i, :].free_symbols or (model.m and Ds[i, :].free_symbols) or rest[i] != 0:
+            raise src.error("[dynamics].h must be linear in the states and inputs (y = C x + D u + H d + v, "
+                            "seed 004 (8)); put a nonlinear output through an affine abstraction first",
+                            key="h", string=str(model.h[i]), text=str(model.h[i]))
+    return np.array(Cs, dtype=float).reshape(h.shape[0], model.n), np.array(Ds, dtype=float).reshape(h.shape[0], model.m)
+
+
+def _const(src: _Source, table: str, key: str, e: Any, params: Mapping[str, float],
+           psyms: Mapping[str, sp.Symbol]) -> float:
+    if isinstance(e, bool) or not isinstance(e, (int, float, str)):
+        raise src.table_error(table, key, f"[{table}].{key}: entries must be numbers or constant expressions", repr(e))
+    if isinstance(e, str):
+        try:
+            ex = parse_expression(e, psyms)
+        except ExpressionError as exc:
+            raise src.table_error(table, key, f"[{table}].{key}: {exc.reason}", exc.offending) from None
+        val = ex.subs({psyms[k]: v for k, v in params.items()})
+        try:
+            out = float(val)
+        except (TypeError, ValueError):
+            raise src.table_error(table, key, f"[{table}].{key}: not a constant", e) from None
+    else:
+        out = float(e)
+    if not np.isfinite(out):
+        raise src.table_error(table, key, f"[{table}].{key} has non-finite entries", repr(e))
+    return out
+
+
+def _const_matrix(src: _Source, table: str, key: str, v: Any, params: Mapping[str, float],
+                  psyms: Mapping[str, sp.Symbol], *, rows: int | None = None, cols: int | None = None) -> np.ndarray:
+    if not isinstance(v, list) or not all(isinstance(r, list) for r in v):
+        raise src.table_error(table, key, f"[{table}].{key} must be a list of rows", repr(v)[:80])
+    widths = {len(r) for r in v}
+    if len(widths) > 1:
+        raise src.table_error(table, key, f"[{table}].{key}: rows have different lengths {sorted(widths)}", key)
+    arr = np.array([[_const(src, table, key, e, params, psyms) for e in r] for r in v], dtype=float)
+    arr = arr.reshape(len(v), widths.pop() if widths else 0)
+    if (rows is not None and arr.shape[0] != rows) or (cols is not None and arr.shape[1] != cols):
+        want = (rows if rows is not None else "any", cols if cols is not None else "any")
+        raise src.table_error(table, key, f"[{table}].{key} has shape {arr.shape}, expected {want}", key)
+    return arr
+
+
+def _const_vector(src: _Source, table: str, key: str, v: Any, params: Mapping[str, float],
+                  psyms: Mapping[str, sp.Symbol], n: int) -> np.ndarray:
+    if not isinstance(v, list) or len(v) != n:
+        raise src.table_error(table, key, f"[{table}].{key} must be a list of {n} numbers", repr(v)[:80])
+    return np.array([_const(src, table, key, e, params, psyms) for e in v], dtype=float)
+
+
+def _bound(src: _Source, table: str, key: str, tab: Mapping[str, Any], params: Mapping[str, float],
+           psyms: Mapping[str, sp.Symbol]) -> float:
+    if key not in tab:
+        raise src.table_error(table, None, f"[{table}] needs '{key}' (a bound >= 0)", key)
+    val = _const(src, table, key, tab[key], params, psyms)
+    if val < 0:
+        raise src.table_error(table, key, f"[{table}].{key} must be >= 0", repr(tab[key]))
+    return val
+
+
+def _function_class(src: _Source, fc: Mapping[str, Any], model: Model, params: Mapping[str, float],
+                    psyms: Mapping[str, sp.Symbol]) -> tuple[FunctionClass, np.ndarray]:
+    n = model.n
+    kind = fc.get("kind")
+    if kind not in _UI_CLASS_CONSTANTS:
+        raise src.table_error("function_class", "kind",
+                              "[function_class].kind must be \"0\", \"I\", \"II\" or \"III\" (seed 004, Classes 0-III)",
+                              repr(kind))
+    extra = sorted(set(fc) & (set().union(*_UI_CLASS_CONSTANTS.values()) - _UI_CLASS_CONSTANTS[kind]))
+    if extra:
+        raise src.table_error("function_class", extra[0], f"[function_class]: '{extra[0]}' does not belong to class "
+                              f"{kind} (it takes {', '.join(sorted(_UI_CLASS_CONSTANTS[kind]))})", extra[0])
+    if "linear_part" in fc:
+        A_lin = _const_matrix(src, "function_class", "linear_part", fc["linear_part"], params, psyms, rows=n, cols=n)
+    elif isinstance(model, LinearSystem):
+        A_lin = np.array(model.A)
+    else:
+        raise src.table_error("function_class", None, "[function_class] needs 'linear_part' (the A of "
+                              "f(x) = A x + phi(x); the class describes phi)", "linear_part")
+
+    def need(key: str) -> Any:
+        if key not in fc:
+            raise src.table_error("function_class", None, f"[function_class]: class {kind} needs '{key}'", key)
+        return fc[key]
+
+    try:
+        if kind == "I":
+            return Lipschitz(_const(src, "function_class", "L", need("L"), params, psyms), n), A_lin
+        if kind == "0":
+            M = _const_matrix(src, "function_class", "M", need("M"), params, psyms, rows=2 * n, cols=2 * n)
+            return QuadraticConstraint(M, _const(src, "function_class", "gamma", need("gamma"), params, psyms)), A_lin
+        if kind == "II":
+            A_aux = _const_matrix(src, "function_class", "A_aux", need("A_aux"), params, psyms, rows=n, cols=n)
+            if ("gamma" in fc) == ("bound" in fc):
+                raise src.table_error("function_class", None, "[function_class]: class II needs exactly one of 'gamma' "
+                                      "or 'bound' (Lemma 2.14: gamma = -(2 bound)^2)", "gamma")
+            if "bound" in fc:
+                r = _const(src, "function_class", "bound", fc["bound"], params, psyms)
+                if r < 0:
+                    raise src.table_error("function_class", "bound", "[function_class].bound must be >= 0", repr(fc["bound"]))
+                return qcstar_from_bounded_split(A_aux, r), A_lin
+            return QCStar(A_aux, _const(src, "function_class", "gamma", fc["gamma"], params, psyms)), A_lin
+        mats = need("constituents")
+        if not isinstance(mats, list) or not mats:
+            raise src.table_error("function_class", "constituents",
+                                  "[function_class].constituents must be a list of n x n matrices", repr(mats)[:80])
+        return LPV(tuple(_const_matrix(src, "function_class", "constituents", m, params, psyms, rows=n, cols=n)
+                         for m in mats)), A_lin
+    except ModelFileError:
+        raise
+    except NlobsError as exc:
+        k = _first_key(fc)
+        raise src.table_error("function_class", k, f"[function_class]: {exc}",
+                              f"{k} = {fc[k]!r}" if k else str(kind)) from None
+
+
+def _first_key(fc: Mapping[str, Any]) -> str | None:
+    """The first constant of the class present in the table (where a constructor's complaint points)."""
+    return next((k for k in ("L", "M", "gamma", "A_aux", "bound", "constituents") if k in fc), None)
+
+
+def _box_of(src: _Source, fc: Mapping[str, Any], params: Mapping[str, float], psyms: Mapping[str, sp.Symbol],
+            n: int) -> tuple[np.ndarray, np.ndarray]:
+    b = _const_matrix(src, "function_class", "box", fc["box"], params, psyms, rows=n, cols=2)
+    if np.any(b[:, 1] < b[:, 0]):
+        raise src.table_error("function_class", "box", "[function_class].box: every row is [lo, hi] with lo <= hi", "box")
+    return b[:, 0].copy(), b[:, 1].copy()
+
+
+def _signal(src: _Source, ui: Mapping[str, Any], kind: str, params: Mapping[str, float],
+            p: int) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
+    t = sp.Symbol("t", real=True)
+    if kind not in ui:
+        exprs: list[sp.Expr] = [sp.sin(t) if kind == "bounded" else t**2] * p
+    else:
+        v = ui[kind]
+        if not isinstance(v, list) or len(v) != p:
+            raise src.table_error("unknown_inputs", kind, f"[unknown_inputs].{kind} must be a list of {p} expressions of t",
+                                  repr(v)[:80])
+        syms = {"t": t, **{k: sp.Symbol(k, real=True) for k in params}}
+        exprs = []
+        for e in v:
+            if isinstance(e, bool) or not isinstance(e, (str, int, float)):
+                raise src.table_error("unknown_inputs", kind, f"[unknown_inputs].{kind}: entries must be expressions of t",
+                                      repr(e))
+            try:
+                ex = parse_expression(str(e), syms)
+            except ExpressionError as exc:
+                raise src.table_error("unknown_inputs", kind, f"[unknown_inputs].{kind}: {exc.reason}",
+                                      exc.offending) from None
+            exprs.append(ex.subs({sp.Symbol(k, real=True): val for k, val in params.items()}))
+    fn = compile_matrix(sp.Matrix(exprs), ((t,),), vector=True, what=f"[unknown_inputs].{kind}")
+    return _Signal(fn, p)
+
+
+@dataclass(frozen=True)
+class _Signal:
+    fn: Callable[..., Any]
+    p: int
+
+    def __call__(self, t: NDArray[np.float64]) -> NDArray[np.float64]:
+        tt = np.asarray(t, dtype=float).reshape(-1, 1)
+        out = np.asarray(self.fn(tt), dtype=float)
+        return np.broadcast_to(out, (tt.shape[0], self.p)).copy()
