@@ -10,6 +10,7 @@ on ``design`` / ``simulate`` (:mod:`~nlobs.cli.design`).
 """
 
 from nlobs.cli import design as _design  # noqa: F401  (registers the `design` commands)
+from nlobs.cli import setvalued as _setvalued  # noqa: F401  (registers `design setvalued`, `simulate setvalued`)
 from nlobs.cli.app import app, main
 
 __all__ = ["app", "main"]

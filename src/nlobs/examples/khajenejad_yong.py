@@ -27,17 +27,22 @@ infeasible for all ``λ < 1``); with Class II and Lemma 2.14's
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nlobs._io import atomic_write
 from nlobs._validate import positive
 from nlobs.errors import InvalidArgumentError
 from nlobs.examples.reproduce import ReproRow
-from nlobs.observers.setvalued import GivenGain, Radii, run_setvalued
+from nlobs.observers.discrete_baselines import DiscreteLipschitzObserver, UnknownInputEKF
+from nlobs.observers.setvalued import GivenGain, Radii, SetValuedRun, run_setvalued
 from nlobs.synthesis.setvalued import SetValuedDesign
 from nlobs.systems.discrete_ui import (
     DiscreteUISystem,
@@ -54,7 +59,18 @@ __all__ = [
     "example_62",
     "ball_samples",
     "containment_study",
+    "Batch",
+    "simulate_batch",
+    "containment_of",
+    "PointBaselines",
+    "point_baselines",
+    "run_baselines",
+    "MonteCarloStudy",
+    "monte_carlo",
     "plot_errors_vs_radii",
+    "plot_study",
+    "plot_trajectories",
+    "save_figure",
     "adversarial_noise",
     "naive_point_observer",
     "reproduce",
@@ -239,6 +255,77 @@ class ContainmentResult:
     radii: Radii = field(repr=False)
 
 
+@dataclass(frozen=True)
+class Batch:
+    """One seeded Monte Carlo batch of plant and Algorithm 1 (batch axis first).
+
+    Attributes
+    ----------
+    t : ndarray, shape (K + 1,)
+        Times ``k T_s``.
+    x, y : ndarray
+        True states ``(B, K + 1, n)`` and measurements ``(B, K + 1, l)``.
+    d : ndarray, shape (B, K + 1, p)
+        The unknown input.
+    run : SetValuedRun
+        Centres and radii of Algorithm 1.
+    seconds : float
+    """
+
+    t: Array
+    x: Array
+    y: Array
+    d: Array
+    run: SetValuedRun
+    seconds: float
+
+
+def simulate_batch(system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
+                   unknown_input: Callable[[Array], Array], *, runs: int, steps: int, seed: int = 0,
+                   radii: Radii | None = None, at_bound: float = 0.5) -> Batch:
+    """Simulate the plant (8) and run Algorithm 1 for ``runs`` seeded runs (vectorised).
+
+    Initial states are drawn in the initial ball and the noises in theirs, a fraction
+    ``at_bound`` of each exactly on the bound (:func:`ball_samples`); ``unknown_input``
+    maps ``t`` ``(K + 1,)`` to ``d`` ``(K + 1, p)``, the same in every run.
+    """
+    R, K = int(runs), int(steps)
+    if R < 1 or K < 1:
+        raise InvalidArgumentError(f"runs and steps must be >= 1, got {runs!r}, {steps!r}")
+    rng = np.random.default_rng(seed)
+    t0 = time.perf_counter()
+    x0 = system.x0 + ball_samples(rng, (R,), system.delta0, system.n, at_bound)
+    t = np.arange(K + 1) * system.time.dt
+    d = np.broadcast_to(np.asarray(unknown_input(t), dtype=float).reshape(K + 1, system.p)[None],
+                        (R, K + 1, system.p))
+    w = ball_samples(rng, (R, K), system.eta_w, system.n_w, at_bound)
+    v = ball_samples(rng, (R, K + 1), system.eta_v, system.l, at_bound)
+    x, y = system.simulate(x0, d, w, v)
+    run = run_setvalued(system, gain, y, radii=radii)
+    return Batch(t, x, y, np.array(d), run, time.perf_counter() - t0)
+
+
+def containment_of(batch: Batch, label: str = "sound") -> ContainmentResult:
+    """Containment of the truth in the balls of ``batch`` (every step of every run)."""
+    run, x = batch.run, batch.x
+    if run.radii is None:
+        raise InvalidArgumentError("containment_study: a GivenGain needs radii")
+    inside = run.contains_state(x)
+    inside_d = run.contains_input(batch.d[:, :-1])
+    err = np.linalg.norm(x - run.x_hat, axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(run.radii.state > 0, err / run.radii.state, np.where(err > 0, np.inf, 0.0))
+    bad = np.flatnonzero(~inside.all(axis=0))
+    R, K1 = err.shape
+    return ContainmentResult(
+        runs=R, steps=K1 - 1, rate_state=float(inside.all(axis=1).mean()),
+        rate_input=float(inside_d.all(axis=1).mean()), max_error_over_radius=float(np.nanmax(ratio)),
+        final_radius_state=float(run.radii.state[-1]), final_radius_input=float(run.radii.input[-1]),
+        first_violation_step=int(bad[0]) if bad.size else None, seconds=batch.seconds, label=label, errors=err,
+        radii=run.radii,
+    )
+
+
 def containment_study(example: PaperExample, gain: SetValuedDesign | GivenGain, *, runs: int = 1000,
                       steps: int = 200, seed: int = 0, radii: Radii | None = None,
                       unknown_input: Callable[[Array], Array] | None = None, label: str = "sound") -> ContainmentResult:
@@ -247,43 +334,211 @@ def containment_study(example: PaperExample, gain: SetValuedDesign | GivenGain, 
     Initial states are drawn in the initial ball and noises in theirs (half of
     each at the bound, see :func:`ball_samples`).
     """
-    sysm = example.system
-    R, K = int(runs), int(steps)
-    if R < 1 or K < 1:
-        raise InvalidArgumentError(f"runs and steps must be >= 1, got {runs!r}, {steps!r}")
-    rng = np.random.default_rng(seed)
-    t0 = time.perf_counter()
-    x0 = sysm.x0 + ball_samples(rng, (R,), sysm.delta0, sysm.n)
-    t = np.arange(K + 1) * sysm.time.dt
     dfun = example.unknown_input if unknown_input is None else unknown_input
-    d = np.broadcast_to(dfun(t)[None], (R, K + 1, sysm.p))
-    w = ball_samples(rng, (R, K), sysm.eta_w, sysm.n_w)
-    v = ball_samples(rng, (R, K + 1), sysm.eta_v, sysm.l)
-    x, y = sysm.simulate(x0, d, w, v)
-    run = run_setvalued(sysm, gain, y, radii=radii)
-    secs = time.perf_counter() - t0
-    if run.radii is None:
-        raise InvalidArgumentError("containment_study: a GivenGain needs radii")
-    inside = run.contains_state(x)
-    inside_d = run.contains_input(d[:, :-1])
-    err = np.linalg.norm(x - run.x_hat, axis=-1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(run.radii.state > 0, err / run.radii.state, np.where(err > 0, np.inf, 0.0))
-    bad = np.flatnonzero(~inside.all(axis=0))
-    return ContainmentResult(
-        runs=R, steps=K, rate_state=float(inside.all(axis=1).mean()), rate_input=float(inside_d.all(axis=1).mean()),
-        max_error_over_radius=float(np.nanmax(ratio)), final_radius_state=float(run.radii.state[-1]),
-        final_radius_input=float(run.radii.input[-1]), first_violation_step=int(bad[0]) if bad.size else None,
-        seconds=secs, label=label, errors=err, radii=run.radii,
-    )
+    batch = simulate_batch(example.system, gain, dfun, runs=runs, steps=steps, seed=seed, radii=radii)
+    return containment_of(batch, label)
+
+
+# --------------------------------------------------------------------------- point-observer baselines
+
+
+@dataclass(frozen=True)
+class PointBaselines:
+    """The two point observers of ``docs/baselines.md`` set up for a :class:`DiscreteUISystem`.
+
+    Attributes
+    ----------
+    lipschitz : DiscreteLipschitzObserver or None
+        Lipschitz LMI observer (ignores ``d``); ``None`` when its LMI is infeasible.
+    lipschitz_note : str
+        The constant and structure it was designed for, or why it could not be designed.
+    ekf : UnknownInputEKF
+        EKF modelling ``d`` as white noise of covariance ``Q_d``.
+    ekf_P0 : ndarray
+        Its initial covariance.
+    ekf_note : str
+    """
+
+    lipschitz: DiscreteLipschitzObserver | None
+    lipschitz_note: str
+    ekf: UnknownInputEKF
+    ekf_P0: Array
+    ekf_note: str
+
+
+def _jacobian_fd(phi: Callable[[Array], Array], n: int) -> Callable[[Array], Array]:
+    """Central-difference Jacobian of a batched map (used by the EKF baseline only)."""
+    def jac(x: Array) -> Array:
+        x = np.asarray(x, dtype=float)
+        h = 1e-6 * np.maximum(1.0, np.abs(x))
+        cols = []
+        for j in range(n):
+            e = np.zeros(n)
+            e[j] = 1.0
+            hj = h[..., j:j + 1]
+            cols.append((np.asarray(phi(x + hj * e)) - np.asarray(phi(x - hj * e))) / (2 * hj))
+        return np.stack(cols, axis=-1)
+    return jac
+
+
+def _sparsity(phi: Callable[[Array], Array], lo: Array, hi: Array, n: int, seed: int) -> tuple[Array, Array]:
+    """``E``, ``F`` of ``φ = E ψ(F x) + const`` from sampled Jacobians (rows that vary, states it depends on)."""
+    x = lo + (hi - lo) * np.random.default_rng(seed).random((256, n))
+    J = np.abs(_jacobian_fd(phi, n)(x)).max(axis=0)
+    tol = 1e-7 * max(1.0, float(J.max()))
+    rows = np.flatnonzero(J.max(axis=1) > tol)
+    cols = np.flatnonzero(J.max(axis=0) > tol)
+    eye = np.eye(n)
+    return eye[:, rows], eye[cols, :]
+
+
+def point_baselines(system: DiscreteUISystem, *, q_d: float, box: tuple[ArrayLike, ArrayLike] | None = None,
+                    seed: int = 0) -> PointBaselines:
+    r"""Design the Lipschitz LMI observer and set up the EKF for ``system`` (``docs/baselines.md``).
+
+    Lipschitz observer, designed by :func:`~nlobs.synthesis.discrete_lipschitz.design_discrete_lipschitz_gain`
+    for ``f = A_b x + φ_b``: Class I ``(A, L)``; Class III ``(A, σ̃)``; Class 0 ``(A, k)`` with ``k`` the increment
+    bound of (2) when ``M11 ≺ 0``; Class II ``(A + 𝒜, 0)``, the bounded remainder of Lemma 2.14 acting as a
+    disturbance. When the constant is positive the structured bound ``φ = Eψ(Fx)`` is used, with the rows
+    that vary and the states ``φ`` depends on read from Jacobians sampled in ``box`` (a sampled structure:
+    evidence, not proof). EKF: ``Q_w = η_w²/(n_w + 2) I``, ``R_v = η_v²/(l + 2) I`` (covariances of the
+    uniform distribution in the noise balls), ``Q_d = q_d I``, ``P₀ = δ₀²/(n + 2) I``, Jacobian of ``φ`` by
+    central differences.
+    """
+    from nlobs.errors import DesignInfeasible
+    from nlobs.synthesis.discrete_lipschitz import design_discrete_lipschitz_gain
+    from nlobs.systems.discrete_ui import LPV, QCStar
+
+    n, fc = system.n, system.function_class
+    phi = system.nonlinear
+    if box is None:
+        half = max(10.0 * system.delta0, 1.0)
+        lo, hi = system.x0 - half, system.x0 + half
+    else:
+        lo, hi = np.asarray(box[0], dtype=float), np.asarray(box[1], dtype=float)
+    A_b, L_b = system.A, math.nan
+    if isinstance(fc, Lipschitz):
+        L_b = fc.L
+    elif isinstance(fc, LPV):
+        L_b = fc.sigma
+    elif isinstance(fc, QCStar):
+        A_b, L_b = system.A + fc.A_aux, 0.0
+    else:
+        L_b = fc.increment_bound(np.zeros((n, n)), np.eye(n))[0]
+    lip: DiscreteLipschitzObserver | None = None
+    if not math.isfinite(L_b):
+        note = f"not designed: {fc.label} gives no Lipschitz bound (M11 is not negative definite)"
+    else:
+        E, F = (None, None) if L_b == 0 else _sparsity(phi, lo, hi, n, seed)
+        try:
+            cert = design_discrete_lipschitz_gain(A_b, system.C, lipschitz=L_b, E=E, F=F)
+            lip = DiscreteLipschitzObserver(system.A, system.C, cert.L, system.time, phi=system.nonlinear,
+                                            B=system.B, D=system.D)
+            note = (f"designed for γ = {L_b:.4g}" + ("" if E is None else f", φ = Eψ(Fx) with {E.shape[1]} rows "
+                    f"and {F.shape[0]} states") + f": ρ = {cert.rho:.4g}, spectral radius {cert.spectral_radius:.4g}")
+        except DesignInfeasible as exc:
+            note = f"not designed: {exc}"
+    ekf = UnknownInputEKF(system.A, system.C, system.time, Q_w=system.eta_w**2 / (system.n_w + 2) * np.eye(system.n_w),
+                          R_v=max(system.eta_v, 1e-6) ** 2 / (system.l + 2) * np.eye(system.l),
+                          Q_d=max(float(q_d), 1e-12) * np.eye(system.p), phi=phi,
+                          phi_jacobian=_jacobian_fd(phi, n), B=system.B, D=system.D, G=system.G, H=system.H,
+                          W=system.W)
+    P0 = max(system.delta0, 1e-6) ** 2 / (n + 2) * np.eye(n)
+    return PointBaselines(lip, note, ekf, P0, f"Q_d = {q_d:.4g} I (d modelled as white noise)")
+
+
+def run_baselines(baselines: PointBaselines, system: DiscreteUISystem, y: Array) -> tuple[Array | None, Array]:
+    """Errors are not computed here: the estimates ``(B, K + 1, n)`` of the Lipschitz observer (or ``None``) and
+    of the EKF (priors ``x̂_{k|k−1}``, the Lipschitz observer is a predictor too), from ``system.x0``."""
+    B, K1, _ = y.shape
+    x0 = np.broadcast_to(system.x0, (B, system.n))
+    lip = None
+    if baselines.lipschitz is not None:
+        lip = np.empty((B, K1, system.n))
+        z = baselines.lipschitz.init(x0)
+        for k in range(K1):
+            lip[:, k] = baselines.lipschitz.estimate(z)
+            if k < K1 - 1:
+                z = baselines.lipschitz.step(z, None, y[:, k])
+    ekf = np.empty((B, K1, system.n))
+    s = baselines.ekf.init(x0, baselines.ekf_P0)
+    for k in range(K1):
+        ekf[:, k] = s.x
+        if k < K1 - 1:
+            s = baselines.ekf.step(s, None, y[:, k])
+    return lip, ekf
+
+
+@dataclass(frozen=True)
+class MonteCarloStudy:
+    """Algorithm 1 and the point baselines on the same Monte Carlo runs.
+
+    Attributes
+    ----------
+    containment : ContainmentResult
+    batch : Batch
+        The runs themselves (for plots).
+    final_error_state : float
+        ``max_runs ‖x_K − x̂_{K|K}‖`` of the set-valued observer.
+    baseline_lipschitz_final_error, baseline_ekf_final_error : float or None
+        ``max_runs ‖x_K − x̂_K‖`` of the baselines (``None`` when not designed / not run).
+    baseline_lipschitz_errors, baseline_ekf_errors : ndarray or None, shape (B, K + 1)
+    baselines : PointBaselines or None
+    """
+
+    containment: ContainmentResult
+    batch: Batch = field(repr=False)
+    final_error_state: float
+    baseline_lipschitz_final_error: float | None
+    baseline_ekf_final_error: float | None
+    baseline_lipschitz_errors: Array | None = field(repr=False)
+    baseline_ekf_errors: Array | None = field(repr=False)
+    baselines: PointBaselines | None = field(repr=False)
+
+
+def monte_carlo(system: DiscreteUISystem, design: SetValuedDesign, unknown_input: Callable[[Array], Array], *,
+                runs: int, steps: int, seed: int = 0, baselines: bool | PointBaselines = True,
+                q_d: float | None = None, box: tuple[ArrayLike, ArrayLike] | None = None,
+                label: str = "sound") -> MonteCarloStudy:
+    """Containment of Algorithm 1 and, on the same runs, the errors of the point baselines.
+
+    ``baselines=True`` sets them up with :func:`point_baselines`; the EKF's ``Q_d`` is ``q_d``, by default
+    the mean square of ``unknown_input`` over the horizon (pass the bounded signal's to see how a filter
+    tuned for a bounded ``d`` copes with a growing one).
+    """
+    batch = simulate_batch(system, design, unknown_input, runs=runs, steps=steps, seed=seed)
+    res = containment_of(batch, label)
+    fe = float(res.errors[:, -1].max())
+    if baselines is False:
+        return MonteCarloStudy(res, batch, fe, None, None, None, None, None)
+    pb = baselines if isinstance(baselines, PointBaselines) else point_baselines(
+        system, q_d=(float(np.mean(batch.d[0] ** 2)) if system.p else 0.0) if q_d is None else q_d, box=box,
+        seed=seed)
+    with np.errstate(over="ignore", invalid="ignore"):
+        lip, ekf = run_baselines(pb, system, batch.y)
+        el = None if lip is None else np.linalg.norm(batch.x - lip, axis=-1)
+        ee = np.linalg.norm(batch.x - ekf, axis=-1)
+
+    def final(e: Array | None) -> float | None:
+        if e is None:
+            return None
+        v = float(np.max(e[:, -1]))
+        return v if math.isfinite(v) else math.inf
+
+    return MonteCarloStudy(res, batch, fe, final(el), final(ee), el, ee, pb)
 
 
 # --------------------------------------------------------------------------- plots
 
 
-def plot_errors_vs_radii(results: tuple[ContainmentResult, ...], path: str, *, title: str = "",
-                         dt: float = 1.0, log: bool = False) -> str:
-    """Save a figure of the error norms over the runs (median, max) against each result's state radius.
+def save_figure(fig: Any, path: str | Path) -> Path:
+    """Save a matplotlib figure as PNG atomically (:func:`nlobs._io.atomic_write`); returns the path."""
+    return atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=120))
+
+
+def plot_errors_vs_radii(results: tuple[ContainmentResult, ...], path: str | Path, *, title: str = "",
+                         dt: float = 1.0, log: bool = False) -> Path:
+    """Save a figure of the error norms over the runs (range, median) against each result's state radius.
 
     Uses matplotlib's object API (no pyplot). Returns ``path``.
     """
@@ -304,8 +559,82 @@ def plot_errors_vs_radii(results: tuple[ContainmentResult, ...], path: str, *, t
     ax.set_ylabel("‖x_k − x̂_k|k‖")
     ax.set_title(title)
     ax.legend(fontsize=7)
-    fig.savefig(path, dpi=120)
-    return path
+    return save_figure(fig, path)
+
+
+def plot_study(study: MonteCarloStudy, path: str | Path, *, title: str = "", dt: float = 1.0) -> Path:
+    """Errors of Algorithm 1 against its radii, and the baselines' errors on the same runs (log scale)."""
+    from matplotlib.figure import Figure
+
+    res = study.containment
+    t = np.arange(res.steps + 1) * dt
+    fig = Figure(figsize=(8.0, 6.0), layout="constrained")
+    ax, axd = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2)
+    ax.fill_between(t, np.min(res.errors, axis=0), np.max(res.errors, axis=0), color="C0", alpha=0.25,
+                    label=f"set-valued: error range ({res.runs} runs)")
+    ax.plot(t, res.radii.state, "C0--", lw=2, label="set-valued: radius δˣ_k")
+    for errs, col, name in ((study.baseline_lipschitz_errors, "C3", "Lipschitz LMI observer"),
+                            (study.baseline_ekf_errors, "C2", "EKF, d as noise")):
+        if errs is not None:
+            ax.fill_between(t, np.min(errs, axis=0), np.max(errs, axis=0), color=col, alpha=0.2)
+            ax.plot(t, np.median(errs, axis=0), color=col, lw=1.2, label=f"{name}: median error (band: range)")
+    ax.set_yscale("log")
+    ax.set_ylabel("‖x_k − x̂_k‖")
+    ax.set_title(title)
+    ax.legend(fontsize=7)
+    b = study.batch
+    de = np.linalg.norm(b.d[:, :-1] - b.run.d_hat, axis=-1)
+    axd.fill_between(t[:-1], de.min(axis=0), de.max(axis=0), color="C0", alpha=0.25, label="input error range")
+    axd.plot(t[:-1], res.radii.input, "C0--", lw=2, label="input radius δᵈ_{k−1}")
+    axd.set_yscale("log")
+    axd.set_xlabel("t [s]" if dt != 1.0 else "step k")
+    axd.set_ylabel("‖d_{k−1} − d̂_{k−1}‖")
+    axd.legend(fontsize=7)
+    return save_figure(fig, path)
+
+
+def plot_trajectories(batch: Batch, path: str | Path, *, run: int = 0, title: str = "") -> Path:
+    """States, unknown inputs, their estimates and the balls over time for one run (like seed 004, Figs. 2-5).
+
+    The ball ``‖x − x̂‖ ≤ δˣ`` is drawn per component as the interval ``x̂ᵢ ± δˣ`` (a projection of the ball).
+    """
+    from matplotlib.figure import Figure
+
+    x, xh, rad = batch.x[run], batch.run.x_hat[run], batch.run.radii
+    n, p = x.shape[1], batch.d.shape[2]
+    t = batch.t
+    fig = Figure(figsize=(9.0, 2.0 * (n + p) + 0.5), layout="constrained")
+    for i in range(n):
+        ax = fig.add_subplot(n + p, 1, i + 1)
+        if rad is not None:
+            ax.fill_between(t, xh[:, i] - rad.state, xh[:, i] + rad.state, color="C0", alpha=0.15,
+                            label="x̂ᵢ ± δˣ_k")
+        ax.plot(t, x[:, i], "k", lw=1.2, label=f"x{i + 1}")
+        ax.plot(t, xh[:, i], "C0--", lw=1.0, label=f"x̂{i + 1}")
+        if rad is not None:
+            ax.set_ylim(*_limits(x[:, i], xh[:, i]))
+        ax.legend(fontsize=7, loc="upper right")
+        if i == 0:
+            ax.set_title(title)
+    for j in range(p):
+        ax = fig.add_subplot(n + p, 1, n + j + 1)
+        dh = batch.run.d_hat[run, :, j]
+        if rad is not None:
+            ax.fill_between(t[:-1], dh - rad.input, dh + rad.input, color="C1", alpha=0.15, label="d̂ ± δᵈ")
+        ax.plot(t[:-1], batch.d[run, :-1, j], "k", lw=1.2, label=f"d{j + 1}")
+        ax.plot(t[:-1], dh, "C1--", lw=1.0, label=f"d̂{j + 1}")
+        ax.set_ylim(*_limits(batch.d[run, :-1, j], dh))
+        ax.legend(fontsize=7, loc="upper right")
+    ax.set_xlabel("t [s]")
+    return save_figure(fig, path)
+
+
+def _limits(*series: Array) -> tuple[float, float]:
+    """y-limits showing the signals (the balls may be much wider early on)."""
+    lo = min(float(np.min(s)) for s in series)
+    hi = max(float(np.max(s)) for s in series)
+    pad = 0.6 * max(hi - lo, 1e-3)
+    return lo - pad, hi + pad
 
 
 # --------------------------------------------------------------------------- adversarial noise
