@@ -502,6 +502,15 @@ class GnssInsObserver:
         Newton's polar iteration (:func:`nlobs.navigation.polar.nearest_rotation`),
         equal to the SVD projection of :meth:`estimate` to rounding and about 20× cheaper
         per matrix on large batches.
+
+        Parameters
+        ----------
+        R_raw : array_like, shape (..., 3, 3)
+
+        Returns
+        -------
+        ndarray, shape (..., 3, 3)
+            A new array of rotation matrices.
         """
         return nearest_rotation(R_raw)
 

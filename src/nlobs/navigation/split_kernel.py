@@ -32,6 +32,7 @@ noisy flight for every mode.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,9 +44,11 @@ __all__ = ["ScalarFlow", "SplitConstants", "split_step"]
 
 #: A 3×3 matrix as 9 floats, row-major.
 Mat3 = tuple[float, ...]
+#: A 3×3 matrix (row-major) or a 3-vector as any sequence of floats (a list from ``ndarray.tolist``).
+Floats = Sequence[float]
 
 
-def _mm(A: Mat3, B: Mat3) -> Mat3:
+def _mm(A: Floats, B: Floats) -> Mat3:
     """``A @ B`` of two row-major 3×3 matrices."""
     a0, a1, a2, a3, a4, a5, a6, a7, a8 = A
     b0, b1, b2, b3, b4, b5, b6, b7, b8 = B
@@ -54,7 +57,7 @@ def _mm(A: Mat3, B: Mat3) -> Mat3:
             a6 * b0 + a7 * b3 + a8 * b6, a6 * b1 + a7 * b4 + a8 * b7, a6 * b2 + a7 * b5 + a8 * b8)
 
 
-def _mmT(A: Mat3, B: Mat3) -> Mat3:
+def _mmT(A: Floats, B: Floats) -> Mat3:
     """``A @ Bᵀ`` of two row-major 3×3 matrices."""
     a0, a1, a2, a3, a4, a5, a6, a7, a8 = A
     b0, b1, b2, b3, b4, b5, b6, b7, b8 = B
@@ -63,7 +66,7 @@ def _mmT(A: Mat3, B: Mat3) -> Mat3:
             a6 * b0 + a7 * b1 + a8 * b2, a6 * b3 + a7 * b4 + a8 * b5, a6 * b6 + a7 * b7 + a8 * b8)
 
 
-def _mTm(A: Mat3, B: Mat3) -> Mat3:
+def _mTm(A: Floats, B: Floats) -> Mat3:
     """``Aᵀ @ B`` of two row-major 3×3 matrices."""
     a0, a1, a2, a3, a4, a5, a6, a7, a8 = A
     b0, b1, b2, b3, b4, b5, b6, b7, b8 = B
@@ -96,18 +99,17 @@ class ScalarFlow:
     ----------
     blocks : int
         Number of 3-blocks of ``L``: 5, or 4 for a position-only receiver.
-    per_axis : tuple of tuple of float, or None
+    per_axis : tuple of tuple of float
         For each axis ``a``, the ``blocks × blocks`` matrix ``Φ[3i + a, 3j + a]``
-        (row-major) and then the ``blocks`` offsets ``d[3i + a]``; ``None`` when
+        (row-major) and then the ``blocks`` offsets ``d[3i + a]``; empty when
         ``Φ`` couples the axes (general ``K``).
-    P, d : ndarray or None
-        ``Φᵀ`` and ``d`` for the coupled case (``L @ P + d``); ``None`` otherwise.
+    dense : (ndarray, ndarray) or None
+        ``(Φᵀ, d)`` for the coupled case (``L @ Φᵀ + d``); ``None`` otherwise.
     """
 
     blocks: int
-    per_axis: tuple[tuple[float, ...], ...] | None
-    P: Array | None
-    d: Array | None
+    per_axis: tuple[tuple[float, ...], ...]
+    dense: tuple[Array, Array] | None
 
     @classmethod
     def from_transition(cls, P: Array, d: Array) -> ScalarFlow:
@@ -117,19 +119,19 @@ class ScalarFlow:
         Phi = P.T
         axis = np.arange(n) % 3
         if np.any(Phi[axis[:, None] != axis[None, :]] != 0.0):
-            return cls(blocks=nb, per_axis=None, P=P, d=d)
+            return cls(blocks=nb, per_axis=(), dense=(P, d))
         per_axis = tuple(
             tuple(float(x) for x in Phi[a::3, a::3].ravel()) + tuple(float(x) for x in d[a::3])
             for a in range(3))
-        return cls(blocks=nb, per_axis=per_axis, P=None, d=None)
+        return cls(blocks=nb, per_axis=per_axis, dense=None)
 
     def apply(self, L: list[float]) -> list[float]:
         """``Φ L + d`` for ``L`` a list of ``3·blocks`` floats (a new list)."""
-        per_axis = self.per_axis
-        if per_axis is None:
-            assert self.P is not None and self.d is not None
-            out: list[float] = (np.array(L) @ self.P + self.d).tolist()
+        if self.dense is not None:
+            P, d = self.dense
+            out: list[float] = (np.array(L) @ P + d).tolist()
             return out
+        per_axis = self.per_axis
         out = [0.0] * len(L)
         if self.blocks == 5:
             for a in range(3):
@@ -185,8 +187,8 @@ class SplitConstants:
                    Sn2=tuple(float(x) for x in Sn_powers[1].ravel()))
 
 
-def split_step(k: SplitConstants, flow: ScalarFlow, h: float, L: list[float], R: Mat3,
-               w: list[float], a: list[float], m: list[float]) -> tuple[list[float], Mat3, tuple[float, float, float]]:
+def split_step(k: SplitConstants, flow: ScalarFlow, h: float, L: list[float], R: Floats,
+               w: Floats, a: Floats, m: Floats) -> tuple[list[float], Mat3, tuple[float, float, float]]:
     """One Strang step ``C(h/2) A(h/2) B(h) A(h/2) C(h/2)`` of observer (24) for one flight.
 
     Parameters
@@ -198,9 +200,9 @@ def split_step(k: SplitConstants, flow: ScalarFlow, h: float, L: list[float], R:
         The IMU period.
     L : list of float
         ``[p̂, v̂, ẑ, y_p, (y_v)]`` at the start of the step, ``ẑ = R̂ a^b + ξ``.
-    R : 9-tuple of float
+    R : sequence of 9 floats
         ``R̂`` (row-major).
-    w, a, m : list of 3 floats
+    w, a, m : sequences of 3 floats
         The held IMU sample ``ω^b``, ``a^b``, ``m^b``.
 
     Returns
