@@ -40,7 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 from nlobs._io import atomic_write
 from nlobs._validate import positive
 from nlobs.errors import InvalidArgumentError
-from nlobs.examples.reproduce import ReproRow
+from nlobs.examples.reproduce import ReproRow, Value
 from nlobs.observers.discrete_baselines import DiscreteLipschitzObserver, UnknownInputEKF
 from nlobs.observers.setvalued import GivenGain, Radii, SetValuedRun, run_setvalued
 from nlobs.synthesis.setvalued import SetValuedDesign
@@ -777,9 +777,12 @@ def reproduce() -> list[ReproRow]:
                 ReproRow(f"{tag}: α* (Thm 5.10 as printed)", pr["alpha"], dp.alpha, "best α of the line search"),
                 ReproRow(f"{tag}: L̃* (Thm 5.10 as printed)", _lst(L_), _lst(dp.L_tilde.ravel()), ""),
                 ReproRow(f"{tag}: P* (Thm 5.10 as printed)", _lst(P_), _lst(dp.P), ""),
+                ReproRow(f"{tag}: Y* (Thm 5.10 as printed)", _lst(Y_), _lst(np.ravel(dp.Y)), "Y = P L̃"),
             ]
         except DesignInfeasible as exc:
-            rows.append(ReproRow(f"{tag}: ρ* (Thm 5.10 as printed)", pr["rho"], "infeasible", str(exc)))
+            for q in ("ρ*", "α*", "L̃*", "P*", "Y*"):
+                rows.append(ReproRow(f"{tag}: {q} (Thm 5.10 as printed)", _printed_value(pr, q), "infeasible",
+                                     str(exc)))
         try:
             ds = design_setvalued(ex.system)
             rows += [
@@ -788,12 +791,33 @@ def reproduce() -> list[ReproRow]:
                 ReproRow(f"{tag}: L̃ (sound)", _lst(L_), _lst(ds.L_tilde.ravel()),
                              "certified by (⋆) and the spectral radius"),
                 ReproRow(f"{tag}: P (sound, scaled P ⪰ I)", _lst(P_), _lst(ds.P), ""),
+                ReproRow(f"{tag}: Y = P L̃ (sound)", _lst(Y_), _lst((ds.P @ ds.L_tilde).ravel()), ""),
+                ReproRow(f"{tag}: α (sound: 1 − λ of (⋆))", pr["alpha"], 1.0 - ds.lam,
+                         "the sound condition's decay per step; the printed α enters (26)-(28) differently"),
+                ReproRow(f"{tag}: ρ (sound, ℓ2 gain)", pr["rho"], "n/a",
+                         f"γ = {ex.system.function_class.gamma:.4g} < 0 leaves the constant −κγ in (V): no finite "
+                         "ℓ2 gain follows (the radius bound above is the certified quantity)"
+                         if ex.system.function_class.gamma < 0 else "the radius objective was used"),
             ]
             res = containment_study(ex, ds, runs=1000, steps=300, seed=0)
             rows.append(ReproRow(f"{tag}: containment state/input, 1000 runs (sound)", None,
                                  [res.rate_state, res.rate_input], "noises half at their bounds"))
         except DesignInfeasible as exc:
             rows.append(ReproRow(f"{tag}: sound design", None, "infeasible", f"{ex.note}; {exc}"))
+            for q in ("ρ", "α", "L̃", "P", "Y"):
+                rows.append(ReproRow(f"{tag}: {q} (sound)", _printed_value(pr, q + "*"), "infeasible",
+                                     "(⋆) has no solution for any λ < 1 with this class (see 'sound design')"))
+    PI = np.asarray(example_61("I").printed["P"], dtype=float)
+    rows.append(ReproRow("6.1 Class I: max |P* − P*ᵀ| of the printed P*", 0.0, float(np.max(np.abs(PI - PI.T))),
+                         "the printed P*_I is not symmetric (entries (1,4) −0.2268 and (4,1) −0.2208)"))
+    Lf = 3.33 * TS
+    aI = float(example_61("I").printed["alpha"])
+    val = aI * float(np.linalg.eigvalsh(0.5 * (PI + PI.T))[0]) - (1 + Lf**2)
+    rows.append(ReproRow("6.1 Class I: λ_min(α*P*) − (1 + L_f²), needed ≥ 0 by N22 ⪰ 0 of (26)-(28)", None, val,
+                         "< 0: the printed (α*, P*) violate the paper's own constraint"))
+    rows.append(ReproRow("6.1 Class I: lower bound √((1 + L_f²)/α*) on ρ implied by N11 ⪰ 0, N22 ⪰ 0", 0.9436,
+                         float(np.sqrt((1 + Lf**2) / aI)),
+                         "≥ 1 for every α ≤ 1, so the printed ρ*_I = 0.9436 is impossible under (26)-(28)"))
     exs = example_61("0-structured")
     dss = design_setvalued(exs.system)
     rows.append(ReproRow("6.1 Class 0 with nlobs's structured multiplier (not in the paper): steady radius bound",
@@ -814,14 +838,63 @@ def reproduce() -> list[ReproRow]:
         rows.append(ReproRow("6.2 stable observer of this structure exists", True, False, exc.evidence))
     try:
         dp = design_printed(s, np.block([[-np.eye(2), np.zeros((2, 2))], [np.zeros((2, 2)), pr["L_f"] ** 2 * np.eye(2)]]))
-        rows.append(ReproRow("6.2 ρ* (Thm 5.10 as printed)", pr["rho"], dp.rho, ""))
+        rows += [ReproRow("6.2 ρ* (Thm 5.10 as printed)", pr["rho"], dp.rho, ""),
+                 ReproRow("6.2 α* (Thm 5.10 as printed)", pr["alpha"], dp.alpha, ""),
+                 ReproRow("6.2 L̃* (Thm 5.10 as printed)", pr["L_tilde"], _lst(dp.L_tilde.ravel()), ""),
+                 ReproRow("6.2 P* (Thm 5.10 as printed)", pr["P"], _lst(dp.P), ""),
+                 ReproRow("6.2 Y* (Thm 5.10 as printed)", pr["Y"], _lst(np.ravel(dp.Y)), "")]
     except DesignInfeasible as exc:
-        rows.append(ReproRow("6.2 ρ* (Thm 5.10 as printed)", pr["rho"], "infeasible", str(exc)))
+        for q in ("ρ*", "α*", "L̃*", "P*", "Y*"):
+            rows.append(ReproRow(f"6.2 {q} (Thm 5.10 as printed)", _printed_value(pr, q), "infeasible", str(exc)))
+    for q in ("ρ", "α", "L̃", "P", "Y"):
+        rows.append(ReproRow(f"6.2 {q} (sound)", _printed_value(pr, q + "*"), "no stable observer",
+                             "invariant zero −1.3431 of (A, G, C): every gain leaves |x̃₁,k| ≥ 1.343|x̃₁,k−1|"))
+    P62, Y62, L62 = (np.asarray(pr[k], dtype=float) for k in ("P", "Y", "L_tilde"))
+    L62y = np.linalg.solve(P62, Y62)
+    rows.append(ReproRow("6.2 P*⁻¹Y* (should equal L̃*)", pr["L_tilde"], _lst(L62y),
+                         f"differs by {float(np.max(np.abs(L62y - L62) / np.abs(L62))):.1%} (largest relative entry); "
+                         f"cond(P*) = {float(np.linalg.cond(P62)):.3g}, so 4-digit rounding of P*, Y* cannot explain it"))
+    tr62 = ui_transform(s.G, s.C, s.H)
+    sr62 = float(np.max(np.abs(np.linalg.eigvals((np.eye(2) - L62[:, None] @ tr62.C2) @ tr62.Phi @ (s.A - tr62.Psi)))))
+    rows.append(ReproRow("6.2 spectral radius of (I − L̃*C₂)Φ(A − Ψ) with the printed L̃*", None, sr62,
+                         "≥ 1.343 for every gain (the invariant zero)"))
     gain = GivenGain.for_system(s, pr["L_tilde"])
     with np.errstate(over="ignore"):
         rad = printed_radii(s, pr["L_tilde"], pr["P"], pr["rho"], 50, L_f=pr["L_f"])
     res = containment_study(ex, gain, runs=1000, steps=50, seed=0, radii=rad, label="printed")
     rows.append(ReproRow("6.2 containment state/input, printed L̃* and Thm 5.13 bounds, 1000 runs", None,
                          [res.rate_state, res.rate_input], "the errors diverge for every gain (invariant zero −1.343)"))
+    rows += _affine_rows()
     return rows
+
+
+def _printed_value(printed: Mapping[str, object], q: str) -> Value:
+    """The paper's value of ``ρ*``, ``α*``, ``L̃*``, ``P*`` or ``Y*`` from a ``printed`` mapping."""
+    key = {"ρ*": "rho", "α*": "alpha", "L̃*": "L_tilde", "P*": "P", "Y*": "Y"}[q]
+    v = printed.get(key)
+    return v if isinstance(v, (float, int, list)) else None
+
+
+def _affine_rows() -> list[ReproRow]:
+    """Prop. 2.18 / LP (3): the printed η (which omits σ) against nlobs's certified η and sampled residuals."""
+    from nlobs.synthesis.affine_abstraction import affine_abstraction
+
+    def mu(z: Array) -> Array:
+        return np.stack([np.sin(z[..., 0]), z[..., 0] * z[..., 1]], axis=-1)
+
+    r = affine_abstraction(mu, [-1, -1], [1, 1], gradient_lipschitz=[np.sin(1.0), 1.0], points_per_axis=2)
+    z = np.random.default_rng(1).uniform(-1, 1, (100_000, 2))
+    resid = np.max(np.abs(mu(z) - r(z)), axis=0)
+    bad = [i + 1 for i in range(2) if resid[i] > r.eta_as_printed[i] + 1e-12]
+    note = (f"max sampled residual {_lst(resid)} on 1e5 points: the printed η (θ*/2, σ omitted) is exceeded in "
+            f"component(s) {bad}; the certified η = θ*/2 + σ holds")
+    return [
+        ReproRow("Prop. 2.18 η_vᵃ of μ = [sin z₁, z₁z₂] on [−1, 1]², corners only: as printed (θ*/2)", None,
+                 _lst(r.eta_as_printed), note),
+        ReproRow("Prop. 2.18 η_vᵃ, same LP: certified by nlobs (θ*/2 + σ)", None, _lst(r.residual_bound),
+                 "σ_i = λ_i‖h‖²/8 from the gradient-Lipschitz constants (docs/affine_abstraction.md)"),
+        ReproRow("Prop. 2.18 η_vᵃ, same μ: certified on a 21-point grid", None,
+                 _lst(affine_abstraction(mu, [-1, -1], [1, 1], gradient_lipschitz=[np.sin(1.0), 1.0],
+                                         points_per_axis=21).residual_bound), "refining the mesh shrinks σ like h²"),
+    ]
 

@@ -49,6 +49,7 @@ PAPERS: dict[str, str] = {
     "grip2013": "nlobs.examples.grip2013",
     "dallamora2000": "nlobs.examples.dallamora2000",
     "robenack2008": "nlobs.examples.robenack2008",
+    "khajenejad-yong": "nlobs.examples.khajenejad_yong",
 }
 
 
