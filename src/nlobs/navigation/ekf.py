@@ -41,6 +41,7 @@ from nlobs._validate import as_vector, positive
 from nlobs.navigation.base import Array, GnssSample, ImuSample, NavEstimate
 from nlobs.navigation.sensors import SensorNoise
 from nlobs.navigation.so3 import exp_so3, skew
+from nlobs.observers.discrete_baselines import joseph_update  # the one implementation (re-exported here)
 
 _I3 = np.eye(3)
 
@@ -101,36 +102,6 @@ class EkfState:
     R: Array
     P: Array
     skipped: Array
-
-
-def joseph_update(P: Array, H: Array, Rm: Array, innovation: Array) -> tuple[Array, Array]:
-    """Kalman gain, correction and Joseph-form covariance, batched.
-
-    Parameters
-    ----------
-    P : (..., n, n)
-    H : (..., q, n)
-    Rm : (q, q) measurement covariance
-    innovation : (..., q)
-
-    Returns
-    -------
-    dx : (..., n)
-        ``K ν`` with ``K = P Hᵀ (H P Hᵀ + R)⁻¹``.
-    P_new : (..., n, n)
-        ``(I − KH) P (I − KH)ᵀ + K R Kᵀ``, symmetrised.
-    """
-    Ht = np.swapaxes(H, -1, -2)
-    PHt = P @ Ht
-    S = H @ PHt + Rm
-    # K = P Hᵀ S⁻¹  ⇔  Kᵀ = S⁻ᵀ (P Hᵀ)ᵀ = S⁻¹ H P (S, P symmetric)
-    K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)
-    n = P.shape[-1]
-    IKH = np.eye(n) - K @ H
-    P_new = IKH @ P @ np.swapaxes(IKH, -1, -2) + K @ Rm @ np.swapaxes(K, -1, -2)
-    P_new = 0.5 * (P_new + np.swapaxes(P_new, -1, -2))
-    dx = np.einsum("...ij,...j->...i", K, innovation)
-    return dx, P_new
 
 
 @dataclass(frozen=True)

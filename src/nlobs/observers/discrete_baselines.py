@@ -178,17 +178,33 @@ class EkfState:
     P: Array
 
 
-def joseph_update(P: Array, C: Array, R: Array, innovation: Array) -> tuple[Array, Array]:
-    """Kalman correction ``K ν`` and the Joseph-form covariance, batched.
+def joseph_update(P: Array, H: Array, R: Array, innovation: Array) -> tuple[Array, Array]:
+    """Kalman correction ``K ν`` and the Joseph-form covariance, batched (the one implementation in nlobs).
 
-    ``K = P Cᵀ (C P Cᵀ + R)⁻¹``, ``P⁺ = (I − KC) P (I − KC)ᵀ + K R Kᵀ`` (symmetrised):
-    positive semi-definite for any gain under rounding, unlike ``(I − KC) P``.
+    Parameters
+    ----------
+    P : ndarray, shape (..., n, n)
+        Prior covariance.
+    H : ndarray, shape (q, n) or (..., q, n)
+        Measurement matrix (may vary along the batch).
+    R : ndarray, shape (q, q)
+        Measurement covariance.
+    innovation : ndarray, shape (..., q)
+
+    Returns
+    -------
+    dx : ndarray, shape (..., n)
+        ``K ν`` with ``K = P Hᵀ (H P Hᵀ + R)⁻¹``.
+    P_new : ndarray, shape (..., n, n)
+        ``(I − KH) P (I − KH)ᵀ + K R Kᵀ``, symmetrised: positive semi-definite for any
+        gain under rounding, unlike ``(I − KH) P``.
     """
-    PCt = P @ C.T
-    S = C @ PCt + R
-    K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PCt, -1, -2)), -1, -2)   # P Cᵀ S⁻¹ (S, P symmetric)
-    IKC = np.eye(P.shape[-1]) - K @ C
-    P_new = IKC @ P @ np.swapaxes(IKC, -1, -2) + K @ R @ np.swapaxes(K, -1, -2)
+    PHt = P @ np.swapaxes(H, -1, -2)
+    S = H @ PHt + R
+    # K = P Hᵀ S⁻¹  ⇔  Kᵀ = S⁻¹ H P (S, P symmetric)
+    K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)
+    IKH = np.eye(P.shape[-1]) - K @ H
+    P_new = IKH @ P @ np.swapaxes(IKH, -1, -2) + K @ R @ np.swapaxes(K, -1, -2)
     P_new = 0.5 * (P_new + np.swapaxes(P_new, -1, -2))
     return np.einsum("...ij,...j->...i", K, innovation), P_new
 

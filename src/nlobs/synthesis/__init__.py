@@ -2,10 +2,19 @@
 
 Implements the LMIs (14) and (15) of Grip, Saberi & Johansen (seed 001) with
 Chilali–Gahinet pole regions, well-posed objectives, and an independent
-re-verification of every answer. See ``docs/synthesis.md``.
+re-verification of every answer. See ``docs/synthesis.md``. Seed 004: the sound
+set-valued design (``docs/setvalued.md``), Theorem 5.10 as printed, the discrete
+Lipschitz observer gain (``docs/baselines.md``) and the affine abstraction of
+Proposition 2.18 (``docs/affine_abstraction.md``).
 """
 
+from nlobs.synthesis.affine_abstraction import AbstractionBound, AffineAbstraction, affine_abstraction
 from nlobs.synthesis.certificate import CertificateStatus, Check, CheckKind, Objective, ObserverGainCertificate
+from nlobs.synthesis.discrete_lipschitz import (
+    DiscreteLipschitzCertificate,
+    design_discrete_lipschitz_gain,
+    verify_discrete_lipschitz_gain,
+)
 from nlobs.synthesis.lmi import Solver, SolveResult, SolveStatus
 from nlobs.synthesis.observer_gain import (
     ExtendedSystem,
@@ -15,12 +24,25 @@ from nlobs.synthesis.observer_gain import (
     verify_observer_gain,
 )
 from nlobs.synthesis.regions import Disk, HalfPlane, LmiRegion, PoleRegion, Sector
+from nlobs.synthesis.setvalued import (
+    ErrorDynamics,
+    SetValuedDesign,
+    SetValuedObjective,
+    design_setvalued,
+    error_dynamics,
+    verify_setvalued,
+)
+from nlobs.synthesis.setvalued_printed import PrintedDesign, design_printed
 
 __all__ = [
+    "AbstractionBound",
+    "AffineAbstraction",
     "CertificateStatus",
     "Check",
     "CheckKind",
+    "DiscreteLipschitzCertificate",
     "Disk",
+    "ErrorDynamics",
     "ExtendedSystem",
     "GainBound",
     "HalfPlane",
@@ -28,11 +50,21 @@ __all__ = [
     "Objective",
     "ObserverGainCertificate",
     "PoleRegion",
+    "PrintedDesign",
     "Sector",
+    "SetValuedDesign",
+    "SetValuedObjective",
     "SolveResult",
     "SolveStatus",
     "Solver",
+    "affine_abstraction",
+    "design_discrete_lipschitz_gain",
     "design_observer_gain",
+    "design_printed",
+    "design_setvalued",
+    "error_dynamics",
     "extended_system",
+    "verify_discrete_lipschitz_gain",
     "verify_observer_gain",
+    "verify_setvalued",
 ]
