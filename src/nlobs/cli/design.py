@@ -13,7 +13,8 @@ a plot and the trajectories (``--out``).
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from collections.abc import Callable
+from typing import Annotated, Any, TypeVar
 
 import numpy as np
 import typer
@@ -32,8 +33,16 @@ from nlobs.cli.common import (
 from nlobs.errors import AssumptionViolated, DesignError, NlobsError, SimulationDiverged
 from nlobs.systems.symbolic import SymbolicModel
 
-_X0 = typer.Option("--x0", help="Initial plant state for --simulate, e.g. '1,0'.")
-_XHAT0 = typer.Option("--xhat0", help="Initial estimate for --simulate (default: zeros).")
+# Options shared by both commands (one definition each).
+Box_ = Annotated[str | None, typer.Option("--box", help="Region: 'lo,hi' or 2n numbers (default -1,1).")]
+Json_ = Annotated[bool, typer.Option("--json", help="Print JSON.")]
+Simulate_ = Annotated[bool, typer.Option("--simulate", help="Simulate the design.")]
+X0_ = Annotated[str | None, typer.Option("--x0", help="Initial plant state for --simulate, e.g. '1,0'.")]
+Xhat0_ = Annotated[str | None, typer.Option("--xhat0", help="Initial estimate for --simulate (default: zeros).")]
+U_ = Annotated[str | None, typer.Option("--u", help="Constant input for --simulate.")]
+Duration_ = Annotated[float, typer.Option("--duration", help="Simulated time [s].")]
+Dt_ = Annotated[float, typer.Option("--dt", help="RK4 step [s]; it must resolve the gain's fastest pole.")]
+Out_ = Annotated[Path | None, typer.Option("--out", help="Folder for the plot (.png) and trajectories (.npz).")]
 
 
 def _symbolic(model: str) -> SymbolicModel:
@@ -64,19 +73,34 @@ def _sim_inputs(m: SymbolicModel, x0: str | None, xhat0: str | None, u: str | No
     return np.array(x0v), np.array(xh), np.array(uv)
 
 
-def _write_outputs(result: Any, out: Path | None, stem: str) -> list[Path]:
-    if out is None:
-        return []
-    out.mkdir(parents=True, exist_ok=True)
-    png = out / f"{stem}.png"
-    result.plot(png)
-    return [png, result.save(out / f"{stem}.npz")]
+T = TypeVar("T")
 
 
-def _sim_summary(result: Any) -> dict[str, float]:
+def _run(model: str, simulate: Callable[[], T]) -> T:
+    """Run a simulation; a divergence or another nlobs failure is a one-line error with status 1."""
+    try:
+        return simulate()
+    except SimulationDiverged as exc:
+        fail(f"{model}: simulation diverged: {exc} (try a smaller --dt)", EXIT_FAILURE)
+    except NlobsError as exc:
+        fail(f"{model}: {exc}", EXIT_FAILURE)
+
+
+def _report_simulation(result: Any, out: Path | None, stem: str, duration: float, dt: float) -> tuple[dict[str, Any], list[str]]:
+    """Error-norm summary of a simulation, with the plot and trajectories written to ``out`` (if given)."""
     e = result.error_norm
-    return {"final_error_norm": float(np.max(e[..., -1])), "initial_error_norm": float(np.max(e[..., 0])),
-            "max_error_norm": float(np.max(e))}
+    summ: dict[str, Any] = {"final_error_norm": float(np.max(e[..., -1])), "initial_error_norm": float(np.max(e[..., 0])),
+                            "max_error_norm": float(np.max(e))}
+    files: list[Path] = []
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        png = out / f"{stem}.png"
+        result.plot(png)
+        files = [png, result.save(out / f"{stem}.npz")]
+    summ["files"] = [str(f) for f in files]
+    lines = [f"simulation ({duration:g} s, dt = {dt:g}): ‖e(0)‖ = {summ['initial_error_norm']:.4g}, "
+             f"‖e(T)‖ = {summ['final_error_norm']:.4g}, max ‖e‖ = {summ['max_error_norm']:.4g}"]
+    return summ, lines + [f"wrote {f}" for f in files]
 
 
 @design_app.command("drift")
@@ -88,15 +112,15 @@ def drift_cmd(
     gamma: Annotated[float | None, typer.Option(help="γ of (2.17) (default: estimated on the region).")] = None,
     method: Annotated[str, typer.Option(help="'vandermonde' (Remark 2.11) or 'sdp' (LMI in S = P⁻¹, Y = S K).")] = "vandermonde",
     w: Annotated[float | None, typer.Option(help="Check and use K(w) instead of searching the smallest w.")] = None,
-    box: Annotated[str | None, typer.Option(help="Region: 'lo,hi' or 2n numbers (default -1,1).")] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
-    simulate: Annotated[bool, typer.Option("--simulate", help="Simulate the design.")] = False,
-    x0: Annotated[str | None, _X0] = None,
-    xhat0: Annotated[str | None, _XHAT0] = None,
-    u: Annotated[str | None, typer.Option(help="Constant input for --simulate.")] = None,
-    duration: Annotated[float, typer.Option(help="Simulated time [s].")] = 10.0,
-    dt: Annotated[float, typer.Option(help="RK4 step [s]; it must resolve the gain's fastest pole.")] = 1e-3,
-    out: Annotated[Path | None, typer.Option(help="Folder for drift.png and drift.npz.")] = None,
+    box: Box_ = None,
+    as_json: Json_ = False,
+    simulate: Simulate_ = False,
+    x0: X0_ = None,
+    xhat0: Xhat0_ = None,
+    u: U_ = None,
+    duration: Duration_ = 10.0,
+    dt: Dt_ = 1e-3,
+    out: Out_ = None,
 ) -> None:
     """Design (and verify) the drift-observability observer (3.1) of seed 002."""
     from nlobs.examples.dallamora2000 import simulate_drift
@@ -119,20 +143,13 @@ def drift_cmd(
     text = [rep.to_text()]
     if simulate:
         x0v, xh, uv = _sim_inputs(m, x0, xhat0, u)
-        try:
-            sim = simulate_drift(m, x0v, xh, duration, dt=dt, u=uv, w=w, report=rep)
-        except SimulationDiverged as exc:
-            fail(f"{model}: simulation diverged: {exc} (try a smaller --dt)", EXIT_FAILURE)
-        except NlobsError as exc:
-            fail(f"{model}: {exc}", EXIT_FAILURE)
-        files = _write_outputs(sim.result, out, "drift")
-        summ = {**_sim_summary(sim.result), "decay_rate": sim.decay_rate, "bound_ratio": sim.bound_ratio,
-                "certified": sim.certified}
-        data["simulation"] = {**summ, "files": [str(f) for f in files]}
-        text.append(f"simulation ({duration:g} s, dt = {dt:g}): ‖e(0)‖ = {summ['initial_error_norm']:.4g}, "
-                    f"‖e(T)‖ = {summ['final_error_norm']:.4g}, fitted decay rate {sim.decay_rate:.4g} (α = {alpha:g}), "
-                    f"max ‖e‖/bound(3.2) = {sim.bound_ratio:.3g}" + ("" if sim.certified else " (gain not certified)"))
-        text += [f"wrote {f}" for f in files]
+        sim = _run(model, lambda: simulate_drift(m, x0v, xh, duration, dt=dt, u=uv, w=w, report=rep))
+        summ, lines = _report_simulation(sim.result, out, "drift", duration, dt)
+        summ.update(decay_rate=sim.decay_rate, bound_ratio=sim.bound_ratio, certified=sim.certified)
+        data["simulation"] = summ
+        lines[0] += (f", fitted decay rate {sim.decay_rate:.4g} (α = {alpha:g}), max ‖e‖/bound(3.2) = "
+                     f"{sim.bound_ratio:.3g}" + ("" if sim.certified else " (gain not certified)"))
+        text += lines
     if as_json:
         emit_json(data)
     else:
@@ -145,15 +162,15 @@ def pinv_cmd(
     theta: Annotated[float, typer.Option(help="High-gain parameter θ of the roots of (10).")] = 2.0,
     placement: Annotated[str, typer.Option(help="'powers' (roots −θ^i) or 'multiple' (root −θ, multiplicity r).")] = "powers",
     k: Annotated[str | None, typer.Option("--k", help="Gain vector k (Σ r_j numbers), instead of θ.")] = None,
-    box: Annotated[str | None, typer.Option(help="Region: 'lo,hi' or 2n numbers (default -1,1).")] = None,
-    as_json: Annotated[bool, typer.Option("--json", help="Print JSON.")] = False,
-    simulate: Annotated[bool, typer.Option("--simulate", help="Simulate the design.")] = False,
-    x0: Annotated[str | None, _X0] = None,
-    xhat0: Annotated[str | None, _XHAT0] = None,
-    u: Annotated[str | None, typer.Option(help="Constant input for --simulate.")] = None,
-    duration: Annotated[float, typer.Option(help="Simulated time [s].")] = 10.0,
-    dt: Annotated[float, typer.Option(help="RK4 step [s].")] = 1e-3,
-    out: Annotated[Path | None, typer.Option(help="Folder for pinv.png and pinv.npz.")] = None,
+    box: Box_ = None,
+    as_json: Json_ = False,
+    simulate: Simulate_ = False,
+    x0: X0_ = None,
+    xhat0: Xhat0_ = None,
+    u: U_ = None,
+    duration: Duration_ = 10.0,
+    dt: Dt_ = 1e-3,
+    out: Out_ = None,
 ) -> None:
     """Design the Moore–Penrose observer (7), (17) of seed 003 and check A1, A5."""
     from nlobs.examples.robenack2008 import simulate_pinv
@@ -174,19 +191,10 @@ def pinv_cmd(
     text = [rep.to_text()]
     if simulate:
         x0v, xh, uv = _sim_inputs(m, x0, xhat0, u)
-        try:
-            res = simulate_pinv(m, x0v, xh, duration, dt=dt, u=uv, k=kv, theta=theta, placement=placement,  # type: ignore[arg-type]
-                                region=region)
-        except SimulationDiverged as exc:
-            fail(f"{model}: simulation diverged: {exc} (try a smaller --dt)", EXIT_FAILURE)
-        except NlobsError as exc:
-            fail(f"{model}: {exc}", EXIT_FAILURE)
-        files = _write_outputs(res, out, "pinv")
-        summ = _sim_summary(res)
-        data["simulation"] = {**summ, "files": [str(f) for f in files]}
-        text.append(f"simulation ({duration:g} s, dt = {dt:g}): ‖e(0)‖ = {summ['initial_error_norm']:.4g}, "
-                    f"‖e(T)‖ = {summ['final_error_norm']:.4g}, max ‖e‖ = {summ['max_error_norm']:.4g}")
-        text += [f"wrote {f}" for f in files]
+        res = _run(model, lambda: simulate_pinv(m, x0v, xh, duration, dt=dt, u=uv, k=kv, theta=theta,
+                                                placement=placement, region=region))  # type: ignore[arg-type]
+        data["simulation"], lines = _report_simulation(res, out, "pinv", duration, dt)
+        text += lines
     if as_json:
         emit_json(data)
     else:
