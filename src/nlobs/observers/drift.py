@@ -184,7 +184,7 @@ class DriftObserver:
         """Compile ``f, g, h, Q_s`` of ``fields`` once and build the observer."""
         s_ = check_multi_index(s, fields.q, fields.n)
         Q = observability_jacobian(fields, s_)
-        n, m, q = fields.n, fields.m, fields.q
+        m, q = fields.m, fields.q
         entries = list(fields.f) + list(fields.g) + list(fields.h) + list(Q)
         fn = compile_matrix(sp.Matrix(entries) if entries else sp.zeros(0, 1), (fields.x,), vector=True,
                             what=f"{fields.name}: f, g, h, Q_s")
