@@ -484,6 +484,8 @@ class MonteCarloStudy:
         ``max_runs ‖x_K − x̂_K‖`` of the baselines (``None`` when not designed / not run).
     baseline_lipschitz_errors, baseline_ekf_errors : ndarray or None, shape (B, K + 1)
     baselines : PointBaselines or None
+    baseline_lipschitz_x_hat, baseline_ekf_x_hat : ndarray or None, shape (B, K + 1, n)
+        The baselines' estimates (for plots).
     """
 
     containment: ContainmentResult
@@ -494,6 +496,8 @@ class MonteCarloStudy:
     baseline_lipschitz_errors: Array | None = field(repr=False)
     baseline_ekf_errors: Array | None = field(repr=False)
     baselines: PointBaselines | None = field(repr=False)
+    baseline_lipschitz_x_hat: Array | None = field(default=None, repr=False)
+    baseline_ekf_x_hat: Array | None = field(default=None, repr=False)
 
 
 def monte_carlo(system: DiscreteUISystem, design: SetValuedDesign, unknown_input: Callable[[Array], Array], *,
@@ -525,7 +529,7 @@ def monte_carlo(system: DiscreteUISystem, design: SetValuedDesign, unknown_input
         v = float(np.max(e[:, -1]))
         return v if math.isfinite(v) else math.inf
 
-    return MonteCarloStudy(res, batch, fe, final(el), final(ee), el, ee, pb)
+    return MonteCarloStudy(res, batch, fe, final(el), final(ee), el, ee, pb, lip, ekf)
 
 
 # --------------------------------------------------------------------------- plots
