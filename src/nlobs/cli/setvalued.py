@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import numpy as np
 import typer
@@ -31,10 +31,12 @@ from nlobs.cli.common import (
     simulate_app,
 )
 from nlobs.errors import AssumptionViolated, CertificateError, DesignInfeasible, ModelFileError, NlobsError
-from nlobs.linear.transform_ui import StructuralCheck, structural_check
-from nlobs.synthesis.setvalued import SetValuedDesign, design_setvalued
-from nlobs.systems.discrete_ui import ClassCheck, check_function_class
 from nlobs.systems.modelfile import DiscreteUIModel, load_discrete_ui_model
+
+if TYPE_CHECKING:  # the solver stack is imported when a command runs, so that `nlobs` starts fast
+    from nlobs.linear.transform_ui import StructuralCheck
+    from nlobs.synthesis.setvalued import SetValuedDesign
+    from nlobs.systems.discrete_ui import ClassCheck
 
 
 class Objective(str, Enum):
@@ -62,6 +64,8 @@ def _load(model: str) -> DiscreteUIModel:
 
 def _structure(m: DiscreteUIModel) -> tuple[StructuralCheck | None, str]:
     """The structural check, or ``None`` with the reason when Lemma 5.1's rank condition fails."""
+    from nlobs.linear.transform_ui import structural_check
+
     s = m.system
     try:
         return structural_check(s.A, s.G, s.C, s.H, members=s.function_class.linear_members()), ""
@@ -87,6 +91,8 @@ def _box(m: DiscreteUIModel) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _class_check(m: DiscreteUIModel, samples: int, seed: int) -> ClassCheck:
+    from nlobs.systems.discrete_ui import check_function_class
+
     lo, hi = _box(m)
     return check_function_class(m.system.nonlinear, m.system.function_class, lo, hi, n_pairs=samples, seed=seed)
 
@@ -119,6 +125,8 @@ def _design_dict(d: SetValuedDesign) -> dict[str, Any]:
 def _design(model: str, m: DiscreteUIModel, objective: str, samples: int, seed: int,
             as_json: bool) -> tuple[SetValuedDesign, dict[str, Any]]:
     """Structure, class check and design, shared by both commands (exits on failure)."""
+    from nlobs.synthesis.setvalued import design_setvalued
+
     s = m.system
     st, why = _structure(m)
     chk = _class_check(m, samples, seed)
