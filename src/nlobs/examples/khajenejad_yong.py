@@ -448,8 +448,22 @@ def point_baselines(system: DiscreteUISystem, *, q_d: float, box: tuple[ArrayLik
 
 
 def run_baselines(baselines: PointBaselines, system: DiscreteUISystem, y: Array) -> tuple[Array | None, Array]:
-    """Errors are not computed here: the estimates ``(B, K + 1, n)`` of the Lipschitz observer (or ``None``) and
-    of the EKF (priors ``x̂_{k|k−1}``, the Lipschitz observer is a predictor too), from ``system.x0``."""
+    """Run both point baselines on measurements ``y`` of shape ``(B, K + 1, l)``, from ``system.x0``.
+
+    Parameters
+    ----------
+    baselines : PointBaselines
+    system : DiscreteUISystem
+    y : ndarray, shape (B, K + 1, l)
+
+    Returns
+    -------
+    lipschitz : ndarray of shape (B, K + 1, n), or None
+        Estimates ``x̂_k`` of the Lipschitz observer (a predictor: ``x̂_k`` uses ``y_0..y_{k−1}``);
+        ``None`` when it could not be designed.
+    ekf : ndarray, shape (B, K + 1, n)
+        The EKF's priors ``x̂_{k|k−1}``.
+    """
     B, K1, _ = y.shape
     x0 = np.broadcast_to(system.x0, (B, system.n))
     lip = None
@@ -506,9 +520,28 @@ def monte_carlo(system: DiscreteUISystem, design: SetValuedDesign, unknown_input
                 label: str = "sound") -> MonteCarloStudy:
     """Containment of Algorithm 1 and, on the same runs, the errors of the point baselines.
 
-    ``baselines=True`` sets them up with :func:`point_baselines`; the EKF's ``Q_d`` is ``q_d``, by default
-    the mean square of ``unknown_input`` over the horizon (pass the bounded signal's to see how a filter
-    tuned for a bounded ``d`` copes with a growing one).
+    Parameters
+    ----------
+    system : DiscreteUISystem
+    design : SetValuedDesign
+        A verified design (its sound radii are used).
+    unknown_input : callable
+        ``t`` ``(K + 1,)`` → ``d`` ``(K + 1, p)``, the same in every run.
+    runs, steps : int
+    seed : int
+        Seed of the initial states and noises (:func:`simulate_batch`).
+    baselines : bool or PointBaselines
+        ``True``: set them up with :func:`point_baselines`; ``False``: Algorithm 1 only.
+    q_d : float, optional
+        The EKF's ``Q_d = q_d I``; by default the mean square of ``unknown_input`` over the horizon (pass
+        the bounded signal's to see how a filter tuned for a bounded ``d`` copes with a growing one).
+    box : (lo, hi), optional
+        Where the baselines' structure is sampled.
+    label : str
+
+    Returns
+    -------
+    MonteCarloStudy
     """
     batch = simulate_batch(system, design, unknown_input, runs=runs, steps=steps, seed=seed)
     res = containment_of(batch, label)

@@ -453,7 +453,21 @@ def load_discrete_ui(path: str | Path) -> DiscreteUISystem:
 
 
 def load_discrete_ui_model(path: str | Path) -> DiscreteUIModel:
-    """:func:`load_discrete_ui` with the file's simulation signals and class-check box."""
+    """:func:`load_discrete_ui` with the file's simulation signals and class-check box.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    DiscreteUIModel
+
+    Raises
+    ------
+    ModelFileError
+        As :func:`load_discrete_ui`.
+    """
     p = Path(path)
     text = _read_text(p)
     return parse_discrete_ui(text, source=str(p))
