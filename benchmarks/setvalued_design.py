@@ -4,8 +4,8 @@ The issue's target: a full design of Example 6.1 (flexible-joint robot, Class II
 least 10× faster than a naive grid that rebuilds the problem per point, at the same objective to 1 %.
 
 * **fast** — :func:`nlobs.synthesis.setvalued.design_setvalued`: the LMI (⋆) compiled once with ``λ`` a
-  ``cp.Parameter``; bisection for the smallest feasible ``λ`` (14 solves), then a golden-section search
-  of ``c(λ)/(1 − λ)`` (14 solves), plus the independent verification. Objective: the certified steady
+  ``cp.Parameter``; bisection for the smallest feasible ``λ`` (to 2 % of ``1 − λ_min``), then a
+  golden-section search of ``c(λ)/(1 − λ)`` (until it agrees to 0.1 %), plus the independent verification. Objective: the certified steady
   radius bound ``√(c / ((1 − λ) λ_min(P)))`` (the ``ρ`` of this design; ``docs/setvalued.md``, Sec. 4).
 * **naive** — a uniform grid ``λ_i = i/(N + 1)``, ``i = 1..N``, over the whole admissible interval
   ``(0, 1)`` (a user who does not know where the optimum lies), the CVXPY problem rebuilt (hence

@@ -403,6 +403,10 @@ def _structure(system: DiscreteUISystem, tr: UITransform) -> StructuralCheck:
                             members=system.function_class.linear_members(), transform=tr)
 
 
+#: The bisection for the smallest feasible ``λ`` stops once its bracket is below this fraction of ``1 − λ_min``.
+LAMBDA_BRACKET = 0.02
+
+
 def design_setvalued(
     system: DiscreteUISystem,
     *,
@@ -412,6 +416,7 @@ def design_setvalued(
     margin: float = 1e-7,
     bisection_steps: int = 14,
     golden_steps: int = 14,
+    rtol: float = 1e-3,
     solver_options: Mapping[str, Any] | None = None,
 ) -> SetValuedDesign:
     r"""Design and certify ``L̃`` for the observer (10)-(15) of seed 004 (sound replacement of Thms. 5.4/5.10).
@@ -432,7 +437,12 @@ def design_setvalued(
     margin : float
         Strictness margin ``ε`` of the LMI (``⪯ −εI``).
     bisection_steps, golden_steps : int
-        Iterations of the two line searches.
+        Most iterations of the two line searches.
+    rtol : float
+        Early stop of the golden section: once the objective at its two inner points agrees to
+        ``rtol`` (relative). The bisection stops once its bracket is below
+        :data:`LAMBDA_BRACKET` of the remaining interval ``[λ_min, 1)`` (a finer ``λ_min`` only
+        moves the start of the golden section).
     solver_options : mapping, optional
 
     Returns
@@ -500,6 +510,8 @@ def design_setvalued(
                     "Class 0 multiplier that describes φ better", constraint="(⋆)")
             lo_l = 0.0
             for _ in range(int(bisection_steps)):
+                if hi_l - lo_l <= LAMBDA_BRACKET * (1.0 - hi_l):
+                    break
                 mid = 0.5 * (lo_l + hi_l)
                 s = at(mid)
                 if s is None:
@@ -520,7 +532,10 @@ def design_setvalued(
             gr = (math.sqrt(5.0) - 1) / 2
             x1, x2 = b - gr * (b - a), a + gr * (b - a)
             for _ in range(int(golden_steps)):
-                if J(x1) <= J(x2):
+                j1, j2 = J(x1), J(x2)
+                if math.isfinite(j1) and math.isfinite(j2) and abs(j1 - j2) <= rtol * min(j1, j2):
+                    break
+                if j1 <= j2:
                     b, x2 = x2, x1
                     x1 = b - gr * (b - a)
                 else:
