@@ -77,3 +77,19 @@ def test_atomic_write_replaces_or_leaves_untouched(tmp_path: Path) -> None:
         atomic_write(target, failing)
     assert target.read_text() == "first"
     assert sorted(p.name for p in target.parent.iterdir()) == ["report.txt"]
+
+
+def test_atomic_write_gives_the_mode_a_plain_open_would(tmp_path: Path) -> None:
+    import os
+
+    old = os.umask(0o022)
+    try:
+        plain, atomic = tmp_path / "plain.txt", tmp_path / "atomic.txt"
+        plain.write_text("x")
+        atomic_write_text(atomic, "x")
+        assert atomic.stat().st_mode & 0o777 == plain.stat().st_mode & 0o777 == 0o644
+        atomic.chmod(0o600)  # an existing file keeps its mode
+        atomic_write_text(atomic, "y")
+        assert atomic.stat().st_mode & 0o777 == 0o600
+    finally:
+        os.umask(old)

@@ -9,13 +9,25 @@ from pathlib import Path
 from typing import IO
 
 
+def _mode_for(target: Path) -> int:
+    """The mode ``open(target, "w")`` would leave: the existing file's, else ``0o666 & ~umask``."""
+    try:
+        return target.stat().st_mode & 0o7777
+    except FileNotFoundError:
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
+
+
 def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
     """Write ``path`` atomically.
 
     ``write`` receives a binary file object opened on a temporary file in the
     same directory; on success the temporary file replaces ``path`` with
     :func:`os.replace` (atomic on POSIX and Windows). On any exception the
-    temporary file is removed and ``path`` is left as it was.
+    temporary file is removed and ``path`` is left as it was. The file gets the
+    permissions a plain ``open(path, "w")`` would give it (an existing file's
+    mode, else ``0o666`` less the umask), not ``mkstemp``'s private ``0o600``.
     """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
@@ -25,6 +37,7 @@ def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
             write(fh)
             fh.flush()
             os.fsync(fh.fileno())
+        os.chmod(tmp, _mode_for(target))
         os.replace(tmp, target)
     except BaseException:
         try:
