@@ -3,7 +3,7 @@
 Implements the LMIs (14) and (15) of Grip, Saberi & Johansen (seed 001) with
 Chilali–Gahinet pole regions, well-posed objectives, and an independent
 re-verification of every answer. See ``docs/synthesis.md``. Seed 004: the sound
-set-valued design (``docs/setvalued.md``), Theorem 5.10 as printed, the discrete
+set-valued design (``docs/setvalued.md``), Theorem 5.10 and Propositions 5.6 and 5.16 as printed, the discrete
 Lipschitz observer gain (``docs/baselines.md``) and the affine abstraction of
 Proposition 2.18 (``docs/affine_abstraction.md``).
 """
@@ -32,7 +32,16 @@ from nlobs.synthesis.setvalued import (
     error_dynamics,
     verify_setvalued,
 )
-from nlobs.synthesis.setvalued_printed import PrintedDesign, design_printed
+from nlobs.synthesis.setvalued_printed import (
+    NecessaryConditionPrinted,
+    PrintedDesign,
+    Prop56Verdict,
+    Prop516Branch,
+    Prop516Design,
+    design_printed,
+    design_prop516,
+    necessary_condition_printed,
+)
 
 __all__ = [
     "AbstractionBound",
@@ -47,10 +56,14 @@ __all__ = [
     "GainBound",
     "HalfPlane",
     "LmiRegion",
+    "NecessaryConditionPrinted",
     "Objective",
     "ObserverGainCertificate",
     "PoleRegion",
     "PrintedDesign",
+    "Prop516Branch",
+    "Prop516Design",
+    "Prop56Verdict",
     "Sector",
     "SetValuedDesign",
     "SetValuedObjective",
@@ -61,9 +74,11 @@ __all__ = [
     "design_discrete_lipschitz_gain",
     "design_observer_gain",
     "design_printed",
+    "design_prop516",
     "design_setvalued",
     "error_dynamics",
     "extended_system",
+    "necessary_condition_printed",
     "verify_discrete_lipschitz_gain",
     "verify_observer_gain",
     "verify_setvalued",

@@ -1,4 +1,4 @@
-r"""Seed 004's Theorems 5.4 and 5.10 **as printed**, for comparison with the paper only.
+r"""Seed 004's Theorems 5.4 and 5.10, Proposition 5.6 and Proposition 5.16 **as printed**, for comparison.
 
 These LMIs are *not* a sound design (``../shared/guide/facts.md``; ``docs/setvalued.md``): a gain they
 accept can give unstable error dynamics. :func:`design_printed` solves the SDP of Theorem 5.10,
@@ -10,6 +10,17 @@ with ``cp.Parameter``. Its answer is *reported* with the exact S-procedure condi
 at the returned ``(P, L̃, κ, α)`` and the spectral radius of ``(I − L̃C₂)Φ(A − Ψ)`` — never used by
 the observer unless the caller decides to.
 
+:func:`design_prop516` adds Proposition 5.16's constraints ``κ₁I ⪯ P ⪯ κ₂I`` and the disjunction
+``(κ₁ ≥ 1, κ₂ − κ₁ < 1) ∨ (κ₂ ≤ 1, κ₁ > 0.5)`` (A.42)-(A.43) to the same builder, solves the two
+branches as two SDPs (each compiled once, same search) and keeps the smaller ``ρ**``; it verifies
+``θ₁ = |λ_max(P) − 1|/λ_min(P) < 1`` (32) from the returned ``P`` alone.
+
+:func:`necessary_condition_printed` is Proposition 5.6's LMI test (23)-(24). What its answer proves
+(proof A.13): a feasible point ``(P̃, Ỹ, Γ̃, η̃)`` shows that the error dynamics with the **one**
+gain ``L̃ = P̃⁻¹Ỹ`` is unstable — ``Ỹ`` is a free variable, so it says nothing about other gains,
+and "no stable observer exists" does not follow (a scalar counterexample is in ``docs/setvalued.md``
+and ``tests/test_setvalued_printed_props.py``). Infeasibility proves nothing.
+
 Transcription notes (each is where the printed text cannot be used literally):
 
 * ``Γ`` in (26)-(27) must be ``(l − p_H) × (l − p_H)`` (it multiplies ``Ω``), not ``n × n``;
@@ -17,7 +28,9 @@ Transcription notes (each is where the printed text cannot be used literally):
 * the block ``Z̆ + M̃₄Ψ`` of (18) is not symmetric for a general ``Z̆``: CVXPY constrains the symmetric
   part, which is what is solved here;
 * the multiplier ``M = [[M11, M12], [M12ᵀ, M22]]`` describes the **whole** ``f`` (as in the paper);
-* ``Q = [0, 0, −√2T₂]`` has a middle block of width ``n_w``.
+* ``Q = [0, 0, −√2T₂]`` has a middle block of width ``n_w``;
+* strict inequalities (``P ≻ 0``, ``N ≻ 0``, ``Π̃ ≻ 0``, ``κ₂ − κ₁ < 1``, ``κ₁ > 0.5``, ``0 < η̃ < 1``)
+  are imposed with explicit margins (arguments ``margin``, ``strict_margin``).
 """
 
 from __future__ import annotations
@@ -25,21 +38,51 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
 
 import cvxpy as cp
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_symmetric
-from nlobs.errors import DesignInfeasible, DimensionError
-from nlobs.linear.transform_ui import ui_transform
+from nlobs._validate import as_matrix, as_square, as_symmetric, positive
+from nlobs.errors import CertificateError, DesignInfeasible, DimensionError, InvalidArgumentError
+from nlobs.linear.transform_ui import UITransform, structural_check, ui_transform
 from nlobs.synthesis.lmi import Solver, as_solver, solve
 from nlobs.systems.discrete_ui import DiscreteUISystem
 
-__all__ = ["PrintedDesign", "design_printed", "exact_condition_a16"]
+__all__ = [
+    "PrintedDesign",
+    "design_printed",
+    "exact_condition_a16",
+    "theta1_printed",
+    "Prop516Branch",
+    "BranchOutcome",
+    "Prop516Design",
+    "design_prop516",
+    "Prop56Verdict",
+    "MemberEvidence",
+    "NecessaryConditionPrinted",
+    "necessary_condition_printed",
+]
 
 Array = NDArray[np.float64]
+
+
+def _ro(a: ArrayLike) -> Array:
+    out = np.array(a, dtype=float)
+    out.setflags(write=False)
+    return out
+
+
+def _sym(X: Any) -> Any:
+    return (X + X.T) / 2
+
+
+def _split_M(M: ArrayLike, n: int) -> tuple[Array, Array, Array, Array]:
+    M_ = as_symmetric("M", M, 2 * n)
+    return M_, M_[:n, :n], M_[:n, n:], M_[n:, n:]
 
 
 @dataclass(frozen=True)
@@ -92,30 +135,48 @@ def exact_condition_a16(M: Array, Phi: Array, Psi: Array, C2: Array, L_tilde: Ar
     return float(np.linalg.eigvalsh(0.5 * (D + D.T))[0])
 
 
-def design_printed(system: DiscreteUISystem, M: ArrayLike, *, alphas: Sequence[float] | None = None,
-                   eps_grid: Sequence[float] = (0.01, 0.1, 1.0, 10.0, 100.0), refine: int = 2,
-                   solver: Solver | str = Solver.CLARABEL, margin: float = 1e-7) -> PrintedDesign:
-    r"""Solve Theorem 5.10's SDP (with (18) of Theorem 5.4) as printed; see the module notes.
+def theta1_printed(P: ArrayLike) -> float:
+    r"""``θ₁ = |λ_max(P) − 1| / λ_min(P)`` of Theorem 5.13, (32), from the eigenvalues of ``P`` alone."""
+    P_ = as_square("P", P)
+    ev = np.linalg.eigvalsh(0.5 * (P_ + P_.T))  # the symmetric part (a printed P* need not be symmetric)
+    if ev[0] <= 0:
+        raise InvalidArgumentError(f"P: must be positive definite, smallest eigenvalue {ev[0]:.3g}")
+    return float(abs(ev[-1] - 1.0) / ev[0])
 
-    Parameters
-    ----------
-    system : DiscreteUISystem
-        Provides ``G, C, H, W``, ``A`` (only for the reported spectral radius) and the noise structure.
-    M : array_like, shape (2n, 2n)
-        The multiplier of **f** (paper's convention), e.g. ``[[−I, 0], [0, L_f² I]]`` for Class I.
-    alphas : sequence of float, optional
-        Values of ``α`` tried (default 0.05, 0.10, …, 0.95).
-    eps_grid : sequence of float
-        Coarse grid for ``ε₁ = ε₂``'s search; then ``refine`` rounds of a 3×3 grid around the best point.
-    """
-    t0 = time.perf_counter()
+
+# --------------------------------------------------------------------------- Theorem 5.10's builder
+
+
+class Prop516Branch(str, Enum):
+    """The two sides of Proposition 5.16's disjunction (A.43), each with ``κ₁I ⪯ P ⪯ κ₂I`` (A.42)."""
+
+    A = "A"
+    """``κ₁ ≥ 1, κ₂ − κ₁ < 1`` (proof A.19, Case A)."""
+    B = "B"
+    """``κ₂ ≤ 1, κ₁ > 0.5`` (proof A.19, Case B)."""
+
+
+@dataclass
+class _Thm510:
+    """Theorem 5.10's SDP (18), (26)-(28), compiled once; ``α, ε₁, ε₂`` are parameters."""
+
+    prob: cp.Problem
+    P: cp.Variable
+    Y: cp.Variable
+    kap: cp.Variable
+    rho2: cp.Variable
+    alpha: cp.Parameter
+    e1: cp.Parameter
+    e2: cp.Parameter
+    einv: cp.Parameter
+    extra: dict[str, cp.Variable] = field(default_factory=dict)
+
+
+def _build_thm510(system: DiscreteUISystem, M11: Array, M12: Array, M22: Array, tr: UITransform, margin: float,
+                  branch: Prop516Branch | None = None, strict_margin: float = 0.0) -> _Thm510:
+    """Build (18), (26)-(28) once; with ``branch``, add (A.42) and that side of (A.43) (Prop. 5.16)."""
     n = system.n
-    M_ = as_symmetric("M", M, 2 * n)
-    M11, M12, M22 = M_[:n, :n], M_[:n, n:], M_[n:, n:]
-    tr = ui_transform(system.G, system.C, system.H, system.D)
     q = tr.C2.shape[0]
-    if q == 0:
-        raise DimensionError("design_printed: no measurement is left for the update (l = p_H)")
     l, nw = system.l, system.n_w
     Phi, Psi, C2 = tr.Phi, tr.Psi, tr.C2
     s2 = math.sqrt(2.0)
@@ -138,9 +199,6 @@ def design_printed(system: DiscreteUISystem, M: ArrayLike, *, alphas: Sequence[f
     e2 = cp.Parameter(pos=True, value=1.0)
     einv = cp.Parameter(nonneg=True, value=2.0)  # 1/ε1 + 1/ε2 (kept affine for DPP)
 
-    def sym(X):  # type: ignore[no-untyped-def]
-        return (X + X.T) / 2
-
     Y1 = (P - Y @ C2) @ Phi
     Y2 = -(P - Y @ C2) @ Phi @ Psi
     Mt1 = -kap * M11 - Qb
@@ -148,15 +206,15 @@ def design_printed(system: DiscreteUISystem, M: ArrayLike, *, alphas: Sequence[f
     Mt3 = -kap * M11
     Mt4 = kap * M12.T
     cons = [P >> margin * I_n, Gt >> 0, Qb >> 0, Gam >> 0]
-    cons += [sym(cp.bmat([[P, Y1], [Y1.T, Mt1]])) >> 0,
-             sym(cp.bmat([[P, Y2], [Y2.T, Mt2]])) >> 0,
-             sym(cp.bmat([[P, Y1], [Y1.T, Mt3]])) >> 0,
-             sym(cp.bmat([[P, Y2], [Y2.T, Zb + Mt4 @ Psi]])) >> 0,
-             sym(cp.bmat([[Gt, Zb], [Zb.T, Psi.T @ Qb @ Psi]])) >> 0]
+    cons += [_sym(cp.bmat([[P, Y1], [Y1.T, Mt1]])) >> 0,
+             _sym(cp.bmat([[P, Y2], [Y2.T, Mt2]])) >> 0,
+             _sym(cp.bmat([[P, Y1], [Y1.T, Mt3]])) >> 0,
+             _sym(cp.bmat([[P, Y2], [Y2.T, Zb + Mt4 @ Psi]])) >> 0,
+             _sym(cp.bmat([[Gt, Zb], [Zb.T, Psi.T @ Qb @ Psi]])) >> 0]
     Pi = cp.bmat([[np.eye(q) - Gam, np.zeros((q, n)), np.zeros((q, q))],
                   [np.zeros((n, q)), P, Y],
                   [np.zeros((q, q)), Y.T, np.eye(q)]])
-    cons.append(sym(Pi) >> 0)
+    cons.append(_sym(Pi) >> 0)
     N11 = (rho2 * np.eye(Nw) + R.T @ Y @ Om + Om.T @ Y.T @ R - R.T @ P @ R - Om.T @ Gam @ Om
            - einv * (Om.T @ Om))
     PR_ = P @ R - Y @ Om - C2.T @ Y.T @ R
@@ -167,40 +225,593 @@ def design_printed(system: DiscreteUISystem, M: ArrayLike, *, alphas: Sequence[f
     N32 = -M12
     N33 = -e2 * (CP.T @ CP) - M11
     N = cp.bmat([[N11, N21.T, N31.T], [N21, N22, N32.T], [N31, N32, N33]])
-    cons.append(sym(N) >> margin * np.eye(Nw + 2 * n))
-    prob = cp.Problem(cp.Minimize(rho2), cons)
-    slv = as_solver(solver)
+    cons.append(_sym(N) >> margin * np.eye(Nw + 2 * n))
+    extra: dict[str, cp.Variable] = {}
+    if branch is not None:
+        k1 = cp.Variable(name="kappa1")
+        k2 = cp.Variable(name="kappa2")
+        extra = {"kappa1": k1, "kappa2": k2}
+        cons += [P >> k1 * I_n, P << k2 * I_n]  # (A.42)
+        if branch is Prop516Branch.A:  # (A.43), Case A: κ₁ ≥ 1, κ₂ − κ₁ < 1
+            cons += [k1 >= 1.0, k2 - k1 <= 1.0 - strict_margin]
+        else:  # Case B: κ₂ ≤ 1, κ₁ > 0.5
+            cons += [k2 <= 1.0, k1 >= 0.5 + strict_margin]
+    return _Thm510(cp.Problem(cp.Minimize(rho2), cons), P, Y, kap, rho2, alpha, e1, e2, einv, extra)
+
+
+@dataclass(frozen=True)
+class _Best:
+    rho2: float
+    alpha: float
+    eps1: float
+    eps2: float
+    P: Array
+    Y: Array
+    kappa: float
+    extra: dict[str, float]
+
+
+def _search(pb: _Thm510, solver: Solver, alphas: Sequence[float], eps_grid: Sequence[float],
+            refine: int) -> tuple[_Best | None, int]:
+    """Coarse ``α × ε`` grid (``ε₁ = ε₂``), then ``refine`` rounds of a 3×3 grid in ``(ε₁, ε₂)``."""
     solves = 0
-    best: tuple[float, float, float, float, Array, Array, float] | None = None
+    best: _Best | None = None
 
-    def run(a: float, x1: float, x2: float) -> float:
+    def run(a: float, x1: float, x2: float) -> None:
         nonlocal solves, best
-        alpha.value, e1.value, e2.value, einv.value = a, x1, x2, 1 / x1 + 1 / x2
+        pb.alpha.value, pb.e1.value, pb.e2.value, pb.einv.value = a, x1, x2, 1 / x1 + 1 / x2
         solves += 1
-        res = solve(prob, slv)
-        if not res.status.has_solution or rho2.value is None:
-            return math.inf
-        val = float(rho2.value)
-        if best is None or val < best[0]:
-            best = (val, a, x1, x2, np.array(P.value), np.array(Y.value), float(kap.value))
-        return val
+        res = solve(pb.prob, solver)
+        if not res.status.has_solution or pb.rho2.value is None:
+            return
+        val = float(pb.rho2.value)
+        if best is None or val < best.rho2:
+            best = _Best(val, a, x1, x2, np.array(pb.P.value), np.array(pb.Y.value), float(pb.kap.value),
+                         {k: float(v.value) for k, v in pb.extra.items()})
 
-    al = list(alphas) if alphas is not None else [0.05 * i for i in range(1, 20)]
-    # coarse: α × ε (ε1 = ε2), then refine ε1, ε2 separately around the best point
-    for a in al:
+    for a in alphas:
         for x in eps_grid:
             run(a, x, x)
     if best is None:
-        raise DesignInfeasible("Theorem 5.10 as printed: (18), (26) infeasible on the whole (α, ε) grid",
-                               constraint="(18), (26)")
+        return None, solves
     for _ in range(int(refine)):
-        _, a, x1, x2, *_ = best
+        b = best
         for f1 in (0.5, 1.0, 2.0):
             for f2 in (0.5, 1.0, 2.0):
-                run(a, x1 * f1, x2 * f2)
-    val, a, x1, x2, Pv, Yv, kv = best
-    Pv = 0.5 * (Pv + Pv.T)
-    L = np.linalg.solve(Pv, Yv)
-    emin = exact_condition_a16(M_, Phi, Psi, C2, L, Pv, kv, a)
-    srad = float(np.max(np.abs(np.linalg.eigvals((np.eye(n) - L @ C2) @ Phi @ (system.A - Psi)))))
-    return PrintedDesign(Pv, Yv, L, math.sqrt(val), a, x1, x2, kv, emin, srad, solves, time.perf_counter() - t0)
+                run(b.alpha, b.eps1 * f1, b.eps2 * f2)
+    return best, solves
+
+
+def _n33_violation(M11: Array, margin: float) -> float | None:
+    """By how much ``N33 = −ε₂ΦᵀC₂ᵀC₂Φ − M11 ⪰ margin·I`` (28) must fail for every ``ε₂ > 0`` (``None``: it need not)."""
+    v = float(np.linalg.eigvalsh(M11)[-1]) + margin
+    return v if v > 0 else None
+
+
+def _infeasible(what: str, constraint: str, M11: Array, margin: float) -> DesignInfeasible:
+    v = _n33_violation(M11, margin)
+    if v is not None:
+        return DesignInfeasible(
+            f"{what}: N33 = -eps2 Phi^T C2^T C2 Phi - M11 >= {margin:g} I (28) fails for every eps2 > 0: "
+            f"lambda_max(M11) + margin = {v:.4g} > 0", constraint="N33 of (26)-(28)", violation=v)
+    return DesignInfeasible(f"{what}: no feasible point on the whole (alpha, eps) grid", constraint=constraint)
+
+
+def _alphas(alphas: Sequence[float] | None) -> list[float]:
+    return list(alphas) if alphas is not None else [0.05 * i for i in range(1, 20)]
+
+
+def _transform_for_printed(system: DiscreteUISystem, who: str) -> UITransform:
+    tr = ui_transform(system.G, system.C, system.H, system.D)
+    if tr.C2.shape[0] == 0:
+        raise DimensionError(f"{who}: no measurement is left for the update (l = p_H)")
+    return tr
+
+
+def _spectral_radius(system: DiscreteUISystem, tr: UITransform, L: Array) -> float:
+    n = system.n
+    return float(np.max(np.abs(np.linalg.eigvals((np.eye(n) - L @ tr.C2) @ tr.Phi @ (system.A - tr.Psi)))))
+
+
+def design_printed(system: DiscreteUISystem, M: ArrayLike, *, alphas: Sequence[float] | None = None,
+                   eps_grid: Sequence[float] = (0.01, 0.1, 1.0, 10.0, 100.0), refine: int = 2,
+                   solver: Solver | str = Solver.CLARABEL, margin: float = 1e-7) -> PrintedDesign:
+    r"""Solve Theorem 5.10's SDP (with (18) of Theorem 5.4) as printed; see the module notes.
+
+    Parameters
+    ----------
+    system : DiscreteUISystem
+        Provides ``G, C, H, W``, ``A`` (only for the reported spectral radius) and the noise structure.
+    M : array_like, shape (2n, 2n)
+        The multiplier of **f** (paper's convention), e.g. ``[[−I, 0], [0, L_f² I]]`` for Class I.
+    alphas : sequence of float, optional
+        Values of ``α`` tried (default 0.05, 0.10, …, 0.95).
+    eps_grid : sequence of float
+        Coarse grid for ``ε₁ = ε₂``'s search; then ``refine`` rounds of a 3×3 grid around the best point.
+    solver : Solver or str
+    margin : float
+        Margin of the strict ``P ≻ 0`` and ``N ≻ 0``.
+
+    Returns
+    -------
+    PrintedDesign
+
+    Raises
+    ------
+    DesignInfeasible
+        When no grid point is feasible.
+    """
+    t0 = time.perf_counter()
+    n = system.n
+    M_, M11, M12, M22 = _split_M(M, n)
+    tr = _transform_for_printed(system, "design_printed")
+    if _n33_violation(M11, margin) is not None:  # no ε₂ can help: fail before the search
+        raise _infeasible("Theorem 5.10 as printed: (18), (26) infeasible", "(18), (26)", M11, margin)
+    pb = _build_thm510(system, M11, M12, M22, tr, margin)
+    best, solves = _search(pb, as_solver(solver), _alphas(alphas), eps_grid, refine)
+    if best is None:
+        raise _infeasible("Theorem 5.10 as printed: (18), (26) infeasible", "(18), (26)", M11, margin)
+    Pv = 0.5 * (best.P + best.P.T)
+    L = np.linalg.solve(Pv, best.Y)
+    emin = exact_condition_a16(M_, tr.Phi, tr.Psi, tr.C2, L, Pv, best.kappa, best.alpha)
+    return PrintedDesign(Pv, best.Y, L, math.sqrt(best.rho2), best.alpha, best.eps1, best.eps2, best.kappa, emin,
+                         _spectral_radius(system, tr, L), solves, time.perf_counter() - t0)
+
+
+# --------------------------------------------------------------------------- Proposition 5.16
+
+
+@dataclass(frozen=True)
+class BranchOutcome:
+    """One side of Proposition 5.16's disjunction, solved as its own SDP.
+
+    Attributes
+    ----------
+    branch : Prop516Branch
+    rho : float or None
+        The smallest ``ρ`` found on the search grid; ``None`` when every grid point was infeasible.
+    solves : int
+    P : ndarray or None
+        The branch's ``P`` at its ``ρ``.
+    theta1 : float or None
+        ``|λ_max(P) − 1|/λ_min(P)`` (32) at that ``P``, recomputed in NumPy.
+    """
+
+    branch: Prop516Branch
+    rho: float | None
+    solves: int
+    P: Array | None = None
+    theta1: float | None = None
+
+
+@dataclass(frozen=True)
+class Prop516Design:
+    r"""Proposition 5.16's mixed-integer SDP as two SDPs, and what its answer really guarantees.
+
+    Attributes
+    ----------
+    rho : float
+        ``ρ**``, the smaller of the two branches' ``ρ`` (not a certified H∞ bound: Theorem 5.10's
+        LMIs are not sufficient).
+    branch : Prop516Branch
+        The branch that gave ``ρ**``.
+    branches : tuple of BranchOutcome
+        Both branches (A first).
+    P, Y, L_tilde : ndarray
+        At ``ρ**``; ``L̃** = P**⁻¹Y**``.
+    alpha, eps1, eps2, kappa, kappa1, kappa2 : float
+        The search point and the solver's ``κ``, ``κ₁``, ``κ₂`` (A.42).
+    lambda_min_P, lambda_max_P : float
+        Eigenvalues of the returned ``P`` (NumPy).
+    theta1 : float
+        ``θ₁ = |λ_max(P) − 1|/λ_min(P)`` (32) recomputed from ``P`` alone: Proposition 5.16's
+        guarantee is ``θ₁ < 1``.
+    theta1_steady : float
+        Theorem 5.13's printed ``δˣ_{∞,1} = ρ√((η_w² + η_v²)/(λ_min(P)(1 − θ₁)))`` (printed, not safe).
+    exact_min_eig : float
+        Minimum eigenvalue of (A.16) (``γ = 0`` part) at ``(P, L̃, κ, α)``; the Lyapunov decrease
+        (17) needs it ``≥ 0``.
+    spectral_radius : float
+        Of ``(I − L̃C₂)Φ(A − Ψ)``.
+    solves : int
+    seconds : float
+    """
+
+    rho: float
+    branch: Prop516Branch
+    branches: tuple[BranchOutcome, ...]
+    P: Array
+    Y: Array
+    L_tilde: Array
+    alpha: float
+    eps1: float
+    eps2: float
+    kappa: float
+    kappa1: float
+    kappa2: float
+    lambda_min_P: float
+    lambda_max_P: float
+    theta1: float
+    theta1_steady: float
+    exact_min_eig: float
+    spectral_radius: float
+    solves: int
+    seconds: float
+
+    def summary(self) -> str:
+        """One line per quantity."""
+        br = ", ".join(f"{b.branch.value}: {'infeasible' if b.rho is None else f'{b.rho:.6g}'}" for b in self.branches)
+        return (f"Prop. 5.16 as printed: rho** = {self.rho:.6g} (branch {self.branch.value}; {br})\n"
+                f"  alpha = {self.alpha:.4g}, eps1 = {self.eps1:.4g}, eps2 = {self.eps2:.4g}, kappa = {self.kappa:.4g}, "
+                f"kappa1 = {self.kappa1:.6g}, kappa2 = {self.kappa2:.6g}\n"
+                f"  eig(P) in [{self.lambda_min_P:.6g}, {self.lambda_max_P:.6g}], theta1 = {self.theta1:.6g} (< 1 "
+                f"required), printed steady radius delta_inf,1 = {self.theta1_steady:.4g}\n"
+                f"  (A.16) min eig = {self.exact_min_eig:.4g} (>= 0 needed), spectral radius = "
+                f"{self.spectral_radius:.4g}")
+
+
+def design_prop516(system: DiscreteUISystem, M: ArrayLike, *, gamma: float = 0.0,
+                   alphas: Sequence[float] | None = None,
+                   eps_grid: Sequence[float] = (0.01, 0.1, 1.0, 10.0, 100.0), refine: int = 2,
+                   solver: Solver | str = Solver.CLARABEL, margin: float = 1e-7,
+                   strict_margin: float = 1e-5) -> Prop516Design:
+    r"""Proposition 5.16 as printed: Theorem 5.10's SDP with ``κ₁I ⪯ P ⪯ κ₂I`` and the disjunction (A.43).
+
+    .. math::
+
+        (\rho^{\star\star})^2 = \min \rho^2 \ \text{s.t. (18), (26) hold},\ \kappa_1 I \preceq P \preceq
+        \kappa_2 I,\ (\kappa_1 \ge 1,\ \kappa_2 - \kappa_1 < 1) \vee (\kappa_2 \le 1,\ \kappa_1 > 0.5).
+
+    The disjunction is split into two SDPs, as the paper suggests: branch A adds
+    ``κ₁ ≥ 1, κ₂ − κ₁ ≤ 1 − strict_margin``, branch B adds ``κ₂ ≤ 1, κ₁ ≥ 0.5 + strict_margin``.
+    Each is built once by Theorem 5.10's builder (the one :func:`design_printed` uses, with
+    ``α, ε₁, ε₂`` as ``cp.Parameter``) and searched on the same grid; the smaller ``ρ`` is kept.
+
+    Verified without the solver at the returned ``P``: ``θ₁ = |λ_max(P) − 1|/λ_min(P) < 1`` (32),
+    which is what the proof A.19 derives from (A.42)-(A.43). Reported, not certified (the LMIs
+    (18), (26) are not sufficient): the exact condition (A.16) and the spectral radius of
+    ``(I − L̃C₂)Φ(A − Ψ)``.
+
+    Parameters
+    ----------
+    system : DiscreteUISystem
+    M : array_like, shape (2n, 2n)
+        The multiplier of **f** (paper's convention).
+    gamma : float
+        ``γ`` of the class; must be ``≥ 0`` (Theorem 5.4: no quadratically stable estimator otherwise).
+    alphas, eps_grid, refine, solver, margin
+        As for :func:`design_printed`.
+    strict_margin : float
+        Margin of the strict ``κ₂ − κ₁ < 1`` and ``κ₁ > 0.5``.
+
+    Returns
+    -------
+    Prop516Design
+
+    Raises
+    ------
+    DesignInfeasible
+        Neither branch is feasible on the grid (``constraint`` names both, ``violation`` is ``None``:
+        no point to measure a margin at).
+    CertificateError
+        The returned ``P`` has ``θ₁ ≥ 1`` (the solver's answer does not meet (A.42)-(A.43)).
+    """
+    t0 = time.perf_counter()
+    if gamma < 0:
+        raise InvalidArgumentError(f"gamma: Theorem 5.4 / Proposition 5.16 need gamma >= 0, got {gamma!r}")
+    sm = positive("strict_margin", strict_margin)
+    n = system.n
+    M_, M11, M12, M22 = _split_M(M, n)
+    tr = _transform_for_printed(system, "design_prop516")
+    what = ("Proposition 5.16 as printed: (18), (26) with kappa1 I <= P <= kappa2 I (A.42) infeasible in both branches "
+            "of (A.43), A (kappa1 >= 1, kappa2 - kappa1 < 1) and B (kappa2 <= 1, kappa1 > 0.5)")
+    where = "(18), (26), (A.42), (A.43) branches A and B"
+    if _n33_violation(M11, margin) is not None:  # no ε₂ can help: fail before the search
+        raise _infeasible(what, where, M11, margin)
+    slv = as_solver(solver)
+    outcomes: list[BranchOutcome] = []
+    bests: list[tuple[_Best, Prop516Branch]] = []
+    solves = 0
+    for br in (Prop516Branch.A, Prop516Branch.B):
+        pb = _build_thm510(system, M11, M12, M22, tr, margin, br, sm)
+        best, k = _search(pb, slv, _alphas(alphas), eps_grid, refine)
+        solves += k
+        if best is None:
+            outcomes.append(BranchOutcome(br, None, k))
+        else:
+            Pb = 0.5 * (best.P + best.P.T)
+            outcomes.append(BranchOutcome(br, math.sqrt(best.rho2), k, _ro(Pb), theta1_printed(Pb)))
+            bests.append((best, br))
+    if not bests:
+        raise _infeasible(what, where, M11, margin)
+    best, br = min(bests, key=lambda t: t[0].rho2)
+    Pv = 0.5 * (best.P + best.P.T)
+    ev = np.linalg.eigvalsh(Pv)
+    th1 = float(abs(ev[-1] - 1.0) / ev[0])
+    if not th1 < 1.0:
+        raise CertificateError(
+            f"Proposition 5.16: theta1 = |lambda_max(P) - 1|/lambda_min(P) = {th1:.6g} >= 1 at the returned P "
+            f"(branch {br.value}, eig(P) in [{ev[0]:.6g}, {ev[-1]:.6g}]): the solver's answer misses (A.42)-(A.43) "
+            f"by {th1 - 1.0:.3g}")
+    L = np.linalg.solve(Pv, best.Y)
+    emin = exact_condition_a16(M_, tr.Phi, tr.Psi, tr.C2, L, Pv, best.kappa, best.alpha)
+    rho = math.sqrt(best.rho2)
+    steady = rho * math.sqrt((system.eta_w**2 + system.eta_v**2) / (ev[0] * (1.0 - th1)))
+    return Prop516Design(rho, br, tuple(outcomes), _ro(Pv), _ro(best.Y), _ro(L), best.alpha, best.eps1, best.eps2,
+                         best.kappa, best.extra["kappa1"], best.extra["kappa2"], float(ev[0]), float(ev[-1]), th1,
+                         steady, emin, _spectral_radius(system, tr, L), solves, time.perf_counter() - t0)
+
+
+# --------------------------------------------------------------------------- Proposition 5.6
+
+
+class Prop56Verdict(str, Enum):
+    """What an answer of Proposition 5.6's LMI test proves (proof A.13)."""
+
+    GAIN_UNSTABLE = "gain_unstable"
+    """(23) feasible: the error dynamics with the gain ``L̃ = P̃⁻¹Ỹ`` is unstable (``ΔṼ > δ_f ≥ 0``).
+    Nothing follows for any other gain: it does **not** show that no stable observer exists."""
+    INCONCLUSIVE = "inconclusive"
+    """(23) infeasible: a necessary condition for stability is not violated; this proves nothing."""
+
+
+@dataclass(frozen=True)
+class MemberEvidence:
+    r"""A linear member ``f(x) = Kx`` of the class (``[K; I]ᵀM[K; I] ⪰ 0``, so it satisfies (2) with ``γ = 0``).
+
+    Attributes
+    ----------
+    name : str
+        ``"A"`` (the system's linear part), ``"0"`` or the caller's name.
+    K : ndarray, shape (n, n)
+    spectral_radius, min_modulus : float
+        Largest and smallest ``|λ|`` of ``(I − L̃C₂)Φ(K − Ψ)`` at the test's gain (``nan`` without one).
+        If ``ΔṼ > δ_f`` holds, every eigenvalue has ``|λ| > 1`` (``EᵀP̃E ≻ P̃``), so ``min_modulus > 1``.
+    stabilisable : bool
+        Whether **some** gain makes this member's error dynamics Schur: ``(Φ(K − Ψ), C₂)`` has no
+        unobservable mode with ``|λ| ≥ 1`` (:func:`~nlobs.linear.transform_ui.structural_check`).
+    undetectable_modes : tuple of complex
+        Those modes (empty when ``stabilisable``).
+    """
+
+    name: str
+    K: Array
+    spectral_radius: float
+    min_modulus: float
+    stabilisable: bool
+    undetectable_modes: tuple[complex, ...]
+
+
+@dataclass(frozen=True)
+class NecessaryConditionPrinted:
+    r"""Proposition 5.6's LMI test (23)-(24) as printed, its verdict and the evidence.
+
+    Attributes
+    ----------
+    verdict : Prop56Verdict
+    feasible : bool
+        The solver found ``Π̃ ⪰ tI`` with ``t ≥ margin`` and the NumPy recheck confirms ``Π̃ ≻ 0``.
+    gain_given : bool
+        ``True`` when ``Ỹ = P̃L̃`` was imposed for a given ``L̃`` (the reading the proof supports).
+    status : str
+        The solver's status.
+    margin : float
+        ``t*``, the largest ``t`` (capped at 1) with ``Π̃ ⪰ tI`` found by the solver (``nan`` if none).
+    P, Y, Gamma : ndarray or None
+        ``P̃``, ``Ỹ``, ``Γ̃`` at the solver's point.
+    eta : float or None
+        ``η̃``.
+    L_tilde : ndarray or None
+        ``P̃⁻¹Ỹ`` (or the given gain).
+    pi_tilde_min_eig, pi_hat_min_eig : float or None
+        Minimum eigenvalues of ``Π̃`` (24) and ``Π̂`` (23), recomputed in NumPy.
+    exact_min_eig : float or None
+        Minimum eigenvalue of the exact form ``ΔṼ − δ_f`` (A.23), (A.28),
+        ``[[B̆ᵀP̃B̆, B̆ᵀP̃Ă], [ĂᵀP̃B̆, ĂᵀP̃Ă − P̃]] − M`` with ``B̆ = (I − L̃C₂)Φ``, ``Ă = −B̆Ψ``; ``> 0``
+        certifies the instability of that gain (``Π̃`` is a lower bound of it).
+    members : tuple of MemberEvidence
+    seconds : float
+    """
+
+    verdict: Prop56Verdict
+    feasible: bool
+    gain_given: bool
+    status: str
+    margin: float
+    P: Array | None
+    Y: Array | None
+    Gamma: Array | None
+    eta: float | None
+    L_tilde: Array | None
+    pi_tilde_min_eig: float | None
+    pi_hat_min_eig: float | None
+    exact_min_eig: float | None
+    members: tuple[MemberEvidence, ...]
+    seconds: float
+
+    def evidence(self) -> str:
+        """The numbers behind the verdict, and what they prove."""
+        lines = [f"Proposition 5.6 (23)-(24) as printed, {'Y~ = P~ L~ for the given gain' if self.gain_given else 'Y~ free'}: "
+                 f"{'feasible' if self.feasible else 'infeasible'} (solver {self.status}, t* = {self.margin:.4g})"]
+        if self.L_tilde is not None:
+            lines.append(f"  L~ = {np.round(self.L_tilde.ravel(), 6).tolist()}")
+        if self.feasible:
+            lines.append(f"  eta~ = {self.eta:.4g}, min eig Pi~ = {self.pi_tilde_min_eig:.4g}, min eig Pi^ = "
+                         f"{self.pi_hat_min_eig:.4g}, min eig (DeltaV~ - delta_f) = {self.exact_min_eig:.4g}")
+            lines.append("  proves: the error dynamics with THIS gain is unstable (A.13); nothing about other gains")
+        else:
+            lines.append("  proves: nothing (a necessary condition for stability is not violated)")
+        for m in self.members:
+            modes = ", ".join(f"{z:.6g}" for z in m.undetectable_modes) or "none"
+            lines.append(f"  member K = {m.name}: |eig| of (I - L~C2)Phi(K - Psi) in [{m.min_modulus:.4g}, "
+                         f"{m.spectral_radius:.4g}]; some gain stabilises it: {m.stabilisable} "
+                         f"(undetectable modes |lambda| >= 1: {modes})")
+        return "\n".join(lines)
+
+
+def _members(system: DiscreteUISystem, M11: Array, M12: Array, M22: Array, gamma: float,
+             members: Sequence[tuple[str, ArrayLike]] | None) -> list[tuple[str, Array]]:
+    n = system.n
+
+    def qc(K: Array) -> float:
+        Q = K.T @ M11 @ K + K.T @ M12 + M12.T @ K + M22
+        return float(np.linalg.eigvalsh(0.5 * (Q + Q.T))[0])
+
+    scale = max(1.0, float(np.max(np.abs(np.block([[M11, M12], [M12.T, M22]])))))
+    if members is None:
+        if gamma > 0:  # σ(Kζ, ζ) = 0 < γ at ζ = 0: no linear map is in the class
+            return []
+        cands = [("A", np.asarray(system.A, dtype=float)), ("0", np.zeros((n, n)))]
+        return [(nm, K) for nm, K in cands if qc(K) >= -1e-9 * scale * max(1.0, float(np.linalg.norm(K, 2)) ** 2)]
+    out = []
+    for i, (nm, K) in enumerate(members):
+        K_ = as_matrix(f"members[{i}]", K, (n, n))
+        v = qc(K_)
+        if gamma > 0 or v < -1e-9 * scale * max(1.0, float(np.linalg.norm(K_, 2)) ** 2):
+            raise InvalidArgumentError(
+                f"members[{i}] ({nm!r}): f(x) = K x is not in the class: min eig of [K; I]^T M [K; I] = {v:.3g} "
+                f"(gamma = {gamma:g})")
+        out.append((str(nm), K_))
+    return out
+
+
+def _pi_tilde(P: Any, Y: Any, eta: Any, M11: Array, M12: Array, M22: Array, tr: UITransform) -> Any:
+    """``Π̃`` of (23)-(24) for CVXPY expressions or NumPy arrays (same code: what is verified is what is solved)."""
+    Phi, Psi, C2 = tr.Phi, tr.Psi, tr.C2
+    n, q = Phi.shape[0], C2.shape[0]
+    cvx = isinstance(P, cp.Expression)
+    blk = cp.bmat if cvx else np.block
+    St = P - C2.T @ Y.T - Y @ C2
+    Sh = St - (1 - eta) * (C2.T @ C2)
+    P11 = Phi.T @ Sh @ Phi - M11
+    P12 = -Phi.T @ St @ Phi @ Psi - M12
+    P22 = Psi.T @ Phi.T @ Sh @ Phi @ Psi - P - M22
+    return _sym(blk([[P11, P12], [P12.T, P22]]))
+
+
+def necessary_condition_printed(system: DiscreteUISystem, M: ArrayLike, *, gamma: float = 0.0,
+                                gain: ArrayLike | None = None,
+                                members: Sequence[tuple[str, ArrayLike]] | None = None,
+                                solver: Solver | str = Solver.CLARABEL, margin: float = 1e-6) -> NecessaryConditionPrinted:
+    r"""Proposition 5.6's LMI test as printed: is there ``(P̃ ≻ 0, Ỹ, Γ̃ ≻ 0, 0 < η̃ < 1)`` with (23)?
+
+    .. math::
+
+        \hat\Pi = \begin{bmatrix} I - \tilde\Gamma & 0 & 0 \\ 0 & \tilde\Gamma & \tilde Y^\top \\
+        0 & \tilde Y & \tilde P \end{bmatrix} \succeq 0, \quad
+        \tilde\Pi = \begin{bmatrix} \tilde\Pi_{11} & \tilde\Pi_{12} \\ \tilde\Pi_{12}^\top & \tilde\Pi_{22}
+        \end{bmatrix} \succ 0 \quad (23)
+
+    with ``S̃ = P̃ − C₂ᵀỸᵀ − ỸC₂`` and (24): ``Π̃₁₁ = Φᵀ(S̃ − (1 − η̃)C₂ᵀC₂)Φ − M11``,
+    ``Π̃₁₂ = −ΦᵀS̃ΦΨ − M12``, ``Π̃₂₂ = ΨᵀΦᵀ(S̃ − (1 − η̃)C₂ᵀC₂)ΦΨ − P̃ − M22``.
+
+    Strictness: ``P̃ ⪰ margin·I``, ``Γ̃ ⪰ margin·I``, ``margin ≤ η̃ ≤ 1 − margin``, and the solver
+    maximises ``t ≤ 1`` with ``Π̃ ⪰ tI``; (23) counts as feasible when ``t* ≥ margin`` and the NumPy
+    recheck gives ``Π̃ ≻ 0``.
+
+    What the answer proves (proof A.13, checked in ``docs/setvalued.md``): with ``L̃ = P̃⁻¹Ỹ``,
+    ``ΔṼ ≥ ΔV̂ > δ_f ≥ γ ≥ 0`` for every admissible ``(Δf, x̃ ≠ 0)``, so the error dynamics **with that
+    gain** is unstable. ``Ỹ`` is a free variable of (23), so a feasible point says nothing about other
+    gains: it does not show that no stable observer exists (the paper's reading). Pass ``gain`` to
+    impose ``Ỹ = P̃L̃`` — the test of one given gain that the proof supports. Infeasibility proves
+    nothing in either case.
+
+    Parameters
+    ----------
+    system : DiscreteUISystem
+        Provides ``G, C, H`` (and ``A`` for the default linear members).
+    M : array_like, shape (2n, 2n)
+        The multiplier of **f** (paper's convention, ``Δf`` block first).
+    gamma : float
+        ``γ ≥ 0`` of the class (the proof uses ``δ_f ≥ γ ≥ 0``).
+    gain : array_like, shape (n, l − p_H), optional
+        Test this ``L̃`` (``Ỹ = P̃L̃``) instead of leaving ``Ỹ`` free.
+    members : sequence of (str, array_like), optional
+        Linear maps ``f(x) = Kx`` in the class, reported as evidence (default: those of ``A`` and ``0``
+        that satisfy ``[K; I]ᵀM[K; I] ⪰ 0``).
+    solver : Solver or str
+    margin : float
+        Margin of the strict inequalities.
+
+    Returns
+    -------
+    NecessaryConditionPrinted
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``gamma < 0``, or a given member is not in the class.
+    CertificateError
+        The solver reports ``t* ≥ margin`` but the recomputed ``ΔṼ − δ_f`` is not positive definite.
+    """
+    t0 = time.perf_counter()
+    if gamma < 0:
+        raise InvalidArgumentError(f"gamma: Proposition 5.6 needs gamma >= 0 (proof A.13 uses delta_f >= gamma >= 0), "
+                                   f"got {gamma!r}")
+    mg = positive("margin", margin)
+    n = system.n
+    M_, M11, M12, M22 = _split_M(M, n)
+    tr = _transform_for_printed(system, "necessary_condition_printed")
+    q = tr.C2.shape[0]
+    Lg = None if gain is None else as_matrix("gain", np.asarray(gain, dtype=float).reshape(n, -1), (n, q))
+    mem = _members(system, M11, M12, M22, gamma, members)
+
+    P = cp.Variable((n, n), symmetric=True)
+    Gam = cp.Variable((q, q), symmetric=True)
+    eta = cp.Variable()
+    t = cp.Variable()
+    Y = P @ Lg if Lg is not None else cp.Variable((n, q))
+
+    def pihat(Pv: Any, Yv: Any, Gv: Any) -> Any:
+        blk = cp.bmat if isinstance(Pv, cp.Expression) else np.block
+        return _sym(blk([[np.eye(q) - Gv, np.zeros((q, q)), np.zeros((q, n))],
+                         [np.zeros((q, q)), Gv, Yv.T],
+                         [np.zeros((n, q)), Yv, Pv]]))
+
+    Pit = _pi_tilde(P, Y, eta, M11, M12, M22, tr)
+    cons = [P >> mg * np.eye(n), Gam >> mg * np.eye(q), eta >= mg, eta <= 1 - mg, t <= 1.0,
+            pihat(P, Y, Gam) >> 0, Pit >> t * np.eye(2 * n)]
+    prob = cp.Problem(cp.Maximize(t), cons)
+    res = solve(prob, as_solver(solver))
+    ok = res.status.has_solution and t.value is not None and float(t.value) >= mg
+    tv = float(t.value) if (res.status.has_solution and t.value is not None) else math.nan
+    Pv = Yv = Gv = Lv = None
+    ev = pit_min = pih_min = ex_min = None
+    if res.status.has_solution and P.value is not None:
+        Pv = 0.5 * (np.array(P.value) + np.array(P.value).T)
+        Yv = np.array(Y.value).reshape(n, q)
+        Gv = 0.5 * (np.array(Gam.value) + np.array(Gam.value).T)
+        ev = float(eta.value)
+        Lv = Lg if Lg is not None else np.linalg.solve(Pv, Yv)
+        Pit_np = _pi_tilde(Pv, Yv, ev, M11, M12, M22, tr)
+        pit_min = float(np.linalg.eigvalsh(Pit_np)[0])
+        pih_min = float(np.linalg.eigvalsh(pihat(Pv, Yv, Gv))[0])
+        Bb = (np.eye(n) - Lv @ tr.C2) @ tr.Phi
+        Ab = -Bb @ tr.Psi
+        E = np.block([[Bb.T @ Pv @ Bb, Bb.T @ Pv @ Ab], [Ab.T @ Pv @ Bb, Ab.T @ Pv @ Ab - Pv]]) - M_
+        ex_min = float(np.linalg.eigvalsh(_sym(E))[0])
+    feasible = bool(ok and pit_min is not None and pit_min > 0)
+    if feasible and not (ex_min is not None and ex_min > 0):
+        raise CertificateError(
+            f"Proposition 5.6: the solver's point has t* = {tv:.3g} but DeltaV~ - delta_f has min eig {ex_min:.3g} <= 0")
+    if Lg is not None:
+        Lv = Lg
+    evid = []
+    for nm, K in mem:
+        chk = structural_check(np.zeros((n, n)), system.G, system.C, system.H, members=(K,), transform=tr)
+        bad = tuple(complex(z) for z in chk.unstable_error_modes[0])
+        if Lv is not None and (feasible or Lg is not None):
+            eig = np.abs(np.linalg.eigvals((np.eye(n) - Lv @ tr.C2) @ tr.Phi @ (K - tr.Psi)))
+            sr, mm = float(eig.max()), float(eig.min())
+        else:
+            sr = mm = math.nan
+        evid.append(MemberEvidence(nm, _ro(K), sr, mm, not bad, bad))
+    if not feasible:  # an infeasible test has no meaningful point: keep only a given gain
+        Pv = Yv = Gv = None
+        ev = pit_min = pih_min = ex_min = None
+    verdict = Prop56Verdict.GAIN_UNSTABLE if feasible else Prop56Verdict.INCONCLUSIVE
+    return NecessaryConditionPrinted(
+        verdict, feasible, Lg is not None, res.raw_status, tv,
+        None if Pv is None else _ro(Pv), None if Yv is None else _ro(Yv), None if Gv is None else _ro(Gv), ev,
+        None if Lv is None or not (feasible or Lg is not None) else _ro(Lv), pit_min, pih_min, ex_min, tuple(evid),
+        time.perf_counter() - t0)
