@@ -173,8 +173,12 @@ class _Thm510:
 
 
 def _build_thm510(system: DiscreteUISystem, M11: Array, M12: Array, M22: Array, tr: UITransform, margin: float,
-                  branch: Prop516Branch | None = None, strict_margin: float = 0.0) -> _Thm510:
-    """Build (18), (26)-(28) once; with ``branch``, add (A.42) and that side of (A.43) (Prop. 5.16)."""
+                  branch: Prop516Branch | None = None, strict_margin: float = 0.0, relax: bool = False) -> _Thm510:
+    """Build (18), (26)-(28) once; with ``branch``, add (A.42) and that side of (A.43) (Prop. 5.16).
+
+    ``relax=True`` builds the diagnostic problem instead: ``N + sI ⪰ margin·I``, minimise ``s`` (the
+    shortfall of (26)-(28) when everything else holds), kept in ``extra["shortfall"]``.
+    """
     n = system.n
     q = tr.C2.shape[0]
     l, nw = system.l, system.n_w
@@ -225,18 +229,24 @@ def _build_thm510(system: DiscreteUISystem, M11: Array, M12: Array, M22: Array, 
     N32 = -M12
     N33 = -e2 * (CP.T @ CP) - M11
     N = cp.bmat([[N11, N21.T, N31.T], [N21, N22, N32.T], [N31, N32, N33]])
-    cons.append(_sym(N) >> margin * np.eye(Nw + 2 * n))
     extra: dict[str, cp.Variable] = {}
+    if relax:
+        sh = cp.Variable(name="shortfall")
+        extra["shortfall"] = sh
+        cons.append(_sym(N) + sh * np.eye(Nw + 2 * n) >> margin * np.eye(Nw + 2 * n))
+    else:
+        cons.append(_sym(N) >> margin * np.eye(Nw + 2 * n))
     if branch is not None:
         k1 = cp.Variable(name="kappa1")
         k2 = cp.Variable(name="kappa2")
-        extra = {"kappa1": k1, "kappa2": k2}
+        extra.update(kappa1=k1, kappa2=k2)
         cons += [P >> k1 * I_n, P << k2 * I_n]  # (A.42)
         if branch is Prop516Branch.A:  # (A.43), Case A: κ₁ ≥ 1, κ₂ − κ₁ < 1
             cons += [k1 >= 1.0, k2 - k1 <= 1.0 - strict_margin]
         else:  # Case B: κ₂ ≤ 1, κ₁ > 0.5
             cons += [k2 <= 1.0, k1 >= 0.5 + strict_margin]
-    return _Thm510(cp.Problem(cp.Minimize(rho2), cons), P, Y, kap, rho2, alpha, e1, e2, einv, extra)
+    obj = cp.Minimize(extra["shortfall"]) if relax else cp.Minimize(rho2)
+    return _Thm510(cp.Problem(obj, cons), P, Y, kap, rho2, alpha, e1, e2, einv, extra)
 
 
 @dataclass(frozen=True)
@@ -288,13 +298,43 @@ def _n33_violation(M11: Array, margin: float) -> float | None:
     return v if v > 0 else None
 
 
-def _infeasible(what: str, constraint: str, M11: Array, margin: float) -> DesignInfeasible:
-    v = _n33_violation(M11, margin)
-    if v is not None:
+def _n33_error(what: str, violation: float, margin: float) -> DesignInfeasible:
+    return DesignInfeasible(
+        f"{what}: N33 = -eps2 Phi^T C2^T C2 Phi - M11 >= {margin:g} I (28) fails for every eps2 > 0: "
+        f"lambda_max(M11) + margin = {violation:.4g} > 0", constraint="N33 of (26)-(28)", violation=violation)
+
+
+_DIAG_ALPHAS = (0.5, 0.95)
+
+
+def _diagnosed(what: str, system: DiscreteUISystem, M11: Array, M12: Array, M22: Array, tr: UITransform,
+               margin: float, branches: Sequence[Prop516Branch | None], strict_margin: float,
+               eps_grid: Sequence[float], solver: Solver) -> DesignInfeasible:
+    """The error for a grid with no feasible point, with the smallest shortfall of ``N ⪰ margin·I`` found.
+
+    Relaxes (26)-(28) to ``N + sI ⪰ margin·I`` and minimises ``s`` (with (18), ``Π ⪰ 0`` and the
+    branch's constraints kept) at ``α ∈ {0.5, 0.95}`` and the ``ε`` grid: ``violation`` is the smallest
+    ``s`` found (a shortfall measured on those points, not a bound over all ``α, ε``); when the relaxed
+    problem is infeasible too, (18) with ``Π ⪰ 0`` (and the branch) is what fails.
+    """
+    best = math.inf
+    for br in branches:
+        pb = _build_thm510(system, M11, M12, M22, tr, margin, br, strict_margin, relax=True)
+        sh = pb.extra["shortfall"]
+        for a in _DIAG_ALPHAS:
+            for x in eps_grid:
+                pb.alpha.value, pb.e1.value, pb.e2.value, pb.einv.value = a, x, x, 2 / x
+                res = solve(pb.prob, solver)
+                if res.status.has_solution and sh.value is not None:
+                    best = min(best, float(sh.value))
+    if math.isfinite(best):
         return DesignInfeasible(
-            f"{what}: N33 = -eps2 Phi^T C2^T C2 Phi - M11 >= {margin:g} I (28) fails for every eps2 > 0: "
-            f"lambda_max(M11) + margin = {v:.4g} > 0", constraint="N33 of (26)-(28)", violation=v)
-    return DesignInfeasible(f"{what}: no feasible point on the whole (alpha, eps) grid", constraint=constraint)
+            f"{what}: no feasible point on the whole (alpha, eps) grid; with (18) kept, N >= {margin:g} I of "
+            f"(26)-(28) fails by at least {best:.4g} (smallest shortfall at alpha in {_DIAG_ALPHAS}, eps in "
+            f"{tuple(eps_grid)})", constraint="N of (26)-(28)", violation=best)
+    extra = "" if all(b is None for b in branches) else " and (A.42)-(A.43) of each branch"
+    return DesignInfeasible(f"{what}: (18) with Pi >= 0 of (26){extra} is infeasible by itself at alpha in "
+                            f"{_DIAG_ALPHAS}", constraint=f"(18), Pi of (26){extra}")
 
 
 def _alphas(alphas: Sequence[float] | None) -> list[float]:
@@ -345,12 +385,15 @@ def design_printed(system: DiscreteUISystem, M: ArrayLike, *, alphas: Sequence[f
     n = system.n
     M_, M11, M12, M22 = _split_M(M, n)
     tr = _transform_for_printed(system, "design_printed")
-    if _n33_violation(M11, margin) is not None:  # no ε₂ can help: fail before the search
-        raise _infeasible("Theorem 5.10 as printed: (18), (26) infeasible", "(18), (26)", M11, margin)
+    v33 = _n33_violation(M11, margin)
+    if v33 is not None:  # no ε₂ can help: fail before the search
+        raise _n33_error("Theorem 5.10 as printed: (18), (26) infeasible", v33, margin)
     pb = _build_thm510(system, M11, M12, M22, tr, margin)
-    best, solves = _search(pb, as_solver(solver), _alphas(alphas), eps_grid, refine)
+    slv = as_solver(solver)
+    best, solves = _search(pb, slv, _alphas(alphas), eps_grid, refine)
     if best is None:
-        raise _infeasible("Theorem 5.10 as printed: (18), (26) infeasible", "(18), (26)", M11, margin)
+        raise _diagnosed("Theorem 5.10 as printed: (18), (26) infeasible", system, M11, M12, M22, tr, margin,
+                         (None,), 0.0, eps_grid, slv)
     Pv = 0.5 * (best.P + best.P.T)
     L = np.linalg.solve(Pv, best.Y)
     emin = exact_condition_a16(M_, tr.Phi, tr.Psi, tr.C2, L, Pv, best.kappa, best.alpha)
@@ -505,9 +548,9 @@ def design_prop516(system: DiscreteUISystem, M: ArrayLike, *, gamma: float = 0.0
     tr = _transform_for_printed(system, "design_prop516")
     what = ("Proposition 5.16 as printed: (18), (26) with kappa1 I <= P <= kappa2 I (A.42) infeasible in both branches "
             "of (A.43), A (kappa1 >= 1, kappa2 - kappa1 < 1) and B (kappa2 <= 1, kappa1 > 0.5)")
-    where = "(18), (26), (A.42), (A.43) branches A and B"
-    if _n33_violation(M11, margin) is not None:  # no ε₂ can help: fail before the search
-        raise _infeasible(what, where, M11, margin)
+    v33 = _n33_violation(M11, margin)
+    if v33 is not None:  # no ε₂ can help: fail before the search
+        raise _n33_error(what, v33, margin)
     slv = as_solver(solver)
     outcomes: list[BranchOutcome] = []
     bests: list[tuple[_Best, Prop516Branch]] = []
@@ -523,7 +566,8 @@ def design_prop516(system: DiscreteUISystem, M: ArrayLike, *, gamma: float = 0.0
             outcomes.append(BranchOutcome(br, math.sqrt(best.rho2), k, _ro(Pb), theta1_printed(Pb)))
             bests.append((best, br))
     if not bests:
-        raise _infeasible(what, where, M11, margin)
+        raise _diagnosed(what, system, M11, M12, M22, tr, margin, (Prop516Branch.A, Prop516Branch.B), sm,
+                         eps_grid, slv)
     best, br = min(bests, key=lambda t: t[0].rho2)
     Pv = 0.5 * (best.P + best.P.T)
     ev = np.linalg.eigvalsh(Pv)
