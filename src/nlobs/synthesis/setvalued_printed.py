@@ -330,7 +330,7 @@ def _diagnosed(what: str, system: DiscreteUISystem, M11: Array, M12: Array, M22:
     if math.isfinite(best):
         return DesignInfeasible(
             f"{what}: no feasible point on the whole (alpha, eps) grid; with (18) kept, N >= {margin:g} I of "
-            f"(26)-(28) fails by at least {best:.4g} (smallest shortfall at alpha in {_DIAG_ALPHAS}, eps in "
+            f"(26)-(28) falls short: the smallest shortfall found is {best:.4g} (alpha in {_DIAG_ALPHAS}, eps in "
             f"{tuple(eps_grid)})", constraint="N of (26)-(28)", violation=best)
     extra = "" if all(b is None for b in branches) else " and (A.42)-(A.43) of each branch"
     return DesignInfeasible(f"{what}: (18) with Pi >= 0 of (26){extra} is infeasible by itself at alpha in "
