@@ -37,3 +37,19 @@ def test_printed_class_I_is_infeasible(case: str) -> None:
         s, M = example_62().system, _lipschitz_M(1.1171, 2)
     with pytest.raises(DesignInfeasible, match="as printed"):
         design_printed(s, M, alphas=[0.5, 0.9], eps_grid=(0.1, 1.0), refine=0)
+
+
+def test_alpha_line_search_is_no_worse_than_the_alpha_grid_and_solves_at_its_point() -> None:
+    # A second algorithm: the α grid 0.05, …, 0.95 on the same problem. The line search (bisection +
+    # golden section over α ∈ [0, 1], Theorem 5.4's range) must reach a ρ at least as small, with fewer
+    # solves than the grid's 19 α values × 5 ε would cost, and its point must be feasible when re-solved alone.
+    ex = example_61("II")
+    A = ex.system.A
+    M = np.block([[-np.eye(4), A], [A.T, -A.T @ A]])
+    line = design_printed(ex.system, M, refine=0)
+    grid = design_printed(ex.system, M, alphas=[0.05 * i for i in range(1, 20)], refine=0)
+    assert 0.0 <= line.alpha <= 1.0
+    assert line.rho <= grid.rho * (1 + 1e-6)
+    assert line.solves < 19 * 5
+    alone = design_printed(ex.system, M, alphas=[line.alpha], eps_grid=(line.eps1,), refine=0)
+    assert alone.rho == pytest.approx(line.rho, rel=1e-5)

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any
@@ -261,27 +261,51 @@ class _Best:
     extra: dict[str, float]
 
 
-def _search(pb: _Thm510, solver: Solver, alphas: Sequence[float], eps_grid: Sequence[float],
+def _search(pb: _Thm510, solver: Solver, alphas: Sequence[float] | None, eps_grid: Sequence[float],
             refine: int) -> tuple[_Best | None, int]:
-    """Coarse ``α × ε`` grid (``ε₁ = ε₂``), then ``refine`` rounds of a 3×3 grid in ``(ε₁, ε₂)``."""
+    """Search ``α`` and ``ε₁, ε₂`` on the problem compiled once.
+
+    ``alphas`` given: those ``α`` on the coarse ``ε`` grid (``ε₁ = ε₂``). ``alphas`` ``None``: the line
+    search of :func:`_alpha_line_search` (bisection for the smallest feasible ``α``, golden section of
+    ``ρ*(α)``). At each ``α``, once a feasible ``ε`` is known only it and its two neighbours on the coarse
+    grid are solved (the whole grid again if none of them is feasible). Then ``refine`` rounds of a 3×3 grid in ``(ε₁, ε₂)`` around the
+    best point (coarse to fine).
+    """
     solves = 0
     best: _Best | None = None
 
-    def run(a: float, x1: float, x2: float) -> None:
+    def run(a: float, x1: float, x2: float) -> float:
         nonlocal solves, best
         pb.alpha.value, pb.e1.value, pb.e2.value, pb.einv.value = a, x1, x2, 1 / x1 + 1 / x2
         solves += 1
         res = solve(pb.prob, solver)
         if not res.status.has_solution or pb.rho2.value is None:
-            return
+            return math.inf
         val = float(pb.rho2.value)
         if best is None or val < best.rho2:
             best = _Best(val, a, x1, x2, np.array(pb.P.value), np.array(pb.Y.value), float(pb.kap.value),
                          {k: float(v.value) for k, v in pb.extra.items()})
+        return val
 
-    for a in alphas:
-        for x in eps_grid:
-            run(a, x, x)
+    eps = list(eps_grid)
+    near: list[float] = []  # coarse to fine across α: once a feasible ε is known, only it and its grid neighbours
+
+    def at_alpha(a: float) -> float:
+        nonlocal near
+        tried = near or eps
+        vals = [run(a, x, x) for x in tried]
+        if not math.isfinite(min(vals)) and near:  # the neighbours lost feasibility: the whole grid again
+            vals, tried = [run(a, x, x) for x in eps], eps
+        if math.isfinite(min(vals)):
+            i = eps.index(tried[int(np.argmin(vals))])
+            near = eps[max(i - 1, 0): i + 2]
+        return min(vals)
+
+    if alphas is None:
+        _alpha_line_search(at_alpha)
+    else:
+        for a in alphas:
+            at_alpha(a)
     if best is None:
         return None, solves
     for _ in range(int(refine)):
@@ -290,6 +314,52 @@ def _search(pb: _Thm510, solver: Solver, alphas: Sequence[float], eps_grid: Sequ
             for f2 in (0.5, 1.0, 2.0):
                 run(b.alpha, b.eps1 * f1, b.eps2 * f2)
     return best, solves
+
+
+#: Line search of ``α ∈ [0, 1]`` (Theorem 5.4): bisection steps for the smallest feasible ``α``, most
+#: golden-section steps for ``ρ*(α)``, and the relative agreement that ends the golden section early.
+ALPHA_BISECTION_STEPS = 6
+ALPHA_GOLDEN_STEPS = 10
+ALPHA_RTOL = 1e-3
+
+
+def _alpha_line_search(rho2_at: Callable[[float], float]) -> None:
+    """Minimise ``ρ*(α)²`` over ``α ∈ [0, 1]`` (the caller keeps the best point).
+
+    ``α = 1`` is tried first (the largest ``α`` relaxes ``αP`` in (18)); when it is infeasible, a coarse
+    scan ``α = 0.1, …, 0.9`` looks for any feasible ``α`` (feasibility need not be monotone). From a
+    feasible ``α_f`` a bisection on ``[0, α_f]`` finds the smallest feasible ``α`` it can reach, then a
+    golden-section search of ``ρ*(α)`` runs on ``[α_min, α_f]`` (``ρ*`` is unimodal in the cases measured:
+    on Example 6.1 it decreases monotonically towards ``α = 1``; docs/setvalued.md).
+    """
+    hi = 1.0
+    if not math.isfinite(rho2_at(hi)):
+        feas = [a for a in (0.9, 0.7, 0.5, 0.3, 0.1) if math.isfinite(rho2_at(a))]
+        if not feas:
+            return
+        hi = feas[0]
+    lo, top = 0.0, hi
+    for _ in range(ALPHA_BISECTION_STEPS):
+        mid = 0.5 * (lo + hi)
+        if math.isfinite(rho2_at(mid)):
+            hi = mid
+        else:
+            lo = mid
+    a, b = hi, top
+    gr = (math.sqrt(5.0) - 1) / 2
+    x1, x2 = b - gr * (b - a), a + gr * (b - a)
+    f1, f2 = rho2_at(x1), rho2_at(x2)
+    for _ in range(ALPHA_GOLDEN_STEPS):
+        if math.isfinite(f1) and math.isfinite(f2) and abs(f1 - f2) <= ALPHA_RTOL * min(f1, f2):
+            break
+        if f1 <= f2:
+            b, x2, f2 = x2, x1, f1
+            x1 = b - gr * (b - a)
+            f1 = rho2_at(x1)
+        else:
+            a, x1, f1 = x1, x2, f2
+            x2 = a + gr * (b - a)
+            f2 = rho2_at(x2)
 
 
 def _n33_violation(M11: Array, margin: float) -> float | None:
@@ -337,8 +407,8 @@ def _diagnosed(what: str, system: DiscreteUISystem, M11: Array, M12: Array, M22:
                             f"{_DIAG_ALPHAS}", constraint=f"(18), Pi of (26){extra}")
 
 
-def _alphas(alphas: Sequence[float] | None) -> list[float]:
-    return list(alphas) if alphas is not None else [0.05 * i for i in range(1, 20)]
+def _alphas(alphas: Sequence[float] | None) -> list[float] | None:
+    return None if alphas is None else list(alphas)
 
 
 def _transform_for_printed(system: DiscreteUISystem, who: str) -> UITransform:
@@ -365,7 +435,8 @@ def design_printed(system: DiscreteUISystem, M: ArrayLike, *, alphas: Sequence[f
     M : array_like, shape (2n, 2n)
         The multiplier of **f** (paper's convention), e.g. ``[[−I, 0], [0, L_f² I]]`` for Class I.
     alphas : sequence of float, optional
-        Values of ``α`` tried (default 0.05, 0.10, …, 0.95).
+        Values of ``α`` tried on a grid. Default: a line search of ``α ∈ [0, 1]`` (bisection for the
+        smallest feasible ``α``, then golden section of ``ρ*(α)``; :func:`_alpha_line_search`).
     eps_grid : sequence of float
         Coarse grid for ``ε₁ = ε₂``'s search; then ``refine`` rounds of a 3×3 grid around the best point.
     solver : Solver or str
