@@ -74,3 +74,18 @@ def test_affine_abstraction_printed_eta_is_exceeded_and_the_certified_one_holds(
     np.testing.assert_allclose(sound.nlobs, [np.sin(1.0), 2.0], rtol=1e-3)
     fine = rows["Prop. 2.18 η_vᵃ, same μ: certified on a 21-point grid"].nlobs
     assert fine[0] < 0.05 < sound.nlobs[0]
+
+
+def test_prop516_rows_converging_bounds_with_a_diverging_gain(rows: dict[str, ReproRow]) -> None:
+    from nlobs.examples.khajenejad_yong import example_61
+    from nlobs.linear.transform_ui import ui_transform
+
+    assert rows["6.1 Class II: θ₁ = |λmax(P**) − 1|/λmin(P**) (32) at Prop. 5.16's P**"].nlobs < 1
+    # The gain Prop. 5.16 returns, checked here from its printed entries: (I − L̃C₂)Φ(A − Ψ) has |λ| > 1.
+    s = example_61("II").system
+    tr = ui_transform(s.G, s.C, s.H)
+    L = np.asarray(rows["6.1 Class II: L̃** (Prop. 5.16 as printed)"].nlobs, dtype=float)[:, None]
+    E = (np.eye(4) - L @ tr.C2) @ tr.Phi @ (s.A - tr.Psi)
+    assert np.max(np.abs(np.linalg.eigvals(E))) > 1.5  # 4-digit entries: far from the stability boundary
+    for cls in ("0", "I"):
+        assert rows[f"6.1 Class {cls}: ρ** (Prop. 5.16 as printed, two SDPs)"].nlobs == "infeasible"

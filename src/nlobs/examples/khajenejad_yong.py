@@ -772,6 +772,30 @@ def _lst(a: ArrayLike, digits: int = 4) -> list[object]:
     return [float(f"{x:.{digits}g}") for x in arr.ravel()]
 
 
+def _prop516_rows(tag: str, system: DiscreteUISystem, M: Array) -> list[ReproRow]:
+    """Proposition 5.16 as printed (two SDPs for its disjunction): ρ**, θ₁ at P**, and what L̃** does."""
+    from nlobs.errors import DesignInfeasible
+    from nlobs.synthesis.setvalued_printed import design_prop516
+
+    try:
+        d = design_prop516(system, M)
+    except DesignInfeasible as exc:
+        return [ReproRow(f"{tag}: ρ** (Prop. 5.16 as printed, two SDPs)", None, "infeasible",
+                         f"{exc} (constraint {exc.constraint!r}, violation {exc.violation})")]
+    other = {b.branch.value: b.rho for b in d.branches}
+    return [
+        ReproRow(f"{tag}: ρ** (Prop. 5.16 as printed, two SDPs)", None, d.rho,
+                 f"the paper reports no ρ**; branch {d.branch.value} kept (A: {other['A']}, B: {other['B']}; "
+                 "B is empty whenever the class contains a linear map: N ≻ 0 forces αP ≻ I)"),
+        ReproRow(f"{tag}: θ₁ = |λmax(P**) − 1|/λmin(P**) (32) at Prop. 5.16's P**", None, d.theta1,
+                 f"< 1 as Prop. 5.16 claims (eig(P**) in [{d.lambda_min_P:.4g}, {d.lambda_max_P:.4g}]); "
+                 f"printed δx∞,1 = {d.theta1_steady:.4g}"),
+        ReproRow(f"{tag}: L̃** (Prop. 5.16 as printed)", None, _lst(d.L_tilde.ravel()),
+                 f"(A.16) min eig {d.exact_min_eig:.3g} < 0, spectral radius {d.spectral_radius:.4g} > 1: "
+                 "the printed bounds converge while the errors diverge"),
+    ]
+
+
 def reproduce() -> list[ReproRow]:
     """``nlobs reproduce khajenejad-yong``: Sec. 6's reported values beside nlobs's (printed and sound).
 
@@ -820,6 +844,7 @@ def reproduce() -> list[ReproRow]:
             for q in ("ρ*", "α*", "L̃*", "P*", "Y*"):
                 rows.append(ReproRow(f"{tag}: {q} (Thm 5.10 as printed)", _printed_value(pr, q), "infeasible",
                                      str(exc)))
+        rows += _prop516_rows(tag, ex.system, printed_M[cls])
         try:
             ds = design_setvalued(ex.system)
             rows += [
