@@ -41,6 +41,18 @@ def tidy(expr: sp.Expr) -> sp.Expr:
     return sp.expand(expr)
 
 
+#: Largest expression (``count_ops``) handed to ``sympy.simplify``; larger ones are only :func:`tidy`-ed.
+SIMPLIFY_OPS_LIMIT = 300
+
+
+def simplify_bounded(expr: sp.Expr) -> sp.Expr:
+    """:func:`tidy`, then ``sympy.simplify`` when the expression is small enough (:data:`SIMPLIFY_OPS_LIMIT`)."""
+    expr = tidy(expr)
+    if sp.count_ops(expr) <= SIMPLIFY_OPS_LIMIT:
+        expr = sp.simplify(expr)
+    return expr
+
+
 def gradient(phi: sp.Expr, x: Symbols) -> sp.Matrix:
     """``dφ = ∂φ/∂x`` as a 1 × n row."""
     return sp.Matrix([[sp.diff(phi, xi) for xi in x]])

@@ -13,17 +13,7 @@ from collections.abc import Sequence
 import sympy as sp
 
 from nlobs.errors import DimensionError
-from nlobs.geometry.lie import tidy
-
-#: Largest entry (``count_ops``) handed to ``sympy.simplify`` when tidying ``Q⁺``.
-SIMPLIFY_OPS_LIMIT = 300
-
-
-def _simplify(e: sp.Expr) -> sp.Expr:
-    e = tidy(e)
-    if sp.count_ops(e) <= SIMPLIFY_OPS_LIMIT:
-        e = sp.simplify(e)
-    return e
+from nlobs.geometry.lie import simplify_bounded, tidy
 
 
 def symbolic_pinv(Q: sp.MatrixBase) -> sp.ImmutableMatrix:
@@ -37,7 +27,7 @@ def symbolic_pinv(Q: sp.MatrixBase) -> sp.ImmutableMatrix:
         raise DimensionError(f"Q: expected at most as many rows as columns, got shape {Qm.shape}")
     gram = (Qm * Qm.T).applyfunc(tidy)
     inv = gram.inv(method="LU") if gram.shape[0] > 3 else gram.inv()
-    return sp.ImmutableMatrix((Qm.T * inv).applyfunc(_simplify))
+    return sp.ImmutableMatrix((Qm.T * inv).applyfunc(simplify_bounded))
 
 
 def gain_symbols(r: Sequence[int]) -> tuple[sp.Symbol, ...]:

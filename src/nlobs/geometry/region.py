@@ -19,12 +19,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_vector
 from nlobs.errors import InvalidArgumentError, NonFiniteError
+from nlobs.geometry.lie import simplify_bounded
 from nlobs.systems.codegen import compile_matrix
 
 Array = NDArray[np.float64]
 
-#: Largest expression (``count_ops``) handed to ``sympy.simplify`` in a zero test.
-SIMPLIFY_OPS_LIMIT = 400
+#: A numeric zero test calls a value zero when ``|value| ≤ ZERO_RTOL · Σ|terms|`` (cancellation level).
+ZERO_RTOL = 1e-9
+
+
+def format_point(pt: Sequence[float]) -> str:
+    """``(x1, x2, …)`` with 4 significant digits, for evidence strings."""
+    return "(" + ", ".join(f"{v:.4g}" for v in pt) + ")"
 
 
 @dataclass(frozen=True)
@@ -85,9 +91,9 @@ class ZeroTest:
     zero : bool
         ``True`` if the expression vanishes on the region.
     method : {"symbolic", "numeric"}
-        ``"symbolic"``: SymPy simplified it to ``0`` (a proof); ``"numeric"``:
-        decided by evaluation at ``points`` random points (``zero`` then means
-        "below tolerance at every point").
+        ``"symbolic"``: decided exactly (a rational function's canonical form, or
+        ``simplify`` proving ``0``); ``"numeric"``: decided by evaluation at ``points``
+        random points (``zero`` then means "at the cancellation level at every point").
     points : int
         Number of finite evaluations made (0 for a symbolic proof).
     witness : tuple of float or None
@@ -103,12 +109,12 @@ class ZeroTest:
     value: float | None
 
     def describe(self) -> str:
-        if self.method == "symbolic":
+        if self.zero and self.method == "symbolic":
             return "≡ 0 (symbolic)"
         if self.zero:
             return f"= 0 at {self.points} sampled points (numeric)"
-        pt = ", ".join(f"{v:.4g}" for v in (self.witness or ()))
-        return f"≠ 0, e.g. {self.value:.4g} at x = ({pt})"
+        how = "≢ 0 (exact)" if self.method == "symbolic" else "≠ 0"
+        return f"{how}, e.g. {self.value:.4g} at x = {format_point(self.witness or ())}"
 
 
 def vanishes_on(
@@ -118,12 +124,15 @@ def vanishes_on(
     *,
     samples: int = 64,
     seed: int = 0,
-    atol: float = 1e-9,
 ) -> ZeroTest:
-    """Decide whether ``expr`` vanishes on ``region`` (symbolic test, then random points).
+    """Decide whether ``expr`` vanishes on ``region``.
 
-    A nonzero value at one sampled point proves the expression is not identically
-    zero; no nonzero value at ``samples`` points is reported as a numeric verdict.
+    A rational function of ``x`` (every polynomial model, parameters being exact rationals) is decided
+    exactly: ``cancel`` gives its canonical form, which is ``0`` iff it vanishes identically, and a
+    nonzero rational function cannot vanish on an open box (its witness is the sampled point where it
+    is largest). Otherwise SymPy's ``simplify`` may prove it zero; failing that, it is evaluated at
+    ``samples`` seeded points and called zero where ``|value| ≤ ZERO_RTOL · Σ|terms|`` (the level of
+    cancellation between its terms), so a small but genuine value is not mistaken for zero.
 
     Raises
     ------
@@ -134,18 +143,28 @@ def vanishes_on(
         raise InvalidArgumentError(f"region has dimension {region.n}, the model {len(x)}")
     if expr == 0:
         return ZeroTest(True, "symbolic", 0, None, None)
-    if sp.count_ops(expr) <= SIMPLIFY_OPS_LIMIT and sp.simplify(expr) == 0:
+    rational = bool(expr.is_rational_function(*x)) and not (expr.free_symbols - set(x))
+    if rational:
+        expr = sp.cancel(expr)
+        if expr == 0:
+            return ZeroTest(True, "symbolic", 0, None, None)
+    elif simplify_bounded(expr) == 0:
         return ZeroTest(True, "symbolic", 0, None, None)
-    fn = compile_matrix(sp.Matrix([expr]), (tuple(x),), vector=True, what="zero test")
+    terms = list(sp.Add.make_args(sp.expand(expr))) if not rational else [expr]
+    fn = compile_matrix(sp.Matrix(terms), (tuple(x),), vector=True, what="zero test")
     pts = region.sample(samples, seed)
     with np.errstate(all="ignore"):
-        vals = fn(pts)[:, 0]
-    ok = np.isfinite(vals)
+        tv = fn(pts)
+        vals, scale = tv.sum(axis=-1), np.abs(tv).sum(axis=-1)
+    ok = np.isfinite(vals) & np.isfinite(scale)
     if not np.any(ok):
         raise NonFiniteError(f"{expr} is not finite at any of {samples} sampled points of {region.describe()}: "
                              "the model is not defined on this region")
     mag = np.where(ok, np.abs(vals), -1.0)
     i = int(np.argmax(mag))
-    if mag[i] <= atol:
+    if rational:  # proven nonzero: report where it is largest
+        return ZeroTest(False, "symbolic", int(ok.sum()), tuple(float(v) for v in pts[i]), float(vals[i]))
+    nonzero = ok & (np.abs(vals) > ZERO_RTOL * scale)
+    if not np.any(nonzero):
         return ZeroTest(True, "numeric", int(ok.sum()), None, None)
     return ZeroTest(False, "numeric", int(ok.sum()), tuple(float(v) for v in pts[i]), float(vals[i]))

@@ -59,7 +59,8 @@ from nlobs.geometry import (
     reduced_observability_matrix,
     symbolic_pinv,
 )
-from nlobs.geometry.lie import tidy
+from nlobs.geometry.checks import check_full_rank
+from nlobs.geometry.lie import simplify_bounded, tidy
 from nlobs.systems.codegen import BatchedFunction, compile_matrix
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.systems.timebase import Continuous, TimeBase
@@ -68,8 +69,6 @@ Array = NDArray[np.float64]
 
 #: Default high-gain parameter θ.
 DEFAULT_THETA = 2.0
-#: Largest entry (``count_ops``) handed to ``sympy.simplify``.
-SIMPLIFY_OPS_LIMIT = 300
 
 Placement = Literal["powers", "multiple"]
 PLACEMENTS: tuple[str, ...] = ("powers", "multiple")
@@ -167,13 +166,6 @@ def _resolve_gain(k: ArrayLike | HighGain, r: Sequence[int]) -> tuple[Array, Hig
 
 
 # ----------------------------------------------------------------------------- helpers
-def _simplify(e: sp.Expr) -> sp.Expr:
-    e = tidy(e)
-    if sp.count_ops(e) <= SIMPLIFY_OPS_LIMIT:
-        e = sp.simplify(e)
-    return e
-
-
 def _number(v: float) -> sp.Expr:
     return sp.Integer(int(v)) if float(v).is_integer() and abs(v) < 2**53 else sp.Float(v)
 
@@ -181,10 +173,6 @@ def _number(v: float) -> sp.Expr:
 def _substitute_k(gain_symbolic: sp.MatrixBase, r: Sequence[int], kv: Array) -> sp.ImmutableMatrix:
     """The gain field with the numeric ``k`` in place of ``k1, k2, …``."""
     return sp.ImmutableMatrix(gain_symbolic.xreplace({s: _number(v) for s, v in zip(gain_symbols(r), kv)}))
-
-
-def _fmt(pt: Sequence[float]) -> str:
-    return "(" + ", ".join(f"{v:.4g}" for v in pt) + ")"
 
 
 def _require_a1(fields: AffineFields, region: Box, samples: int, seed: int) -> tuple[RelativeDegree, tuple[int, ...], Check]:
@@ -480,20 +468,16 @@ class ByrnesIsidoriObserver(_InjectionObserver):
                    else f"L_g φ ≠ 0 for {[str(lg[i]) for i in bad]}: not the Byrnes–Isidori form (gain (8) still valid)")
         if bad:
             warnings.warn(AssumptionWarning(f"{F.name}: {c5.evidence}"), stacklevel=3)
-        # det Φ' on the region: the pole of the gain
-        pts = region.sample(self.samples, self.seed)
-        fn = compile_matrix(sp.Matrix([det]), (F.x,), vector=True, what=f"{F.name}: det Φ'")
-        with np.errstate(all="ignore"):
-            dv = np.abs(fn(pts)[:, 0])
-        i = int(np.argmin(np.where(np.isfinite(dv), dv, 0.0)))
+        # det Φ' on the region: the pole of the gain (a sign change or a rank loss inside the region)
         sing = self.singular_set_of(det, F.x)
-        cdet = Check("det Φ' ≠ 0", bool(dv[i] > 1e-9 and not sing), "symbolic" if det.is_number else "numeric",
-                     f"det Φ' = {det}" + (f"; vanishes on {', '.join(sing)} (the gain has a pole there)" if sing else "")
-                     + f"; smallest |det Φ'| = {dv[i]:.3g} at sampled x = {_fmt(pts[i])}",
-                     tuple(map(float, pts[i])), float(dv[i]), str(det))
+        full = check_full_rank("det Φ' ≠ 0", "Φ'", J, F, region, self.samples, self.seed, det=det)
+        cdet = Check(full.name, full.holds, full.method,
+                     full.evidence + (f"; det Φ' vanishes on {', '.join(sing)} (the gain has a pole there"
+                                      f"{'' if not full.holds else ', outside the region'})" if sing else ""),
+                     full.worst_point, full.value, str(det))
         ks = gain_symbols(r)
         rhs_sym = sp.Matrix.vstack(block_gain(r, list(ks)), sp.zeros(F.n - sum(r), len(r)))
-        gsym = sp.ImmutableMatrix(sp.Matrix(J).LUsolve(rhs_sym).applyfunc(_simplify))
+        gsym = sp.ImmutableMatrix(sp.Matrix(J).LUsolve(rhs_sym).applyfunc(simplify_bounded))
         gain = _substitute_k(gsym, r, kv)
         kv.setflags(write=False)
         for name, value in (("region", region), ("phi", phis), ("r", r), ("Phi", Phi), ("jacobian", J), ("det", det),
