@@ -467,8 +467,10 @@ def rows(*, duration: float = DURATION, dt: float = DT) -> list[ReproRow]:
                  f"typo in the text: φ4 = x4 = h gives det Φ' = {s.text_phi4_det}; Φ' with φ4 = x1 equals (23): "
                  f"{s.bi_jacobian_equals_23}"),
         ReproRow("BI gain (24) = (Φ')⁻¹ [k; 0]", _mat(paper["l (24) printed"]), _mat(s.bi_gain),
-                 f"(24) as printed is not (Φ')⁻¹[k; 0] (equal: {s.bi_equals_24_printed}); the derived gain has "
-                 f"k2/(2 + 2x3) in row 3 and k1 in row 4 (equal to that: {s.bi_equals_24_derived})"),
+                 f"the extracted text of (24) is not (Φ')⁻¹[k; 0] (equal: {s.bi_equals_24_printed}): its rows 3-4 "
+                 "look like the fraction k2/(2 + 2x3) and k1 flattened by the PDF extraction; the derived gain has "
+                 f"k2/(2 + 2x3) in row 3 and k1 in row 4 (equal to that: {s.bi_equals_24_derived}), and only it "
+                 "has the pole at x3 = −1 that the paper states"),
         ReproRow("pole of the BI gain", "x3 = −1", ", ".join(s.bi_pole), f"det Φ' = {s.bi_det}"),
         ReproRow("pole of (26)", "none", "none" if s.pinv_pole_free else "?", "4 x1² + 1 ≥ 1"),
         ReproRow("Theorem 4.1: φ with R Qᵀ = 0 (16)", None, "φ3 = x3, φ4 = x1·exp(−2 x2)",
