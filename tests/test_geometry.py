@@ -119,6 +119,23 @@ def test_relative_degree_is_decided_on_the_region() -> None:
     F = _fields(["x1", "x2", "x3"], [x2, -x1, 0], [[0], [x1 - 5], [0]], [x2])
     assert observation_relative_degree(F).r == (1,)
     assert not observation_relative_degree(F).tests[0][0].zero
+    # y = x1, g1 = x1 + |x1|: L_g h = x1 + |x1| vanishes for x1 ≤ 0 only, L_g L_f h = L_g x2 = 1.
+    # By hand: r = 2 on a box with x1 < 0, r = 1 on a box with x1 > 0.
+    G = _fields(["x1", "x2"], [x2, -x1], [[x1 + sp.Abs(x1)], [1]], [x1])
+    assert observation_relative_degree(G, Box([-2.0, -1.0], [-1.0, 1.0])).r == (2,)
+    assert observation_relative_degree(G, Box([1.0, -1.0], [2.0, 1.0])).r == (1,)
+
+
+def test_a_tiny_exact_value_is_not_zero_and_cancellation_is() -> None:
+    # L_g h = 10⁻¹⁰ exactly (g1 = 1/10¹⁰): r = 1, decided exactly, not by an absolute tolerance.
+    F = _fields(["x1", "x2"], [x2, -x1], [[sp.Rational(1, 10**10)], [1]], [x1])
+    rd = observation_relative_degree(F)
+    assert rd.r == (1,) and rd.tests[0][0].method == "symbolic"
+    # A non-rational expression that cancels to 0 up to rounding, sin²+cos²−1 at large scale, is zero;
+    # the same at 10⁻¹⁰ of its scale is not.
+    big = 1e6 * (sp.sin(x1) ** 2 + sp.cos(x1) ** 2) - 1e6
+    assert vanishes_on(big, X, Box.unit(3)).zero
+    assert not vanishes_on(big + sp.Float(1e-3) * sp.exp(x2), X, Box.unit(3)).zero
 
 
 # ------------------------------------------------------------------ observability maps, (2.13), Brunovsky

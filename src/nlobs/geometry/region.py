@@ -148,8 +148,10 @@ def vanishes_on(
         expr = sp.cancel(expr)
         if expr == 0:
             return ZeroTest(True, "symbolic", 0, None, None)
-    elif simplify_bounded(expr) == 0:
-        return ZeroTest(True, "symbolic", 0, None, None)
+    else:
+        expr = simplify_bounded(expr)
+        if expr == 0:
+            return ZeroTest(True, "symbolic", 0, None, None)
     terms = list(sp.Add.make_args(sp.expand(expr))) if not rational else [expr]
     fn = compile_matrix(sp.Matrix(terms), (tuple(x),), vector=True, what="zero test")
     pts = region.sample(samples, seed)
