@@ -136,3 +136,57 @@ def test_infeasible_design_exits_1(tmp_path: Path) -> None:
     res = runner.invoke(app, ["design", "setvalued", path])
     assert res.exit_code == 1, res.output
     assert "design infeasible" in res.stderr
+
+
+LPV_FILE = """name = "lpv"
+time = "discrete"
+dt = 1.0
+states = ["x1", "x2"]
+outputs = ["y1", "y2"]
+
+[dynamics]
+f = {f}
+h = ["x1", "0"]
+
+[unknown_inputs]
+G = [[1.0], [0.0]]
+H = [[0.0], [1.0]]
+bounded = ["0.2*sin(t)"]
+growing = ["0.1*t"]
+
+[noise]
+eta_w = 0.01
+eta_v = 0.01
+
+[initial]
+centre = [0.0, 0.0]
+radius = 0.5
+
+[function_class]
+kind = "III"
+linear_part = {A}
+constituents = {V}
+box = [[-3, 3], [-3, 3]]
+"""
+
+
+def test_lpv_file_outside_its_polytope_is_refused(tmp_path: Path) -> None:
+    """The reviewer's lpvhole.toml: σ̃-Lipschitz, but no difference quotient in the polytope; was certified, exit 0."""
+    p = tmp_path / "lpvhole.toml"
+    p.write_text(LPV_FILE.format(f='["0", "1.5*x2"]', A="[[0, 0], [0, 0]]", V="[[[0, 1.5], [0, 0]], [[0, 0], [0, 0]]]"))
+    for cmd in ("design", "simulate"):
+        res = runner.invoke(app, [cmd, "setvalued", str(p), "--runs", "5", "--steps", "5"][: 3 if cmd == "design" else 7])
+        assert res.exit_code == 2, res.output
+        assert "violates its stated class" in res.stderr and "Class III (LPV): VIOLATED" in res.stderr
+
+
+def test_lpv_file_is_designed_with_the_lipschitz_multiplier_and_contained(tmp_path: Path) -> None:
+    p = tmp_path / "lpvok.toml"
+    p.write_text(LPV_FILE.format(f='["0.6*x1 + 0.2*x2", "0.3*x2"]', A="[[0.5, 0.2], [0, 0.3]]",
+                                 V="[[[0.2, 0], [0, 0]], [[0, 0], [0, 0]]]"))
+    res = runner.invoke(app, ["simulate", "setvalued", str(p), "--runs", "100", "--steps", "50", "--no-baselines",
+                              "--json"])
+    assert res.exit_code == 0, res.output
+    d = json.loads(res.stdout)
+    assert d["containment_rate_state"] == 1.0 and d["design"]["kappa"] > 0
+    assert d["design"]["function_class_used"] == "Class I (Lipschitz)" and d["design"]["lpv_design"] == "lipschitz"

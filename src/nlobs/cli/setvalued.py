@@ -117,6 +117,8 @@ def _design_dict(d: SetValuedDesign) -> dict[str, Any]:
         "steady_radius": d.steady_radius, "spectral_radii": list(d.spectral_radii),
         "hinf_linear": list(d.hinf_linear), "solver": d.solver.value, "solver_status": d.solver_status,
         "solves": d.solves, "seconds": d.seconds,
+        "function_class_used": d.function_class.label,
+        "lpv_design": d.certified_for.lpv.value if d.certified_for.lpv else None,
         "checks": [{"name": c.name, "value": c.value, "limit": c.limit, "passed": c.passed} for c in d.checks],
         "verified": d.verified,
     }
@@ -144,7 +146,9 @@ def _design(model: str, m: DiscreteUIModel, objective: str, samples: int, seed: 
     if not chk.holds:
         fail(f"{model}: the nonlinear part violates its stated class, so no certificate would hold: {chk.describe()}")
     try:
-        d = design_setvalued(s, objective=objective)
+        # the CLI runs the observer on the plant's own φ (no run-time LPV weights): a Class III file is designed
+        # with the σ̃ Lipschitz multiplier, not at the vertices (docs/setvalued.md, "Soundness conditions")
+        d = design_setvalued(s, objective=objective, lpv="lipschitz")
     except AssumptionViolated as exc:  # pragma: no cover - the structural check above catches these first
         data["structure"]["evidence"] = exc.evidence or str(exc)
         _no_observer(model, data, as_json)

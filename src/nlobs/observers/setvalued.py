@@ -80,12 +80,16 @@ class Radii:
     label: str
 
 
+def _nrm(M: Array) -> float:
+    """Spectral norm, ``0`` for an empty matrix."""
+    return float(np.linalg.norm(M, 2)) if M.size else 0.0
+
+
 def _noise_norm(blocks: tuple[Array, Array, Array], eta_v: float, eta_w: float) -> float:
     """A bound on ``‖E₁v_{k−1} + E_w w + E₂v_k‖`` over the noise balls (the smaller of two sound bounds)."""
     E1, Ew, E2 = blocks
-    nrm = lambda M: float(np.linalg.norm(M, 2)) if M.size else 0.0  # noqa: E731
-    a = nrm(E1) * eta_v + nrm(Ew) * eta_w + nrm(E2) * eta_v
-    b = nrm(np.hstack([E1, Ew, E2])) * math.sqrt(2 * eta_v**2 + eta_w**2)
+    a = _nrm(E1) * eta_v + _nrm(Ew) * eta_w + _nrm(E2) * eta_v
+    b = _nrm(np.hstack([E1, Ew, E2])) * math.sqrt(2 * eta_v**2 + eta_w**2)
     return min(a, b)
 
 
@@ -95,7 +99,10 @@ def input_error_map(system: DiscreteUISystem, design: SetValuedDesign) -> tuple[
     From (A.2), (A.7), (A.8) with ``Δf = Aζ + π``:
     ``F_ζ = −(V₁M₁C₁ + V₂M₂C₂(A − Ψ))``, ``F_π = −V₂M₂C₂``,
     ``F_ω = [(V₂M₂C₂G₁ − V₁)M₁T₁, −V₂M₂C₂W, −V₂M₂T₂]``.
+
+    Raises :class:`~nlobs.errors.InvalidArgumentError` when ``design`` was certified for another system.
     """
+    design.certified_for.require(system)
     tr = design.transform
     V2M2C2 = tr.V2 @ tr.M2 @ tr.C2
     Fz = -(tr.V1 @ tr.M1 @ tr.C1 + V2M2C2 @ (system.A - tr.Psi))
@@ -106,12 +113,17 @@ def input_error_map(system: DiscreteUISystem, design: SetValuedDesign) -> tuple[
 
 def sound_radii(system: DiscreteUISystem, design: SetValuedDesign, steps: int, *,
                 delta0: float | None = None) -> Radii:
-    """Re-derived radius bounds (module docstring; ``docs/setvalued.md``) for ``k = 0..steps``."""
+    """Re-derived radius bounds (module docstring; ``docs/setvalued.md``) for ``k = 0..steps``.
+
+    Raises :class:`~nlobs.errors.InvalidArgumentError` when ``design`` was certified for another system
+    (other matrices, class or constants, or larger noise bounds: :class:`~nlobs.synthesis.setvalued.CertifiedFor`).
+    """
+    design.certified_for.require(system)
     K = int(steps)
     if K < 0:
         raise InvalidArgumentError(f"steps: must be >= 0, got {steps!r}")
     d0 = system.delta0 if delta0 is None else positive("delta0", delta0, allow_zero=True)
-    fc = system.function_class
+    fc = design.function_class
     evP = np.linalg.eigvalsh(design.P)
     lmin, lmax = float(evP[0]), float(evP[-1])
     Acl, Bcl, E = design.dynamics.split(design.L_tilde)
@@ -166,7 +178,7 @@ def printed_radii(system: DiscreteUISystem, L_tilde: ArrayLike, P: ArrayLike, rh
     P_ = np.asarray(P, dtype=float)
     ev = np.linalg.eigvalsh(0.5 * (P_ + P_.T))
     d0 = system.delta0 if delta0 is None else float(delta0)
-    nrm = lambda M: float(np.linalg.norm(M, 2)) if M.size else 0.0  # noqa: E731
+    nrm = _nrm
     Phi, Psi = tr.Phi, tr.Psi
     theta1 = abs(ev[-1] - 1) / ev[0]
     Lc = L_f if L_f is not None else float(np.linalg.eigvalsh(np.asarray(A_aux).T @ np.asarray(A_aux))[-1])
@@ -263,8 +275,17 @@ def run_setvalued(system: DiscreteUISystem, design: SetValuedDesign | GivenGain,
     radii : Radii, optional
         Radii to attach (default :func:`sound_radii` for a design, none for a :class:`GivenGain`).
     weights : array_like, shape (B, K + 1, N) or (K + 1, N), optional
-        Run-time LPV weights ``λ_{i,k}`` (Class III, Definition 2.4): (13) uses ``f_{k−1}``.
+        Run-time LPV weights ``λ_{i,k}`` (Class III, Definition 2.4): (13) uses ``f_{k−1}``. Required
+        for a design certified at the LPV vertices (``lpv="vertices"``).
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``design`` was certified for another system (:class:`~nlobs.synthesis.setvalued.CertifiedFor`),
+        or is a vertex design run without ``weights``.
     """
+    if isinstance(design, SetValuedDesign):
+        design.certified_for.require(system, weights_given=weights is not None)
     y_ = as_finite_array("y", y)
     if y_.ndim != 3 or y_.shape[-1] != system.l or y_.shape[1] < 1:
         raise DimensionError(f"y: expected shape (B, K + 1, {system.l}), got {y_.shape}")

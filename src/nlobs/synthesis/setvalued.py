@@ -56,6 +56,7 @@ they are not sufficient (``../shared/guide/facts.md``).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Mapping
@@ -73,10 +74,12 @@ from nlobs.linear.norms import hinf_norm
 from nlobs.linear.transform_ui import StructuralCheck, UITransform, require_structure, structural_check, ui_transform
 from nlobs.synthesis.certificate import Check, CheckKind
 from nlobs.synthesis.lmi import Solver, as_enum, as_solver, max_eig, solve
-from nlobs.systems.discrete_ui import LPV, DiscreteUISystem
+from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, FunctionClass, Lipschitz
 
 __all__ = [
     "SetValuedObjective",
+    "LPVMode",
+    "CertifiedFor",
     "ErrorDynamics",
     "SetValuedDesign",
     "error_dynamics",
@@ -94,6 +97,108 @@ class SetValuedObjective(str, Enum):
     """Smallest steady-state bound on ``V`` (hence on the radius), with a line search over ``λ``."""
     HINF = "hinf"
     """Smallest ℓ₂ gain ``ρ`` from the noises to the error (Definition 5.9)."""
+
+
+class LPVMode(str, Enum):
+    """How a Class III (LPV) system is designed (docs/setvalued.md, "Soundness conditions")."""
+
+    VERTICES = "vertices"
+    """One condition (⋆) per vertex ``π = Aᵢζ``, no multiplier. Sound only when plant and observer use
+    the **same run-time weights** ``λ_k`` (``simulate(..., weights=)``, ``run_setvalued(..., weights=)``),
+    so that ``π = Σλᵢ Aᵢ ζ``; :func:`~nlobs.observers.setvalued.run_setvalued` refuses such a design
+    without ``weights``."""
+    LIPSCHITZ = "lipschitz"
+    """The Lipschitz multiplier with ``σ̃ = maxᵢ ‖Aᵢ‖`` (Proposition 2.16): sound when the observer
+    evaluates the plant's own ``φ`` (no weights), given ``‖φ(x) − φ(x̂)‖ ≤ σ̃ ‖x − x̂‖``."""
+
+
+def _class_arrays(fc: FunctionClass) -> tuple[str, tuple[float, ...], tuple[Array, ...]]:
+    if isinstance(fc, LPV):
+        return "LPV", (), fc.constituents
+    M, g = fc.multiplier()
+    return type(fc).__name__, (float(g),), (M,)
+
+
+def _same_class(a: FunctionClass, b: FunctionClass) -> bool:
+    ka, kb = _class_arrays(a), _class_arrays(b)
+    return (ka[0] == kb[0] and ka[1] == kb[1] and len(ka[2]) == len(kb[2])
+            and all(x.shape == y.shape and np.array_equal(x, y) for x, y in zip(ka[2], kb[2])))
+
+
+def effective_class(system: DiscreteUISystem, lpv: LPVMode) -> FunctionClass:
+    """The class the design uses: ``system.function_class``, or ``Lipschitz(σ̃)`` for LPV in :attr:`LPVMode.LIPSCHITZ`."""
+    fc = system.function_class
+    if isinstance(fc, LPV) and lpv is LPVMode.LIPSCHITZ:
+        return Lipschitz(fc.sigma, fc.n)
+    return fc
+
+
+@dataclass(frozen=True, eq=False)
+class CertifiedFor:
+    """What a :class:`SetValuedDesign` was certified for: the increment ``c`` and the certificate hold only there.
+
+    Attributes
+    ----------
+    A, G, C, H, D, W : ndarray
+        The system matrices (the error dynamics (16) are built from them).
+    eta_w, eta_v : float
+        Noise bounds entering ``c`` (a system with smaller bounds is also covered: ``c`` grows with them).
+    function_class : FunctionClass
+        The class of ``φ`` used (for LPV in :attr:`LPVMode.LIPSCHITZ`, the ``Lipschitz(σ̃)`` class).
+    system_class : FunctionClass
+        The system's own class.
+    lpv : LPVMode or None
+        For Class III, how it was designed.
+    """
+
+    A: Array
+    G: Array
+    C: Array
+    H: Array
+    D: Array
+    W: Array
+    eta_w: float
+    eta_v: float
+    function_class: FunctionClass
+    system_class: FunctionClass
+    lpv: LPVMode | None
+
+    @classmethod
+    def of(cls, system: DiscreteUISystem, lpv: LPVMode) -> CertifiedFor:
+        is_lpv = isinstance(system.function_class, LPV)
+        return cls(system.A, system.G, system.C, system.H, system.D, system.W, system.eta_w, system.eta_v,
+                   effective_class(system, lpv), system.function_class, lpv if is_lpv else None)
+
+    def mismatches(self, system: DiscreteUISystem) -> list[str]:
+        """What differs between ``system`` and the certified one (empty when the certificate applies)."""
+        out = []
+        for k in ("A", "G", "C", "H", "D", "W"):
+            a, b = getattr(self, k), getattr(system, k)
+            if a.shape != b.shape or not np.array_equal(a, b):
+                out.append(f"{k} differs")
+        for k in ("eta_w", "eta_v"):
+            if getattr(system, k) > getattr(self, k):
+                out.append(f"{k} = {getattr(system, k):g} exceeds the certified {getattr(self, k):g}")
+        if not _same_class(self.system_class, system.function_class):
+            out.append(f"function class {system.function_class.label} differs from the certified "
+                       f"{self.system_class.label} (or its constants)")
+        return out
+
+    def require(self, system: DiscreteUISystem, *, weights_given: bool | None = None) -> None:
+        """Raise :class:`~nlobs.errors.InvalidArgumentError` unless the certificate applies to ``system``.
+
+        ``weights_given=False`` also refuses a :attr:`LPVMode.VERTICES` design: it needs run-time weights.
+        """
+        bad = self.mismatches(system)
+        if bad:
+            raise InvalidArgumentError(
+                "design: certified for another system (" + "; ".join(bad) + "): the certificate and the increment "
+                "c hold only for the system it was designed for; redesign with design_setvalued(system)")
+        if weights_given is False and self.lpv is LPVMode.VERTICES:
+            raise InvalidArgumentError(
+                "weights: this Class III design was certified at the LPV vertices, which assumes that the observer "
+                "uses the plant's run-time weights (pi = sum λ_i A_i ζ); pass weights= to run_setvalued, or design "
+                "with lpv='lipschitz' to run the observer on the plant's own φ")
 
 
 @dataclass(frozen=True)
@@ -182,6 +287,8 @@ class SetValuedDesign:
     seconds : float
     solves : int
         Number of SDP solves (one compiled problem).
+    certified_for : CertifiedFor
+        The system data the certificate holds for (checked by the observer's runners).
     """
 
     objective: SetValuedObjective
@@ -205,6 +312,12 @@ class SetValuedDesign:
     margin: float
     seconds: float
     solves: int
+    certified_for: CertifiedFor
+
+    @property
+    def function_class(self) -> FunctionClass:
+        """The class whose multiplier (or vertices) the certificate uses."""
+        return self.certified_for.function_class
 
     @property
     def verified(self) -> bool:
@@ -222,6 +335,8 @@ class SetValuedDesign:
             f"  L~ = {np.array2string(self.L_tilde.ravel(), precision=5)}",
             f"  λ = {self.lam:.6g}, λ_eff = {self.lam_eff:.6g}, κ = {self.kappa:.4g}, c = {self.c:.4g}, "
             f"steady radius ≤ {self.steady_radius:.5g}" + (f", ρ = {self.rho:.5g}" if self.rho is not None else ""),
+            f"  function class used: {self.function_class.label}"
+            + (f" (Class III design: {self.certified_for.lpv.value})" if self.certified_for.lpv else ""),
             "  spectral radii of linear members: " + ", ".join(f"{r:.5g}" for r in self.spectral_radii),
         ]
         lines += ["  " + c.describe() for c in self.checks]
@@ -418,6 +533,7 @@ def design_setvalued(
     golden_steps: int = 14,
     rtol: float = 1e-3,
     solver_options: Mapping[str, Any] | None = None,
+    lpv: LPVMode | str = LPVMode.VERTICES,
 ) -> SetValuedDesign:
     r"""Design and certify ``L̃`` for the observer (10)-(15) of seed 004 (sound replacement of Thms. 5.4/5.10).
 
@@ -444,11 +560,16 @@ def design_setvalued(
         :data:`LAMBDA_BRACKET` of the remaining interval ``[λ_min, 1)`` (a finer ``λ_min`` only
         moves the start of the golden section).
     solver_options : mapping, optional
+    lpv : LPVMode or str
+        Class III only: ``"vertices"`` (default; the observer must then be run with the plant's run-time
+        weights) or ``"lipschitz"`` (the ``σ̃`` multiplier; for an observer that evaluates the plant's own
+        ``φ``). See :class:`LPVMode`.
 
     Returns
     -------
     SetValuedDesign
-        Verified: every check passed.
+        Verified: every check passed. When the chosen ``λ`` fails the re-verification, the other
+        solved candidates of the line search are verified in order of cost before giving up.
 
     Raises
     ------
@@ -468,6 +589,10 @@ def design_setvalued(
     obj = as_enum("objective", SetValuedObjective, objective)
     slv = as_solver(solver)
     eps = positive("margin", margin)
+    mode = as_enum("lpv", LPVMode, lpv)
+    certified_for = CertifiedFor.of(system, mode)
+    if certified_for.function_class is not system.function_class:
+        system = dataclasses.replace(system, function_class=certified_for.function_class)
     tr = ui_transform(system.G, system.C, system.H, system.D)
     st = _structure(system, tr)
     require_structure(st)
@@ -477,6 +602,11 @@ def design_setvalued(
         raise InvalidArgumentError(
             f"objective: 'hinf' needs γ ≥ 0 (got γ = {gamma:g}); with γ < 0 the multiplier leaves a constant term "
             "-κγ and no finite ℓ2 gain follows — use objective='radius'")
+    if obj is SetValuedObjective.HINF and not system.function_class.linear_members():
+        raise InvalidArgumentError(
+            f"objective: 'hinf' needs a known linear member of the class to check the ℓ2 gain by the bounded-real "
+            f"lemma, and none is known for this {system.function_class.label} multiplier (M11 is not negative "
+            "definite, or K* = -M11⁻¹M12 fails [K; I]ᵀM[K; I] ⪰ 0) — use objective='radius'")
     pb = _build(system, dyn, obj, eps)
     n, qdim = dyn.n, dyn.Xic.shape[0]
     solves = 0
@@ -492,7 +622,7 @@ def design_setvalued(
             raise DesignInfeasible("the H∞ condition (⋆) with q = 1, λ = 1 is infeasible: no quadratic Lyapunov "
                                    "function with this multiplier proves a finite ℓ2 gain", constraint="(⋆)")
         rho = math.sqrt(sol.theta[1])
-        qq, lam_used = 1.0, 1.0
+        qq = 1.0
     else:
         rho, qq = None, 0.0
         if lam is not None:
@@ -543,21 +673,35 @@ def design_setvalued(
                     x2 = a + gr * (b - a)
             cands = [(v, s) for v, s in cache.values() if s is not None]
             cands.append((_cost(system, best) / (1.0 - best.lam), best))
-            sol = min(cands, key=lambda t: t[0])[1]
-        lam_used = sol.lam
-    checks, lam_eff, c, radii, norms = _verify(system, dyn, sol.P, sol.L, sol.kappa, lam_used, qq, sol.theta, rho)
-    evP = np.linalg.eigvalsh(sol.P)
-    steady = math.sqrt(c / ((1.0 - lam_eff) * evP[0])) if lam_eff < 1 else math.inf
-    design = SetValuedDesign(
-        objective=obj, L_tilde=_ro(sol.L), P=_ro(sol.P), kappa=sol.kappa, lam=lam_used, q=qq, theta=sol.theta,
-        rho=rho, lam_eff=lam_eff, c=c, steady_radius=steady, spectral_radii=radii, hinf_linear=norms,
-        checks=tuple(checks), dynamics=dyn, structure=st, solver=slv, solver_status=sol.status, margin=eps,
-        seconds=time.perf_counter() - t0, solves=solves,
-    )
-    if not design.verified:
-        bad = "; ".join(c.describe() for c in checks if not c.passed)
-        raise CertificateError(f"the {slv.value} answer ('{sol.status}') failed the independent re-verification: {bad}")
-    return design
+            cands.sort(key=lambda t: t[0])
+            return _first_verified(system, dyn, [s for _, s in cands], obj, 0.0, None, st, slv, eps, t0,
+                                   solves, certified_for)
+    return _first_verified(system, dyn, [sol], obj, qq, rho, st, slv, eps, t0, solves, certified_for)
+
+
+def _first_verified(system: DiscreteUISystem, dyn: ErrorDynamics, cands: list[_Sol], obj: SetValuedObjective,
+                    qq: float, rho: float | None, st: StructuralCheck, slv: Solver, eps: float, t0: float,
+                    solves: int, certified_for: CertifiedFor) -> SetValuedDesign:
+    """The first candidate (in the given order) that passes the independent re-verification."""
+    failures = []
+    for sol in cands:
+        lam_used = 1.0 if obj is SetValuedObjective.HINF else sol.lam
+        checks, lam_eff, c, radii, norms = _verify(system, dyn, sol.P, sol.L, sol.kappa, lam_used, qq, sol.theta,
+                                                   rho)
+        if not all(ch.passed for ch in checks):
+            bad = "; ".join(ch.describe() for ch in checks if not ch.passed)
+            failures.append(f"λ = {lam_used:.6g} ('{sol.status}'): {bad}")
+            continue
+        evP = np.linalg.eigvalsh(sol.P)
+        steady = math.sqrt(c / ((1.0 - lam_eff) * evP[0])) if lam_eff < 1 else math.inf
+        return SetValuedDesign(
+            objective=obj, L_tilde=_ro(sol.L), P=_ro(sol.P), kappa=sol.kappa, lam=lam_used, q=qq, theta=sol.theta,
+            rho=rho, lam_eff=lam_eff, c=c, steady_radius=steady, spectral_radii=radii, hinf_linear=norms,
+            checks=tuple(checks), dynamics=dyn, structure=st, solver=slv, solver_status=sol.status, margin=eps,
+            seconds=time.perf_counter() - t0, solves=solves, certified_for=certified_for,
+        )
+    raise CertificateError(f"the {slv.value} answer failed the independent re-verification at every solved λ "
+                           f"({len(cands)} tried, in order of cost): " + " | ".join(failures))
 
 
 def _cost(system: DiscreteUISystem, s: _Sol) -> float:

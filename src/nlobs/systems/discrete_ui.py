@@ -43,7 +43,7 @@ import sympy as sp
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_batch, as_matrix, as_square, as_symmetric, as_vector, positive
-from nlobs.errors import DimensionError, InvalidArgumentError, ModelError
+from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, NonFiniteError
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.systems.timebase import Discrete
@@ -309,6 +309,41 @@ class LPV:
 
     def linear_members(self) -> tuple[Array, ...]:
         return tuple(np.array(a) for a in self.constituents)
+
+    def polytope_gap(self, dphi: Array, dx: Array) -> Array:
+        r"""Distance of ``Δφ`` from the polytope ``{Σᵢ λᵢ Aᵢ Δx : λ ∈ simplex}``, for batches ``(..., n)``.
+
+        ``0`` (to round-off) exactly when the difference quotient of the pair is a member of the class,
+        which is what the vertex design of :mod:`nlobs.synthesis.setvalued` assumes of ``π``. One or
+        two vertices: the exact projection; more: a non-negative least-squares solve with a heavily
+        weighted row ``Σλᵢ = 1``, its ``λ`` renormalised onto the simplex (so the distance returned is
+        attained by a feasible ``λ``: never below the true distance).
+        """
+        from scipy.optimize import nnls
+
+        dphi_ = np.asarray(dphi, dtype=float)
+        dx_ = np.asarray(dx, dtype=float)
+        V = np.einsum("ijk,...k->...ji", np.stack(self.constituents), dx_)  # (..., n, N): columns Aᵢ Δx
+        N = V.shape[-1]
+        if N == 1:
+            return np.linalg.norm(dphi_ - V[..., 0], axis=-1)
+        if N == 2:
+            a, b = V[..., 0], V[..., 1]
+            ab = a - b
+            den = np.sum(ab * ab, axis=-1)
+            t = np.clip(np.sum((dphi_ - b) * ab, axis=-1) / np.where(den > 0, den, 1.0), 0.0, 1.0)
+            t = np.where(den > 0, t, 1.0)
+            return np.linalg.norm(dphi_ - (b + t[..., None] * ab), axis=-1)
+        flatV = V.reshape(-1, V.shape[-2], N)
+        flatp = dphi_.reshape(-1, dphi_.shape[-1])
+        out = np.empty(flatV.shape[0])
+        for i in range(flatV.shape[0]):
+            Vi, pi = flatV[i], flatp[i]
+            w = 1e4 * (float(np.abs(Vi).max(initial=0.0)) + float(np.abs(pi).max(initial=0.0)) + 1e-300)
+            lam, _ = nnls(np.vstack([Vi, w * np.ones((1, N))]), np.concatenate([pi, [w]]))
+            lam = lam / lam.sum() if lam.sum() > 0 else np.full(N, 1.0 / N)
+            out[i] = float(np.linalg.norm(pi - Vi @ lam))
+        return out.reshape(dphi_.shape[:-1])
 
     def increment_bound(self, Acl: Array, Bcl: Array) -> tuple[float, float]:
         """``θ = maxᵢ ‖Acl + Bcl Aᵢ‖`` (convexity of the norm), ``r = 0``."""
@@ -643,7 +678,15 @@ def estimate_lipschitz(phi: NonlinearPart, lo: ArrayLike, hi: ArrayLike, *, n_pa
     if int(n_pairs) < 2:
         raise InvalidArgumentError(f"n_pairs: must be at least 2, got {n_pairs!r}")
     x1, x2 = _sample_pairs(lo_, hi_, int(n_pairs), seed, positive("local_scale", local_scale))
-    df = np.asarray(phi(x2), dtype=float) - np.asarray(phi(x1), dtype=float)
+    with np.errstate(invalid="ignore", over="ignore"):
+        f1, f2 = np.asarray(phi(x1), dtype=float), np.asarray(phi(x2), dtype=float)
+    for xs, fs in ((x1, f1), (x2, f2)):
+        nf = ~np.all(np.isfinite(fs), axis=-1)
+        if np.any(nf):
+            i = int(np.argmax(nf))
+            raise NonFiniteError(f"phi: not finite at x = {np.array2string(xs[i], precision=4)} in the box "
+                                 f"(phi = {np.array2string(fs[i], precision=4)}); no Lipschitz constant can be estimated")
+    df = f2 - f1
     dx = np.linalg.norm(x2 - x1, axis=-1)
     ok = dx > 0
     ratio = np.where(ok, np.linalg.norm(df, axis=-1) / np.where(ok, dx, 1.0), 0.0)
@@ -677,7 +720,8 @@ class ClassCheck:
 
     def describe(self) -> str:
         verdict = "no violation found" if self.holds else "VIOLATED"
-        return (f"{self.label}: {verdict} in {self.n_pairs} sampled pairs; worst QC − γ = {self.worst_margin:.4g} "
+        what = "−(distance of Δφ from conv{AᵢΔx})²" if "LPV" in self.label else "QC − γ"
+        return (f"{self.label}: {verdict} in {self.n_pairs} sampled pairs; worst {what} = {self.worst_margin:.4g} "
                 f"at x1 = {np.array2string(self.x1, precision=4)}, x2 = {np.array2string(self.x2, precision=4)}")
 
 
@@ -687,15 +731,25 @@ def check_function_class(phi: NonlinearPart, function_class: FunctionClass, lo: 
 
     The margin of a pair is ``[Δφ; Δx]ᵀ M [Δφ; Δx] − γ`` (seed 004, (2)); a
     margin below ``−rtol (‖Δφ‖² + ‖Δx‖²) − rtol`` counts as a violation. For
-    :class:`LPV` the Lipschitz multiplier with ``σ̃ = maxᵢ ‖Aᵢ‖`` is checked.
+    :class:`LPV` the margin is ``−d²``, ``d`` the distance of ``Δφ`` from the polytope
+    ``{Σλᵢ Aᵢ Δx}`` (:meth:`LPV.polytope_gap`): the difference quotient of every pair must be a
+    member of the class (which implies the Lipschitz bound ``σ̃ = maxᵢ ‖Aᵢ‖`` of Proposition 2.16).
+    A non-finite ``φ`` value is a violation (margin ``-inf``).
     """
     lo_, hi_ = _box(lo, hi)
     if lo_.shape[0] != function_class.n:
         raise DimensionError(f"lo: the box has dimension {lo_.shape[0]}, the class n = {function_class.n}")
     x1, x2 = _sample_pairs(lo_, hi_, int(n_pairs), seed, 1e-3)
-    dphi = np.asarray(phi(x2), dtype=float) - np.asarray(phi(x1), dtype=float)
+    with np.errstate(invalid="ignore", over="ignore"):
+        dphi = np.asarray(phi(x2), dtype=float) - np.asarray(phi(x1), dtype=float)
     dx = x2 - x1
-    margin = function_class.qc_value(dphi, dx) - function_class.gamma
+    bad = ~np.all(np.isfinite(dphi), axis=-1)
+    dphi = np.where(bad[:, None], 0.0, dphi)
+    if isinstance(function_class, LPV):
+        margin = -function_class.polytope_gap(dphi, dx) ** 2
+    else:
+        margin = function_class.qc_value(dphi, dx) - function_class.gamma
+    margin = np.where(bad, -np.inf, margin)
     scale = np.sum(dphi * dphi, axis=-1) + np.sum(dx * dx, axis=-1)
     rel = margin + rtol * (scale + 1.0)
     i = int(np.argmin(rel))

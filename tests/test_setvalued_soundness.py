@@ -1,0 +1,103 @@
+"""Soundness conditions of the seed-004 observer (issue 5 review): each test fails on the code before its fix."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from nlobs.errors import InvalidArgumentError
+from nlobs.examples.khajenejad_yong import ball_samples, example_61
+from nlobs.observers.setvalued import run_setvalued, sound_radii
+from nlobs.synthesis.setvalued import design_setvalued
+from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, Lipschitz, check_function_class
+from nlobs.systems.timebase import Discrete
+
+LO, HI = [-3.0, -3.0], [3.0, 3.0]
+VERTS = (np.array([[0.0, 1.5], [0.0, 0.0]]), np.zeros((2, 2)))
+
+
+def _hole(x: np.ndarray) -> np.ndarray:
+    """The reviewer's lpvhole.toml: φ = [0, 1.5 x₂], 1.5-Lipschitz but no difference quotient in conv{Aᵢ}."""
+    return np.stack([np.zeros(x.shape[:-1]), 1.5 * x[..., 1]], axis=-1)
+
+
+def _member(x: np.ndarray) -> np.ndarray:
+    """φ = [0.1 x₁, 0] = ½ diag(0.2, 0) x: every difference quotient lies in conv{diag(0.2, 0), 0}."""
+    return np.stack([0.1 * x[..., 0], np.zeros(x.shape[:-1])], axis=-1)
+
+
+def _lpv_system(phi=_member) -> DiscreteUISystem:  # type: ignore[no-untyped-def]
+    return DiscreteUISystem(np.array([[0.5, 0.2], [0.0, 0.3]]), [[1.0], [0.0]], [[1.0, 0.0], [0.0, 0.0]],
+                            [[0.0], [1.0]], phi=phi, function_class=LPV((np.diag([0.2, 0.0]), np.zeros((2, 2)))),
+                            eta_w=0.01, eta_v=0.01, delta0=0.5, time=Discrete(1.0))
+
+
+# --------------------------------------------------------------------------- 1. Class III
+
+
+def test_lpv_class_check_tests_polytope_membership_not_only_the_lipschitz_bound() -> None:
+    # the σ̃ = 1.5 Lipschitz bound holds for lpvhole's φ ...
+    assert check_function_class(_hole, Lipschitz(1.5, 2), LO, HI, n_pairs=2000).holds
+    # ... but its difference quotients [0, 1.5 Δx₂] are not λ [1.5 Δx₂, 0]: the LPV class is violated
+    chk = check_function_class(_hole, LPV(VERTS), LO, HI, n_pairs=2000)
+    assert not chk.holds and chk.worst_margin < -1.0
+    assert "distance of Δφ" in chk.describe()
+    dx = chk.x2 - chk.x1
+    # (0, 1.5Δx₂) is orthogonal to the segment [0, (1.5Δx₂, 0)]: its distance is 1.5|Δx₂|
+    assert np.sqrt(-chk.worst_margin) == pytest.approx(1.5 * abs(dx[1]), rel=1e-9)
+    assert check_function_class(_member, LPV((np.diag([0.2, 0.0]), np.zeros((2, 2)))), LO, HI, n_pairs=2000).holds
+
+
+def test_lpv_polytope_gap_with_three_vertices_matches_a_hand_projection() -> None:
+    lpv = LPV((np.eye(2), -np.eye(2), np.diag([1.0, -1.0])))
+    dx = np.array([[1.0, 1.0], [1.0, 1.0]])
+    dphi = np.array([[0.5, 0.0], [2.0, 1.0]])  # first: ½(I) + ½(diag(1,-1)) → member; second: outside
+    gap = lpv.polytope_gap(dphi, dx)
+    assert gap[0] == pytest.approx(0.0, abs=1e-9)
+    assert gap[1] == pytest.approx(1.0, abs=1e-6)  # nearest member I·dx = (1, 1)
+
+
+def test_vertex_design_refuses_to_run_without_shared_weights() -> None:
+    s = _lpv_system()
+    vert = design_setvalued(s)  # default: vertices, the weights= path
+    rng = np.random.default_rng(0)
+    x, y = s.simulate(ball_samples(rng, (4,), 0.5, 2), np.zeros((4, 11, 1)), np.zeros((4, 10, 2)), np.zeros((4, 11, 2)))
+    with pytest.raises(InvalidArgumentError, match="run-time weights"):
+        run_setvalued(s, vert, y)
+    lam = np.full((11, 2), 0.5)
+    run_setvalued(s, vert, y, weights=lam)  # the library's weights= path is accepted
+
+
+def test_lipschitz_mode_design_for_the_plants_own_phi_is_contained() -> None:
+    s = _lpv_system()
+    d = design_setvalued(s, lpv="lipschitz")
+    assert d.certified_for.lpv is not None and d.certified_for.lpv.value == "lipschitz"
+    assert d.function_class.label == "Class I (Lipschitz)" and d.kappa > 0
+    rng = np.random.default_rng(1)
+    B, K = 300, 60
+    x, y = s.simulate(ball_samples(rng, (B,), 0.5, 2), np.broadcast_to(np.sin(np.arange(K + 1))[None, :, None],
+                                                                       (B, K + 1, 1)),
+                      ball_samples(rng, (B, K), 0.01, 2), ball_samples(rng, (B, K + 1), 0.01, 2))
+    assert run_setvalued(s, d, y).contains_state(x).all()
+
+
+# --------------------------------------------------------------------------- 2. design/system mismatch
+
+
+def test_design_run_on_another_system_is_refused() -> None:
+    s = example_61("II").system
+    d = design_setvalued(s)
+    other = dataclasses.replace(s, eta_w=1, eta_v=1)
+    with pytest.raises(InvalidArgumentError, match="eta_w = 1 exceeds the certified 0.1"):
+        sound_radii(other, d, 10)
+    y = np.zeros((1, 11, s.l))
+    with pytest.raises(InvalidArgumentError, match="certified for another system"):
+        run_setvalued(other, d, y)
+    with pytest.raises(InvalidArgumentError, match="A differs"):
+        run_setvalued(dataclasses.replace(s, A=s.A * 1.01), d, y)
+    with pytest.raises(InvalidArgumentError, match="function class"):
+        sound_radii(example_61("I").system, d, 10)
+    # smaller noise bounds are covered by the certified increment c
+    assert sound_radii(dataclasses.replace(s, eta_w=0.05), d, 10).state.shape == (11,)
