@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import mpmath
 import numpy as np
 import pytest
 
-from nlobs.errors import DesignInfeasible, InvalidArgumentError
+from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
 from nlobs.geometry import brunovsky
 from nlobs.synthesis.drift_gain import (
     RiccatiConstants,
@@ -160,3 +161,77 @@ def test_given_w_that_fails_raises_and_bad_arguments() -> None:
         RiccatiConstants((2,), None, alpha=0.0, mu=1.0, gamma=1.0)
     with pytest.raises(InvalidArgumentError, match="s: every entry"):
         vandermonde_gain((2, 0), 1.0)
+
+
+def _mp_riccati(c: RiccatiConstants, K: np.ndarray, P: np.ndarray) -> tuple[float, float, float]:
+    """In mpmath (the current precision): λ_max of the unscaled left side of (2.17), λ_min(P), cn(P).
+
+    An independent source: the float entries of K, P are converted exactly and the formula is written out.
+    """
+    A, B, C = (mpmath.matrix(M.tolist()) for M in brunovsky_triple(c.s))
+    Km, Pm = mpmath.matrix(K.tolist()), mpmath.matrix(P.tolist())
+    F = mpmath.matrix(c.F.tolist()) if c.F.size else None
+    Acl = A - Km * C
+    L = Acl * Pm + Pm * Acl.T + B * B.T + 2 * mpmath.mpf(c.alpha) * Pm + mpmath.mpf(c.gamma) ** 2 * (Pm * Pm)
+    if F is not None:
+        L += mpmath.mpf(c.mu) ** 2 * (F * F.T)
+    L = (L + L.T) / 2
+    evL = mpmath.eigsy(L, eigvals_only=True)
+    evP = mpmath.eigsy((Pm + Pm.T) / 2, eigvals_only=True)
+    return float(max(evL)), float(min(evP)), float(max(evP) / min(evP))
+
+
+@pytest.mark.parametrize(("s", "digits"), [((5,), 50), ((6,), 60), ((8,), 100)])
+def test_long_chains_get_a_verified_w_confirmed_in_high_precision(s: tuple[int, ...], digits: int) -> None:
+    # Theorem 2.9 (s = r): a solution exists for every (α, μ, γ). Unscaled, λ_max(L) at (K(w), P(w)) is below the
+    # rounding level of its own computation (P spans w^(−2(s−1))): the verification must be done on D L D.
+    c = RiccatiConstants(s, _F_ends(s), 1.0, 1.0, 1.0)
+    ws = smallest_w(c)
+    cert = ws.certificate
+    assert cert.verified and ws.monotone
+    assert cert.lhs_max_eig_scaled < -cert.lhs_tolerance < 0
+    assert abs(cert.lhs_max_eig) < cert.lhs_rounding  # the double-precision unscaled sign means nothing here
+    # the claim checked independently: (2.17) at the returned floats, in `digits` significant digits
+    with mpmath.workdps(digits):
+        lam, pmin, cond = _mp_riccati(c, np.asarray(cert.K), np.asarray(cert.P))
+    assert lam < 0 and pmin > 0
+    assert cert.cond_P == pytest.approx(cond, rel=1e-5)  # cn(P) from the scaled P̃, against the exact spectrum
+    assert cert.spectral_abscissa < -c.alpha
+
+
+def test_verification_margin_rejects_a_pair_that_fails_by_less_than_rounding() -> None:
+    # s = (5,): below w* (2.17) fails; the old unscaled check was decided by rounding either way.
+    c = RiccatiConstants((5,), _F_ends((5,)), 1.0, 1.0, 1.0)
+    w_star = smallest_w(c).w
+    g = vandermonde_gain((5,), 0.9 * w_star)
+    cert = verify_drift_gain(c, g.K, g.P)
+    with mpmath.workdps(50):
+        lam, _, _ = _mp_riccati(c, np.asarray(g.K), np.asarray(g.P))
+    assert lam > 0 and not cert.verified
+    assert not cert.checks[0].passed and cert.lhs_max_eig_scaled > 0
+
+
+def test_chains_beyond_double_precision_say_so() -> None:
+    c = RiccatiConstants((9,), _F_ends((9,)), 1.0, 1.0, 1.0)
+    with pytest.raises(DesignInfeasible, match=r"negative but not below the rounding tolerance.*double precision"):
+        smallest_w(c)
+
+
+def test_decay_margin_of_an_indefinite_P_is_nan_with_a_reason() -> None:
+    c = RiccatiConstants((2,), _F_ends((2,)), 1.0, 1.0, 1.0)
+    cert = verify_drift_gain(c, vandermonde_gain((2,), 5.0).K, -np.eye(2))  # RuntimeWarnings are errors (pyproject)
+    assert not cert.verified and np.isnan(cert.decay_margin)
+    assert "not positive definite" in cert.decay_margin_note
+    assert "decay margin undefined" in cert.describe() and cert.cond_P == np.inf
+
+
+def test_scaled_sdp_falls_back_to_theta_1_when_the_w_search_fails_verification(monkeypatch: pytest.MonkeyPatch) -> None:
+    import nlobs.synthesis.drift_gain as dg
+
+    def broken(*args: object, **kwargs: object) -> None:
+        raise CertificateError("Vandermonde pair failed")
+
+    monkeypatch.setattr(dg, "smallest_w", broken)
+    c = RiccatiConstants((2,), _F_ends((2,)), 1.0, 1.0, 1.0)
+    cert = design_drift_gain_sdp(c)  # scaling="auto": θ = 1 is still tried
+    assert cert.verified and cert.scaling == 1.0

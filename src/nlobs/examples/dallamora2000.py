@@ -465,18 +465,18 @@ def rows() -> list[ReproRow]:
         "Thm 2.9: s ≤ r ⇒ (2.17) has a stabilising pair for every (α, μ, γ); s = r = (3, 1), "
         f"(α, μ, γ) ∈ {triples}: smallest w (Remark 2.11)",
         "exists", [_r(x.w) for x in ws],
-        "every pair verified by eig of the left side of (2.17), P ≻ 0, A_s − KC_s Hurwitz; "
+        "every pair verified by eig of the scaled left side D L D of (2.17), P ≻ 0, A_s − KC_s Hurwitz; "
         f"(2.17) still holds at 2w, 4w, 10w: {all(x.monotone for x in ws)}"))
     c1 = RiccatiConstants((2,), brunovsky_triple((2,))[1], 1.0, 1.0, 1.0)
     w1 = smallest_w(c1)
     out.append(ReproRow("Remark 2.11: P(w) = (V_sᵀV_s)⁻¹ solves (2.17) for w large; s = (2), α = μ = γ = 1: smallest w",
                         "w large enough", _r(w1.w),
-                        f"bracket ({w1.bracket[0]:.5g}, {w1.bracket[1]:.5g}); λ_max(left side) = {w1.certificate.lhs_max_eig:.3g}, "
+                        f"bracket ({w1.bracket[0]:.5g}, {w1.bracket[1]:.5g}); λ_max(D L D) = {w1.certificate.lhs_max_eig_scaled:.3g}, "
                         f"cn(P) = {w1.certificate.cond_P:.4g}, ‖K‖ = {w1.certificate.gain_norm:.4g}"))
     sdp1 = design_drift_gain_sdp(c1)
     out.append(ReproRow("SDP design (facts.md LMI in S = P⁻¹, Y = SK), same constants: ‖K‖, cn(P)", None,
                         [_r(sdp1.gain_norm), _r(sdp1.cond_P)],
-                        f"derived; verified by eig of (2.17): λ_max = {sdp1.lhs_max_eig:.3g}; Vandermonde at w*: "
+                        f"derived; verified by eig of (2.17) scaled: λ_max(D L D) = {sdp1.lhs_max_eig_scaled:.3g}; Vandermonde at w*: "
                         f"‖K‖ = {w1.certificate.gain_norm:.4g}, cn(P) = {w1.certificate.cond_P:.4g}"))
     alphas = [1.0, 10.0, 100.0]
     ratios = []

@@ -13,7 +13,7 @@ with ``(A_s, B_s, C_s)`` the block Brunovsky triple of the multi-index ``s`` (2.
 ``z = Φ_s(x)`` coordinates (Assumption H0/H1). A *stabilising solution pair*
 (Def. 2.6) also has ``A_s − K C_s`` Hurwitz and ``P`` symmetric positive definite.
 
-Two designs, both verified by the eigenvalues of the left side of (2.17):
+Two designs, both verified by the eigenvalues of the left side of (2.17), scaled (see below):
 
 * :func:`vandermonde_gain` — Remark 2.11: per output block, ``K_j(w)`` assigns the
   eigenvalues ``−w, −2w, …, −s_j w``; the block Vandermonde matrix ``V_s(w)``
@@ -36,6 +36,28 @@ the left eigenvectors of the observer-companion matrix ``A_j − K_j C_j`` (firs
 column ``−K_j``, ones on the superdiagonal), so ``V (A_s − K C_s) V⁻¹ = Λ`` and
 ``(A_s − K C_s) P + P (A_s − K C_s)ᵀ = 2 V⁻¹ Λ V⁻ᵀ ≺ 0`` for ``P = V⁻¹ V⁻ᵀ``.
 
+Verification in scaled coordinates. ``P(w) = T_w⁻¹ P(1) T_w⁻¹`` with ``T_w = blockdiag(w^{s_j−1}, …, w, 1)``,
+so ``P`` has eigenvalues down to ``~w^{−2(s_j−1)}`` and the left side ``L`` of (2.17) has its
+decisive eigenvalue far below the rounding level ``ε‖L‖`` of its own computation once
+``s_j ≥ 5`` (``s = (5,)``, ``w = 1000``: ``λ_max(L) = −1.2·10⁻²⁴`` against ``ε‖L‖ = 2.7·10⁻¹⁰``):
+the sign of ``λ_max(L)`` computed in double precision means nothing. (2.17) and ``P ≻ 0`` are
+invariant in sign under a congruence ``X ↦ D X D`` (Sylvester), so they are checked on
+
+.. math::
+
+    D L D = Ã P̃ + P̃ Ãᵀ + (DB_s)(DB_s)ᵀ + μ² (DF)(DF)ᵀ + 2α P̃ + γ² P̃ D^{−2} P̃,
+    \quad Ã = D (A_s − K C_s) D^{−1},\ P̃ = D P D,
+
+with ``D = diag(2^{k_i})`` the powers of two nearest the Jacobi equilibration
+``P_ii^{−1/2}`` (so ``P̃_ii ∈ [½, 2]``; for ``P(w)`` this is ``T_w`` up to a ``w``-independent
+diagonal). The scaled factors ``Ã``, ``P̃``, ``DB_s``, ``DF`` are formed entrywise from
+``K`` and ``P`` (powers of two: exactly; ``A_s − K C_s`` has no cancellation since ``A_s``
+and ``K C_s`` have disjoint supports) — never by scaling an already rounded ``L``. A check
+passes only with a margin above rounding: ``λ_max(D L D) < −c n ε ‖N‖₂`` and
+``λ_min(P̃) > c n ε ‖P̃‖₂``, where ``N`` is the sum of the absolute values of the terms
+(``2|Ã||P̃| + |DB||DB|ᵀ + …``, the standard bound of the products' rounding errors) and
+``c = 10`` (:data:`ROUNDING_FACTOR`). The certificate reports both numbers, scaled and unscaled.
+
 The Brunovsky triple (:func:`brunovsky_triple`) is :func:`nlobs.systems.brunovsky.brunovsky`,
 shared with the symbolic layer.
 """
@@ -47,6 +69,8 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from enum import Enum
+from fractions import Fraction
+from functools import lru_cache
 from typing import Any, NamedTuple
 
 import cvxpy as cp
@@ -78,6 +102,9 @@ __all__ = [
 ]
 
 _EPS = float(np.finfo(float).eps)
+#: ``c`` of the verification margin: a scaled check passes when it holds by more than ``c n ε``
+#: times the norm of the absolute values of its terms (see the module docstring).
+ROUNDING_FACTOR = 10.0
 #: The certificate is computed at this multiple of the smallest feasible κ (bisection), so that
 #: the returned pair has slack instead of sitting on the boundary of the LMI.
 _FINAL_KAPPA_FACTOR = 1.1
@@ -139,14 +166,39 @@ class RiccatiConstants:
 
 
 def riccati_lhs(c: RiccatiConstants, K: ArrayLike, P: ArrayLike) -> Array:
-    """The (symmetrised) left side of (2.17) for a pair ``(K, P)``."""
-    A, B, C = c.triple()
+    """The (symmetrised) left side of (2.17) for a pair ``(K, P)``, unscaled.
+
+    For long chains its decisive eigenvalue is below the rounding level of this computation;
+    the certificates use the scaled form ``D L D`` instead (module docstring).
+    """
     K_ = as_matrix("K", K, (c.n, c.q))
     P_ = as_matrix("P", P, (c.n, c.n))
-    P_ = 0.5 * (P_ + P_.T)
-    Acl = A - K_ @ C
-    M = Acl @ P_ + P_ @ Acl.T + B @ B.T + c.mu**2 * (c.F @ c.F.T) + 2.0 * c.alpha * P_ + c.gamma**2 * (P_ @ P_)
-    return 0.5 * (M + M.T)
+    return _lhs(c, K_, 0.5 * (P_ + P_.T), np.ones(c.n))[0]
+
+
+def _equilibration(P: Array) -> Array:
+    """``D``: the powers of two nearest ``P_ii^{−1/2}`` (``D_i² P_ii ∈ [½, 2]``); ones if a ``P_ii ≤ 0``."""
+    dg = np.diag(P)
+    if not (np.all(np.isfinite(dg)) and np.all(dg > 0)):
+        return np.ones(len(dg))
+    return np.ldexp(1.0, (-np.round(0.5 * np.log2(dg))).astype(int))
+
+
+def _lhs(c: RiccatiConstants, K: Array, P: Array, d: Array) -> tuple[Array, float, Array, Array]:
+    """``D L D`` from the scaled factors, its rounding level ``c n ε ‖N‖₂``, ``Ã`` and ``P̃`` (``D = diag(d)``)."""
+    A, B, C = c.triple()
+    At = d[:, None] * (A - K @ C) / d[None, :]  # A_s and K C_s have disjoint supports: no cancellation
+    Pt = d[:, None] * P * d[None, :]
+    Bt = d[:, None] * B
+    Ft = d[:, None] * c.F
+    dinv2 = d**-2.0
+    AP = At @ Pt
+    M = AP + AP.T + Bt @ Bt.T + c.mu**2 * (Ft @ Ft.T) + 2.0 * c.alpha * Pt + c.gamma**2 * (Pt @ (dinv2[:, None] * Pt))
+    aA, aP, aB, aF = np.abs(At), np.abs(Pt), np.abs(Bt), np.abs(Ft)
+    N = 2.0 * (aA @ aP) + aB @ aB.T + c.mu**2 * (aF @ aF.T) + 2.0 * c.alpha * aP + c.gamma**2 * (aP @ (dinv2[:, None] * aP))
+    with np.errstate(all="ignore"):
+        tol = ROUNDING_FACTOR * c.n * _EPS * float(np.linalg.norm(N, 2)) if np.all(np.isfinite(N)) else math.inf
+    return 0.5 * (M + M.T), tol, At, Pt
 
 
 # --------------------------------------------------------------------------- certificate
@@ -167,12 +219,14 @@ class DriftGainCertificate:
     w : float or None
         The Vandermonde parameter (``None`` otherwise).
     lhs_max_eig : float
-        Largest eigenvalue of the left side of (2.17); ``< 0`` when verified.
+        Largest eigenvalue of the *unscaled* left side ``L`` of (2.17), as computed in double
+        precision: reported, not trusted — compare it with :attr:`lhs_rounding`.
     eigenvalues : ndarray of complex
-        ``eig(A_s − K C_s)`` sorted by real part.
+        ``eig(A_s − K C_s)`` (computed from ``D(A_s − K C_s)D⁻¹``), sorted by real part.
     checks : tuple of Check
-        (2.17) by eigenvalues, ``P ≻ 0``, ``A_s − K C_s`` Hurwitz (and, for the SDP,
-        the LMI block recomputed from ``S = P⁻¹``, ``Y = S K``).
+        (2.17) as ``λ_max(D L D) < −tolerance``, ``P ≻ 0`` as ``λ_min(D P D)`` above its rounding
+        level, ``A_s − K C_s`` Hurwitz (and, for the SDP, the LMI block recomputed in the
+        solver's scaled variables).
     objective : str or None
     solver : Solver or None
     solver_status : str
@@ -181,6 +235,13 @@ class DriftGainCertificate:
     seconds : float
     scaling : float
         High-gain scaling ``θ`` of the SDP variables (1: none).
+    lhs_max_eig_scaled : float
+        ``λ_max(D L D)``, ``D = diag(2^{k_i})`` equilibrating ``P`` (module docstring).
+    lhs_tolerance : float
+        Rounding level of ``D L D`` (``c n ε ‖N‖₂``): (2.17) is verified when
+        ``lhs_max_eig_scaled < −lhs_tolerance``.
+    lhs_rounding : float
+        The same level for the unscaled ``L`` — above ``|lhs_max_eig|`` the unscaled sign means nothing.
     """
 
     constants: RiccatiConstants
@@ -197,6 +258,9 @@ class DriftGainCertificate:
     margin: float = 0.0
     seconds: float = 0.0
     scaling: float = 1.0
+    lhs_max_eig_scaled: float = math.nan
+    lhs_tolerance: float = math.nan
+    lhs_rounding: float = math.nan
 
     @property
     def verified(self) -> bool:
@@ -206,11 +270,28 @@ class DriftGainCertificate:
     def failed_checks(self) -> tuple[Check, ...]:
         return tuple(c for c in self.checks if not c.passed)
 
+    def _scaled(self) -> tuple[Array, Array, Array, float] | None:
+        """``(d, D L D, D P D, eigenvalues of D P D)``, or ``None`` when ``D P D`` is not positive definite."""
+        d = _equilibration(self.P)
+        L, _, _, Pt = _lhs(self.constants, self.K, self.P, d)
+        ev = np.linalg.eigvalsh(Pt)
+        if not (np.all(np.isfinite(ev)) and ev[0] > ROUNDING_FACTOR * self.constants.n * _EPS * ev[-1]):
+            return None
+        return d, L, Pt, ev
+
     @property
     def cond_P(self) -> float:
-        """``cn(P) = λ_max(P) / λ_min(P)``."""
-        ev = np.linalg.eigvalsh(self.P)
-        return float(ev[-1] / ev[0]) if ev[0] > 0 else math.inf
+        """``cn(P) = λ_max(P) / λ_min(P)``, with ``1/λ_min(P) = λ_max(D P̃⁻¹ D)`` (``inf`` unless ``P ≻ 0``).
+
+        ``λ_min(P)`` itself is below the rounding level of ``P`` for long chains; ``P̃ = D P D``
+        is well scaled, and the largest eigenvalue of ``P⁻¹ = D P̃⁻¹ D`` is computed to working accuracy.
+        """
+        sc = self._scaled()
+        if sc is None:
+            return math.inf
+        d, _, Pt, _ = sc
+        Pinv = d[:, None] * np.linalg.inv(Pt) * d[None, :]
+        return float(np.linalg.eigvalsh(self.P)[-1] * np.linalg.eigvalsh(0.5 * (Pinv + Pinv.T))[-1])
 
     @property
     def norm_P(self) -> float:
@@ -224,15 +305,26 @@ class DriftGainCertificate:
 
     @property
     def decay_margin(self) -> float:
-        """``δ/2`` with ``δ = −λ_max(P^{−1/2} L P^{−1/2})``, ``L`` the left side of (2.17).
+        """``δ/2`` with ``δ = −λ_max(P^{−1/2} L P^{−1/2})``, ``L`` the left side of (2.17); NaN unless ``P ≻ 0``.
 
         ``L ⪯ −δ P`` means (2.17) still holds with ``α + δ/2`` in place of ``α``: the
-        scale-free slack of the pair (``λ_max(L)`` itself scales with ``P``).
+        scale-free slack of the pair (``λ_max(L)`` itself scales with ``P``). Computed as
+        ``−λ_max(P̃^{−1/2} L̃ P̃^{−1/2})/2`` in the scaled coordinates (the same number:
+        ``P⁻¹L`` and ``P̃⁻¹L̃`` are similar). NaN (see :attr:`decay_margin_note`) when ``P̃`` is
+        not positive definite above its rounding level: ``P^{−1/2}`` does not exist.
         """
-        ev, U = np.linalg.eigh(self.P)
+        sc = self._scaled()
+        if sc is None:
+            return math.nan
+        _, L, Pt, _ = sc
+        ev, U = np.linalg.eigh(Pt)
         Pm = (U / np.sqrt(ev)) @ U.T
-        L = riccati_lhs(self.constants, self.K, self.P)
         return float(-np.linalg.eigvalsh(Pm @ L @ Pm)[-1] / 2.0)
+
+    @property
+    def decay_margin_note(self) -> str:
+        """Why :attr:`decay_margin` is NaN (empty when it is a number)."""
+        return "" if self._scaled() is not None else "undefined: P is not positive definite (above rounding)"
 
     @property
     def spectral_abscissa(self) -> float:
@@ -243,10 +335,13 @@ class DriftGainCertificate:
         head = f"{self.method} gain" + (f" (w = {self.w:.6g})" if self.w is not None else "")
         if self.scaling != 1.0:
             head += f" (scaling θ = {self.scaling:.4g})"
+        dm = self.decay_margin
         lines = [
             f"{head} for {self.constants.describe()}: {'verified' if self.verified else 'NOT verified'}",
-            f"  λ_max(left side of (2.17)) = {self.lhs_max_eig:.6g}, cn(P) = {self.cond_P:.6g}, ‖P‖ = {self.norm_P:.6g}, "
-            f"‖K‖ = {self.gain_norm:.6g}, decay margin {self.decay_margin:.4g}",
+            f"  (2.17) scaled: λ_max(D L D) = {self.lhs_max_eig_scaled:.6g} (must be < −{self.lhs_tolerance:.3g}); "
+            f"unscaled: λ_max(L) = {self.lhs_max_eig:.6g} (rounding level {self.lhs_rounding:.3g})",
+            f"  cn(P) = {self.cond_P:.6g}, ‖P‖ = {self.norm_P:.6g}, ‖K‖ = {self.gain_norm:.6g}, "
+            + (f"decay margin {dm:.4g}" if dm == dm else f"decay margin {self.decay_margin_note}"),
             "  eig(A_s − K C_s) = " + ", ".join(_fmt_complex(z) for z in self.eigenvalues),
         ]
         lines += ["  " + c.describe() for c in self.checks]
@@ -265,6 +360,9 @@ class DriftGainCertificate:
             "P": self.P.tolist(),
             "verified": self.verified,
             "lhs_max_eig": self.lhs_max_eig,
+            "lhs_rounding": self.lhs_rounding,
+            "lhs_max_eig_scaled": self.lhs_max_eig_scaled,
+            "lhs_tolerance": self.lhs_tolerance,
             "cond_P": self.cond_P,
             "norm_P": self.norm_P,
             "gain_norm": self.gain_norm,
@@ -283,30 +381,48 @@ def _fmt_complex(z: complex) -> str:
     return f"{z.real:.4g}" if abs(z.imag) < 1e-9 * max(1.0, abs(z)) else f"{z.real:.4g}{z.imag:+.4g}j"
 
 
-def _checks(c: RiccatiConstants, K: Array, P: Array) -> tuple[list[Check], float, NDArray[np.complex128]]:
-    A, _, C = c.triple()
-    lhs = riccati_lhs(c, K, P)
-    lam = float(np.linalg.eigvalsh(lhs)[-1])
-    eigs = np.linalg.eigvals(A - K @ C)
+class _Verification(NamedTuple):
+    checks: list[Check]
+    eigenvalues: NDArray[np.complex128]
+    fields: dict[str, float]  # lhs_max_eig, lhs_rounding, lhs_max_eig_scaled, lhs_tolerance
+
+
+def _checks(c: RiccatiConstants, K: Array, P: Array) -> _Verification:
+    """(2.17) and ``P ≻ 0`` on ``D L D``, ``D P D`` (with margins above rounding), and the spectrum."""
+    n = c.n
+    d = _equilibration(P)
+    Ls, tol, At, Pt = _lhs(c, K, P, d)
+    L, tol_u, _, _ = _lhs(c, K, P, np.ones(n))
+    with np.errstate(all="ignore"):
+        finite = bool(np.all(np.isfinite(Ls)) and np.all(np.isfinite(At)) and np.all(np.isfinite(Pt)))
+        lam_s = float(np.linalg.eigvalsh(Ls)[-1]) if finite else math.nan
+        lam_u = float(np.linalg.eigvalsh(L)[-1]) if np.all(np.isfinite(L)) else math.nan
+        evP = np.linalg.eigvalsh(Pt) if finite else np.array([math.nan])
+        eigs = np.linalg.eigvals(At) if finite else np.full(n, complex(math.nan))
     eigs = eigs[np.lexsort((eigs.imag, eigs.real))]
+    p_tol = ROUNDING_FACTOR * n * _EPS * float(np.max(np.abs(evP)))
     checks = [
-        Check("(2.17): λ_max(left side)", CheckKind.LMI, lam, 0.0),
-        Check("P ≻ 0 (−λ_min(P))", CheckKind.POSITIVITY, -float(np.linalg.eigvalsh(0.5 * (P + P.T))[0]), 0.0),
+        Check("(2.17) scaled: λ_max(D L D)", CheckKind.LMI, lam_s, -tol),
+        Check("P ≻ 0 scaled: −λ_min(D P D)", CheckKind.POSITIVITY, -float(evP[0]), -p_tol),
         Check("A_s − K C_s Hurwitz (max Re λ)", CheckKind.SPECTRUM, float(np.max(eigs.real)), 0.0),
     ]
-    return checks, lam, eigs
+    fields = {"lhs_max_eig": lam_u, "lhs_rounding": tol_u, "lhs_max_eig_scaled": lam_s, "lhs_tolerance": tol}
+    return _Verification(checks, eigs, fields)
 
 
 def verify_drift_gain(c: RiccatiConstants, K: ArrayLike, P: ArrayLike, *, method: str = "given",
                       w: float | None = None) -> DriftGainCertificate:
-    """Verify a pair ``(K, P)`` against (2.17) by eigenvalues (Def. 2.6); never raises on failure."""
+    """Verify a pair ``(K, P)`` against (2.17) in scaled coordinates (Def. 2.6); never raises on failure."""
     K_ = as_matrix("K", K, (c.n, c.q)).copy()
     P_ = as_matrix("P", P, (c.n, c.n))
     P_ = 0.5 * (P_ + P_.T)
-    checks, lam, eigs = _checks(c, K_, P_)
+    v = _checks(c, K_, P_)
     K_.setflags(write=False)
     P_.setflags(write=False)
-    return DriftGainCertificate(c, K_, P_, method, w, lam, eigs, tuple(checks))
+    f = v.fields
+    return DriftGainCertificate(c, K_, P_, method, w, f["lhs_max_eig"], v.eigenvalues, tuple(v.checks),
+                                lhs_max_eig_scaled=f["lhs_max_eig_scaled"], lhs_tolerance=f["lhs_tolerance"],
+                                lhs_rounding=f["lhs_rounding"])
 
 
 # --------------------------------------------------------------------------- Remark 2.11
@@ -321,30 +437,61 @@ class VandermondeGain(NamedTuple):
     eigenvalues: Array
 
 
+@lru_cache(maxsize=64)
+def _unit_block(sj: int) -> tuple[tuple[float, ...], tuple[tuple[float, ...], ...]]:
+    """``w = 1``: the coefficients of ``∏_{i=1}^{s_j}(λ + i)`` and ``P(1) = V⁻¹V⁻ᵀ``, exact (rationals), rounded once.
+
+    Column ``i`` of ``V(1)⁻¹`` holds the coefficients (highest power first) of the Lagrange
+    polynomial ``ℓ_i`` of the nodes ``−1, …, −s_j``, since row ``m`` of ``V`` evaluates a
+    polynomial at ``−m``.
+    """
+    nodes = [-(i + 1) for i in range(sj)]
+
+    def poly(roots: list[int]) -> list[Fraction]:  # coefficients of ∏(λ − ρ), highest power first
+        cf = [Fraction(1)]
+        for rho in roots:
+            cf = [a - rho * b for a, b in zip([*cf, Fraction(0)], [Fraction(0), *cf])]
+        return cf
+
+    charpoly = poly(nodes)
+    cols = []
+    for i, li in enumerate(nodes):
+        others = nodes[:i] + nodes[i + 1 :]
+        den = math.prod(li - o for o in others)
+        cols.append([a / den for a in poly(others)])
+    P1 = tuple(tuple(float(sum(cols[i][a] * cols[i][b] for i in range(sj))) for b in range(sj)) for a in range(sj))
+    return tuple(float(x) for x in charpoly[1:]), P1
+
+
 def vandermonde_gain(s: Sequence[int], w: float) -> VandermondeGain:
     """Remark 2.11: the block gain assigning ``−w, …, −s_j w`` per block, ``V_s(w)`` and ``P(w)``.
 
     ``K_j`` holds the coefficients of ``∏_{i=1}^{s_j} (λ + i w) = λ^{s_j} + k_{j,1} λ^{s_j−1} + … + k_{j,s_j}``
     (the characteristic polynomial of ``A_j − K_j C_j``); ``V(λ_j)`` has rows
-    ``[λ^{s_j−1}, …, λ, 1]`` so that ``V_s (A_s − K C_s) V_s⁻¹ = diag(λ)``;
-    ``P = V_s⁻¹ V_s⁻ᵀ`` (computed from ``V_s⁻¹``, better conditioned than inverting ``V_sᵀ V_s``).
+    ``[λ^{s_j−1}, …, λ, 1]`` so that ``V_s (A_s − K C_s) V_s⁻¹ = diag(λ)``.
+    ``V_s(w) = V_s(1) T_w`` with ``T_w = blockdiag(w^{s_j−1}, …, w, 1)``, so
+    ``P(w) = V_s⁻¹ V_s⁻ᵀ = T_w⁻¹ P(1) T_w⁻¹`` and ``k_{j,i}(w) = w^i k_{j,i}(1)``: both are formed
+    entrywise from the exact ``w = 1`` data (rationals, rounded once), so that every entry of
+    ``P(w)`` — down to ``~w^{−2(s_j−1)}`` — has full relative accuracy, which inverting
+    ``V_s(w)`` in floating point does not give.
     """
     s_ = positive_multi_index(s)
     w = positive("w", w)
     n, q = sum(s_), len(s_)
     K = np.zeros((n, q))
     V = np.zeros((n, n))
+    P = np.zeros((n, n))
     lam_all = np.zeros(n)
     i = 0
     for j, sj in enumerate(s_):
         lam = -w * np.arange(1, sj + 1, dtype=float)
-        K[i : i + sj, j] = np.poly(lam)[1:].real
+        coef, P1 = _unit_block(sj)
+        K[i : i + sj, j] = np.array(coef) * w ** np.arange(1, sj + 1, dtype=float)
         V[i : i + sj, i : i + sj] = np.vander(lam, sj)  # rows [λ^{s−1}, …, λ, 1]
+        tinv = w ** -np.arange(sj - 1, -1, -1, dtype=float)  # T_w⁻¹
+        P[i : i + sj, i : i + sj] = tinv[:, None] * np.array(P1) * tinv[None, :]
         lam_all[i : i + sj] = lam
         i += sj
-    Vinv = np.linalg.inv(V)
-    P = Vinv @ Vinv.T
-    P = 0.5 * (P + P.T)
     for a in (K, V, P, lam_all):
         a.setflags(write=False)
     return VandermondeGain(K, V, P, lam_all)
@@ -361,42 +508,42 @@ class WSearch:
     certificate : DriftGainCertificate
         The verified pair at ``w``.
     bracket : tuple of float
-        ``(w_fail, w)``: (2.17) fails at ``w_fail`` and holds at ``w``.
+        ``(w_fail, w)``: the verification fails at ``w_fail`` and holds at ``w``.
     evaluations : int
-        Number of eigenvalue evaluations of the left side.
-    above : tuple of (float, float)
-        ``(w', λ_max)`` at ``w' = 2w, 4w, 10w``: (2.17) keeps holding above ``w``
-        (the search assumes this; a positive entry would say otherwise).
+        Number of verifications of (2.17).
+    above : tuple of (float, float, bool)
+        ``(w', λ_max(D L D), verified)`` at ``w' = 2w, 4w, 10w``: (2.17) keeps holding above ``w``
+        (the search assumes this; a ``False`` would say otherwise).
     """
 
     w: float
     certificate: DriftGainCertificate
     bracket: tuple[float, float]
     evaluations: int
-    above: tuple[tuple[float, float], ...]
+    above: tuple[tuple[float, float, bool], ...]
 
     @property
     def monotone(self) -> bool:
-        """Whether (2.17) also holds at every checked ``w' > w``."""
-        return all(v < 0 for _, v in self.above)
+        """Whether (2.17) is also verified at every checked ``w' > w``."""
+        return all(ok for _, _, ok in self.above)
 
 
-def _lhs_w(c: RiccatiConstants, w: float) -> float:
+def _at_w(c: RiccatiConstants, w: float) -> DriftGainCertificate:
     g = vandermonde_gain(c.s, w)
-    return float(np.linalg.eigvalsh(riccati_lhs(c, g.K, g.P))[-1])
+    return verify_drift_gain(c, g.K, g.P, method="vandermonde", w=w)
 
 
 def smallest_w(c: RiccatiConstants, *, w_max: float = 1e5, rtol: float = 1e-3) -> WSearch:
-    """Smallest ``w`` with ``λ_max`` of the left side of (2.17) at ``(K(w), P(w))`` below 0.
+    """Smallest ``w`` for which ``(K(w), P(w))`` is verified to solve (2.17) (scaled check, module docstring).
 
     Bracketing: from ``w₀ = max(α, 10⁻³)`` (``A_s − K C_s`` must have abscissa
-    ``< −α``, so no ``w ≤ α`` works) ``w`` doubles until (2.17) holds or exceeds
-    ``w_max``; then bisection in ``log w`` to relative width ``rtol``.
+    ``< −α``, so no ``w ≤ α`` works) ``w`` doubles until the verification passes or ``w``
+    exceeds ``w_max``; then bisection in ``log w`` to relative width ``rtol``.
 
     Raises
     ------
     DesignInfeasible
-        No ``w ≤ w_max`` works: the message gives the smallest ``λ_max`` seen and where
+        No ``w ≤ w_max`` works: the message gives the smallest ``λ_max(D L D)`` seen and where
         (``constraint="(2.17) with P(w) = (V_sᵀV_s)⁻¹"``, ``violation`` = that ``λ_max``).
     """
     w_max = positive("w_max", w_max)
@@ -404,49 +551,51 @@ def smallest_w(c: RiccatiConstants, *, w_max: float = 1e5, rtol: float = 1e-3) -
     evals = 0
     w_lo = max(c.alpha, 1e-3)
     w = w_lo
-    best = (math.inf, w)
+    best = (math.inf, w, math.nan)
     w_fail: float | None = None
     while True:
-        v = _lhs_w(c, w)
+        cert = _at_w(c, w)
         evals += 1
+        v = cert.lhs_max_eig_scaled
         if v < best[0]:
-            best = (v, w)
-        if v < 0:
+            best = (v, w, cert.lhs_tolerance)
+        if cert.verified:
             break
         w_fail = w
         if w >= w_max:
+            if c.F.size and not _s_le_r_F(c):
+                why = "s ≰ r: lower the input bound μ (Theorem 2.7) or use the SDP design"
+            elif best[0] < 0:
+                why = (f"it is negative but not below the rounding tolerance {best[2]:.3g} (or P(w) is not positive "
+                       "definite above rounding): P(w) is too ill-conditioned to verify in double precision "
+                       "(cn(D P D) grows fast with the chain length s_j); use shorter chains or method='sdp'")
+            else:
+                why = "raise w_max, or lower α, μ or γ"
             raise DesignInfeasible(
                 f"(2.17) has no Vandermonde solution (K(w), P(w)) for w ≤ {w_max:g} with {c.describe()}: "
-                f"the smallest λ_max of its left side is {best[0]:.4g} (at w = {best[1]:.4g}); "
-                + ("s ≰ r: lower the input bound μ (Theorem 2.7) or use the SDP design" if c.F.size and not _s_le_r_F(c)
-                   else "raise w_max, or lower α, μ or γ"),
+                f"the smallest λ_max of its (scaled) left side is {best[0]:.4g} (at w = {best[1]:.4g}); " + why,
                 constraint="(2.17) with P(w) = (V_sᵀV_s)⁻¹",
                 violation=best[0],
             )
         w = min(2.0 * w, w_max)
-    hi = w
+    hi, cert_hi = w, cert
     if w_fail is None:  # holds at w₀ = α: cannot go lower in theory, but check a bit below
         lo = w_lo / 2.0
-        v = _lhs_w(c, lo)
         evals += 1
-        if v < 0:
+        if _at_w(c, lo).verified:
             lo = hi  # nothing to bisect
         w_fail = lo
     lo = w_fail
     while hi / lo > 1.0 + rtol:
         mid = math.sqrt(lo * hi)
-        v = _lhs_w(c, mid)
+        cm = _at_w(c, mid)
         evals += 1
-        if v < 0:
-            hi = mid
+        if cm.verified:
+            hi, cert_hi = mid, cm
         else:
             lo = mid
-    g = vandermonde_gain(c.s, hi)
-    cert = verify_drift_gain(c, g.K, g.P, method="vandermonde", w=hi)
-    if not cert.verified:  # cannot happen: λ_max < 0 was measured at hi
-        raise CertificateError(f"Vandermonde pair at w = {hi:g} failed: " + "; ".join(x.describe() for x in cert.failed_checks))
-    above = tuple((f * hi, _lhs_w(c, f * hi)) for f in (2.0, 4.0, 10.0))
-    return WSearch(hi, cert, (lo, hi), evals + 3, above)
+    above = tuple((f * hi, ca.lhs_max_eig_scaled, ca.verified) for f in (2.0, 4.0, 10.0) for ca in [_at_w(c, f * hi)])
+    return WSearch(hi, cert_hi, (lo, hi), evals + 3, above)
 
 
 def _s_le_r_F(c: RiccatiConstants) -> bool:
@@ -480,13 +629,13 @@ class _Sdp:
     Th: Array  # Y = T Ŷ diag(Th)
 
 
-def _lmi_block(c: RiccatiConstants, S: Any, Y: Any) -> Any:
-    """The LMI of (2.17) in ``(S, Y)`` (must be ``⪯ 0``); CVXPY or NumPy."""
+def _lmi_block(c: RiccatiConstants, S: Array, Y: Array, theta: float = 1.0) -> Array:
+    """The LMI of (2.17) in the scaled ``(S̃, Ŷ)`` of :func:`_build_sdp` (must be ``⪯ 0``), in NumPy."""
     A, B, C = c.triple()
-    n = c.n
-    W = np.hstack([B, c.mu * c.F])
-    SA = S @ A - Y @ C
-    M11 = SA + SA.T + 2.0 * c.alpha * S + c.gamma**2 * np.eye(n)
+    T, _ = _scaling(c.s, theta)
+    W = T[:, None] * np.hstack([B, c.mu * c.F])
+    SA = theta * (S @ A)
+    M11 = SA + SA.T - Y @ C - C.T @ Y.T + 2.0 * c.alpha * S + c.gamma**2 * np.diag(T**-2.0)
     SW = S @ W
     return symmetrise(bmat([[M11, SW], [SW.T, -np.eye(W.shape[1])]]))
 
@@ -581,17 +730,23 @@ def _sdp_at(c: RiccatiConstants, obj: DriftObjective, margin: float, gb: float |
         raise DesignInfeasible(f"the solver failed at the final κ = {hi:g} (θ = {theta:.4g}): {res.raw_status}",
                                constraint="(2.17) as LMI in (S, Y)", violation=None)
     T, Th = sdp.T, sdp.Th
-    S = T[:, None] * (0.5 * (sdp.S.value + sdp.S.value.T)) * T[None, :]
-    K = np.linalg.solve(S, (T[:, None] * sdp.Y.value) * Th[None, :])
-    P = np.linalg.inv(S)
-    P = 0.5 * (P + P.T)
-    checks, lam, eigs = _checks(c, K, P)
-    Y = S @ K  # recomputed from the returned K
-    blk = _lmi_block(c, S, Y)
-    checks.append(Check("LMI in (S, Y) recomputed (λ_max)", CheckKind.LMI, max_eig(blk),
+    St = 0.5 * (sdp.S.value + sdp.S.value.T)
+    # S = T S̃ T, Y = T Ŷ Θ: K = S⁻¹Y = T⁻¹ (S̃⁻¹Ŷ) Θ and P = T⁻¹ S̃⁻¹ T⁻¹, formed entrywise from the
+    # well-conditioned S̃ (inverting the unscaled S would lose the small entries of P)
+    K = np.linalg.solve(St, sdp.Y.value) * Th[None, :] / T[:, None]
+    Pt = np.linalg.inv(St)
+    P = 0.5 * (Pt + Pt.T) / (T[:, None] * T[None, :])
+    v = _checks(c, K, P)
+    checks = v.checks
+    Yt = St @ (T[:, None] * K / Th[None, :])  # Ŷ recomputed from the returned K
+    blk = _lmi_block(c, St, Yt, theta)
+    checks.append(Check("LMI in (S̃, Ŷ) recomputed (λ_max)", CheckKind.LMI, max_eig(blk),
                         100 * _EPS * max(1.0, float(np.linalg.norm(blk, 2)))))
-    cert = DriftGainCertificate(c, _ro(K), _ro(P), "sdp", None, lam, eigs, tuple(checks), obj.value, sol,
-                                res.raw_status, margin, time.perf_counter() - t0, theta)
+    f = v.fields
+    cert = DriftGainCertificate(c, _ro(K), _ro(P), "sdp", None, f["lhs_max_eig"], v.eigenvalues, tuple(checks),
+                                obj.value, sol, res.raw_status, margin, time.perf_counter() - t0, theta,
+                                lhs_max_eig_scaled=f["lhs_max_eig_scaled"], lhs_tolerance=f["lhs_tolerance"],
+                                lhs_rounding=f["lhs_rounding"])
     if not cert.verified:
         raise CertificateError(f"SDP answer (θ = {theta:.4g}) failed re-verification: "
                                + "; ".join(x.describe() for x in cert.failed_checks))
@@ -608,7 +763,7 @@ def _thetas(c: RiccatiConstants, scaling: float | str | None) -> list[float]:
             return [1.0]
         try:
             w = smallest_w(c, w_max=1e6, rtol=1e-2).w
-        except DesignInfeasible:
+        except (DesignInfeasible, CertificateError):
             return [1.0]
         cands = [w / 4.0**k for k in range(4) if w / 4.0**k >= 1.0]
         return cands + [1.0] if 1.0 not in cands else cands
@@ -663,8 +818,9 @@ def design_drift_gain_sdp(
     Returns
     -------
     DriftGainCertificate
-        ``K = S⁻¹ Y``, ``P = S⁻¹``, verified by the eigenvalues of the left side of
-        (2.17) (independently of the solver), ``P ≻ 0`` and ``eig(A_s − K C_s)``;
+        ``K = S⁻¹ Y``, ``P = S⁻¹`` (formed entrywise from the scaled ``S̃``, ``Ŷ``), verified by the
+        eigenvalues of the scaled left side ``D L D`` of (2.17) (independently of the solver),
+        ``P ≻ 0`` and ``eig(A_s − K C_s)``;
         :attr:`DriftGainCertificate.scaling` is the ``θ`` used.
 
     Raises
