@@ -107,3 +107,48 @@ def test_bad_input_and_failures_are_one_line_errors(args: list[str], status: int
     assert res.exit_code == status, res.output
     assert msg in res.output
     assert res.output.count("\n") <= 2
+
+
+SING = """
+name = "sing"
+time = "continuous"
+states = ["x1", "x2"]
+inputs = ["u"]
+outputs = ["y"]
+[dynamics]
+f = ["x2**3", "-x1"]
+g = [["0"], ["1"]]
+h = ["x1"]
+"""
+
+
+def test_drift_refuses_a_model_that_is_not_drift_observable_with_status_3(tmp_path: Path) -> None:
+    # Φ_s = (x1, x2³): det Q_s = 3 x2² vanishes on x2 = 0 inside the box; with γ = 1 the gain itself is verified.
+    path = _write(tmp_path, SING)
+    res = runner.invoke(app, ["design", "drift", path, "--gamma", "1"])
+    assert res.exit_code == 3, res.output
+    assert "[FAILS] drift-observability" in res.output and "usable: NO" in res.output
+    last = res.output.strip().splitlines()[-1]
+    assert last.startswith("nlobs: error:") and "no usable observer: drift-observability fails" in last
+    res = runner.invoke(app, ["design", "drift", path, "--gamma", "1", "--json"])
+    assert res.exit_code == 3
+    d = json.loads(res.stdout)["design"]
+    assert d["usable"] is False and d["certificate"]["verified"] is True
+    assert any("drift-observability fails" in r for r in d["reasons"])
+
+
+def test_drift_refuses_a_gamma_below_the_sampled_estimate(tmp_path: Path) -> None:
+    res = runner.invoke(app, ["design", "drift", "pendulum", "--gamma", "0.1", "--json"])
+    assert res.exit_code == 3
+    d = json.loads(res.stdout)["design"]
+    assert d["usable"] is False and len(d["warnings"]) == 1
+    assert "γ = 0.1 (given) is below the sampled" in d["warnings"][0]
+    assert _json("design", "drift", "pendulum")["design"]["warnings"] == []  # γ estimated: no warning
+
+
+def test_drift_model_undefined_on_the_region_is_a_one_line_error(tmp_path: Path) -> None:
+    body = SING.replace('"x2**3", "-x1"', '"x2", "sqrt(x1 - 2)"').replace('"sing"', '"sqrtf"')
+    res = runner.invoke(app, ["design", "drift", _write(tmp_path, body)])
+    assert res.exit_code == 2, res.output
+    assert "sqrtf: Q_s (s = [2])" in res.output and "not finite at any of the 2000 sampled points" in res.output
+    assert "[-1, 1] × [-1, 1]" in res.output and res.output.count("\n") <= 2 and "Traceback" not in res.output

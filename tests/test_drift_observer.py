@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from nlobs.errors import InvalidArgumentError, ModelError
+from nlobs.errors import InvalidArgumentError, ModelError, NonFiniteError
 from nlobs.geometry import AffineFields, Box
 from nlobs.observers.base import Observer
 from nlobs.observers.drift import (
@@ -137,6 +137,9 @@ def test_design_report_text_and_dict() -> None:
     txt = rep.to_text()
     assert "s = (3, 1)" in txt and "(2.17)" in txt and "κ₁" in txt
     assert rep.observer().s == (3, 1)
+    # the given γ = 2 is below what sampling the unit box finds: the gain is verified, the design not usable
+    assert rep.lipschitz.gamma > 2.0 and not rep.usable and d["usable"] is False
+    assert d["warnings"] == list(rep.warnings) and "below the sampled" in rep.warnings[0] and "usable: NO" in txt
 
 
 def test_model_without_inputs_and_s_not_le_r_report() -> None:
@@ -149,3 +152,39 @@ def test_model_without_inputs_and_s_not_le_r_report() -> None:
     rep = design_drift_report(early, alpha=1.0, mu=0.2, gamma=1.0, samples=200)
     assert rep.r == (1,) and not rep.checks[1].holds and rep.certificate.verified
     np.testing.assert_array_equal(rep.F, np.eye(2))  # d = s − r + 1 = 2: F = I₂ (2.12)
+
+
+def test_report_is_not_usable_when_drift_observability_fails() -> None:
+    # Φ_s = (x1, x2³): det Q_s = 3 x2² vanishes on x2 = 0; the gain for the given γ is still verified
+    sing = SymbolicModel.input_affine(["x1", "x2"], ["u"], ["y"], f=[x2**3, -x1], g=[[0], [1]], h=[x1], name="sing")
+    rep = design_drift_report(sing, gamma=1.0, samples=200)
+    assert not rep.drift_check.holds and rep.certificate.verified
+    assert not rep.usable and rep.to_dict()["usable"] is False
+    assert rep.reasons[0].startswith("drift-observability fails on the region") and "3*x2**2" in rep.reasons[0]
+    assert rep.to_text().splitlines()[-1].startswith("  usable: NO — drift-observability fails")
+
+
+def test_given_gamma_below_the_estimate_is_warned_and_simulations_are_not_certified() -> None:
+    from nlobs.examples.dallamora2000 import simulate_drift
+
+    model = _lipschitz_model()
+    region = Box([-math.pi, -3.0], [math.pi, 3.0])
+    rep = design_drift_report(model, alpha=1.0, mu=1.0, gamma=0.5, region=region, samples=500)
+    assert rep.certificate.verified and rep.lipschitz.gamma > 1.5  # true γ = √(3.25 + 0.25) ≈ 1.87
+    assert len(rep.warnings) == 1 and "γ = 0.5 (given) is below the sampled" in rep.warnings[0]
+    assert not rep.usable and rep.to_dict()["warnings"] == list(rep.warnings)
+    sim = simulate_drift(model, [1.0, 0.0], [-1.0, 1.0], 1.0, dt=2e-3, report=rep, u=_u)
+    assert not sim.certified and math.isnan(sim.bound_ratio)
+    ok = design_drift_report(model, alpha=1.0, mu=1.0, gamma=2.0, region=region, samples=500)
+    assert ok.usable and ok.warnings == () and ok.reasons == ()
+
+
+def test_lipschitz_estimates_on_a_region_where_the_model_is_undefined() -> None:
+    sq = SymbolicModel.input_affine(["x1", "x2"], ["u"], ["y"], f=[x2, sp.sqrt(x1 - 2)], g=[[0], [1]], h=[x1],
+                                    name="sqrtf")
+    fields = AffineFields.from_model(sq)
+    with pytest.raises(NonFiniteError, match=r"sqrtf: Q_s \(s = \[2\]\) .* not finite at any of the 200 sampled points "
+                                             r"of the region \[-1, 1\] × \[-1, 1\]"):
+        lipschitz_estimates(fields, (2,), (2,), Box.unit(2), samples=200)
+    est = lipschitz_estimates(fields, (2,), (2,), Box([2.5, -1.0], [3.0, 1.0]), samples=200)  # defined there
+    assert est.samples == 200 and np.isfinite(est.gamma_L)

@@ -122,7 +122,11 @@ def drift_cmd(
     dt: Dt_ = 1e-3,
     out: Out_ = None,
 ) -> None:
-    """Design (and verify) the drift-observability observer (3.1) of seed 002."""
+    """Design (and verify) the drift-observability observer (3.1) of seed 002.
+
+    Exit status 3 (after the report) when the design is not usable: drift-observability fails
+    on the region, or a given --gamma is below the sampled estimate there.
+    """
     from nlobs.examples.dallamora2000 import simulate_drift
     from nlobs.observers.drift import design_drift_report
 
@@ -141,6 +145,12 @@ def drift_cmd(
         fail(f"{model}: {exc}")
     data: dict[str, Any] = {"design": rep.to_dict()}
     text = [rep.to_text()]
+    if not rep.usable:  # the report is the evidence; the last line says why there is no observer
+        if as_json:
+            emit_json(data)
+        else:
+            console().print("\n".join(text), markup=False)
+        fail(f"{model}: no usable observer: " + "; ".join(rep.reasons), EXIT_NO_OBSERVER)
     if simulate:
         x0v, xh, uv = _sim_inputs(m, x0, xhat0, u)
         sim = _run(model, lambda: simulate_drift(m, x0v, xh, duration, dt=dt, u=uv, w=w, report=rep))

@@ -138,7 +138,9 @@ class DriftSimulation:
         Fitted exponential rate of ``‖e‖`` (``floor`` 1e-9 relative, see
         :meth:`SimulationResult.decay_rate`), smallest over the batch.
     certified : bool
-        Whether the simulated gain (with its ``P``) satisfies (2.17) for the report's constants.
+        Whether Theorem 3.1 covers the run as far as the report can check: the simulated gain
+        (with its ``P``) satisfies (2.17) for the report's constants, the model is drift-observable
+        on the region, and ``γ`` is not below the sampled estimate there (report's ``warnings``).
     constants : ErrorBoundConstants
         ``κ₁``, ``κ₂`` of the simulated gain's ``P``.
     """
@@ -184,20 +186,23 @@ def simulate_drift(
 
     ``w`` given: the gain ``K(w)`` of Remark 2.11 (checked against (2.17); if it fails,
     the report keeps the theory's smallest ``w`` and the simulation still uses ``w`` —
-    the paper's "tuning by simulation"). ``noise_std > 0`` samples every output at
+    the paper's "tuning by simulation"). A run is marked ``certified`` (and gets the bound
+    (3.2)) only when the report's premises hold too (see :class:`DriftSimulation`). ``noise_std > 0`` samples every output at
     ``1/dt`` with that Gaussian noise (``seed`` required). ``report`` reuses a design.
     """
     rep = report or design_drift_report(model, s, alpha=alpha, mu=mu, gamma=gamma, method=method, region=region,
                                         parameters=parameters)
     bound_consts = rep.bound
-    certified = rep.certificate.verified
+    # Theorem 3.1's premises besides (2.17): drift-observable on the region, γ not below its sampled estimate there
+    premises = rep.drift_check.holds and not rep.warnings
+    certified = premises and rep.certificate.verified
     if w is None:
         K, w_used = rep.certificate.K, rep.certificate.w
     else:  # the paper's tuning by simulation: K(w) is checked against (2.17), the bound applies only if it holds
         g = vandermonde_gain(rep.s, w)
         K, w_used = g.K, float(w)
         cw = verify_drift_gain(rep.certificate.constants, g.K, g.P, method="vandermonde", w=w_used)
-        certified = cw.verified
+        certified = premises and cw.verified
         bound_consts = error_bound_constants(cw, rep.lipschitz.gamma_phi, rep.lipschitz.gamma_phi_inv)
     obs = DriftObserver.from_fields(rep.fields, rep.s, K, regularization=regularization)
     plant = model.compile(parameters)

@@ -56,7 +56,7 @@ import sympy as sp
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_batch, as_matrix, positive
-from nlobs.errors import InvalidArgumentError, NlobsError
+from nlobs.errors import InvalidArgumentError, NlobsError, NonFiniteError
 from nlobs.geometry import (
     AffineFields,
     Box,
@@ -90,6 +90,8 @@ __all__ = [
 
 #: Default largest accepted condition number of ``Q_s`` (above it ``Q_s`` counts as singular).
 COND_LIMIT = 1e10
+#: A given ``γ`` counts as below the sampled estimate when smaller by more than this relative amount.
+_GAMMA_RTOL = 1e-9
 
 
 class SingularObservabilityError(NlobsError, ValueError):
@@ -124,6 +126,15 @@ class SingularObservabilityError(NlobsError, ValueError):
             "Φ_s is a local diffeomorphism, choose another multi-index s, or switch on "
             "regularization=ε (Tikhonov, documented in nlobs.observers.drift)"
         )
+
+
+def _condition(Qf: Array) -> Array:
+    """``σ_max/σ_min`` of each matrix of a stack ``(k, n, n)`` by SVD; ``inf`` where singular or not finite."""
+    finite = np.all(np.isfinite(Qf), axis=(-2, -1))
+    with np.errstate(all="ignore"):
+        sv = np.linalg.svd(np.where(finite[:, None, None], Qf, 0.0), compute_uv=False)
+    smin = sv[:, -1]
+    return np.where(finite & (smin > 0), sv[:, 0] / np.where(smin > 0, smin, 1.0), np.inf)
 
 
 # --------------------------------------------------------------------------- observer
@@ -235,13 +246,9 @@ class DriftObserver:
         return self._parts(as_batch("x_hat", x_hat, self.n_x))[3]
 
     def _singular(self, Q: Array, x: Array, t: float | None, cond: Array | None = None) -> SingularObservabilityError:
-        Qf = Q.reshape(-1, self.n_x, self.n_x)
         xf = x.reshape(-1, self.n_x)
         if cond is None:
-            with np.errstate(all="ignore"):
-                sv = np.linalg.svd(np.where(np.isfinite(Qf), Qf, 0.0), compute_uv=False)
-            cond = np.where(sv[..., -1] > 0, sv[..., 0] / np.where(sv[..., -1] > 0, sv[..., -1], 1.0), np.inf)
-            cond = np.where(np.all(np.isfinite(Qf), axis=(-2, -1)), cond, np.inf)
+            cond = _condition(Q.reshape(-1, self.n_x, self.n_x))
         cond = np.asarray(cond).reshape(-1)
         i = int(np.argmax(cond))
         return SingularObservabilityError(self.name, f"Q_s (s = {list(self.s)})", xf[i], t, float(cond[i]), self.states)
@@ -257,11 +264,7 @@ class DriftObserver:
         x = np.array(as_batch("x_hat0", x_hat0, self.n_x), dtype=float)
         if self.regularization == 0.0:
             Q = self._parts(x)[3]
-            Qf = Q.reshape(-1, self.n_x, self.n_x)
-            finite = np.all(np.isfinite(Qf), axis=(-2, -1))
-            with np.errstate(all="ignore"):
-                sv = np.linalg.svd(np.where(finite[:, None, None], Qf, 0.0), compute_uv=False)
-            cond = np.where(finite & (sv[:, -1] > 0), sv[:, 0] / np.where(sv[:, -1] > 0, sv[:, -1], 1.0), np.inf)
+            cond = _condition(Q.reshape(-1, self.n_x, self.n_x))
             if np.any(cond > self.cond_limit):
                 raise self._singular(Q, x, None, cond)
         return x
@@ -346,7 +349,15 @@ class LipschitzEstimates:
 
 def lipschitz_estimates(fields: AffineFields, s: Sequence[int], r: Sequence[int | None], region: Box, *,
                         samples: int = 2000, seed: int = 0) -> LipschitzEstimates:
-    """Estimate ``γ_Φ``, ``γ_{Φ⁻¹}``, ``γ_L``, ``γ_H`` by sampling ``region`` (see :class:`LipschitzEstimates`)."""
+    """Estimate ``γ_Φ``, ``γ_{Φ⁻¹}``, ``γ_L``, ``γ_H`` by sampling ``region`` (see :class:`LipschitzEstimates`).
+
+    Points where any of the sampled quantities is not finite are left out (``samples`` counts the rest).
+
+    Raises
+    ------
+    NonFiniteError
+        Not one sampled point gives finite values (the model is not defined on the region).
+    """
     s_ = check_multi_index(s, fields.q, fields.n)
     Q = observability_jacobian(fields, s_)
     X = sp.Matrix(fields.x)
@@ -362,6 +373,11 @@ def lipschitz_estimates(fields: AffineFields, s: Sequence[int], r: Sequence[int 
     dLv = v[:, n * n : n * n + dL.shape[0] * n].reshape(len(v), dL.shape[0], n)
     dHv = v[:, n * n + dL.shape[0] * n :].reshape(len(v), dH.shape[0], n)
     ok = np.all(np.isfinite(v), axis=-1)
+    if not np.any(ok):
+        raise NonFiniteError(
+            f"{fields.name}: Q_s (s = {list(s_)}) and the z-Jacobians of L_s and H_s,r are not finite at any of the "
+            f"{len(pts)} sampled points of the region {region.describe()}: the model is not defined there "
+            "(choose a region where it is, e.g. --box)")
     sv = np.linalg.svd(Qv[ok], compute_uv=False)
     inv_norm = np.where(sv[:, -1] > 0, 1.0 / np.where(sv[:, -1] > 0, sv[:, -1], 1.0), np.inf)
     Qinv = np.linalg.pinv(Qv[ok])
@@ -441,6 +457,12 @@ class DriftDesignReport:
     lipschitz : LipschitzEstimates
     bound : ErrorBoundConstants
     region : Box
+
+    The verdict (:attr:`usable`, with :attr:`reasons`) collects the premises of Theorem 3.1
+    that the report can check: drift-observability on the region, the certificate of
+    (2.17), and ``γ`` not below the sampled ``√(γ_L² + γ_H²)`` (the sampled values are
+    attained, so a ``γ`` below them is too small for the region: :attr:`warnings`). The
+    gain's own certificate may be verified while the design is not usable.
     """
 
     fields: AffineFields
@@ -459,6 +481,37 @@ class DriftDesignReport:
     @property
     def model(self) -> str:
         return self.fields.name
+
+    @property
+    def drift_check(self) -> Check:
+        """The drift-observability check on the region (Def. 2.3: ``Q_s`` nonsingular)."""
+        return next(k for k in self.checks if k.name == "drift-observability")
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """A given ``γ`` below the sampled estimate on the region (the certificate does not cover the model there)."""
+        est = self.lipschitz.gamma
+        if self.gamma < est * (1.0 - _GAMMA_RTOL):
+            return (f"γ = {self.gamma:.4g} ({self.gamma_source}) is below the sampled √(γ_L² + γ_H²) = {est:.4g} on the "
+                    "region: the certificate of (2.17) does not cover the model there (raise γ or shrink the region)",)
+        return ()
+
+    @property
+    def reasons(self) -> tuple[str, ...]:
+        """Why the design is not usable (empty when it is): failed premises, a failed certificate, :attr:`warnings`."""
+        out = []
+        drift = self.drift_check
+        if not drift.holds:
+            out.append(f"drift-observability fails on the region ({drift.evidence}): Theorem 3.1 does not apply")
+        if not self.certificate.verified:
+            out.append("the gain certificate of (2.17) failed: "
+                       + "; ".join(k.describe() for k in self.certificate.failed_checks))
+        return (*out, *self.warnings)
+
+    @property
+    def usable(self) -> bool:
+        """Drift-observable on the region, (2.17) verified, and ``γ`` covering the sampled estimate."""
+        return not self.reasons
 
     def observer(self, *, regularization: float = 0.0, cond_limit: float = COND_LIMIT) -> DriftObserver:
         """The observer (3.1) with this report's ``s`` and ``K``."""
@@ -482,6 +535,9 @@ class DriftDesignReport:
         lines += ["  " + ln for ln in self.certificate.describe().splitlines()]
         lines.append("  K = " + np.array2string(self.certificate.K, precision=5, separator=", ").replace("\n", "\n      "))
         lines.append("  " + self.bound.describe())
+        lines += [f"  warning: {m}" for m in self.warnings]
+        lines.append("  usable: yes (drift-observable on the region, (2.17) verified, γ covers the sampled estimate)"
+                     if self.usable else "  usable: NO — " + "; ".join(self.reasons))
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
@@ -497,6 +553,9 @@ class DriftDesignReport:
             "certificate": self.certificate.to_dict(),
             "lipschitz": self.lipschitz.to_dict(),
             "bound": self.bound.to_dict(),
+            "usable": self.usable,
+            "reasons": list(self.reasons),
+            "warnings": list(self.warnings),
         }
 
 
@@ -536,12 +595,21 @@ def design_drift_report(
     objective : {"min_gain", "min_condition"}
         SDP objective.
 
+    Returns
+    -------
+    DriftDesignReport
+        Also when drift-observability fails on the region or a given ``γ`` is below the
+        sampled estimate: then :attr:`DriftDesignReport.usable` is false and
+        :attr:`~DriftDesignReport.reasons` says why.
+
     Raises
     ------
     ModelError
         Not input-affine / not continuous-time.
     InvalidArgumentError
         ``s`` does not sum to ``n``.
+    NonFiniteError
+        The model is not finite at any sampled point of the region.
     DesignInfeasible
         No gain satisfies (2.17) (the message names the constraint and by how much).
     """
