@@ -190,3 +190,105 @@ def test_lpv_file_is_designed_with_the_lipschitz_multiplier_and_contained(tmp_pa
     d = json.loads(res.stdout)
     assert d["containment_rate_state"] == 1.0 and d["design"]["kappa"] > 0
     assert d["design"]["function_class_used"] == "Class I (Lipschitz)" and d["design"]["lpv_design"] == "lipschitz"
+
+
+BOXHOLE = """name = "boxhole"
+time = "discrete"
+dt = 1.0
+states = ["x1", "x2"]
+outputs = ["y1", "y2"]
+
+[dynamics]
+f = ["0.5*x1 + 0.2*x2", "0.3*x2 + 0.1*x1**3"]
+h = ["x1", "0"]
+
+[unknown_inputs]
+G = [[1.0], [0.0]]
+H = [[0.0], [1.0]]
+bounded = ["{bounded}"]
+growing = ["3 + 0.1*t"]
+
+[noise]
+eta_w = 0.01
+eta_v = 0.01
+
+[initial]
+centre = [0.0, 0.0]
+radius = 0.5
+
+[function_class]
+kind = "I"
+linear_part = [[0.5, 0.2], [0, 0.3]]
+L = 0.3
+box = [[-1, 1], [-1, 1]]
+"""
+
+
+def test_class_violated_along_trajectories_is_a_violated_guarantee(tmp_path: Path) -> None:
+    """The reviewer's boxhole2.toml: 0.1x₁³ is 0.3-Lipschitz on the box only, and d drives x₁ out of it."""
+    p = tmp_path / "boxhole2.toml"
+    p.write_text(BOXHOLE.format(bounded="0.8 + 0.2*sin(t)"))
+    res = runner.invoke(app, ["simulate", "setvalued", str(p), "--runs", "100", "--steps", "100", "--no-baselines",
+                              "--json"])
+    assert res.exit_code == 1, res.output  # was 0 with containment 0.81
+    d = json.loads(res.stdout)
+    assert d["containment_rate_state"] < 1 and d["guarantee_held"] is False
+    assert d["class_violated_in_runs"] == 100 and d["class_worst_margin_in_runs"] < 0 and d["left_box_runs"] == 100
+    assert d["roundoff_runs"] == 0
+    assert any("violated along the trajectories" in c for c in d["likely_causes"])
+    assert "GUARANTEE VIOLATED" in res.stderr
+    res = runner.invoke(app, ["simulate", "setvalued", str(p), "--runs", "100", "--steps", "100", "--no-baselines"])
+    assert res.exit_code == 1
+    assert "warning: the function class is violated along the trajectories in 100 of 100 runs" in res.stdout
+    assert "GUARANTEE VIOLATED" in res.stdout and "likely cause: the function class is violated" in res.stdout
+
+
+def test_guarantee_held_is_reported(tmp_path: Path) -> None:
+    p = tmp_path / "boxok.toml"
+    p.write_text(BOXHOLE.format(bounded="0.2*sin(t)"))
+    res = runner.invoke(app, ["simulate", "setvalued", str(p), "--runs", "50", "--steps", "50", "--no-baselines",
+                              "--json"])
+    assert res.exit_code == 0, res.output
+    d = json.loads(res.stdout)
+    assert d["guarantee_held"] is True and d["likely_causes"] == [] and d["warnings"] == []
+    assert d["class_violated_in_runs"] == 0 and d["left_box_runs"] == 0 and d["roundoff_runs"] == 0
+
+
+def test_roundoff_with_an_unbounded_input_is_flagged() -> None:
+    res = runner.invoke(app, ["simulate", "setvalued", "khajenejad-6-1", "--runs", "10", "--steps", "4000",
+                              "--unknown-input", "growing", "--no-baselines", "--json"])
+    assert res.exit_code == 1, res.output  # was 0 with containment 0.0 and the overflow warnings suppressed
+    d = json.loads(res.stdout)
+    assert d["containment_rate_state"] == 0.0 and d["guarantee_held"] is False
+    assert d["roundoff_runs"] == 10 and d["roundoff_over_radius"] > 1 and d["max_abs_unknown_input"] > 1e18
+    assert d["class_violated_in_runs"] == 0  # Class II holds everywhere: not the cause
+    assert any("containment lost to floating-point round-off" in c and "|d| = 4.708e+18" in c
+               for c in d["likely_causes"])
+
+
+def test_plant_overflow_names_the_step(tmp_path: Path) -> None:
+    p = tmp_path / "boxhole.toml"
+    p.write_text(BOXHOLE.format(bounded="0.2*sin(t)"))
+    res = runner.invoke(app, ["simulate", "setvalued", str(p), "--runs", "10", "--steps", "100", "--unknown-input",
+                              "growing"])
+    assert res.exit_code == 1, res.output
+    assert "the plant overflowed at step 17" in res.stderr and "is nan" not in res.stderr
+    assert res.stderr.count("\n") == 1
+
+
+def test_ekf_that_cannot_run_is_a_note_not_a_traceback(tmp_path: Path) -> None:
+    """The reviewer's sigover.toml: d = exp(1000 t) makes the EKF's R + H Q_d Hᵀ singular (was LinAlgError)."""
+    path = _variant(tmp_path, 'bounded = ["5*sin(2*t) + 1 + sign(t - 1)"]', 'bounded = ["exp(1000*t)"]')
+    res = runner.invoke(app, ["simulate", "setvalued", path, "--runs", "3", "--steps", "30", "--json"])
+    assert res.exception is None or isinstance(res.exception, SystemExit), res.exception
+    assert res.exit_code == 1  # the guarantee is lost to round-off (|d| ~ 1e130)
+    d = json.loads(res.stdout)
+    assert d["baseline_ekf_final_error"] is None and d["baseline_ekf_failure"].startswith("EKF diverged")
+    assert d["roundoff_runs"] == 3
+
+
+@pytest.mark.parametrize("command", ["design", "simulate"])
+def test_negative_seed_is_a_one_line_error(command: str) -> None:
+    res = runner.invoke(app, [command, "setvalued", "khajenejad-6-1", "--seed", "-1"])
+    assert res.exit_code == 2
+    assert "Invalid value for '--seed'" in res.output

@@ -101,3 +101,63 @@ def test_design_run_on_another_system_is_refused() -> None:
         sound_radii(example_61("I").system, d, 10)
     # smaller noise bounds are covered by the certified increment c
     assert sound_radii(dataclasses.replace(s, eta_w=0.05), d, 10).state.shape == (11,)
+
+
+# --------------------------------------------------------------------------- 3./4. conditions along the runs
+
+
+def _cubic() -> DiscreteUISystem:
+    """boxhole.toml: φ = [0, 0.1x₁³] is 0.3-Lipschitz only on |x₁| ≤ 1."""
+    return DiscreteUISystem(np.array([[0.5, 0.2], [0.0, 0.3]]), [[1.0], [0.0]], [[1.0, 0.0], [0.0, 0.0]],
+                            [[0.0], [1.0]], phi=lambda x: np.stack([0 * x[..., 0], 0.1 * x[..., 0] ** 3], axis=-1),
+                            function_class=Lipschitz(0.3, 2), eta_w=0.01, eta_v=0.01, delta0=0.5, time=Discrete(1.0))
+
+
+def test_monte_carlo_evaluates_the_class_on_the_visited_pairs_and_the_box() -> None:
+    from nlobs.examples.khajenejad_yong import monte_carlo
+
+    s = _cubic()
+    d = design_setvalued(s)
+    box = (np.array([-1.0, -1.0]), np.array([1.0, 1.0]))
+    inside = monte_carlo(s, d, lambda t: (0.2 * np.sin(t))[:, None], runs=40, steps=60, baselines=False, box=box)
+    r = inside.containment
+    assert r.class_violated_in_runs == 0 and r.left_box_runs == 0 and r.roundoff_runs == 0 and r.guarantee_held
+    assert r.likely_causes() == []
+    out = monte_carlo(s, d, lambda t: (0.8 + 0.2 * np.sin(t))[:, None], runs=40, steps=60, baselines=False, box=box)
+    r = out.containment
+    assert r.class_violated_in_runs == 40 and r.class_worst_margin < 0 and r.left_box_runs == 40
+    assert not r.guarantee_held and "violated along the trajectories" in r.likely_causes()[0]
+
+
+def test_roundoff_is_flagged_only_when_it_reaches_the_radius() -> None:
+    from nlobs.examples.khajenejad_yong import containment_study
+
+    ex = example_61("II")
+    d = design_setvalued(ex.system)
+    grow = lambda t: (50 * t**2 + 20 * np.exp(t))[:, None]  # noqa: E731
+    short = containment_study(ex, d, runs=5, steps=300, unknown_input=grow)
+    assert short.roundoff_runs == 0 and short.roundoff_ratio < 1e-6 and short.guarantee_held
+    long = containment_study(ex, d, runs=5, steps=4000, unknown_input=grow)
+    assert long.roundoff_runs == 5 and long.max_abs_input > 1e18 and not long.guarantee_held
+    assert long.class_violated_in_runs == 0
+    assert "containment lost to floating-point round-off" in long.likely_causes()[0]
+
+
+# --------------------------------------------------------------------------- 7. non-finite input
+
+
+def test_estimate_lipschitz_refuses_a_nan_phi() -> None:
+    from nlobs.errors import NonFiniteError
+    from nlobs.systems.discrete_ui import estimate_lipschitz
+
+    with pytest.raises(NonFiniteError, match="phi: not finite at x"):
+        estimate_lipschitz(lambda x: np.sqrt(x), [-1.0, -1.0], [1.0, 1.0], n_pairs=100)
+
+
+def test_plant_overflow_is_a_typed_error_naming_the_step() -> None:
+    from nlobs.errors import SimulationDiverged
+    from nlobs.examples.khajenejad_yong import simulate_batch
+
+    s = _cubic()
+    with pytest.raises(SimulationDiverged, match="the plant overflowed at step 17"):
+        simulate_batch(s, design_setvalued(s), lambda t: (3 + 0.1 * t)[:, None], runs=3, steps=40)

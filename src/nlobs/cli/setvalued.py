@@ -181,7 +181,7 @@ def design_setvalued_cmd(
     objective: Annotated[Objective, typer.Option(help="radius: smallest steady radius bound; hinf: ℓ2 gain ρ.")]
     = Objective.radius,
     samples: Annotated[int, typer.Option(min=2, help="Sampled pairs for the function-class check.")] = 20_000,
-    seed: Annotated[int, typer.Option(help="Seed of the function-class sampling.")] = 0,
+    seed: Annotated[int, typer.Option(min=0, help="Seed of the function-class sampling (>= 0).")] = 0,
 ) -> None:
     """Set-valued observer (seed 004): structural checks, the design and its independent verification."""
     m = _load(model)
@@ -201,7 +201,7 @@ def simulate_setvalued_cmd(
     unknown_input: Annotated[UnknownInput, typer.Option(
         "--unknown-input", help="The file's bounded or growing signal d(t) (defaults sin t and t²).")]
     = UnknownInput.bounded,
-    seed: Annotated[int, typer.Option(help="Seed of the initial states and noises.")] = 0,
+    seed: Annotated[int, typer.Option(min=0, help="Seed of the initial states and noises (>= 0).")] = 0,
     as_json: Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON report.")] = False,
     out: Annotated[Path | None, typer.Option(help="Folder for the figures.")] = None,
     objective: Annotated[Objective, typer.Option(help="Design objective (see design setvalued).")] = Objective.radius,
@@ -217,14 +217,32 @@ def simulate_setvalued_cmd(
     d, data = _design(model, m, objective.value, samples, 0, as_json)
     s = m.system
     t = np.arange(steps + 1) * s.time.dt
-    q_d = float(np.mean(m.signals["bounded"](t) ** 2)) if s.p else 0.0
+    with np.errstate(over="ignore", invalid="ignore"):  # a non-finite Q_d is reported by the EKF's note
+        q_d = float(np.mean(m.signals["bounded"](t) ** 2)) if s.p else 0.0
     try:
+        # overflow in the runs is not silent: the plant's raises SimulationDiverged, the observer's and the
+        # round-off it causes are measured (ContainmentResult.roundoff_runs) and reported below
         with np.errstate(over="ignore", invalid="ignore"):
             study = monte_carlo(s, d, m.signals[unknown_input.value], runs=runs, steps=steps, seed=seed,
                                 baselines=baselines, q_d=q_d, box=_box(m))
     except NlobsError as exc:
         fail(f"{model}: {exc}", EXIT_FAILURE)
     res = study.containment
+    causes = res.likely_causes()
+    held = res.guarantee_held
+    warnings = []
+    if res.class_violated_in_runs:
+        warnings.append(f"the function class is violated along the trajectories in {res.class_violated_in_runs} "
+                        f"of {runs} runs (worst QC − γ = {res.class_worst_margin:.4g}): the certificate does not "
+                        "apply to these runs")
+    if res.left_box_runs:
+        warnings.append(f"the state or its estimate left the box where the class was checked ({_box(m)[0].tolist()} "
+                        f"to {_box(m)[1].tolist()}) in {res.left_box_runs} of {runs} runs; on the visited pairs the "
+                        "class condition " + ("is VIOLATED" if res.class_violated_in_runs else "holds"))
+    if res.roundoff_runs:
+        warnings.append(f"floating-point round-off reaches {res.roundoff_ratio:.3g} × the radius in "
+                        f"{res.roundoff_runs} of {runs} runs (|d| = {res.max_abs_input:.4g}): containment may be "
+                        "lost to round-off (docs/setvalued.md, 'Soundness conditions')")
     out_data = {
         "model": s.name, "runs": runs, "steps": steps, "seed": seed, "unknown_input": unknown_input.value,
         "objective": d.objective.value,
@@ -244,9 +262,23 @@ def simulate_setvalued_cmd(
         "baseline_ekf_final_error": study.baseline_ekf_final_error,
         "baseline_lipschitz_note": study.baselines.lipschitz_note if study.baselines else None,
         "baseline_ekf_note": study.baselines.ekf_note if study.baselines else None,
+        "baseline_ekf_failure": study.baseline_ekf_failure,
+        "guarantee_held": held,
+        "likely_causes": causes if not held else [],
+        "class_violated_in_runs": res.class_violated_in_runs,
+        "class_worst_margin_in_runs": res.class_worst_margin,
+        "left_box_runs": res.left_box_runs,
+        "roundoff_runs": res.roundoff_runs,
+        "roundoff_over_radius": res.roundoff_ratio,
+        "max_abs_unknown_input": res.max_abs_input,
+        "warnings": warnings,
         "seconds": res.seconds, "design": data["design"], "structure": data["structure"],
         "class_check": data["class_check"],
     }
+    violated = ("GUARANTEE VIOLATED: the certified balls did not contain the truth in every run (state "
+                f"{res.rate_state:.4f}, input {res.rate_input:.4f}); likely cause: "
+                + ("; ".join(causes) if causes else "none found (class held on the visited pairs, states stayed in "
+                   "the box, no round-off flagged): please report it"))
     figures: list[str] = []
     if out is not None:
         try:
@@ -259,6 +291,8 @@ def simulate_setvalued_cmd(
     out_data["figures"] = figures
     if as_json:
         emit_json(out_data)
+        if not held:
+            fail(f"{model}: {violated}", EXIT_FAILURE)
         return
     _print_head(data)
     con = console()
@@ -279,6 +313,13 @@ def simulate_setvalued_cmd(
     con.print(f"  baselines, max final error: Lipschitz LMI observer {num(study.baseline_lipschitz_final_error)}, "
               f"EKF (d as noise) {num(study.baseline_ekf_final_error)}", markup=False)
     if study.baselines is not None:
-        con.print(f"    Lipschitz: {study.baselines.lipschitz_note}; EKF: {study.baselines.ekf_note}", markup=False)
+        con.print(f"    Lipschitz: {study.baselines.lipschitz_note}; EKF: "
+                  f"{study.baseline_ekf_failure or study.baselines.ekf_note}", markup=False)
     for f in figures:
         con.print(f"wrote {f}", markup=False)
+    for w in warnings:
+        con.print(f"warning: {w}", markup=False)
+    if not held:
+        con.print(violated, markup=False)
+        fail(f"{model}: GUARANTEE VIOLATED (containment state {res.rate_state:.4f}, input {res.rate_input:.4f})",
+             EXIT_FAILURE)

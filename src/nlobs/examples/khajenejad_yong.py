@@ -27,6 +27,7 @@ infeasible for all ``λ < 1``); with Class II and Lemma 2.14's
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Callable, Mapping
@@ -39,7 +40,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlobs._io import atomic_write
 from nlobs._validate import positive
-from nlobs.errors import InvalidArgumentError
+from nlobs.errors import InvalidArgumentError, NonFiniteError, SimulationDiverged
 from nlobs.examples.reproduce import ReproRow, Value
 from nlobs.observers.discrete_baselines import DiscreteLipschitzObserver, UnknownInputEKF
 from nlobs.observers.setvalued import GivenGain, Radii, SetValuedRun, run_setvalued
@@ -239,6 +240,21 @@ class ContainmentResult:
     errors : ndarray, shape (runs, steps + 1)
         ``‖x_k − x̂_k‖`` (for plots).
     radii : Radii
+    class_violated_in_runs : int or None
+        Runs in which a visited pair ``(x_k, x̂_k)`` violates the class condition the certificate uses
+        (:func:`~nlobs.systems.discrete_ui.class_margins`; ``None`` when not evaluated).
+    class_worst_margin : float or None
+        The smallest margin ``QC − γ`` over those pairs (negative: violated).
+    left_box_runs : int or None
+        Runs in which ``x_k`` or ``x̂_k`` left the box where the class was checked (``None``: no box given).
+    roundoff_runs : int or None
+        Runs in which the floating-point round-off estimate ``ε·κ·(‖x_k‖ + ‖Gd_k‖ + ‖Hd_k‖ + ‖y_k‖)``
+        (``κ`` from the observer's gains) exceeds :data:`ROUNDOFF_FRACTION` of the radius ``δˣ_k``,
+        or the estimate is not finite.
+    roundoff_ratio : float or None
+        The largest ratio of that estimate to the radius.
+    max_abs_input : float or None
+        ``max |d|`` over the runs.
     """
 
     runs: int
@@ -253,6 +269,36 @@ class ContainmentResult:
     label: str
     errors: Array = field(repr=False)
     radii: Radii = field(repr=False)
+    class_violated_in_runs: int | None = None
+    class_worst_margin: float | None = None
+    left_box_runs: int | None = None
+    roundoff_runs: int | None = None
+    roundoff_ratio: float | None = None
+    max_abs_input: float | None = None
+
+    @property
+    def guarantee_held(self) -> bool:
+        """The truth stayed inside both balls at every step of every run."""
+        return self.rate_state == 1.0 and self.rate_input == 1.0
+
+    def likely_causes(self) -> list[str]:
+        """Measured reasons why a certified guarantee can fail on these runs (empty when none was found)."""
+        out = []
+        if self.class_violated_in_runs:
+            out.append(f"the function class is violated along the trajectories in {self.class_violated_in_runs} "
+                       f"of {self.runs} runs (worst QC − γ = {self.class_worst_margin:.4g})")
+        if self.left_box_runs:
+            out.append(f"the state or its estimate left the box where the class was checked in {self.left_box_runs} "
+                       f"of {self.runs} runs")
+        if self.roundoff_runs:
+            out.append(f"containment lost to floating-point round-off in {self.roundoff_runs} of {self.runs} runs "
+                       f"(|d| = {self.max_abs_input:.4g}; round-off estimate up to {self.roundoff_ratio:.3g} × the "
+                       "radius)")
+        return out
+
+
+#: Round-off flag: the estimated floating-point error of one step exceeds this fraction of the radius.
+ROUNDOFF_FRACTION = 0.01
 
 
 @dataclass(frozen=True)
@@ -270,6 +316,10 @@ class Batch:
     run : SetValuedRun
         Centres and radii of Algorithm 1.
     seconds : float
+    system : DiscreteUISystem or None
+        The simulated system.
+    gain : SetValuedDesign or GivenGain or None
+        The observer's gain.
     """
 
     t: Array
@@ -278,6 +328,8 @@ class Batch:
     d: Array
     run: SetValuedRun
     seconds: float
+    system: DiscreteUISystem | None = field(default=None, repr=False)
+    gain: SetValuedDesign | GivenGain | None = field(default=None, repr=False)
 
 
 def simulate_batch(system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
@@ -296,47 +348,110 @@ def simulate_batch(system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
     t0 = time.perf_counter()
     x0 = system.x0 + ball_samples(rng, (R,), system.delta0, system.n, at_bound)
     t = np.arange(K + 1) * system.time.dt
-    d = np.broadcast_to(np.asarray(unknown_input(t), dtype=float).reshape(K + 1, system.p)[None],
-                        (R, K + 1, system.p))
+    with np.errstate(over="ignore", invalid="ignore"):
+        d1 = np.asarray(unknown_input(t), dtype=float).reshape(K + 1, system.p)
+    bad_d = ~np.all(np.isfinite(d1), axis=-1)
+    if np.any(bad_d):
+        k = int(np.argmax(bad_d))
+        raise NonFiniteError(f"unknown input: d(t) is not finite at step {k} (t = {t[k]:g}): the signal overflows "
+                             "the floating-point range; shorten the horizon (--steps) or bound the signal")
+    d = np.broadcast_to(d1[None], (R, K + 1, system.p))
     w = ball_samples(rng, (R, K), system.eta_w, system.n_w, at_bound)
     v = ball_samples(rng, (R, K + 1), system.eta_v, system.l, at_bound)
-    x, y = system.simulate(x0, d, w, v)
+    with np.errstate(over="ignore", invalid="ignore"):
+        x, y = system.simulate(x0, d, w, v)
+    bad_x = ~np.all(np.isfinite(x), axis=-1)  # (R, K + 1)
+    if np.any(bad_x):
+        k = int(np.argmax(bad_x.any(axis=0)))
+        i = int(np.argmax((~np.isfinite(x[:, k])).any(axis=0)))
+        exc = SimulationDiverged(float(t[k]), "plant", f"x{i + 1}")
+        exc.args = (f"the plant overflowed at step {k} (t = {t[k]:g}): state x{i + 1} is not finite in "
+                    f"{int(bad_x[:, k].sum())} of {R} runs (the model's f or the unknown input drives it past the "
+                    "floating-point range)",)
+        raise exc
     run = run_setvalued(system, gain, y, radii=radii)
-    return Batch(t, x, y, np.array(d), run, time.perf_counter() - t0)
+    return Batch(t, x, y, np.array(d), run, time.perf_counter() - t0, system, gain)
 
 
-def containment_of(batch: Batch, label: str = "sound") -> ContainmentResult:
-    """Containment of the truth in the balls of ``batch`` (every step of every run)."""
+def containment_of(batch: Batch, label: str = "sound", *,
+                   box: tuple[ArrayLike, ArrayLike] | None = None) -> ContainmentResult:
+    """Containment of the truth in the balls of ``batch`` (every step of every run), with the conditions it rests on.
+
+    When the batch carries its system and gain (:func:`simulate_batch`), also evaluates on the pairs the
+    runs visit: the class condition the certificate uses, whether the states left ``box`` (where the class
+    was checked), and a floating-point round-off estimate against the radius (``ContainmentResult``).
+    """
     run, x = batch.run, batch.x
     if run.radii is None:
         raise InvalidArgumentError("containment_study: a GivenGain needs radii")
-    inside = run.contains_state(x)
-    inside_d = run.contains_input(batch.d[:, :-1])
-    err = np.linalg.norm(x - run.x_hat, axis=-1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        inside = run.contains_state(x)
+        inside_d = run.contains_input(batch.d[:, :-1])
+        err = np.linalg.norm(x - run.x_hat, axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = np.where(run.radii.state > 0, err / run.radii.state, np.where(err > 0, np.inf, 0.0))
+    ratio = np.where(np.isnan(ratio), np.inf, ratio)
     bad = np.flatnonzero(~inside.all(axis=0))
     R, K1 = err.shape
+    extra = _trajectory_conditions(batch, box) if batch.system is not None and batch.gain is not None else {}
     return ContainmentResult(
         runs=R, steps=K1 - 1, rate_state=float(inside.all(axis=1).mean()),
-        rate_input=float(inside_d.all(axis=1).mean()), max_error_over_radius=float(np.nanmax(ratio)),
+        rate_input=float(inside_d.all(axis=1).mean()), max_error_over_radius=float(np.max(ratio)),
         final_radius_state=float(run.radii.state[-1]), final_radius_input=float(run.radii.input[-1]),
         first_violation_step=int(bad[0]) if bad.size else None, seconds=batch.seconds, label=label, errors=err,
-        radii=run.radii,
+        radii=run.radii, **extra,
     )
+
+
+def _trajectory_conditions(batch: Batch, box: tuple[ArrayLike, ArrayLike] | None) -> dict[str, Any]:
+    """Class condition on the visited pairs, box exits and the round-off estimate (see :class:`ContainmentResult`)."""
+    from nlobs.systems.discrete_ui import LPV, class_margins
+
+    system, gain = batch.system, batch.gain
+    assert system is not None and gain is not None
+    x, xh = batch.x, batch.run.x_hat
+    out: dict[str, Any] = {}
+    fc = gain.function_class if isinstance(gain, SetValuedDesign) else system.function_class
+    if not isinstance(fc, LPV):  # a vertex design is run with the plant's weights: π is in the polytope by construction
+        margin, rel = class_margins(system.nonlinear, fc, xh[:, :-1], x[:, :-1])
+        out["class_violated_in_runs"] = int(np.sum((rel < 0).any(axis=1)))
+        out["class_worst_margin"] = float(np.min(margin)) if margin.size else None
+    if box is not None:
+        lo, hi = np.asarray(box[0], dtype=float), np.asarray(box[1], dtype=float)
+        with np.errstate(invalid="ignore"):
+            outside = ((x < lo) | (x > hi)).any(axis=(1, 2)) | ~((xh >= lo) & (xh <= hi)).all(axis=(1, 2))
+        out["left_box_runs"] = int(np.sum(outside))
+    tr = gain.transform
+    nrm = lambda M: float(np.linalg.norm(M, 2)) if M.size else 0.0  # noqa: E731
+    kappa = ((1.0 + nrm(gain.L_tilde) * nrm(tr.C2)) * (1.0 + nrm(tr.G1 @ tr.M1) + nrm(tr.G2 @ tr.M2))
+             * (1.0 + nrm(system.C) + nrm(system.A)))
+    with np.errstate(over="ignore", invalid="ignore"):
+        scale = (np.linalg.norm(x, axis=-1) + np.linalg.norm(batch.d @ system.G.T, axis=-1)
+                 + np.linalg.norm(batch.d @ system.H.T, axis=-1) + np.linalg.norm(batch.y, axis=-1))
+        scale[:, 1:] = np.maximum(scale[:, 1:], scale[:, :-1])  # the error of step k carries that of step k - 1
+        est = float(np.finfo(float).eps) * kappa * scale
+        rad = np.asarray(batch.run.radii.state)
+        rr = np.where(rad > 0, est / np.where(rad > 0, rad, 1.0), np.where(est > 0, np.inf, 0.0))
+    rr = np.where(np.isfinite(rr) & np.isfinite(xh).all(axis=-1), rr, np.inf)
+    out["roundoff_runs"] = int(np.sum((rr > ROUNDOFF_FRACTION).any(axis=1)))
+    out["roundoff_ratio"] = float(np.max(rr))
+    out["max_abs_input"] = float(np.max(np.abs(batch.d))) if batch.d.size else 0.0
+    return out
 
 
 def containment_study(example: PaperExample, gain: SetValuedDesign | GivenGain, *, runs: int = 1000,
                       steps: int = 200, seed: int = 0, radii: Radii | None = None,
-                      unknown_input: Callable[[Array], Array] | None = None, label: str = "sound") -> ContainmentResult:
+                      unknown_input: Callable[[Array], Array] | None = None, label: str = "sound",
+                      box: tuple[ArrayLike, ArrayLike] | None = None) -> ContainmentResult:
     """Run the plant and Algorithm 1 for ``runs`` seeded Monte Carlo runs (vectorised) and measure containment.
 
     Initial states are drawn in the initial ball and noises in theirs (half of
-    each at the bound, see :func:`ball_samples`).
+    each at the bound, see :func:`ball_samples`). The class condition is evaluated on the visited pairs,
+    and, with ``box`` (where the class was checked), exits from it are counted (:func:`containment_of`).
     """
     dfun = example.unknown_input if unknown_input is None else unknown_input
     batch = simulate_batch(example.system, gain, dfun, runs=runs, steps=steps, seed=seed, radii=radii)
-    return containment_of(batch, label)
+    return containment_of(batch, label, box=box)
 
 
 # --------------------------------------------------------------------------- point-observer baselines
@@ -352,8 +467,9 @@ class PointBaselines:
         Lipschitz LMI observer (ignores ``d``); ``None`` when its LMI is infeasible.
     lipschitz_note : str
         The constant and structure it was designed for, or why it could not be designed.
-    ekf : UnknownInputEKF
-        EKF modelling ``d`` as white noise of covariance ``Q_d``.
+    ekf : UnknownInputEKF or None
+        EKF modelling ``d`` as white noise of covariance ``Q_d`` (``None`` when it cannot be set up, e.g. a
+        non-finite ``Q_d``; ``ekf_note`` says why).
     ekf_P0 : ndarray
         Its initial covariance.
     ekf_note : str
@@ -361,7 +477,7 @@ class PointBaselines:
 
     lipschitz: DiscreteLipschitzObserver | None
     lipschitz_note: str
-    ekf: UnknownInputEKF
+    ekf: UnknownInputEKF | None
     ekf_P0: Array
     ekf_note: str
 
@@ -438,13 +554,21 @@ def point_baselines(system: DiscreteUISystem, *, q_d: float, box: tuple[ArrayLik
                     f"and {F.shape[0]} states") + f": ρ = {cert.rho:.4g}, spectral radius {cert.spectral_radius:.4g}")
         except DesignInfeasible as exc:
             note = f"not designed: {exc}"
-    ekf = UnknownInputEKF(system.A, system.C, system.time, Q_w=system.eta_w**2 / (system.n_w + 2) * np.eye(system.n_w),
-                          R_v=max(system.eta_v, 1e-6) ** 2 / (system.l + 2) * np.eye(system.l),
-                          Q_d=max(float(q_d), 1e-12) * np.eye(system.p), phi=phi,
-                          phi_jacobian=_jacobian_fd(phi, n), B=system.B, D=system.D, G=system.G, H=system.H,
-                          W=system.W)
+    from nlobs.errors import NlobsError
+
+    ekf: UnknownInputEKF | None
+    try:
+        ekf = UnknownInputEKF(system.A, system.C, system.time,
+                              Q_w=system.eta_w**2 / (system.n_w + 2) * np.eye(system.n_w),
+                              R_v=max(system.eta_v, 1e-6) ** 2 / (system.l + 2) * np.eye(system.l),
+                              Q_d=max(float(q_d), 1e-12) * np.eye(system.p), phi=phi,
+                              phi_jacobian=_jacobian_fd(phi, n), B=system.B, D=system.D, G=system.G, H=system.H,
+                              W=system.W)
+        ekf_note = f"Q_d = {q_d:.4g} I (d modelled as white noise)"
+    except NlobsError as exc:
+        ekf, ekf_note = None, f"EKF diverged before its first step (not set up): {exc}"
     P0 = max(system.delta0, 1e-6) ** 2 / (n + 2) * np.eye(n)
-    return PointBaselines(lip, note, ekf, P0, f"Q_d = {q_d:.4g} I (d modelled as white noise)")
+    return PointBaselines(lip, note, ekf, P0, ekf_note)
 
 
 def run_baselines(baselines: PointBaselines, system: DiscreteUISystem, y: Array) -> tuple[Array | None, Array]:
@@ -461,8 +585,13 @@ def run_baselines(baselines: PointBaselines, system: DiscreteUISystem, y: Array)
     lipschitz : ndarray of shape (B, K + 1, n), or None
         Estimates ``x̂_k`` of the Lipschitz observer (a predictor: ``x̂_k`` uses ``y_0..y_{k−1}``);
         ``None`` when it could not be designed.
-    ekf : ndarray, shape (B, K + 1, n)
-        The EKF's priors ``x̂_{k|k−1}``.
+    ekf : ndarray of shape (B, K + 1, n), or None
+        The EKF's priors ``x̂_{k|k−1}``; ``None`` when it was not set up.
+
+    Raises
+    ------
+    SimulationDiverged
+        The EKF diverged (its innovation covariance became singular or non-finite: ``LinAlgError``).
     """
     B, K1, _ = y.shape
     x0 = np.broadcast_to(system.x0, (B, system.n))
@@ -474,12 +603,19 @@ def run_baselines(baselines: PointBaselines, system: DiscreteUISystem, y: Array)
             lip[:, k] = baselines.lipschitz.estimate(z)
             if k < K1 - 1:
                 z = baselines.lipschitz.step(z, None, y[:, k])
+    if baselines.ekf is None:
+        return lip, None
     ekf = np.empty((B, K1, system.n))
     s = baselines.ekf.init(x0, baselines.ekf_P0)
     for k in range(K1):
         ekf[:, k] = s.x
         if k < K1 - 1:
-            s = baselines.ekf.step(s, None, y[:, k])
+            try:
+                s = baselines.ekf.step(s, None, y[:, k])
+            except np.linalg.LinAlgError as exc:
+                err = SimulationDiverged(float(k * system.time.dt), "observer", "EKF covariance")
+                err.args = (f"EKF diverged at step {k} ({exc}: its covariance is no longer finite/invertible)",)
+                raise err from None
     return lip, ekf
 
 
@@ -500,6 +636,8 @@ class MonteCarloStudy:
     baselines : PointBaselines or None
     baseline_lipschitz_x_hat, baseline_ekf_x_hat : ndarray or None, shape (B, K + 1, n)
         The baselines' estimates (for plots).
+    baseline_ekf_failure : str or None
+        Why the EKF produced no estimates on these runs (e.g. "EKF diverged at step …").
     """
 
     containment: ContainmentResult
@@ -512,6 +650,7 @@ class MonteCarloStudy:
     baselines: PointBaselines | None = field(repr=False)
     baseline_lipschitz_x_hat: Array | None = field(default=None, repr=False)
     baseline_ekf_x_hat: Array | None = field(default=None, repr=False)
+    baseline_ekf_failure: str | None = None
 
 
 def monte_carlo(system: DiscreteUISystem, design: SetValuedDesign, unknown_input: Callable[[Array], Array], *,
@@ -536,7 +675,8 @@ def monte_carlo(system: DiscreteUISystem, design: SetValuedDesign, unknown_input
         The EKF's ``Q_d = q_d I``; by default the mean square of ``unknown_input`` over the horizon (pass
         the bounded signal's to see how a filter tuned for a bounded ``d`` copes with a growing one).
     box : (lo, hi), optional
-        Where the baselines' structure is sampled.
+        Where the class was checked: the baselines' structure is sampled there, and runs whose states leave
+        it are counted (``ContainmentResult.left_box_runs``).
     label : str
 
     Returns
@@ -544,17 +684,24 @@ def monte_carlo(system: DiscreteUISystem, design: SetValuedDesign, unknown_input
     MonteCarloStudy
     """
     batch = simulate_batch(system, design, unknown_input, runs=runs, steps=steps, seed=seed)
-    res = containment_of(batch, label)
+    res = containment_of(batch, label, box=box)
     fe = float(res.errors[:, -1].max())
     if baselines is False:
         return MonteCarloStudy(res, batch, fe, None, None, None, None, None)
     pb = baselines if isinstance(baselines, PointBaselines) else point_baselines(
         system, q_d=(float(np.mean(batch.d[0] ** 2)) if system.p else 0.0) if q_d is None else q_d, box=box,
         seed=seed)
+    failure = None if pb.ekf is not None else pb.ekf_note
     with np.errstate(over="ignore", invalid="ignore"):
-        lip, ekf = run_baselines(pb, system, batch.y)
+        try:
+            lip, ekf = run_baselines(pb, system, batch.y)
+        except SimulationDiverged as exc:  # the EKF's covariance broke down: report it, keep the other results
+            failure = str(exc)
+            lip, ekf = run_baselines(dataclasses.replace(pb, ekf=None), system, batch.y)
         el = None if lip is None else np.linalg.norm(batch.x - lip, axis=-1)
-        ee = np.linalg.norm(batch.x - ekf, axis=-1)
+        ee = None if ekf is None else np.linalg.norm(batch.x - ekf, axis=-1)
+    if ee is not None and not np.all(np.isfinite(ee[:, -1])) and failure is None:
+        failure = "EKF diverged (non-finite estimates)"
 
     def final(e: Array | None) -> float | None:
         if e is None:
@@ -562,7 +709,7 @@ def monte_carlo(system: DiscreteUISystem, design: SetValuedDesign, unknown_input
         v = float(np.max(e[:, -1]))
         return v if math.isfinite(v) else math.inf
 
-    return MonteCarloStudy(res, batch, fe, final(el), final(ee), el, ee, pb, lip, ekf)
+    return MonteCarloStudy(res, batch, fe, final(el), final(ee), el, ee, pb, lip, ekf, failure)
 
 
 # --------------------------------------------------------------------------- plots

@@ -289,6 +289,10 @@ class UnknownInputEKF:
         Q = W @ Q_w @ W.T + G @ Q_d @ G.T
         R = R_v + H @ Q_d @ H.T
         S = G @ Q_d @ H.T
+        if l and not (np.all(np.isfinite(R)) and np.linalg.cond(R) < 1.0 / np.finfo(float).eps):
+            raise InvalidArgumentError(
+                f"R_v + H Q_d H^T: numerically singular (condition number {np.linalg.cond(R):.3g}): Q_d "
+                f"(largest {float(np.max(np.abs(Q_d), initial=0.0)):.3g}) swamps the measurement noise R_v")
         J = np.linalg.solve(R, S.T).T if l else np.zeros((n, 0))
         for name, val in (("A", A), ("C", C), ("B", B), ("D", D), ("G", G), ("H", H), ("W", W), ("Q_w", Q_w),
                           ("R_v", R_v), ("Q_d", Q_d), ("Q", 0.5 * (Q + Q.T)), ("R", 0.5 * (R + R.T)), ("S", S),

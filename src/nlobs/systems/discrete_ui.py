@@ -60,6 +60,7 @@ __all__ = [
     "ClassCheck",
     "estimate_lipschitz",
     "check_function_class",
+    "class_margins",
 ]
 
 Array = NDArray[np.float64]
@@ -740,17 +741,32 @@ def check_function_class(phi: NonlinearPart, function_class: FunctionClass, lo: 
     if lo_.shape[0] != function_class.n:
         raise DimensionError(f"lo: the box has dimension {lo_.shape[0]}, the class n = {function_class.n}")
     x1, x2 = _sample_pairs(lo_, hi_, int(n_pairs), seed, 1e-3)
+    margin, rel = class_margins(phi, function_class, x1, x2, rtol=rtol)
+    i = int(np.argmin(rel))
+    return ClassCheck(bool(rel[i] >= 0), float(margin[i]), _ro(x1[i]), _ro(x2[i]), int(n_pairs), function_class.label)
+
+
+def class_margins(phi: NonlinearPart, function_class: FunctionClass, x1: ArrayLike, x2: ArrayLike, *,
+                  rtol: float = 1e-9) -> tuple[Array, Array]:
+    """Margins of the class condition at given pairs (batches ``(..., n)``), and the tolerance-adjusted margins.
+
+    ``margin = [Δφ; Δx]ᵀ M [Δφ; Δx] − γ`` (``−d²`` for :class:`LPV`, ``d`` from :meth:`LPV.polytope_gap`;
+    ``−inf`` where ``φ`` is not finite); a pair violates the class when the adjusted margin
+    ``margin + rtol (‖Δφ‖² + ‖Δx‖² + 1)`` is negative. Shared by :func:`check_function_class` (sampled pairs)
+    and the Monte Carlo runners (the pairs ``(x_k, x̂_k)`` the runs visit).
+    """
+    x1_ = np.asarray(x1, dtype=float)
+    x2_ = np.asarray(x2, dtype=float)
     with np.errstate(invalid="ignore", over="ignore"):
-        dphi = np.asarray(phi(x2), dtype=float) - np.asarray(phi(x1), dtype=float)
-    dx = x2 - x1
-    bad = ~np.all(np.isfinite(dphi), axis=-1)
-    dphi = np.where(bad[:, None], 0.0, dphi)
+        dphi = np.asarray(phi(x2_), dtype=float) - np.asarray(phi(x1_), dtype=float)
+        dx = x2_ - x1_
+    bad = ~(np.all(np.isfinite(dphi), axis=-1) & np.all(np.isfinite(dx), axis=-1))
+    dphi = np.where(bad[..., None], 0.0, dphi)
+    dx = np.where(bad[..., None], 0.0, dx)
     if isinstance(function_class, LPV):
         margin = -function_class.polytope_gap(dphi, dx) ** 2
     else:
         margin = function_class.qc_value(dphi, dx) - function_class.gamma
     margin = np.where(bad, -np.inf, margin)
     scale = np.sum(dphi * dphi, axis=-1) + np.sum(dx * dx, axis=-1)
-    rel = margin + rtol * (scale + 1.0)
-    i = int(np.argmin(rel))
-    return ClassCheck(bool(rel[i] >= 0), float(margin[i]), _ro(x1[i]), _ro(x2[i]), int(n_pairs), function_class.label)
+    return margin, margin + rtol * (scale + 1.0)
