@@ -187,18 +187,19 @@ def _equilibration(P: Array) -> Array:
 def _lhs(c: RiccatiConstants, K: Array, P: Array, d: Array) -> tuple[Array, float, Array, Array]:
     """``D L D`` from the scaled factors, its rounding level ``c n ε ‖N‖₂``, ``Ã`` and ``P̃`` (``D = diag(d)``)."""
     A, B, C = c.triple()
-    At = d[:, None] * (A - K @ C) / d[None, :]  # A_s and K C_s have disjoint supports: no cancellation
-    Pt = d[:, None] * P * d[None, :]
-    Bt = d[:, None] * B
-    Ft = d[:, None] * c.F
-    dinv2 = d**-2.0
-    AP = At @ Pt
-    M = AP + AP.T + Bt @ Bt.T + c.mu**2 * (Ft @ Ft.T) + 2.0 * c.alpha * Pt + c.gamma**2 * (Pt @ (dinv2[:, None] * Pt))
-    aA, aP, aB, aF = np.abs(At), np.abs(Pt), np.abs(Bt), np.abs(Ft)
-    N = 2.0 * (aA @ aP) + aB @ aB.T + c.mu**2 * (aF @ aF.T) + 2.0 * c.alpha * aP + c.gamma**2 * (aP @ (dinv2[:, None] * aP))
-    with np.errstate(all="ignore"):
+    with np.errstate(all="ignore"):  # overflow (a wild P) gives non-finite values, which fail the checks
+        At = d[:, None] * (A - K @ C) / d[None, :]  # A_s and K C_s have disjoint supports: no cancellation
+        Pt = d[:, None] * P * d[None, :]
+        Bt = d[:, None] * B
+        Ft = d[:, None] * c.F
+        dinv2 = d**-2.0
+        AP = At @ Pt
+        M = AP + AP.T + Bt @ Bt.T + c.mu**2 * (Ft @ Ft.T) + 2.0 * c.alpha * Pt + c.gamma**2 * (Pt @ (dinv2[:, None] * Pt))
+        aA, aP, aB, aF = np.abs(At), np.abs(Pt), np.abs(Bt), np.abs(Ft)
+        N = (2.0 * (aA @ aP) + aB @ aB.T + c.mu**2 * (aF @ aF.T) + 2.0 * c.alpha * aP
+             + c.gamma**2 * (aP @ (dinv2[:, None] * aP)))
         tol = ROUNDING_FACTOR * c.n * _EPS * float(np.linalg.norm(N, 2)) if np.all(np.isfinite(N)) else math.inf
-    return 0.5 * (M + M.T), tol, At, Pt
+        return 0.5 * (M + M.T), tol, At, Pt
 
 
 # --------------------------------------------------------------------------- certificate
@@ -271,11 +272,13 @@ class DriftGainCertificate:
         return tuple(c for c in self.checks if not c.passed)
 
     def _scaled(self) -> tuple[Array, Array, Array, float] | None:
-        """``(d, D L D, D P D, eigenvalues of D P D)``, or ``None`` when ``D P D`` is not positive definite."""
+        """``(d, D L D, D P D, eigenvalues of D P D)``, or ``None`` unless ``D P D`` is positive definite (and all finite)."""
         d = _equilibration(self.P)
         L, _, _, Pt = _lhs(self.constants, self.K, self.P, d)
+        if not (np.all(np.isfinite(L)) and np.all(np.isfinite(Pt))):
+            return None
         ev = np.linalg.eigvalsh(Pt)
-        if not (np.all(np.isfinite(ev)) and ev[0] > ROUNDING_FACTOR * self.constants.n * _EPS * ev[-1]):
+        if not ev[0] > ROUNDING_FACTOR * self.constants.n * _EPS * ev[-1]:
             return None
         return d, L, Pt, ev
 
@@ -290,8 +293,9 @@ class DriftGainCertificate:
         if sc is None:
             return math.inf
         d, _, Pt, _ = sc
-        Pinv = d[:, None] * np.linalg.inv(Pt) * d[None, :]
-        return float(np.linalg.eigvalsh(self.P)[-1] * np.linalg.eigvalsh(0.5 * (Pinv + Pinv.T))[-1])
+        with np.errstate(over="ignore"):
+            Pinv = d[:, None] * np.linalg.inv(Pt) * d[None, :]
+            return float(np.linalg.eigvalsh(self.P)[-1] * np.linalg.eigvalsh(0.5 * (Pinv + Pinv.T))[-1])
 
     @property
     def norm_P(self) -> float:
@@ -324,7 +328,7 @@ class DriftGainCertificate:
     @property
     def decay_margin_note(self) -> str:
         """Why :attr:`decay_margin` is NaN (empty when it is a number)."""
-        return "" if self._scaled() is not None else "undefined: P is not positive definite (above rounding)"
+        return "" if self._scaled() is not None else "undefined: P is not positive definite (above rounding) or not finite"
 
     @property
     def spectral_abscissa(self) -> float:
@@ -394,11 +398,10 @@ def _checks(c: RiccatiConstants, K: Array, P: Array) -> _Verification:
     Ls, tol, At, Pt = _lhs(c, K, P, d)
     L, tol_u, _, _ = _lhs(c, K, P, np.ones(n))
     with np.errstate(all="ignore"):
-        finite = bool(np.all(np.isfinite(Ls)) and np.all(np.isfinite(At)) and np.all(np.isfinite(Pt)))
-        lam_s = float(np.linalg.eigvalsh(Ls)[-1]) if finite else math.nan
+        lam_s = float(np.linalg.eigvalsh(Ls)[-1]) if np.all(np.isfinite(Ls)) else math.nan
         lam_u = float(np.linalg.eigvalsh(L)[-1]) if np.all(np.isfinite(L)) else math.nan
-        evP = np.linalg.eigvalsh(Pt) if finite else np.array([math.nan])
-        eigs = np.linalg.eigvals(At) if finite else np.full(n, complex(math.nan))
+        evP = np.linalg.eigvalsh(Pt) if np.all(np.isfinite(Pt)) else np.array([math.nan])
+        eigs = np.linalg.eigvals(At) if np.all(np.isfinite(At)) else np.full(n, complex(math.nan))
     eigs = eigs[np.lexsort((eigs.imag, eigs.real))]
     p_tol = ROUNDING_FACTOR * n * _EPS * float(np.max(np.abs(evP)))
     checks = [
@@ -885,7 +888,7 @@ def design_drift_gain(
             raise DesignInfeasible(
                 f"(K(w), P(w)) with w = {w:g} does not solve (2.17) for {c.describe()}: "
                 + "; ".join(x.describe() for x in cert.failed_checks),
-                constraint="(2.17) with P(w) = (V_sᵀV_s)⁻¹", violation=cert.lhs_max_eig)
+                constraint="(2.17) with P(w) = (V_sᵀV_s)⁻¹", violation=cert.lhs_max_eig_scaled)
         return cert
     if m == "sdp":
         if w is not None:
