@@ -87,6 +87,7 @@ from nlobs.synthesis.lmi import Solver, SolveStatus, as_enum, as_solver, bmat, m
 Array = NDArray[np.float64]
 
 __all__ = [
+    "ROUNDING_FACTOR",
     "DriftGainCertificate",
     "DriftObjective",
     "RiccatiConstants",
