@@ -124,8 +124,9 @@ def drift_cmd(
 ) -> None:
     """Design (and verify) the drift-observability observer (3.1) of seed 002.
 
-    Exit status 3 (after the report) when the design is not usable: drift-observability fails
-    on the region, or a given --gamma is below the sampled estimate there.
+    After the report, exit status 3 when drift-observability fails on the region (no observer of
+    this structure there), 1 when the design is not usable otherwise (a given --gamma below the
+    sampled estimate, a failed certificate).
     """
     from nlobs.examples.dallamora2000 import simulate_drift
     from nlobs.observers.drift import design_drift_report
@@ -150,7 +151,8 @@ def drift_cmd(
             emit_json(data)
         else:
             console().print("\n".join(text), markup=False)
-        fail(f"{model}: no usable observer: " + "; ".join(rep.reasons), EXIT_NO_OBSERVER)
+        status = EXIT_NO_OBSERVER if not rep.drift_check.holds else EXIT_FAILURE
+        fail(f"{model}: no usable observer: " + "; ".join(rep.reasons), status)
     if simulate:
         x0v, xh, uv = _sim_inputs(m, x0, xhat0, u)
         sim = _run(model, lambda: simulate_drift(m, x0v, xh, duration, dt=dt, u=uv, w=w, report=rep))
