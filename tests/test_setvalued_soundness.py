@@ -161,3 +161,55 @@ def test_plant_overflow_is_a_typed_error_naming_the_step() -> None:
     s = _cubic()
     with pytest.raises(SimulationDiverged, match="the plant overflowed at step 17"):
         simulate_batch(s, design_setvalued(s), lambda t: (3 + 0.1 * t)[:, None], runs=3, steps=40)
+
+
+# --------------------------------------------------------------------------- 6. Class 0 linear members
+
+
+def test_quadratic_constraint_with_positive_gamma_is_empty() -> None:
+    from nlobs.systems.discrete_ui import QuadraticConstraint
+
+    with pytest.raises(InvalidArgumentError, match="gamma > 0 is empty"):
+        QuadraticConstraint(Lipschitz(1.0, 2).multiplier()[0], 0.1)
+
+
+def _qcstar_M(K: np.ndarray) -> np.ndarray:
+    """``−‖Δφ − KΔx‖² ≥ 0`` as a Class 0 multiplier: M22 = −KᵀK is not ⪰ 0, so K = 0 is not in the class."""
+    return np.block([[-np.eye(2), K], [K.T, -K.T @ K]])
+
+
+def test_class_0_member_k_star_is_found_and_used_by_the_structural_check() -> None:
+    from nlobs.errors import AssumptionViolated
+    from nlobs.systems.discrete_ui import QuadraticConstraint
+
+    K = np.diag([1.0, 0.0])
+    fc = QuadraticConstraint(_qcstar_M(K), 0.0)
+    members = fc.linear_members()
+    assert len(members) == 1 and np.allclose(members[0], K)  # was (): M22 = -KᵀK is not ⪰ 0
+    # Sec. 6.2's (A, G, C) has the invariant zero -1.343; with φ = K x the plant is (A + K) x, zero -0.343.
+    # K = 0 is not in this class, so the zero of (A, G, C) says nothing (was: a false "no stable observer")
+    A = np.array([[-0.42, 1.0], [-0.6, 0.0]])
+    s = DiscreteUISystem(A, [[1.0], [-0.65]], [[0.0, 1.0]], phi=lambda x: x @ K.T, function_class=fc, eta_w=0.2,
+                         eta_v=0.1, delta0=0.5, time=Discrete(1.0))
+    try:
+        d = design_setvalued(s)
+    except AssumptionViolated as exc:  # pragma: no cover - the behaviour before the fix
+        pytest.fail(f"false 'no stable observer' verdict: {exc}")
+    assert len(d.spectral_radii) == 1 and d.spectral_radii[0] < 1
+
+
+def test_class_0_without_a_known_member_refuses_hinf_and_checks_no_member() -> None:
+    from nlobs.linear.transform_ui import structural_check
+    from nlobs.systems.discrete_ui import QuadraticConstraint
+
+    M = np.zeros((4, 4))
+    M[:2, :2] = np.eye(2)  # M11 = +I: no K* = -M11⁻¹M12
+    M[2:, 2:] = np.diag([1.0, -1.0])  # M22 indefinite: K = 0 is not in the class
+    fc = QuadraticConstraint(M, 0.0)
+    assert fc.linear_members() == ()
+    s = DiscreteUISystem(np.array([[0.5, 0.1], [0.0, 0.4]]), [[1.0], [0.0]], [[1.0, 0.0], [0.0, 1.0]],
+                         function_class=fc, eta_w=0.01, eta_v=0.01, delta0=0.5, time=Discrete(1.0))
+    st = structural_check(s.A, s.G, s.C, s.H, members=fc.linear_members())
+    assert st.exists and st.strongly_detectable == () and "not checked" in st.evidence()
+    with pytest.raises(InvalidArgumentError, match="'hinf' needs a known linear member"):
+        design_setvalued(s, objective="hinf")

@@ -209,6 +209,9 @@ class StructuralCheck:
 
     def evidence(self) -> str:
         """The numbers behind the verdict, one line per linear member."""
+        if not self.strongly_detectable:
+            return ("no linear member of the class is known, so strong detectability was not checked "
+                    "(Lemma 5.1's rank condition holds)")
         lines = []
         for i, (sd, why, bad) in enumerate(zip(self.strongly_detectable, self.reasons, self.unstable_error_modes)):
             modes = ", ".join(f"{complex(z):.6g}" for z in bad) or "none"
@@ -217,7 +220,8 @@ class StructuralCheck:
 
 
 def structural_check(A: ArrayLike, G: ArrayLike, C: ArrayLike, H: ArrayLike | None = None, *,
-                     members: tuple[ArrayLike, ...] = (), transform: UITransform | None = None) -> StructuralCheck:
+                     members: tuple[ArrayLike, ...] | None = None,
+                     transform: UITransform | None = None) -> StructuralCheck:
     r"""Strong detectability (Corollary 5.8, Lemma 5.7) and detectability of the error dynamics.
 
     Parameters
@@ -226,9 +230,11 @@ def structural_check(A: ArrayLike, G: ArrayLike, C: ArrayLike, H: ArrayLike | No
         Linear part of ``f``.
     G, C, H : array_like
         As in (8).
-    members : tuple of array_like, each (n, n)
-        Linear maps ``K`` contained in the nonlinearity class (``φ(x) = K x``);
-        ``(0,)`` when empty, i.e. the LTI system ``(A, G, C, H)`` of Corollary 5.8.
+    members : tuple of array_like, each (n, n), optional
+        Linear maps ``K`` contained in the nonlinearity class (``φ(x) = K x``). Omitted (``None``):
+        ``(0,)``, the LTI system ``(A, G, C, H)`` of Corollary 5.8. An empty tuple (a class with no known
+        linear member) checks no member: ``exists`` is then ``True`` by default (nothing shows that no
+        stable observer exists), and :meth:`StructuralCheck.evidence` says that nothing was checked.
     transform : UITransform, optional
         Precomputed :func:`ui_transform` (computed here when omitted; raises
         :class:`~nlobs.errors.AssumptionViolated` when Lemma 5.1's rank fails).
@@ -243,7 +249,8 @@ def structural_check(A: ArrayLike, G: ArrayLike, C: ArrayLike, H: ArrayLike | No
     C_ = as_matrix("C", C, (None, n))
     H_ = np.zeros((C_.shape[0], G_.shape[1])) if H is None else as_matrix("H", H, (C_.shape[0], G_.shape[1]))
     tr = ui_transform(G_, C_, H_) if transform is None else transform
-    Ks = tuple(as_square(f"members[{i}]", K, n) for i, K in enumerate(members)) or (np.zeros((n, n)),)
+    Ks = (np.zeros((n, n)),) if members is None else tuple(as_square(f"members[{i}]", K, n)
+                                                            for i, K in enumerate(members))
     sds, reasons, bads = [], [], []
     for K in Ks:
         mp = minimum_phase(A_ + K, G_, C_, H_, discrete=True)

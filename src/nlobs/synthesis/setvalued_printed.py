@@ -50,7 +50,7 @@ from nlobs._validate import as_matrix, as_square, as_symmetric, positive
 from nlobs.errors import CertificateError, DesignInfeasible, DimensionError, InvalidArgumentError
 from nlobs.linear.transform_ui import UITransform, structural_check, ui_transform
 from nlobs.synthesis.lmi import Solver, as_solver, solve
-from nlobs.systems.discrete_ui import DiscreteUISystem
+from nlobs.systems.discrete_ui import DiscreteUISystem, qc_member_min_eig, qc_member_tolerance
 
 __all__ = [
     "PrintedDesign",
@@ -767,22 +767,17 @@ class NecessaryConditionPrinted:
 def _members(system: DiscreteUISystem, M11: Array, M12: Array, M22: Array, gamma: float,
              members: Sequence[tuple[str, ArrayLike]] | None) -> list[tuple[str, Array]]:
     n = system.n
-
-    def qc(K: Array) -> float:
-        Q = K.T @ M11 @ K + K.T @ M12 + M12.T @ K + M22
-        return float(np.linalg.eigvalsh(0.5 * (Q + Q.T))[0])
-
-    scale = max(1.0, float(np.max(np.abs(np.block([[M11, M12], [M12.T, M22]])))))
+    M = np.block([[M11, M12], [M12.T, M22]])
     if members is None:
         if gamma > 0:  # σ(Kζ, ζ) = 0 < γ at ζ = 0: no linear map is in the class
             return []
         cands = [("A", np.asarray(system.A, dtype=float)), ("0", np.zeros((n, n)))]
-        return [(nm, K) for nm, K in cands if qc(K) >= -1e-9 * scale * max(1.0, float(np.linalg.norm(K, 2)) ** 2)]
+        return [(nm, K) for nm, K in cands if qc_member_min_eig(M, K) >= -qc_member_tolerance(M, K)]
     out = []
     for i, (nm, K) in enumerate(members):
         K_ = as_matrix(f"members[{i}]", K, (n, n))
-        v = qc(K_)
-        if gamma > 0 or v < -1e-9 * scale * max(1.0, float(np.linalg.norm(K_, 2)) ** 2):
+        v = qc_member_min_eig(M, K_)
+        if gamma > 0 or v < -qc_member_tolerance(M, K_):
             raise InvalidArgumentError(
                 f"members[{i}] ({nm!r}): f(x) = K x is not in the class: min eig of [K; I]^T M [K; I] = {v:.3g} "
                 f"(gamma = {gamma:g})")

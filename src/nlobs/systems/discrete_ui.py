@@ -61,6 +61,9 @@ __all__ = [
     "estimate_lipschitz",
     "check_function_class",
     "class_margins",
+    "qc_member_min_eig",
+    "qc_member_tolerance",
+    "qc_linear_members",
 ]
 
 Array = NDArray[np.float64]
@@ -101,6 +104,10 @@ class QuadraticConstraint:
         g = float(self.gamma)
         if not math.isfinite(g):
             raise InvalidArgumentError(f"gamma: must be finite, got {self.gamma!r}")
+        if g > 0:
+            raise InvalidArgumentError(
+                f"gamma: an (M, gamma)-QC class with gamma > 0 is empty (the pair x1 = x2 gives QC = 0 < gamma), "
+                f"got {g!r}")
         object.__setattr__(self, "gamma", g)
 
     @property
@@ -122,16 +129,13 @@ class QuadraticConstraint:
         return np.einsum("...i,ij,...j->...", z, self.M, z)
 
     def linear_members(self) -> tuple[Array, ...]:
-        """Linear maps ``K`` known to satisfy the constraint (``φ(x) = K x``).
+        """Linear maps ``K`` known to satisfy the constraint (``φ(x) = K x``), by :func:`qc_linear_members`.
 
-        ``(0,)`` when ``φ = 0`` is in the class, which is certain when ``γ ≤ 0``
-        and ``M22 ⪰ 0`` (then ``Δxᵀ M22 Δx ≥ 0 ≥ γ``); else empty.
+        ``K = 0`` when ``M22 ⪰ 0``, and ``K* = −M11⁻¹M12`` when ``M11 ≺ 0`` (the ``Δφ`` that maximises the
+        form for each ``Δx``), each accepted when ``[K; I]ᵀ M [K; I] ⪰ 0`` (then the QC value is ``≥ 0 ≥ γ``);
+        empty when neither is known to be in the class.
         """
-        n = self.n
-        M22 = self.M[n:, n:]
-        if self.gamma <= 0 and float(np.linalg.eigvalsh(M22)[0]) >= 0:
-            return (np.zeros((n, n)),)
-        return ()
+        return qc_linear_members(self.M)
 
     def increment_bound(self, Acl: Array, Bcl: Array) -> tuple[float, float]:
         r"""``(θ, r)`` with ``‖Acl Δx + Bcl Δφ‖ ≤ θ ‖Δx‖ + r`` for every admissible pair.
@@ -152,6 +156,43 @@ class QuadraticConstraint:
         off = math.sqrt(m * max(-self.gamma, 0.0)) / m
         nb = float(np.linalg.norm(Bcl, 2))
         return float(np.linalg.norm(Acl, 2)) + nb * k, nb * off
+
+
+def qc_member_min_eig(M: ArrayLike, K: ArrayLike) -> float:
+    """``λ_min([K; I]ᵀ M [K; I])``: ``φ(x) = K x`` satisfies (2) with ``γ = 0`` iff it is ``≥ 0`` (``Δφ`` block first)."""
+    M_ = np.asarray(M, dtype=float)
+    K_ = np.asarray(K, dtype=float)
+    n = K_.shape[0]
+    M11, M12, M22 = M_[:n, :n], M_[:n, n:], M_[n:, n:]
+    Q = K_.T @ M11 @ K_ + K_.T @ M12 + M12.T @ K_ + M22
+    return float(np.linalg.eigvalsh(0.5 * (Q + Q.T))[0])
+
+
+def qc_member_tolerance(M: ArrayLike, K: ArrayLike) -> float:
+    """Round-off allowance of :func:`qc_member_min_eig`: ``1e-9 max(1, max|M|) max(1, ‖K‖²)``."""
+    scale = max(1.0, float(np.max(np.abs(np.asarray(M, dtype=float)))))
+    return 1e-9 * scale * max(1.0, float(np.linalg.norm(np.asarray(K, dtype=float), 2)) ** 2)
+
+
+def qc_linear_members(M: ArrayLike, candidates: tuple[ArrayLike, ...] = ()) -> tuple[Array, ...]:
+    """Linear members ``K`` of the ``(M, 0)``-QC class among ``candidates``, ``0`` and ``K* = −M11⁻¹M12`` (``M11 ≺ 0``).
+
+    A candidate is accepted when ``[K; I]ᵀ M [K; I] ⪰ −tol`` (:func:`qc_member_min_eig`,
+    :func:`qc_member_tolerance`); duplicates are dropped. Shared by :class:`QuadraticConstraint` and the
+    printed formulations (:mod:`nlobs.synthesis.setvalued_printed`).
+    """
+    M_ = np.asarray(M, dtype=float)
+    n = M_.shape[0] // 2
+    M11, M12 = M_[:n, :n], M_[:n, n:]
+    cands = [np.asarray(K, dtype=float) for K in candidates] + [np.zeros((n, n))]
+    if float(np.linalg.eigvalsh(M11)[-1]) < 0:
+        cands.append(-np.linalg.solve(M11, M12))
+    out: list[Array] = []
+    for K in cands:
+        if qc_member_min_eig(M_, K) >= -qc_member_tolerance(M_, K) and not any(
+                np.allclose(K, k, rtol=1e-12, atol=1e-12) for k in out):
+            out.append(K)
+    return tuple(out)
 
 
 @dataclass(frozen=True)
