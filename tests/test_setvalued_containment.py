@@ -84,6 +84,8 @@ def test_printed_eta_omits_the_process_noise_term() -> None:
     print(f"\nw-dominated: sound {sound.rate_state:.3f}/{sound.rate_input:.3f} (final radius "
           f"{sound.final_radius_state:.3g}); printed {printed.rate_state:.3f}/{printed.rate_input:.3f} (final radius "
           f"{printed.final_radius_state:.3g}, first violation at step {printed.first_violation_step})")
+    # the defect docs/setvalued.md Sec. 7 reports: the printed Theorem 5.13 bounds miss the truth (0.000 / 0.964)
+    assert printed.rate_state < 1 and printed.rate_state == 0.0 and printed.first_violation_step == 1
 
 
 def test_example_62_error_grows_for_every_gain() -> None:

@@ -213,3 +213,26 @@ def test_class_0_without_a_known_member_refuses_hinf_and_checks_no_member() -> N
     assert st.exists and st.strongly_detectable == () and "not checked" in st.evidence()
     with pytest.raises(InvalidArgumentError, match="'hinf' needs a known linear member"):
         design_setvalued(s, objective="hinf")
+
+
+# --------------------------------------------------------------------------- 8. the other λ candidates
+
+
+def test_a_failed_verification_at_the_chosen_lambda_falls_back_to_the_next_candidate(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    import nlobs.synthesis.setvalued as sv
+    from nlobs.synthesis.certificate import Check, CheckKind
+
+    s = example_61("II").system
+    first = design_setvalued(s)
+    real = sv._verify
+
+    def fails_at_first(system, dyn, P, L, kappa, lam, q, theta, rho):  # type: ignore[no-untyped-def]
+        checks, *rest = real(system, dyn, P, L, kappa, lam, q, theta, rho)
+        if lam == first.lam:  # pretend the solver's answer at the chosen λ misses (⋆)
+            checks = [*checks, Check("injected failure", CheckKind.LMI, 1.0, 0.0, strict=False)]
+        return (checks, *rest)
+
+    monkeypatch.setattr(sv, "_verify", fails_at_first)
+    second = design_setvalued(s)  # was: CertificateError
+    assert second.verified and second.lam != first.lam
+    assert second.steady_radius >= first.steady_radius * (1 - 1e-3)  # the next in cost order

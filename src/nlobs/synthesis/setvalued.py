@@ -47,8 +47,11 @@ Every design is re-verified without the solver: ``P ≻ 0``; the exact condition
 (⋆) recomputed from the returned ``P``, ``L̃``, ``κ``, ``Θ``; the spectral
 radius of every linear member ``(I − L̃C₂)Φ(A + K − Ψ)`` of the class against
 ``√λ``; and, for ``"hinf"``, the H∞ norm of those linear instances by
-:func:`nlobs.linear.norms.hinf_norm` against ``ρ``. A failed check raises
-:class:`~nlobs.errors.CertificateError`.
+:func:`nlobs.linear.norms.hinf_norm` against ``ρ``. (⋆) and ``P ≻ 0`` are checked with no
+allowance; the spectral-radius and H∞ checks (consequences of (⋆), computed by a non-symmetric
+eigensolver and a bisection) allow a relative ``1e-7``. A failed check raises
+:class:`~nlobs.errors.CertificateError` (after trying the line search's other solved ``λ`` in order
+of cost).
 
 The paper's printed LMIs (18), (26)-(28) are *not* implemented as a design here:
 they are not sufficient (``../shared/guide/facts.md``).

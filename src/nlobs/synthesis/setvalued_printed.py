@@ -118,6 +118,22 @@ class PrintedDesign:
     solves: int
     seconds: float
 
+    @property
+    def certified(self) -> bool:
+        """Whether the answer is certified at all: exact (A.16) ``min eig ≥ 0`` and spectral radius ``< 1``.
+
+        ``False`` means the printed LMIs accepted a gain their own sufficient condition does not support
+        (never use it as a certified observer).
+        """
+        return self.exact_min_eig >= 0 and self.spectral_radius < 1
+
+    def summary(self) -> str:
+        """One line per quantity, with the verdict of :attr:`certified`."""
+        return (f"Thm 5.10 as printed: rho* = {self.rho:.6g}, alpha = {self.alpha:.4g}, eps1 = {self.eps1:.4g}, "
+                f"eps2 = {self.eps2:.4g}, kappa = {self.kappa:.4g}\n"
+                f"  (A.16) min eig = {self.exact_min_eig:.4g} (>= 0 needed), spectral radius = "
+                f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.certified))
+
 
 def exact_condition_a16(M: Array, Phi: Array, Psi: Array, C2: Array, L_tilde: Array, P: Array, kappa: float,
                         alpha: float) -> float:
@@ -561,7 +577,16 @@ class Prop516Design:
                 f"  eig(P) in [{self.lambda_min_P:.6g}, {self.lambda_max_P:.6g}], theta1 = {self.theta1:.6g} (< 1 "
                 f"required), printed steady radius delta_inf,1 = {self.theta1_steady:.4g}\n"
                 f"  (A.16) min eig = {self.exact_min_eig:.4g} (>= 0 needed), spectral radius = "
-                f"{self.spectral_radius:.4g}")
+                f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.certified))
+
+    @property
+    def certified(self) -> bool:
+        """Exact (A.16) ``min eig ≥ 0`` and spectral radius ``< 1`` at the returned gain (see :class:`PrintedDesign`)."""
+        return self.exact_min_eig >= 0 and self.spectral_radius < 1
+
+
+def _verdict(certified: bool) -> str:
+    return "certified" if certified else "NOT certified (certified = False: do not use this gain)"
 
 
 def design_prop516(system: DiscreteUISystem, M: ArrayLike, *, gamma: float = 0.0,
