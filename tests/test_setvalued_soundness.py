@@ -236,3 +236,22 @@ def test_a_failed_verification_at_the_chosen_lambda_falls_back_to_the_next_candi
     second = design_setvalued(s)  # was: CertificateError
     assert second.verified and second.lam != first.lam
     assert second.steady_radius >= first.steady_radius * (1 - 1e-3)  # the next in cost order
+
+
+# --------------------------------------------------------------------------- 10. one read-only helper
+
+
+def test_one_readonly_helper_for_the_setvalued_modules() -> None:
+    import importlib
+
+    from nlobs._validate import readonly
+
+    a = [[1, 2], [3, 4]]
+    r = readonly(a)
+    assert r.dtype == np.float64 and not r.flags.writeable
+    with pytest.raises(ValueError, match="read-only"):
+        r[0, 0] = 5.0
+    for mod in ("nlobs.systems.discrete_ui", "nlobs.linear.transform_ui", "nlobs.synthesis.setvalued",
+                "nlobs.synthesis.setvalued_printed", "nlobs.observers.setvalued", "nlobs.observers.discrete_baselines"):
+        m = importlib.import_module(mod)
+        assert not hasattr(m, "_ro") and m.readonly is readonly

@@ -14,6 +14,13 @@ from numpy.typing import ArrayLike, NDArray
 from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, NonFiniteError, NotSymmetricError
 
 
+def readonly(a: ArrayLike) -> NDArray[np.float64]:
+    """A float64 copy of ``a`` that cannot be written to (for the fields of frozen result objects)."""
+    out = np.array(a, dtype=float)
+    out.setflags(write=False)
+    return out
+
+
 def as_finite_array(name: str, value: ArrayLike, ndim: int | None = None) -> NDArray[np.float64]:
     """Return ``value`` as a float64 array, checking finiteness and (optionally) ``ndim``."""
     try:

@@ -29,7 +29,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_matrix, as_square, in_range
+from nlobs._validate import as_matrix, as_square, in_range, readonly
 from nlobs.errors import AssumptionViolated
 from nlobs.linear.observability import unobservable_modes
 from nlobs.linear.stability import strictly_inside
@@ -40,11 +40,6 @@ __all__ = ["UITransform", "ui_transform", "StructuralCheck", "structural_check",
 Array = NDArray[np.float64]
 _EPS = float(np.finfo(float).eps)
 
-
-def _ro(a: ArrayLike) -> Array:
-    out = np.array(a, dtype=float)
-    out.setflags(write=False)
-    return out
 
 
 @dataclass(frozen=True)
@@ -179,7 +174,7 @@ def ui_transform(G: ArrayLike, C: ArrayLike, H: ArrayLike | None = None, D: Arra
         M2 = np.zeros((0, l - pH))
     Phi = np.eye(n) - G2 @ M2 @ C2
     Psi = G1 @ M1 @ C1
-    return UITransform(pH, *(_ro(a) for a in (U1, U2, V1, V2, Sigma, G1, G2, C1, C2, D1, D2, M1, M2, Phi, Psi)))
+    return UITransform(pH, *(readonly(a) for a in (U1, U2, V1, V2, Sigma, G1, G2, C1, C2, D1, D2, M1, M2, Phi, Psi)))
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_batch, as_matrix, as_square, as_symmetric
+from nlobs._validate import as_batch, as_matrix, as_square, as_symmetric, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError
 from nlobs.systems.timebase import Discrete
 
@@ -44,11 +44,6 @@ __all__ = ["DiscreteLipschitzObserver", "EkfState", "UnknownInputEKF", "joseph_u
 Array = NDArray[np.float64]
 BatchedMap = Callable[[Array], Array]
 
-
-def _ro(a: Array) -> Array:
-    out = np.array(a, dtype=float)
-    out.setflags(write=False)
-    return out
 
 
 def _optional(name: str, value: ArrayLike | None, rows: int, cols: int | None) -> Array:
@@ -126,7 +121,7 @@ class DiscreteLipschitzObserver:
         if self.phi is not None and not callable(self.phi):
             raise InvalidArgumentError("phi: expected a batched callable (..., n) -> (..., n) or None")
         for name, val in (("A", A), ("C", C), ("L", L), ("B", B), ("D", D)):
-            object.__setattr__(self, name, _ro(val))
+            object.__setattr__(self, name, readonly(val))
         object.__setattr__(self, "state_names", tuple(f"x{i + 1}_hat" for i in range(n)))
 
     @property
@@ -297,7 +292,7 @@ class UnknownInputEKF:
         for name, val in (("A", A), ("C", C), ("B", B), ("D", D), ("G", G), ("H", H), ("W", W), ("Q_w", Q_w),
                           ("R_v", R_v), ("Q_d", Q_d), ("Q", 0.5 * (Q + Q.T)), ("R", 0.5 * (R + R.T)), ("S", S),
                           ("J", J)):
-            object.__setattr__(self, name, _ro(val))
+            object.__setattr__(self, name, readonly(val))
 
     @property
     def n(self) -> int:

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_finite_array, as_vector, positive
+from nlobs._validate import as_finite_array, as_vector, positive, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError
 from nlobs.linear.transform_ui import UITransform, ui_transform
 from nlobs.synthesis.setvalued import SetValuedDesign
@@ -50,11 +50,6 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
-
-def _ro(a: ArrayLike) -> Array:
-    out = np.array(a, dtype=float)
-    out.setflags(write=False)
-    return out
 
 
 @dataclass(frozen=True)
@@ -154,7 +149,7 @@ def sound_radii(system: DiscreteUISystem, design: SetValuedDesign, steps: int, *
     ss_lyap = math.sqrt(design.c / ((1 - design.lam_eff) * lmin)) if design.lam_eff < 1 else math.inf
     ss_tri = (r + eta) / (1 - th) if th < 1 else math.inf
     ssx = min(ss_lyap, ss_tri)
-    return Radii(_ro(dx), _ro(dd), ssx, thd * ssx + rd + alpha, "sound")
+    return Radii(readonly(dx), readonly(dd), ssx, thd * ssx + rd + alpha, "sound")
 
 
 def printed_radii(system: DiscreteUISystem, L_tilde: ArrayLike, P: ArrayLike, rho: float, steps: int, *,
@@ -202,7 +197,7 @@ def printed_radii(system: DiscreteUISystem, L_tilde: ArrayLike, P: ArrayLike, rh
     s1 = rho * math.sqrt(noise2 / (ev[0] * (1 - theta1))) if theta1 < 1 else math.inf
     s2 = eta / (1 - theta2) if theta2 < 1 else math.inf
     ss = min(s1, s2)
-    return Radii(_ro(dx), _ro(dd), ss, beta * ss + alpha, "printed")
+    return Radii(readonly(dx), readonly(dd), ss, beta * ss + alpha, "printed")
 
 
 @dataclass(frozen=True)
@@ -220,7 +215,7 @@ class GivenGain:
         """``L̃`` (reshaped to ``(n, l − p_H)``) with the transformation of ``system``."""
         tr = ui_transform(system.G, system.C, system.H, system.D)
         L = as_finite_array("L_tilde", L_tilde).reshape(system.n, tr.C2.shape[0])
-        return cls(_ro(L), tr)
+        return cls(readonly(L), tr)
 
 
 @dataclass(frozen=True)
@@ -329,5 +324,5 @@ def run_setvalued(system: DiscreteUISystem, design: SetValuedDesign | GivenGain,
         rad = sound_radii(system, design, K)
     if rad is not None and rad.state.shape != (K1,):
         raise DimensionError(f"radii: expected {K1} state radii, got {rad.state.shape}")
-    return SetValuedRun(_ro(X), _ro(Dh), rad)
+    return SetValuedRun(readonly(X), readonly(Dh), rad)
 

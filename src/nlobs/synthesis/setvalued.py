@@ -71,7 +71,7 @@ import cvxpy as cp
 import numpy as np
 from numpy.typing import NDArray
 
-from nlobs._validate import in_range, positive
+from nlobs._validate import in_range, positive, readonly
 from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
 from nlobs.linear.norms import hinf_norm
 from nlobs.linear.transform_ui import StructuralCheck, UITransform, require_structure, structural_check, ui_transform
@@ -698,7 +698,7 @@ def _first_verified(system: DiscreteUISystem, dyn: ErrorDynamics, cands: list[_S
         evP = np.linalg.eigvalsh(sol.P)
         steady = math.sqrt(c / ((1.0 - lam_eff) * evP[0])) if lam_eff < 1 else math.inf
         return SetValuedDesign(
-            objective=obj, L_tilde=_ro(sol.L), P=_ro(sol.P), kappa=sol.kappa, lam=lam_used, q=qq, theta=sol.theta,
+            objective=obj, L_tilde=readonly(sol.L), P=readonly(sol.P), kappa=sol.kappa, lam=lam_used, q=qq, theta=sol.theta,
             rho=rho, lam_eff=lam_eff, c=c, steady_radius=steady, spectral_radii=radii, hinf_linear=norms,
             checks=tuple(checks), dynamics=dyn, structure=st, solver=slv, solver_status=sol.status, margin=eps,
             seconds=time.perf_counter() - t0, solves=solves, certified_for=certified_for,
@@ -729,10 +729,3 @@ def verify_setvalued(system: DiscreteUISystem, L_tilde: Any, P: Any, *, kappa: f
     if strict and not all(c.passed for c in checks):
         raise CertificateError("; ".join(c.describe() for c in checks if not c.passed))
     return tuple(checks)
-
-
-def _ro(a: Array) -> Array:
-    out = np.array(a, dtype=float)
-    out.setflags(write=False)
-    return out
-

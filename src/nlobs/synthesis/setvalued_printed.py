@@ -46,7 +46,7 @@ import cvxpy as cp
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_matrix, as_square, as_symmetric, positive
+from nlobs._validate import as_matrix, as_square, as_symmetric, positive, readonly
 from nlobs.errors import CertificateError, DesignInfeasible, DimensionError, InvalidArgumentError
 from nlobs.linear.transform_ui import UITransform, structural_check, ui_transform
 from nlobs.synthesis.lmi import Solver, as_solver, solve
@@ -69,11 +69,6 @@ __all__ = [
 
 Array = NDArray[np.float64]
 
-
-def _ro(a: ArrayLike) -> Array:
-    out = np.array(a, dtype=float)
-    out.setflags(write=False)
-    return out
 
 
 def _sym(X: Any) -> Any:
@@ -659,7 +654,7 @@ def design_prop516(system: DiscreteUISystem, M: ArrayLike, *, gamma: float = 0.0
             outcomes.append(BranchOutcome(br, None, k))
         else:
             Pb = 0.5 * (best.P + best.P.T)
-            outcomes.append(BranchOutcome(br, math.sqrt(best.rho2), k, _ro(Pb), theta1_printed(Pb)))
+            outcomes.append(BranchOutcome(br, math.sqrt(best.rho2), k, readonly(Pb), theta1_printed(Pb)))
             bests.append((best, br))
     if not bests:
         raise _diagnosed(what, system, M11, M12, M22, tr, margin, (Prop516Branch.A, Prop516Branch.B), sm,
@@ -677,7 +672,7 @@ def design_prop516(system: DiscreteUISystem, M: ArrayLike, *, gamma: float = 0.0
     emin = exact_condition_a16(M_, tr.Phi, tr.Psi, tr.C2, L, Pv, best.kappa, best.alpha)
     rho = math.sqrt(best.rho2)
     steady = rho * math.sqrt((system.eta_w**2 + system.eta_v**2) / (ev[0] * (1.0 - th1)))
-    return Prop516Design(rho, br, tuple(outcomes), _ro(Pv), _ro(best.Y), _ro(L), best.alpha, best.eps1, best.eps2,
+    return Prop516Design(rho, br, tuple(outcomes), readonly(Pv), readonly(best.Y), readonly(L), best.alpha, best.eps1, best.eps2,
                          best.kappa, best.extra["kappa1"], best.extra["kappa2"], float(ev[0]), float(ev[-1]), th1,
                          steady, emin, _spectral_radius(system, tr, L), solves, time.perf_counter() - t0)
 
@@ -940,13 +935,13 @@ def necessary_condition_printed(system: DiscreteUISystem, M: ArrayLike, *, gamma
             sr, mm = float(eig.max()), float(eig.min())
         else:
             sr = mm = math.nan
-        evid.append(MemberEvidence(nm, _ro(K), sr, mm, not bad, bad))
+        evid.append(MemberEvidence(nm, readonly(K), sr, mm, not bad, bad))
     if not feasible:  # an infeasible test has no meaningful point: keep only a given gain
         Pv = Yv = Gv = None
         ev = pit_min = pih_min = ex_min = None
     verdict = Prop56Verdict.GAIN_UNSTABLE if feasible else Prop56Verdict.INCONCLUSIVE
     return NecessaryConditionPrinted(
         verdict, feasible, Lg is not None, res.raw_status, tv,
-        None if Pv is None else _ro(Pv), None if Yv is None else _ro(Yv), None if Gv is None else _ro(Gv), ev,
-        None if Lv is None or not (feasible or Lg is not None) else _ro(Lv), pit_min, pih_min, ex_min, tuple(evid),
+        None if Pv is None else readonly(Pv), None if Yv is None else readonly(Yv), None if Gv is None else readonly(Gv), ev,
+        None if Lv is None or not (feasible or Lg is not None) else readonly(Lv), pit_min, pih_min, ex_min, tuple(evid),
         time.perf_counter() - t0)

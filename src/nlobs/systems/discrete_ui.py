@@ -42,7 +42,7 @@ import numpy as np
 import sympy as sp
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_batch, as_matrix, as_square, as_symmetric, as_vector, positive
+from nlobs._validate import as_batch, as_matrix, as_square, as_symmetric, as_vector, positive, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, NonFiniteError
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.symbolic import SymbolicModel
@@ -70,11 +70,6 @@ Array = NDArray[np.float64]
 NonlinearPart = Callable[[Array], Array]
 
 
-def _ro(a: ArrayLike) -> Array:
-    out = np.array(a, dtype=float)
-    out.setflags(write=False)
-    return out
-
 
 # --------------------------------------------------------------------------- function classes
 
@@ -100,7 +95,7 @@ class QuadraticConstraint:
         M = as_symmetric("M", self.M)
         if M.shape[0] % 2:
             raise DimensionError(f"M: expected an even size 2n, got shape {M.shape}")
-        object.__setattr__(self, "M", _ro(M))
+        object.__setattr__(self, "M", readonly(M))
         g = float(self.gamma)
         if not math.isfinite(g):
             raise InvalidArgumentError(f"gamma: must be finite, got {self.gamma!r}")
@@ -264,7 +259,7 @@ class QCStar:
     gamma: float = 0.0
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "A_aux", _ro(as_square("A_aux", self.A_aux)))
+        object.__setattr__(self, "A_aux", readonly(as_square("A_aux", self.A_aux)))
         g = float(self.gamma)
         if not math.isfinite(g):
             raise InvalidArgumentError(f"gamma: must be finite, got {self.gamma!r}")
@@ -317,7 +312,7 @@ class LPV:
     constituents: tuple[Array, ...]
 
     def __post_init__(self) -> None:
-        mats = tuple(_ro(as_square(f"constituents[{i}]", a)) for i, a in enumerate(self.constituents))
+        mats = tuple(readonly(as_square(f"constituents[{i}]", a)) for i, a in enumerate(self.constituents))
         if not mats:
             raise DimensionError("constituents: at least one matrix is needed")
         n = mats[0].shape[0]
@@ -498,7 +493,7 @@ class DiscreteUISystem:
             raise InvalidArgumentError(f"phi: expected a callable (..., n) -> (..., n), got {type(phi).__name__}")
         x0_ = np.zeros(n) if x0 is None else as_vector("x0", x0, n)
         for k, v in (("A", A_), ("G", G_), ("C", C_), ("H", H_), ("B", B_), ("D", D_), ("W", W_), ("x0", x0_)):
-            object.__setattr__(self, k, _ro(v))
+            object.__setattr__(self, k, readonly(v))
         object.__setattr__(self, "phi", phi)
         object.__setattr__(self, "function_class", fc)
         object.__setattr__(self, "eta_w", positive("eta_w", eta_w, allow_zero=True))
@@ -733,7 +728,7 @@ def estimate_lipschitz(phi: NonlinearPart, lo: ArrayLike, hi: ArrayLike, *, n_pa
     ok = dx > 0
     ratio = np.where(ok, np.linalg.norm(df, axis=-1) / np.where(ok, dx, 1.0), 0.0)
     i = int(np.argmax(ratio))
-    return LipschitzEstimate(float(ratio[i]), _ro(x1[i]), _ro(x2[i]), int(n_pairs))
+    return LipschitzEstimate(float(ratio[i]), readonly(x1[i]), readonly(x2[i]), int(n_pairs))
 
 
 @dataclass(frozen=True)
@@ -784,7 +779,7 @@ def check_function_class(phi: NonlinearPart, function_class: FunctionClass, lo: 
     x1, x2 = _sample_pairs(lo_, hi_, int(n_pairs), seed, 1e-3)
     margin, rel = class_margins(phi, function_class, x1, x2, rtol=rtol)
     i = int(np.argmin(rel))
-    return ClassCheck(bool(rel[i] >= 0), float(margin[i]), _ro(x1[i]), _ro(x2[i]), int(n_pairs), function_class.label)
+    return ClassCheck(bool(rel[i] >= 0), float(margin[i]), readonly(x1[i]), readonly(x2[i]), int(n_pairs), function_class.label)
 
 
 def class_margins(phi: NonlinearPart, function_class: FunctionClass, x1: ArrayLike, x2: ArrayLike, *,
