@@ -422,7 +422,10 @@ def _trajectory_conditions(batch: Batch, box: tuple[ArrayLike, ArrayLike] | None
             outside = ((x < lo) | (x > hi)).any(axis=(1, 2)) | ~((xh >= lo) & (xh <= hi)).all(axis=(1, 2))
         out["left_box_runs"] = int(np.sum(outside))
     tr = gain.transform
-    nrm = lambda M: float(np.linalg.norm(M, 2)) if M.size else 0.0  # noqa: E731
+
+    def nrm(M: Array) -> float:
+        return float(np.linalg.norm(M, 2)) if M.size else 0.0
+
     kappa = ((1.0 + nrm(gain.L_tilde) * nrm(tr.C2)) * (1.0 + nrm(tr.G1 @ tr.M1) + nrm(tr.G2 @ tr.M2))
              * (1.0 + nrm(system.C) + nrm(system.A)))
     with np.errstate(over="ignore", invalid="ignore"):
@@ -841,9 +844,10 @@ def adversarial_noise(system: DiscreteUISystem, design: SetValuedDesign, steps: 
     value : float
         ``uᵀx̃_K`` attained by these sequences on the linear member: a lower bound of the worst-case error.
     """
+    design.certified_for.require(system)
     K = int(steps)
     Acl, Bcl, E = design.dynamics.split(design.L_tilde)
-    members = system.function_class.linear_members()
+    members = design.function_class.linear_members()
     AK = Acl + (Bcl @ members[0] if members else 0.0)
     l, nw, n = system.l, system.n_w, system.n
     E1, Ew, E2 = E[:, :l], E[:, l:l + nw], E[:, l + nw:]
