@@ -140,7 +140,7 @@ def test_roundoff_is_flagged_only_when_it_reaches_the_radius() -> None:
     long = containment_study(ex, d, runs=5, steps=4000, unknown_input=grow)
     assert long.roundoff_runs == 5 and long.max_abs_input > 1e18 and not long.guarantee_held
     assert long.class_violated_in_runs == 0
-    assert "containment lost to floating-point round-off" in long.likely_causes()[0]
+    assert long.likely_causes() == [c for c in long.likely_causes() if "round-off" in c] != []
 
 
 # --------------------------------------------------------------------------- 7. non-finite input

@@ -287,7 +287,7 @@ class ContainmentResult:
         if self.class_violated_in_runs:
             out.append(f"the function class is violated along the trajectories in {self.class_violated_in_runs} "
                        f"of {self.runs} runs (worst QC − γ = {self.class_worst_margin:.4g})")
-        if self.left_box_runs:
+        if self.left_box_runs and self.class_violated_in_runs != 0:  # harmless where the class held on every pair
             out.append(f"the state or its estimate left the box where the class was checked in {self.left_box_runs} "
                        f"of {self.runs} runs")
         if self.roundoff_runs:
