@@ -82,7 +82,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_batch, as_matrix, as_symmetric, as_vector
+from nlobs._validate import as_batch, as_matrix, as_symmetric, as_vector, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError
 from nlobs.navigation.base import GnssSample, ImuSample, NavEstimate
 from nlobs.navigation.polar import nearest_rotation
@@ -130,11 +130,6 @@ def triad_J(m_b: ArrayLike, m_n: ArrayLike, a_b: ArrayLike, a_n: ArrayLike, R_ha
     AbT = np.swapaxes(Ab, -1, -2)
     return An @ AbT - np.asarray(R_hat, dtype=float) @ (Ab @ AbT)
 
-
-def _ro(a: Array) -> Array:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True)
@@ -320,10 +315,10 @@ class GnssInsObserver:
         if self.kernel == "scalar" and self.integrator != "split":
             raise InvalidArgumentError("kernel: 'scalar' is the fused kernel of integrator='split', not of 'rk4'")
         for nm, val in (("K", K), ("Gamma", G), ("m_n", m_n), ("g_n", g_n)):
-            object.__setattr__(self, nm, _ro(val))
+            object.__setattr__(self, nm, readonly(val))
         object.__setattr__(self, "_gamma_max", float(lam[-1]))
         Sm = _skew(m_n)
-        object.__setattr__(self, "_SmPowers", _ro(np.stack([Sm, Sm @ Sm])))
+        object.__setattr__(self, "_SmPowers", readonly(np.stack([Sm, Sm @ Sm])))
         # spectral radius of the linear error dynamics 𝔄 − Kℭ (9 states), for the RK4 step check
         I3, Z3 = np.eye(3), np.zeros((3, 3))
         A = np.block([[Z3, I3, Z3], [Z3, Z3, I3], [Z3, Z3, Z3]])
@@ -332,20 +327,20 @@ class GnssInsObserver:
         # split integrator: Γ = V diag(γ) Vᵀ (V = None when Γ is diagonal) and the generators of the
         # linear sub-flow on L = [p̂, v̂, ẑ, y_p, (y_v)] augmented with a constant 1 (with / without a fix)
         if np.count_nonzero(G - np.diag(np.diag(G))) == 0:
-            object.__setattr__(self, "_gamma", _ro(np.diag(G)))
+            object.__setattr__(self, "_gamma", readonly(np.diag(G)))
             object.__setattr__(self, "_V", None)
         else:
             gam, V = np.linalg.eigh(G)
-            object.__setattr__(self, "_gamma", _ro(gam))
-            object.__setattr__(self, "_V", _ro(V))
-        object.__setattr__(self, "_F", (_ro(self._linear_generator(K)), _ro(self._linear_generator(0.0 * K))))
+            object.__setattr__(self, "_gamma", readonly(gam))
+            object.__setattr__(self, "_V", readonly(V))
+        object.__setattr__(self, "_F", (readonly(self._linear_generator(K)), readonly(self._linear_generator(0.0 * K))))
         object.__setattr__(self, "_cache", {})
         Sm_n = self._SmPowers  # A_n = [mⁿ, S(mⁿ) ẑ, S(mⁿ)² ẑ] = (ẑ @ _SmP).reshape(3, 3) + _An0 (batch first)
-        object.__setattr__(self, "_SmP", _ro(np.stack([np.zeros((3, 3)), Sm_n[0], Sm_n[1]], axis=-1)
+        object.__setattr__(self, "_SmP", readonly(np.stack([np.zeros((3, 3)), Sm_n[0], Sm_n[1]], axis=-1)
                                              .transpose(1, 0, 2).reshape(3, 9)))
-        object.__setattr__(self, "_An0", _ro(np.outer(m_n, [1.0, 0.0, 0.0])))
-        object.__setattr__(self, "_m_n_col", _ro(m_n[:, None, None]))       # batch last
-        object.__setattr__(self, "_gamma_col", _ro(self._gamma[:, None, None]))
+        object.__setattr__(self, "_An0", readonly(np.outer(m_n, [1.0, 0.0, 0.0])))
+        object.__setattr__(self, "_m_n_col", readonly(m_n[:, None, None]))       # batch last
+        object.__setattr__(self, "_gamma_col", readonly(self._gamma[:, None, None]))
         object.__setattr__(self, "_scalar", SplitConstants.build(self._gamma, self._V, m_n, self._SmPowers))
         object.__setattr__(self, "_scalar_cache", {})
 
@@ -551,7 +546,7 @@ class GnssInsObserver:
 
             n = self._F[0].shape[0] - 1
             E1, E0 = expm(self._F[0] * dt), expm(self._F[1] * dt)
-            out = (_ro(E1[:n, :n].T), _ro(E1[:n, n]), _ro(E0[:n, :n].T), _ro(E0[:n, n]))
+            out = (readonly(E1[:n, :n].T), readonly(E1[:n, n]), readonly(E0[:n, :n].T), readonly(E0[:n, n]))
             if len(self._cache) > 16:
                 self._cache.clear()
             self._cache[dt] = out

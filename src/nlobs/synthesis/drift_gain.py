@@ -77,7 +77,7 @@ import cvxpy as cp
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_matrix, positive
+from nlobs._validate import as_matrix, positive, readonly
 from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
 from nlobs.synthesis.certificate import Check, CheckKind
 from nlobs.systems.brunovsky import brunovsky as brunovsky_triple
@@ -747,7 +747,7 @@ def _sdp_at(c: RiccatiConstants, obj: DriftObjective, margin: float, gb: float |
     checks.append(Check("LMI in (S̃, Ŷ) recomputed (λ_max)", CheckKind.LMI, max_eig(blk),
                         100 * _EPS * max(1.0, float(np.linalg.norm(blk, 2)))))
     f = v.fields
-    cert = DriftGainCertificate(c, _ro(K), _ro(P), "sdp", None, f["lhs_max_eig"], v.eigenvalues, tuple(checks),
+    cert = DriftGainCertificate(c, readonly(K), readonly(P), "sdp", None, f["lhs_max_eig"], v.eigenvalues, tuple(checks),
                                 obj.value, sol, res.raw_status, margin, time.perf_counter() - t0, theta,
                                 lhs_max_eig_scaled=f["lhs_max_eig_scaled"], lhs_tolerance=f["lhs_tolerance"],
                                 lhs_rounding=f["lhs_rounding"])
@@ -855,11 +855,6 @@ def design_drift_gain_sdp(
     key = (lambda x: x.gain_norm) if obj is DriftObjective.MIN_GAIN else (lambda x: x.cond_P)
     return min(found, key=key)
 
-
-def _ro(a: Array) -> Array:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 def design_drift_gain(
