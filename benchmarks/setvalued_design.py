@@ -36,7 +36,6 @@ from typing import Any
 
 import numpy as np
 
-from nlobs.errors import DesignInfeasible
 from nlobs.examples.khajenejad_yong import example_61
 from nlobs.synthesis import setvalued as sv
 from nlobs.synthesis.lmi import Solver

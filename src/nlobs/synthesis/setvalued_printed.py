@@ -808,7 +808,6 @@ def _members(system: DiscreteUISystem, M11: Array, M12: Array, M22: Array, gamma
 def _pi_tilde(P: Any, Y: Any, eta: Any, M11: Array, M12: Array, M22: Array, tr: UITransform) -> Any:
     """``Π̃`` of (23)-(24) for CVXPY expressions or NumPy arrays (same code: what is verified is what is solved)."""
     Phi, Psi, C2 = tr.Phi, tr.Psi, tr.C2
-    n, q = Phi.shape[0], C2.shape[0]
     cvx = isinstance(P, cp.Expression)
     blk = cp.bmat if cvx else np.block
     St = P - C2.T @ Y.T - Y @ C2
