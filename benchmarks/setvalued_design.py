@@ -19,10 +19,9 @@ Both run in one process on the same machine; the best of ``--repeat`` timings is
 times, both objectives, the ratio, whether the 10× target is met, and why not when it is not.
 
 By default (``--no-printed`` skips it) also the comparison the issue describes for the paper's own
-formulation, Theorem
-5.10 as printed (:func:`nlobs.synthesis.setvalued_printed.design_printed`: compiled once, α by bisection
-and golden section, ε coarse to fine) against facts.md's naive 575-point (α, ε₁, ε₂) grid rebuilt per
-point (``--printed-sample K`` times K of its points and extrapolates).
+formulation, Theorem 5.10 as printed (:func:`nlobs.synthesis.setvalued_printed.design_printed`:
+compiled once, α by bisection and golden section, ε coarse to fine) against facts.md's naive 575-point
+(α, ε₁, ε₂) grid rebuilt per point (``--printed-sample K`` times K of its points and extrapolates).
 
 Run ``python benchmarks/setvalued_design.py [--json] [--repeat R] [--no-printed] [--printed-sample K]``.
 """
