@@ -138,7 +138,9 @@ def test_infeasible_design_exits_1(tmp_path: Path) -> None:
     assert "design infeasible" in res.stderr
 
 
-LPV_FILE = """name = "lpv"
+def _two_state_file(name: str, f: str, bounded: str, growing: str, function_class: str) -> str:
+    """A 2-state unknown-input model file (G = e1, H = e2, small noise, initial ball 0.5) for CLI tests."""
+    return f"""name = "{name}"
 time = "discrete"
 dt = 1.0
 states = ["x1", "x2"]
@@ -151,8 +153,8 @@ h = ["x1", "0"]
 [unknown_inputs]
 G = [[1.0], [0.0]]
 H = [[0.0], [1.0]]
-bounded = ["0.2*sin(t)"]
-growing = ["0.1*t"]
+bounded = ["{bounded}"]
+growing = ["{growing}"]
 
 [noise]
 eta_w = 0.01
@@ -163,17 +165,19 @@ centre = [0.0, 0.0]
 radius = 0.5
 
 [function_class]
-kind = "III"
-linear_part = {A}
-constituents = {V}
-box = [[-3, 3], [-3, 3]]
+{function_class}
 """
+
+
+def _lpv_file(*, f: str, A: str, V: str) -> str:
+    return _two_state_file("lpv", f, "0.2*sin(t)", "0.1*t",
+                           f'kind = "III"\nlinear_part = {A}\nconstituents = {V}\nbox = [[-3, 3], [-3, 3]]')
 
 
 def test_lpv_file_outside_its_polytope_is_refused(tmp_path: Path) -> None:
     """The reviewer's lpvhole.toml: σ̃-Lipschitz, but no difference quotient in the polytope; was certified, exit 0."""
     p = tmp_path / "lpvhole.toml"
-    p.write_text(LPV_FILE.format(f='["0", "1.5*x2"]', A="[[0, 0], [0, 0]]", V="[[[0, 1.5], [0, 0]], [[0, 0], [0, 0]]]"))
+    p.write_text(_lpv_file(f='["0", "1.5*x2"]', A="[[0, 0], [0, 0]]", V="[[[0, 1.5], [0, 0]], [[0, 0], [0, 0]]]"))
     for cmd in ("design", "simulate"):
         res = runner.invoke(app, [cmd, "setvalued", str(p), "--runs", "5", "--steps", "5"][: 3 if cmd == "design" else 7])
         assert res.exit_code == 2, res.output
@@ -182,7 +186,7 @@ def test_lpv_file_outside_its_polytope_is_refused(tmp_path: Path) -> None:
 
 def test_lpv_file_is_designed_with_the_lipschitz_multiplier_and_contained(tmp_path: Path) -> None:
     p = tmp_path / "lpvok.toml"
-    p.write_text(LPV_FILE.format(f='["0.6*x1 + 0.2*x2", "0.3*x2"]', A="[[0.5, 0.2], [0, 0.3]]",
+    p.write_text(_lpv_file(f='["0.6*x1 + 0.2*x2", "0.3*x2"]', A="[[0.5, 0.2], [0, 0.3]]",
                                  V="[[[0.2, 0], [0, 0]], [[0, 0], [0, 0]]]"))
     res = runner.invoke(app, ["simulate", "setvalued", str(p), "--runs", "100", "--steps", "50", "--no-baselines",
                               "--json"])
@@ -192,42 +196,15 @@ def test_lpv_file_is_designed_with_the_lipschitz_multiplier_and_contained(tmp_pa
     assert d["design"]["function_class_used"] == "Class I (Lipschitz)" and d["design"]["lpv_design"] == "lipschitz"
 
 
-BOXHOLE = """name = "boxhole"
-time = "discrete"
-dt = 1.0
-states = ["x1", "x2"]
-outputs = ["y1", "y2"]
-
-[dynamics]
-f = ["0.5*x1 + 0.2*x2", "0.3*x2 + 0.1*x1**3"]
-h = ["x1", "0"]
-
-[unknown_inputs]
-G = [[1.0], [0.0]]
-H = [[0.0], [1.0]]
-bounded = ["{bounded}"]
-growing = ["3 + 0.1*t"]
-
-[noise]
-eta_w = 0.01
-eta_v = 0.01
-
-[initial]
-centre = [0.0, 0.0]
-radius = 0.5
-
-[function_class]
-kind = "I"
-linear_part = [[0.5, 0.2], [0, 0.3]]
-L = 0.3
-box = [[-1, 1], [-1, 1]]
-"""
+def _boxhole_file(*, bounded: str) -> str:
+    return _two_state_file("boxhole", '["0.5*x1 + 0.2*x2", "0.3*x2 + 0.1*x1**3"]', bounded, "3 + 0.1*t",
+                           'kind = "I"\nlinear_part = [[0.5, 0.2], [0, 0.3]]\nL = 0.3\nbox = [[-1, 1], [-1, 1]]')
 
 
 def test_class_violated_along_trajectories_is_a_violated_guarantee(tmp_path: Path) -> None:
     """The reviewer's boxhole2.toml: 0.1x₁³ is 0.3-Lipschitz on the box only, and d drives x₁ out of it."""
     p = tmp_path / "boxhole2.toml"
-    p.write_text(BOXHOLE.format(bounded="0.8 + 0.2*sin(t)"))
+    p.write_text(_boxhole_file(bounded="0.8 + 0.2*sin(t)"))
     res = runner.invoke(app, ["simulate", "setvalued", str(p), "--runs", "100", "--steps", "100", "--no-baselines",
                               "--json"])
     assert res.exit_code == 1, res.output  # was 0 with containment 0.81
@@ -245,7 +222,7 @@ def test_class_violated_along_trajectories_is_a_violated_guarantee(tmp_path: Pat
 
 def test_guarantee_held_is_reported(tmp_path: Path) -> None:
     p = tmp_path / "boxok.toml"
-    p.write_text(BOXHOLE.format(bounded="0.2*sin(t)"))
+    p.write_text(_boxhole_file(bounded="0.2*sin(t)"))
     res = runner.invoke(app, ["simulate", "setvalued", str(p), "--runs", "50", "--steps", "50", "--no-baselines",
                               "--json"])
     assert res.exit_code == 0, res.output
@@ -268,7 +245,7 @@ def test_roundoff_with_an_unbounded_input_is_flagged() -> None:
 
 def test_plant_overflow_names_the_step(tmp_path: Path) -> None:
     p = tmp_path / "boxhole.toml"
-    p.write_text(BOXHOLE.format(bounded="0.2*sin(t)"))
+    p.write_text(_boxhole_file(bounded="0.2*sin(t)"))
     res = runner.invoke(app, ["simulate", "setvalued", str(p), "--runs", "10", "--steps", "100", "--unknown-input",
                               "growing"])
     assert res.exit_code == 1, res.output
