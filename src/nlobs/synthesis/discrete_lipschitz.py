@@ -201,7 +201,8 @@ class _Problem:
     ``ε = 1``, ``P ⪰ margin·I``, maximise ``γ²`` (the largest certifiable constant).
     """
 
-    def __init__(self, A: Array, C: Array, E: Array, F: Array, margin: float, *, max_gamma: bool) -> None:
+    def __init__(self, A: Array, C: Array, E: Array, F: Array, margin: float, *, max_gamma: bool,
+                 bound_eps: bool = False) -> None:
         n, l, q = A.shape[0], C.shape[0], E.shape[1]
         self.rho2 = cp.Parameter(nonneg=True)
         self.gamma2 = cp.Parameter(nonneg=True)
@@ -221,6 +222,8 @@ class _Problem:
             eps = self.eps
             gterm = self.eps * (self.gamma2 * (F.T @ F))
             cons = [self.P >> I, self.t * I >> self.P]
+            if bound_eps:  # γ = 0: ε is free and the solver lets it grow without bound, ruining S's scaling
+                cons.append(self.eps <= 10.0 * (1.0 + float(np.linalg.norm(E, 2)) ** 2) * self.t)
             objective = cp.Minimize(self.t)
         S = bmat([[self.rho2 * self.P - gterm, np.zeros((n, q)), PAL.T],
                   [np.zeros((q, n)), eps * np.eye(q), E.T @ self.P],
@@ -293,7 +296,8 @@ def design_discrete_lipschitz_gain(
     s = as_solver(solver)
     E_, F_ = _structure(E, F, n)
 
-    prob = _Problem(A_, C_, E_, F_, eps, max_gamma=False)
+    # with γ = 0 any ε > λ_max(EᵀPE) (≤ t‖E‖²) certifies, so bounding it by a multiple of t loses nothing
+    prob = _Problem(A_, C_, E_, F_, eps, max_gamma=False, bound_eps=gamma == 0.0)
     prob.gamma2.value = gamma**2
     n_solves = 0
 
