@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from nlobs.examples.khajenejad_yong import example_61
+from nlobs.papers.khajenejad_yong import example_61
 from nlobs.synthesis import setvalued as sv
 from nlobs.synthesis.lmi import Solver
 from nlobs.synthesis import setvalued_printed as svp

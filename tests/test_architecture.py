@@ -21,7 +21,7 @@ ALLOWED: dict[str, set[str]] = {
     "simulate": CORE | {"systems", "observers"},
     "analysis": CORE | {"systems", "linear", "geometry"},
     "navigation": CORE | {"systems", "linear", "synthesis", "observers", "simulate"},
-    "examples": CORE | {"systems", "linear", "synthesis", "observers", "simulate", "geometry", "navigation", "analysis"},
+    "papers": CORE | {"systems", "linear", "synthesis", "observers", "simulate", "geometry", "navigation", "analysis"},
 }
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from nlobs.errors import InvalidArgumentError
-from nlobs.examples.grip_example1 import L_RAJAMANI, example1_sigma1, example1_sigma2
+from nlobs.papers.grip_example1 import L_RAJAMANI, example1_sigma1, example1_sigma2
 from nlobs.observers.cascade import (
     CascadeObserver,
     NonlinearSubsystem,

@@ -8,7 +8,7 @@ import control
 import numpy as np
 import pytest
 
-from nlobs.examples.grip_example1 import X0, X_HAT0, example1_sigma1, example1_sigma2
+from nlobs.papers.grip_example1 import X0, X_HAT0, example1_sigma1, example1_sigma2
 from nlobs.linear import hinf_norm
 from nlobs.observers.cascade import gamma_sweep, interconnected_plant
 from nlobs.simulate import simulate

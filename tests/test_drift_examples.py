@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from nlobs.examples import dallamora2000 as dm
-from nlobs.examples.reproduce import PAPERS, reproduce
+from nlobs.papers import dallamora2000 as dm
+from nlobs.papers.reproduce import PAPERS, reproduce
 
 
 def test_simulate_drift_bound_and_rate_with_exact_constants() -> None:
@@ -44,7 +44,7 @@ def test_mimo_example_structure_and_convergence() -> None:
 
 
 def test_reproduce_dallamora2000_rows() -> None:
-    assert PAPERS["dallamora2000"] == "nlobs.examples.dallamora2000"
+    assert PAPERS["dallamora2000"] == "nlobs.papers.dallamora2000"
     rows = {r.quantity.split(":")[0]: r for r in reproduce("dallamora2000")}
     thm29 = rows["Thm 2.9"]
     assert len(thm29.nlobs) == 4 and all(np.isfinite(w) and w > 0 for w in thm29.nlobs)

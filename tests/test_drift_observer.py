@@ -165,7 +165,7 @@ def test_report_is_not_usable_when_drift_observability_fails() -> None:
 
 
 def test_given_gamma_below_the_estimate_is_warned_and_simulations_are_not_certified() -> None:
-    from nlobs.examples.dallamora2000 import simulate_drift
+    from nlobs.papers.dallamora2000 import simulate_drift
 
     model = _lipschitz_model()
     region = Box([-math.pi, -3.0], [math.pi, 3.0])

@@ -8,7 +8,7 @@ import control
 import numpy as np
 import pytest
 
-from nlobs.examples.grip_example1 import (
+from nlobs.papers.grip_example1 import (
     A1,
     C1,
     L_RAJAMANI,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from nlobs.errors import ModelFileError
-from nlobs.examples.khajenejad_yong import example_61, example_62
+from nlobs.papers.khajenejad_yong import example_61, example_62
 from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, Lipschitz, QCStar, QuadraticConstraint
 from nlobs.systems.modelfile import load_discrete_ui, load_discrete_ui_model, load_model, parse_discrete_ui
 from nlobs.systems.symbolic import SymbolicModel

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from nlobs.examples import robenack2008 as R
-from nlobs.examples.reproduce import ReproRow
+from nlobs.papers import robenack2008 as R
+from nlobs.papers.reproduce import ReproRow
 
 
 @pytest.fixture(scope="module")
@@ -88,9 +88,9 @@ def test_reproduce_rows() -> None:
     assert by["Φ of (23) injective (A2)"].nlobs is False
     assert sum(r.quantity.startswith("simulation") for r in rows) == len(R.SCENARIOS)
     assert R.reproduce is R.rows
-    from nlobs.examples.reproduce import PAPERS
+    from nlobs.papers.reproduce import PAPERS
 
-    assert PAPERS["robenack2008"] == "nlobs.examples.robenack2008"
+    assert PAPERS["robenack2008"] == "nlobs.papers.robenack2008"
 
 
 def test_simulate_pinv_with_sampled_noisy_measurements() -> None:

@@ -8,7 +8,7 @@ import pytest
 from typer.testing import CliRunner
 
 from nlobs.cli import app
-from nlobs.examples.reproduce import ReproRow, reproduce
+from nlobs.papers.reproduce import ReproRow, reproduce
 from nlobs.errors import UnknownNameError
 
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from nlobs.errors import InvalidArgumentError
-from nlobs.examples.khajenejad_yong import PaperExample, containment_study, example_61, example_62
+from nlobs.papers.khajenejad_yong import PaperExample, containment_study, example_61, example_62
 from nlobs.observers.setvalued import GivenGain, printed_radii, run_setvalued
 from nlobs.synthesis.setvalued import design_setvalued
 from nlobs.systems.discrete_ui import DiscreteUISystem, Lipschitz
@@ -120,7 +120,7 @@ def test_example_61_structured_class_0_multiplier() -> None:
 
 def test_adversarial_noise_at_the_bound_stays_inside(ex61) -> None:  # type: ignore[no-untyped-def]
     """Noise chosen at its bound to maximise the error at step K: the sound ball still contains it."""
-    from nlobs.examples.khajenejad_yong import adversarial_noise
+    from nlobs.papers.khajenejad_yong import adversarial_noise
     from nlobs.observers.setvalued import sound_radii
 
     ex, design = ex61
@@ -144,7 +144,7 @@ def test_adversarial_noise_at_the_bound_stays_inside(ex61) -> None:  # type: ign
 
 def test_growing_unknown_input_breaks_a_naive_point_observer_but_not_the_set_observer(ex61) -> None:  # type: ignore[no-untyped-def]
     """Sec. 6.2's claim on Example 6.1: with d growing without bound the set-valued observer stays bounded."""
-    from nlobs.examples.khajenejad_yong import ball_samples, naive_point_observer
+    from nlobs.papers.khajenejad_yong import ball_samples, naive_point_observer
 
     ex, design = ex61
     s = ex.system
@@ -169,7 +169,7 @@ def test_growing_unknown_input_breaks_a_naive_point_observer_but_not_the_set_obs
 
 def test_lpv_with_run_time_weights_is_contained() -> None:
     """Class III end to end: vertex design, plant and observer driven by the same random weights."""
-    from nlobs.examples.khajenejad_yong import ball_samples
+    from nlobs.papers.khajenejad_yong import ball_samples
     from nlobs.systems.discrete_ui import LPV
 
     A = np.array([[0.5, 0.2, 0.0], [0.0, 0.4, 0.3], [0.1, 0.0, 0.6]])

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from nlobs.errors import AssumptionViolated, CertificateError, DesignInfeasible, InvalidArgumentError, NonFiniteError
-from nlobs.examples.khajenejad_yong import example_61, example_62
+from nlobs.papers.khajenejad_yong import example_61, example_62
 from nlobs.observers.setvalued import run_setvalued
 from nlobs.synthesis.setvalued import design_setvalued, verify_setvalued
 from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, Lipschitz
@@ -147,7 +147,7 @@ def test_example_61_printed_class_0_multiplier_is_infeasible() -> None:
 
 @pytest.mark.parametrize("case", ["p_H = l", "p = 0"])
 def test_edge_structures_design_and_contain(case: str) -> None:
-    from nlobs.examples.khajenejad_yong import PaperExample, containment_study
+    from nlobs.papers.khajenejad_yong import PaperExample, containment_study
 
     A = np.array([[0.5, 0.2], [0.1, 0.3]])
     C = np.array([[1.0, 0.5]])

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from nlobs.errors import AssumptionViolated, InvalidArgumentError
-from nlobs.examples.khajenejad_yong import example_62
-from nlobs.examples.khajenejad_yong_figures import (
+from nlobs.papers.khajenejad_yong import example_62
+from nlobs.papers.khajenejad_yong_figures import (
     example_62_variant,
     fig_61_states,
     fig_affine_output,

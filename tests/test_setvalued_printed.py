@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from nlobs.errors import DesignInfeasible
-from nlobs.examples.khajenejad_yong import example_61, example_62
+from nlobs.papers.khajenejad_yong import example_61, example_62
 from nlobs.linear.transform_ui import ui_transform
 from nlobs.synthesis.setvalued_printed import design_printed, exact_condition_a16
 

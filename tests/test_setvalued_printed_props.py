@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from nlobs.errors import DesignInfeasible, InvalidArgumentError
-from nlobs.examples.khajenejad_yong import TS, example_61, example_62
+from nlobs.papers.khajenejad_yong import TS, example_61, example_62
 from nlobs.linear.transform_ui import structural_check, ui_transform
 from nlobs.observers.setvalued import printed_radii
 from nlobs.synthesis.setvalued import design_setvalued

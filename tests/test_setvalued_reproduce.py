@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from nlobs.examples.khajenejad_yong import reproduce
-from nlobs.examples.reproduce import PAPERS, ReproRow
+from nlobs.papers.khajenejad_yong import reproduce
+from nlobs.papers.reproduce import PAPERS, ReproRow
 
 QUANTITIES = ("ρ", "α", "L̃", "P", "Y")
 
@@ -21,7 +21,7 @@ def rows() -> dict[str, ReproRow]:
 
 
 def test_registered() -> None:
-    assert PAPERS["khajenejad-yong"] == "nlobs.examples.khajenejad_yong"
+    assert PAPERS["khajenejad-yong"] == "nlobs.papers.khajenejad_yong"
 
 
 def test_printed_values_are_inconsistent_and_destabilising(rows: dict[str, ReproRow]) -> None:
@@ -77,7 +77,7 @@ def test_affine_abstraction_printed_eta_is_exceeded_and_the_certified_one_holds(
 
 
 def test_prop516_rows_converging_bounds_with_a_diverging_gain(rows: dict[str, ReproRow]) -> None:
-    from nlobs.examples.khajenejad_yong import example_61
+    from nlobs.papers.khajenejad_yong import example_61
     from nlobs.linear.transform_ui import ui_transform
 
     assert rows["6.1 Class II: θ₁ = |λmax(P**) − 1|/λmin(P**) (32) at Prop. 5.16's P**"].nlobs < 1

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from nlobs.errors import InvalidArgumentError
-from nlobs.examples.khajenejad_yong import ball_samples, example_61
+from nlobs.papers.khajenejad_yong import ball_samples, example_61
 from nlobs.observers.setvalued import run_setvalued, sound_radii
 from nlobs.synthesis.setvalued import design_setvalued
 from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, Lipschitz, check_function_class
@@ -114,7 +114,7 @@ def _cubic() -> DiscreteUISystem:
 
 
 def test_monte_carlo_evaluates_the_class_on_the_visited_pairs_and_the_box() -> None:
-    from nlobs.examples.khajenejad_yong import monte_carlo
+    from nlobs.papers.khajenejad_yong import monte_carlo
 
     s = _cubic()
     d = design_setvalued(s)
@@ -130,7 +130,7 @@ def test_monte_carlo_evaluates_the_class_on_the_visited_pairs_and_the_box() -> N
 
 
 def test_roundoff_is_flagged_only_when_it_reaches_the_radius() -> None:
-    from nlobs.examples.khajenejad_yong import containment_study
+    from nlobs.papers.khajenejad_yong import containment_study
 
     ex = example_61("II")
     d = design_setvalued(ex.system)
@@ -156,7 +156,7 @@ def test_estimate_lipschitz_refuses_a_nan_phi() -> None:
 
 def test_plant_overflow_is_a_typed_error_naming_the_step() -> None:
     from nlobs.errors import SimulationDiverged
-    from nlobs.examples.khajenejad_yong import simulate_batch
+    from nlobs.papers.khajenejad_yong import simulate_batch
 
     s = _cubic()
     with pytest.raises(SimulationDiverged, match="the plant overflowed at step 17"):

@@ -72,7 +72,7 @@ def reproduce_cmd(
     """Print each number a paper reports beside the value nlobs computes."""
     from rich.table import Table
 
-    from nlobs.examples.reproduce import PAPERS, format_value, reproduce
+    from nlobs.papers.reproduce import PAPERS, format_value, reproduce
 
     if paper not in PAPERS:
         fail(f"unknown paper {paper!r} (known: {', '.join(sorted(PAPERS))})")
@@ -110,7 +110,7 @@ def demo_cmd(
     from rich.markup import escape
     from rich.table import Table
 
-    from nlobs.examples.gnss_ins_demo import DemoConfig, run_demo, write_json
+    from nlobs.papers.gnss_ins_demo import DemoConfig, run_demo, write_json
 
     if name not in DEMOS:
         fail(f"unknown demo {name!r} (known: {', '.join(DEMOS)})")

@@ -128,7 +128,7 @@ def drift_cmd(
     this structure there), 1 when the design is not usable otherwise (a given --gamma below the
     sampled estimate, a failed certificate).
     """
-    from nlobs.examples.dallamora2000 import simulate_drift
+    from nlobs.papers.dallamora2000 import simulate_drift
     from nlobs.observers.drift import design_drift_report
 
     m = _symbolic(model)
@@ -185,7 +185,7 @@ def pinv_cmd(
     out: Out_ = None,
 ) -> None:
     """Design the Moore–Penrose observer (7), (17) of seed 003 and check A1, A5."""
-    from nlobs.examples.robenack2008 import simulate_pinv
+    from nlobs.papers.robenack2008 import simulate_pinv
     from nlobs.observers.pinv import design_pinv_report
 
     m = _symbolic(model)

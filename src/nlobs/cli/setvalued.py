@@ -5,7 +5,7 @@ the structural checks first (Lemma 5.1's rank, strong detectability of every lin
 Corollary 5.8 / Lemma 5.7) and exit with status 3 when no stable observer of the structure (10)-(15)
 exists, printing the evidence. ``design`` prints the sampled check of the function class, the design
 (:func:`nlobs.synthesis.setvalued.design_setvalued`) and its independent verification; ``simulate`` runs
-Algorithm 1 in Monte Carlo (:func:`nlobs.examples.khajenejad_yong.monte_carlo`) with the point baselines
+Algorithm 1 in Monte Carlo (:func:`nlobs.papers.khajenejad_yong.monte_carlo`) with the point baselines
 of ``docs/baselines.md`` on the same runs.
 """
 
@@ -209,7 +209,7 @@ def simulate_setvalued_cmd(
     samples: Annotated[int, typer.Option(min=2, help="Sampled pairs for the function-class check.")] = 20_000,
 ) -> None:
     """Run Algorithm 1 (seed 004) in Monte Carlo: containment rates, radii and the point baselines."""
-    from nlobs.examples.khajenejad_yong import monte_carlo, plot_study, plot_trajectories
+    from nlobs.papers.khajenejad_yong import monte_carlo, plot_study, plot_trajectories
 
     m = _load(model)
     if runs * (steps + 1) * m.system.n > 5e8:

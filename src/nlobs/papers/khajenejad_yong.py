@@ -41,7 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 from nlobs._io import atomic_write
 from nlobs._validate import positive
 from nlobs.errors import InvalidArgumentError, NonFiniteError, SimulationDiverged
-from nlobs.examples.reproduce import ReproRow, Value
+from nlobs.papers.reproduce import ReproRow, Value
 from nlobs.observers.discrete_baselines import DiscreteLipschitzObserver, UnknownInputEKF
 from nlobs.observers.setvalued import GivenGain, Radii, SetValuedRun, run_setvalued
 from nlobs.synthesis.setvalued import SetValuedDesign

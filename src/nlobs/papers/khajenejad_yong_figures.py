@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from nlobs.examples.khajenejad_yong import (
+from nlobs.papers.khajenejad_yong import (
     Batch,
     ContainmentResult,
     MonteCarloStudy,
@@ -292,7 +292,7 @@ def fig_unbounded_input(out_dir: str | Path, *, example: str = "62-variant", run
 
     The same seeded initial states (``runs`` of them, drawn in the initial ball) and noises are used
     for both inputs and for all three observers. The point baselines are set up once
-    (:func:`~nlobs.examples.khajenejad_yong.point_baselines`) with the EKF's ``Q_d`` the mean square of the
+    (:func:`~nlobs.papers.khajenejad_yong.point_baselines`) with the EKF's ``Q_d`` the mean square of the
     *bounded* signal — the tuning a user has before the input grows. Growing inputs: ``d_k = 0.1 k``
     (6.2 variant, as in ``docs/baselines.md``) and ``50t² + 20eᵗ`` (6.1).
     """

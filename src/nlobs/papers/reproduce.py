@@ -44,12 +44,12 @@ class ReproRow:
         return {"quantity": self.quantity, "paper": self.paper, "nlobs": self.nlobs, "note": self.note}
 
 
-#: ``nlobs reproduce NAME`` → module under ``nlobs.examples`` with a ``reproduce()`` function.
+#: ``nlobs reproduce NAME`` → module under ``nlobs.papers`` with a ``reproduce()`` function.
 PAPERS: dict[str, str] = {
-    "grip2013": "nlobs.examples.grip2013",
-    "dallamora2000": "nlobs.examples.dallamora2000",
-    "robenack2008": "nlobs.examples.robenack2008",
-    "khajenejad-yong": "nlobs.examples.khajenejad_yong",
+    "grip2013": "nlobs.papers.grip2013",
+    "dallamora2000": "nlobs.papers.dallamora2000",
+    "robenack2008": "nlobs.papers.robenack2008",
+    "khajenejad-yong": "nlobs.papers.khajenejad_yong",
 }
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from nlobs.errors import DesignUnbounded
-from nlobs.examples.reproduce import ReproRow
+from nlobs.papers.reproduce import ReproRow
 from nlobs.linear import hinf_norm, invariant_zeros, is_detectable, minimum_phase
 from nlobs.navigation.gains import (
     DEFAULT_GAMMA_N,

@@ -31,7 +31,7 @@ import sympy as sp
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs.errors import CertificateError, DesignInfeasible
-from nlobs.examples.reproduce import ReproRow
+from nlobs.papers.reproduce import ReproRow
 from nlobs.geometry import AffineFields, Box, input_gain_structure, observability_jacobian, observation_relative_degree
 from nlobs.observers.drift import (
     DriftDesignReport,
@@ -538,5 +538,5 @@ def rows() -> list[ReproRow]:
 
 
 def reproduce() -> list[ReproRow]:
-    """Alias of :func:`rows` for :mod:`nlobs.examples.reproduce`."""
+    """Alias of :func:`rows` for :mod:`nlobs.papers.reproduce`."""
     return rows()

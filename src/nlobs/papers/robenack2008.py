@@ -36,7 +36,7 @@ import sympy as sp
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs.errors import ModelError, SimulationDiverged
-from nlobs.examples.reproduce import ReproRow
+from nlobs.papers.reproduce import ReproRow
 from nlobs.geometry import (
     AffineFields,
     Box,
@@ -486,5 +486,5 @@ def rows(*, duration: float = DURATION, dt: float = DT) -> list[ReproRow]:
     return out
 
 
-#: The registry entry point (``nlobs.examples.reproduce.PAPERS``).
+#: The registry entry point (``nlobs.papers.reproduce.PAPERS``).
 reproduce = rows
