@@ -6,7 +6,7 @@ import os
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
-from typing import IO
+from typing import IO, Any
 
 
 def _mode_for(target: Path) -> int:
@@ -52,3 +52,14 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     """Write a UTF-8 text file atomically (see :func:`atomic_write`)."""
     data = text.encode("utf-8")
     return atomic_write(path, lambda fh: fh.write(data))
+
+
+def save_figure(fig: Any, path: str | Path, *, dpi: int = 110) -> Path:
+    """Save a matplotlib figure atomically (:func:`atomic_write`); the format follows the suffix (PNG default).
+
+    A killed run leaves the previous figure intact and no stray temporary file beyond the
+    ``.name.*.tmp`` that :func:`atomic_write` removes on any exception.
+    """
+    target = Path(path)
+    fmt = target.suffix.lstrip(".").lower() or "png"
+    return atomic_write(target, lambda fh: fig.savefig(fh, format=fmt, dpi=dpi))

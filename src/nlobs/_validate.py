@@ -7,16 +7,52 @@ early with a typed error naming the argument.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike, DTypeLike, NDArray
 
 from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, NonFiniteError, NotSymmetricError
 
 
-def readonly(a: ArrayLike) -> NDArray[np.float64]:
-    """A float64 copy of ``a`` that cannot be written to (for the fields of frozen result objects)."""
-    out = np.array(a, dtype=float)
+def _nobody_writes(a: np.ndarray) -> bool:
+    """Whether neither ``a`` nor any array it is a view of can be written through."""
+    b: object = a
+    while isinstance(b, np.ndarray):
+        if b.flags.writeable:
+            return False
+        b = b.base
+    return True
+
+
+def readonly(a: ArrayLike, dtype: DTypeLike | None = np.float64, *, owned: bool = False) -> NDArray[Any]:
+    """``a`` as an array that cannot be written to (the one helper for the fields of frozen objects).
+
+    Parameters
+    ----------
+    a : array_like
+        The data.
+    dtype : dtype or None
+        The dtype of the result (default float64); ``None`` keeps ``a``'s (bool masks, complex
+        eigenvalues, integer counts).
+    owned : bool
+        ``a`` is a fresh array the caller will not use for writing again: it is frozen in place
+        (no copy) when it owns its memory.
+
+    Returns
+    -------
+    ndarray
+        ``a`` itself when it is a plain ndarray of that dtype that nobody can write to (it and every
+        array it is a view of are read-only, e.g. a broadcast view of a read-only array: no copy);
+        else a read-only copy.
+    """
+    if isinstance(a, np.ndarray) and type(a) is np.ndarray and (dtype is None or a.dtype == np.dtype(dtype)):
+        if owned and a.flags.owndata:
+            a.setflags(write=False)
+            return a
+        if _nobody_writes(a):
+            return a
+    out = np.array(a, dtype=dtype)
     out.setflags(write=False)
     return out
 

@@ -1,72 +1,126 @@
-"""The observer interface: explicit state in, explicit state out.
+r"""The one observer protocol of nlobs: explicit state in, explicit state out.
 
-An observer is a dynamical system driven by the plant's known input ``u`` and
-the (sampled, held) measurement ``y``. It never stores its state: the simulation
-loop passes the observer state ``z`` in and receives the new one back.
+An observer is a dynamical system driven by the plant's known input ``u`` and the
+measurement ``y``. It never stores its state: the loop (:func:`nlobs.simulate.simulate`
+for plant and observer together, :func:`nlobs.simulate.run_observer` on recorded data)
+passes the observer state ``z`` in and receives the new one back. The protocol is generic
+in the type ``Z`` of that state: an array for most observers, a frozen dataclass of arrays
+for the Kalman filters (mean and covariance), the set-valued observer (centres and radii)
+and the GNSS/INS observer (``p̂, v̂, ξ, R̂`` and the held fix).
+
+Every array carries leading batch axes (Monte Carlo runs): ``u`` of shape ``(..., m)``,
+``y`` of shape ``(..., p)``, estimates of shape ``(..., n_x)``.
+
+The protocol
+------------
+:class:`Observer` — ``time``, ``n_x``, ``init``, ``rhs``, ``estimate``:
+
+* continuous time (``time = Continuous()``): ``rhs(t, z, u, y)`` is ``ż``, a value of the
+  same type as ``z`` (the loop integrates it with RK4 when ``z`` is an array);
+* discrete time (``time = Discrete(dt)``): ``rhs(t_k, z_k, u_k, y_k)`` is ``z_{k+1}``.
+
+:class:`CorrectingObserver` adds ``correct(t, z, u, y, fresh)``: a discrete update made at an
+instant where at least one output was sampled (``fresh[j]`` is True for a new sample of output
+``j``), before the estimate at that instant is recorded (an EKF update at a GNSS fix). A
+non-finite entry of ``y`` at a sampled output is a missing sample *for that batch member*: a
+correcting observer must skip it there (it keeps its previous information).
+
+Optional capabilities
+---------------------
+The loops look for these methods and use them when present (each is a small protocol below):
+
+* :class:`SelfStepping` — ``step(t, z, u, y, h)``: the observer's own discretisation of its
+  continuous dynamics over ``[t, t + h]`` with ``u`` and ``y`` held (an exact or split
+  integrator, e.g. the Strang split of the GNSS/INS observer and its fused single-flight kernel).
+  A continuous observer that has it is advanced by it instead of by RK4 on ``rhs``.
+* :class:`Diagnosing` — ``diagnostics(z, u)``: named arrays recorded at every saved step as
+  extras of the result (radii, covariance diagonals, raw attitude...).
+* :class:`DeferredEstimate` — ``raw_estimate(z)`` and ``finish_estimates(raw)``: the loop records
+  the cheap raw estimate at every step and turns the whole record into estimates (and extras) in
+  one call at the end (the GNSS/INS observer projects ``R̂`` onto SO(3) once per run instead of
+  once per step).
+* ``state_names`` — names used in divergence reports (default ``z[i]``, or a dataclass field).
+* ``name`` — a short label (results and progress bars).
 """
 
 from __future__ import annotations
 
-from typing import Protocol, runtime_checkable
+from collections.abc import Mapping
+from typing import Protocol, TypeVar, runtime_checkable
 
-import numpy as np
-from numpy.typing import NDArray
-
+from nlobs._typing import Array, BoolArray
 from nlobs.systems.timebase import TimeBase
 
-Array = NDArray[np.float64]
+Z = TypeVar("Z")
+
+__all__ = ["CorrectingObserver", "DeferredEstimate", "Diagnosing", "Observer", "SelfStepping", "Z"]
 
 
 @runtime_checkable
-class Observer(Protocol):
-    """Protocol of every observer in :mod:`nlobs.observers`.
+class Observer(Protocol[Z]):
+    """Protocol of every estimator in nlobs (module docstring).
 
     Attributes
     ----------
     time : Continuous or Discrete
         Time base of the observer dynamics.
-    n_z : int
-        Dimension of the observer's internal state ``z`` (may differ from the
-        plant's ``n``, e.g. an extended state or a covariance).
     n_x : int
         Dimension of the plant-state estimate returned by :meth:`estimate`.
-
-    Notes
-    -----
-    An observer may also define ``state_names`` (a tuple of ``n_z`` strings);
-    the simulation loop uses them in error messages (otherwise ``z[i]``).
     """
 
     time: TimeBase
 
     @property
-    def n_z(self) -> int: ...
-
-    @property
     def n_x(self) -> int: ...
 
-    def init(self, x_hat0: Array) -> Array:
-        """Observer state ``z`` from an initial plant-state estimate, shape ``(..., n_z)``."""
+    def init(self, x_hat0: Array) -> Z:
+        """Observer state from an initial estimate ``x̂0`` of shape ``(..., n_x)``."""
         ...
 
-    def rhs(self, t: float, z: Array, u: Array, y: Array) -> Array:
-        """``ż`` (continuous) or ``z⁺`` (discrete) given held measurement ``y``."""
+    def rhs(self, t: float, z: Z, u: Array, y: Array) -> Z:
+        """``ż`` (continuous) or ``z⁺`` (discrete), given the input ``u`` and the (held) measurement ``y``."""
         ...
 
-    def estimate(self, z: Array) -> Array:
-        """Plant-state estimate ``x̂``, shape ``(..., n_x)``."""
+    def estimate(self, z: Z) -> Array:
+        """The plant-state estimate ``x̂``, shape ``(..., n_x)``."""
         ...
 
 
 @runtime_checkable
-class CorrectingObserver(Observer, Protocol):
-    """An observer that also makes a discrete correction when a sample arrives.
+class CorrectingObserver(Observer[Z], Protocol[Z]):
+    """An observer that also makes a discrete correction when a sample arrives (module docstring)."""
 
-    The simulation loop calls :meth:`correct` at each instant where at least one
-    measurement group delivers a new sample (e.g. an EKF update at a GNSS fix),
-    after the plant and observer were integrated up to that instant.
-    """
+    def correct(self, t: float, z: Z, u: Array, y: Array, fresh: BoolArray) -> Z:
+        """The corrected state; ``fresh[j]`` is True where output ``j`` was just sampled."""
+        ...
 
-    def correct(self, t: float, z: Array, u: Array, y: Array, fresh: NDArray[np.bool_]) -> Array:
-        """Return the corrected ``z``; ``fresh[j]`` is True where output ``j`` was just sampled."""
+
+@runtime_checkable
+class SelfStepping(Protocol[Z]):
+    """A continuous-time observer with its own discretisation over one held step."""
+
+    def step(self, t: float, z: Z, u: Array, y: Array, h: float) -> Z:
+        """The state at ``t + h`` from the state at ``t``, ``u`` and ``y`` held over the step."""
+        ...
+
+
+@runtime_checkable
+class Diagnosing(Protocol[Z]):
+    """An observer with named internal quantities worth recording (extras of the result)."""
+
+    def diagnostics(self, z: Z, u: Array) -> Mapping[str, Array]:
+        """Named arrays of shape ``(..., *item_shape)`` at the current state."""
+        ...
+
+
+@runtime_checkable
+class DeferredEstimate(Protocol[Z]):
+    """An observer whose estimate is a costly map of a cheap raw one, applied once to the record."""
+
+    def raw_estimate(self, z: Z) -> Array:
+        """The raw estimate, shape ``(..., n_x)``."""
+        ...
+
+    def finish_estimates(self, raw: Array) -> tuple[Array, Mapping[str, Array]]:
+        """Estimates ``(..., K, n_x)`` from the recorded raw ones ``(..., K, n_x)``, and extras to keep."""
         ...

@@ -1,7 +1,8 @@
-"""Simulation of plants and observers: multi-rate sampled measurements, noise, batches, metrics.
+"""Simulation of plants and observers: the one loop, multi-rate sampled measurements, noise, batches, metrics.
 
-The entry point is :func:`simulate`; it returns an immutable :class:`SimulationResult`
-with error metrics, a plot and an ``.npz`` round trip.
+Two entry points, one result: :func:`simulate` runs a plant and an observer together,
+:func:`run_observer` runs any observer on recorded data; both return an immutable
+:class:`SimulationResult` with error metrics, extras, a plot and an ``.npz`` round trip.
 """
 
 from __future__ import annotations
@@ -9,6 +10,7 @@ from __future__ import annotations
 from nlobs.simulate.integrators import RK4, SolveIVP, rk4_integrate, rk4_step, rk4_step_joint, solve_ivp_batch
 from nlobs.simulate.loop import simulate
 from nlobs.simulate.metrics import ErrorMetrics
+from nlobs.simulate.replay import run_observer
 from nlobs.simulate.result import SimulationResult
 from nlobs.simulate.sampling import InputSensor, MeasurementGroup
 from nlobs.simulate.signals import SampledSignal
@@ -24,6 +26,7 @@ __all__ = [
     "rk4_integrate",
     "rk4_step",
     "rk4_step_joint",
+    "run_observer",
     "simulate",
     "solve_ivp_batch",
 ]

@@ -36,21 +36,22 @@ because this check reports them.
 from __future__ import annotations
 
 import math
-import sys
 import time as _time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from types import TracebackType
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nlobs._progress import Progress
+from nlobs._typing import Array
 from nlobs._validate import as_batch, positive
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError, SimulationDiverged
-from nlobs.observers.base import CorrectingObserver, Observer
+from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
 from nlobs.simulate.integrators import RK4, Integrator, SolveIVP, rk4_step, rk4_step_joint, solve_ivp_batch
 from nlobs.simulate.result import SimulationResult
+from nlobs.simulate.state import first_nonfinite, tree_map
 from nlobs.simulate.sampling import (
     InputSensor,
     MeasurementGroup,
@@ -63,12 +64,8 @@ from nlobs.simulate.signals import InputFunction, InputLike, SampledSignal, as_i
 from nlobs.systems.base import PlantModel
 from nlobs.systems.timebase import Continuous, Discrete, TimeBase
 
-Array = NDArray[np.float64]
-
 #: Relative tolerance when comparing the step sizes of discrete models and ``dt``.
 DT_RTOL = 1e-9
-#: In automatic mode, a progress bar appears once a run has taken this long (seconds) on a terminal.
-PROGRESS_AFTER_S = 2.0
 
 
 class _NullObserver:
@@ -115,8 +112,12 @@ class _Setup:
     rng: np.random.Generator | None
     save_steps: NDArray[np.intp]
     plant_names: tuple[str, ...]
-    observer_names: tuple[str, ...]
+    observer_names: tuple[str, ...] | None
     estimate_names: tuple[str, ...]
+    self_step: bool  # a continuous observer advanced by its own step() (SelfStepping)
+    array_state: bool  # z is an ndarray (else a tree of arrays: RK4 stages by tree_map)
+    diagnose: bool  # the observer's diagnostics() are recorded as extras
+    deferred: bool  # raw estimates recorded, finished once at the end (DeferredEstimate)
 
     def t(self, k: int) -> float:
         return self.t0 + k * self.dt
@@ -162,8 +163,10 @@ class _Recorder:
         self.y = np.empty((K, *s.batch, s.plant.p))
         self.sampled = np.zeros((K, s.plant.p), dtype=bool)
         self.row_of = {int(k): j for j, k in enumerate(s.save_steps)}
+        self.extras: dict[str, Array] = {}
+        self.K = K
 
-    def save(self, s: _Setup, k: int, x: Array, z: Array, y: Array, fresh: NDArray[np.bool_]) -> None:
+    def save(self, s: _Setup, k: int, x: Array, z: Any, y: Array, fresh: NDArray[np.bool_], u: Array) -> None:
         j = self.row_of.get(k)
         if j is None:
             return
@@ -171,71 +174,56 @@ class _Recorder:
         self.x_hat[j] = _estimate(s, z)
         self.y[j] = y
         self.sampled[j] = fresh
+        if s.diagnose:
+            record_diagnostics(self.extras, s.observer.diagnostics(z, u), j, self.K)
 
-    def arrays(self) -> dict[str, NDArray]:
-        out = {}
+    def arrays(self, s: _Setup) -> dict[str, Any]:
+        out: dict[str, Any] = {}
         for name in ("t", "x", "x_hat", "y", "sampled"):
             buf = getattr(self, name)
             buf.flags.writeable = False
             out[name] = buf if name in ("t", "sampled") else np.moveaxis(buf, 0, -2)
+        extras = time_major_extras(self.extras, len(s.batch))
+        if s.deferred:
+            out["x_hat"], more = finish(s.observer, out["x_hat"], s.n_x)
+            extras.update(more)
+        out["extras"] = extras
         return out
 
 
-class _Progress:
-    """A rich progress bar shown on request, or automatically for long runs on a terminal."""
-
-    def __init__(self, total: int, mode: bool | None) -> None:
-        self.total = max(total, 1)
-        self.mode = mode
-        self.every = max(1, self.total // 200)
-        self.next = 0
-        self.start = _time.perf_counter()
-        self.bar: Any = None
-        self.task: Any = None
-
-    def __enter__(self) -> _Progress:
-        if self.mode:
-            self._open()
-        return self
-
-    def _open(self) -> None:
-        from rich.console import Console
-        from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
-
-        self.bar = Progress(
-            TextColumn("simulating"),
-            BarColumn(),
-            TextColumn("{task.percentage:>5.1f}%"),
-            TimeElapsedColumn(),
-            TimeRemainingColumn(),
-            console=Console(stderr=True),
-            transient=False,
-        )
-        self.bar.start()
-        self.task = self.bar.add_task("simulate", total=self.total)
-
-    def update(self, k: int) -> None:
-        if k < self.next:
-            return
-        self.next = k + self.every
-        if self.bar is None:
-            if self.mode is not None or _time.perf_counter() - self.start < PROGRESS_AFTER_S:
-                return
-            if not sys.stderr.isatty():
-                self.mode = False
-                return
-            self._open()
-        self.bar.update(self.task, completed=k)
-
-    def __exit__(self, et: type[BaseException] | None, ev: BaseException | None, tb: TracebackType | None) -> None:
-        if self.bar is not None:
-            if et is None:
-                self.bar.update(self.task, completed=self.total)
-            self.bar.stop()
+def record_diagnostics(store: dict[str, Array], diag: Mapping[str, Any], row: int, rows: int) -> None:
+    """Write an observer's ``diagnostics`` into time-major buffers ``(K, ...)``, allocated on first use."""
+    for name, val in diag.items():
+        arr = np.asarray(val)
+        buf = store.get(name)
+        if buf is None:
+            buf = store[name] = np.full((rows, *arr.shape), np.nan, dtype=np.result_type(arr.dtype, np.float64))
+        buf[row] = arr
 
 
-def _estimate(s: _Setup, z: Array) -> Array:
-    return s.observer.estimate(z) if s.has_observer else np.empty((*s.batch, 0))
+def time_major_extras(store: dict[str, Array], n_batch: int) -> dict[str, Array]:
+    """The recorded extras as read-only ``(*batch, K, ...)`` views (``(K, ...)`` when not batched)."""
+    out = {}
+    for name, buf in store.items():
+        buf.flags.writeable = False
+        lead = min(n_batch, buf.ndim - 1)
+        out[name] = np.moveaxis(buf, 0, lead) if lead else buf
+    return out
+
+
+def finish(observer: Any, raw: Array, n_x: int) -> tuple[Array, dict[str, Array]]:
+    """Apply a :class:`~nlobs.observers.base.DeferredEstimate` observer's ``finish_estimates`` to a record."""
+    est, more = observer.finish_estimates(raw)
+    est = np.asarray(est, dtype=float)
+    if est.shape != raw.shape:
+        raise DimensionError(f"observer.finish_estimates returned shape {est.shape}, expected {raw.shape}")
+    return est, {str(k): np.asarray(v) for k, v in more.items()}
+
+
+def _estimate(s: _Setup, z: Any) -> Array:
+    if not s.has_observer:
+        return np.empty((*s.batch, 0))
+    return s.observer.raw_estimate(z) if s.deferred else s.observer.estimate(z)
 
 
 def _first_bad(arr: Array, names: tuple[str, ...]) -> str:
@@ -243,11 +231,20 @@ def _first_bad(arr: Array, names: tuple[str, ...]) -> str:
     return names[int(np.flatnonzero(bad)[0])]
 
 
-def _check_finite(s: _Setup, t: float, x: Array, z: Array) -> None:
+def _check_z(s: _Setup, t: float, z: Any) -> None:
+    if s.array_state:
+        if not np.isfinite(z).all():
+            raise SimulationDiverged(t, "observer", first_nonfinite(z, s.observer_names) or "z")
+        return
+    bad = first_nonfinite(z, s.observer_names)
+    if bad is not None:
+        raise SimulationDiverged(t, "observer", bad)
+
+
+def _check_finite(s: _Setup, t: float, x: Array, z: Any) -> None:
     if not np.isfinite(x).all():
         raise SimulationDiverged(t, "plant", _first_bad(x, s.plant_names))
-    if not np.isfinite(z).all():
-        raise SimulationDiverged(t, "observer", _first_bad(z, s.observer_names))
+    _check_z(s, t, z)
 
 
 def _events(s: _Setup, st: _State, k: int, t: float, x: Array, z: Array) -> tuple[Array, NDArray[np.bool_]]:
@@ -271,8 +268,7 @@ def _events(s: _Setup, st: _State, k: int, t: float, x: Array, z: Array) -> tupl
                 fresh = st.all_fresh
             elif due_y:
                 z = s.observer.correct(t, z, st.u_obs(s, u), st.y_view, fresh)
-            if not np.isfinite(z).all():
-                raise SimulationDiverged(t, "observer", _first_bad(z, s.observer_names))
+            _check_z(s, t, z)
     return z, fresh
 
 
@@ -280,16 +276,17 @@ def _measurement(s: _Setup, st: _State, t: float, x: Array, u: Array) -> Array:
     return s.plant.output(t, x, u) if s.groups is None else st.y_view
 
 
-def _run_fixed(s: _Setup, rec: _Recorder, progress: _Progress) -> None:
+def _run_fixed(s: _Setup, rec: _Recorder, progress: Progress) -> None:
     """RK4 (continuous) or map iteration (discrete), one vectorised call per stage."""
     st = _State(s)
     x, z = s.x0, s.z0
     plant, obs = s.plant, s.observer
     exact_y = s.groups is None
+    joint_rk4 = rk4_step_joint if s.array_state else _rk4_step_tree
 
     u_step = s.u_fn(s.t0)  # u(t_k), used at every stage for a piecewise-constant input
 
-    def joint(t: float, xz: tuple[Array, ...]) -> tuple[Array, ...]:
+    def joint(t: float, xz: tuple[Any, ...]) -> tuple[Any, ...]:
         xs, zs = xz
         u = u_step if s.u_hold else s.u_fn(t)
         y = plant.output(t, xs, u) if exact_y else st.y_view
@@ -303,26 +300,39 @@ def _run_fixed(s: _Setup, rec: _Recorder, progress: _Progress) -> None:
         t = s.t(k)
         z, fresh = _events(s, st, k, t, x, z)
         if k in rec.row_of:
-            y_rec = plant.output(t, x, s.u_fn(t)) if exact_y else st.y_view
-            rec.save(s, k, x, z, y_rec, st.all_fresh if exact_y else fresh)
+            u_k = s.u_fn(t)
+            y_rec = plant.output(t, x, u_k) if exact_y else st.y_view
+            rec.save(s, k, x, z, y_rec, st.all_fresh if exact_y else fresh, st.u_obs(s, u_k))
         if k == s.n_steps:
             break
         if s.u_hold:
             u_step = s.u_fn(t)
-        if s.observer_discrete or s.plant_discrete:
+        if s.observer_discrete or s.plant_discrete or s.self_step:
             u = s.u_fn(t)
             if s.observer_discrete:
                 z = obs.rhs(t, z, st.u_obs(s, u), _measurement(s, st, t, x, u))
+            elif s.self_step:  # the observer's own discretisation, u and y held over the step
+                z = obs.step(t, z, st.u_obs(s, u), _measurement(s, st, t, x, u), s.dt)
             x = plant.rhs(t, x, u) if s.plant_discrete else rk4_step(plant_only, t, x, s.dt)
         elif s.has_observer:
-            x, z = rk4_step_joint(joint, t, (x, z), s.dt)
+            x, z = joint_rk4(joint, t, (x, z), s.dt)
         else:
             x = rk4_step(plant_only, t, x, s.dt)
         _check_finite(s, s.t(k + 1), x, z)
         progress.update(k + 1)
 
 
-def _run_ivp(s: _Setup, rec: _Recorder, progress: _Progress, options: dict[str, Any]) -> None:
+def _rk4_step_tree(f: Callable[[float, tuple[Any, ...]], tuple[Any, ...]], t: float, y: tuple[Any, ...],
+                   h: float) -> tuple[Any, ...]:
+    """:func:`~nlobs.simulate.integrators.rk4_step_joint` for a state that is a tree of arrays."""
+    k1 = f(t, y)
+    k2 = f(t + 0.5 * h, tree_map(lambda a, b: a + (0.5 * h) * b, y, k1))
+    k3 = f(t + 0.5 * h, tree_map(lambda a, b: a + (0.5 * h) * b, y, k2))
+    k4 = f(t + h, tree_map(lambda a, b: a + h * b, y, k3))
+    return tree_map(lambda a, b1, b2, b3, b4: a + (h / 6.0) * (b1 + 2.0 * b2 + 2.0 * b3 + b4), y, k1, k2, k3, k4)
+
+
+def _run_ivp(s: _Setup, rec: _Recorder, progress: Progress, options: dict[str, Any]) -> None:
     """``solve_ivp`` between consecutive event steps (samples, discrete observer steps)."""
     st = _State(s)
     x, z = s.x0, s.z0
@@ -352,7 +362,7 @@ def _run_ivp(s: _Setup, rec: _Recorder, progress: _Progress, options: dict[str, 
         z, fresh = _events(s, st, k, t, x, z)
         saved_fresh = st.all_fresh if exact_y else fresh
         u = s.u_fn(t)
-        rec.save(s, k, x, z, _measurement(s, st, t, x, u), saved_fresh)
+        rec.save(s, k, x, z, _measurement(s, st, t, x, u), saved_fresh, st.u_obs(s, u))
         if k == s.n_steps:
             break
         k_next = ev[i + 1]
@@ -366,7 +376,8 @@ def _run_ivp(s: _Setup, rec: _Recorder, progress: _Progress, options: dict[str, 
             _check_finite(s, s.t(j), xj, zj)
             if j != k_next:
                 uj = s.u_fn(s.t(j))
-                rec.save(s, j, xj, zj, _measurement(s, st, s.t(j), xj, uj), st.all_fresh if exact_y else st.fresh)
+                rec.save(s, j, xj, zj, _measurement(s, st, s.t(j), xj, uj), st.all_fresh if exact_y else st.fresh,
+                         st.u_obs(s, uj))
         if sol.status != 0:
             _raise_ivp_failure(s, sol, y0.shape, joint_z)
         x_new = ys[-1][..., :n]
@@ -390,7 +401,8 @@ def _raise_ivp_failure(s: _Setup, sol: Any, shape: tuple[int, ...], joint_z: boo
     mag = np.where(np.isfinite(last), np.abs(last), np.inf)
     which, names, part = "plant", s.plant_names, mag[..., :n]
     if joint_z and np.max(mag[..., n:], initial=0.0) > np.max(part, initial=0.0):
-        which, names, part = "observer", s.observer_names, mag[..., n:]
+        part = mag[..., n:]
+        which, names = "observer", s.observer_names or tuple(f"z[{i}]" for i in range(part.shape[-1]))
     worst = int(np.argmax(part.reshape(-1, part.shape[-1]).max(axis=0)))
     raise SimulationDiverged(float(sol.t[-1]), which, names[worst]) from RuntimeError(str(sol.message))
 
@@ -428,13 +440,6 @@ def _as_tuple(value: Any, kind: type, name: str) -> tuple[Any, ...]:
     if isinstance(value, Sequence) and not isinstance(value, str):
         return tuple(value)
     raise InvalidArgumentError(f"{name}: expected a {kind.__name__} or a sequence of them, got {type(value).__name__}")
-
-
-def _names(obj: Any, attr: str, count: int, fallback: Callable[[int], str]) -> tuple[str, ...]:
-    names = getattr(obj, attr, None)
-    if isinstance(names, (tuple, list)) and len(names) == count and all(isinstance(v, str) for v in names):
-        return tuple(names)
-    return tuple(fallback(i) for i in range(count))
 
 
 def simulate(
@@ -533,7 +538,7 @@ def simulate(
         obs: Any = _NullObserver(plant.time)
     else:
         if not isinstance(observer, Observer):
-            raise InvalidArgumentError(f"observer: expected an Observer (time, n_z, n_x, init, rhs, estimate), got {type(observer).__name__}")
+            raise InvalidArgumentError(f"observer: expected an Observer (time, n_x, init, rhs, estimate), got {type(observer).__name__}")
         if x_hat0 is None:
             raise InvalidArgumentError("x_hat0: the initial estimate is required when an observer is simulated")
         obs = observer
@@ -563,12 +568,7 @@ def simulate(
             xh = np.broadcast_to(xh, (*batch, n_x)).copy()
         except ValueError:
             raise DimensionError(f"x_hat0: shape {xh.shape} does not broadcast to the batch of x0, {(*batch, n_x)}") from None
-        z0 = np.array(obs.init(xh), dtype=float)
-        if z0.shape != (*batch, obs.n_z):
-            raise DimensionError(f"observer.init returned shape {z0.shape}, expected {(*batch, obs.n_z)}")
-        xh_check = np.asarray(obs.estimate(z0))
-        if xh_check.shape != (*batch, n_x):
-            raise DimensionError(f"observer.estimate returned shape {xh_check.shape}, expected {(*batch, n_x)}")
+        z0 = initial_state(obs, xh, batch, n_x)
     else:
         z0 = np.zeros((*batch, 0))
 
@@ -622,11 +622,20 @@ def simulate(
         rng=rng,
         save_steps=save_steps,
         plant_names=tuple(plant.states),
-        observer_names=_names(obs, "state_names", int(obs.n_z), lambda i: f"z[{i}]"),
+        observer_names=state_names(obs, z0),
         estimate_names=estimate_names,
+        self_step=has_observer and not observer_discrete and isinstance(obs, SelfStepping),
+        array_state=isinstance(z0, np.ndarray),
+        diagnose=has_observer and isinstance(obs, Diagnosing),
+        deferred=has_observer and isinstance(obs, DeferredEstimate),
     )
+    if isinstance(integrator, SolveIVP) and has_observer and not observer_discrete and (
+            setup.self_step or not setup.array_state):
+        raise InvalidArgumentError("integrator: SolveIVP integrates an observer whose state is one array and that has "
+                                   "no step() of its own; use RK4() for this observer")
     rec = _Recorder(setup)
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"), _Progress(n_steps, progress) as bar:
+    wall = _time.perf_counter()
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"), Progress(n_steps, progress) as bar:
         if isinstance(integrator, SolveIVP):
             _run_ivp(setup, rec, bar, integrator.options())
         else:
@@ -635,13 +644,49 @@ def simulate(
         method = "discrete"
     elif observer_discrete:
         method = f"{integrator.name}+discrete observer"
+    elif setup.self_step:
+        method = f"{integrator.name}+observer step"
     else:
         method = integrator.name
     return SimulationResult(
-        **rec.arrays(),
+        **rec.arrays(setup),
         states=tuple(plant.states),
         outputs=tuple(plant.outputs),
         estimates=estimate_names,
         dt=step,
         method=method,
+        observer=observer_label(observer) if has_observer else "",
+        info={"wall_s": _time.perf_counter() - wall},
     )
+
+
+def observer_label(observer: Any) -> str:
+    """An observer's ``name`` attribute when it is a string, else its class name."""
+    name = getattr(observer, "name", None)
+    return name if isinstance(name, str) and name else type(observer).__name__
+
+
+def state_names(observer: Any, z0: Any) -> tuple[str, ...] | None:
+    """The observer's ``state_names`` when they name the columns of an array state, else ``None``."""
+    names = getattr(observer, "state_names", None)
+    if isinstance(z0, np.ndarray) and isinstance(names, (tuple, list)) and z0.ndim >= 1 \
+            and len(names) == z0.shape[-1] and all(isinstance(v, str) for v in names):
+        return tuple(names)
+    return None
+
+
+def initial_state(obs: Any, x_hat0: Array, batch: tuple[int, ...], n_x: int) -> Any:
+    """``obs.init(x_hat0)``, checked: an array state carries the batch shape, the estimate has shape ``(*batch, n_x)``."""
+    z0 = obs.init(x_hat0)
+    if isinstance(z0, np.ndarray) or isinstance(z0, (list, float, int)):
+        z0 = np.array(z0, dtype=float)
+        if z0.ndim < 1 or tuple(z0.shape[:-1]) != batch:
+            raise DimensionError(f"observer.init returned shape {z0.shape}, expected {(*batch, '...')} (the batch first)")
+        n_z = getattr(obs, "n_z", None)
+        if isinstance(n_z, (int, np.integer)) and z0.shape[-1] != n_z:
+            raise DimensionError(f"observer.init returned shape {z0.shape}, expected {(*batch, int(n_z))}")
+    raw = getattr(obs, "raw_estimate", None) if isinstance(obs, DeferredEstimate) else None
+    xh_check = np.asarray(raw(z0) if raw is not None else obs.estimate(z0))
+    if xh_check.shape != (*batch, n_x):
+        raise DimensionError(f"observer.estimate returned shape {xh_check.shape}, expected {(*batch, n_x)}")
+    return z0

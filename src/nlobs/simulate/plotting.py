@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from nlobs._io import save_figure
 from nlobs.errors import DimensionError, InvalidArgumentError, UnknownNameError
 
 if TYPE_CHECKING:
@@ -40,6 +41,7 @@ def plot_result(
     states: Sequence[int | str] | None = None,
     *,
     max_trajectories: int = 5,
+    title: str | None = None,
 ) -> Figure:
     """Plot each selected state (true: solid, estimate: dashed) and ``‖x̂ − x‖`` on a log axis.
 
@@ -53,6 +55,8 @@ def plot_result(
         States to show (default: all).
     max_trajectories : int
         For a batch, at most this many trajectories (the first ones) are drawn.
+    title : str, optional
+        Figure title (default: what is drawn, with the observer's label).
 
     Returns
     -------
@@ -64,9 +68,11 @@ def plot_result(
     if max_trajectories < 1:
         raise InvalidArgumentError(f"max_trajectories: must be at least 1, got {max_trajectories}")
     idx = _state_indices(result, states)
+    if result.x is None:
+        raise InvalidArgumentError("plot: this result has no truth (x is None); plot its x_hat directly")
     same = result.x_hat.shape[-1] == result.x.shape[-1]
     t = result.t
-    x = result.x.reshape(-1, t.size, result.x.shape[-1])[:max_trajectories]
+    x = np.broadcast_to(result.x, (*result.batch_shape, t.size, result.x.shape[-1])).reshape(-1, t.size, result.x.shape[-1])[:max_trajectories]
     xh = result.x_hat.reshape(-1, t.size, result.x_hat.shape[-1])[:max_trajectories]
     ntraj = x.shape[0]
     nrows = len(idx) + (1 if same else 0)
@@ -93,7 +99,9 @@ def plot_result(
         ax.grid(True, which="both", alpha=0.3)
     axes[-1].set_xlabel("time [s]")
     shown = f" (first {ntraj} of {int(np.prod(result.batch_shape))} trajectories)" if result.batch_shape else ""
-    fig.suptitle(f"true (solid) vs estimated (dashed) states{shown}", fontsize="medium")
+    head = title if title is not None else (
+        f"{result.observer + ': ' if result.observer else ''}true (solid) vs estimated (dashed) states{shown}")
+    fig.suptitle(head, fontsize="medium")
     if path is not None:
-        fig.savefig(os.fspath(path), dpi=110)
+        save_figure(fig, path, dpi=110)
     return fig

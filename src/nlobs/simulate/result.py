@@ -1,102 +1,154 @@
-"""The immutable result of a simulation, with error metrics, a plot and an ``.npz`` round trip."""
+"""The one result of every run of an observer: trajectories, extras, metrics, a plot and an ``.npz`` round trip.
+
+Both loops return it: :func:`nlobs.simulate.simulate` (plant and observer together) and
+:func:`nlobs.simulate.run_observer` (an observer on recorded data). Domain quantities are kept
+as *extras* (time series recorded beside the estimate: the set-valued observer's radii, the
+GNSS/INS observer's raw ``R̂``, a filter's covariance diagonal) and *info* (numbers about the
+run: the cost per step, skipped samples); domain metrics are functions of the result
+(e.g. :mod:`nlobs.navigation.metrics`).
+"""
 
 from __future__ import annotations
 
+import json
 import os
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from types import MappingProxyType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from nlobs._io import atomic_write
+from nlobs._typing import Array, BoolArray
+from nlobs._validate import readonly
 from nlobs.errors import DimensionError, InvalidArgumentError
 from nlobs.simulate import metrics as _metrics
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-Array = NDArray[np.float64]
+#: Version of the ``.npz`` layout written by :meth:`SimulationResult.save` (version 1 files still load).
+FORMAT_VERSION = 2
 
-#: Version of the ``.npz`` layout written by :meth:`SimulationResult.save`.
-FORMAT_VERSION = 1
-
-_ARRAYS = ("t", "x", "x_hat", "y", "sampled")
+_EMPTY: Mapping[str, Any] = MappingProxyType({})
 
 
-def _readonly(a: NDArray) -> NDArray:
-    """``a`` itself if no one can write to it (it and every base are read-only), else a read-only copy."""
-    if isinstance(a, np.ndarray) and type(a) is np.ndarray:
-        b: object = a
-        while isinstance(b, np.ndarray):
-            if b.flags.writeable:
-                break
-            b = b.base
+def _frozen_map(m: Mapping[str, Any] | None, arrays: bool) -> Mapping[str, Any]:
+    if not m:
+        return _EMPTY
+    out: dict[str, Any] = {}
+    for k, v in m.items():
+        if not isinstance(k, str):
+            raise InvalidArgumentError(f"SimulationResult: extra/info keys must be strings, got {k!r}")
+        if arrays or isinstance(v, np.ndarray):
+            out[k] = readonly(v, dtype=None)
         else:
-            return a
-    a = np.array(a)
-    a.setflags(write=False)
-    return a
+            out[k] = v
+    return MappingProxyType(out)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class SimulationResult:
-    """Trajectories of a plant and its observer on the saved time grid.
+    """Trajectories of a plant (or recorded truth) and an observer on the saved time grid.
 
     Attributes
     ----------
     t : ndarray, shape (K,)
         Saved times.
-    x : ndarray, shape (*batch, K, n)
-        True plant state.
+    x : ndarray, shape (*batch, K, n) or None
+        True plant state (a batch shape that broadcasts to the estimate's, e.g. one flight's
+        truth for many noise realisations); ``None`` for recorded data without truth.
     x_hat : ndarray, shape (*batch, K, n_x)
         Observer estimate (after the correction, at a sample instant).
-    y : ndarray, shape (*batch, K, p)
-        Measurement the observer held at each saved time (sampled, noisy);
-        the exact output when measurements were continuous.
-    sampled : ndarray of bool, shape (K, p)
+    y : ndarray, shape (*batch, K, p) or None
+        Measurement the observer held at each saved time (sampled, noisy); the exact output when
+        measurements were continuous; ``None`` when not recorded (:func:`run_observer`).
+    sampled : ndarray of bool, shape (K, p) or None
         ``sampled[k, j]`` is True where output ``j`` was sampled exactly at ``t[k]``.
     states, outputs, estimates : tuple of str
         Names of the columns of ``x``, ``y`` and ``x_hat``.
     dt : float
-        Integration step (saved times are multiples of it from ``t[0]``).
+        Integration step (saved times are multiples of it from ``t[0]``); for recorded data on a
+        non-uniform grid, the mean step.
     method : str
-        Integrator used (``"rk4"``, ``"discrete"``, ``"solve_ivp:DOP853"``...).
+        Integrator used (``"rk4"``, ``"discrete"``, ``"solve_ivp:DOP853"``, ``"observer step"``...).
+    observer : str
+        Label of the observer (its ``name``, else its class name; ``""`` for a plant alone).
+    extras : mapping of str to ndarray
+        Time series recorded beside the estimate, each ``(*batch, K, ...)`` (or ``(K, ...)`` when
+        the same for every run): the observer's ``diagnostics`` and what ``finish_estimates`` keeps.
+    info : mapping of str to object
+        Numbers about the run: ``wall_s`` and ``observer_s`` (seconds), ``cost_per_step_us``
+        (observer time per step per batch member), and what the caller adds (per-run arrays
+        such as ``skipped``).
 
     All arrays are read-only.
     """
 
     t: Array
-    x: Array
+    x: Array | None
     x_hat: Array
-    y: Array
-    sampled: NDArray[np.bool_]
+    y: Array | None
+    sampled: BoolArray | None
     states: tuple[str, ...]
     outputs: tuple[str, ...]
     estimates: tuple[str, ...]
     dt: float
     method: str
+    observer: str = ""
+    extras: Mapping[str, Array] = field(default_factory=dict)
+    info: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        for name in _ARRAYS:
-            object.__setattr__(self, name, _readonly(getattr(self, name)))
+        object.__setattr__(self, "t", readonly(self.t))
+        object.__setattr__(self, "x_hat", readonly(self.x_hat))
+        if self.x is not None:
+            object.__setattr__(self, "x", readonly(self.x))
+        if self.y is not None:
+            object.__setattr__(self, "y", readonly(self.y))
+        if self.sampled is not None:
+            object.__setattr__(self, "sampled", readonly(self.sampled, dtype=bool))
         for name in ("states", "outputs", "estimates"):
             object.__setattr__(self, name, tuple(str(s) for s in getattr(self, name)))
+        object.__setattr__(self, "extras", _frozen_map(self.extras, arrays=True))
+        object.__setattr__(self, "info", _frozen_map(self.info, arrays=False))
         K = self.t.shape[0]
-        checks = (("x", self.x, len(self.states)), ("x_hat", self.x_hat, len(self.estimates)), ("y", self.y, len(self.outputs)))
+        if self.t.ndim != 1:
+            raise DimensionError(f"SimulationResult.t: expected shape (K,), got {self.t.shape}")
+        checks = [("x_hat", self.x_hat, len(self.estimates))]
+        if self.x is not None:
+            checks.append(("x", self.x, len(self.states)))
+        if self.y is not None:
+            checks.append(("y", self.y, len(self.outputs)))
         for name, arr, width in checks:
             if arr.ndim < 2 or arr.shape[-2] != K or arr.shape[-1] != width:
                 raise DimensionError(f"SimulationResult.{name}: expected shape (*batch, {K}, {width}), got {arr.shape}")
-        if self.sampled.shape != (K, len(self.outputs)):
+        if self.x is not None:
+            try:
+                np.broadcast_shapes(self.x.shape[:-2], self.x_hat.shape[:-2])
+            except ValueError:
+                raise DimensionError(f"SimulationResult.x: batch {self.x.shape[:-2]} does not broadcast to the "
+                                     f"estimate's {self.x_hat.shape[:-2]}") from None
+        if self.sampled is not None and self.sampled.shape != (K, len(self.outputs)):
             raise DimensionError(f"SimulationResult.sampled: expected shape ({K}, {len(self.outputs)}), got {self.sampled.shape}")
 
     # ------------------------------------------------------------------ shapes
     @property
     def batch_shape(self) -> tuple[int, ...]:
         """Leading batch shape (``()`` for a single trajectory)."""
-        return tuple(self.x.shape[:-2])
+        return tuple(self.x_hat.shape[:-2])
+
+    @property
+    def n_runs(self) -> int:
+        """Number of trajectories in the batch."""
+        return int(np.prod(self.batch_shape, dtype=int))
+
+    def _truth(self) -> Array:
+        if self.x is None:
+            raise InvalidArgumentError("this result has no truth (x is None): the error x_hat - x is undefined")
+        return self.x
 
     @property
     def error(self) -> Array:
@@ -106,13 +158,16 @@ class SimulationResult:
         ------
         DimensionError
             The observer estimates a different number of states than the plant has.
+        InvalidArgumentError
+            There is no truth (recorded data).
         """
-        if self.x_hat.shape[-1] != self.x.shape[-1]:
+        x = self._truth()
+        if self.x_hat.shape[-1] != x.shape[-1]:
             raise DimensionError(
-                f"the estimate has {self.x_hat.shape[-1]} components and the plant {self.x.shape[-1]} states: "
+                f"the estimate has {self.x_hat.shape[-1]} components and the plant {x.shape[-1]} states: "
                 "the error x_hat - x is undefined"
             )
-        return self.x_hat - self.x
+        return self.x_hat - x
 
     @property
     def error_norm(self) -> Array:
@@ -166,44 +221,59 @@ class SimulationResult:
 
     # -------------------------------------------------------------------- plot
     def plot(
-        self, path: str | os.PathLike[str] | None = None, states: Sequence[int | str] | None = None, *, max_trajectories: int = 5
+        self, path: str | os.PathLike[str] | None = None, states: Sequence[int | str] | None = None, *,
+        max_trajectories: int = 5, title: str | None = None,
     ) -> Figure:
-        """Plot true vs estimated states and the error norm on a log axis.
+        """Plot true vs estimated states and the error norm on a log axis (atomically saved to ``path``).
 
         See :func:`nlobs.simulate.plotting.plot_result`.
         """
         from nlobs.simulate.plotting import plot_result
 
-        return plot_result(self, path=path, states=states, max_trajectories=max_trajectories)
+        return plot_result(self, path=path, states=states, max_trajectories=max_trajectories, title=title)
 
     # --------------------------------------------------------------- save/load
     def save(self, path: str | os.PathLike[str]) -> Path:
         """Write the result to an ``.npz`` file atomically and return its path.
 
-        The data go to a temporary file in the target's directory, which is
-        flushed, synced and then renamed over ``path`` (:func:`os.replace`), so
-        a reader never sees a half-written file and a failure leaves any
-        existing file untouched. The file is written exactly at ``path`` (no
-        suffix is added).
+        The data go to a temporary file in the target's directory, which is flushed, synced and
+        then renamed over ``path`` (:func:`os.replace`), so a reader never sees a half-written
+        file and a failure leaves any existing file untouched. The file is written exactly at
+        ``path`` (no suffix is added). Extras are stored as arrays, info as JSON (its arrays as
+        arrays).
         """
-        data = {
+        data: dict[str, Any] = {
             "format_version": np.array(FORMAT_VERSION),
             "t": self.t,
-            "x": self.x,
             "x_hat": self.x_hat,
-            "y": self.y,
-            "sampled": self.sampled,
             "states": np.array(self.states, dtype=str),
             "outputs": np.array(self.outputs, dtype=str),
             "estimates": np.array(self.estimates, dtype=str),
             "dt": np.array(self.dt),
             "method": np.array(self.method),
+            "observer": np.array(self.observer),
         }
+        for name in ("x", "y", "sampled"):
+            val = getattr(self, name)
+            if val is not None:
+                data[name] = val
+        for k, v in self.extras.items():
+            data[f"extra__{k}"] = v
+        plain: dict[str, Any] = {}
+        for k, v in self.info.items():
+            if isinstance(v, np.ndarray):
+                data[f"info__{k}"] = v
+            else:
+                plain[k] = v.item() if isinstance(v, np.generic) else v
+        try:
+            data["info_json"] = np.array(json.dumps(plain, allow_nan=True))
+        except TypeError as exc:
+            raise InvalidArgumentError(f"SimulationResult.save: info is not JSON-serialisable ({exc})") from None
         return atomic_write(path, lambda fh: np.savez(fh, **data))
 
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> SimulationResult:
-        """Read a result written by :meth:`save`.
+        """Read a result written by :meth:`save` (format 1 or 2).
 
         Raises
         ------
@@ -212,17 +282,24 @@ class SimulationResult:
         """
         with np.load(path, allow_pickle=False) as data:
             version = int(data["format_version"]) if "format_version" in data.files else None
-            if version != FORMAT_VERSION:
+            if version not in (1, FORMAT_VERSION):
                 raise InvalidArgumentError(f"{path}: not an nlobs simulation result of format {FORMAT_VERSION} (found {version})")
+            files = set(data.files)
+            extras = {k.removeprefix("extra__"): data[k] for k in files if k.startswith("extra__")}
+            info: dict[str, Any] = json.loads(str(data["info_json"])) if "info_json" in files else {}
+            info.update({k.removeprefix("info__"): data[k] for k in files if k.startswith("info__")})
             return cls(
                 t=data["t"],
-                x=data["x"],
+                x=data["x"] if "x" in files else None,
                 x_hat=data["x_hat"],
-                y=data["y"],
-                sampled=data["sampled"],
+                y=data["y"] if "y" in files else None,
+                sampled=data["sampled"] if "sampled" in files else None,
                 states=tuple(data["states"].tolist()),
                 outputs=tuple(data["outputs"].tolist()),
                 estimates=tuple(data["estimates"].tolist()),
                 dt=float(data["dt"]),
                 method=str(data["method"]),
+                observer=str(data["observer"]) if "observer" in files else "",
+                extras=extras,
+                info=info,
             )

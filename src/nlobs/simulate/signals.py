@@ -15,17 +15,11 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_finite_array
+from nlobs._validate import as_finite_array, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError
 
 Array = NDArray[np.float64]
 InputFunction = Callable[[float], Array]
-
-
-def _readonly(a: Array) -> Array:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True)
@@ -65,8 +59,8 @@ class SampledSignal:
             )
         if self.kind not in ("hold", "linear"):
             raise InvalidArgumentError(f"SampledSignal.kind: expected 'hold' or 'linear', got {self.kind!r}")
-        object.__setattr__(self, "times", _readonly(t))
-        object.__setattr__(self, "values", _readonly(v))
+        object.__setattr__(self, "times", readonly(t))
+        object.__setattr__(self, "values", readonly(v))
 
     @property
     def m(self) -> int:

@@ -13,14 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_matrix, as_square, default_names
+from nlobs._validate import as_matrix, as_square, default_names, readonly
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
-
-
-def _readonly(a: NDArray[np.float64]) -> NDArray[np.float64]:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 @dataclass(frozen=True)
@@ -69,10 +63,10 @@ class LinearSystem:
         C_ = as_matrix("C", C, (None, n))
         m, p = B_.shape[1], C_.shape[0]
         D_ = np.zeros((p, m)) if D is None else as_matrix("D", D, (p, m))
-        object.__setattr__(self, "A", _readonly(A_))
-        object.__setattr__(self, "B", _readonly(B_))
-        object.__setattr__(self, "C", _readonly(C_))
-        object.__setattr__(self, "D", _readonly(D_))
+        object.__setattr__(self, "A", readonly(A_))
+        object.__setattr__(self, "B", readonly(B_))
+        object.__setattr__(self, "C", readonly(C_))
+        object.__setattr__(self, "D", readonly(D_))
         object.__setattr__(self, "time", time)
         object.__setattr__(self, "states", default_names("state", "x", states, n))
         object.__setattr__(self, "inputs", default_names("input", "u", inputs, m))

@@ -41,18 +41,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_batch, as_vector
+from nlobs._validate import as_batch, as_vector, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError
 
 Array = NDArray[np.float64]
 
 __all__ = ["Saturation", "SmoothSaturation"]
-
-
-def _readonly(a: Array) -> Array:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
-    return a
 
 
 def _box(lower: ArrayLike, upper: ArrayLike) -> tuple[Array, Array]:
@@ -67,7 +61,7 @@ def _box(lower: ArrayLike, upper: ArrayLike) -> tuple[Array, Array]:
     if np.any(lo > hi):
         i = int(np.flatnonzero(lo > hi)[0])
         raise InvalidArgumentError(f"lower/upper: component {i} has lower {float(lo[i])!r} > upper {float(hi[i])!r}")
-    return _readonly(lo), _readonly(hi)
+    return readonly(lo), readonly(hi)
 
 
 @dataclass(frozen=True, init=False)
@@ -146,7 +140,7 @@ class SmoothSaturation:
             raise InvalidArgumentError(f"width: every transition width must be positive, got {w.tolist()}")
         object.__setattr__(self, "lower", lo)
         object.__setattr__(self, "upper", hi)
-        object.__setattr__(self, "width", _readonly(w))
+        object.__setattr__(self, "width", readonly(w))
 
     @property
     def n(self) -> int:
@@ -161,12 +155,12 @@ class SmoothSaturation:
     @property
     def derivative_lipschitz(self) -> Array:
         """Lipschitz constant of ``d sat*/dx`` per component: ``max |sat*''| = 1.5/δ``."""
-        return _readonly(1.5 / self.width)
+        return readonly(1.5 / self.width)
 
     @property
     def limits(self) -> tuple[Array, Array]:
         """The saturation levels ``(lower − δ/2, upper + δ/2)``."""
-        return _readonly(self.lower - self.width / 2), _readonly(self.upper + self.width / 2)
+        return readonly(self.lower - self.width / 2), readonly(self.upper + self.width / 2)
 
     def _tau(self, x: Array) -> tuple[Array, Array, Array]:
         above = x > self.upper

@@ -1,0 +1,92 @@
+"""Observer states as trees of arrays: the arithmetic and checks the loops need for any ``Z``.
+
+An observer state ``z`` is an ``ndarray`` (most observers), a frozen dataclass whose fields
+are arrays (a Kalman filter's mean and covariance, the set-valued observer's centres and
+radii), or a tuple of those. The loops need three things from it: linear combinations (RK4
+stages of a continuous observer without its own step), the first non-finite entry (divergence
+reports) and names for its parts. Fields that are not arrays (counters, flags, ``None``) are
+carried over unchanged from the first operand.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import numpy as np
+
+from nlobs._typing import Array
+
+
+def _is_leaf(v: Any) -> bool:
+    return isinstance(v, np.ndarray) and v.dtype.kind == "f"
+
+
+def tree_map(fn: Callable[..., Array], first: Any, *rest: Any) -> Any:
+    """Apply ``fn`` to the float-array leaves of ``first`` and the matching leaves of ``rest``.
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn(a, b, ...)`` on arrays.
+    first, *rest : state
+        Trees of the same structure (ndarray, tuple, or dataclass of those).
+
+    Returns
+    -------
+    state
+        A tree of ``first``'s structure; non-float fields come from ``first``.
+    """
+    if isinstance(first, np.ndarray):
+        return fn(first, *rest)
+    if isinstance(first, tuple):
+        return tuple(tree_map(fn, a, *(r[i] for r in rest)) for i, a in enumerate(first))
+    if dataclasses.is_dataclass(first) and not isinstance(first, type):
+        changes = {}
+        for f in dataclasses.fields(first):
+            if not f.init:
+                continue
+            v = getattr(first, f.name)
+            if _is_leaf(v) or isinstance(v, tuple) or (dataclasses.is_dataclass(v) and not isinstance(v, type)):
+                changes[f.name] = tree_map(fn, v, *(getattr(r, f.name) for r in rest))
+        return dataclasses.replace(first, **changes)
+    return first
+
+
+def leaves(z: Any, prefix: str = "") -> Iterator[tuple[str, Array]]:
+    """``(name, array)`` for every float-array leaf of a state (``""`` for a bare array)."""
+    if isinstance(z, np.ndarray):
+        if z.dtype.kind == "f":
+            yield prefix, z
+    elif isinstance(z, tuple):
+        for i, v in enumerate(z):
+            yield from leaves(v, f"{prefix}[{i}]")
+    elif dataclasses.is_dataclass(z) and not isinstance(z, type):
+        for f in dataclasses.fields(z):
+            yield from leaves(getattr(z, f.name), f"{prefix}.{f.name}" if prefix else f.name)
+
+
+def first_nonfinite(z: Any, names: tuple[str, ...] | None = None) -> str | None:
+    """Name of the first non-finite component of a state, or ``None`` when it is finite everywhere.
+
+    For a bare array the component is named by ``names[i]`` (``z[i]`` without names); for a
+    dataclass by its field (and index: ``R[1, 2]`` is reported as ``R``).
+    """
+    for name, arr in leaves(z):
+        if not np.isfinite(arr).all():
+            if name == "":
+                if arr.ndim == 0:
+                    return "z"
+                bad = ~np.isfinite(arr).reshape(-1, arr.shape[-1]).all(axis=0)
+                i = int(np.flatnonzero(bad)[0])
+                return names[i] if names is not None and i < len(names) else f"z[{i}]"
+            return name
+    return None
+
+
+def batch_shape_of(z: Any) -> tuple[int, ...] | None:
+    """The leading shape of a bare-array state (all but the last axis), else ``None``."""
+    if isinstance(z, np.ndarray) and z.ndim >= 1:
+        return tuple(z.shape[:-1])
+    return None
