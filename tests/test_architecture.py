@@ -18,7 +18,7 @@ ALLOWED: dict[str, set[str]] = {
     "linear": CORE | {"systems"},
     "synthesis": CORE | {"systems", "linear"},
     "observers": CORE | {"systems", "linear", "synthesis", "geometry"},
-    "simulate": CORE | {"systems", "observers"},
+    "simulate": CORE | {"systems", "linear", "synthesis", "geometry", "observers"},
     "analysis": CORE | {"systems", "linear", "geometry"},
     "navigation": CORE | {"systems", "linear", "synthesis", "observers", "simulate"},
     "papers": CORE | {"systems", "linear", "synthesis", "observers", "simulate", "geometry", "navigation", "analysis"},

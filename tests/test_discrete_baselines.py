@@ -7,7 +7,8 @@ import pytest
 
 from nlobs.errors import DesignInfeasible, DimensionError, InvalidArgumentError, NonFiniteError
 from nlobs.observers.base import Observer
-from nlobs.observers.discrete_baselines import DiscreteLipschitzObserver, EkfState, UnknownInputEKF
+from nlobs.observers.kalman import GaussianState, UnknownInputEKF
+from nlobs.observers.lipschitz import DiscreteLipschitzObserver
 from nlobs.synthesis.discrete_lipschitz import design_discrete_lipschitz_gain, verify_discrete_lipschitz_gain
 from nlobs.systems.timebase import Discrete
 
@@ -48,7 +49,7 @@ def simulate62(d_of_k, steps: int, runs: int, seed: int, *, noise: bool = True):
                           phi=phi62, phi_jacobian=jac62, G=G62)
     x = rng.uniform(-1.0, 1.0, (runs, 2))
     z = lip.init(np.zeros((runs, 2)))
-    st = ekf.init(np.zeros((runs, 2)), np.eye(2))
+    st = ekf.init_state(np.zeros((runs, 2)), np.eye(2))
     err_lip = np.empty((steps, runs))
     err_ekf = np.empty((steps, runs))
     for k in range(steps):
@@ -58,8 +59,8 @@ def simulate62(d_of_k, steps: int, runs: int, seed: int, *, noise: bool = True):
         v = ball(rng, (runs, 1), 0.1) if noise else np.zeros((runs, 1))
         d = np.full((runs, 1), d_of_k(k, rng, runs))
         y = x @ C62.T + v
-        z = lip.step(z, None, y)
-        st = ekf.step(st, None, y)
+        z = lip.rhs(0.0, z, None, y)
+        st = ekf.rhs(0.0, st, None, y)
         x = x @ A62.T + phi62(x) + d @ G62.T + w
     return cert, err_lip, err_ekf
 
@@ -172,9 +173,9 @@ def test_ekf_on_a_linear_plant_is_the_kalman_filter(with_H: bool) -> None:
     x0, P0 = rng.standard_normal(3), np.eye(3)
     ref_x, ref_P = _kalman_reference(A, B, C, D, G, H, Q_w, R_v, Q_d, x0, P0, us, ys)
     ekf = UnknownInputEKF(A, C, DT, Q_w=Q_w, R_v=R_v, Q_d=Q_d, B=B, D=D, G=G, H=H)
-    st = ekf.init(x0, P0)
+    st = ekf.init_state(x0, P0)
     for k in range(40):
-        st = ekf.step(st, us[k], ys[k])
+        st = ekf.rhs(0.0, st, us[k], ys[k])
         np.testing.assert_allclose(st.x, ref_x[k + 1], rtol=1e-10, atol=1e-10)
         np.testing.assert_allclose(st.P, ref_P[k + 1], rtol=1e-10, atol=1e-12)
 
@@ -185,11 +186,11 @@ def test_ekf_batch_equals_members_and_covariance_stays_psd() -> None:
     rng = np.random.default_rng(5)
     x0 = rng.standard_normal((6, 2))
     ys = rng.standard_normal((25, 6, 1))
-    batch = ekf.init(x0, np.eye(2))
-    singles = [ekf.init(x0[i], np.eye(2)) for i in range(6)]
+    batch = ekf.init_state(x0, np.eye(2))
+    singles = [ekf.init_state(x0[i], np.eye(2)) for i in range(6)]
     for k in range(25):
-        batch = ekf.step(batch, None, ys[k])
-        singles = [ekf.step(s, None, ys[k, i]) for i, s in enumerate(singles)]
+        batch = ekf.rhs(0.0, batch, None, ys[k])
+        singles = [ekf.rhs(0.0, s, None, ys[k, i]) for i, s in enumerate(singles)]
     np.testing.assert_allclose(batch.x, np.stack([s.x for s in singles]), rtol=1e-12, atol=1e-14)
     assert np.all(batch.P == np.swapaxes(batch.P, -1, -2))
     assert np.all(np.linalg.eigvalsh(batch.P)[..., 0] > 0)
@@ -219,7 +220,7 @@ def test_bad_input_is_reported() -> None:
     cert = design_discrete_lipschitz_gain(A62, C62, lipschitz=1.25, E=E62, F=F62)
     obs = DiscreteLipschitzObserver(A62, C62, cert.L, DT, phi=phi62)
     with pytest.raises(NonFiniteError, match="y: entry \\(0, 0\\) is nan"):
-        obs.step(obs.init(np.zeros((2, 2))), None, np.array([[np.nan], [0.0]]))
+        obs.rhs(0.0, obs.init(np.zeros((2, 2))), None, np.array([[np.nan], [0.0]]))
     with pytest.raises(DimensionError, match="E: expected shape \\(2, \\?\\)"):
         design_discrete_lipschitz_gain(A62, C62, lipschitz=1.25, E=[[0.0, 1.0]], F=F62)
     with pytest.raises(InvalidArgumentError, match="rho: must lie in"):
@@ -238,9 +239,9 @@ def test_bad_input_is_reported() -> None:
         UnknownInputEKF(A62, C62, DT, Q_w=np.eye(2), R_v=[[1.0]], Q_d=[[-1.0]], G=G62)
     ekf = UnknownInputEKF(A62, C62, DT, Q_w=np.eye(2), R_v=[[1.0]])
     with pytest.raises(NonFiniteError, match="y: entry"):
-        ekf.step(ekf.init(np.zeros(2), np.eye(2)), None, [np.inf])
+        ekf.rhs(0.0, ekf.init_state(np.zeros(2), np.eye(2)), None, [np.inf])
     with pytest.raises(DimensionError, match="P0: expected shape"):
-        ekf.init(np.zeros(2), np.eye(3))
+        ekf.init_state(np.zeros(2), np.eye(3))
     with pytest.raises(DimensionError, match="u: required"):
-        DiscreteLipschitzObserver(A62, C62, cert.L, DT, B=G62).step(np.zeros(2), None, [0.0])
-    assert isinstance(ekf.init(np.zeros(2), np.eye(2)), EkfState)
+        DiscreteLipschitzObserver(A62, C62, cert.L, DT, B=G62).rhs(0.0, np.zeros(2), None, [0.0])
+    assert isinstance(ekf.init_state(np.zeros(2), np.eye(2)), GaussianState)

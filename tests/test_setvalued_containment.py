@@ -12,7 +12,8 @@ import pytest
 
 from nlobs.errors import InvalidArgumentError
 from nlobs.papers.khajenejad_yong import PaperExample, containment_study, example_61, example_62
-from nlobs.observers.setvalued import GivenGain, printed_radii, run_setvalued
+from nlobs.observers.setvalued import GivenGain, printed_radii
+from nlobs.simulate.setvalued import input_containment, radii_of, run_setvalued, state_containment
 from nlobs.synthesis.setvalued import design_setvalued
 from nlobs.systems.discrete_ui import DiscreteUISystem, Lipschitz
 from nlobs.systems.timebase import Discrete
@@ -155,7 +156,7 @@ def test_growing_unknown_input_breaks_a_naive_point_observer_but_not_the_set_obs
     x0 = ball_samples(rng, (B,), s.delta0, 4)
     x, y = s.simulate(x0, d, ball_samples(rng, (B, K), s.eta_w, 4), ball_samples(rng, (B, K + 1), s.eta_v, 2))
     run = run_setvalued(s, design, y)
-    assert run.contains_state(x).all() and run.contains_input(d[:, :-1]).all()
+    assert state_containment(run, x).all() and input_containment(run, d[:, :-1]).all()
     # a stable gain for (A, C) (the d-free part), from the set design's L~ through z2 = U2ᵀ y
     L = design.L_tilde @ design.transform.T2
     assert np.max(np.abs(np.linalg.eigvals((np.eye(4) - L @ s.C) @ s.A))) < 1
@@ -163,8 +164,8 @@ def test_growing_unknown_input_breaks_a_naive_point_observer_but_not_the_set_obs
     en = np.linalg.norm(x - xn, axis=-1)
     es = np.linalg.norm(x - run.x_hat, axis=-1)
     print(f"\ngrowing d: naive point observer max error at K {en[:, -1].max():.4g}, set observer {es[:, -1].max():.4g} "
-          f"(radius {run.radii.state[-1]:.4g})")
-    assert en[:, -1].min() > 3 * run.radii.state[-1]
+          f"(radius {radii_of(run).state[-1]:.4g})")
+    assert en[:, -1].min() > 3 * radii_of(run).state[-1]
 
 
 def test_lpv_with_run_time_weights_is_contained() -> None:
@@ -185,6 +186,6 @@ def test_lpv_with_run_time_weights_is_contained() -> None:
     x, y = s.simulate(ball_samples(rng, (B,), 1.0, 3), d, ball_samples(rng, (B, K), 0.05, 3),
                       ball_samples(rng, (B, K + 1), 0.02, 2), weights=lam)
     run = run_setvalued(s, design, y, weights=lam)
-    assert run.contains_state(x).all() and run.contains_input(d[:, :-1]).all()
+    assert state_containment(run, x).all() and input_containment(run, d[:, :-1]).all()
     with pytest.raises(InvalidArgumentError, match="sum to 1"):
         run_setvalued(s, design, y, weights=lam * 2)

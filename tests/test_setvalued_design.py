@@ -7,7 +7,7 @@ import pytest
 
 from nlobs.errors import AssumptionViolated, CertificateError, DesignInfeasible, InvalidArgumentError, NonFiniteError
 from nlobs.papers.khajenejad_yong import example_61, example_62
-from nlobs.observers.setvalued import run_setvalued
+from nlobs.simulate.setvalued import radii_of, run_setvalued, state_containment, input_containment, input_estimates
 from nlobs.synthesis.setvalued import design_setvalued, verify_setvalued
 from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, Lipschitz
 from nlobs.systems.timebase import Discrete

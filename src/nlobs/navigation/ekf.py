@@ -41,7 +41,7 @@ from nlobs._validate import as_vector, positive
 from nlobs.navigation.base import Array, GnssSample, ImuSample, NavEstimate
 from nlobs.navigation.sensors import SensorNoise
 from nlobs.navigation.so3 import exp_so3, skew
-from nlobs.observers.discrete_baselines import joseph_update  # the one implementation (re-exported here)
+from nlobs.observers.kalman import joseph_update  # the one implementation (re-exported here)
 
 _I3 = np.eye(3)
 

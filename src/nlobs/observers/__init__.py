@@ -1,31 +1,37 @@
-"""Observers: one module per method, each satisfying :class:`nlobs.observers.base.Observer`."""
+"""Observers: one module per method, every estimator satisfying :class:`nlobs.observers.base.Observer`."""
 
-from nlobs.observers.base import CorrectingObserver, Observer
-from nlobs.observers.discrete_baselines import DiscreteLipschitzObserver, EkfState, UnknownInputEKF, joseph_update
+from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
+from nlobs.observers.kalman import GaussianState, UnknownInputEKF, joseph_update
+from nlobs.observers.lipschitz import DiscreteLipschitzObserver
 from nlobs.observers.luenberger import LuenbergerObserver
 from nlobs.observers.setvalued import (
     GivenGain,
     Radii,
-    SetValuedRun,
+    RadiusRecursion,
+    SetValuedObserver,
+    SetValuedState,
     input_error_map,
     printed_radii,
-    run_setvalued,
     sound_radii,
 )
 
 __all__ = [
     "CorrectingObserver",
+    "DeferredEstimate",
+    "Diagnosing",
     "DiscreteLipschitzObserver",
-    "EkfState",
+    "GaussianState",
     "GivenGain",
     "LuenbergerObserver",
     "Observer",
     "Radii",
-    "SetValuedRun",
+    "RadiusRecursion",
+    "SelfStepping",
+    "SetValuedObserver",
+    "SetValuedState",
     "UnknownInputEKF",
     "input_error_map",
     "joseph_update",
     "printed_radii",
-    "run_setvalued",
     "sound_radii",
 ]

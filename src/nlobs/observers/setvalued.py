@@ -1,6 +1,10 @@
-r"""Simultaneous input and state set-valued observer (seed 004, Algorithm 1), batched.
+r"""Simultaneous input and state set-valued observer (Khajenejad & Yong, Algorithm 1), batched.
 
-The centres follow the three-step recursion (10)-(15):
+:class:`SetValuedObserver` is Algorithm 1 under the one observer protocol (a discrete-time
+:class:`~nlobs.observers.base.CorrectingObserver`): its state holds the centres and the radii,
+``correct`` is the measurement part of one step (11), (12), (14), (15), (10) and ``rhs`` the time
+update (13) with the radius recursion; :func:`run_setvalued` is a thin call of
+:func:`nlobs.simulate.run_observer`. The centres follow the three-step recursion (10)-(15):
 
 * UIE: ``d̂₁,k = M₁(z₁,k − C₁x̂_{k|k} − D₁u_k)`` (10), ``d̂₂,k−1 = M₂(z₂,k − C₂x̂_{k|k−1} − D₂u_k)`` (11),
   ``d̂_{k−1} = V₁d̂₁,k−1 + V₂d̂₂,k−1`` (12);
@@ -27,29 +31,31 @@ only: it is not safe (facts.md).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nlobs._typing import Array, BoolArray
 from nlobs._validate import as_finite_array, as_vector, positive, readonly
-from nlobs.errors import DimensionError, InvalidArgumentError
+from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError
 from nlobs.linear.transform_ui import UITransform, ui_transform
 from nlobs.synthesis.setvalued import SetValuedDesign
 from nlobs.systems.discrete_ui import DiscreteUISystem
+from nlobs.systems.timebase import Discrete
 
 __all__ = [
     "GivenGain",
     "Radii",
-    "SetValuedRun",
+    "RadiusRecursion",
+    "SetValuedObserver",
+    "SetValuedState",
     "input_error_map",
-    "sound_radii",
     "printed_radii",
-    "run_setvalued",
+    "sound_radii",
 ]
-
-Array = NDArray[np.float64]
-
 
 
 @dataclass(frozen=True)
@@ -106,6 +112,75 @@ def input_error_map(system: DiscreteUISystem, design: SetValuedDesign) -> tuple[
     return Fz, Fp, Fw
 
 
+@dataclass(frozen=True)
+class RadiusRecursion:
+    """The sound radius bounds of the module docstring as a one-step recursion (the observer's radii).
+
+    ``advance(δˣ_{k−1}, V̄_{k−1})`` returns ``(δᵈ_{k−1}, δˣ_k, V̄_k)``; :func:`sound_radii` iterates it.
+    Build it with :meth:`of`.
+    """
+
+    th: float
+    r: float
+    eta: float
+    thd: float
+    rd: float
+    alpha: float
+    nA: float
+    nFz: float
+    thp: float
+    rp: float
+    thdp: float
+    rdp: float
+    lam_eff: float
+    c: float
+    lmin: float
+    lmax: float
+
+    @classmethod
+    def of(cls, system: DiscreteUISystem, design: SetValuedDesign) -> RadiusRecursion:
+        """The constants of the recursion for a design certified for ``system``."""
+        design.certified_for.require(system)
+        fc = design.function_class
+        evP = np.linalg.eigvalsh(design.P)
+        Acl, Bcl, E = design.dynamics.split(design.L_tilde)
+        l, nw = system.l, system.n_w
+        Eb = (E[:, :l], E[:, l:l + nw], E[:, l + nw:])
+        eta = _noise_norm(Eb, system.eta_v, system.eta_w)
+        th, r = fc.increment_bound(Acl, Bcl)
+        Fz, Fp, Fw = input_error_map(system, design)
+        thd, rd = fc.increment_bound(Fz, Fp)
+        alpha = _noise_norm(Fw, system.eta_v, system.eta_w)
+        # ellipsoidal variants: ‖F ζ‖ ≤ ‖F P^{-1/2}‖ √V̄ for the ζ part, the class bound for the π part
+        w, Q = np.linalg.eigh(design.P)
+        Pmh = Q @ np.diag(w ** -0.5) @ Q.T
+        nA, nFz = float(np.linalg.norm(Acl @ Pmh, 2)), float(np.linalg.norm(Fz @ Pmh, 2))
+        thp, rp = fc.increment_bound(np.zeros_like(Acl), Bcl)
+        thdp, rdp = fc.increment_bound(np.zeros_like(Fz), Fp)
+        return cls(th=th, r=r, eta=eta, thd=thd, rd=rd, alpha=alpha, nA=nA, nFz=nFz, thp=thp, rp=rp, thdp=thdp,
+                   rdp=rdp, lam_eff=design.lam_eff, c=design.c, lmin=float(evP[0]), lmax=float(evP[-1]))
+
+    def start(self, delta0: float) -> float:
+        """``V̄_0 = λ_max(P) δ₀²``."""
+        return self.lmax * delta0**2
+
+    def advance(self, dx: float, V: float) -> tuple[float, float, float]:
+        """``(δᵈ_{k−1}, δˣ_k, V̄_k)`` from ``(δˣ_{k−1}, V̄_{k−1})`` (module docstring)."""
+        sv = math.sqrt(V)
+        dd = min(self.thd * dx + self.rd, self.nFz * sv + self.thdp * dx + self.rdp) + self.alpha
+        tri = min(self.th * dx + self.r, self.nA * sv + self.thp * dx + self.rp) + self.eta
+        V = self.lam_eff * V + self.c
+        dx_new = min(math.sqrt(V / self.lmin), tri)
+        return dd, dx_new, min(V, self.lmax * dx_new**2)
+
+    def steady(self) -> tuple[float, float]:
+        """Limits of the state and input bounds (``inf`` when they do not converge)."""
+        ss_lyap = math.sqrt(self.c / ((1 - self.lam_eff) * self.lmin)) if self.lam_eff < 1 else math.inf
+        ss_tri = (self.r + self.eta) / (1 - self.th) if self.th < 1 else math.inf
+        ssx = min(ss_lyap, ss_tri)
+        return ssx, self.thd * ssx + self.rd + self.alpha
+
+
 def sound_radii(system: DiscreteUISystem, design: SetValuedDesign, steps: int, *,
                 delta0: float | None = None) -> Radii:
     """Re-derived radius bounds (module docstring; ``docs/setvalued.md``) for ``k = 0..steps``.
@@ -113,43 +188,19 @@ def sound_radii(system: DiscreteUISystem, design: SetValuedDesign, steps: int, *
     Raises :class:`~nlobs.errors.InvalidArgumentError` when ``design`` was certified for another system
     (other matrices, class or constants, or larger noise bounds: :class:`~nlobs.synthesis.setvalued.CertifiedFor`).
     """
-    design.certified_for.require(system)
+    rec = RadiusRecursion.of(system, design)
     K = int(steps)
     if K < 0:
         raise InvalidArgumentError(f"steps: must be >= 0, got {steps!r}")
     d0 = system.delta0 if delta0 is None else positive("delta0", delta0, allow_zero=True)
-    fc = design.function_class
-    evP = np.linalg.eigvalsh(design.P)
-    lmin, lmax = float(evP[0]), float(evP[-1])
-    Acl, Bcl, E = design.dynamics.split(design.L_tilde)
-    l, nw = system.l, system.n_w
-    Eb = (E[:, :l], E[:, l:l + nw], E[:, l + nw:])
-    eta = _noise_norm(Eb, system.eta_v, system.eta_w)
-    th, r = fc.increment_bound(Acl, Bcl)
-    Fz, Fp, Fw = input_error_map(system, design)
-    thd, rd = fc.increment_bound(Fz, Fp)
-    alpha = _noise_norm(Fw, system.eta_v, system.eta_w)
-    # ellipsoidal variants: ‖F ζ‖ ≤ ‖F P^{-1/2}‖ √V̄ for the ζ part, the class bound for the π part
-    w, Q = np.linalg.eigh(design.P)
-    Pmh = Q @ np.diag(w ** -0.5) @ Q.T
-    nA, nFz = float(np.linalg.norm(Acl @ Pmh, 2)), float(np.linalg.norm(Fz @ Pmh, 2))
-    thp, rp = fc.increment_bound(np.zeros_like(Acl), Bcl)
-    thdp, rdp = fc.increment_bound(np.zeros_like(Fz), Fp)
     dx = np.empty(K + 1)
     dd = np.empty(K)
     dx[0] = d0
-    V = lmax * d0**2
+    V = rec.start(d0)
     for k in range(1, K + 1):
-        sv = math.sqrt(V)
-        dd[k - 1] = min(thd * dx[k - 1] + rd, nFz * sv + thdp * dx[k - 1] + rdp) + alpha
-        tri = min(th * dx[k - 1] + r, nA * sv + thp * dx[k - 1] + rp) + eta
-        V = design.lam_eff * V + design.c
-        dx[k] = min(math.sqrt(V / lmin), tri)
-        V = min(V, lmax * dx[k] ** 2)
-    ss_lyap = math.sqrt(design.c / ((1 - design.lam_eff) * lmin)) if design.lam_eff < 1 else math.inf
-    ss_tri = (r + eta) / (1 - th) if th < 1 else math.inf
-    ssx = min(ss_lyap, ss_tri)
-    return Radii(readonly(dx), readonly(dd), ssx, thd * ssx + rd + alpha, "sound")
+        dd[k - 1], dx[k], V = rec.advance(dx[k - 1], V)
+    ssx, ssd = rec.steady()
+    return Radii(readonly(dx), readonly(dd), ssx, ssd, "sound")
 
 
 def printed_radii(system: DiscreteUISystem, L_tilde: ArrayLike, P: ArrayLike, rho: float, steps: int, *,
@@ -218,111 +269,171 @@ class GivenGain:
         return cls(readonly(L), tr)
 
 
+
 @dataclass(frozen=True)
-class SetValuedRun:
-    """Output of :func:`run_setvalued` (batch axis first).
+class SetValuedState:
+    """State of :class:`SetValuedObserver` for a batch of runs (leading axis ``B``).
 
     Attributes
     ----------
-    x_hat : ndarray, shape (B, K + 1, n)
-        Centres ``x̂_{k|k}``, ``k = 0..K``.
-    d_hat : ndarray, shape (B, K, p)
-        Centres ``d̂_{k−1}`` of the input balls, ``k = 1..K`` (index ``j`` holds ``d̂_j``).
-    radii : Radii or None
-        Radii (the same for every run); ``None`` for a :class:`GivenGain` run without radii.
+    x : ndarray, shape (B, n)
+        After :meth:`SetValuedObserver.correct` at step ``k``: the centre ``x̂_{k|k}``; after
+        :meth:`SetValuedObserver.rhs`: the time update ``x̂_{k+1|k}`` of (13).
+    d1 : ndarray, shape (B, p₁)
+        ``d̂₁,k`` of (10), from the last measurement.
+    d : ndarray, shape (B, p)
+        ``d̂_{k−1}`` of (12), the centre of the input ball (NaN before the first step).
+    k : int
+        The step of the last measurement (``−1`` before the first one).
+    corrected : bool
+        Whether the measurement of step ``k`` has been taken (``x`` is ``x̂_{k|k}``).
+    radius : float
+        ``δˣ_k``.
+    radius_input : float
+        ``δᵈ_{k−1}`` (NaN before the first step).
+    V : float
+        The Lyapunov bound ``V̄_k`` of the sound recursion (NaN with given radii).
     """
 
-    x_hat: Array
-    d_hat: Array
-    radii: Radii | None
-
-    def contains_state(self, x_true: ArrayLike, rtol: float = 1e-9) -> NDArray[np.bool_]:
-        """``(B, K + 1)``: ``‖x_k − x̂_{k|k}‖ ≤ δˣ_k`` (with a relative round-off allowance)."""
-        if self.radii is None:
-            raise InvalidArgumentError("contains_state: this run has no radii")
-        e = np.linalg.norm(np.asarray(x_true) - self.x_hat, axis=-1)
-        return e <= self.radii.state * (1 + rtol) + rtol
-
-    def contains_input(self, d_true: ArrayLike, rtol: float = 1e-9) -> NDArray[np.bool_]:
-        """``(B, K)``: ``‖d_{k−1} − d̂_{k−1}‖ ≤ δᵈ_{k−1}`` for ``d_true`` of shape ``(B, K, p)`` (``d_0..d_{K−1}``)."""
-        if self.radii is None:
-            raise InvalidArgumentError("contains_input: this run has no radii")
-        e = np.linalg.norm(np.asarray(d_true) - self.d_hat, axis=-1)
-        return e <= self.radii.input * (1 + rtol) + rtol
+    x: Array
+    d1: Array
+    d: Array
+    k: int
+    corrected: bool
+    radius: float
+    radius_input: float
+    V: float
 
 
-def run_setvalued(system: DiscreteUISystem, design: SetValuedDesign | GivenGain, y: ArrayLike, *,
-                  u: ArrayLike | None = None, x0_hat: ArrayLike | None = None,
-                  radii: Radii | None = None, weights: ArrayLike | None = None) -> SetValuedRun:
-    """Run Algorithm 1 on measurements ``y`` of shape ``(B, K + 1, l)`` (``y_0..y_K``), batched over ``B``.
+@dataclass(frozen=True, eq=False)
+class SetValuedObserver:
+    r"""Algorithm 1 (Khajenejad & Yong) as a discrete-time correcting observer: centres and radii.
+
+    One step of Algorithm 1 is ``rhs`` (the time update (13) from ``k`` to ``k + 1``, with the
+    radius recursion) followed by ``correct`` at the measurement of step ``k + 1`` ((11), (12), (14),
+    (15), then (10)); at step 0 ``correct`` only computes ``d̂₁,0`` (10) from ``x̂_{0|0} = x̂0``. The
+    estimate is the state centre; :meth:`diagnostics` records ``d_hat`` (``d̂_{k−1}``), ``radius_state``
+    (``δˣ_k``) and ``radius_input`` (``δᵈ_{k−1}``).
 
     Parameters
     ----------
     system : DiscreteUISystem
-    design : SetValuedDesign or GivenGain
-        Gains from :func:`nlobs.synthesis.setvalued.design_setvalued` (or a given ``L̃``).
-    y : array_like, shape (B, K + 1, l)
-        Measurements (finite; NaN raises :class:`~nlobs.errors.NonFiniteError`).
-    u : array_like, shape (B, K + 1, m), optional
-        Known inputs (zero when omitted).
-    x0_hat : array_like, shape (n,) or (B, n), optional
-        Initial centre (``system.x0`` when omitted).
+        The plant (8).
+    gain : SetValuedDesign or GivenGain
+        A design certified for ``system`` (:func:`nlobs.synthesis.setvalued.design_setvalued`), or a
+        given ``L̃`` without certificate (then ``radii`` must be given for radii to be reported).
     radii : Radii, optional
-        Radii to attach (default :func:`sound_radii` for a design, none for a :class:`GivenGain`).
-    weights : array_like, shape (B, K + 1, N) or (K + 1, N), optional
-        Run-time LPV weights ``λ_{i,k}`` (Class III, Definition 2.4): (13) uses ``f_{k−1}``. Required
-        for a design certified at the LPV vertices (``lpv="vertices"``).
+        Radius sequences to report instead of the sound recursion (e.g. :func:`printed_radii`); the
+        run may not be longer than they are.
+    lpv_weights : bool
+        The input ``u`` carries the run-time LPV weights ``λ_k`` after the known inputs (Class III,
+        Definition 2.4: (13) uses ``Σλᵢ Aᵢ``): required for a design certified at the vertices.
 
-    Raises
-    ------
-    InvalidArgumentError
-        ``design`` was certified for another system (:class:`~nlobs.synthesis.setvalued.CertifiedFor`),
-        or is a vertex design run without ``weights``.
+    Notes
+    -----
+    The input is ``u_k = [u_k (m), λ_k (N, with lpv_weights)]``; the measurement is ``y_k`` (``l``),
+    at every step (Algorithm 1 has no missing samples: a non-finite ``y`` raises).
     """
-    if isinstance(design, SetValuedDesign):
-        design.certified_for.require(system, weights_given=weights is not None)
-    y_ = as_finite_array("y", y)
-    if y_.ndim != 3 or y_.shape[-1] != system.l or y_.shape[1] < 1:
-        raise DimensionError(f"y: expected shape (B, K + 1, {system.l}), got {y_.shape}")
-    Bn, K1, _ = y_.shape
-    K = K1 - 1
-    if u is None:
-        u_ = np.zeros((Bn, K1, system.m))
-    else:
-        u_ = as_finite_array("u", u)
-        if u_.shape != (Bn, K1, system.m):
-            raise DimensionError(f"u: expected shape {(Bn, K1, system.m)}, got {u_.shape}")
-    if x0_hat is None:
-        xh = np.broadcast_to(system.x0, (Bn, system.n)).copy()
-    else:
-        x0a = as_finite_array("x0_hat", x0_hat)
-        if x0a.ndim == 1:
-            x0a = as_vector("x0_hat", x0a, system.n)
-        xh = np.broadcast_to(x0a, (Bn, system.n)).copy()
-    tr = design.transform
-    Lt = design.L_tilde
-    z1 = y_ @ tr.U1
-    z2 = y_ @ tr.U2
-    X = np.empty((Bn, K1, system.n))
-    Dh = np.empty((Bn, K, system.p))
-    X[:, 0] = xh
-    d1 = (z1[:, 0] - xh @ tr.C1.T - u_[:, 0] @ tr.D1.T) @ tr.M1.T
-    lam = None
-    if weights is not None:
-        lw = system.lpv_weights(weights)
-        lam = np.broadcast_to(lw, (Bn, K1, lw.shape[-1]))
-    for k in range(1, K1):
-        xp = system.f(xh, None if lam is None else lam[:, k - 1]) + u_[:, k - 1] @ system.B.T + d1 @ tr.G1.T  # (13)
-        d2 = (z2[:, k] - xp @ tr.C2.T - u_[:, k] @ tr.D2.T) @ tr.M2.T  # (11)
-        Dh[:, k - 1] = d1 @ tr.V1.T + d2 @ tr.V2.T  # (12)
-        xs = xp + d2 @ tr.G2.T  # (14)
-        xh = xs + (z2[:, k] - xs @ tr.C2.T - u_[:, k] @ tr.D2.T) @ Lt.T  # (15)
-        X[:, k] = xh
-        d1 = (z1[:, k] - xh @ tr.C1.T - u_[:, k] @ tr.D1.T) @ tr.M1.T  # (10)
-    rad = radii
-    if rad is None and isinstance(design, SetValuedDesign):
-        rad = sound_radii(system, design, K)
-    if rad is not None and rad.state.shape != (K1,):
-        raise DimensionError(f"radii: expected {K1} state radii, got {rad.state.shape}")
-    return SetValuedRun(readonly(X), readonly(Dh), rad)
 
+    system: DiscreteUISystem
+    gain: SetValuedDesign | GivenGain
+    radii: Radii | None = None
+    lpv_weights: bool = False
+    name: str = "set-valued observer"
+    time: Discrete = field(init=False)
+    _rec: RadiusRecursion | None = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.system, DiscreteUISystem):
+            raise InvalidArgumentError(f"system: expected a DiscreteUISystem, got {type(self.system).__name__}")
+        if isinstance(self.gain, SetValuedDesign):
+            self.gain.certified_for.require(self.system, weights_given=self.lpv_weights)
+        elif not isinstance(self.gain, GivenGain):
+            raise InvalidArgumentError(f"gain: expected a SetValuedDesign or a GivenGain, got {type(self.gain).__name__}")
+        object.__setattr__(self, "time", self.system.time)
+        rec = RadiusRecursion.of(self.system, self.gain) if (
+            self.radii is None and isinstance(self.gain, SetValuedDesign)) else None
+        object.__setattr__(self, "_rec", rec)
+
+    @property
+    def n_x(self) -> int:
+        """The plant's state dimension."""
+        return self.system.n
+
+    @property
+    def m(self) -> int:
+        """Input channels: the known inputs, then the LPV weights when used."""
+        return self.system.m + (self.system.function_class.vertices().shape[0] if self.lpv_weights else 0)
+
+    def init(self, x_hat0: Array) -> SetValuedState:
+        """The initial centre ``x̂_{0|0} = x̂0`` with radius ``δ₀`` (``system.delta0``)."""
+        x = np.array(x_hat0, dtype=float)
+        if x.ndim != 2 or x.shape[-1] != self.system.n:
+            raise DimensionError(f"x_hat0: expected shape (B, {self.system.n}), got {x.shape}")
+        B = x.shape[0]
+        tr = self.gain.transform
+        d0 = float(self.system.delta0)
+        if self.radii is not None:
+            d0 = float(self.radii.state[0])
+        V = self._rec.start(d0) if self._rec is not None else math.nan
+        radius = d0 if (self._rec is not None or self.radii is not None) else math.nan
+        return SetValuedState(x=x, d1=np.zeros((B, tr.M1.shape[0])), d=np.full((B, self.system.p), np.nan), k=-1,
+                              corrected=False, radius=radius, radius_input=math.nan, V=V)
+
+    def _split_u(self, u: Array) -> tuple[Array, Array | None]:
+        m = self.system.m
+        if self.lpv_weights:
+            return u[..., :m], u[..., m:]
+        return u[..., :m], None
+
+    def correct(self, t: float, z: SetValuedState, u: Array, y: Array, fresh: BoolArray) -> SetValuedState:
+        """The measurement part of a step: (11), (12), (14), (15) from ``x̂_{k|k−1}``, then (10)."""
+        if not np.all(np.isfinite(y)):
+            raise NonFiniteError(f"y: the measurement at t = {t:g} is not finite (Algorithm 1 needs every sample)")
+        if not np.all(fresh):
+            raise InvalidArgumentError("Algorithm 1 needs every output at every step")
+        tr, Lt = self.gain.transform, self.gain.L_tilde
+        uk, _ = self._split_u(u)
+        z1, z2 = y @ tr.U1, y @ tr.U2
+        if z.k < 0:  # step 0: x̂_{0|0} is given, only (10)
+            d1 = (z1 - z.x @ tr.C1.T - uk @ tr.D1.T) @ tr.M1.T
+            return SetValuedState(x=z.x, d1=d1, d=z.d, k=0, corrected=True, radius=z.radius,
+                                  radius_input=z.radius_input, V=z.V)
+        if z.corrected:
+            raise InvalidArgumentError(f"correct at t = {t:g}: step {z.k} was already corrected (call rhs in between)")
+        xp = z.x
+        d2 = (z2 - xp @ tr.C2.T - uk @ tr.D2.T) @ tr.M2.T  # (11)
+        d = z.d1 @ tr.V1.T + d2 @ tr.V2.T  # (12)
+        xs = xp + d2 @ tr.G2.T  # (14)
+        xh = xs + (z2 - xs @ tr.C2.T - uk @ tr.D2.T) @ Lt.T  # (15)
+        d1 = (z1 - xh @ tr.C1.T - uk @ tr.D1.T) @ tr.M1.T  # (10)
+        return SetValuedState(x=xh, d1=d1, d=d, k=z.k, corrected=True, radius=z.radius,
+                              radius_input=z.radius_input, V=z.V)
+
+    def rhs(self, t: float, z: SetValuedState, u: Array, y: Array) -> SetValuedState:
+        """The time update (13) ``x̂_{k+1|k} = f(x̂_{k|k}) + B u_k + G₁ d̂₁,k`` and the radii of step ``k + 1``."""
+        if not z.corrected:
+            raise InvalidArgumentError(f"rhs at t = {t:g}: Algorithm 1 needs the measurement of every step "
+                                       "(correct before each time update)")
+        tr = self.gain.transform
+        uk, lam = self._split_u(u)
+        lam_b = None if lam is None else np.broadcast_to(lam, (*z.x.shape[:-1], lam.shape[-1]))
+        xp = self.system.f(z.x, lam_b) + uk @ self.system.B.T + z.d1 @ tr.G1.T  # (13)
+        k1 = z.k + 1
+        if self._rec is not None:
+            dd, dx, V = self._rec.advance(z.radius, z.V)
+        elif self.radii is not None:
+            if k1 >= self.radii.state.size:
+                raise InvalidArgumentError(f"radii: {self.radii.state.size} state radii given, the run is longer")
+            dd, dx, V = float(self.radii.input[k1 - 1]), float(self.radii.state[k1]), math.nan
+        else:
+            dd = dx = V = math.nan
+        return SetValuedState(x=xp, d1=z.d1, d=z.d, k=k1, corrected=False, radius=dx, radius_input=dd, V=V)
+
+    def estimate(self, z: SetValuedState) -> Array:
+        """The centre of the state ball (``x̂_{k|k}`` after the correction)."""
+        return z.x
+
+    def diagnostics(self, z: SetValuedState, u: Array) -> Mapping[str, Any]:
+        """``d_hat`` ``(B, p)``, ``radius_state`` and ``radius_input`` (scalars: the same for every run)."""
+        return {"d_hat": z.d, "radius_state": np.float64(z.radius), "radius_input": np.float64(z.radius_input)}

@@ -42,8 +42,12 @@ from nlobs._io import atomic_write
 from nlobs._validate import positive
 from nlobs.errors import InvalidArgumentError, NonFiniteError, SimulationDiverged
 from nlobs.papers.reproduce import ReproRow, Value
-from nlobs.observers.discrete_baselines import DiscreteLipschitzObserver, UnknownInputEKF
-from nlobs.observers.setvalued import GivenGain, Radii, SetValuedRun, run_setvalued
+from nlobs.observers.kalman import UnknownInputEKF
+from nlobs.observers.lipschitz import DiscreteLipschitzObserver
+from nlobs.observers.setvalued import GivenGain, Radii
+from nlobs.simulate.replay import run_observer
+from nlobs.simulate.result import SimulationResult
+from nlobs.simulate.setvalued import input_estimates, radii_of, run_setvalued, state_containment
 from nlobs.synthesis.setvalued import SetValuedDesign
 from nlobs.systems.discrete_ui import (
     DiscreteUISystem,
@@ -60,7 +64,6 @@ __all__ = [
     "example_62",
     "ball_samples",
     "containment_study",
-    "Batch",
     "simulate_batch",
     "containment_of",
     "PointBaselines",
@@ -73,6 +76,7 @@ __all__ = [
     "plot_trajectories",
     "save_figure",
     "adversarial_noise",
+    "NaivePointObserver",
     "naive_point_observer",
     "reproduce",
 ]
@@ -301,45 +305,21 @@ class ContainmentResult:
 ROUNDOFF_FRACTION = 0.01
 
 
-@dataclass(frozen=True)
-class Batch:
-    """One seeded Monte Carlo batch of plant and Algorithm 1 (batch axis first).
-
-    Attributes
-    ----------
-    t : ndarray, shape (K + 1,)
-        Times ``k T_s``.
-    x, y : ndarray
-        True states ``(B, K + 1, n)`` and measurements ``(B, K + 1, l)``.
-    d : ndarray, shape (B, K + 1, p)
-        The unknown input.
-    run : SetValuedRun
-        Centres and radii of Algorithm 1.
-    seconds : float
-    system : DiscreteUISystem or None
-        The simulated system.
-    gain : SetValuedDesign or GivenGain or None
-        The observer's gain.
-    """
-
-    t: Array
-    x: Array
-    y: Array
-    d: Array
-    run: SetValuedRun
-    seconds: float
-    system: DiscreteUISystem | None = field(default=None, repr=False)
-    gain: SetValuedDesign | GivenGain | None = field(default=None, repr=False)
-
-
 def simulate_batch(system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
                    unknown_input: Callable[[Array], Array], *, runs: int, steps: int, seed: int = 0,
-                   radii: Radii | None = None, at_bound: float = 0.5) -> Batch:
+                   radii: Radii | None = None, at_bound: float = 0.5) -> SimulationResult:
     """Simulate the plant (8) and run Algorithm 1 for ``runs`` seeded runs (vectorised).
 
     Initial states are drawn in the initial ball and the noises in theirs, a fraction
     ``at_bound`` of each exactly on the bound (:func:`ball_samples`); ``unknown_input``
     maps ``t`` ``(K + 1,)`` to ``d`` ``(K + 1, p)``, the same in every run.
+
+    Returns
+    -------
+    SimulationResult
+        Of :func:`~nlobs.simulate.setvalued.run_setvalued`, with the truth ``x`` ``(B, K + 1, n)``, the
+        measurements ``y`` ``(B, K + 1, l)`` and the extra ``d`` ``(B, K + 1, p)`` (the unknown input);
+        ``info["seconds"]`` is the plant and observer time.
     """
     R, K = int(runs), int(steps)
     if R < 1 or K < 1:
@@ -369,47 +349,55 @@ def simulate_batch(system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
                     f"{int(bad_x[:, k].sum())} of {R} runs (the model's f or the unknown input drives it past the "
                     "floating-point range)",)
         raise exc
-    run = run_setvalued(system, gain, y, radii=radii)
-    return Batch(t, x, y, np.array(d), run, time.perf_counter() - t0, system, gain)
+    res = run_setvalued(system, gain, y, radii=radii, truth=x)
+    return dataclasses.replace(res, y=y, extras={**res.extras, "d": np.array(d)},
+                               info={**res.info, "seconds": time.perf_counter() - t0})
 
 
-def containment_of(batch: Batch, label: str = "sound", *,
+def containment_of(batch: SimulationResult, label: str = "sound", *, system: DiscreteUISystem | None = None,
+                   gain: SetValuedDesign | GivenGain | None = None,
                    box: tuple[ArrayLike, ArrayLike] | None = None) -> ContainmentResult:
     """Containment of the truth in the balls of ``batch`` (every step of every run), with the conditions it rests on.
 
-    When the batch carries its system and gain (:func:`simulate_batch`), also evaluates on the pairs the
-    runs visit: the class condition the certificate uses, whether the states left ``box`` (where the class
-    was checked), and a floating-point round-off estimate against the radius (``ContainmentResult``).
+    ``batch`` is a :func:`simulate_batch` result. With its ``system`` and ``gain``, also evaluates on the
+    pairs the runs visit: the class condition the certificate uses, whether the states left ``box`` (where
+    the class was checked), and a floating-point round-off estimate against the radius (``ContainmentResult``).
     """
-    run, x = batch.run, batch.x
-    if run.radii is None:
+    rad = radii_of(batch)
+    if rad is None:
         raise InvalidArgumentError("containment_study: a GivenGain needs radii")
+    x, d = batch.x, batch.extras["d"]
     with np.errstate(over="ignore", invalid="ignore"):
-        inside = run.contains_state(x)
-        inside_d = run.contains_input(batch.d[:, :-1])
-        err = np.linalg.norm(x - run.x_hat, axis=-1)
+        inside = state_containment(batch)
+        inside_d = _input_inside(batch, d[:, :-1], rad)
+        err = np.linalg.norm(x - batch.x_hat, axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(run.radii.state > 0, err / run.radii.state, np.where(err > 0, np.inf, 0.0))
+        ratio = np.where(rad.state > 0, err / rad.state, np.where(err > 0, np.inf, 0.0))
     ratio = np.where(np.isnan(ratio), np.inf, ratio)
     bad = np.flatnonzero(~inside.all(axis=0))
     R, K1 = err.shape
-    extra = _trajectory_conditions(batch, box) if batch.system is not None and batch.gain is not None else {}
+    extra = _trajectory_conditions(batch, system, gain, box) if system is not None and gain is not None else {}
     return ContainmentResult(
         runs=R, steps=K1 - 1, rate_state=float(inside.all(axis=1).mean()),
         rate_input=float(inside_d.all(axis=1).mean()), max_error_over_radius=float(np.max(ratio)),
-        final_radius_state=float(run.radii.state[-1]), final_radius_input=float(run.radii.input[-1]),
-        first_violation_step=int(bad[0]) if bad.size else None, seconds=batch.seconds, label=label, errors=err,
-        radii=run.radii, **extra,
+        final_radius_state=float(rad.state[-1]), final_radius_input=float(rad.input[-1]),
+        first_violation_step=int(bad[0]) if bad.size else None, seconds=float(batch.info.get("seconds", 0.0)),
+        label=label, errors=err, radii=rad, **extra,
     )
 
 
-def _trajectory_conditions(batch: Batch, box: tuple[ArrayLike, ArrayLike] | None) -> dict[str, Any]:
+def _input_inside(batch: SimulationResult, d_true: Array, rad: Radii, rtol: float = 1e-9) -> Array:
+    e = np.linalg.norm(d_true - input_estimates(batch), axis=-1)
+    return e <= rad.input * (1 + rtol) + rtol
+
+
+def _trajectory_conditions(batch: SimulationResult, system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
+                           box: tuple[ArrayLike, ArrayLike] | None) -> dict[str, Any]:
     """Class condition on the visited pairs, box exits and the round-off estimate (see :class:`ContainmentResult`)."""
     from nlobs.systems.discrete_ui import LPV, class_margins
 
-    system, gain = batch.system, batch.gain
-    assert system is not None and gain is not None
-    x, xh = batch.x, batch.run.x_hat
+    x, xh = batch.x, batch.x_hat
+    d = batch.extras["d"]
     out: dict[str, Any] = {}
     fc = gain.function_class if isinstance(gain, SetValuedDesign) else system.function_class
     if not isinstance(fc, LPV):  # a vertex design is run with the plant's weights: π is in the polytope by construction
@@ -429,16 +417,16 @@ def _trajectory_conditions(batch: Batch, box: tuple[ArrayLike, ArrayLike] | None
     kappa = ((1.0 + nrm(gain.L_tilde) * nrm(tr.C2)) * (1.0 + nrm(tr.G1 @ tr.M1) + nrm(tr.G2 @ tr.M2))
              * (1.0 + nrm(system.C) + nrm(system.A)))
     with np.errstate(over="ignore", invalid="ignore"):
-        scale = (np.linalg.norm(x, axis=-1) + np.linalg.norm(batch.d @ system.G.T, axis=-1)
-                 + np.linalg.norm(batch.d @ system.H.T, axis=-1) + np.linalg.norm(batch.y, axis=-1))
+        scale = (np.linalg.norm(x, axis=-1) + np.linalg.norm(d @ system.G.T, axis=-1)
+                 + np.linalg.norm(d @ system.H.T, axis=-1) + np.linalg.norm(batch.y, axis=-1))
         scale[:, 1:] = np.maximum(scale[:, 1:], scale[:, :-1])  # the error of step k carries that of step k - 1
         est = float(np.finfo(float).eps) * kappa * scale
-        rad = np.asarray(batch.run.radii.state)
+        rad = np.asarray(batch.extras["radius_state"])
         rr = np.where(rad > 0, est / np.where(rad > 0, rad, 1.0), np.where(est > 0, np.inf, 0.0))
     rr = np.where(np.isfinite(rr) & np.isfinite(xh).all(axis=-1), rr, np.inf)
     out["roundoff_runs"] = int(np.sum((rr > ROUNDOFF_FRACTION).any(axis=1)))
     out["roundoff_ratio"] = float(np.max(rr))
-    out["max_abs_input"] = float(np.max(np.abs(batch.d))) if batch.d.size else 0.0
+    out["max_abs_input"] = float(np.max(np.abs(d))) if d.size else 0.0
     return out
 
 
@@ -454,7 +442,7 @@ def containment_study(example: PaperExample, gain: SetValuedDesign | GivenGain, 
     """
     dfun = example.unknown_input if unknown_input is None else unknown_input
     batch = simulate_batch(example.system, gain, dfun, runs=runs, steps=steps, seed=seed, radii=radii)
-    return containment_of(batch, label, box=box)
+    return containment_of(batch, label, system=example.system, gain=gain, box=box)
 
 
 # --------------------------------------------------------------------------- point-observer baselines
@@ -560,17 +548,17 @@ def point_baselines(system: DiscreteUISystem, *, q_d: float, box: tuple[ArrayLik
     from nlobs.errors import NlobsError
 
     ekf: UnknownInputEKF | None
+    P0 = max(system.delta0, 1e-6) ** 2 / (n + 2) * np.eye(n)
     try:
         ekf = UnknownInputEKF(system.A, system.C, system.time,
                               Q_w=system.eta_w**2 / (system.n_w + 2) * np.eye(system.n_w),
                               R_v=max(system.eta_v, 1e-6) ** 2 / (system.l + 2) * np.eye(system.l),
                               Q_d=max(float(q_d), 1e-12) * np.eye(system.p), phi=phi,
                               phi_jacobian=_jacobian_fd(phi, n), B=system.B, D=system.D, G=system.G, H=system.H,
-                              W=system.W)
+                              W=system.W, P0=P0)
         ekf_note = f"Q_d = {q_d:.4g} I (d modelled as white noise)"
     except NlobsError as exc:
         ekf, ekf_note = None, f"EKF diverged before its first step (not set up): {exc}"
-    P0 = max(system.delta0, 1e-6) ** 2 / (n + 2) * np.eye(n)
     return PointBaselines(lip, note, ekf, P0, ekf_note)
 
 
@@ -598,28 +586,13 @@ def run_baselines(baselines: PointBaselines, system: DiscreteUISystem, y: Array)
     """
     B, K1, _ = y.shape
     x0 = np.broadcast_to(system.x0, (B, system.n))
+    t = np.arange(K1) * system.time.dt
     lip = None
     if baselines.lipschitz is not None:
-        lip = np.empty((B, K1, system.n))
-        z = baselines.lipschitz.init(x0)
-        for k in range(K1):
-            lip[:, k] = baselines.lipschitz.estimate(z)
-            if k < K1 - 1:
-                z = baselines.lipschitz.step(z, None, y[:, k])
+        lip = run_observer(baselines.lipschitz, t, x_hat0=x0, y=y, divergence="keep").x_hat
     if baselines.ekf is None:
         return lip, None
-    ekf = np.empty((B, K1, system.n))
-    s = baselines.ekf.init(x0, baselines.ekf_P0)
-    for k in range(K1):
-        ekf[:, k] = s.x
-        if k < K1 - 1:
-            try:
-                s = baselines.ekf.step(s, None, y[:, k])
-            except np.linalg.LinAlgError as exc:
-                err = SimulationDiverged(float(k * system.time.dt), "observer", "EKF covariance")
-                err.args = (f"EKF diverged at step {k} ({exc}: its covariance is no longer finite/invertible)",)
-                raise err from None
-    return lip, ekf
+    return lip, run_observer(baselines.ekf, t, x_hat0=x0, y=y, divergence="keep").x_hat
 
 
 @dataclass(frozen=True)
@@ -629,8 +602,8 @@ class MonteCarloStudy:
     Attributes
     ----------
     containment : ContainmentResult
-    batch : Batch
-        The runs themselves (for plots).
+    batch : SimulationResult
+        The runs themselves (of :func:`simulate_batch`, for plots).
     final_error_state : float
         ``max_runs ‖x_K − x̂_{K|K}‖`` of the set-valued observer.
     baseline_lipschitz_final_error, baseline_ekf_final_error : float or None
@@ -644,7 +617,7 @@ class MonteCarloStudy:
     """
 
     containment: ContainmentResult
-    batch: Batch = field(repr=False)
+    batch: SimulationResult = field(repr=False)
     final_error_state: float
     baseline_lipschitz_final_error: float | None
     baseline_ekf_final_error: float | None
@@ -687,12 +660,12 @@ def monte_carlo(system: DiscreteUISystem, design: SetValuedDesign, unknown_input
     MonteCarloStudy
     """
     batch = simulate_batch(system, design, unknown_input, runs=runs, steps=steps, seed=seed)
-    res = containment_of(batch, label, box=box)
+    res = containment_of(batch, label, system=system, gain=design, box=box)
     fe = float(res.errors[:, -1].max())
     if baselines is False:
         return MonteCarloStudy(res, batch, fe, None, None, None, None, None)
     pb = baselines if isinstance(baselines, PointBaselines) else point_baselines(
-        system, q_d=(float(np.mean(batch.d[0] ** 2)) if system.p else 0.0) if q_d is None else q_d, box=box,
+        system, q_d=(float(np.mean(batch.extras["d"][0] ** 2)) if system.p else 0.0) if q_d is None else q_d, box=box,
         seed=seed)
     failure = None if pb.ekf is not None else pb.ekf_note
     with np.errstate(over="ignore", invalid="ignore"):
@@ -770,7 +743,7 @@ def plot_study(study: MonteCarloStudy, path: str | Path, *, title: str = "", dt:
     ax.set_title(title)
     ax.legend(fontsize=7)
     b = study.batch
-    de = np.linalg.norm(b.d[:, :-1] - b.run.d_hat, axis=-1)
+    de = np.linalg.norm(b.extras["d"][:, :-1] - input_estimates(b), axis=-1)
     axd.fill_between(t[:-1], de.min(axis=0), de.max(axis=0), color="C0", alpha=0.25, label="input error range")
     axd.plot(t[:-1], res.radii.input, "C0--", lw=2, label="input radius δᵈ_{k−1}")
     axd.set_yscale("log")
@@ -780,15 +753,16 @@ def plot_study(study: MonteCarloStudy, path: str | Path, *, title: str = "", dt:
     return save_figure(fig, path)
 
 
-def plot_trajectories(batch: Batch, path: str | Path, *, run: int = 0, title: str = "") -> Path:
+def plot_trajectories(batch: SimulationResult, path: str | Path, *, run: int = 0, title: str = "") -> Path:
     """States, unknown inputs, their estimates and the balls over time for one run (like seed 004, Figs. 2-5).
 
     The ball ``‖x − x̂‖ ≤ δˣ`` is drawn per component as the interval ``x̂ᵢ ± δˣ`` (a projection of the ball).
     """
     from matplotlib.figure import Figure
 
-    x, xh, rad = batch.x[run], batch.run.x_hat[run], batch.run.radii
-    n, p = x.shape[1], batch.d.shape[2]
+    x, xh, rad = batch.x[run], batch.x_hat[run], radii_of(batch)
+    d_all, dh_all = batch.extras["d"], input_estimates(batch)
+    n, p = x.shape[1], d_all.shape[2]
     t = batch.t
     fig = Figure(figsize=(9.0, 2.0 * (n + p) + 0.5), layout="constrained")
     for i in range(n):
@@ -805,12 +779,12 @@ def plot_trajectories(batch: Batch, path: str | Path, *, run: int = 0, title: st
             ax.set_title(title)
     for j in range(p):
         ax = fig.add_subplot(n + p, 1, n + j + 1)
-        dh = batch.run.d_hat[run, :, j]
+        dh = dh_all[run, :, j]
         if rad is not None:
             ax.fill_between(t[:-1], dh - rad.input, dh + rad.input, color="C1", alpha=0.15, label="d̂ ± δᵈ")
-        ax.plot(t[:-1], batch.d[run, :-1, j], "k", lw=1.2, label=f"d{j + 1}")
+        ax.plot(t[:-1], d_all[run, :-1, j], "k", lw=1.2, label=f"d{j + 1}")
         ax.plot(t[:-1], dh, "C1--", lw=1.0, label=f"d̂{j + 1}")
-        ax.set_ylim(*_limits(batch.d[run, :-1, j], dh))
+        ax.set_ylim(*_limits(d_all[run, :-1, j], dh))
         ax.legend(fontsize=7, loc="upper right")
     ax.set_xlabel("t [s]")
     return save_figure(fig, path)
@@ -895,22 +869,51 @@ def adversarial_noise(system: DiscreteUISystem, design: SetValuedDesign, steps: 
     return w, v, best
 
 
-def naive_point_observer(system: DiscreteUISystem, L: NDArray[np.float64], y: Array,
-                         x0_hat: Array | None = None) -> Array:
-    """A point observer that ignores the unknown input: ``x̂⁺ = f(x̂)``, ``x̂ ← x̂⁺ + L(y − Cx̂⁺)``.
+@dataclass(frozen=True, eq=False)
+class NaivePointObserver:
+    """A point observer that ignores the unknown input: ``x̂⁺ = f(x̂)`` (``rhs``), ``x̂ ← x̂⁺ + L(y − Cx̂⁺)`` (``correct``).
 
     A baseline for Sec. 6.2's claim (an observer that treats ``d`` as absent or bounded); not the
-    paper's benchmark observers [8], [10]. ``y``: ``(B, K + 1, l)``; returns ``(B, K + 1, n)``.
+    paper's benchmark observers [8], [10]. A discrete-time correcting observer whose state is the pair
+    ``(x̂, predicted)``: the measurement at step 0 is not used (``x̂_0`` is the given estimate).
     """
+
+    system: DiscreteUISystem
+    L: Array
+    name: str = "naive point observer"
+
+    @property
+    def time(self) -> Discrete:
+        return self.system.time
+
+    @property
+    def n_x(self) -> int:
+        return self.system.n
+
+    def init(self, x_hat0: Array) -> tuple[Array, bool]:
+        return np.array(x_hat0, dtype=float), False
+
+    def rhs(self, t: float, z: tuple[Array, bool], u: Array, y: Array) -> tuple[Array, bool]:
+        return self.system.f(z[0]), True
+
+    def correct(self, t: float, z: tuple[Array, bool], u: Array, y: Array, fresh: NDArray[np.bool_]) -> tuple[Array, bool]:
+        xp, predicted = z
+        if not predicted:
+            return z
+        return xp + (y - xp @ self.system.C.T) @ np.asarray(self.L).T, False
+
+    def estimate(self, z: tuple[Array, bool]) -> Array:
+        return z[0]
+
+
+def naive_point_observer(system: DiscreteUISystem, L: NDArray[np.float64], y: Array,
+                         x0_hat: Array | None = None) -> Array:
+    """Estimates ``(B, K + 1, n)`` of :class:`NaivePointObserver` on ``y`` ``(B, K + 1, l)`` (a run_observer call)."""
     B, K1, _ = y.shape
     xh = np.broadcast_to(system.x0 if x0_hat is None else x0_hat, (B, system.n)).copy()
-    out = np.empty((B, K1, system.n))
-    out[:, 0] = xh
-    for k in range(1, K1):
-        xp = system.f(xh)
-        xh = xp + (y[:, k] - xp @ system.C.T) @ np.asarray(L).T
-        out[:, k] = xh
-    return out
+    t = np.arange(K1) * system.time.dt
+    return run_observer(NaivePointObserver(system, np.asarray(L, dtype=float)), t, x_hat0=xh, y=y,
+                        divergence="keep").x_hat
 
 
 # --------------------------------------------------------------------------- reproduction table

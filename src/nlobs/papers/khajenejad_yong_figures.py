@@ -30,7 +30,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from nlobs.papers.khajenejad_yong import (
-    Batch,
     ContainmentResult,
     MonteCarloStudy,
     PaperExample,
@@ -43,7 +42,14 @@ from nlobs.papers.khajenejad_yong import (
     save_figure,
     simulate_batch,
 )
-from nlobs.observers.setvalued import run_setvalued
+from nlobs.simulate.result import SimulationResult
+from nlobs.simulate.setvalued import (
+    input_containment,
+    input_estimates,
+    radii_of,
+    run_setvalued,
+    state_containment,
+)
 from nlobs.synthesis.affine_abstraction import affine_abstraction
 from nlobs.synthesis.setvalued import SetValuedDesign, design_setvalued
 from nlobs.systems.discrete_ui import DiscreteUISystem, Lipschitz
@@ -113,11 +119,12 @@ def _d62_growing(t: Array) -> Array:
 # --------------------------------------------------------------------------- Figs. 2 and 3
 
 
-def _state_panels(fig: object, batch: Batch, others: Mapping[str, tuple[Array, Array | None]], run: int,
+def _state_panels(fig: object, batch: SimulationResult, others: Mapping[str, tuple[Array, Array | None]], run: int,
                   ball_label: str, title: str) -> None:
     """States and inputs of one run: truth, set-valued centre and ball, other estimates."""
-    x, xh, rad = batch.x[run], batch.run.x_hat[run], batch.run.radii
-    n, p = x.shape[1], batch.d.shape[2]
+    x, xh, rad = batch.x[run], batch.x_hat[run], radii_of(batch)
+    d_all, dh_all = batch.extras["d"], input_estimates(batch)
+    n, p = x.shape[1], d_all.shape[2]
     t = batch.t
     cols = ("C3", "C2", "C4", "C5")
     for i in range(n):
@@ -137,16 +144,16 @@ def _state_panels(fig: object, batch: Batch, others: Mapping[str, tuple[Array, A
             ax.set_title(title, fontsize=9)
     for j in range(p):
         ax = fig.add_subplot(n + p, 1, n + j + 1)  # type: ignore[attr-defined]
-        dh = batch.run.d_hat[run, :, j]
+        dh = dh_all[run, :, j]
         if rad is not None:
             ax.fill_between(t[:-1], dh - rad.input, dh + rad.input, color="C1", alpha=0.12,
                             label=f"{ball_label}: d̂ ± δᵈ")
-        ax.plot(t[:-1], batch.d[run, :-1, j], "k", lw=1.3, label=f"d{j + 1}")
+        ax.plot(t[:-1], d_all[run, :-1, j], "k", lw=1.3, label=f"d{j + 1}")
         ax.plot(t[:-1], dh, "C1--", lw=1.0, label=f"{ball_label} estimate of d")
         for (name, (_, do)), c in zip(others.items(), cols):
             if do is not None:
                 ax.plot(t[:-1], do[run, :, j], color=c, lw=0.9, ls=":", label=name)
-        ax.set_ylim(*_limits(batch.d[run, :-1, j], dh))
+        ax.set_ylim(*_limits(d_all[run, :-1, j], dh))
         ax.legend(fontsize=6, loc="upper left", ncol=2)
         ax.set_xlabel("t [s]" if batch.t[1] != 1.0 else "step k")
 
@@ -169,14 +176,16 @@ def fig_61_states(out: str | Path, *, steps: int = 300, seed: int = 0) -> Figure
     d0 = design_setvalued(ex0.system)
     r0 = run_setvalued(ex0.system, d0, b.y)
     fig = Figure(figsize=(9.0, 11.0), layout="constrained")
-    _state_panels(fig, b, {"Class 0 (nlobs's structured multiplier) estimate": (r0.x_hat, r0.d_hat)}, 0,
+    _state_panels(fig, b, {"Class 0 (nlobs's structured multiplier) estimate": (r0.x_hat, input_estimates(r0))}, 0,
                   "Class II (sound)", "Example 6.1 as printed: states, d, set-valued estimates and balls "
                   "(Class II, Lemma 2.14 γ); d = 5 sin 2t + 2·1[t ≥ 1] is nlobs's choice")
     path = save_figure(fig, Path(out))
-    c = containment_of(b)
+    c = containment_of(b, system=ex.system, gain=d2)
+    r0_radii = radii_of(r0)
+    assert r0_radii is not None  # a design's run carries its sound radii
     return FigureResult(path, {"rate_state": c.rate_state, "rate_input": c.rate_input,
                                "final_radius_state_II": c.final_radius_state,
-                               "final_radius_state_0_structured": float(r0.radii.state[-1])})
+                               "final_radius_state_0_structured": float(r0_radii.state[-1])})
 
 
 def fig_61_errors(out: str | Path, *, runs: int = 200, steps: int = 300, seed: int = 0) -> FigureResult:
@@ -184,9 +193,9 @@ def fig_61_errors(out: str | Path, *, runs: int = 200, steps: int = 300, seed: i
     res: list[ContainmentResult] = []
     for cls, label in (("II", "Class II (Lemma 2.14 γ)"), ("0-structured", "Class 0, nlobs's structured M")):
         ex = example_61(cls)
-        b = simulate_batch(ex.system, design_setvalued(ex.system), ex.unknown_input, runs=runs, steps=steps,
-                           seed=seed)
-        res.append(containment_of(b, label))
+        dsg = design_setvalued(ex.system)
+        b = simulate_batch(ex.system, dsg, ex.unknown_input, runs=runs, steps=steps, seed=seed)
+        res.append(containment_of(b, label, system=ex.system, gain=dsg))
     path = plot_errors_vs_radii(tuple(res), Path(out), title=f"Example 6.1: errors and sound radii, {runs} runs\n"
                                 "(printed Class I / Class 0 multipliers: no certified design)",
                                 dt=0.01, log=True)
@@ -273,7 +282,7 @@ def _boxplots(study: MonteCarloStudy, path: Path, title: str, marks: list[int]) 
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=7, loc="upper left")
     b = study.batch
-    de = np.linalg.norm(b.d[:, :-1] - b.run.d_hat, axis=-1)
+    de = np.linalg.norm(b.extras["d"][:, :-1] - input_estimates(b), axis=-1)
     dm = [max(k - 1, 0) for k in marks]
     axd.boxplot([np.maximum(de[:, k], 1e-12) for k in dm], positions=np.arange(len(marks)), widths=0.4)
     axd.plot(np.arange(len(marks)), [res.radii.input[k] for k in dm], "C1_", ms=18, mew=2.5,
@@ -401,14 +410,16 @@ def fig_affine_output(out: str | Path, *, runs: int = 200, steps: int = 150, see
     x, _ = s.simulate(x0, d, w, np.zeros((runs, K + 1, 2)))
     y = _mu(x) + v - ab.e  # the true nonlinear measurement, shifted by the abstraction's offset
     run = run_setvalued(s, design, y)
-    inside = run.contains_state(x).all(axis=1)
-    inside_d = run.contains_input(d[:, :-1]).all(axis=1)
+    inside = state_containment(run, x).all(axis=1)
+    inside_d = input_containment(run, d[:, :-1]).all(axis=1)
+    run_radii = radii_of(run)
+    assert run_radii is not None
     in_box = np.all((x >= lo) & (x <= hi), axis=(1, 2))
     err = np.linalg.norm(x - run.x_hat, axis=-1)
     fig = Figure(figsize=(8.0, 6.0), layout="constrained")
     ax = fig.add_subplot(2, 1, 1)
     ax.fill_between(t, err.min(axis=0), err.max(axis=0), color="C0", alpha=0.25, label=f"error range, {runs} runs")
-    ax.plot(t, run.radii.state, "C0--", lw=2, label="radius δˣ_k (η_v + ‖η‖ from Prop. 2.18)")
+    ax.plot(t, run_radii.state, "C0--", lw=2, label="radius δˣ_k (η_v + ‖η‖ from Prop. 2.18)")
     ax.set_yscale("log")
     ax.set_ylabel("‖x_k − x̂_k‖")
     ax.set_title(f"{s.name}: η = {np.array2string(ab.residual_bound, precision=4)}, "
@@ -425,7 +436,7 @@ def fig_affine_output(out: str | Path, *, runs: int = 200, steps: int = 150, see
     ax2.legend(fontsize=7)
     path = save_figure(fig, Path(out))
     return AffineOutputResult(tuple(float(v) for v in ab.residual_bound), float(s.eta_v), float(inside.mean()),
-                              float(inside_d.mean()), float(in_box.mean()), float(run.radii.state[-1]), path)
+                              float(inside_d.mean()), float(in_box.mean()), float(run_radii.state[-1]), path)
 
 
 def make_figures(out_dir: str | Path) -> dict[str, object]:

@@ -27,9 +27,10 @@ one stops the run with :class:`~nlobs.errors.SimulationDiverged` naming its time
 
 from __future__ import annotations
 
+import math
 import time as _time
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -93,6 +94,7 @@ def run_observer(
     save_every: int = 1,
     progress: bool | None = None,
     grid_rtol: float = 1e-6,
+    divergence: Literal["raise", "keep"] = "raise",
 ) -> SimulationResult:
     """Run an observer on recorded data (module docstring), for one or a batch of runs.
 
@@ -124,6 +126,11 @@ def run_observer(
         Progress bar on stderr: ``True`` always, ``False`` never, ``None`` automatically for long runs.
     grid_rtol : float
         Tolerance, relative to the grid step, for sample times and for a discrete observer's ``dt``.
+    divergence : {"raise", "keep"}
+        ``"raise"`` (default): a non-finite estimate stops the run with
+        :class:`~nlobs.errors.SimulationDiverged`; ``"keep"``: the run goes on and the non-finite
+        values are kept (a baseline in a Monte Carlo comparison that may blow up);
+        ``info["diverged_at"]`` is then the first time with a non-finite estimate (NaN if none).
 
     Returns
     -------
@@ -265,8 +272,12 @@ def run_observer(
         k4 = f(tk + hk, tree_map(lambda a, b: a + hk * b, z, k3), u_k, y_held)
         return tree_map(lambda a, b1, b2, b3, b4: a + (hk / 6.0) * (b1 + 2.0 * b2 + 2.0 * b3 + b4), z, k1, k2, k3, k4)
 
+    if divergence not in ("raise", "keep"):
+        raise InvalidArgumentError(f"divergence: expected 'raise' or 'keep', got {divergence!r}")
+    diverged_at = math.nan
+
     def check(upto: int) -> None:
-        nonlocal checked
+        nonlocal checked, diverged_at
         if upto < checked:
             return
         block = rec[checked:upto + 1]
@@ -274,7 +285,11 @@ def run_observer(
         if not ok.all():
             r = int(np.argmin(ok.all(axis=1)))
             j = int(np.argmin(ok[r]))
-            raise SimulationDiverged(float(grid[save_steps[checked + r]]), label, names[j] if j < len(names) else str(j))
+            when = float(grid[save_steps[checked + r]])
+            if divergence == "raise":
+                raise SimulationDiverged(when, label, names[j] if j < len(names) else str(j))
+            if math.isnan(diverged_at):
+                diverged_at = when
         checked = upto + 1
 
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"), Progress(K, progress, label) as bar:
@@ -339,5 +354,5 @@ def run_observer(
         observer=label,
         extras=out_extras,
         info={"cost_per_step_us": observer_s / K / max(n_runs, 1) * 1e6, "observer_s": observer_s,
-              "wall_s": perf() - wall, "missing": missing_run, "samples": int(G)},
+              "wall_s": perf() - wall, "missing": missing_run, "samples": int(G), "diverged_at": diverged_at},
     )

@@ -1,170 +1,38 @@
-r"""Point observers a user would compare the seed-004 set-valued observer against (its Sec. 6.2).
+r"""Kalman filters: the Gaussian state, the one Joseph-form update, and the unknown-input EKF baseline.
 
-Plant (seed 004, (8), with ``f(x) = A x + φ(x)``):
-
-.. math::
-
-    x_{k+1} = A x_k + \varphi(x_k) + B u_k + G d_k + W w_k, \qquad
-    y_k = C x_k + D u_k + H d_k + v_k .
-
-Both baselines treat the unknown input ``d`` as something bounded or random, which is what
-the set-valued observer does *not* assume (``docs/baselines.md``):
-
-* :class:`DiscreteLipschitzObserver` — ``x̂_{k+1} = A x̂_k + φ(x̂_k) + B u_k + L (y_k − C x̂_k − D u_k)``
-  with ``L`` from :func:`nlobs.synthesis.discrete_lipschitz.design_discrete_lipschitz_gain`;
-  it ignores ``d``, so its error obeys
-  ``e_{k+1} = (A − LC) e_k + Δφ_k + (G − LH) d_k + W w_k − L v_k``: bounded for bounded ``d``,
-  growing with a growing ``d``.
-* :class:`UnknownInputEKF` — an extended Kalman filter that models ``d`` as zero-mean white
-  noise of covariance ``Q_d`` (so ``G d`` is process noise and ``H d`` measurement noise,
-  correlated through ``S = G Q_d Hᵀ``), with a Joseph-form update.
-
-Conventions: explicit state in and out; every array has a leading batch axis (Monte
-Carlo), ``x`` of shape ``(..., n)``, ``u`` ``(..., m)``, ``y`` ``(..., l)``, covariances
-``(..., n, n)``. The estimate after processing ``y_0 … y_{k−1}`` is the state at ``k``
-(predictor form, like the set-valued observer's ``x̂_{k|k−1}``); the EKF also gives the
-filtered ``x̂_{k|k}`` (:meth:`UnknownInputEKF.update`).
+:class:`UnknownInputEKF` is an extended Kalman filter for the plant (8) of Khajenejad & Yong that models
+the unknown input ``d`` as zero-mean white noise of covariance ``Q_d`` (so ``G d`` is process noise and
+``H d`` measurement noise, correlated through ``S = G Q_d Hᵀ``): what a user would compare the
+set-valued observer against (``docs/baselines.md``). A discrete-time
+:class:`~nlobs.observers.base.Observer` whose state is a :class:`GaussianState`; ``rhs`` is one
+update with ``y_k`` followed by one prediction, so the estimate at ``k`` is the prior ``x̂_{k|k−1}``
+(predictor form, like the Lipschitz baseline); :meth:`UnknownInputEKF.update` and
+:meth:`UnknownInputEKF.predict` are the two halves, as functions of the state (filterpy's
+procedural form).
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import cast
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from nlobs._typing import Array
 from nlobs._validate import as_batch, as_matrix, as_square, as_symmetric, readonly
-from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError
+from nlobs.errors import DimensionError, InvalidArgumentError, SimulationDiverged
+from nlobs.observers.lipschitz import BatchedMap, _finite_batch, _optional, _phi_values
 from nlobs.systems.timebase import Discrete
 
-__all__ = ["DiscreteLipschitzObserver", "EkfState", "UnknownInputEKF", "joseph_update"]
-
-Array = NDArray[np.float64]
-BatchedMap = Callable[[Array], Array]
-
-
-
-def _optional(name: str, value: ArrayLike | None, rows: int, cols: int | None) -> Array:
-    if value is None:
-        return np.zeros((rows, 0 if cols is None else cols))
-    return as_matrix(name, value, (rows, cols))
-
-
-def _finite_batch(name: str, value: ArrayLike | None, n: int) -> Array:
-    if value is None:
-        if n == 0:
-            return np.zeros((0,))
-        raise DimensionError(f"{name}: required (shape (..., {n}))")
-    arr = np.asarray(value, dtype=float)
-    if arr.ndim == 0 or arr.shape[-1] != n:
-        raise DimensionError(f"{name}: expected shape (..., {n}), got {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        idx = tuple(int(i) for i in np.argwhere(~np.isfinite(arr))[0])
-        raise NonFiniteError(f"{name}: entry {idx} is {float(arr[idx])!r}; measurements and inputs must be finite "
-                             "(drop or hold a missing sample before calling step)")
-    return arr
-
-
-def _phi_values(phi: BatchedMap | None, x: Array, n: int) -> Array:
-    if phi is None:
-        return np.zeros_like(x)
-    out = np.asarray(phi(x), dtype=float)
-    if out.shape != x.shape:
-        raise DimensionError(f"phi: returned shape {out.shape} for x of shape {x.shape}; expected (..., {n})")
-    return out
-
-
-@dataclass(frozen=True, eq=False)
-class DiscreteLipschitzObserver:
-    r"""Lipschitz point observer ``x̂⁺ = A x̂ + φ(x̂) + B u + L (y − C x̂ − D u)`` (ignores ``d``).
-
-    Parameters
-    ----------
-    A : array_like, shape (n, n)
-        Linear part of ``f``.
-    C : array_like, shape (l, n)
-    L : array_like, shape (n, l)
-        Gain, e.g. ``design_discrete_lipschitz_gain(A, C, lipschitz=γ).L`` (its certificate
-        gives ``‖e_k‖ ≤ √κ(P) ρᵏ ‖e_0‖`` for ``d = w = v = 0``).
-    time : Discrete
-        Sampling period of the model (required, never defaulted).
-    phi : callable, optional
-        Batched nonlinear part ``φ: (..., n) → (..., n)`` (``None``: linear plant).
-    B : array_like, shape (n, m), optional
-    D : array_like, shape (l, m), optional
-
-    Notes
-    -----
-    Satisfies :class:`nlobs.observers.base.Observer` (``rhs`` is the discrete step).
-    """
-
-    A: Array
-    C: Array
-    L: Array
-    time: Discrete
-    phi: BatchedMap | None = None
-    B: Array | None = None
-    D: Array | None = None
-    state_names: tuple[str, ...] = field(init=False)
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.time, Discrete):
-            raise InvalidArgumentError(f"time: expected a Discrete time base, got {self.time!r}")
-        A = as_square("A", self.A)
-        n = A.shape[0]
-        C = as_matrix("C", self.C, (None, n))
-        L = as_matrix("L", self.L, (n, C.shape[0]))
-        B = _optional("B", self.B, n, None)
-        D = _optional("D", self.D, C.shape[0], B.shape[1])
-        if self.phi is not None and not callable(self.phi):
-            raise InvalidArgumentError("phi: expected a batched callable (..., n) -> (..., n) or None")
-        for name, val in (("A", A), ("C", C), ("L", L), ("B", B), ("D", D)):
-            object.__setattr__(self, name, readonly(val))
-        object.__setattr__(self, "state_names", tuple(f"x{i + 1}_hat" for i in range(n)))
-
-    @property
-    def n_z(self) -> int:
-        """Observer state dimension (``n``)."""
-        return int(self.A.shape[0])
-
-    @property
-    def n_x(self) -> int:
-        """Estimate dimension (``n``)."""
-        return int(self.A.shape[0])
-
-    @property
-    def error_matrix(self) -> Array:
-        """``A − L C``, the linear part of the error dynamics."""
-        return self.A - self.L @ self.C
-
-    def init(self, x_hat0: ArrayLike) -> Array:
-        """Observer state from the initial estimate, shape ``(..., n)``."""
-        return np.array(as_batch("x_hat0", x_hat0, self.n_z), dtype=float)
-
-    def step(self, z: Array, u: ArrayLike | None, y: ArrayLike) -> Array:
-        """``x̂_{k+1}`` from ``x̂_k``, ``u_k`` and ``y_k`` (batched)."""
-        B, D = cast(Array, self.B), cast(Array, self.D)   # matrices after __post_init__
-        uu = _finite_batch("u", u, B.shape[1])
-        yy = _finite_batch("y", y, self.C.shape[0])
-        innovation = yy - z @ self.C.T - uu @ D.T
-        return z @ self.A.T + _phi_values(self.phi, z, self.n_z) + uu @ B.T + innovation @ self.L.T
-
-    def rhs(self, t: float, z: Array, u: Array, y: Array) -> Array:
-        """:meth:`step` under the :class:`~nlobs.observers.base.Observer` protocol (``z⁺``)."""
-        return self.step(z, u, y)
-
-    def estimate(self, z: Array) -> Array:
-        """The estimate is the observer state."""
-        return z
+__all__ = ["GaussianState", "UnknownInputEKF", "joseph_update"]
 
 
 @dataclass(frozen=True)
-class EkfState:
-    """EKF state at step ``k``: mean ``x`` ``(..., n)`` and covariance ``P`` ``(..., n, n)``.
+class GaussianState:
+    """A Kalman filter's state: mean ``x`` ``(..., n)`` and covariance ``P`` ``(..., n, n)``.
 
-    After :meth:`UnknownInputEKF.init` or :meth:`UnknownInputEKF.step` these are the
+    After :meth:`UnknownInputEKF.init` or :meth:`UnknownInputEKF.rhs` these are the
     prior ``x̂_{k|k−1}``, ``P_{k|k−1}``; after :meth:`UnknownInputEKF.update` the
     posterior ``x̂_{k|k}``, ``P_{k|k}``.
     """
@@ -235,6 +103,10 @@ class UnknownInputEKF:
         or neither).
     B, D, G, H, W : array_like, optional
         ``(n, m)``, ``(l, m)``, ``(n, p)``, ``(l, p)``, ``(n, n_w)`` (``W`` default ``I``).
+    P0 : array_like, shape (n, n), optional
+        Initial covariance used by :meth:`init` (the protocol's ``init(x_hat0)``); required there.
+    name : str
+        Label of the filter in results.
     """
 
     A: Array
@@ -250,6 +122,8 @@ class UnknownInputEKF:
     G: Array | None = None
     H: Array | None = None
     W: Array | None = None
+    P0: Array | None = None
+    name: str = "EKF (d as noise)"
     Q: Array = field(init=False)
     R: Array = field(init=False)
     S: Array = field(init=False)
@@ -293,13 +167,29 @@ class UnknownInputEKF:
                           ("R_v", R_v), ("Q_d", Q_d), ("Q", 0.5 * (Q + Q.T)), ("R", 0.5 * (R + R.T)), ("S", S),
                           ("J", J)):
             object.__setattr__(self, name, readonly(val))
+        if self.P0 is not None:
+            P0 = as_symmetric("P0", self.P0, n)
+            if np.linalg.eigvalsh(P0)[0] < 0:
+                raise InvalidArgumentError("P0: must be positive semi-definite")
+            object.__setattr__(self, "P0", readonly(P0))
+
+    @property
+    def n_x(self) -> int:
+        """Estimate dimension (``n``)."""
+        return int(self.A.shape[0])
 
     @property
     def n(self) -> int:
         """State dimension."""
         return int(self.A.shape[0])
 
-    def init(self, x_hat0: ArrayLike, P0: ArrayLike) -> EkfState:
+    def init(self, x_hat0: ArrayLike) -> GaussianState:
+        """Prior at ``k = 0``: mean ``x_hat0`` ``(..., n)`` and the covariance :attr:`P0` (protocol form)."""
+        if self.P0 is None:
+            raise InvalidArgumentError("P0: this filter has no initial covariance; give P0= or use init_state")
+        return self.init_state(x_hat0, self.P0)
+
+    def init_state(self, x_hat0: ArrayLike, P0: ArrayLike) -> GaussianState:
         """Prior at ``k = 0``: mean ``x_hat0`` ``(..., n)`` and covariance ``P0`` ``(n, n)`` or ``(..., n, n)``."""
         x = np.array(as_batch("x_hat0", x_hat0, self.n), dtype=float)
         P = np.asarray(P0, dtype=float)
@@ -308,8 +198,8 @@ class UnknownInputEKF:
         if P.ndim == 2:
             P = as_symmetric("P0", P, self.n)
         batch = np.broadcast_shapes(x.shape[:-1], P.shape[:-2])
-        return EkfState(x=np.broadcast_to(x, batch + (self.n,)).copy(),
-                        P=np.broadcast_to(P, batch + (self.n, self.n)).copy())
+        return GaussianState(x=np.broadcast_to(x, batch + (self.n,)).copy(),
+                             P=np.broadcast_to(P, batch + (self.n, self.n)).copy())
 
     def _innovation(self, x: Array, u: Array, y: Array) -> Array:
         return y - x @ self.C.T - u @ cast(Array, self.D).T
@@ -318,13 +208,13 @@ class UnknownInputEKF:
         return (_finite_batch("u", u, cast(Array, self.B).shape[1]),
                 _finite_batch("y", y, self.C.shape[0]))
 
-    def update(self, state: EkfState, u: ArrayLike | None, y: ArrayLike) -> EkfState:
+    def update(self, state: GaussianState, u: ArrayLike | None, y: ArrayLike) -> GaussianState:
         """Measurement update with ``y_k`` (Joseph form): the posterior ``x̂_{k|k}``, ``P_{k|k}``."""
         uu, yy = self._inputs(u, y)
         dx, P = joseph_update(state.P, self.C, self.R, self._innovation(state.x, uu, yy))
-        return EkfState(x=state.x + dx, P=P)
+        return GaussianState(x=state.x + dx, P=P)
 
-    def predict(self, posterior: EkfState, u: ArrayLike | None, y: ArrayLike) -> EkfState:
+    def predict(self, posterior: GaussianState, u: ArrayLike | None, y: ArrayLike) -> GaussianState:
         """Time update from the posterior at ``k`` to the prior at ``k + 1`` (``y_k`` enters via ``J``)."""
         uu, yy = self._inputs(u, y)
         x = posterior.x
@@ -339,12 +229,25 @@ class UnknownInputEKF:
             x_next = x_next + self._innovation(x, uu, yy) @ self.J.T
             F = F - self.J @ self.C
         P = F @ posterior.P @ np.swapaxes(F, -1, -2) + (self.Q - self.J @ self.S.T)
-        return EkfState(x=x_next, P=0.5 * (P + np.swapaxes(P, -1, -2)))
+        return GaussianState(x=x_next, P=0.5 * (P + np.swapaxes(P, -1, -2)))
 
-    def step(self, state: EkfState, u: ArrayLike | None, y: ArrayLike) -> EkfState:
-        """Update with ``y_k`` then predict: the prior at ``k + 1`` from the prior at ``k``."""
-        return self.predict(self.update(state, u, y), u, y)
+    def rhs(self, t: float, state: GaussianState, u: ArrayLike | None, y: ArrayLike) -> GaussianState:
+        """Update with ``y_k`` then predict: the prior at ``k + 1`` from the prior at ``k`` (``z⁺``).
 
-    def estimate(self, state: EkfState) -> Array:
+        Raises
+        ------
+        SimulationDiverged
+            The innovation covariance became singular or non-finite (``LinAlgError``): the time and the
+            step are named.
+        """
+        try:
+            return self.predict(self.update(state, u, y), u, y)
+        except np.linalg.LinAlgError as exc:
+            k = int(round(t / self.time.dt))
+            err = SimulationDiverged(float(t), "observer", "EKF covariance")
+            err.args = (f"EKF diverged at step {k} ({exc}: its covariance is no longer finite/invertible)",)
+            raise err from None
+
+    def estimate(self, state: GaussianState) -> Array:
         """The mean ``x`` of ``state``."""
         return state.x
