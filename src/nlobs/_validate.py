@@ -6,6 +6,9 @@ early with a typed error naming the argument.
 
 from __future__ import annotations
 
+import keyword
+import unicodedata
+from collections import Counter
 from collections.abc import Sequence
 
 import numpy as np
@@ -123,13 +126,34 @@ def in_range(name: str, value: float, lo: float, hi: float, *, lo_open: bool = F
     return v
 
 
+def name_problem(name: object) -> str | None:
+    """Why ``name`` cannot name a state, input, output or parameter, e.g. ``"a Python keyword"`` (``None`` when it can).
+
+    A name is a Python identifier that is not a keyword and is in Unicode NFKC
+    normal form. The last condition matters because Python's parser (and so the
+    expression parser) reads an identifier through NFKC: the fullwidth ``ｘ``
+    *is* ``x`` in an expression, so a model declaring both would have a state no
+    expression can reach. Identifiers exclude control characters, ``ESC`` and
+    bidirectional overrides, so a valid name is also safe to print.
+    """
+    if not isinstance(name, str) or not name.isidentifier():
+        return "not a valid identifier"
+    if keyword.iskeyword(name):
+        return "a Python keyword"
+    norm = unicodedata.normalize("NFKC", name)
+    if norm != name:
+        return f"not in Unicode NFKC normal form: expressions read it as {norm!r}"
+    return None
+
+
 def check_names(kind: str, names: Sequence[str]) -> tuple[str, ...]:
-    """Check names are unique Python identifiers and return them as a tuple."""
+    """Check names are unique identifiers (see :func:`name_problem`) and return them as a tuple."""
     out = tuple(names)
     for nm in out:
-        if not isinstance(nm, str) or not nm.isidentifier():
-            raise ModelError(f"{kind} name {nm!r} is not a valid identifier")
-    dup = sorted({nm for nm in out if out.count(nm) > 1})
+        why = name_problem(nm)
+        if why is not None:
+            raise ModelError(f"{kind} name {nm!r} is {why}")
+    dup = sorted(nm for nm, c in Counter(out).items() if c > 1)
     if dup:
         raise ModelError(f"duplicate {kind} names: {', '.join(dup)}")
     return out
