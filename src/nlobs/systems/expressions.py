@@ -31,6 +31,12 @@ Small text must not make nlobs hang or crash, so the parser also bounds
   at once instead of being evaluated,
 * every numeric exponent, as written and after SymPy combined powers
   (``(x**999)**999`` is ``x**998001``), to :data:`MAX_EXPONENT` in magnitude.
+
+Public functions of nlobs that take SymPy expressions from a caller convert
+them with :func:`as_sympy_expr` / :func:`as_sympy_matrix`: strings are parsed by
+:func:`parse_expression` where the caller declared the names, and rejected
+otherwise, because SymPy's own constructors (``Matrix``, ``diff``, ``S``, ...)
+would hand a string to ``eval``.
 """
 
 from __future__ import annotations
@@ -38,11 +44,13 @@ from __future__ import annotations
 import ast
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
+from typing import Any
 
+import numpy as np
 import sympy as sp
 
-from nlobs.errors import ModelError
+from nlobs.errors import InvalidArgumentError, ModelError
 
 #: Functions an expression may call, with their arity.
 FUNCTIONS: Mapping[str, tuple[object, int]] = {
@@ -292,3 +300,126 @@ class _Walker:
             if size >= MAX_DIGITS:  # estimated before SymPy computes the power
                 raise self._fail(node, _out_of_range("power", size))
         return self._number(node, base**exp)
+
+
+# ---------------------------------------------------------------------- values given to the Python API
+def _leaf(name: str, value: Any, symbols: Mapping[str, sp.Symbol] | None) -> Any:
+    if isinstance(value, str):
+        if symbols is None:
+            raise InvalidArgumentError(
+                f"{name}: expected a SymPy expression, got the string {_short(value)!r}; text is not evaluated "
+                "(build the expression from sympy.Symbol objects)")
+        try:
+            return parse_expression(value, symbols)
+        except ExpressionError as exc:
+            raise ExpressionError(exc.expression, exc.offending, f"{name}: {exc.reason}") from None
+    if isinstance(value, (sp.Expr, sp.MatrixBase)):
+        return value
+    if isinstance(value, (bool, np.bool_)):
+        raise InvalidArgumentError(f"{name}: expected a SymPy expression or a number, got {value!r}")
+    if isinstance(value, (int, np.integer)):
+        return sp.Integer(int(value))
+    if isinstance(value, (float, np.floating)):
+        return sp.Float(float(value))
+    raise InvalidArgumentError(f"{name}: expected a SymPy expression or a number, got {type(value).__name__} "
+                               f"{_short(repr(value))}")
+
+
+def _is_nested(value: Any) -> bool:
+    return isinstance(value, (list, tuple, np.ndarray))
+
+
+def as_sympy_expr(name: str, value: Any, symbols: Mapping[str, sp.Symbol] | None = None) -> sp.Expr:
+    """A caller's scalar as a SymPy expression, never evaluating text.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name, for messages.
+    value : sympy.Expr, int, float or str
+        A string is parsed by :func:`parse_expression` over ``symbols``.
+    symbols : mapping of str to sympy.Symbol, optional
+        The names a string may use; without it a string is rejected.
+
+    Returns
+    -------
+    sympy.Expr
+
+    Raises
+    ------
+    InvalidArgumentError
+        If ``value`` is a string and no ``symbols`` are given, or is neither a
+        SymPy expression nor a real number.
+    ExpressionError
+        If a string does not parse.
+    """
+    out = _leaf(name, value, symbols)
+    if isinstance(out, sp.MatrixBase):
+        raise InvalidArgumentError(f"{name}: expected a scalar expression, got a matrix of shape {out.shape}")
+    return out
+
+
+def as_sympy_matrix(name: str, value: Any, symbols: Mapping[str, sp.Symbol] | None = None) -> sp.ImmutableMatrix:
+    """A caller's matrix or vector (a SymPy matrix, or nested sequences of entries) as a SymPy matrix.
+
+    A flat sequence becomes a column, as with ``sympy.Matrix``; every entry is
+    checked by :func:`as_sympy_expr` first, so no string reaches SymPy.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name, for messages (entries are named ``name[i]`` or ``name[i][j]``).
+    value : sympy.Matrix, ndarray or (nested) sequence
+    symbols : mapping of str to sympy.Symbol, optional
+        The names string entries may use; without it strings are rejected.
+
+    Returns
+    -------
+    sympy.ImmutableMatrix
+
+    Raises
+    ------
+    InvalidArgumentError
+        For a string without ``symbols``, an entry that is neither a SymPy
+        expression nor a real number, or a value that is not a matrix or sequence.
+    ExpressionError
+        If a string entry does not parse.
+    """
+    if isinstance(value, sp.MatrixBase):
+        return value.as_immutable()
+    if isinstance(value, str) or not isinstance(value, Iterable):
+        raise InvalidArgumentError(f"{name}: expected a SymPy matrix or a sequence of expressions, got "
+                                   f"{type(value).__name__} {_short(repr(value))}")
+    rows = value.tolist() if isinstance(value, np.ndarray) else list(value)
+    entries: list[Any] = []
+    for i, row in enumerate(rows):
+        if _is_nested(row):
+            cells = row.tolist() if isinstance(row, np.ndarray) else list(row)
+            entries.append([_leaf(f"{name}[{i}][{j}]", c, symbols) for j, c in enumerate(cells)])
+        else:
+            entries.append(_leaf(f"{name}[{i}]", row, symbols))
+    try:
+        return sp.ImmutableMatrix(entries)
+    except (ValueError, TypeError, IndexError) as exc:
+        raise InvalidArgumentError(f"{name}: not a matrix ({exc})") from None
+
+
+def as_symbols(name: str, value: Any) -> tuple[sp.Symbol, ...]:
+    """A caller's coordinates or argument group as a tuple of ``sympy.Symbol`` (no strings: SymPy would parse them).
+
+    Raises
+    ------
+    InvalidArgumentError
+        If ``value`` is a string or holds anything but SymPy symbols.
+    """
+    if isinstance(value, sp.MatrixBase):
+        value = list(value)
+    if isinstance(value, (str, sp.Basic)) or not isinstance(value, Iterable):
+        raise InvalidArgumentError(f"{name}: expected a sequence of sympy.Symbol, got {type(value).__name__} "
+                                   f"{_short(repr(value))}")
+    out = tuple(value)
+    for i, s in enumerate(out):
+        if not isinstance(s, sp.Symbol):
+            raise InvalidArgumentError(f"{name}[{i}]: expected a sympy.Symbol, got {type(s).__name__} "
+                                       f"{_short(repr(s))}")
+    return out
