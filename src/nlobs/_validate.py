@@ -7,6 +7,7 @@ early with a typed error naming the argument.
 from __future__ import annotations
 
 import keyword
+import re
 import unicodedata
 from collections import Counter
 from collections.abc import Sequence
@@ -124,6 +125,37 @@ def in_range(name: str, value: float, lo: float, hi: float, *, lo_open: bool = F
         interval = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
         raise InvalidArgumentError(f"{name}: must lie in {interval}, got {v!r}")
     return v
+
+
+#: Characters that must not reach a terminal from a file: C0 controls but tab and
+#: newline (``ESC`` among them), ``DEL``, C1 controls, and the Unicode bidirectional
+#: marks, embeddings, overrides and isolates (U+061C, U+200E/F, U+202A–U+202E,
+#: U+2066–U+2069) and the line/paragraph separators U+2028/U+2029.
+_UNSAFE_TEXT = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u061c\u200e\u200f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
+_UNSAFE_LINE = re.compile("[\t\n]|" + _UNSAFE_TEXT.pattern)
+
+
+def unsafe_character(text: str, *, one_line: bool = False) -> str | None:
+    """The first character of ``text`` that must not be printed raw (see :func:`escape_unsafe`), or ``None``.
+
+    With ``one_line``, tab and newline count as unsafe too.
+    """
+    m = (_UNSAFE_LINE if one_line else _UNSAFE_TEXT).search(text)
+    return m.group() if m else None
+
+
+def escape_unsafe(text: str, *, one_line: bool = False) -> str:
+    """``text`` with every control or bidirectional-override character written as ``\\xNN`` / ``\\uNNNN``.
+
+    What remains cannot move the cursor, change colours, set a terminal title or
+    reorder the displayed text. With ``one_line`` tab and newline are escaped too.
+    """
+    return (_UNSAFE_LINE if one_line else _UNSAFE_TEXT).sub(_escape_char, text)
+
+
+def _escape_char(m: re.Match[str]) -> str:
+    c = ord(m.group())
+    return f"\\x{c:02x}" if c < 0x100 else f"\\u{c:04x}"
 
 
 def name_problem(name: object) -> str | None:
