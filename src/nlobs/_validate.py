@@ -6,6 +6,10 @@ early with a typed error naming the argument.
 
 from __future__ import annotations
 
+import keyword
+import re
+import unicodedata
+from collections import Counter
 from collections.abc import Sequence
 from typing import Any
 
@@ -159,13 +163,65 @@ def in_range(name: str, value: float, lo: float, hi: float, *, lo_open: bool = F
     return v
 
 
+#: Characters that must not reach a terminal from a file: C0 controls but tab and
+#: newline (``ESC`` among them), ``DEL``, C1 controls, and the Unicode bidirectional
+#: marks, embeddings, overrides and isolates (U+061C, U+200E/F, U+202A–U+202E,
+#: U+2066–U+2069) and the line/paragraph separators U+2028/U+2029.
+_UNSAFE_TEXT = re.compile("[\x00-\x08\x0b-\x1f\x7f-\x9f\u061c\u200e\u200f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
+_UNSAFE_LINE = re.compile("[\t\n]|" + _UNSAFE_TEXT.pattern)
+
+
+def unsafe_character(text: str, *, one_line: bool = False) -> str | None:
+    """The first character of ``text`` that must not be printed raw (see :func:`escape_unsafe`), or ``None``.
+
+    With ``one_line``, tab and newline count as unsafe too.
+    """
+    m = (_UNSAFE_LINE if one_line else _UNSAFE_TEXT).search(text)
+    return m.group() if m else None
+
+
+def escape_unsafe(text: str, *, one_line: bool = False) -> str:
+    """``text`` with every control or bidirectional-override character written as ``\\xNN`` / ``\\uNNNN``.
+
+    What remains cannot move the cursor, change colours, set a terminal title or
+    reorder the displayed text. With ``one_line`` tab and newline are escaped too.
+    """
+    return (_UNSAFE_LINE if one_line else _UNSAFE_TEXT).sub(_escape_char, text)
+
+
+def _escape_char(m: re.Match[str]) -> str:
+    c = ord(m.group())
+    return f"\\x{c:02x}" if c < 0x100 else f"\\u{c:04x}"
+
+
+def name_problem(name: object) -> str | None:
+    """Why ``name`` cannot name a state, input, output or parameter, e.g. ``"a Python keyword"`` (``None`` when it can).
+
+    A name is a Python identifier that is not a keyword and is in Unicode NFKC
+    normal form. The last condition matters because Python's parser (and so the
+    expression parser) reads an identifier through NFKC: the fullwidth ``ｘ``
+    *is* ``x`` in an expression, so a model declaring both would have a state no
+    expression can reach. Identifiers exclude control characters, ``ESC`` and
+    bidirectional overrides, so a valid name is also safe to print.
+    """
+    if not isinstance(name, str) or not name.isidentifier():
+        return "not a valid identifier"
+    if keyword.iskeyword(name):
+        return "a Python keyword"
+    norm = unicodedata.normalize("NFKC", name)
+    if norm != name:
+        return f"not in Unicode NFKC normal form: expressions read it as {norm!r}"
+    return None
+
+
 def check_names(kind: str, names: Sequence[str]) -> tuple[str, ...]:
-    """Check names are unique Python identifiers and return them as a tuple."""
+    """Check names are unique identifiers (see :func:`name_problem`) and return them as a tuple."""
     out = tuple(names)
     for nm in out:
-        if not isinstance(nm, str) or not nm.isidentifier():
-            raise ModelError(f"{kind} name {nm!r} is not a valid identifier")
-    dup = sorted({nm for nm in out if out.count(nm) > 1})
+        why = name_problem(nm)
+        if why is not None:
+            raise ModelError(f"{kind} name {nm!r} is {why}")
+    dup = sorted(nm for nm, c in Counter(out).items() if c > 1)
     if dup:
         raise ModelError(f"duplicate {kind} names: {', '.join(dup)}")
     return out

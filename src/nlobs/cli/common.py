@@ -13,7 +13,9 @@ from typing import Any, NoReturn
 import numpy as np
 import typer
 from rich.console import Console
+from rich.text import Text
 
+from nlobs._validate import escape_unsafe
 from nlobs.errors import ModelFileError, NlobsError
 from nlobs.geometry.region import Box
 from nlobs.systems.modelfile import Model, load_model
@@ -23,13 +25,30 @@ EXIT_BAD_INPUT = 2
 EXIT_NO_OBSERVER = 3
 
 
+def safe_text(text: object, *, one_line: bool = False) -> str:
+    """``str(text)`` with control characters and bidirectional overrides written as ``\\xNN`` / ``\\uNNNN``.
+
+    Whatever a model file or an argument holds, the result cannot send an
+    escape sequence to the terminal. ``one_line`` escapes tab and newline too.
+    """
+    return escape_unsafe(str(text), one_line=one_line)
+
+
+class _SafeConsole(Console):
+    """A rich console that passes every string it renders (prints, table cells, titles) through :func:`safe_text`."""
+
+    def render_str(self, text: str, **kwargs: Any) -> Text:
+        return super().render_str(safe_text(text), **kwargs)
+
+
 def console() -> Console:
-    return Console(highlight=False, soft_wrap=True)
+    return _SafeConsole(highlight=False, soft_wrap=True)
 
 
 def fail(message: str, status: int = EXIT_BAD_INPUT) -> NoReturn:
-    """Print a one-line error to stderr and exit."""
-    Console(stderr=True, highlight=False, soft_wrap=True).print(f"nlobs: error: {message}", markup=False)
+    """Print a one-line error to stderr (control characters escaped) and exit."""
+    Console(stderr=True, highlight=False, soft_wrap=True).print(f"nlobs: error: {safe_text(message, one_line=True)}",
+                                                                markup=False)
     raise typer.Exit(status)
 
 

@@ -39,6 +39,7 @@ from nlobs.geometry.observability import (
 from nlobs.geometry.pinv import symbolic_pinv
 from nlobs.geometry.region import Box, format_point
 from nlobs.systems.codegen import compile_matrix
+from nlobs.systems.expressions import as_sympy_expr, as_sympy_matrix
 
 Array = NDArray[np.float64]
 
@@ -130,7 +131,8 @@ def check_full_rank(name: str, what: str, M: sp.MatrixBase, fields: AffineFields
     pts = reg.sample(samples, seed)
     det_txt = None if det is None else str(det)
     if det is not None:
-        dfn = compile_matrix(sp.Matrix([det]), (tuple(fields.x),), vector=True, what=f"det {what}")
+        dfn = compile_matrix(sp.Matrix([as_sympy_expr("det", det)]), (tuple(fields.x),), vector=True,
+                             what=f"det {what}")
         with np.errstate(all="ignore"):
             dv = dfn(pts)[:, 0]
         ok = np.isfinite(dv)
@@ -146,7 +148,7 @@ def check_full_rank(name: str, what: str, M: sp.MatrixBase, fields: AffineFields
             pt = (a + b) / 2
             return Check(name, False, "intermediate value", f"det {what} = {det_txt} changes sign on the region: {what} is singular "
                          f"at x ≈ {format_point(pt)}", tuple(map(float, pt)), 0.0, det_txt)
-    fn = compile_matrix(sp.Matrix(M), (tuple(fields.x),), what=what)
+    fn = compile_matrix(as_sympy_matrix("M", M), (tuple(fields.x),), what=what)
     sv = _sigma_min(fn, pts)
     pt, worst = _refine(fn, pts, sv, reg)
     holds = bool(worst > RANK_RTOL * max(1.0, float(np.max(sv))))
@@ -218,7 +220,7 @@ def check_involutive(
     rank = Q.shape[0]
     if rank <= 1 or rank >= fields.n:
         return Check("A5 (involutive)", True, "structural", f"Δ has rank {rank} ∈ {{1, n}}: always involutive")
-    P = sp.Matrix(symbolic_pinv(Q) if Qp is None else Qp)
+    P = sp.Matrix(symbolic_pinv(Q) if Qp is None else as_sympy_matrix("Qp", Qp))
     proj = sp.eye(fields.n) - (P * Q)
     residuals: list[sp.Matrix] = []
     pairs: list[tuple[int, int]] = []

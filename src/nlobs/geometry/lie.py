@@ -10,6 +10,10 @@ scalar function ``φ`` on an open set of ``ℝⁿ`` with coordinates ``x``::
 
 so that ``L_f dφ = d(L_f φ)`` (tested). Expressions are not simplified here:
 callers decide (``tidy`` is a cheap, exact normalisation for rational functions).
+
+Every argument must be built from SymPy objects (or numbers): a string raises
+:class:`~nlobs.errors.InvalidArgumentError`, because SymPy would evaluate it.
+Text is parsed with :func:`nlobs.systems.expressions.parse_expression`.
 """
 
 from __future__ import annotations
@@ -19,12 +23,13 @@ from collections.abc import Sequence
 import sympy as sp
 
 from nlobs.errors import DimensionError
+from nlobs.systems.expressions import as_sympy_expr, as_sympy_matrix, as_symbols
 
 Symbols = Sequence[sp.Symbol]
 
 
 def _column(name: str, v: sp.MatrixBase | Sequence[sp.Expr], n: int) -> sp.Matrix:
-    mat = sp.Matrix(v)
+    mat = sp.Matrix(as_sympy_matrix(name, v))
     if mat.shape == (1, n) and n != 1:
         mat = mat.T
     if mat.shape != (n, 1):
@@ -35,7 +40,7 @@ def _column(name: str, v: sp.MatrixBase | Sequence[sp.Expr], n: int) -> sp.Matri
 def tidy(expr: sp.Expr) -> sp.Expr:
     """A cheap exact normalisation: ``cancel`` for rational functions, ``expand`` otherwise."""
     if not isinstance(expr, sp.Basic):
-        expr = sp.Integer(expr) if isinstance(expr, int) else sp.Float(expr)
+        expr = as_sympy_expr("expr", expr)
     if expr.is_rational_function():
         return sp.cancel(expr)
     return sp.expand(expr)
@@ -55,7 +60,8 @@ def simplify_bounded(expr: sp.Expr) -> sp.Expr:
 
 def gradient(phi: sp.Expr, x: Symbols) -> sp.Matrix:
     """``dφ = ∂φ/∂x`` as a 1 × n row."""
-    return sp.Matrix([[sp.diff(phi, xi) for xi in x]])
+    phi = as_sympy_expr("phi", phi)
+    return sp.Matrix([[sp.diff(phi, xi) for xi in as_symbols("x", x)]])
 
 
 def lie_derivative(phi: sp.Expr, f: sp.MatrixBase | Sequence[sp.Expr], x: Symbols, order: int = 1) -> sp.Expr:
@@ -74,8 +80,9 @@ def lie_derivative(phi: sp.Expr, f: sp.MatrixBase | Sequence[sp.Expr], x: Symbol
     """
     if order < 0:
         raise DimensionError(f"order: expected a non-negative integer, got {order}")
+    x = as_symbols("x", x)
     fv = _column("f", f, len(x))
-    out = phi
+    out = as_sympy_expr("phi", phi)
     for _ in range(order):
         out = tidy((gradient(out, x) * fv)[0, 0])
     return out
@@ -83,9 +90,10 @@ def lie_derivative(phi: sp.Expr, f: sp.MatrixBase | Sequence[sp.Expr], x: Symbol
 
 def lie_derivatives(phi: sp.Expr, f: sp.MatrixBase | Sequence[sp.Expr], x: Symbols, count: int) -> tuple[sp.Expr, ...]:
     """``(L_f^0 φ, …, L_f^{count−1} φ)``, each computed from the previous one."""
+    x = as_symbols("x", x)
     fv = _column("f", f, len(x))
     out: list[sp.Expr] = []
-    cur = phi
+    cur = as_sympy_expr("phi", phi)
     for k in range(count):
         out.append(cur)
         if k + 1 < count:
@@ -95,6 +103,8 @@ def lie_derivatives(phi: sp.Expr, f: sp.MatrixBase | Sequence[sp.Expr], x: Symbo
 
 def lie_derivative_along_columns(phi: sp.Expr, g: sp.MatrixBase, x: Symbols) -> sp.Matrix:
     """``L_g φ = [L_{g_1} φ, …, L_{g_m} φ]`` (1 × m) for a matrix ``g`` of m vector fields (seed 002 (2.7))."""
+    x = as_symbols("x", x)
+    g = as_sympy_matrix("g", g)
     if g.shape[0] != len(x):
         raise DimensionError(f"g: expected {len(x)} rows, got shape {g.shape}")
     if g.shape[1] == 0:
@@ -104,6 +114,7 @@ def lie_derivative_along_columns(phi: sp.Expr, g: sp.MatrixBase, x: Symbols) -> 
 
 def lie_bracket(f: sp.MatrixBase | Sequence[sp.Expr], g: sp.MatrixBase | Sequence[sp.Expr], x: Symbols) -> sp.Matrix:
     """``[f, g] = (∂g/∂x) f − (∂f/∂x) g`` (seed 003, Sec. 2)."""
+    x = as_symbols("x", x)
     n = len(x)
     fv, gv = _column("f", f, n), _column("g", g, n)
     X = sp.Matrix(x)
@@ -116,8 +127,9 @@ def covector_lie_derivative(omega: sp.MatrixBase, f: sp.MatrixBase | Sequence[sp
     ``(L_f ω)ᵢ = Σⱼ fⱼ ∂ωᵢ/∂xⱼ + Σⱼ ωⱼ ∂fⱼ/∂xᵢ``; for an exact form ``ω = dφ`` it
     equals ``d(L_f φ)``.
     """
+    x = as_symbols("x", x)
     n = len(x)
-    om = sp.Matrix(omega)
+    om = sp.Matrix(as_sympy_matrix("omega", omega))
     if om.shape == (n, 1) and n != 1:
         om = om.T
     if om.shape != (1, n):

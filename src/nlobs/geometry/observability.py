@@ -36,6 +36,7 @@ from nlobs.errors import DimensionError, InvalidArgumentError, ModelError
 from nlobs.geometry.lie import lie_derivative_along_columns, lie_derivatives, tidy
 from nlobs.geometry.region import Box, ZeroTest, vanishes_on
 from nlobs.systems.brunovsky import brunovsky
+from nlobs.systems.expressions import as_sympy_matrix, as_symbols
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.systems.timebase import Continuous
 
@@ -78,6 +79,12 @@ class AffineFields:
     h: sp.ImmutableMatrix
     states: tuple[str, ...]
     outputs: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        # built directly (not by from_model), the fields may hold anything: no string may reach SymPy
+        object.__setattr__(self, "x", as_symbols("x", self.x))
+        for key in ("f", "g", "h"):
+            object.__setattr__(self, key, as_sympy_matrix(key, getattr(self, key)))
 
     @classmethod
     def from_model(cls, model: SymbolicModel, parameters: Mapping[str, float] | None = None) -> AffineFields:

@@ -14,6 +14,7 @@ import sympy as sp
 
 from nlobs.errors import DimensionError
 from nlobs.geometry.lie import simplify_bounded, tidy
+from nlobs.systems.expressions import as_sympy_expr, as_sympy_matrix
 
 
 def symbolic_pinv(Q: sp.MatrixBase) -> sp.ImmutableMatrix:
@@ -22,7 +23,7 @@ def symbolic_pinv(Q: sp.MatrixBase) -> sp.ImmutableMatrix:
     Full row rank is the caller's check (:func:`nlobs.geometry.checks.check_a1`);
     the formula is the Moore–Penrose inverse exactly when it holds.
     """
-    Qm = sp.Matrix(Q)
+    Qm = sp.Matrix(as_sympy_matrix("Q", Q))
     if Qm.shape[0] > Qm.shape[1]:
         raise DimensionError(f"Q: expected at most as many rows as columns, got shape {Qm.shape}")
     gram = (Qm * Qm.T).applyfunc(tidy)
@@ -38,6 +39,7 @@ def gain_symbols(r: Sequence[int]) -> tuple[sp.Symbol, ...]:
 def block_gain(r: Sequence[int], k: Sequence[sp.Expr | float]) -> sp.Matrix:
     """``K = blockdiag(k^1, …, k^q)`` (``Σ r_j × q``) from the stacked entries ``k``."""
     rs = [int(v) for v in r]
+    k = [as_sympy_expr(f"k[{i}]", v) for i, v in enumerate(k)]
     if len(k) != sum(rs):
         raise DimensionError(f"k: expected {sum(rs)} entries (Σ r_j), got {len(k)}")
     K = sp.zeros(sum(rs), len(rs))
@@ -55,4 +57,4 @@ def pinv_gain_field(Qp: sp.MatrixBase, r: Sequence[int], k: Sequence[sp.Expr | f
     ``k`` defaults to the symbols ``k1, k2, …``.
     """
     kk = gain_symbols(r) if k is None else tuple(k)
-    return sp.ImmutableMatrix((sp.Matrix(Qp) * block_gain(r, kk)).applyfunc(tidy))
+    return sp.ImmutableMatrix((sp.Matrix(as_sympy_matrix("Qp", Qp)) * block_gain(r, kk)).applyfunc(tidy))

@@ -21,6 +21,7 @@ from nlobs._validate import as_vector
 from nlobs.errors import InvalidArgumentError, NonFiniteError
 from nlobs.geometry.lie import simplify_bounded
 from nlobs.systems.codegen import compile_matrix
+from nlobs.systems.expressions import as_sympy_expr, as_symbols
 
 Array = NDArray[np.float64]
 
@@ -139,6 +140,7 @@ def vanishes_on(
     NonFiniteError
         If the expression is finite at none of the sampled points (no evidence either way).
     """
+    expr, x = as_sympy_expr("expr", expr), as_symbols("x", x)
     if region.n != len(x):
         raise InvalidArgumentError(f"region has dimension {region.n}, the model {len(x)}")
     if expr == 0:

@@ -87,6 +87,7 @@ from nlobs.synthesis import (
 )
 from nlobs.synthesis.lmi import Solver
 from nlobs.systems.codegen import compile_matrix
+from nlobs.systems.expressions import as_sympy_matrix
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
 
 Array = NDArray[np.float64]
@@ -119,8 +120,8 @@ def _real(mat: sp.MatrixBase) -> sp.ImmutableMatrix:
     return sp.ImmutableMatrix(mat.xreplace({s: sp.Symbol(s.name, real=True) for s in mat.free_symbols}))
 
 
-def _sym_column(name: str, value: Any, rows: int) -> sp.ImmutableMatrix:
-    mat = value if isinstance(value, sp.MatrixBase) else sp.Matrix(list(value))
+def _sym_column(name: str, value: Any, rows: int, known: Mapping[str, sp.Symbol]) -> sp.ImmutableMatrix:
+    mat = as_sympy_matrix(name, value, known)
     if mat.shape[0] == 1 and mat.shape[1] != 1:
         mat = mat.T
     if mat.shape != (rows, 1):
@@ -202,10 +203,13 @@ class NonlinearSubsystem:
             Names of ``x`` and ``z``. In ``g`` the state symbols stand for
             ``x̂`` and the output symbols for the ``z`` argument (``ẑ`` when the
             observer runs).
-        f, h, g : sequence of sympy expressions or sympy.Matrix
+        f, h, g : sequence of sympy expressions or strings, or sympy.Matrix
             ``f`` (``n_x`` entries), ``h`` (``p_z`` entries), ``g`` (``n_x``
             entries), in ``sympy.Symbol(name)`` of the states, inputs,
-            linear states and parameters (and outputs, in ``g`` only).
+            linear states and parameters (and outputs, in ``g`` only). A
+            string entry is parsed by
+            :func:`~nlobs.systems.expressions.parse_expression` over these
+            names, never evaluated.
         inputs : sequence of str
             Names of ``u`` (may be empty).
         linear_states : sequence of str, optional
@@ -226,6 +230,10 @@ class NonlinearSubsystem:
         ------
         ModelError
             Duplicate names, undeclared symbols, ``f``/``h`` using ``z``.
+        ExpressionError
+            A string entry that does not parse.
+        InvalidArgumentError
+            An entry that is neither a SymPy expression, a number nor a string.
         DimensionError
             Wrong number of entries.
         """
@@ -257,9 +265,10 @@ class NonlinearSubsystem:
                 raise NonFiniteError(f"{name}: parameter {k!r} is not finite ({val!r})")
             subs[sp.Symbol(k, real=True)] = val
         n, pz = len(X), len(Z)
-        f_ = _sym_column("f", f, n).subs(subs)
-        h_ = _sym_column("h", h, pz).subs(subs)
-        g_ = _sym_column("g", g, n).subs(subs)
+        known = {s.name: s for s in (*X, *Z, *U, *W, *subs)}
+        f_ = _sym_column("f", f, n, known).subs(subs)
+        h_ = _sym_column("h", h, pz, known).subs(subs)
+        g_ = _sym_column("g", g, n, known).subs(subs)
         base = set(X) | set(U) | set(W)
         for what, mat, allowed in (("f", f_, base), ("h", h_, base), ("g", g_, base | set(Z))):
             stray = mat.free_symbols - allowed

@@ -62,6 +62,7 @@ from nlobs.geometry import (
 from nlobs.geometry.checks import check_full_rank
 from nlobs.geometry.lie import simplify_bounded, tidy
 from nlobs.systems.codegen import BatchedFunction, compile_matrix
+from nlobs.systems.expressions import as_sympy_expr, as_sympy_matrix, as_symbols
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.systems.timebase import Continuous, TimeBase
 
@@ -241,7 +242,7 @@ def _compile_injection(fields: AffineFields, gain: sp.MatrixBase) -> BatchedFunc
     u = sp.symbols(f"_u0:{fields.m}", real=True) if fields.m else ()
     y = sp.symbols(f"_y0:{fields.q}", real=True)
     expr = sp.Matrix(fields.f) + (sp.Matrix(fields.g) * sp.Matrix(u) if fields.m else sp.zeros(fields.n, 1))
-    expr += sp.Matrix(gain) * (sp.Matrix(y) - sp.Matrix(fields.h))
+    expr += as_sympy_matrix("gain", gain) * (sp.Matrix(y) - sp.Matrix(fields.h))
     return compile_matrix(expr, (fields.x, tuple(u), tuple(y)), vector=True, what=f"{fields.name}: observer (7)")
 
 
@@ -491,6 +492,7 @@ class ByrnesIsidoriObserver(_InjectionObserver):
     @staticmethod
     def singular_set_of(det: sp.Expr, x: Sequence[sp.Symbol]) -> tuple[str, ...]:
         """The factors of ``det Φ'`` that can vanish, as equations (``"x3 = -1"`` where SymPy solves them)."""
+        det, x = as_sympy_expr("det", det), as_symbols("x", x)
         out: list[str] = []
         for fac, _ in sp.factor_list(det)[1]:
             syms = [s for s in x if s in fac.free_symbols]

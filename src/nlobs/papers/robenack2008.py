@@ -49,6 +49,7 @@ from nlobs.observers.pinv import DEFAULT_THETA, ByrnesIsidoriObserver, HighGain,
 from nlobs.simulate import MeasurementGroup, SimulationResult, simulate
 from nlobs.simulate.signals import InputLike
 from nlobs.systems.codegen import compile_matrix
+from nlobs.systems.expressions import as_sympy_matrix
 from nlobs.systems.modelfile import load_model
 from nlobs.systems.symbolic import SymbolicModel
 
@@ -93,7 +94,7 @@ def paper_formulas(F: AffineFields) -> dict[str, Any]:
 
 
 def _equal(a: sp.MatrixBase, b: sp.MatrixBase) -> bool:
-    A, B = sp.Matrix(a), sp.Matrix(b)
+    A, B = as_sympy_matrix("a", a), as_sympy_matrix("b", b)
     return A.shape == B.shape and all(sp.simplify(e) == 0 for e in (A - B))
 
 
@@ -102,7 +103,7 @@ def _spot(a: sp.MatrixBase, b: sp.MatrixBase, syms: Sequence[sp.Symbol], seed: i
     s = tuple(syms)
     pts = np.random.default_rng(seed).uniform(-3.0, 3.0, size=(count, len(s)))
     with np.errstate(all="ignore"):
-        diff = compile_matrix(sp.Matrix(a), (s,))(pts) - compile_matrix(sp.Matrix(b), (s,))(pts)
+        diff = compile_matrix(a, (s,))(pts) - compile_matrix(b, (s,))(pts)
     return float(np.nanmax(np.abs(diff)))
 
 
@@ -442,7 +443,7 @@ def simulate_pinv(
 
 # ----------------------------------------------------------------------------- reproduction table
 def _mat(M: sp.MatrixBase) -> str:
-    return str(sp.Matrix(M).tolist())
+    return str(as_sympy_matrix("M", M).tolist())
 
 
 def rows(*, duration: float = DURATION, dt: float = DT) -> list[ReproRow]:

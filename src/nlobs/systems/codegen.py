@@ -19,6 +19,7 @@ import sympy as sp
 from numpy.typing import NDArray
 
 from nlobs.errors import DimensionError, ModelError
+from nlobs.systems.expressions import as_sympy_matrix, as_symbols
 
 Array = NDArray[np.float64]
 
@@ -84,8 +85,12 @@ def compile_matrix(
     ------
     ModelError
         If ``expr`` has free symbols that are not in ``groups``.
+    InvalidArgumentError
+        If an entry of ``expr`` is a string or a group holds anything but
+        ``sympy.Symbol`` (SymPy would evaluate a string).
     """
-    mat = sp.Matrix(expr) if not isinstance(expr, sp.MatrixBase) else expr
+    mat = as_sympy_matrix(what, expr)
+    groups = [as_symbols(f"{what}: argument group {i}", grp) for i, grp in enumerate(groups)]
     if vector and mat.shape[1] != 1 and mat.shape[0] * mat.shape[1] > 0:
         raise DimensionError(f"{what}: vector=True needs a column vector, got shape {mat.shape}")
     args = [s for grp in groups for s in grp]

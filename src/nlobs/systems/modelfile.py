@@ -56,12 +56,33 @@ Matrix entries are numbers or constant expressions of the parameters
 Expressions are parsed by :mod:`nlobs.systems.expressions` (a whitelisted AST),
 never evaluated. Every error is a :class:`~nlobs.errors.ModelFileError` that
 names the file, the line and the offending text.
+
+Limits, so that a small or hostile file cannot hang nlobs or garble a terminal:
+
+* only a regular file is read (never a directory, a FIFO or a device such as
+  ``/dev/zero``; checked before and after opening, without blocking), and at
+  most :data:`MAX_FILE_BYTES` (1 MiB) of it;
+* at most :data:`MAX_NAMES` (1000) states, inputs, outputs and parameters
+  each, and at most :data:`MAX_STRINGS` (20 000) strings in the whole file
+  (names and expressions: a 1 MiB file of ``"0"`` entries would otherwise take
+  20 s to parse);
+* names are Python identifiers in Unicode NFKC normal form that are not
+  keywords (:func:`nlobs._validate.name_problem`: a fullwidth ``ｘ`` is refused
+  because expressions read it as ``x``);
+* no string in the file (``name``, ``description``, names, expressions) holds a
+  control character (``ESC`` among them) or a bidirectional override, and
+  ``name`` is one line; integers are below ``10**300``;
+* expressions obey the bounds of :mod:`nlobs.systems.expressions` (length,
+  nesting, size of numbers and exponents).
 """
 
 from __future__ import annotations
 
+import os
 import re
+import stat
 import tomllib
+from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -71,6 +92,7 @@ import numpy as np
 import sympy as sp
 from numpy.typing import NDArray
 
+from nlobs._validate import escape_unsafe, name_problem, unsafe_character
 from nlobs.errors import ModelError, ModelFileError, NlobsError
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.discrete_ui import (
@@ -94,7 +116,13 @@ _TOP_KEYS = {"name", "description", "time", "dt", "states", "inputs", "outputs",
              *_UI_TABLES}
 _DYN_KEYS = {"f", "g", "rhs", "h"}
 _LIN_KEYS = {"A", "B", "C", "D"}
-_MAX_BYTES = 5_000_000
+#: Largest model file read, in bytes (1 MiB).
+MAX_FILE_BYTES = 1 << 20
+#: Most names of each kind (states, inputs, outputs, parameters) in a model file.
+MAX_NAMES = 1000
+#: Most strings (names, expressions, ...) in a model file: each expression costs a parse.
+MAX_STRINGS = 20_000
+_MAX_INT_BITS = 996  # TOML integers below 2**996 (about 10**300): every one is a finite double
 
 
 class _Source:
@@ -166,35 +194,20 @@ def load_model(path: str | Path) -> Model:
         and the offending text.
     """
     p = Path(path)
-    try:
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise ModelFileError(str(p), None, "", f"cannot read file ({exc.strerror})") from None
-    if len(raw) > _MAX_BYTES:
-        raise ModelFileError(str(p), None, "", f"file larger than {_MAX_BYTES} bytes")
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError:
-        raise ModelFileError(str(p), None, "", "file is not UTF-8 text") from None
-    return parse_model(text, source=str(p))
+    return parse_model(_read_text(p), source=str(p))
 
 
 def parse_model(text: str, *, source: str = "<string>") -> Model:
     """Parse model-file text (see :func:`load_model`); ``source`` is used in messages."""
     src = _Source(source, text)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        msg = str(exc)
-        m = re.search(r"at line (\d+)", msg)
-        line = int(m.group(1)) if m else None
-        offending = src.lines[line - 1].strip() if line and line <= len(src.lines) else ""
-        reason = re.sub(r" \(at .*\)$", "", msg)
-        raise ModelFileError(source, line, offending, f"invalid TOML ({reason})") from None
+    data = _toml(src, text)
     unknown = sorted(set(data) - _TOP_KEYS)
     if unknown:
         raise src.error(f"unknown key (allowed: {', '.join(sorted(_TOP_KEYS))})", key=unknown[0], text=unknown[0])
-    name = _string(src, data, "name", default=Path(source).stem)
+    name = _string(src, data, "name", default=escape_unsafe(Path(source).stem, one_line=True))
+    if unsafe_character(name, one_line=True):
+        raise src.error("'name' must be one line without control characters or bidirectional overrides",
+                        key="name", text=name)
     time = _time(src, data)
     ui = [k for k in _UI_TABLES if k in data]
     if ui and not isinstance(time, Discrete):
@@ -214,6 +227,116 @@ def parse_model(text: str, *, source: str = "<string>") -> Model:
 
 
 # ---------------------------------------------------------------------- pieces
+def _toml(src: _Source, text: str) -> dict[str, Any]:
+    """``tomllib.loads`` with every failure a :class:`ModelFileError`, and the text checks of :func:`_check_values`."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        msg = str(exc)
+        m = re.search(r"at line (\d+)", msg)
+        line = int(m.group(1)) if m else None
+        offending = src.lines[line - 1].strip() if line and line <= len(src.lines) else ""
+        reason = re.sub(r" \(at .*\)$", "", msg)
+        raise ModelFileError(src.path, line, offending, f"invalid TOML ({reason})") from None
+    except ValueError as exc:  # an integer literal beyond Python's digit limit for int()
+        raise ModelFileError(src.path, None, "", f"invalid TOML ({str(exc).split(':')[0]})") from None
+    except (RecursionError, MemoryError):
+        raise ModelFileError(src.path, None, "", "invalid TOML (arrays or tables nested too deeply)") from None
+    _check_values(src, data)
+    return data
+
+
+def _check_values(src: _Source, data: Mapping[str, Any]) -> None:
+    """Refuse too many names or strings, huge integers, and control characters or bidirectional overrides anywhere.
+
+    The walk is iterative: a file nests at most as deep as ``tomllib`` could
+    read, but nothing here recurses on it.
+    """
+    for key in ("states", "inputs", "outputs", "parameters"):
+        v = data.get(key)
+        if isinstance(v, (list, dict)) and len(v) > MAX_NAMES:
+            raise src.error(f"'{key}': {len(v)} names, more than the limit of {MAX_NAMES}", key=key, text=key)
+    stack: list[tuple[tuple[str, ...], Any]] = [((), data)]
+    strings = 0
+    while stack:
+        keys, v = stack.pop()
+        if isinstance(v, str):
+            strings += 1
+            if strings > MAX_STRINGS:
+                raise _at(src, keys, f"more than {MAX_STRINGS} strings (names and expressions) in the file",
+                          ".".join(keys))
+            _check_string(src, keys, v)
+        elif isinstance(v, bool):
+            continue
+        elif isinstance(v, int):
+            if abs(v).bit_length() > _MAX_INT_BITS:
+                raise _at(src, keys, "integer too large (at most about 10**300)", ".".join(keys))
+        elif isinstance(v, dict):
+            for kk, vv in v.items():
+                _check_string(src, (*keys, kk), kk)
+                stack.append(((*keys, kk), vv))
+        elif isinstance(v, list):
+            stack.extend((keys, vv) for vv in v)
+
+
+def _check_string(src: _Source, keys: tuple[str, ...], s: str) -> None:
+    bad = unsafe_character(s)
+    if bad is not None:
+        raise _at(src, keys, f"control character or bidirectional override U+{ord(bad):04X} in a string", s[:80])
+
+
+def _at(src: _Source, keys: tuple[str, ...], reason: str, text: str) -> ModelFileError:
+    """An error on the line of the innermost of ``keys`` that can be found in the text."""
+    line = next((ln for k in reversed(keys) if (ln := src.line_of_key(k)) is not None), None)
+    return ModelFileError(src.path, line, text, reason)
+
+
+def _read_text(p: Path) -> str:
+    """The text of a regular file of at most :data:`MAX_FILE_BYTES`, read without ever blocking.
+
+    ``os.stat`` first (a FIFO is never opened, a device never read), then the
+    file is opened with ``O_NONBLOCK`` and checked again with ``fstat`` (it may
+    have been replaced in between), and at most one byte more than the limit is read.
+    """
+    def refuse(reason: str) -> ModelFileError:
+        return ModelFileError(str(p), None, "", reason)
+
+    try:
+        st = os.stat(p)
+    except (OSError, ValueError) as exc:
+        raise refuse(f"cannot read file ({getattr(exc, 'strerror', None) or exc})") from None
+    _require_regular(st, refuse)
+    try:
+        fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
+                     | getattr(os, "O_BINARY", 0))
+    except OSError as exc:
+        raise refuse(f"cannot read file ({exc.strerror})") from None
+    try:
+        with os.fdopen(fd, "rb") as fh:
+            _require_regular(os.fstat(fh.fileno()), refuse)
+            raw = fh.read(MAX_FILE_BYTES + 1)
+    except OSError as exc:
+        raise refuse(f"cannot read file ({exc.strerror})") from None
+    if len(raw) > MAX_FILE_BYTES:
+        raise refuse(f"file larger than {MAX_FILE_BYTES} bytes (1 MiB)")
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise refuse(f"file is not UTF-8 text (byte {exc.start})") from None
+
+
+def _require_regular(st: os.stat_result, refuse: Callable[[str], ModelFileError]) -> None:
+    mode = st.st_mode
+    if stat.S_ISREG(mode):
+        if st.st_size > MAX_FILE_BYTES:
+            raise refuse(f"file larger than {MAX_FILE_BYTES} bytes (1 MiB): {st.st_size} bytes")
+        return
+    kind = ("a directory" if stat.S_ISDIR(mode) else "a FIFO" if stat.S_ISFIFO(mode)
+            else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "a socket" if stat.S_ISSOCK(mode)
+            else "not a file")
+    raise refuse(f"not a regular file ({kind})")
+
+
 def _string(src: _Source, data: Mapping[str, Any], key: str, *, default: str) -> str:
     v = data.get(key, default)
     if not isinstance(v, str):
@@ -228,11 +351,12 @@ def _names(src: _Source, data: Mapping[str, Any], key: str, *, required: bool) -
         return None
     v = data[key]
     if not isinstance(v, list) or not all(isinstance(s, str) for s in v):
-        raise src.error(f"'{key}' must be a list of strings", key=key, text=repr(v))
+        raise src.error(f"'{key}' must be a list of strings", key=key, text=repr(v)[:80])
     for s in v:
-        if not s.isidentifier():
-            raise src.error(f"'{key}': {s!r} is not a valid name", key=key, string=s, text=s)
-    dup = sorted({s for s in v if v.count(s) > 1})
+        why = name_problem(s)
+        if why is not None:
+            raise src.error(f"'{key}': {s!r} is not a valid name ({why})", key=key, string=s, text=s)
+    dup = sorted(s for s, c in Counter(v).items() if c > 1)
     if dup:
         raise src.error(f"'{key}': duplicate names", key=key, text=", ".join(dup))
     return v
@@ -260,8 +384,9 @@ def _parameters(src: _Source, data: Mapping[str, Any]) -> dict[str, float]:
         raise src.error("'parameters' must be a table of numbers", key="parameters", text=repr(params))
     out: dict[str, float] = {}
     for k, v in params.items():
-        if not k.isidentifier():
-            raise src.error("parameter name is not a valid name", key="parameters", text=k)
+        why = name_problem(k)
+        if why is not None:
+            raise src.error(f"parameter name is not a valid name ({why})", key="parameters", text=k)
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
             raise src.error(f"parameter '{k}' must be a finite number", key="parameters", string=k, text=repr(v))
         out[k] = float(v)
@@ -473,24 +598,11 @@ def load_discrete_ui_model(path: str | Path) -> DiscreteUIModel:
     return parse_discrete_ui(text, source=str(p))
 
 
-def _read_text(p: Path) -> str:
-    try:
-        raw = p.read_bytes()
-    except OSError as exc:
-        raise ModelFileError(str(p), None, "", f"cannot read file ({exc.strerror})") from None
-    if len(raw) > _MAX_BYTES:
-        raise ModelFileError(str(p), None, "", f"file larger than {_MAX_BYTES} bytes")
-    try:
-        return raw.decode("utf-8")
-    except UnicodeDecodeError:
-        raise ModelFileError(str(p), None, "", "file is not UTF-8 text") from None
-
-
 def parse_discrete_ui(text: str, *, source: str = "<string>") -> DiscreteUIModel:
     """Parse the text of a model file with unknown inputs (see :func:`load_discrete_ui`)."""
     model = parse_model(text, source=source)
     src = _Source(source, text)
-    data = tomllib.loads(text)
+    data = _toml(src, text)
     if not isinstance(model.time, Discrete):
         raise src.error("a model with unknown inputs needs time = \"discrete\"", key="time", text="time")
     for key in ("unknown_inputs", "noise", "initial", "function_class"):

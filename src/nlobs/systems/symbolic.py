@@ -22,18 +22,31 @@ from numpy.typing import NDArray
 from nlobs._validate import check_names
 from nlobs.errors import DimensionError, ModelError, NonFiniteError, UnknownNameError
 from nlobs.systems.codegen import BatchedFunction, compile_matrix
+from nlobs.systems.expressions import as_sympy_matrix
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
 
 Array = NDArray[np.float64]
 
 
-def _canonical(mat: sp.MatrixBase) -> sp.ImmutableMatrix:
-    """Replace every symbol by the real symbol of the same name (the model's convention)."""
-    return sp.ImmutableMatrix(mat.xreplace({s: sp.Symbol(s.name, real=True) for s in mat.free_symbols}))
+def _canonical(mat: sp.MatrixBase, known: Mapping[str, sp.Symbol]) -> sp.ImmutableMatrix:
+    """Replace every symbol by the real symbol of the same name (the model's convention).
+
+    ``known`` maps the model's names to their symbols; entries already built on
+    them (every parsed string) are left untouched, so large models stay linear-time.
+    """
+    rule = {}
+    for s in mat.free_symbols:
+        want = known.get(s.name) if isinstance(s, sp.Symbol) else None
+        if want is None:
+            want = sp.Symbol(s.name, real=True) if isinstance(s, sp.Symbol) else s
+        if want != s:  # equal symbols need no replacement (SymPy's cache may hold two equal objects)
+            rule[s] = want
+    return sp.ImmutableMatrix(mat.xreplace(rule) if rule else mat)
 
 
-def _column(name: str, value: sp.Matrix | Sequence[sp.Expr], rows: int) -> sp.Matrix:
-    mat = _canonical(sp.Matrix(value) if not isinstance(value, sp.MatrixBase) else value)
+def _column(name: str, value: sp.Matrix | Sequence[sp.Expr | str], rows: int,
+            known: Mapping[str, sp.Symbol]) -> sp.Matrix:
+    mat = _canonical(as_sympy_matrix(name, value, known), known)
     if mat.shape[1] != 1 and mat.shape[0] == 1:
         mat = mat.T
     if mat.shape != (rows, 1):
@@ -86,9 +99,9 @@ class SymbolicModel:
         states: Sequence[str],
         inputs: Sequence[str],
         outputs: Sequence[str],
-        f: Sequence[sp.Expr] | sp.Matrix,
-        g: Sequence[Sequence[sp.Expr]] | sp.Matrix | None,
-        h: Sequence[sp.Expr] | sp.Matrix,
+        f: Sequence[sp.Expr | str] | sp.Matrix,
+        g: Sequence[Sequence[sp.Expr | str]] | sp.Matrix | None,
+        h: Sequence[sp.Expr | str] | sp.Matrix,
         *,
         parameters: Mapping[str, float] | None = None,
         time: TimeBase = CONTINUOUS,
@@ -97,15 +110,27 @@ class SymbolicModel:
         """Build ``ẋ = f(x) + g(x) u``, ``y = h(x, u)``.
 
         Expressions may use ``sympy.Symbol(name)`` for every state, input and
-        parameter name. ``f`` and ``g`` must not depend on the inputs.
+        parameter name, or be strings such as ``"-k*sin(x1)"``, which are parsed
+        by :func:`~nlobs.systems.expressions.parse_expression` over the declared
+        names (never evaluated). ``f`` and ``g`` must not depend on the inputs.
+
+        Raises
+        ------
+        ExpressionError
+            If a string entry does not parse.
+        InvalidArgumentError
+            If an entry is neither a SymPy expression, a number nor a string.
+        ModelError, DimensionError
+            For invalid names, shapes or stray symbols.
         """
         x, u, outs, params = cls._symbols(states, inputs, outputs, parameters)
+        known = cls._known(x, u, params)
         n, m = len(x), len(u)
-        f_ = _column("f", f, n)
+        f_ = _column("f", f, n, known)
         if g is None:
             g_ = sp.ImmutableMatrix(sp.zeros(n, m))
         else:
-            g_ = _canonical(sp.Matrix(g))
+            g_ = _canonical(as_sympy_matrix("g", g, known), known)
             if m == 0 and g_.shape[0] in (0, n):
                 g_ = sp.ImmutableMatrix(sp.zeros(n, 0))
             if g_.shape != (n, m):
@@ -114,7 +139,7 @@ class SymbolicModel:
         if bad:
             raise ModelError(f"f and g of an input-affine model must not depend on inputs: {sorted(map(str, bad))}")
         rhs = sp.ImmutableMatrix(f_ + g_ * sp.Matrix(u)) if m else f_
-        model = cls(x, u, outs, f_, g_, rhs, _column("h", h, len(outs)), dict(params), time, name)
+        model = cls(x, u, outs, f_, g_, rhs, _column("h", h, len(outs), known), dict(params), time, name)
         model._check_symbols()
         return model
 
@@ -124,17 +149,21 @@ class SymbolicModel:
         states: Sequence[str],
         inputs: Sequence[str],
         outputs: Sequence[str],
-        rhs: Sequence[sp.Expr] | sp.Matrix,
-        h: Sequence[sp.Expr] | sp.Matrix,
+        rhs: Sequence[sp.Expr | str] | sp.Matrix,
+        h: Sequence[sp.Expr | str] | sp.Matrix,
         *,
         parameters: Mapping[str, float] | None = None,
         time: TimeBase = CONTINUOUS,
         name: str = "model",
     ) -> SymbolicModel:
-        """Build ``ẋ = F(x, u)``, ``y = h(x, u)``."""
+        """Build ``ẋ = F(x, u)``, ``y = h(x, u)``.
+
+        Entries are SymPy expressions or strings, as in :meth:`input_affine`.
+        """
         x, u, outs, params = cls._symbols(states, inputs, outputs, parameters)
-        rhs_ = _column("rhs", rhs, len(x))
-        model = cls(x, u, outs, None, None, rhs_, _column("h", h, len(outs)), dict(params), time, name)
+        known = cls._known(x, u, params)
+        rhs_ = _column("rhs", rhs, len(x), known)
+        model = cls(x, u, outs, None, None, rhs_, _column("h", h, len(outs), known), dict(params), time, name)
         model._check_symbols()
         return model
 
@@ -169,6 +198,11 @@ class SymbolicModel:
             outs,
             params,
         )
+
+    @staticmethod
+    def _known(x: Sequence[sp.Symbol], u: Sequence[sp.Symbol], params: Mapping[str, float]) -> dict[str, sp.Symbol]:
+        """The model's names and their symbols (what a string entry may use)."""
+        return {**{s.name: s for s in (*x, *u)}, **{k: sp.Symbol(k, real=True) for k in params}}
 
     def _check_symbols(self) -> None:
         allowed = set(self.x) | set(self.u) | {sp.Symbol(p, real=True) for p in self.parameters}
