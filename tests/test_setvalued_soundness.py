@@ -229,7 +229,7 @@ def test_a_failed_verification_at_the_chosen_lambda_falls_back_to_the_next_candi
     def fails_at_first(system, dyn, P, L, kappa, lam, q, theta, rho):  # type: ignore[no-untyped-def]
         checks, *rest = real(system, dyn, P, L, kappa, lam, q, theta, rho)
         if lam == first.lam:  # pretend the solver's answer at the chosen λ misses (⋆)
-            checks = [*checks, Check("injected failure", CheckKind.LMI, 1.0, 0.0, strict=False)]
+            checks = [*checks, Check.compare("injected failure", 1.0, 0.0, kind=CheckKind.LMI, strict=False)]
         return (checks, *rest)
 
     monkeypatch.setattr(sv, "_verify", fails_at_first)

@@ -955,8 +955,8 @@ def place_cascade_gain(
     eig = np.linalg.eigvals(ext.A - K @ ext.C)
     eig = eig[np.lexsort((eig.imag, eig.real))]
     checks = (
-        Check("max Re λ(𝔄 − Kℭ) < 0", CheckKind.SPECTRUM, float(np.max(eig.real)), 0.0),
-        Check("‖H‖∞ < γ", CheckKind.NORM, float(hH), g),
+        Check.compare("max Re λ(𝔄 − Kℭ) < 0", float(np.max(eig.real)), 0.0, kind=CheckKind.SPECTRUM),
+        Check.compare("‖H‖∞ < γ", float(hH), g, kind=CheckKind.NORM),
     )
     ok = all(c.passed for c in checks)
     cert = ObserverGainCertificate(
@@ -967,7 +967,7 @@ def place_cascade_gain(
         seconds=_time.perf_counter() - t0,
     )
     if not ok:
-        raise DesignError("pole placement: " + "; ".join(c.describe() for c in cert.failed_checks))
+        raise DesignError("pole placement: " + "; ".join(c.summary() for c in cert.failed_checks))
     return cert
 
 

@@ -505,7 +505,7 @@ class DriftDesignReport:
             out.append(f"drift-observability fails on the region ({drift.evidence}): Theorem 3.1 does not apply")
         if not self.certificate.verified:
             out.append("the gain certificate of (2.17) failed: "
-                       + "; ".join(k.describe() for k in self.certificate.failed_checks))
+                       + "; ".join(k.summary() for k in self.certificate.failed_checks))
         return (*out, *self.warnings)
 
     @property

@@ -17,6 +17,7 @@ from enum import Enum
 import numpy as np
 from numpy.typing import NDArray
 
+from nlobs.checks import Check, CheckKind
 from nlobs.synthesis.lmi import Solver
 
 __all__ = ["CertificateStatus", "CheckKind", "Check", "Objective", "ObserverGainCertificate"]
@@ -43,65 +44,6 @@ class CertificateStatus(Enum):
     """Every check passed."""
     FAILED = "failed"
     """At least one check failed (see :attr:`ObserverGainCertificate.failed_checks`)."""
-
-
-class CheckKind(Enum):
-    """What a :class:`Check` verifies."""
-
-    LMI = "lmi"
-    """Largest eigenvalue of a symmetrised LMI block, must be ``< 0``."""
-    POSITIVITY = "positivity"
-    """``−λ_min(P)``, must be ``< 0`` (``P ≻ 0``)."""
-    SPECTRUM = "spectrum"
-    """``max Re λ(A − K C)``, must be ``< 0`` (Hurwitz)."""
-    REGION = "region"
-    """``−margin`` of the closed-loop eigenvalues to a pole region, must be ``< 0``."""
-    NORM = "norm"
-    """An H∞ norm recomputed from ``K`` against its bound."""
-    GAIN = "gain"
-    """``‖K‖₂`` against a gain bound."""
-
-
-@dataclass(frozen=True)
-class Check:
-    """One re-verification check: ``value < limit`` (``strict``) or ``value ≤ limit``.
-
-    Attributes
-    ----------
-    name : str
-        What is checked, e.g. ``"LMI (14)"`` or ``"‖H‖∞ < γ"``.
-    kind : CheckKind
-    value : float
-        The recomputed quantity (e.g. the largest eigenvalue of a block).
-    limit : float
-        Its bound.
-    strict : bool
-        Whether the inequality is strict.
-    """
-
-    name: str
-    kind: CheckKind
-    value: float
-    limit: float
-    strict: bool = True
-
-    @property
-    def passed(self) -> bool:
-        """Whether the check holds."""
-        if not np.isfinite(self.value):
-            return False
-        return self.value < self.limit if self.strict else self.value <= self.limit
-
-    @property
-    def margin(self) -> float:
-        """``limit − value``: positive when the check passes, by how much."""
-        return float(self.limit - self.value)
-
-    def describe(self) -> str:
-        """One line: the check, its value and its margin."""
-        rel = "<" if self.strict else "≤"
-        verdict = "ok" if self.passed else f"FAILED by {-self.margin:.3g}"
-        return f"{self.name}: {self.value:.6g} {rel} {self.limit:.6g} ({verdict})"
 
 
 @dataclass(frozen=True, eq=False)
@@ -205,5 +147,5 @@ class ObserverGainCertificate:
             + (f", ‖G‖∞={self.hinf_G:.6g} (γn={self.gamma_n:g})" if self.hinf_G is not None else ""),
             "  eig(A−KC) = " + ", ".join(f"{z:.4g}" for z in self.eigenvalues),
         ]
-        lines += ["  " + c.describe() for c in self.checks]
+        lines += ["  " + c.summary() for c in self.checks]
         return "\n".join(lines)

@@ -55,7 +55,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, as_square, in_range, positive
 from nlobs.errors import CertificateError, DesignInfeasible
-from nlobs.synthesis.certificate import Check, CheckKind
+from nlobs.checks import Check, CheckKind
 from nlobs.synthesis.lmi import Solver, as_solver, bmat, max_eig, solve, symmetrise
 
 __all__ = ["DiscreteLipschitzCertificate", "design_discrete_lipschitz_gain", "verify_discrete_lipschitz_gain"]
@@ -133,7 +133,7 @@ class DiscreteLipschitzCertificate:
             f"  L = {np.array2string(self.L, precision=5)}",
             f"  solver={self.solver.value} ({self.solver_status}), {self.n_solves} solves, {self.seconds:.3f} s",
         ]
-        lines += ["  " + c.describe() for c in self.checks]
+        lines += ["  " + c.summary() for c in self.checks]
         return "\n".join(lines)
 
 
@@ -186,10 +186,10 @@ def verify_discrete_lipschitz_gain(A: ArrayLike, C: ArrayLike, L: ArrayLike, P: 
     E_, F_ = _structure(E, F, n)
     radius = float(np.max(np.abs(np.linalg.eigvals(A_ - L_ @ C_))))
     return (
-        Check("P ≻ 0", CheckKind.POSITIVITY, -float(np.linalg.eigvalsh(P_)[0]), 0.0),
-        Check("λ_max(N) < 0 (S-procedure on ΔV, γ-Lipschitz φ)", CheckKind.LMI,
-              max_eig(_n_block(A_, C_, L_, P_, g, r, E_, F_, eps)), 0.0),
-        Check("spectral radius(A − LC) < ρ", CheckKind.SPECTRUM, radius, r),
+        Check.compare("P ≻ 0", -float(np.linalg.eigvalsh(P_)[0]), 0.0, kind=CheckKind.POSITIVITY),
+        Check.compare("λ_max(N) < 0 (S-procedure on ΔV, γ-Lipschitz φ)",
+                      max_eig(_n_block(A_, C_, L_, P_, g, r, E_, F_, eps)), 0.0, kind=CheckKind.LMI),
+        Check.compare("spectral radius(A − LC) < ρ", radius, r, kind=CheckKind.SPECTRUM),
     )
 
 
@@ -353,7 +353,7 @@ def design_discrete_lipschitz_gain(
     failed = [c for c in checks if not c.passed]
     if failed:
         raise CertificateError("discrete Lipschitz gain failed its re-verification: "
-                               + "; ".join(c.describe() for c in failed))
+                               + "; ".join(c.summary() for c in failed))
     ev = np.linalg.eigvalsh(P)
     P.setflags(write=False)
     L.setflags(write=False)

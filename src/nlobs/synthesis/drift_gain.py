@@ -79,7 +79,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, positive, readonly
 from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
-from nlobs.synthesis.certificate import Check, CheckKind
+from nlobs.checks import Check, CheckKind
 from nlobs.systems.brunovsky import brunovsky as brunovsky_triple
 from nlobs.systems.brunovsky import positive_multi_index
 from nlobs.synthesis.lmi import Solver, SolveStatus, as_enum, as_solver, bmat, max_eig, solve, symmetrise
@@ -349,7 +349,7 @@ class DriftGainCertificate:
             + (f"decay margin {dm:.4g}" if dm == dm else f"decay margin {self.decay_margin_note}"),
             "  eig(A_s − K C_s) = " + ", ".join(_fmt_complex(z) for z in self.eigenvalues),
         ]
-        lines += ["  " + c.describe() for c in self.checks]
+        lines += ["  " + c.summary() for c in self.checks]
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
@@ -406,9 +406,9 @@ def _checks(c: RiccatiConstants, K: Array, P: Array) -> _Verification:
     eigs = eigs[np.lexsort((eigs.imag, eigs.real))]
     p_tol = ROUNDING_FACTOR * n * _EPS * float(np.max(np.abs(evP)))
     checks = [
-        Check("(2.17) scaled: λ_max(D L D)", CheckKind.LMI, lam_s, -tol),
-        Check("P ≻ 0 scaled: −λ_min(D P D)", CheckKind.POSITIVITY, -float(evP[0]), -p_tol),
-        Check("A_s − K C_s Hurwitz (max Re λ)", CheckKind.SPECTRUM, float(np.max(eigs.real)), 0.0),
+        Check.compare("(2.17) scaled: λ_max(D L D)", lam_s, -tol, kind=CheckKind.LMI),
+        Check.compare("P ≻ 0 scaled: −λ_min(D P D)", -float(evP[0]), -p_tol, kind=CheckKind.POSITIVITY),
+        Check.compare("A_s − K C_s Hurwitz (max Re λ)", float(np.max(eigs.real)), 0.0, kind=CheckKind.SPECTRUM),
     ]
     fields = {"lhs_max_eig": lam_u, "lhs_rounding": tol_u, "lhs_max_eig_scaled": lam_s, "lhs_tolerance": tol}
     return _Verification(checks, eigs, fields)
@@ -744,8 +744,8 @@ def _sdp_at(c: RiccatiConstants, obj: DriftObjective, margin: float, gb: float |
     checks = v.checks
     Yt = St @ (T[:, None] * K / Th[None, :])  # Ŷ recomputed from the returned K
     blk = _lmi_block(c, St, Yt, theta)
-    checks.append(Check("LMI in (S̃, Ŷ) recomputed (λ_max)", CheckKind.LMI, max_eig(blk),
-                        100 * _EPS * max(1.0, float(np.linalg.norm(blk, 2)))))
+    checks.append(Check.compare("LMI in (S̃, Ŷ) recomputed (λ_max)", max_eig(blk),
+                                100 * _EPS * max(1.0, float(np.linalg.norm(blk, 2))), kind=CheckKind.LMI))
     f = v.fields
     cert = DriftGainCertificate(c, readonly(K), readonly(P), "sdp", None, f["lhs_max_eig"], v.eigenvalues, tuple(checks),
                                 obj.value, sol, res.raw_status, margin, time.perf_counter() - t0, theta,
@@ -753,7 +753,7 @@ def _sdp_at(c: RiccatiConstants, obj: DriftObjective, margin: float, gb: float |
                                 lhs_rounding=f["lhs_rounding"])
     if not cert.verified:
         raise CertificateError(f"SDP answer (θ = {theta:.4g}) failed re-verification: "
-                               + "; ".join(x.describe() for x in cert.failed_checks))
+                               + "; ".join(x.summary() for x in cert.failed_checks))
     return cert
 
 
@@ -883,7 +883,7 @@ def design_drift_gain(
         if not cert.verified:
             raise DesignInfeasible(
                 f"(K(w), P(w)) with w = {w:g} does not solve (2.17) for {c.describe()}: "
-                + "; ".join(x.describe() for x in cert.failed_checks),
+                + "; ".join(x.summary() for x in cert.failed_checks),
                 constraint="(2.17) with P(w) = (V_sᵀV_s)⁻¹", violation=cert.lhs_max_eig_scaled)
         return cert
     if m == "sdp":

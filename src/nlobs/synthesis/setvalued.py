@@ -75,7 +75,7 @@ from nlobs._validate import in_range, positive, readonly
 from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
 from nlobs.linear.norms import hinf_norm
 from nlobs.linear.transform_ui import StructuralCheck, UITransform, require_structure, structural_check, ui_transform
-from nlobs.synthesis.certificate import Check, CheckKind
+from nlobs.checks import Check, CheckKind
 from nlobs.synthesis.lmi import Solver, as_enum, as_solver, max_eig, solve
 from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, FunctionClass, Lipschitz
 
@@ -342,7 +342,7 @@ class SetValuedDesign:
             + (f" (Class III design: {self.certified_for.lpv.value})" if self.certified_for.lpv else ""),
             "  spectral radii of linear members: " + ", ".join(f"{r:.5g}" for r in self.spectral_radii),
         ]
-        lines += ["  " + c.describe() for c in self.checks]
+        lines += ["  " + c.summary() for c in self.checks]
         return "\n".join(lines)
 
 
@@ -489,11 +489,11 @@ def _verify(system: DiscreteUISystem, dyn: ErrorDynamics, P: Array, L: Array, ka
                                                                            tuple[float, ...], tuple[float, ...]]:
     checks: list[Check] = []
     ev = np.linalg.eigvalsh(P)
-    checks.append(Check("P ≻ 0", CheckKind.POSITIVITY, -float(ev[0]), 0.0))
+    checks.append(Check.compare("P ≻ 0", -float(ev[0]), 0.0, kind=CheckKind.POSITIVITY))
     for i, Nm in enumerate(_condition(system, dyn, P, L, kappa, lam, q, theta)):
         # exactly ⪯ 0 (no tolerance): (V) is then implied without any round-off allowance
-        checks.append(Check(f"S-procedure condition (⋆) [{i}] (max eig)", CheckKind.LMI, max_eig(Nm), 0.0,
-                            strict=False))
+        checks.append(Check.compare(f"S-procedure condition (⋆) [{i}] (max eig)", max_eig(Nm), 0.0, kind=CheckKind.LMI,
+                                    strict=False))
     lam_eff = lam - q / float(ev[-1])
     nv, nw = system.eta_v, system.eta_w
     c = (theta[0] + theta[2]) * nv**2 + theta[1] * nw**2 - kappa * system.function_class.gamma
@@ -503,13 +503,14 @@ def _verify(system: DiscreteUISystem, dyn: ErrorDynamics, P: Array, L: Array, ka
     for j, (Ak, E) in enumerate(_linear_instances(system, dyn, L)):
         r = float(np.max(np.abs(np.linalg.eigvals(Ak))))
         radii.append(r)
-        checks.append(Check(f"spectral radius of linear member {j} ≤ √λ_eff", CheckKind.SPECTRUM, r,
-                            math.sqrt(max(lam_eff, 0.0)) * (1 + 1e-7) + 1e-12, strict=False))
+        checks.append(Check.compare(f"spectral radius of linear member {j} ≤ √λ_eff", r,
+                                    math.sqrt(max(lam_eff, 0.0)) * (1 + 1e-7) + 1e-12, kind=CheckKind.SPECTRUM,
+                                    strict=False))
         h = hinf_norm(Ak, E * scale, np.eye(dyn.n), np.zeros((dyn.n, E.shape[1])), discrete=True) if r < 1 else math.inf
         norms.append(float(h))
         if rho is not None:
-            checks.append(Check(f"H∞ norm of linear member {j} ≤ ρ", CheckKind.NORM, float(h), rho * (1 + 1e-7),
-                                strict=False))
+            checks.append(Check.compare(f"H∞ norm of linear member {j} ≤ ρ", float(h), rho * (1 + 1e-7),
+                                        kind=CheckKind.NORM, strict=False))
     return checks, lam_eff, c, tuple(radii), tuple(norms)
 
 
@@ -692,7 +693,7 @@ def _first_verified(system: DiscreteUISystem, dyn: ErrorDynamics, cands: list[_S
         checks, lam_eff, c, radii, norms = _verify(system, dyn, sol.P, sol.L, sol.kappa, lam_used, qq, sol.theta,
                                                    rho)
         if not all(ch.passed for ch in checks):
-            bad = "; ".join(ch.describe() for ch in checks if not ch.passed)
+            bad = "; ".join(ch.summary() for ch in checks if not ch.passed)
             failures.append(f"λ = {lam_used:.6g} ('{sol.status}'): {bad}")
             continue
         evP = np.linalg.eigvalsh(sol.P)
@@ -727,5 +728,5 @@ def verify_setvalued(system: DiscreteUISystem, L_tilde: Any, P: Any, *, kappa: f
     checks, *_ = _verify(system, dyn, 0.5 * (P_ + P_.T), L, float(kappa), float(lam), float(q),
                          tuple(float(t) for t in theta), rho)  # type: ignore[arg-type]
     if strict and not all(c.passed for c in checks):
-        raise CertificateError("; ".join(c.describe() for c in checks if not c.passed))
+        raise CertificateError("; ".join(c.summary() for c in checks if not c.passed))
     return tuple(checks)
