@@ -151,7 +151,7 @@ def drift_cmd(
             emit_json(data)
         else:
             console().print("\n".join(text), markup=False)
-        status = EXIT_NO_OBSERVER if not rep.drift_check.holds else EXIT_FAILURE
+        status = EXIT_NO_OBSERVER if not rep.drift_check.passed else EXIT_FAILURE
         fail(f"{model}: no usable observer: " + "; ".join(rep.reasons), status)
     if simulate:
         x0v, xh, uv = _sim_inputs(m, x0, xhat0, u)

@@ -443,7 +443,7 @@ class DriftDesignReport:
     fields : AffineFields
     s, r : tuple
         Multi-index and observation relative degrees (``None``: undefined on the region).
-    checks : tuple of geometry Check
+    checks : tuple of Check
         Drift-observability on the region and ``s ≤ r``.
     F : ndarray
         ``F_{s,r}`` (2.12).
@@ -501,7 +501,7 @@ class DriftDesignReport:
         """Why the design is not usable (empty when it is): failed premises, a failed certificate, :attr:`warnings`."""
         out = []
         drift = self.drift_check
-        if not drift.holds:
+        if not drift.passed:
             out.append(f"drift-observability fails on the region ({drift.evidence}): Theorem 3.1 does not apply")
         if not self.certificate.verified:
             out.append("the gain certificate of (2.17) failed: "
@@ -526,7 +526,7 @@ class DriftDesignReport:
             f"  multi-index s = ({', '.join(map(str, self.s))}), observation relative degree r = ({r_txt})",
             f"  region {self.region.describe()}",
         ]
-        lines += [f"  [{'ok' if k.holds else 'FAILS'}] {k.name}: {k.evidence}" for k in self.checks]
+        lines += [f"  [{'ok' if k.passed else 'FAILS'}] {k.name}: {k.evidence}" for k in self.checks]
         lines.append(f"  H_s,r(x) = {self.H}")
         L = self.lipschitz
         lines.append(f"  sampled on the region ({L.samples} points): γ_Φ ≈ {L.gamma_phi:.4g}, γ_Φ⁻¹ ≈ {L.gamma_phi_inv:.4g}, "

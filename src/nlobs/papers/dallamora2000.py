@@ -194,7 +194,7 @@ def simulate_drift(
                                         parameters=parameters)
     bound_consts = rep.bound
     # Theorem 3.1's premises besides (2.17): drift-observable on the region, γ not below its sampled estimate there
-    premises = rep.drift_check.holds and not rep.warnings
+    premises = rep.drift_check.passed and not rep.warnings
     certified = premises and rep.certificate.verified
     if w is None:
         K, w_used = rep.certificate.K, rep.certificate.w
