@@ -75,7 +75,7 @@ def test_assumption4_verdicts(result) -> None:  # type: ignore[no-untyped-def]
     rep = result.assumption4
     assert rep.holds and rep.minimum_phase
     assert rep.zeros.size == 0  # no finite invariant zeros
-    assert rep.item("left_invertible").holds and rep.normal_rank == 3
+    assert rep.item("left_invertible").passed and rep.normal_rank == 3
 
 
 def test_theorem1_bound_and_certified_design(result) -> None:  # type: ignore[no-untyped-def]

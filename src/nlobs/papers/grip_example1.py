@@ -269,7 +269,7 @@ class Example1Result:
             f"(α3/α4 = {q.ratio:.4g})"),
             (f"  Assumption 2{chr(39) if self.feedback else ''}: L1 = {self.L1:.5g};  "
             f"Assumption 3{chr(39) if self.feedback else ''}: L2 = {self.L2:.5g}"),
-            *("  " + ln for ln in self.assumption4.to_text().splitlines()),
+            *("  " + ln for ln in self.assumption4.summary().splitlines()),
             (f"  Theorem 1{chr(39) if self.feedback else ''}: γ < {self.gamma_bound:.4g} (best scaling of V; "
             f"{self.gamma_bound_unscaled:.4g} with λ_max(P1) = 1)"),
             (f"  design at γ = {self.gamma_design:.4g}: K = {np.array2string(self.K.ravel(), precision=5)}, "
