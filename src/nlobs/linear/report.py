@@ -233,9 +233,9 @@ def analyze_linear(sys: LinearSystem) -> LinearReport:
         invariant_zeros=iz.zeros,
         normal_rank=iz.normal_rank,
         left_invertible=iz.left_invertible,
-        minimum_phase=mp.minimum_phase,
-        strongly_detectable=mp.minimum_phase,
+        minimum_phase=mp.passed,
+        strongly_detectable=mp.passed,
         hinf_norm=hinf if math.isfinite(hinf) else None,
         h2_norm=h2 if math.isfinite(h2) else None,
-        minimum_phase_reason=mp.reason,
+        minimum_phase_reason=mp.evidence,
     )
