@@ -264,8 +264,8 @@ def check_assumption4(
     # informational
     mp = minimum_phase(A_, Bz, C_, Dz, tol=tol)
     items.append(_item(
-        "minimum_phase", "(A, B_z, C, D_z) minimum phase (Theorem 2: γ* = 0)", bool(mp), mp.reason, False,
-        {"unstable_zeros": [[float(z.real), float(z.imag)] for z in mp.unstable_zeros]},
+        "minimum_phase", "(A, B_z, C, D_z) minimum phase (Theorem 2: γ* = 0)", mp.passed, mp.evidence, False,
+        {"unstable_zeros": [[float(z.real), float(z.imag)] for z in mp.values["unstable_zeros"]]},
     ))
     ext = extended_system(A_, Bz, C_, Dz)
     edet = is_detectable(ext.A, ext.C, tol=tol)
