@@ -110,7 +110,7 @@ def test_example_61_structured_class_0_multiplier() -> None:
     from nlobs.systems.discrete_ui import check_function_class
 
     ex = example_61("0-structured")
-    assert check_function_class(ex.system.phi, ex.system.function_class, -5 * np.ones(4), 5 * np.ones(4)).holds
+    assert check_function_class(ex.system.phi, ex.system.function_class, -5 * np.ones(4), 5 * np.ones(4)).passed
     design = design_setvalued(ex.system)
     res = containment_study(ex, design, runs=RUNS, steps=300, seed=3)
     print(f"\n6.1 structured class 0: λ = {design.lam:.5g}, κ = {design.kappa:.4g}, steady radius "

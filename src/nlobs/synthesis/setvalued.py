@@ -74,7 +74,7 @@ from numpy.typing import NDArray
 from nlobs._validate import in_range, positive, readonly
 from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
 from nlobs.linear.norms import hinf_norm
-from nlobs.linear.transform_ui import StructuralCheck, UITransform, require_structure, structural_check, ui_transform
+from nlobs.linear.transform_ui import StructuralReport, UITransform, require_structure, structural_check, ui_transform
 from nlobs.checks import Check, CheckKind
 from nlobs.synthesis.lmi import Solver, as_enum, as_solver, max_eig, solve
 from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, FunctionClass, Lipschitz
@@ -283,7 +283,7 @@ class SetValuedDesign:
     checks : tuple of Check
         Independent re-verification.
     dynamics : ErrorDynamics
-    structure : StructuralCheck
+    structure : StructuralReport
     solver : Solver
     solver_status : str
     margin : float
@@ -309,7 +309,7 @@ class SetValuedDesign:
     hinf_linear: tuple[float, ...]
     checks: tuple[Check, ...]
     dynamics: ErrorDynamics
-    structure: StructuralCheck
+    structure: StructuralReport
     solver: Solver
     solver_status: str
     margin: float
@@ -517,7 +517,7 @@ def _verify(system: DiscreteUISystem, dyn: ErrorDynamics, P: Array, L: Array, ka
 # --------------------------------------------------------------------------- public API
 
 
-def _structure(system: DiscreteUISystem, tr: UITransform) -> StructuralCheck:
+def _structure(system: DiscreteUISystem, tr: UITransform) -> StructuralReport:
     return structural_check(system.A, system.G, system.C, system.H,
                             members=system.function_class.linear_members(), transform=tr)
 
@@ -684,7 +684,7 @@ def design_setvalued(
 
 
 def _first_verified(system: DiscreteUISystem, dyn: ErrorDynamics, cands: list[_Sol], obj: SetValuedObjective,
-                    qq: float, rho: float | None, st: StructuralCheck, slv: Solver, eps: float, t0: float,
+                    qq: float, rho: float | None, st: StructuralReport, slv: Solver, eps: float, t0: float,
                     solves: int, certified_for: CertifiedFor) -> SetValuedDesign:
     """The first candidate (in the given order) that passes the independent re-verification."""
     failures = []
