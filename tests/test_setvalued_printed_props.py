@@ -68,8 +68,8 @@ def test_prop56_feasible_although_a_stable_gain_exists() -> None:
     L = float(r.L_tilde[0, 0])
     assert _error_factor(s, a, L) > 1.0  # the one gain the feasible point is about is unstable ...
     assert _error_factor(s, a, 0.0) < 1.0  # ... but L̃ = 0 is stable: "no stable observer exists" is false
-    assert r.members[0].name == "A" and r.members[0].stabilisable
-    assert r.members[0].min_modulus == pytest.approx(_error_factor(s, a, L), rel=1e-9)
+    assert r.members[0].key == "A" and r.members[0].passed
+    assert r.members[0].values["min_modulus"] == pytest.approx(_error_factor(s, a, L), rel=1e-9)
     assert r.exact_min_eig >= r.pi_tilde_min_eig > 0  # Π̃ is a lower bound of ΔṼ − δ_f (A.26)
     # the reading the proof supports: Ỹ = P̃L̃ for a given stable gain is (necessarily) infeasible
     for stable in (0.0, 1.0, 2.5):
@@ -104,7 +104,7 @@ def test_prop56_scalar_without_update_matches_the_closed_form(a: float, g: float
     assert r.feasible is feasible
     assert r.verdict is (Prop56Verdict.GAIN_UNSTABLE if feasible else Prop56Verdict.INCONCLUSIVE)
     assert r.margin == pytest.approx(_max_min_eig_c2_zero(a, psi, 1e-6), abs=2e-4)
-    assert r.members[0].stabilisable is (abs(a - psi) < 1.0)  # no gain acts: stabilisable iff already stable
+    assert r.members[0].passed is (abs(a - psi) < 1.0)  # no gain acts: stabilisable iff already stable
 
 
 def test_prop56_on_the_examples_as_printed() -> None:

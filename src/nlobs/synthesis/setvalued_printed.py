@@ -47,6 +47,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, as_square, as_symmetric, positive, readonly
+from nlobs.checks import Check, CheckKind
 from nlobs.errors import CertificateError, DesignInfeasible, DimensionError, InvalidArgumentError
 from nlobs.linear.transform_ui import UITransform, structural_check, ui_transform
 from nlobs.synthesis.lmi import Solver, as_solver, solve
@@ -62,7 +63,6 @@ __all__ = [
     "Prop516Design",
     "design_prop516",
     "Prop56Verdict",
-    "MemberEvidence",
     "NecessaryConditionPrinted",
     "necessary_condition_printed",
 ]
@@ -690,31 +690,26 @@ class Prop56Verdict(str, Enum):
     """(23) infeasible: a necessary condition for stability is not violated; this proves nothing."""
 
 
-@dataclass(frozen=True)
-class MemberEvidence:
+def _member_check(name: str, K: Array, spectral_radius: float, min_modulus: float,
+                  undetectable: tuple[complex, ...]) -> Check:
     r"""A linear member ``f(x) = Kx`` of the class (``[K; I]ᵀM[K; I] ⪰ 0``, so it satisfies (2) with ``γ = 0``).
 
-    Attributes
-    ----------
-    name : str
-        ``"A"`` (the system's linear part), ``"0"`` or the caller's name.
-    K : ndarray, shape (n, n)
-    spectral_radius, min_modulus : float
-        Largest and smallest ``|λ|`` of ``(I − L̃C₂)Φ(K − Ψ)`` at the test's gain (``nan`` without one).
-        If ``ΔṼ > δ_f`` holds, every eigenvalue has ``|λ| > 1`` (``EᵀP̃E ≻ P̃``), so ``min_modulus > 1``.
-    stabilisable : bool
-        Whether **some** gain makes this member's error dynamics Schur: ``(Φ(K − Ψ), C₂)`` has no
-        unobservable mode with ``|λ| ≥ 1`` (:func:`~nlobs.linear.transform_ui.structural_check`).
-    undetectable_modes : tuple of complex
-        Those modes (empty when ``stabilisable``).
+    ``passed``: **some** gain makes this member's error dynamics Schur, i.e. ``(Φ(K − Ψ), C₂)`` has no
+    unobservable mode with ``|λ| ≥ 1`` (:func:`~nlobs.linear.transform_ui.structural_check`); ``key``: the
+    member's name (``"A"``, the system's linear part, ``"0"`` or the caller's); ``values``: ``K``,
+    ``spectral_radius`` and ``min_modulus`` — the largest and smallest ``|λ|`` of ``(I − L̃C₂)Φ(K − Ψ)`` at
+    the test's gain (``nan`` without one; if ``ΔṼ > δ_f`` holds every eigenvalue has ``|λ| > 1``, so
+    ``min_modulus > 1``) — and ``undetectable_modes`` (the modes above, empty when it passes).
     """
-
-    name: str
-    K: Array
-    spectral_radius: float
-    min_modulus: float
-    stabilisable: bool
-    undetectable_modes: tuple[complex, ...]
+    modes = ", ".join(f"{z:.6g}" for z in undetectable) or "none"
+    ok = not undetectable
+    return Check.verdict(
+        f"member K = {name}: some gain stabilises it", ok,
+        f"|eig| of (I - L~C2)Phi(K - Psi) in [{min_modulus:.4g}, {spectral_radius:.4g}]; some gain stabilises it: "
+        f"{ok} (undetectable modes |lambda| >= 1: {modes})",
+        kind=CheckKind.STRUCTURAL, method="numeric", key=name,
+        values={"K": K, "spectral_radius": spectral_radius, "min_modulus": min_modulus,
+                "undetectable_modes": undetectable})
 
 
 @dataclass(frozen=True)
@@ -744,7 +739,9 @@ class NecessaryConditionPrinted:
         Minimum eigenvalue of the exact form ``ΔṼ − δ_f`` (A.23), (A.28),
         ``[[B̆ᵀP̃B̆, B̆ᵀP̃Ă], [ĂᵀP̃B̆, ĂᵀP̃Ă − P̃]] − M`` with ``B̆ = (I − L̃C₂)Φ``, ``Ă = −B̆Ψ``; ``> 0``
         certifies the instability of that gain (``Π̃`` is a lower bound of it).
-    members : tuple of MemberEvidence
+    members : tuple of Check
+        One per linear member of the class (its ``key`` the member's name): does some gain stabilise
+        it, with the spectrum at the test's gain as evidence.
     seconds : float
     """
 
@@ -761,10 +758,10 @@ class NecessaryConditionPrinted:
     pi_tilde_min_eig: float | None
     pi_hat_min_eig: float | None
     exact_min_eig: float | None
-    members: tuple[MemberEvidence, ...]
+    members: tuple[Check, ...]
     seconds: float
 
-    def evidence(self) -> str:
+    def summary(self) -> str:
         """The numbers behind the verdict, and what they prove."""
         lines = [f"Proposition 5.6 (23)-(24) as printed, {'Y~ = P~ L~ for the given gain' if self.gain_given else 'Y~ free'}: "
                  f"{'feasible' if self.feasible else 'infeasible'} (solver {self.status}, t* = {self.margin:.4g})"]
@@ -776,11 +773,7 @@ class NecessaryConditionPrinted:
             lines.append("  proves: the error dynamics with THIS gain is unstable (A.13); nothing about other gains")
         else:
             lines.append("  proves: nothing (a necessary condition for stability is not violated)")
-        for m in self.members:
-            modes = ", ".join(f"{z:.6g}" for z in m.undetectable_modes) or "none"
-            lines.append(f"  member K = {m.name}: |eig| of (I - L~C2)Phi(K - Psi) in [{m.min_modulus:.4g}, "
-                         f"{m.spectral_radius:.4g}]; some gain stabilises it: {m.stabilisable} "
-                         f"(undetectable modes |lambda| >= 1: {modes})")
+        lines += [f"  member K = {m.key}: {m.evidence}" for m in self.members]
         return "\n".join(lines)
 
 
@@ -934,7 +927,7 @@ def necessary_condition_printed(system: DiscreteUISystem, M: ArrayLike, *, gamma
             sr, mm = float(eig.max()), float(eig.min())
         else:
             sr = mm = math.nan
-        evid.append(MemberEvidence(nm, readonly(K), sr, mm, not bad, bad))
+        evid.append(_member_check(nm, readonly(K), sr, mm, bad))
     if not feasible:  # an infeasible test has no meaningful point: keep only a given gain
         Pv = Yv = Gv = None
         ev = pit_min = pih_min = ex_min = None
