@@ -222,7 +222,7 @@ def test_decay_margin_of_an_indefinite_P_is_nan_with_a_reason() -> None:
     cert = verify_drift_gain(c, vandermonde_gain((2,), 5.0).K, -np.eye(2))  # RuntimeWarnings are errors (pyproject)
     assert not cert.verified and np.isnan(cert.decay_margin)
     assert "not positive definite" in cert.decay_margin_note
-    assert "decay margin undefined" in cert.describe() and cert.cond_P == np.inf
+    assert "decay margin undefined" in cert.summary() and cert.cond_P == np.inf
 
 
 def test_scaled_sdp_falls_back_to_theta_1_when_the_w_search_fails_verification(monkeypatch: pytest.MonkeyPatch) -> None:

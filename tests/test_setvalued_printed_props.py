@@ -229,7 +229,7 @@ def test_prop516_example_61_class_II_theta1_below_one_but_unstable() -> None:
     sr = float(np.max(np.abs(np.linalg.eigvals(E))))
     assert sr > 1.0 and d.spectral_radius == pytest.approx(sr)  # convergent printed bounds, divergent errors
     assert exact_condition_a16(M, tr.Phi, tr.Psi, tr.C2, d.L_tilde, d.P, d.kappa, d.alpha) < 0
-    assert d.certified is False and "NOT certified" in d.summary()
+    assert d.verified is False and "NOT certified" in d.summary()
 
 
 def test_prop516_infeasible_and_bad_input() -> None:

@@ -107,20 +107,6 @@ def _no_observer(model: str, data: dict[str, Any], as_json: bool) -> None:
          "detectable, or Lemma 5.1's rank condition fails); evidence printed above", EXIT_NO_OBSERVER)
 
 
-def _design_dict(d: SetValuedDesign) -> dict[str, Any]:
-    return {
-        "objective": d.objective.value, "L_tilde": d.L_tilde.tolist(), "P": d.P.tolist(), "lambda": d.lam,
-        "lambda_eff": d.lam_eff, "kappa": d.kappa, "c": d.c, "theta": list(d.theta), "rho": d.rho,
-        "steady_radius": d.steady_radius, "spectral_radii": list(d.spectral_radii),
-        "hinf_linear": list(d.hinf_linear), "solver": d.solver.value, "solver_status": d.solver_status,
-        "solves": d.solves, "seconds": d.seconds,
-        "function_class_used": d.function_class.label,
-        "lpv_design": d.certified_for.lpv.value if d.certified_for.lpv else None,
-        "checks": [{"name": c.name, "value": c.value, "limit": c.limit, "passed": c.passed} for c in d.checks],
-        "verified": d.verified,
-    }
-
-
 def _design(model: str, m: DiscreteUIModel, objective: str, samples: int, seed: int,
             as_json: bool) -> tuple[SetValuedDesign, dict[str, Any]]:
     """Structure, class check and design, shared by both commands (exits on failure)."""
@@ -155,7 +141,7 @@ def _design(model: str, m: DiscreteUIModel, objective: str, samples: int, seed: 
         fail(f"{model}: the solver's answer failed the independent verification: {exc}", EXIT_FAILURE)
     except NlobsError as exc:
         fail(f"{model}: {exc}")
-    data["design"] = _design_dict(d)
+    data["design"] = d.to_dict()
     return d, data
 
 

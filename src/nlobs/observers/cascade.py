@@ -75,7 +75,6 @@ from nlobs.errors import (
 from nlobs.linear import hinf_norm
 from nlobs.observers.cascade_assumptions import Assumption4Report, require_assumption4
 from nlobs.synthesis import (
-    CertificateStatus,
     Check,
     CheckKind,
     GainBound,
@@ -960,7 +959,6 @@ def place_cascade_gain(
     )
     ok = all(c.passed for c in checks)
     cert = ObserverGainCertificate(
-        status=CertificateStatus.VERIFIED if ok else CertificateStatus.FAILED,
         K=_readonly(K), P=None, gamma=g, gamma_n=None, hinf_H=float(hH), hinf_G=None,
         eigenvalues=_readonly_c(eig), checks=checks, objective=None, solver=None,
         solver_status=f"pole placement at ω = {hi:.6g} × pattern", margin=0.0,

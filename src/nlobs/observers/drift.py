@@ -532,7 +532,7 @@ class DriftDesignReport:
         lines.append(f"  sampled on the region ({L.samples} points): γ_Φ ≈ {L.gamma_phi:.4g}, γ_Φ⁻¹ ≈ {L.gamma_phi_inv:.4g}, "
                      f"γ_L ≈ {L.gamma_L:.4g}, γ_H ≈ {L.gamma_H:.4g}")
         lines.append(f"  (2.17) with α = {c.alpha:g}, μ = {c.mu:g}, γ = {self.gamma:.4g} ({self.gamma_source})")
-        lines += ["  " + ln for ln in self.certificate.describe().splitlines()]
+        lines += ["  " + ln for ln in self.certificate.summary().splitlines()]
         lines.append("  K = " + np.array2string(self.certificate.K, precision=5, separator=", ").replace("\n", "\n      "))
         lines.append("  " + self.bound.describe())
         lines += [f"  warning: {m}" for m in self.warnings]

@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import cvxpy as cp
 import numpy as np
@@ -56,6 +57,7 @@ from numpy.typing import ArrayLike, NDArray
 from nlobs._validate import as_matrix, as_square, in_range, positive
 from nlobs.errors import CertificateError, DesignInfeasible
 from nlobs.checks import Check, CheckKind
+from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.synthesis.lmi import Solver, as_solver, bmat, max_eig, solve, symmetrise
 
 __all__ = ["DiscreteLipschitzCertificate", "design_discrete_lipschitz_gain", "verify_discrete_lipschitz_gain"]
@@ -64,8 +66,8 @@ Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True, eq=False)
-class DiscreteLipschitzCertificate:
-    r"""A verified gain ``L`` of the discrete Lipschitz observer (module docstring).
+class DiscreteLipschitzCertificate(CertificateMixin):
+    r"""A verified gain ``L`` of the discrete Lipschitz observer (module docstring): a :class:`~nlobs.synthesis.certificate.Certificate`.
 
     Attributes
     ----------
@@ -115,9 +117,9 @@ class DiscreteLipschitzCertificate:
     seconds: float
 
     @property
-    def verified(self) -> bool:
-        """Whether every check passed (always True for a returned design)."""
-        return all(c.passed for c in self.checks)
+    def gain(self) -> Array:
+        """The output-injection gain ``L``."""
+        return self.L
 
     def error_bound(self, e0_norm: float, k: int | ArrayLike) -> Array:
         """``√κ(P) ρᵏ ‖e_0‖``, the noise-free error bound at step(s) ``k``."""
@@ -135,6 +137,16 @@ class DiscreteLipschitzCertificate:
         ]
         lines += ["  " + c.summary() for c in self.checks]
         return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python view: the gain, ``P``, ``ε``, ``ρ``, the transient constant and every check."""
+        return {
+            "gain": self.L.tolist(), "P": self.P.tolist(), "epsilon": self.epsilon, "rho": self.rho,
+            "rho_min": self.rho_min, "lipschitz": self.lipschitz, "transient": self.transient,
+            "spectral_radius": self.spectral_radius, "verified": self.verified, "checks": checks_dict(self.checks),
+            "solver": self.solver.value, "solver_status": self.solver_status, "margin": self.margin,
+            "n_solves": self.n_solves, "seconds": self.seconds,
+        }
 
 
 def _n_block(A: Array, C: Array, L: Array, P: Array, gamma: float, rho: float, E: Array, F: Array,

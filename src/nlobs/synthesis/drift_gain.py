@@ -80,6 +80,7 @@ from numpy.typing import ArrayLike, NDArray
 from nlobs._validate import as_matrix, positive, readonly
 from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
 from nlobs.checks import Check, CheckKind
+from nlobs.synthesis.certificate import CertificateMixin, checks_dict, complex_pairs
 from nlobs.systems.brunovsky import brunovsky as brunovsky_triple
 from nlobs.systems.brunovsky import positive_multi_index
 from nlobs.synthesis.lmi import Solver, SolveStatus, as_enum, as_solver, bmat, max_eig, solve, symmetrise
@@ -207,8 +208,8 @@ def _lhs(c: RiccatiConstants, K: Array, P: Array, d: Array) -> tuple[Array, floa
 
 
 @dataclass(frozen=True, eq=False)
-class DriftGainCertificate:
-    """A gain pair ``(K, P)`` for the observer (3.1), re-verified against (2.17).
+class DriftGainCertificate(CertificateMixin):
+    """A gain pair ``(K, P)`` for the observer (3.1), re-verified against (2.17): a :class:`~nlobs.synthesis.certificate.Certificate`.
 
     Attributes
     ----------
@@ -265,12 +266,9 @@ class DriftGainCertificate:
     lhs_rounding: float = math.nan
 
     @property
-    def verified(self) -> bool:
-        return all(c.passed for c in self.checks)
-
-    @property
-    def failed_checks(self) -> tuple[Check, ...]:
-        return tuple(c for c in self.checks if not c.passed)
+    def gain(self) -> Array:
+        """The gain ``K`` of (3.1)."""
+        return self.K
 
     def _scaled(self) -> tuple[Array, Array, Array, float] | None:
         """``(d, D L D, D P D, eigenvalues of D P D)``, or ``None`` unless ``D P D`` is positive definite (and all finite)."""
@@ -336,7 +334,8 @@ class DriftGainCertificate:
         """``max Re λ(A_s − K C_s)``; (2.17) implies it is ``< −α`` when ``γ > 0``."""
         return float(np.max(self.eigenvalues.real))
 
-    def describe(self) -> str:
+    def summary(self) -> str:
+        """A multi-line report: the pair, (2.17) scaled and unscaled, ``cn(P)``, the eigenvalues and every check."""
         head = f"{self.method} gain" + (f" (w = {self.w:.6g})" if self.w is not None else "")
         if self.scaling != 1.0:
             head += f" (scaling θ = {self.scaling:.4g})"
@@ -353,6 +352,7 @@ class DriftGainCertificate:
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
+        """Plain-Python view (``"K"`` and ``"gain"`` hold the same gain)."""
         c = self.constants
         return {
             "method": self.method,
@@ -362,6 +362,7 @@ class DriftGainCertificate:
             "gamma": c.gamma,
             "w": self.w,
             "K": self.K.tolist(),
+            "gain": self.K.tolist(),
             "P": self.P.tolist(),
             "verified": self.verified,
             "lhs_max_eig": self.lhs_max_eig,
@@ -372,8 +373,8 @@ class DriftGainCertificate:
             "norm_P": self.norm_P,
             "gain_norm": self.gain_norm,
             "decay_margin": self.decay_margin,
-            "eigenvalues": [[float(z.real), float(z.imag)] for z in self.eigenvalues],
-            "checks": [{"name": k.name, "value": k.value, "limit": k.limit, "passed": k.passed} for k in self.checks],
+            "eigenvalues": complex_pairs(self.eigenvalues),
+            "checks": checks_dict(self.checks),
             "objective": self.objective,
             "solver": None if self.solver is None else self.solver.value,
             "solver_status": self.solver_status,

@@ -56,7 +56,6 @@ from nlobs.linear.norms import hinf_norm
 from nlobs.linear.observability import unobservable_modes
 from nlobs.linear.stability import strictly_inside
 from nlobs.synthesis.certificate import (
-    CertificateStatus,
     Check,
     CheckKind,
     Objective,
@@ -679,7 +678,6 @@ def design_observer_gain(
 
     checks, hH, hG, eigs = _certify(d, sol.K, sol.P, sol.gamma, sol.gamma_n)
     cert = ObserverGainCertificate(
-        status=CertificateStatus.VERIFIED if all(c.passed for c in checks) else CertificateStatus.FAILED,
         K=_ro(sol.K), P=_ro(sol.P), gamma=sol.gamma, gamma_n=sol.gamma_n, hinf_H=hH, hinf_G=hG,
         eigenvalues=_ro(eigs), checks=tuple(checks), objective=obj, solver=slv,
         solver_status=sol.result.raw_status, margin=eps, seconds=time.perf_counter() - t0,
@@ -772,7 +770,6 @@ def verify_observer_gain(
     checks = extra + checks
     ok = all(c.passed for c in checks)
     cert = ObserverGainCertificate(
-        status=CertificateStatus.VERIFIED if ok else CertificateStatus.FAILED,
         K=_ro(K_), P=None if P_val is None else _ro(P_val), gamma=g, gamma_n=gn, hinf_H=hH, hinf_G=hG,
         eigenvalues=_ro(eigs), checks=tuple(checks), objective=None, solver=slv, solver_status=raw,
         margin=eps, seconds=time.perf_counter() - t0,

@@ -76,6 +76,7 @@ from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentErro
 from nlobs.linear.norms import hinf_norm
 from nlobs.linear.transform_ui import StructuralReport, UITransform, require_structure, structural_check, ui_transform
 from nlobs.checks import Check, CheckKind
+from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.synthesis.lmi import Solver, as_enum, as_solver, max_eig, solve
 from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, FunctionClass, Lipschitz
 
@@ -250,8 +251,8 @@ def error_dynamics(system: DiscreteUISystem, transform: UITransform | None = Non
 
 
 @dataclass(frozen=True, eq=False)
-class SetValuedDesign:
-    r"""A verified gain ``L̃`` for the observer (10)-(15) with its Lyapunov certificate.
+class SetValuedDesign(CertificateMixin):
+    r"""A verified gain ``L̃`` for the observer (10)-(15) with its Lyapunov certificate (a :class:`~nlobs.synthesis.certificate.Certificate`).
 
     Attributes
     ----------
@@ -323,8 +324,9 @@ class SetValuedDesign:
         return self.certified_for.function_class
 
     @property
-    def verified(self) -> bool:
-        return all(c.passed for c in self.checks)
+    def gain(self) -> Array:
+        """The measurement-update gain ``L̃`` of (15)."""
+        return self.L_tilde
 
     @property
     def transform(self) -> UITransform:
@@ -344,6 +346,20 @@ class SetValuedDesign:
         ]
         lines += ["  " + c.summary() for c in self.checks]
         return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python view (the ``"design"`` of ``nlobs design setvalued --json``; ``"L_tilde"`` and ``"gain"``
+        hold the same gain)."""
+        return {
+            "objective": self.objective.value, "L_tilde": self.L_tilde.tolist(), "gain": self.L_tilde.tolist(),
+            "P": self.P.tolist(), "lambda": self.lam, "lambda_eff": self.lam_eff, "kappa": self.kappa, "q": self.q,
+            "c": self.c, "theta": list(self.theta), "rho": self.rho, "steady_radius": self.steady_radius,
+            "spectral_radii": list(self.spectral_radii), "hinf_linear": list(self.hinf_linear),
+            "solver": self.solver.value, "solver_status": self.solver_status, "margin": self.margin,
+            "solves": self.solves, "seconds": self.seconds, "function_class_used": self.function_class.label,
+            "lpv_design": self.certified_for.lpv.value if self.certified_for.lpv else None,
+            "checks": checks_dict(self.checks), "verified": self.verified,
+        }
 
 
 # --------------------------------------------------------------------------- problem

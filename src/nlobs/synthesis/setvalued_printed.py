@@ -48,6 +48,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, as_square, as_symmetric, positive, readonly
 from nlobs.checks import Check, CheckKind
+from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.errors import CertificateError, DesignInfeasible, DimensionError, InvalidArgumentError
 from nlobs.linear.transform_ui import UITransform, structural_check, ui_transform
 from nlobs.synthesis.lmi import Solver, as_solver, solve
@@ -81,8 +82,12 @@ def _split_M(M: ArrayLike, n: int) -> tuple[Array, Array, Array, Array]:
 
 
 @dataclass(frozen=True)
-class PrintedDesign:
+class PrintedDesign(CertificateMixin):
     """The answer of Theorem 5.10's SDP as printed, with what it really guarantees.
+
+    A :class:`~nlobs.synthesis.certificate.Certificate` whose checks are the exact condition (A.16) and the
+    spectral radius: ``verified`` is ``False`` when the printed LMIs accepted a gain their own sufficient
+    condition does not support (never use it as a certified observer).
 
     Attributes
     ----------
@@ -98,6 +103,7 @@ class PrintedDesign:
         Of ``(I − L̃C₂)Φ(A − Ψ)`` (the linear part, ``Δf = A x̃``).
     solves : int
     seconds : float
+    solver : Solver or None
     """
 
     P: Array
@@ -112,22 +118,32 @@ class PrintedDesign:
     spectral_radius: float
     solves: int
     seconds: float
+    solver: Solver | None = None
 
     @property
-    def certified(self) -> bool:
-        """Whether the answer is certified at all: exact (A.16) ``min eig ≥ 0`` and spectral radius ``< 1``.
+    def gain(self) -> Array:
+        """``L̃* = P*⁻¹Y*``."""
+        return self.L_tilde
 
-        ``False`` means the printed LMIs accepted a gain their own sufficient condition does not support
-        (never use it as a certified observer).
-        """
-        return self.exact_min_eig >= 0 and self.spectral_radius < 1
+    @property
+    def checks(self) -> tuple[Check, ...]:
+        """Whether the answer is certified at all: exact (A.16) ``min eig ≥ 0`` and spectral radius ``< 1``."""
+        return _printed_checks(self.exact_min_eig, self.spectral_radius)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python view: the printed answer, its exact (A.16) and spectral radius, the checks."""
+        return {"rho": self.rho, "alpha": self.alpha, "eps1": self.eps1, "eps2": self.eps2, "kappa": self.kappa,
+                "P": self.P.tolist(), "Y": np.asarray(self.Y).tolist(), "gain": self.L_tilde.tolist(),
+                "exact_min_eig": self.exact_min_eig, "spectral_radius": self.spectral_radius,
+                "verified": self.verified, "checks": checks_dict(self.checks), "solves": self.solves,
+                "seconds": self.seconds, "solver": None if self.solver is None else self.solver.value}
 
     def summary(self) -> str:
-        """One line per quantity, with the verdict of :attr:`certified`."""
+        """One line per quantity, with the verdict of :attr:`verified`."""
         return (f"Thm 5.10 as printed: rho* = {self.rho:.6g}, alpha = {self.alpha:.4g}, eps1 = {self.eps1:.4g}, "
                 f"eps2 = {self.eps2:.4g}, kappa = {self.kappa:.4g}\n"
                 f"  (A.16) min eig = {self.exact_min_eig:.4g} (>= 0 needed), spectral radius = "
-                f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.certified))
+                f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.verified))
 
 
 def exact_condition_a16(M: Array, Phi: Array, Psi: Array, C2: Array, L_tilde: Array, P: Array, kappa: float,
@@ -480,7 +496,7 @@ def design_printed(system: DiscreteUISystem, M: ArrayLike, *, alphas: Sequence[f
     L = np.linalg.solve(Pv, best.Y)
     emin = exact_condition_a16(M_, tr.Phi, tr.Psi, tr.C2, L, Pv, best.kappa, best.alpha)
     return PrintedDesign(Pv, best.Y, L, math.sqrt(best.rho2), best.alpha, best.eps1, best.eps2, best.kappa, emin,
-                         _spectral_radius(system, tr, L), solves, time.perf_counter() - t0)
+                         _spectral_radius(system, tr, L), solves, time.perf_counter() - t0, slv)
 
 
 # --------------------------------------------------------------------------- Proposition 5.16
@@ -510,8 +526,11 @@ class BranchOutcome:
 
 
 @dataclass(frozen=True)
-class Prop516Design:
+class Prop516Design(CertificateMixin):
     r"""Proposition 5.16's mixed-integer SDP as two SDPs, and what its answer really guarantees.
+
+    A :class:`~nlobs.synthesis.certificate.Certificate` whose checks are ``θ₁ < 1`` (32) (verified when
+    the design returns), the exact condition (A.16) and the spectral radius (see :class:`PrintedDesign`).
 
     Attributes
     ----------
@@ -540,6 +559,7 @@ class Prop516Design:
         Of ``(I − L̃C₂)Φ(A − Ψ)``.
     solves : int
     seconds : float
+    solver : Solver or None
     """
 
     rho: float
@@ -562,6 +582,7 @@ class Prop516Design:
     spectral_radius: float
     solves: int
     seconds: float
+    solver: Solver | None = None
 
     def summary(self) -> str:
         """One line per quantity."""
@@ -572,16 +593,42 @@ class Prop516Design:
                 f"  eig(P) in [{self.lambda_min_P:.6g}, {self.lambda_max_P:.6g}], theta1 = {self.theta1:.6g} (< 1 "
                 f"required), printed steady radius delta_inf,1 = {self.theta1_steady:.4g}\n"
                 f"  (A.16) min eig = {self.exact_min_eig:.4g} (>= 0 needed), spectral radius = "
-                f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.certified))
+                f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.verified))
 
     @property
-    def certified(self) -> bool:
-        """Exact (A.16) ``min eig ≥ 0`` and spectral radius ``< 1`` at the returned gain (see :class:`PrintedDesign`)."""
-        return self.exact_min_eig >= 0 and self.spectral_radius < 1
+    def gain(self) -> Array:
+        """``L̃** = P**⁻¹Y**``."""
+        return self.L_tilde
+
+    @property
+    def checks(self) -> tuple[Check, ...]:
+        """``θ₁ < 1`` (32) at ``P``, then exact (A.16) ``min eig ≥ 0`` and spectral radius ``< 1`` (:class:`PrintedDesign`)."""
+        return (Check.compare("θ₁ = |λ_max(P) − 1|/λ_min(P) < 1 (32)", self.theta1, 1.0, kind=CheckKind.POSITIVITY),
+                *_printed_checks(self.exact_min_eig, self.spectral_radius))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python view: ``ρ**``, both branches, the answer at ``ρ**``, ``θ₁``, (A.16), the checks."""
+        return {"rho": self.rho, "branch": self.branch.value,
+                "branches": [{"branch": b.branch.value, "rho": b.rho, "solves": b.solves, "theta1": b.theta1}
+                             for b in self.branches],
+                "P": self.P.tolist(), "Y": np.asarray(self.Y).tolist(), "gain": self.L_tilde.tolist(),
+                "alpha": self.alpha, "eps1": self.eps1, "eps2": self.eps2, "kappa": self.kappa,
+                "kappa1": self.kappa1, "kappa2": self.kappa2, "lambda_min_P": self.lambda_min_P,
+                "lambda_max_P": self.lambda_max_P, "theta1": self.theta1, "theta1_steady": self.theta1_steady,
+                "exact_min_eig": self.exact_min_eig, "spectral_radius": self.spectral_radius,
+                "verified": self.verified, "checks": checks_dict(self.checks), "solves": self.solves,
+                "seconds": self.seconds, "solver": None if self.solver is None else self.solver.value}
 
 
-def _verdict(certified: bool) -> str:
-    return "certified" if certified else "NOT certified (certified = False: do not use this gain)"
+def _printed_checks(exact_min_eig: float, spectral_radius: float) -> tuple[Check, Check]:
+    """What a printed answer needs to be certified: (A.16) ``min eig ≥ 0`` (the decrease (17)) and a Schur error matrix."""
+    return (Check.compare("exact condition (A.16): −min eig ≤ 0", -exact_min_eig, 0.0, kind=CheckKind.LMI,
+                          strict=False),
+            Check.compare("spectral radius of (I − L̃C₂)Φ(A − Ψ) < 1", spectral_radius, 1.0, kind=CheckKind.SPECTRUM))
+
+
+def _verdict(verified: bool) -> str:
+    return "certified" if verified else "NOT certified (verified = False: do not use this gain)"
 
 
 def design_prop516(system: DiscreteUISystem, M: ArrayLike, *, gamma: float = 0.0,
@@ -674,7 +721,7 @@ def design_prop516(system: DiscreteUISystem, M: ArrayLike, *, gamma: float = 0.0
     steady = rho * math.sqrt((system.eta_w**2 + system.eta_v**2) / (ev[0] * (1.0 - th1)))
     return Prop516Design(rho, br, tuple(outcomes), readonly(Pv), readonly(best.Y), readonly(L), best.alpha, best.eps1, best.eps2,
                          best.kappa, best.extra["kappa1"], best.extra["kappa2"], float(ev[0]), float(ev[-1]), th1,
-                         steady, emin, _spectral_radius(system, tr, L), solves, time.perf_counter() - t0)
+                         steady, emin, _spectral_radius(system, tr, L), solves, time.perf_counter() - t0, slv)
 
 
 # --------------------------------------------------------------------------- Proposition 5.6
