@@ -134,7 +134,7 @@ def test_design_report_text_and_dict() -> None:
     assert rep.certificate.verified and rep.gamma_source == "given"
     d = rep.to_dict()
     assert d["s"] == [3, 1] and d["certificate"]["verified"] is True and d["bound"]["kappa1"] > 1
-    txt = rep.to_text()
+    txt = rep.summary()
     assert "s = (3, 1)" in txt and "(2.17)" in txt and "κ₁" in txt
     assert rep.observer().s == (3, 1)
     # the given γ = 2 is below what sampling the unit box finds: the gain is verified, the design not usable
@@ -161,7 +161,7 @@ def test_report_is_not_usable_when_drift_observability_fails() -> None:
     assert not rep.drift_check.passed and rep.certificate.verified
     assert not rep.usable and rep.to_dict()["usable"] is False
     assert rep.reasons[0].startswith("drift-observability fails on the region") and "3*x2**2" in rep.reasons[0]
-    assert rep.to_text().splitlines()[-1].startswith("  usable: NO — drift-observability fails")
+    assert rep.summary().splitlines()[-1].startswith("  usable: NO — drift-observability fails")
 
 
 def test_given_gamma_below_the_estimate_is_warned_and_simulations_are_not_certified() -> None:

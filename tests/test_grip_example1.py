@@ -110,7 +110,7 @@ def test_figures_and_serialisation(result) -> None:  # type: ignore[no-untyped-d
 
     d = result.to_dict()
     json.dumps(d)
-    assert "Theorem 1" in result.to_text()
+    assert "Theorem 1" in result.summary()
     if result.feedback:
         assert result.figures == ()
         return

@@ -157,7 +157,7 @@ def test_non_involutive_distribution_is_refused_or_warned() -> None:
     assert not obs.checks[1].passed and obs.checks[1].worst_point is not None
     rep = design_pinv_report(m)
     assert rep.to_dict()["involutive"] is False and not rep.usable
-    assert "FAIL A5" in rep.to_text()
+    assert "FAIL A5" in rep.summary()
 
 
 def test_non_input_affine_model_is_refused() -> None:
@@ -231,7 +231,7 @@ def test_design_report(model: SymbolicModel) -> None:
     assert d["k"] == [6.0, 9.0] and d["roots"] == pytest.approx([-3.0, -3.0], abs=1e-6)
     assert d["pinv_gain"][3] == ["k1"] and d["pinv_gain"][2] == ["0"]
     assert rep.input_gains == ("2*(x3 + 1)",) and rep.usable
-    txt = rep.to_text()
+    txt = rep.summary()
     assert "r = 2" in txt and "2*k2*x1/(4*x1**2 + 1)" in txt
     rep2 = design_pinv_report(model, k=[1.0, 2.0], region=Box.around(np.zeros(4), 2.0))
     assert rep2.k == (1.0, 2.0) and rep2.theta is None

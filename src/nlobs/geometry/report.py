@@ -83,7 +83,7 @@ class GeometryReport:
             "notes": list(self.notes),
         }
 
-    def to_text(self) -> str:
+    def summary(self) -> str:
         n = len(self.states)
         lines = [f"differential geometry on {self.region.describe()} (seeds 002, 003):"]
         for o, r, ev in zip(self.outputs, self.relative_degree, self.relative_degree_evidence):

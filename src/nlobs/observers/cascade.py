@@ -1059,7 +1059,7 @@ class GammaSweep:
             out.append(d)
         return out
 
-    def to_text(self) -> str:
+    def summary(self) -> str:
         """A plain-text table (no rich markup)."""
         head = [c[1] for c in _COLUMNS]
         body = []

@@ -518,7 +518,7 @@ class DriftDesignReport:
         return DriftObserver.from_fields(self.fields, self.s, self.certificate.K, regularization=regularization,
                                          cond_limit=cond_limit)
 
-    def to_text(self) -> str:
+    def summary(self) -> str:
         c = self.certificate.constants
         r_txt = ", ".join("∞" if v is None else str(v) for v in self.r)
         lines = [

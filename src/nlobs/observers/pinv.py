@@ -587,7 +587,7 @@ class PinvDesignReport:
             "usable": self.usable,
         }
 
-    def to_text(self) -> str:
+    def summary(self) -> str:
         """A plain-text report."""
         lines = [f"Moore–Penrose observer (Röbenack 2008, (7) with (17)) for {self.model}"]
         for o, rj, lg in zip(self.outputs, self.relative_degree, self.input_gains):

@@ -257,7 +257,7 @@ class Example1Result:
             "figures": [str(p) for p in self.figures],
         }
 
-    def to_text(self) -> str:
+    def summary(self) -> str:
         """A plain-text summary."""
         q = self.lyapunov
         eig = ", ".join(f"{z.real:.4g}{z.imag:+.4g}j" for z in self.observer_eigenvalues)
@@ -279,7 +279,7 @@ class Example1Result:
             f"(linearised prediction {self.predicted_decay[0]:.4g}–{self.predicted_decay[1]:.4g})"),
         ]
         if self.sweep is not None:
-            lines += ["  " + ln for ln in self.sweep.to_text().splitlines()]
+            lines += ["  " + ln for ln in self.sweep.summary().splitlines()]
         if self.figures:
             lines.append("  figures: " + ", ".join(str(p) for p in self.figures))
         return "\n".join(lines)
