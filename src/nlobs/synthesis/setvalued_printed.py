@@ -119,16 +119,16 @@ class PrintedDesign(CertificateMixin):
     solves: int
     seconds: float
     solver: Solver | None = None
+    checks: tuple[Check, ...] = field(init=False, repr=False, compare=False)
+    """Whether the answer is certified at all: exact (A.16) ``min eig ≥ 0`` and spectral radius ``< 1``."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "checks", _printed_checks(self.exact_min_eig, self.spectral_radius))
 
     @property
     def gain(self) -> Array:
         """``L̃* = P*⁻¹Y*``."""
         return self.L_tilde
-
-    @property
-    def checks(self) -> tuple[Check, ...]:
-        """Whether the answer is certified at all: exact (A.16) ``min eig ≥ 0`` and spectral radius ``< 1``."""
-        return _printed_checks(self.exact_min_eig, self.spectral_radius)
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-Python view: the printed answer, its exact (A.16) and spectral radius, the checks."""
@@ -143,7 +143,8 @@ class PrintedDesign(CertificateMixin):
         return (f"Thm 5.10 as printed: rho* = {self.rho:.6g}, alpha = {self.alpha:.4g}, eps1 = {self.eps1:.4g}, "
                 f"eps2 = {self.eps2:.4g}, kappa = {self.kappa:.4g}\n"
                 f"  (A.16) min eig = {self.exact_min_eig:.4g} (>= 0 needed), spectral radius = "
-                f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.verified))
+                f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.verified)
+                + "".join("\n  " + c.summary() for c in self.checks))
 
 
 def exact_condition_a16(M: Array, Phi: Array, Psi: Array, C2: Array, L_tilde: Array, P: Array, kappa: float,
@@ -583,6 +584,13 @@ class Prop516Design(CertificateMixin):
     solves: int
     seconds: float
     solver: Solver | None = None
+    checks: tuple[Check, ...] = field(init=False, repr=False, compare=False)
+    """``θ₁ < 1`` (32) at ``P``, then exact (A.16) ``min eig ≥ 0`` and spectral radius ``< 1`` (:class:`PrintedDesign`)."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "checks", (
+            Check.compare("θ₁ = |λ_max(P) − 1|/λ_min(P) < 1 (32)", self.theta1, 1.0, kind=CheckKind.POSITIVITY),
+            *_printed_checks(self.exact_min_eig, self.spectral_radius)))
 
     def summary(self) -> str:
         """One line per quantity."""
@@ -593,18 +601,13 @@ class Prop516Design(CertificateMixin):
                 f"  eig(P) in [{self.lambda_min_P:.6g}, {self.lambda_max_P:.6g}], theta1 = {self.theta1:.6g} (< 1 "
                 f"required), printed steady radius delta_inf,1 = {self.theta1_steady:.4g}\n"
                 f"  (A.16) min eig = {self.exact_min_eig:.4g} (>= 0 needed), spectral radius = "
-                f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.verified))
+                f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.verified)
+                + "".join("\n  " + c.summary() for c in self.checks))
 
     @property
     def gain(self) -> Array:
         """``L̃** = P**⁻¹Y**``."""
         return self.L_tilde
-
-    @property
-    def checks(self) -> tuple[Check, ...]:
-        """``θ₁ < 1`` (32) at ``P``, then exact (A.16) ``min eig ≥ 0`` and spectral radius ``< 1`` (:class:`PrintedDesign`)."""
-        return (Check.compare("θ₁ = |λ_max(P) − 1|/λ_min(P) < 1 (32)", self.theta1, 1.0, kind=CheckKind.POSITIVITY),
-                *_printed_checks(self.exact_min_eig, self.spectral_radius))
 
     def to_dict(self) -> dict[str, Any]:
         """Plain-Python view: ``ρ**``, both branches, the answer at ``ρ**``, ``θ₁``, (A.16), the checks."""
