@@ -55,7 +55,7 @@ def test_theorem_3_1_bound_holds_and_decay_rate_at_least_alpha() -> None:
     alpha = 1.0
     c = RiccatiConstants((2,), [[0.0], [1.0]], alpha=alpha, mu=1.0, gamma=math.hypot(GAMMA_L, GAMMA_H))
     cert = smallest_w(c).certificate
-    obs = DriftObserver.from_model(model, cert.K)
+    obs = DriftObserver.from_model(model, cert.gain)
     assert isinstance(obs, Observer)
     bound = error_bound_constants(cert, 1.0, 1.0, estimated=False)  # Φ_s = identity: γ_Φ = γ_Φ⁻¹ = 1
     assert bound.kappa1 == pytest.approx(math.sqrt(cert.cond_P))

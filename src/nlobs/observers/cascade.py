@@ -624,7 +624,7 @@ class CascadeObserver:
     sigma2 : LinearSubsystem
         Σ₂.
     K : array_like, shape (n_w + p_z, p_y)
-        ``[K_w; K_z]``, e.g. ``design_cascade_gain(...).K``. It is not required to
+        ``[K_w; K_z]``, e.g. ``design_cascade_gain(...).gain``. It is not required to
         be certified here, but ``𝔄 − Kℭ`` must be Hurwitz (checked).
 
     Attributes
@@ -672,7 +672,7 @@ class CascadeObserver:
             raise InvalidArgumentError(
                 "certificate: not verified (failed: " + ", ".join(c.name for c in certificate.failed_checks) + ")"
             )
-        return cls(sigma1, sigma2, certificate.K)
+        return cls(sigma1, sigma2, certificate.gain)
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -959,7 +959,7 @@ def place_cascade_gain(
     )
     ok = all(c.passed for c in checks)
     cert = ObserverGainCertificate(
-        K=_readonly(K), P=None, gamma=g, gamma_n=None, hinf_H=float(hH), hinf_G=None,
+        gain=_readonly(K), P=None, gamma=g, gamma_n=None, hinf_H=float(hH), hinf_G=None,
         eigenvalues=_readonly_c(eig), checks=checks, objective=None, solver=None,
         solver_status=f"pole placement at ω = {hi:.6g} × pattern", margin=0.0,
         seconds=_time.perf_counter() - t0,
@@ -1144,10 +1144,10 @@ def gamma_sweep(
             "hinf_G": float(cert.hinf_G) if cert.hinf_G is not None else math.nan,
             "gain_norm": cert.gain_norm, "slowest_pole": float(np.max(eig.real)),
             "fastest_pole": float(np.min(eig.real)),
-            "K": tuple(tuple(float(v) for v in r) for r in cert.K),
+            "K": tuple(tuple(float(v) for v in r) for r in cert.gain),
         }
         if simulate is not None:
-            obs = CascadeObserver(sigma1, sigma2, cert.K)
+            obs = CascadeObserver(sigma1, sigma2, cert.gain)
             try:
                 res = simulate(obs)
             except ArithmeticError as exc:  # SimulationDiverged

@@ -86,7 +86,7 @@ class DiscreteLipschitzObserver:
         Linear part of ``f``.
     C : array_like, shape (l, n)
     L : array_like, shape (n, l)
-        Gain, e.g. ``design_discrete_lipschitz_gain(A, C, lipschitz=γ).L`` (its certificate
+        Gain, e.g. ``design_discrete_lipschitz_gain(A, C, lipschitz=γ).gain`` (its certificate
         gives ``‖e_k‖ ≤ √κ(P) ρᵏ ‖e_0‖`` for ``d = w = v = 0``).
     time : Discrete
         Sampling period of the model (required, never defaulted).

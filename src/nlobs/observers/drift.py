@@ -515,7 +515,7 @@ class DriftDesignReport:
 
     def observer(self, *, regularization: float = 0.0, cond_limit: float = COND_LIMIT) -> DriftObserver:
         """The observer (3.1) with this report's ``s`` and ``K``."""
-        return DriftObserver.from_fields(self.fields, self.s, self.certificate.K, regularization=regularization,
+        return DriftObserver.from_fields(self.fields, self.s, self.certificate.gain, regularization=regularization,
                                          cond_limit=cond_limit)
 
     def summary(self) -> str:
@@ -533,7 +533,7 @@ class DriftDesignReport:
                      f"γ_L ≈ {L.gamma_L:.4g}, γ_H ≈ {L.gamma_H:.4g}")
         lines.append(f"  (2.17) with α = {c.alpha:g}, μ = {c.mu:g}, γ = {self.gamma:.4g} ({self.gamma_source})")
         lines += ["  " + ln for ln in self.certificate.summary().splitlines()]
-        lines.append("  K = " + np.array2string(self.certificate.K, precision=5, separator=", ").replace("\n", "\n      "))
+        lines.append("  K = " + np.array2string(self.certificate.gain, precision=5, separator=", ").replace("\n", "\n      "))
         lines.append("  " + self.bound.describe())
         lines += [f"  warning: {m}" for m in self.warnings]
         lines.append("  usable: yes (drift-observable on the region, (2.17) verified, γ covers the sampled estimate)"

@@ -121,7 +121,7 @@ def sound_radii(system: DiscreteUISystem, design: SetValuedDesign, steps: int, *
     fc = design.function_class
     evP = np.linalg.eigvalsh(design.P)
     lmin, lmax = float(evP[0]), float(evP[-1])
-    Acl, Bcl, E = design.dynamics.split(design.L_tilde)
+    Acl, Bcl, E = design.dynamics.split(design.gain)
     l, nw = system.l, system.n_w
     Eb = (E[:, :l], E[:, l:l + nw], E[:, l + nw:])
     eta = _noise_norm(Eb, system.eta_v, system.eta_w)
@@ -204,10 +204,11 @@ def printed_radii(system: DiscreteUISystem, L_tilde: ArrayLike, P: ArrayLike, rh
 class GivenGain:
     """A gain ``L̃`` that was not designed by nlobs (e.g. a published one), with its transformation.
 
-    Runs Algorithm 1's centres without a certificate; radii must then be supplied.
+    Runs Algorithm 1's centres without a certificate; radii must then be supplied. ``gain`` and
+    ``transform`` are read as those of a :class:`~nlobs.synthesis.setvalued.SetValuedDesign`.
     """
 
-    L_tilde: Array
+    gain: Array
     transform: UITransform
 
     @classmethod
@@ -300,7 +301,7 @@ def run_setvalued(system: DiscreteUISystem, design: SetValuedDesign | GivenGain,
             x0a = as_vector("x0_hat", x0a, system.n)
         xh = np.broadcast_to(x0a, (Bn, system.n)).copy()
     tr = design.transform
-    Lt = design.L_tilde
+    Lt = design.gain
     z1 = y_ @ tr.U1
     z2 = y_ @ tr.U2
     X = np.empty((Bn, K1, system.n))

@@ -226,7 +226,7 @@ class Example1Result:
     @property
     def K(self) -> Array:
         """The designed ``[K_w; K_z]``."""
-        return np.asarray(self.certificate.K)
+        return np.asarray(self.certificate.gain)
 
     def to_dict(self) -> dict[str, Any]:
         """The numbers as plain Python (JSON-serialisable)."""
@@ -342,7 +342,7 @@ def run_example1(
     en = np.asarray(res.error_norm)
     e0 = float(en[0])
     rate = float(res.decay_rate(floor=1e-7 * e0))
-    pred = predicted_decay_range(np.asarray(cert.K), feedback)
+    pred = predicted_decay_range(np.asarray(cert.gain), feedback)
     sw = None
     if sweep:
         gammas = [g for g in SWEEP_GAMMAS if g > g_design] + [g_design]

@@ -171,8 +171,8 @@ class ObserverGainCertificate(CertificateMixin):
 
     Attributes
     ----------
-    K : ndarray, shape (n, p)
-        Observer gain.
+    gain : ndarray, shape (n, p)
+        Observer gain ``K`` of (12a).
     P : ndarray, shape (n, n), or None
         Common Lyapunov matrix of LMIs (14), (15) and the region LMIs
         (``None`` when none was found for a given gain).
@@ -200,7 +200,7 @@ class ObserverGainCertificate(CertificateMixin):
         Wall-clock time of the whole design/verification.
     """
 
-    K: NDArray[np.float64]
+    gain: NDArray[np.float64]
     P: NDArray[np.float64] | None
     gamma: float
     gamma_n: float | None
@@ -215,11 +215,6 @@ class ObserverGainCertificate(CertificateMixin):
     seconds: float = 0.0
 
     @property
-    def gain(self) -> NDArray[np.float64]:
-        """The observer gain ``K``."""
-        return self.K
-
-    @property
     def status(self) -> CertificateStatus:
         """``VERIFIED`` when every check passed, else ``FAILED``."""
         return CertificateStatus.VERIFIED if self.verified else CertificateStatus.FAILED
@@ -232,7 +227,7 @@ class ObserverGainCertificate(CertificateMixin):
     @property
     def gain_norm(self) -> float:
         """``‖K‖₂``."""
-        return float(np.linalg.norm(self.K, 2))
+        return float(np.linalg.norm(self.gain, 2))
 
     @property
     def hinf_ratio(self) -> float:
@@ -269,7 +264,7 @@ class ObserverGainCertificate(CertificateMixin):
         return {
             "status": self.status.value,
             "verified": self.verified,
-            "gain": self.K.tolist(),
+            "gain": self.gain.tolist(),
             "P": None if self.P is None else self.P.tolist(),
             "gamma": self.gamma,
             "gamma_n": self.gamma_n,

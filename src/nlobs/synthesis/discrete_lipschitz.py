@@ -71,8 +71,8 @@ class DiscreteLipschitzCertificate(CertificateMixin):
 
     Attributes
     ----------
-    L : ndarray, shape (n, l)
-        Output-injection gain.
+    gain : ndarray, shape (n, l)
+        Output-injection gain ``L``.
     P : ndarray, shape (n, n)
         Lyapunov matrix (normalised ``P ⪰ I``).
     epsilon : float
@@ -101,7 +101,7 @@ class DiscreteLipschitzCertificate(CertificateMixin):
         Wall-clock time.
     """
 
-    L: Array
+    gain: Array
     P: Array
     epsilon: float
     rho: float
@@ -116,11 +116,6 @@ class DiscreteLipschitzCertificate(CertificateMixin):
     n_solves: int
     seconds: float
 
-    @property
-    def gain(self) -> Array:
-        """The output-injection gain ``L``."""
-        return self.L
-
     def error_bound(self, e0_norm: float, k: int | ArrayLike) -> Array:
         """``√κ(P) ρᵏ ‖e_0‖``, the noise-free error bound at step(s) ``k``."""
         kk = np.asarray(k, dtype=float)
@@ -132,7 +127,7 @@ class DiscreteLipschitzCertificate(CertificateMixin):
             f"discrete Lipschitz observer gain (γ = {self.lipschitz:g}): ρ = {self.rho:.6g} "
             f"(ρ_min = {self.rho_min:.6g}), √κ(P) = {self.transient:.4g}, "
             f"spectral radius(A − LC) = {self.spectral_radius:.6g}",
-            f"  L = {np.array2string(self.L, precision=5)}",
+            f"  L = {np.array2string(self.gain, precision=5)}",
             f"  solver={self.solver.value} ({self.solver_status}), {self.n_solves} solves, {self.seconds:.3f} s",
         ]
         lines += ["  " + c.summary() for c in self.checks]
@@ -141,7 +136,7 @@ class DiscreteLipschitzCertificate(CertificateMixin):
     def to_dict(self) -> dict[str, Any]:
         """Plain-Python view: the gain, ``P``, ``ε``, ``ρ``, the transient constant and every check."""
         return {
-            "gain": self.L.tolist(), "P": self.P.tolist(), "epsilon": self.epsilon, "rho": self.rho,
+            "gain": self.gain.tolist(), "P": self.P.tolist(), "epsilon": self.epsilon, "rho": self.rho,
             "rho_min": self.rho_min, "lipschitz": self.lipschitz, "transient": self.transient,
             "spectral_radius": self.spectral_radius, "verified": self.verified, "checks": checks_dict(self.checks),
             "solver": self.solver.value, "solver_status": self.solver_status, "margin": self.margin,
@@ -370,7 +365,7 @@ def design_discrete_lipschitz_gain(
     P.setflags(write=False)
     L.setflags(write=False)
     return DiscreteLipschitzCertificate(
-        L=L, P=P, epsilon=eps_val, rho=float(rho_d), rho_min=float(rho_lo), lipschitz=gamma,
+        gain=L, P=P, epsilon=eps_val, rho=float(rho_d), rho_min=float(rho_lo), lipschitz=gamma,
         transient=float(np.sqrt(ev[-1] / ev[0])), spectral_radius=float(checks[2].value), checks=checks,
         solver=s, solver_status=res.raw_status, margin=eps, n_solves=n_solves,
         seconds=time.perf_counter() - t0,

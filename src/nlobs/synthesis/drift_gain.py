@@ -215,7 +215,8 @@ class DriftGainCertificate(CertificateMixin):
     ----------
     constants : RiccatiConstants
         ``s``, ``F_{s,r}``, ``α``, ``μ``, ``γ`` the pair was checked for.
-    K : ndarray, shape (n, q)
+    gain : ndarray, shape (n, q)
+        The gain ``K`` of (3.1).
     P : ndarray, shape (n, n)
     method : str
         ``"vandermonde"`` (Remark 2.11), ``"sdp"`` or ``"given"``.
@@ -248,7 +249,7 @@ class DriftGainCertificate(CertificateMixin):
     """
 
     constants: RiccatiConstants
-    K: Array
+    gain: Array
     P: Array
     method: str
     w: float | None
@@ -265,15 +266,10 @@ class DriftGainCertificate(CertificateMixin):
     lhs_tolerance: float = math.nan
     lhs_rounding: float = math.nan
 
-    @property
-    def gain(self) -> Array:
-        """The gain ``K`` of (3.1)."""
-        return self.K
-
     def _scaled(self) -> tuple[Array, Array, Array, float] | None:
         """``(d, D L D, D P D, eigenvalues of D P D)``, or ``None`` unless ``D P D`` is positive definite (and all finite)."""
         d = _equilibration(self.P)
-        L, _, _, Pt = _lhs(self.constants, self.K, self.P, d)
+        L, _, _, Pt = _lhs(self.constants, self.gain, self.P, d)
         if not (np.all(np.isfinite(L)) and np.all(np.isfinite(Pt))):
             return None
         ev = np.linalg.eigvalsh(Pt)
@@ -304,7 +300,7 @@ class DriftGainCertificate(CertificateMixin):
     @property
     def gain_norm(self) -> float:
         """``‖K‖₂``."""
-        return float(np.linalg.norm(self.K, 2))
+        return float(np.linalg.norm(self.gain, 2))
 
     @property
     def decay_margin(self) -> float:
@@ -361,8 +357,8 @@ class DriftGainCertificate(CertificateMixin):
             "mu": c.mu,
             "gamma": c.gamma,
             "w": self.w,
-            "K": self.K.tolist(),
-            "gain": self.K.tolist(),
+            "K": self.gain.tolist(),
+            "gain": self.gain.tolist(),
             "P": self.P.tolist(),
             "verified": self.verified,
             "lhs_max_eig": self.lhs_max_eig,

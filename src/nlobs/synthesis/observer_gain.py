@@ -678,7 +678,7 @@ def design_observer_gain(
 
     checks, hH, hG, eigs = _certify(d, sol.K, sol.P, sol.gamma, sol.gamma_n)
     cert = ObserverGainCertificate(
-        K=_ro(sol.K), P=_ro(sol.P), gamma=sol.gamma, gamma_n=sol.gamma_n, hinf_H=hH, hinf_G=hG,
+        gain=_ro(sol.K), P=_ro(sol.P), gamma=sol.gamma, gamma_n=sol.gamma_n, hinf_H=hH, hinf_G=hG,
         eigenvalues=_ro(eigs), checks=tuple(checks), objective=obj, solver=slv,
         solver_status=sol.result.raw_status, margin=eps, seconds=time.perf_counter() - t0,
     )
@@ -770,7 +770,7 @@ def verify_observer_gain(
     checks = extra + checks
     ok = all(c.passed for c in checks)
     cert = ObserverGainCertificate(
-        K=_ro(K_), P=None if P_val is None else _ro(P_val), gamma=g, gamma_n=gn, hinf_H=hH, hinf_G=hG,
+        gain=_ro(K_), P=None if P_val is None else _ro(P_val), gamma=g, gamma_n=gn, hinf_H=hH, hinf_G=hG,
         eigenvalues=_ro(eigs), checks=tuple(checks), objective=None, solver=slv, solver_status=raw,
         margin=eps, seconds=time.perf_counter() - t0,
     )

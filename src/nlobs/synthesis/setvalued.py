@@ -257,8 +257,8 @@ class SetValuedDesign(CertificateMixin):
     Attributes
     ----------
     objective : SetValuedObjective
-    L_tilde : ndarray, shape (n, l − p_H)
-        Measurement-update gain of (15) (``L = L̃ U₂ᵀ``).
+    gain : ndarray, shape (n, l − p_H)
+        Measurement-update gain ``L̃`` of (15) (``L = L̃ U₂ᵀ``).
     P : ndarray, shape (n, n)
         Lyapunov matrix.
     kappa : float
@@ -296,7 +296,7 @@ class SetValuedDesign(CertificateMixin):
     """
 
     objective: SetValuedObjective
-    L_tilde: Array
+    gain: Array
     P: Array
     kappa: float
     lam: float
@@ -324,11 +324,6 @@ class SetValuedDesign(CertificateMixin):
         return self.certified_for.function_class
 
     @property
-    def gain(self) -> Array:
-        """The measurement-update gain ``L̃`` of (15)."""
-        return self.L_tilde
-
-    @property
     def transform(self) -> UITransform:
         return self.dynamics.transform
 
@@ -337,7 +332,7 @@ class SetValuedDesign(CertificateMixin):
         lines = [
             f"set-valued observer design ({self.objective.value}), solver {self.solver.value} "
             f"({self.solver_status}), {self.solves} solves, {self.seconds:.2f} s",
-            f"  L~ = {np.array2string(self.L_tilde.ravel(), precision=5)}",
+            f"  L~ = {np.array2string(self.gain.ravel(), precision=5)}",
             f"  λ = {self.lam:.6g}, λ_eff = {self.lam_eff:.6g}, κ = {self.kappa:.4g}, c = {self.c:.4g}, "
             f"steady radius ≤ {self.steady_radius:.5g}" + (f", ρ = {self.rho:.5g}" if self.rho is not None else ""),
             f"  function class used: {self.function_class.label}"
@@ -351,7 +346,7 @@ class SetValuedDesign(CertificateMixin):
         """Plain-Python view (the ``"design"`` of ``nlobs design setvalued --json``; ``"L_tilde"`` and ``"gain"``
         hold the same gain)."""
         return {
-            "objective": self.objective.value, "L_tilde": self.L_tilde.tolist(), "gain": self.L_tilde.tolist(),
+            "objective": self.objective.value, "L_tilde": self.gain.tolist(), "gain": self.gain.tolist(),
             "P": self.P.tolist(), "lambda": self.lam, "lambda_eff": self.lam_eff, "kappa": self.kappa, "q": self.q,
             "c": self.c, "theta": list(self.theta), "rho": self.rho, "steady_radius": self.steady_radius,
             "spectral_radii": list(self.spectral_radii), "hinf_linear": list(self.hinf_linear),
@@ -715,7 +710,7 @@ def _first_verified(system: DiscreteUISystem, dyn: ErrorDynamics, cands: list[_S
         evP = np.linalg.eigvalsh(sol.P)
         steady = math.sqrt(c / ((1.0 - lam_eff) * evP[0])) if lam_eff < 1 else math.inf
         return SetValuedDesign(
-            objective=obj, L_tilde=readonly(sol.L), P=readonly(sol.P), kappa=sol.kappa, lam=lam_used, q=qq, theta=sol.theta,
+            objective=obj, gain=readonly(sol.L), P=readonly(sol.P), kappa=sol.kappa, lam=lam_used, q=qq, theta=sol.theta,
             rho=rho, lam_eff=lam_eff, c=c, steady_radius=steady, spectral_radii=radii, hinf_linear=norms,
             checks=tuple(checks), dynamics=dyn, structure=st, solver=slv, solver_status=sol.status, margin=eps,
             seconds=time.perf_counter() - t0, solves=solves, certified_for=certified_for,

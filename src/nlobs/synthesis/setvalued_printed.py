@@ -91,7 +91,8 @@ class PrintedDesign(CertificateMixin):
 
     Attributes
     ----------
-    P, Y, L_tilde : ndarray
+    P, Y : ndarray
+    gain : ndarray
         ``L̃ = P⁻¹Y``.
     rho : float
         The printed "H∞ bound" ``ρ*`` (not a certified bound).
@@ -108,7 +109,7 @@ class PrintedDesign(CertificateMixin):
 
     P: Array
     Y: Array
-    L_tilde: Array
+    gain: Array
     rho: float
     alpha: float
     eps1: float
@@ -125,15 +126,10 @@ class PrintedDesign(CertificateMixin):
     def __post_init__(self) -> None:
         object.__setattr__(self, "checks", _printed_checks(self.exact_min_eig, self.spectral_radius))
 
-    @property
-    def gain(self) -> Array:
-        """``L̃* = P*⁻¹Y*``."""
-        return self.L_tilde
-
     def to_dict(self) -> dict[str, Any]:
         """Plain-Python view: the printed answer, its exact (A.16) and spectral radius, the checks."""
         return {"rho": self.rho, "alpha": self.alpha, "eps1": self.eps1, "eps2": self.eps2, "kappa": self.kappa,
-                "P": self.P.tolist(), "Y": np.asarray(self.Y).tolist(), "gain": self.L_tilde.tolist(),
+                "P": self.P.tolist(), "Y": np.asarray(self.Y).tolist(), "gain": self.gain.tolist(),
                 "exact_min_eig": self.exact_min_eig, "spectral_radius": self.spectral_radius,
                 "verified": self.verified, "checks": checks_dict(self.checks), "solves": self.solves,
                 "seconds": self.seconds, "solver": None if self.solver is None else self.solver.value}
@@ -542,8 +538,10 @@ class Prop516Design(CertificateMixin):
         The branch that gave ``ρ**``.
     branches : tuple of BranchOutcome
         Both branches (A first).
-    P, Y, L_tilde : ndarray
-        At ``ρ**``; ``L̃** = P**⁻¹Y**``.
+    P, Y : ndarray
+        At ``ρ**``.
+    gain : ndarray
+        ``L̃** = P**⁻¹Y**``.
     alpha, eps1, eps2, kappa, kappa1, kappa2 : float
         The search point and the solver's ``κ``, ``κ₁``, ``κ₂`` (A.42).
     lambda_min_P, lambda_max_P : float
@@ -568,7 +566,7 @@ class Prop516Design(CertificateMixin):
     branches: tuple[BranchOutcome, ...]
     P: Array
     Y: Array
-    L_tilde: Array
+    gain: Array
     alpha: float
     eps1: float
     eps2: float
@@ -604,17 +602,12 @@ class Prop516Design(CertificateMixin):
                 f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.verified)
                 + "".join("\n  " + c.summary() for c in self.checks))
 
-    @property
-    def gain(self) -> Array:
-        """``L̃** = P**⁻¹Y**``."""
-        return self.L_tilde
-
     def to_dict(self) -> dict[str, Any]:
         """Plain-Python view: ``ρ**``, both branches, the answer at ``ρ**``, ``θ₁``, (A.16), the checks."""
         return {"rho": self.rho, "branch": self.branch.value,
                 "branches": [{"branch": b.branch.value, "rho": b.rho, "solves": b.solves, "theta1": b.theta1}
                              for b in self.branches],
-                "P": self.P.tolist(), "Y": np.asarray(self.Y).tolist(), "gain": self.L_tilde.tolist(),
+                "P": self.P.tolist(), "Y": np.asarray(self.Y).tolist(), "gain": self.gain.tolist(),
                 "alpha": self.alpha, "eps1": self.eps1, "eps2": self.eps2, "kappa": self.kappa,
                 "kappa1": self.kappa1, "kappa2": self.kappa2, "lambda_min_P": self.lambda_min_P,
                 "lambda_max_P": self.lambda_max_P, "theta1": self.theta1, "theta1_steady": self.theta1_steady,
