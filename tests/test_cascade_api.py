@@ -44,7 +44,7 @@ def _numeric(feedback: bool) -> NonlinearSubsystem:
 @pytest.mark.parametrize("feedback", [False, True], ids=["cascade", "feedback"])
 def test_symbolic_and_numeric_sigma1_agree(feedback: bool) -> None:
     s2 = example1_sigma2()
-    K = place_cascade_gain(s2, gamma=0.1).K
+    K = place_cascade_gain(s2, gamma=0.1).gain
     sym = CascadeObserver(example1_sigma1(feedback), s2, K)
     num = CascadeObserver(_numeric(feedback), s2, K)
     rng = np.random.default_rng(3)
@@ -63,7 +63,7 @@ def test_observer_refuses_a_non_hurwitz_gain_and_init() -> None:
     s2 = example1_sigma2()
     with pytest.raises(InvalidArgumentError, match="not Hurwitz"):
         CascadeObserver(example1_sigma1(), s2, np.zeros((3, 1)))
-    obs = CascadeObserver(example1_sigma1(), s2, place_cascade_gain(s2, gamma=0.1).K)
+    obs = CascadeObserver(example1_sigma1(), s2, place_cascade_gain(s2, gamma=0.1).gain)
     z0 = obs.init(np.ones((2, 4)))
     assert z0.shape == (2, 5) and np.all(z0[:, 4] == 0)
     np.testing.assert_allclose(obs.z_hat(z0), [[1.0], [1.0]])  # ẑ0 = h(x̂0) = x̂2

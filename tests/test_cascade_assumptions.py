@@ -47,7 +47,7 @@ def test_example1_filter_satisfies_assumption4() -> None:
     d = rep.to_dict()
     json.dumps(d)
     assert d["holds"] is True and len(d["items"]) == 7
-    txt = rep.to_text()
+    txt = rep.summary()
     assert "HOLDS" in txt and "γ* = 0" in txt and "no finite zeros" in txt
 
 
@@ -58,8 +58,8 @@ def test_zero_at_origin_is_reported_and_blocks_the_design() -> None:
     assert not rep.holds
     assert [it.key for it in rep.failed] == ["no_zero_at_origin"]
     np.testing.assert_allclose(rep.zeros, [0.0], atol=1e-12)
-    assert rep.item("detectable").holds and rep.item("left_invertible").holds
-    assert "FAIL" in rep.to_text() and "zero(s) at s = 0" in rep.item("no_zero_at_origin").evidence
+    assert rep.item("detectable").passed and rep.item("left_invertible").passed
+    assert "FAIL" in rep.summary() and "zero(s) at s = 0" in rep.item("no_zero_at_origin").evidence
     with pytest.raises(AssumptionViolated, match="no invariant zero at the origin") as ei:
         design_cascade_gain(LinearSubsystem(*sys), gamma=1.0, gain_bound=100.0)
     assert ei.value.item == "no_zero_at_origin"
@@ -67,13 +67,13 @@ def test_zero_at_origin_is_reported_and_blocks_the_design() -> None:
     with pytest.raises(AssumptionViolated, match="no_zero_at_origin"):
         place_cascade_gain(sys, gamma=1.0)
     # Theorem 2's proof: the extended pair then has an unobservable mode at 0
-    assert not rep.item("extended_detectable").holds
+    assert not rep.item("extended_detectable").passed
 
 
 def test_undetectable_pair() -> None:
     A = np.diag([1.0, -1.0])  # mode +1 not seen by C
     rep = check_assumption4(A, [[1.0], [1.0]], [[0.0, 1.0]])
-    assert not rep.item("detectable").holds
+    assert not rep.item("detectable").passed
     assert "1" in rep.item("detectable").evidence
     with pytest.raises(AssumptionViolated, match=r"\(A, C\) detectable \[detectable\]"):
         require_assumption4(A, [[1.0], [1.0]], [[0.0, 1.0]])
@@ -82,12 +82,12 @@ def test_undetectable_pair() -> None:
 def test_rank_deficient_Bz_Dz_and_C_Dz() -> None:
     A = [[0.0, 1.0], [-1.0, -1.0]]
     rep = check_assumption4(A, [[0.0, 0.0], [1.0, 2.0]], [[1.0, 0.0]])
-    assert not rep.item("rank_Bz_Dz").holds
+    assert not rep.item("rank_Bz_Dz").passed
     assert rep.item("rank_Bz_Dz").values["rank"] == 1
     with pytest.raises(AssumptionViolated, match=r"rank \[B_z; D_z\] = 1 \(need 2\)"):
         require_assumption4(A, [[0.0, 0.0], [1.0, 2.0]], [[1.0, 0.0]])
     rep2 = check_assumption4(A, [[0.0], [1.0]], [[1.0, 0.0], [2.0, 0.0]])
-    assert not rep2.item("rank_C_Dz").holds
+    assert not rep2.item("rank_C_Dz").passed
     with pytest.raises(AssumptionViolated, match="rank_C_Dz"):
         require_assumption4(A, [[0.0], [1.0]], [[1.0, 0.0], [2.0, 0.0]])
 
@@ -95,7 +95,7 @@ def test_rank_deficient_Bz_Dz_and_C_Dz() -> None:
 def test_not_left_invertible_more_z_than_y() -> None:
     A = [[0.0, 1.0], [-1.0, -1.0]]
     rep = check_assumption4(A, np.eye(2), [[1.0, 0.0]])
-    assert not rep.item("left_invertible").holds
+    assert not rep.item("left_invertible").passed
     assert rep.normal_rank < 4
 
 
@@ -105,7 +105,7 @@ def test_non_minimum_phase_holds_but_gamma_star_may_be_positive() -> None:
     rep = check_assumption4(A, [[0.0], [1.0]], [[1.0, -1.0]])
     assert rep.holds and not rep.minimum_phase and not rep.gamma_star_zero
     np.testing.assert_allclose(rep.zeros, [1.0])
-    assert "γ* > 0 possible" in rep.to_text()
+    assert "γ* > 0 possible" in rep.summary()
 
 
 def test_dimension_mismatches_between_sigma1_and_sigma2() -> None:

@@ -77,7 +77,7 @@ def sigma1(feedback: bool) -> NonlinearSubsystem:
 
 
 SIGMA2 = LinearSubsystem(A, Bz, C, Dz, B_u=Bu, D_u=Du)
-K = np.asarray(place_cascade_gain(SIGMA2, gamma=0.5).K)
+K = np.asarray(place_cascade_gain(SIGMA2, gamma=0.5).gain)
 Kw, Kz = K[:2], K[2:]
 
 

@@ -46,7 +46,7 @@ def test_lmi_sweep_rows_and_measured_monotone_gain() -> None:
     assert bad.status == "DesignInfeasible" and "gain bound" in bad.message
     rows = sw.to_rows()
     assert rows[0]["gamma"] == 10.0 and isinstance(rows[0]["K"], list)
-    txt = sw.to_text()
+    txt = sw.summary()
     assert "‖H‖∞" in txt and "DesignInfeasible" in txt and "γ = 0.1:" in txt
 
 

@@ -44,7 +44,7 @@ def simulate62(d_of_k, steps: int, runs: int, seed: int, *, noise: bool = True):
     """Plant (8) with the Sec. 6.2 data, η_w = 0.2, η_v = 0.1; both baselines on the same runs."""
     rng = np.random.default_rng(seed)
     cert = design_discrete_lipschitz_gain(A62, C62, lipschitz=1.25, E=E62, F=F62)
-    lip = DiscreteLipschitzObserver(A62, C62, cert.L, DT, phi=phi62)
+    lip = DiscreteLipschitzObserver(A62, C62, cert.gain, DT, phi=phi62)
     ekf = UnknownInputEKF(A62, C62, DT, Q_w=(0.2**2 / 2) * np.eye(2), R_v=[[0.1**2]], Q_d=[[0.2**2]],
                           phi=phi62, phi_jacobian=jac62, G=G62)
     x = rng.uniform(-1.0, 1.0, (runs, 2))
@@ -77,7 +77,7 @@ def _lti():
 def test_lti_error_is_the_power_of_a_minus_lc_exactly() -> None:
     A, B, C, D = _lti()
     cert = design_discrete_lipschitz_gain(A, C, lipschitz=0.0)
-    obs = DiscreteLipschitzObserver(A, C, cert.L, DT, B=B, D=D)
+    obs = DiscreteLipschitzObserver(A, C, cert.gain, DT, B=B, D=D)
     assert isinstance(obs, Observer)
     rng = np.random.default_rng(3)
     x = rng.standard_normal((4, 3))
@@ -139,7 +139,7 @@ def test_verification_rejects_a_bad_gain() -> None:
                      "spectral radius(A − LC) < ρ": False}
     # the designed gain for the same data passes
     cert = design_discrete_lipschitz_gain(A, C, lipschitz=0.1)
-    assert all(c.passed for c in verify_discrete_lipschitz_gain(A, C, cert.L, cert.P, lipschitz=0.1, rho=cert.rho,
+    assert all(c.passed for c in verify_discrete_lipschitz_gain(A, C, cert.gain, cert.P, lipschitz=0.1, rho=cert.rho,
                                                                 epsilon=cert.epsilon))
 
 
@@ -218,7 +218,7 @@ def test_growing_unknown_input_makes_both_baselines_diverge() -> None:
 # ----------------------------------------------------------------------------- bad input
 def test_bad_input_is_reported() -> None:
     cert = design_discrete_lipschitz_gain(A62, C62, lipschitz=1.25, E=E62, F=F62)
-    obs = DiscreteLipschitzObserver(A62, C62, cert.L, DT, phi=phi62)
+    obs = DiscreteLipschitzObserver(A62, C62, cert.gain, DT, phi=phi62)
     with pytest.raises(NonFiniteError, match="y: entry \\(0, 0\\) is nan"):
         obs.rhs(0.0, obs.init(np.zeros((2, 2))), None, np.array([[np.nan], [0.0]]))
     with pytest.raises(DimensionError, match="E: expected shape \\(2, \\?\\)"):
@@ -230,7 +230,7 @@ def test_bad_input_is_reported() -> None:
     with pytest.raises(DimensionError, match="L: expected shape \\(2, 1\\)"):
         DiscreteLipschitzObserver(A62, C62, np.zeros((1, 2)), DT)
     with pytest.raises(InvalidArgumentError, match="time: expected a Discrete"):
-        DiscreteLipschitzObserver(A62, C62, cert.L, 0.1)  # type: ignore[arg-type]
+        DiscreteLipschitzObserver(A62, C62, cert.gain, 0.1)  # type: ignore[arg-type]
     with pytest.raises(InvalidArgumentError, match="phi, phi_jacobian: give both"):
         UnknownInputEKF(A62, C62, DT, Q_w=np.eye(2), R_v=[[1.0]], phi=phi62)
     with pytest.raises(InvalidArgumentError, match="R_v: must be positive definite"):
@@ -243,5 +243,5 @@ def test_bad_input_is_reported() -> None:
     with pytest.raises(DimensionError, match="P0: expected shape"):
         ekf.init_state(np.zeros(2), np.eye(3))
     with pytest.raises(DimensionError, match="u: required"):
-        DiscreteLipschitzObserver(A62, C62, cert.L, DT, B=G62).rhs(0.0, np.zeros(2), None, [0.0])
+        DiscreteLipschitzObserver(A62, C62, cert.gain, DT, B=G62).rhs(0.0, np.zeros(2), None, [0.0])
     assert isinstance(ekf.init_state(np.zeros(2), np.eye(2)), GaussianState)

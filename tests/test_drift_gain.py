@@ -113,12 +113,12 @@ def test_sdp_design_is_verified_independently(objective: str) -> None:
     c = RiccatiConstants(s, _F_ends(s), alpha=1.0, mu=2.0, gamma=1.0)
     cert = design_drift_gain_sdp(c, objective=objective, gain_bound=1e4 if objective == "min_condition" else None)
     assert cert.verified
-    lhs = riccati_lhs(c, cert.K, cert.P)
+    lhs = riccati_lhs(c, cert.gain, cert.P)
     assert np.linalg.eigvalsh(lhs)[-1] < 0
     assert np.linalg.eigvalsh(cert.P)[0] > 0
     A, _, C = brunovsky_triple(s)
-    assert np.max(np.linalg.eigvals(A - cert.K @ C).real) < -c.alpha
-    again = verify_drift_gain(c, cert.K, cert.P)
+    assert np.max(np.linalg.eigvals(A - cert.gain @ C).real) < -c.alpha
+    again = verify_drift_gain(c, cert.gain, cert.P)
     assert again.verified and again.lhs_max_eig == pytest.approx(cert.lhs_max_eig)
 
 
@@ -138,7 +138,7 @@ def test_scaled_sdp_solves_high_gain_cases_the_unscaled_lmi_cannot() -> None:
         design_drift_gain_sdp(c, scaling=None)
     cert = design_drift_gain_sdp(c)  # scaling="auto"
     assert cert.verified and cert.scaling > 1.0
-    assert np.linalg.eigvalsh(riccati_lhs(c, cert.K, cert.P))[-1] < 0
+    assert np.linalg.eigvalsh(riccati_lhs(c, cert.gain, cert.P))[-1] < 0
     assert cert.gain_norm < smallest_w(c).certificate.gain_norm
 
 
@@ -193,7 +193,7 @@ def test_long_chains_get_a_verified_w_confirmed_in_high_precision(s: tuple[int, 
     assert abs(cert.lhs_max_eig) < cert.lhs_rounding  # the double-precision unscaled sign means nothing here
     # the claim checked independently: (2.17) at the returned floats, in `digits` significant digits
     with mpmath.workdps(digits):
-        lam, pmin, cond = _mp_riccati(c, np.asarray(cert.K), np.asarray(cert.P))
+        lam, pmin, cond = _mp_riccati(c, np.asarray(cert.gain), np.asarray(cert.P))
     assert lam < 0 and pmin > 0
     assert cert.cond_P == pytest.approx(cond, rel=1e-5)  # cn(P) from the scaled P̃, against the exact spectrum
     assert cert.spectral_abscissa < -c.alpha
@@ -222,7 +222,7 @@ def test_decay_margin_of_an_indefinite_P_is_nan_with_a_reason() -> None:
     cert = verify_drift_gain(c, vandermonde_gain((2,), 5.0).K, -np.eye(2))  # RuntimeWarnings are errors (pyproject)
     assert not cert.verified and np.isnan(cert.decay_margin)
     assert "not positive definite" in cert.decay_margin_note
-    assert "decay margin undefined" in cert.describe() and cert.cond_P == np.inf
+    assert "decay margin undefined" in cert.summary() and cert.cond_P == np.inf
 
 
 def test_scaled_sdp_falls_back_to_theta_1_when_the_w_search_fails_verification(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -55,7 +55,7 @@ def test_theorem_3_1_bound_holds_and_decay_rate_at_least_alpha() -> None:
     alpha = 1.0
     c = RiccatiConstants((2,), [[0.0], [1.0]], alpha=alpha, mu=1.0, gamma=math.hypot(GAMMA_L, GAMMA_H))
     cert = smallest_w(c).certificate
-    obs = DriftObserver.from_model(model, cert.K)
+    obs = DriftObserver.from_model(model, cert.gain)
     assert isinstance(obs, Observer)
     bound = error_bound_constants(cert, 1.0, 1.0, estimated=False)  # Φ_s = identity: γ_Φ = γ_Φ⁻¹ = 1
     assert bound.kappa1 == pytest.approx(math.sqrt(cert.cond_P))
@@ -134,7 +134,7 @@ def test_design_report_text_and_dict() -> None:
     assert rep.certificate.verified and rep.gamma_source == "given"
     d = rep.to_dict()
     assert d["s"] == [3, 1] and d["certificate"]["verified"] is True and d["bound"]["kappa1"] > 1
-    txt = rep.to_text()
+    txt = rep.summary()
     assert "s = (3, 1)" in txt and "(2.17)" in txt and "κ₁" in txt
     assert rep.observer().s == (3, 1)
     # the given γ = 2 is below what sampling the unit box finds: the gain is verified, the design not usable
@@ -150,7 +150,7 @@ def test_model_without_inputs_and_s_not_le_r_report() -> None:
     assert obs.rhs(0.0, np.array([0.5, 0.1]), np.zeros(0), np.array([0.4])).shape == (2,)
     early = SymbolicModel.input_affine(["x1", "x2"], ["u"], ["y"], f=[x2, -x1], g=[[1], [0]], h=[x1], name="early-input")
     rep = design_drift_report(early, alpha=1.0, mu=0.2, gamma=1.0, samples=200)
-    assert rep.r == (1,) and not rep.checks[1].holds and rep.certificate.verified
+    assert rep.r == (1,) and not rep.checks[1].passed and rep.certificate.verified
     np.testing.assert_array_equal(rep.F, np.eye(2))  # d = s − r + 1 = 2: F = I₂ (2.12)
 
 
@@ -158,10 +158,10 @@ def test_report_is_not_usable_when_drift_observability_fails() -> None:
     # Φ_s = (x1, x2³): det Q_s = 3 x2² vanishes on x2 = 0; the gain for the given γ is still verified
     sing = SymbolicModel.input_affine(["x1", "x2"], ["u"], ["y"], f=[x2**3, -x1], g=[[0], [1]], h=[x1], name="sing")
     rep = design_drift_report(sing, gamma=1.0, samples=200)
-    assert not rep.drift_check.holds and rep.certificate.verified
+    assert not rep.drift_check.passed and rep.certificate.verified
     assert not rep.usable and rep.to_dict()["usable"] is False
     assert rep.reasons[0].startswith("drift-observability fails on the region") and "3*x2**2" in rep.reasons[0]
-    assert rep.to_text().splitlines()[-1].startswith("  usable: NO — drift-observability fails")
+    assert rep.summary().splitlines()[-1].startswith("  usable: NO — drift-observability fails")
 
 
 def test_given_gamma_below_the_estimate_is_warned_and_simulations_are_not_certified() -> None:

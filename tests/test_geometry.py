@@ -154,7 +154,7 @@ def test_Qs_g_equals_F_H_213(s: tuple[int, int]) -> None:
     Qs = observability_jacobian(F, s)
     assert _zero(Qs * F.g - sp.Matrix(Fm) * H)
     assert H.shape[0] == Fm.shape[1] == sum(max(sj - rj + 1, 0) for sj, rj in zip(s, r))
-    assert check_s_le_r(s, r).holds == all(sj <= rj for sj, rj in zip(s, r))
+    assert check_s_le_r(s, r).passed == all(sj <= rj for sj, rj in zip(s, r))
 
 
 def test_brunovsky_shapes() -> None:
@@ -197,7 +197,7 @@ def test_default_multi_index_on_mimo_chains() -> None:
     # y1 = x1 on a chain of 3, y2 = x4: s = (3, 1)
     F = _fields(["x1", "x2", "x3", "x4"], [x2, x3, -x1 + x4, -x4], [[0], [0], [1], [1]], [x1, x4])
     assert default_multi_index(F) == (3, 1)
-    assert check_drift_observability(F, (3, 1)).holds
+    assert check_drift_observability(F, (3, 1)).passed
 
 
 def test_observability_rank_with_an_unobservable_state() -> None:
@@ -213,23 +213,23 @@ def test_drift_observability_reports_the_worst_point() -> None:
     # y = x1, ẋ1 = x2²: Q_s = [[1, 0], [0, 2 x2]] is singular on x2 = 0
     F = _fields(["x1", "x2"], [x2**2, -x1], [[0], [1]], [x1], name="fold")
     chk = check_drift_observability(F, (2,), Box([-1.0, -1.0], [1.0, 1.0]), samples=200, seed=1)
-    assert chk.symbolic == "2*x2" and "det Q_s = 2*x2" in chk.evidence and not chk.holds
+    assert chk.symbolic == "2*x2" and "det Q_s = 2*x2" in chk.evidence and not chk.passed
     # On x2 ∈ [0.25, 1] it is nonsingular; σ_min(Q_s) = min(1, 2 x2) is smallest (0.5) on the edge x2 = 0.25.
     chk = check_drift_observability(F, (2,), Box([-1.0, 0.25], [1.0, 1.0]), samples=200, seed=1)
-    assert chk.holds and chk.method == "numeric"
+    assert chk.passed and chk.method == "numeric"
     assert chk.value == pytest.approx(0.5, rel=1e-6)
     assert chk.worst_point is not None and chk.worst_point[1] == pytest.approx(0.25, abs=1e-6)
     # singular everywhere: det Q_s ≡ 0
     G = _fields(["x1", "x2"], [0, x1], [[1], [0]], [x1], name="flat")
     bad = check_drift_observability(G, (2,))
-    assert not bad.holds and bad.method == "symbolic" and bad.symbolic == "0" and bad.worst_point is None
+    assert not bad.passed and bad.method == "symbolic" and bad.symbolic == "0" and bad.worst_point is None
 
 
 def test_drift_observability_sees_a_sign_change_of_det() -> None:
     # Q_s = [[1, 0], [0, 2 x2]]: det = 2 x2 changes sign across the line x2 = 0, which sampling never hits.
     F = _fields(["x1", "x2"], [x2**2, -x1], [[0], [1]], [x1], name="fold")
     chk = check_drift_observability(F, (2,), Box([-1.0, -1.0], [1.0, 1.0]))
-    assert not chk.holds and "changes sign" in chk.evidence
+    assert not chk.passed and "changes sign" in chk.evidence
     assert chk.worst_point is not None and abs(chk.worst_point[1]) < 1e-9
 
 
@@ -237,16 +237,16 @@ def test_local_minimisation_finds_a_thin_singular_set_without_sign_change() -> N
     # det Q_s = x2² ≥ 0 touches 0 on x2 = 0 (no sign change): σ_min refined by local descent finds it.
     F = _fields(["x1", "x2"], [x2**3 / 3, -x1], [[0], [1]], [x1], name="touch")
     chk = check_drift_observability(F, (2,), Box([-1.0, -1.0], [1.0, 1.0]))
-    assert not chk.holds and chk.worst_point is not None and abs(chk.worst_point[1]) < 1e-3
+    assert not chk.passed and chk.worst_point is not None and abs(chk.worst_point[1]) < 1e-3
 
 
 def test_a1_check() -> None:
     isidori = _fields(["x1", "x2", "x3", "x4"], [x1 * x2 - x1**3, x1, -x3, x1**2 + x2], [[0], [2 + 2 * x3], [1], [0]],
                       [x4])
-    assert check_a1(isidori, (2,)).holds
+    assert check_a1(isidori, (2,)).passed
     twice = _fields(["x1", "x2"], [-x1, -x2], [[1], [0]], [x1, 2 * x1])
     chk = check_a1(twice, (1, 1))
-    assert not chk.holds and "dependent at x = (" in chk.evidence and chk.worst_point is not None
+    assert not chk.passed and "dependent at x = (" in chk.evidence and chk.worst_point is not None
 
 
 def test_non_involutive_distribution_by_hand() -> None:
@@ -257,7 +257,7 @@ def test_non_involutive_distribution_by_hand() -> None:
     assert lie_bracket([0, 0, 1], [1, x3, 0], F.x) == sp.Matrix([0, 1, 0])
     assert sp.Matrix([[0, 0, 1], [1, x3, 0], [0, 1, 0]]).det() != 0
     chk = check_involutive(F, (2,))
-    assert not chk.holds and chk.method == "numeric" and "[τ_1, τ_2] leaves span{τ}" in chk.evidence
+    assert not chk.passed and chk.method == "numeric" and "[τ_1, τ_2] leaves span{τ}" in chk.evidence
     assert chk.value is not None and chk.value > 1e-3
     # the columns of Q⁺ span the same distribution as the rows of Q
     Qp = symbolic_pinv(sp.Matrix([[0, 0, 1], [1, x3, x2]]))
@@ -268,7 +268,7 @@ def test_involutive_cases() -> None:
     isidori = _fields(["x1", "x2", "x3", "x4"], [x1 * x2 - x1**3, x1, -x3, x1**2 + x2], [[0], [2 + 2 * x3], [1], [0]],
                       [x4])
     chk = check_involutive(isidori, (2,))
-    assert chk.holds and chk.method == "symbolic"
+    assert chk.passed and chk.method == "symbolic"
     one = _fields(["x1", "x2", "x3"], [x2, x3, -x1], [[1], [0], [0]], [x1])
     assert check_involutive(one, (1,)).method == "structural"  # rank 1: always involutive
 

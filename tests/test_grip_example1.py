@@ -75,7 +75,7 @@ def test_assumption4_verdicts(result) -> None:  # type: ignore[no-untyped-def]
     rep = result.assumption4
     assert rep.holds and rep.minimum_phase
     assert rep.zeros.size == 0  # no finite invariant zeros
-    assert rep.item("left_invertible").holds and rep.normal_rank == 3
+    assert rep.item("left_invertible").passed and rep.normal_rank == 3
 
 
 def test_theorem1_bound_and_certified_design(result) -> None:  # type: ignore[no-untyped-def]
@@ -89,7 +89,7 @@ def test_theorem1_bound_and_certified_design(result) -> None:  # type: ignore[no
     # independent re-check of ‖H‖∞ with python-control (stable closed loop)
     s2 = example1_sigma2()
     ext = extended_system(s2.A, s2.B_z, s2.C)
-    F = ext.A - np.asarray(cert.K) @ ext.C
+    F = ext.A - np.asarray(cert.gain) @ ext.C
     assert np.max(np.linalg.eigvals(F).real) < 0
     h = control.linfnorm(control.ss(F, ext.Bd, np.eye(3), np.zeros((3, 1))))[0]
     assert h == pytest.approx(cert.hinf_H, rel=1e-5)
@@ -110,7 +110,7 @@ def test_figures_and_serialisation(result) -> None:  # type: ignore[no-untyped-d
 
     d = result.to_dict()
     json.dumps(d)
-    assert "Theorem 1" in result.to_text()
+    assert "Theorem 1" in result.summary()
     if result.feedback:
         assert result.figures == ()
         return

@@ -91,7 +91,7 @@ def test_continuous_feedthrough_and_nonminimum_phase() -> None:
     np.testing.assert_allclose(r.invariant_zeros, [1.0])
     assert not r.minimum_phase and not r.strongly_detectable
     assert "Re z >= 0" in r.minimum_phase_reason
-    text = r.to_text()
+    text = r.summary()
     assert "minimum phase:       no" in text and "infinite (D != 0)" in text
 
 
@@ -109,7 +109,7 @@ def test_report_matches_python_control_on_a_mimo_example() -> None:
 
 
 def test_text_report() -> None:
-    text = analyze_linear(_lowpass()).to_text()
+    text = analyze_linear(_lowpass()).summary()
     lines = text.splitlines()
     assert lines[0].startswith("Linear system 'lowpass': continuous, n=2, m=1, p=1")
     assert any(line.strip().startswith("H-infinity norm:") and "1.1547" in line for line in lines)

@@ -128,8 +128,8 @@ def test_nonminimum_phase_zero_at_one() -> None:
     iz = invariant_zeros(A, B, C, [[0.0]])
     np.testing.assert_allclose(iz.zeros, [1.0], atol=1e-12)
     res = minimum_phase(A, B, C)
-    assert not res and "Re z >= 0" in res.reason
-    np.testing.assert_allclose(res.unstable_zeros, [1.0])
+    assert not res.passed and "Re z >= 0" in res.evidence
+    np.testing.assert_allclose(res.values["unstable_zeros"], [1.0])
 
 
 def test_zero_at_origin_is_not_minimum_phase() -> None:
@@ -169,7 +169,7 @@ def test_not_left_invertible_is_reported_as_not_minimum_phase() -> None:
     iz = invariant_zeros(A, B, C)
     assert iz.normal_rank == 2 and not iz.left_invertible and iz.right_invertible
     res = minimum_phase(A, B, C)
-    assert not res.minimum_phase and "not left invertible" in res.reason
+    assert not res.passed and "not left invertible" in res.evidence
     assert not is_strongly_detectable(A, B, C)
 
 

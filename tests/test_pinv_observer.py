@@ -94,7 +94,7 @@ def test_pinv_observer_reproduces_25_and_26(pinv_obs: PinvObserver) -> None:
     assert _same(pinv_obs.gain_symbolic, l26)
     assert _spot(pinv_obs.gain_symbolic.xreplace({k1: 2, k2: 5}), l26.xreplace({k1: 2, k2: 5}), (x1, x2, x3, x4)) < 1e-12
     np.testing.assert_allclose(pinv_obs.k_vector, [12.0, 27.0])  # roots −3, −9
-    assert all(c.holds for c in pinv_obs.checks)
+    assert all(c.passed for c in pinv_obs.checks)
 
 
 def test_symbolic_and_numeric_pinv_agree(model: SymbolicModel, pinv_obs: PinvObserver) -> None:
@@ -154,10 +154,10 @@ def test_non_involutive_distribution_is_refused_or_warned() -> None:
         PinvObserver.from_model(m)
     with pytest.warns(AssumptionWarning, match="Theorem 4.1 does not apply"):
         obs = PinvObserver.from_model(m, require_a5=False)
-    assert not obs.checks[1].holds and obs.checks[1].worst_point is not None
+    assert not obs.checks[1].passed and obs.checks[1].worst_point is not None
     rep = design_pinv_report(m)
     assert rep.to_dict()["involutive"] is False and not rep.usable
-    assert "FAIL A5" in rep.to_text()
+    assert "FAIL A5" in rep.summary()
 
 
 def test_non_input_affine_model_is_refused() -> None:
@@ -193,8 +193,8 @@ def test_byrnes_isidori_gain_of_example_21(model: SymbolicModel) -> None:
     printed = sp.Matrix([0, k2, k2, (2 + 2 * x3) / k1])  # (24) as printed
     assert _same(bi.gain_symbolic, derived)
     assert not _same(bi.gain_symbolic, printed)
-    assert bi.checks[1].holds  # (5): L_g φ ≡ 0
-    assert not bi.checks[2].holds and "x3 = -1" in bi.checks[2].evidence
+    assert bi.checks[1].passed  # (5): L_g φ ≡ 0
+    assert not bi.checks[2].passed and "x3 = -1" in bi.checks[2].evidence
     g = bi.gain_at(np.array([[0.3, 0.1, -1.0, 0.0], [0.3, 0.1, -1.0 + 1e-6, 0.0]]))
     assert not np.isfinite(g[0, 2, 0]) and abs(g[1, 2, 0]) > 1e6
     # (26) has no pole: 4 x1² + 1 ≥ 1
@@ -211,7 +211,7 @@ def test_byrnes_isidori_with_the_texts_phi4_is_refused(model: SymbolicModel) -> 
 def test_byrnes_isidori_warns_when_5_fails(model: SymbolicModel) -> None:
     with pytest.warns(AssumptionWarning, match="not the Byrnes–Isidori form"):
         bi = ByrnesIsidoriObserver.from_model(model, [x3, x1])
-    assert not bi.checks[1].holds
+    assert not bi.checks[1].passed
 
 
 def test_byrnes_isidori_rejects_text_and_stray_symbols(model: SymbolicModel) -> None:
@@ -231,7 +231,7 @@ def test_design_report(model: SymbolicModel) -> None:
     assert d["k"] == [6.0, 9.0] and d["roots"] == pytest.approx([-3.0, -3.0], abs=1e-6)
     assert d["pinv_gain"][3] == ["k1"] and d["pinv_gain"][2] == ["0"]
     assert rep.input_gains == ("2*(x3 + 1)",) and rep.usable
-    txt = rep.to_text()
+    txt = rep.summary()
     assert "r = 2" in txt and "2*k2*x1/(4*x1**2 + 1)" in txt
     rep2 = design_pinv_report(model, k=[1.0, 2.0], region=Box.around(np.zeros(4), 2.0))
     assert rep2.k == (1.0, 2.0) and rep2.theta is None

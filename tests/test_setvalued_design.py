@@ -41,7 +41,7 @@ def test_error_dynamics_match_a_simulation(which: str) -> None:
     x, y = sysm.simulate(x0, d, w, v)
     run = run_setvalued(sysm, design, y)
     e = x - run.x_hat
-    Acl, Bcl, E = design.dynamics.split(design.L_tilde)
+    Acl, Bcl, E = design.dynamics.split(design.gain)
     for k in range(1, K + 1):
         zeta = e[:, k - 1]
         pi = sysm.nonlinear(x[:, k - 1]) - sysm.nonlinear(run.x_hat[:, k - 1])
@@ -56,7 +56,7 @@ def test_radius_design_is_certified() -> None:
     assert 0 < design.lam < 1 and design.spectral_radii[0] <= np.sqrt(design.lam) + 1e-9
     # recompute the exact condition (⋆) here from the returned numbers
     dyn = design.dynamics
-    Xi = dyn.closed_loop(design.L_tilde)
+    Xi = dyn.closed_loop(design.gain)
     n, l, nw = dyn.n, dyn.l, dyn.n_w
     N = Xi.shape[1]
     S = np.zeros((N, N))
@@ -73,7 +73,7 @@ def test_hinf_design_bound_matches_python_control() -> None:
     sysm = _lti(0.0)
     design = design_setvalued(sysm, objective="hinf")
     assert design.rho is not None and design.verified
-    Acl, _, E = design.dynamics.split(design.L_tilde)
+    Acl, _, E = design.dynamics.split(design.gain)
     s = np.r_[np.full(sysm.l, np.sqrt(2)), np.ones(sysm.n_w), np.full(sysm.l, np.sqrt(2))]
     ss = control.ss(Acl, E * s, np.eye(3), np.zeros((3, E.shape[1])), 1.0)
     w = np.linspace(0, np.pi, 4001)
@@ -109,10 +109,10 @@ def test_example_62_as_printed_is_refused_with_evidence() -> None:
 def test_verify_rejects_a_bad_gain() -> None:
     sysm = _lti(0.0)
     good = design_setvalued(sysm)
-    checks = verify_setvalued(sysm, good.L_tilde, good.P, kappa=good.kappa, lam=good.lam, theta=good.theta)
+    checks = verify_setvalued(sysm, good.gain, good.P, kappa=good.kappa, lam=good.lam, theta=good.theta)
     assert all(c.passed for c in checks)
     with pytest.raises(CertificateError, match="S-procedure condition"):
-        verify_setvalued(sysm, np.zeros_like(good.L_tilde), good.P, kappa=good.kappa, lam=good.lam,
+        verify_setvalued(sysm, np.zeros_like(good.gain), good.P, kappa=good.kappa, lam=good.lam,
                          theta=good.theta)
 
 
@@ -133,7 +133,7 @@ def test_lpv_vertices_are_certified_and_contain_every_member() -> None:
                             time=Discrete(1.0))
     design = design_setvalued(sysm)
     assert design.kappa == 0.0 and len(design.spectral_radii) == 2
-    Acl, Bcl, _ = design.dynamics.split(design.L_tilde)
+    Acl, Bcl, _ = design.dynamics.split(design.gain)
     # every convex combination is contracted in the P-norm by at most λ (vertex LMIs imply the polytope)
     for s in np.linspace(0, 1, 11):
         Ak = Acl + Bcl @ (s * Ai[0] + (1 - s) * Ai[1])
@@ -158,6 +158,6 @@ def test_edge_structures_design_and_contain(case: str) -> None:
     s = DiscreteUISystem(A, G, C, H, function_class=Lipschitz(0.05, 2), phi=lambda x: 0.05 * np.sin(x),
                          eta_w=0.1, eta_v=0.1, delta0=1.0, time=Discrete(1.0))
     design = design_setvalued(s)
-    assert design.L_tilde.shape == ((2, 0) if case == "p_H = l" else (2, 1))
+    assert design.gain.shape == ((2, 0) if case == "p_H = l" else (2, 1))
     res = containment_study(PaperExample(s, {}, dfun, case), design, runs=1000, steps=50, seed=9)
     assert res.rate_state == 1.0 and res.rate_input == 1.0

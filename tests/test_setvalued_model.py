@@ -95,18 +95,19 @@ def test_check_function_class_reports_a_violating_pair() -> None:
     def phi(x: np.ndarray) -> np.ndarray:
         return 0.5 * np.sin(x)
 
-    assert check_function_class(phi, Lipschitz(0.5, 2), [-2, -2], [2, 2], n_pairs=4000).holds
+    assert check_function_class(phi, Lipschitz(0.5, 2), [-2, -2], [2, 2], n_pairs=4000).passed
     bad = check_function_class(phi, Lipschitz(0.4, 2), [-2, -2], [2, 2], n_pairs=4000)
-    assert not bad.holds
-    dphi = phi(bad.x2) - phi(bad.x1)
-    assert np.linalg.norm(dphi) > 0.4 * np.linalg.norm(bad.x2 - bad.x1)
-    assert "VIOLATED" in bad.describe()
+    assert not bad.passed
+    x1, x2 = bad.values["x1"], bad.values["x2"]
+    dphi = phi(x2) - phi(x1)
+    assert np.linalg.norm(dphi) > 0.4 * np.linalg.norm(x2 - x1)
+    assert "VIOLATED" in bad.evidence
     # Class II with the paper's γ = 0 for an affine-plus-bounded map is violated; Lemma 2.14's γ holds
     def g(x: np.ndarray) -> np.ndarray:
         return np.stack([np.zeros(x.shape[:-1]), 0.1 * np.sin(x[..., 0])], axis=-1)
 
-    assert not check_function_class(g, QCStar(np.zeros((2, 2)), 0.0), [-3, -3], [3, 3]).holds
-    assert check_function_class(g, qcstar_from_bounded_split(np.zeros((2, 2)), 0.1), [-3, -3], [3, 3]).holds
+    assert not check_function_class(g, QCStar(np.zeros((2, 2)), 0.0), [-3, -3], [3, 3]).passed
+    assert check_function_class(g, qcstar_from_bounded_split(np.zeros((2, 2)), 0.1), [-3, -3], [3, 3]).passed
 
 
 def test_increment_bounds_hold_on_samples() -> None:
@@ -121,7 +122,7 @@ def test_increment_bounds_hold_on_samples() -> None:
     dx, dp = x2 - x1, phi(x2) - phi(x1)
     lhs = np.linalg.norm(dx @ Acl.T + dp @ Bcl.T, axis=-1)
     for fc in classes:
-        assert check_function_class(phi, fc, [-3, -3], [3, 3], n_pairs=4000).holds
+        assert check_function_class(phi, fc, [-3, -3], [3, 3], n_pairs=4000).passed
         th, r = fc.increment_bound(Acl, Bcl)
         assert np.all(lhs <= th * np.linalg.norm(dx, axis=-1) + r + 1e-12)
 

@@ -16,7 +16,7 @@ from nlobs.synthesis.setvalued import design_setvalued
 
 def _algorithm1(system, design, y):  # type: ignore[no-untyped-def]
     """Khajenejad & Yong's Algorithm 1 written out as one loop over (10)-(15) (the reference)."""
-    tr, Lt = design.transform, design.L_tilde
+    tr, Lt = design.transform, design.gain
     B, K1, _ = y.shape
     xh = np.broadcast_to(system.x0, (B, system.n)).copy()
     X, D = np.empty((B, K1, system.n)), np.empty((B, K1 - 1, system.p))

@@ -20,14 +20,14 @@ def test_printed_class_II_accepts_a_destabilising_gain() -> None:
     A = ex.system.A
     M = np.block([[-np.eye(4), A], [A.T, -A.T @ A]])  # (21) with the paper's auxiliary matrix A = A
     d = design_printed(ex.system, M, alphas=[0.95], eps_grid=(0.05, 0.1), refine=0)
-    print(f"\nprinted Thm 5.10, 6.1 class II: rho* = {d.rho:.4g}, L~ = {np.round(d.L_tilde.ravel(), 4)}, "
+    print(f"\nprinted Thm 5.10, 6.1 class II: rho* = {d.rho:.4g}, L~ = {np.round(d.gain.ravel(), 4)}, "
           f"(A.16) min eig = {d.exact_min_eig:.3g}, spectral radius = {d.spectral_radius:.4g}")
     assert d.spectral_radius > 1.0  # the accepted gain destabilises the error dynamics (16)
     assert d.exact_min_eig < 0.0  # and violates the exact S-procedure condition (A.16) it was derived from
-    assert d.certified is False and "NOT certified" in d.summary()
+    assert d.verified is False and "NOT certified" in d.summary()
     tr = ui_transform(ex.system.G, ex.system.C, ex.system.H)
     Phi, Psi, C2 = tr.Phi, tr.Psi, tr.C2
-    assert exact_condition_a16(M, Phi, Psi, C2, d.L_tilde, d.P, d.kappa, d.alpha) == pytest.approx(d.exact_min_eig)
+    assert exact_condition_a16(M, Phi, Psi, C2, d.gain, d.P, d.kappa, d.alpha) == pytest.approx(d.exact_min_eig)
 
 
 @pytest.mark.parametrize("case", ["6.1 I", "6.2 I"])

@@ -68,8 +68,8 @@ def test_prop56_feasible_although_a_stable_gain_exists() -> None:
     L = float(r.L_tilde[0, 0])
     assert _error_factor(s, a, L) > 1.0  # the one gain the feasible point is about is unstable ...
     assert _error_factor(s, a, 0.0) < 1.0  # ... but L̃ = 0 is stable: "no stable observer exists" is false
-    assert r.members[0].name == "A" and r.members[0].stabilisable
-    assert r.members[0].min_modulus == pytest.approx(_error_factor(s, a, L), rel=1e-9)
+    assert r.members[0].key == "A" and r.members[0].passed
+    assert r.members[0].values["min_modulus"] == pytest.approx(_error_factor(s, a, L), rel=1e-9)
     assert r.exact_min_eig >= r.pi_tilde_min_eig > 0  # Π̃ is a lower bound of ΔṼ − δ_f (A.26)
     # the reading the proof supports: Ỹ = P̃L̃ for a given stable gain is (necessarily) infeasible
     for stable in (0.0, 1.0, 2.5):
@@ -104,7 +104,7 @@ def test_prop56_scalar_without_update_matches_the_closed_form(a: float, g: float
     assert r.feasible is feasible
     assert r.verdict is (Prop56Verdict.GAIN_UNSTABLE if feasible else Prop56Verdict.INCONCLUSIVE)
     assert r.margin == pytest.approx(_max_min_eig_c2_zero(a, psi, 1e-6), abs=2e-4)
-    assert r.members[0].stabilisable is (abs(a - psi) < 1.0)  # no gain acts: stabilisable iff already stable
+    assert r.members[0].passed is (abs(a - psi) < 1.0)  # no gain acts: stabilisable iff already stable
 
 
 def test_prop56_on_the_examples_as_printed() -> None:
@@ -118,7 +118,7 @@ def test_prop56_on_the_examples_as_printed() -> None:
     assert np.min(np.abs(np.linalg.eigvals(E))) > 1.0  # ΔṼ > 0 for f = Ax: every mode of that gain grows
     # ... yet a stable gain exists for f = Ax: nlobs's sound design certifies one (spectral radius < 1)
     sound = design_setvalued(ex.system)
-    Es = (np.eye(4) - sound.L_tilde @ tr.C2) @ tr.Phi @ (A - tr.Psi)
+    Es = (np.eye(4) - sound.gain @ tr.C2) @ tr.Phi @ (A - tr.Psi)
     assert np.max(np.abs(np.linalg.eigvals(Es))) < 1.0
     # the per-gain test misses the printed L̃*, although its error dynamics diverge
     Lp = np.asarray(ex.printed["L_tilde"], dtype=float)[:, None]
@@ -184,12 +184,12 @@ def test_prop516_class_I_only_branch_A_can_be_feasible() -> None:
     assert d.alpha * d.lambda_min_P > 1 + L**2
     steady = _check_theta1(d, s)
     # Theorem 5.13's printed constants in observers/setvalued.py agree: its steady state is min(δ∞,1, δ∞,2)
-    rad = printed_radii(s, d.L_tilde, d.P, d.rho, 10, L_f=L)
+    rad = printed_radii(s, d.gain, d.P, d.rho, 10, L_f=L)
     assert rad.state_steady <= steady * (1 + 1e-12)
     tr = ui_transform(s.G, s.C, s.H)
     assert d.exact_min_eig == pytest.approx(
-        exact_condition_a16(_lipschitz(L, 1), tr.Phi, tr.Psi, tr.C2, d.L_tilde, d.P, d.kappa, d.alpha))
-    assert d.spectral_radius == pytest.approx(_error_factor(s, 0.5, float(d.L_tilde[0, 0])))
+        exact_condition_a16(_lipschitz(L, 1), tr.Phi, tr.Psi, tr.C2, d.gain, d.P, d.kappa, d.alpha))
+    assert d.spectral_radius == pytest.approx(_error_factor(s, 0.5, float(d.gain[0, 0])))
 
 
 @pytest.mark.parametrize("c2, w", [(0.3, 1.0), (1.0, 1.0), (0.3, 3.0)])
@@ -225,11 +225,11 @@ def test_prop516_example_61_class_II_theta1_below_one_but_unstable() -> None:
     _check_theta1(d, ex.system)
     assert d.rho >= design_printed(ex.system, M, **grid).rho * (1 - 1e-6)
     tr = ui_transform(ex.system.G, ex.system.C, ex.system.H)
-    E = (np.eye(4) - d.L_tilde @ tr.C2) @ tr.Phi @ (A - tr.Psi)
+    E = (np.eye(4) - d.gain @ tr.C2) @ tr.Phi @ (A - tr.Psi)
     sr = float(np.max(np.abs(np.linalg.eigvals(E))))
     assert sr > 1.0 and d.spectral_radius == pytest.approx(sr)  # convergent printed bounds, divergent errors
-    assert exact_condition_a16(M, tr.Phi, tr.Psi, tr.C2, d.L_tilde, d.P, d.kappa, d.alpha) < 0
-    assert d.certified is False and "NOT certified" in d.summary()
+    assert exact_condition_a16(M, tr.Phi, tr.Psi, tr.C2, d.gain, d.P, d.kappa, d.alpha) < 0
+    assert d.verified is False and "NOT certified" in d.summary()
 
 
 def test_prop516_infeasible_and_bad_input() -> None:

@@ -40,15 +40,15 @@ def _lpv_system(phi=_member) -> DiscreteUISystem:  # type: ignore[no-untyped-def
 
 def test_lpv_class_check_tests_polytope_membership_not_only_the_lipschitz_bound() -> None:
     # the σ̃ = 1.5 Lipschitz bound holds for lpvhole's φ ...
-    assert check_function_class(_hole, Lipschitz(1.5, 2), LO, HI, n_pairs=2000).holds
+    assert check_function_class(_hole, Lipschitz(1.5, 2), LO, HI, n_pairs=2000).passed
     # ... but its difference quotients [0, 1.5 Δx₂] are not λ [1.5 Δx₂, 0]: the LPV class is violated
     chk = check_function_class(_hole, LPV(VERTS), LO, HI, n_pairs=2000)
-    assert not chk.holds and chk.worst_margin < -1.0
-    assert "distance of Δφ" in chk.describe()
-    dx = chk.x2 - chk.x1
+    assert not chk.passed and chk.value < -1.0
+    assert "distance of Δφ" in chk.evidence
+    dx = chk.values["x2"] - chk.values["x1"]
     # (0, 1.5Δx₂) is orthogonal to the segment [0, (1.5Δx₂, 0)]: its distance is 1.5|Δx₂|
-    assert np.sqrt(-chk.worst_margin) == pytest.approx(1.5 * abs(dx[1]), rel=1e-9)
-    assert check_function_class(_member, LPV((np.diag([0.2, 0.0]), np.zeros((2, 2)))), LO, HI, n_pairs=2000).holds
+    assert np.sqrt(-chk.value) == pytest.approx(1.5 * abs(dx[1]), rel=1e-9)
+    assert check_function_class(_member, LPV((np.diag([0.2, 0.0]), np.zeros((2, 2)))), LO, HI, n_pairs=2000).passed
 
 
 def test_lpv_polytope_gap_with_three_vertices_matches_a_hand_projection() -> None:
@@ -211,7 +211,7 @@ def test_class_0_without_a_known_member_refuses_hinf_and_checks_no_member() -> N
     s = DiscreteUISystem(np.array([[0.5, 0.1], [0.0, 0.4]]), [[1.0], [0.0]], [[1.0, 0.0], [0.0, 1.0]],
                          function_class=fc, eta_w=0.01, eta_v=0.01, delta0=0.5, time=Discrete(1.0))
     st = structural_check(s.A, s.G, s.C, s.H, members=fc.linear_members())
-    assert st.exists and st.strongly_detectable == () and "not checked" in st.evidence()
+    assert st.exists and st.strongly_detectable == () and "not checked" in st.summary()
     with pytest.raises(InvalidArgumentError, match="'hinf' needs a known linear member"):
         design_setvalued(s, objective="hinf")
 
@@ -230,7 +230,7 @@ def test_a_failed_verification_at_the_chosen_lambda_falls_back_to_the_next_candi
     def fails_at_first(system, dyn, P, L, kappa, lam, q, theta, rho):  # type: ignore[no-untyped-def]
         checks, *rest = real(system, dyn, P, L, kappa, lam, q, theta, rho)
         if lam == first.lam:  # pretend the solver's answer at the chosen λ misses (⋆)
-            checks = [*checks, Check("injected failure", CheckKind.LMI, 1.0, 0.0, strict=False)]
+            checks = [*checks, Check.compare("injected failure", 1.0, 0.0, kind=CheckKind.LMI, strict=False)]
         return (checks, *rest)
 
     monkeypatch.setattr(sv, "_verify", fails_at_first)

@@ -73,7 +73,7 @@ def test_gamma_below_infimum_names_lmi_14_and_smallest_gamma():
     assert gmin < 1.2  # measured ≈ 1.098
     # and a γ above it is achievable, cross-checked with python-control
     cert = design_observer_gain(NMP.A, NMP.C, NMP.Bd, gamma=1.2, gamma_n=200.0)
-    Acl = NMP.A - cert.K @ NMP.C
+    Acl = NMP.A - cert.gain @ NMP.C
     assert np.max(np.linalg.eigvals(Acl).real) < 0
     g, _ = control.linfnorm(control.ss(Acl, NMP.Bd, np.eye(3), np.zeros((3, 1))))
     assert lower <= float(g) < 1.2
@@ -114,7 +114,7 @@ def test_certificate_is_frozen_and_readonly():
     with pytest.raises(dataclasses.FrozenInstanceError):
         cert.gamma = 1.0  # type: ignore[misc]
     with pytest.raises(ValueError):
-        cert.K[0, 0] = 0.0
+        cert.gain[0, 0] = 0.0
     assert "verified" in cert.summary()
 
 

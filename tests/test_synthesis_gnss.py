@@ -82,7 +82,7 @@ def test_paper_gain_does_not_meet_gamma_n_below_its_norm(axis):
 def test_central_design_near_paper_gain(axis):
     cert = design_observer_gain(axis.A, axis.C, axis.Bd, gamma=50.0, gamma_n=1.0019, objective=Objective.CENTRAL)
     assert cert.verified and cert.solver is Solver.CLARABEL
-    K = cert.K
+    K = cert.gain
     assert np.all(np.isfinite(K)) and cert.gain_norm < 200
     # measured: [[126.61, 16.14], [15.56, 2.417], [1.156, 0.191]]; worst entry 11 % from the paper's (K_zp)
     np.testing.assert_allclose(K, [[126.61, 16.14], [15.56, 2.417], [1.156, 0.191]], rtol=2e-3)
@@ -113,11 +113,11 @@ def test_min_gamma_n_with_gain_bound(axis, kappa):
         axis.A, axis.C, axis.Bd, gamma=50.0, objective=Objective.MIN_GAMMA_N, gain_bound=GainBound(kappa)
     )
     assert cert.verified
-    assert np.linalg.norm(cert.K, 2) <= kappa
-    assert np.linalg.norm(cert.K, 2) >= 0.99 * kappa  # the bound is active (γn → 1 only as K → ∞)
+    assert np.linalg.norm(cert.gain, 2) <= kappa
+    assert np.linalg.norm(cert.gain, 2) >= 0.99 * kappa  # the bound is active (γn → 1 only as K → ∞)
     assert 1.0 < cert.gamma_n < 1.0019
-    Acl = axis.A - cert.K @ axis.C
-    assert _linfnorm(Acl, -cert.K) <= cert.gamma_n * (1 + 1e-9)
+    Acl = axis.A - cert.gain @ axis.C
+    assert _linfnorm(Acl, -cert.gain) <= cert.gamma_n * (1 + 1e-9)
     assert _linfnorm(Acl, axis.Bd) < 50.0
     assert any(c.kind is CheckKind.GAIN and c.passed for c in cert.checks)
 
@@ -125,7 +125,7 @@ def test_min_gamma_n_with_gain_bound(axis, kappa):
 def test_gain_bound_as_float_and_central(axis):
     cert = design_observer_gain(axis.A, axis.C, axis.Bd, gamma=50.0, gain_bound=50.0)
     assert cert.verified and cert.gain_norm <= 50.0
-    Acl = axis.A - cert.K @ axis.C
+    Acl = axis.A - cert.gain @ axis.C
     assert _linfnorm(Acl, axis.Bd) == pytest.approx(cert.hinf_H, rel=1e-6)
 
 
@@ -134,4 +134,4 @@ def test_scs_answer_is_reverified(axis):
     cert = design_observer_gain(axis.A, axis.C, axis.Bd, gamma=50.0, gamma_n=1.05, solver="scs")
     assert cert.verified and cert.solver is Solver.SCS
     clar = design_observer_gain(axis.A, axis.C, axis.Bd, gamma=50.0, gamma_n=1.05)
-    np.testing.assert_allclose(cert.K, clar.K, rtol=0.1, atol=0.05)
+    np.testing.assert_allclose(cert.gain, clar.gain, rtol=0.1, atol=0.05)

@@ -109,17 +109,17 @@ def test_alpha_stability_design():
     alpha = 0.2
     cert = design_observer_gain(AXIS.A, AXIS.C, AXIS.Bd, gamma=50.0, gamma_n=1.0019, region=HalfPlane(alpha))
     assert cert.verified
-    lam = np.linalg.eigvals(AXIS.A - cert.K @ AXIS.C)
+    lam = np.linalg.eigvals(AXIS.A - cert.gain @ AXIS.C)
     assert np.all(lam.real < -alpha)
     # the unconstrained central design has a slower pole (−0.122), so the region is active
     free = design_observer_gain(AXIS.A, AXIS.C, AXIS.Bd, gamma=50.0, gamma_n=1.0019)
-    assert np.max(np.linalg.eigvals(AXIS.A - free.K @ AXIS.C).real) > -alpha
+    assert np.max(np.linalg.eigvals(AXIS.A - free.gain @ AXIS.C).real) > -alpha
 
 
 def test_disk_design():
     region = Disk(-60.0, 80.0)
     cert = design_observer_gain(AXIS.A, AXIS.C, AXIS.Bd, gamma=50.0, gamma_n=1.0019, region=region)
-    lam = np.linalg.eigvals(AXIS.A - cert.K @ AXIS.C)
+    lam = np.linalg.eigvals(AXIS.A - cert.gain @ AXIS.C)
     assert np.all(np.abs(lam + 60.0) < 80.0)
     assert cert.verified and np.max(np.abs(lam)) < 140.0
 
@@ -127,12 +127,12 @@ def test_disk_design():
 def test_sector_design_with_complex_poles():
     # with ‖K‖ ≤ 50 and only (14) the central gain has poles −1.40 ± 4.59j (73° from the negative axis)
     free = design_observer_gain(AXIS.A, AXIS.C, AXIS.Bd, gamma=50.0, gain_bound=GainBound(50.0))
-    lam0 = np.linalg.eigvals(AXIS.A - free.K @ AXIS.C)
+    lam0 = np.linalg.eigvals(AXIS.A - free.gain @ AXIS.C)
     assert np.max(np.abs(np.angle(-lam0))) > math.radians(45)
     cert = design_observer_gain(
         AXIS.A, AXIS.C, AXIS.Bd, gamma=50.0, gain_bound=GainBound(50.0), region=Sector(math.radians(45))
     )
-    lam = np.linalg.eigvals(AXIS.A - cert.K @ AXIS.C)
+    lam = np.linalg.eigvals(AXIS.A - cert.gain @ AXIS.C)
     assert np.all(lam.real < 0)
     assert np.all(np.abs(lam.imag) < -lam.real)  # tan 45° = 1
     assert cert.gain_norm <= 50.0
@@ -141,7 +141,7 @@ def test_sector_design_with_complex_poles():
 def test_intersection_of_regions():
     regions = [HalfPlane(0.5), Disk(-10.0, 20.0), Sector.from_damping(0.7)]
     cert = design_observer_gain(AXIS.A, AXIS.C, AXIS.Bd, gamma=50.0, gamma_n=1.05, region=regions)
-    lam = np.linalg.eigvals(AXIS.A - cert.K @ AXIS.C)
+    lam = np.linalg.eigvals(AXIS.A - cert.gain @ AXIS.C)
     assert np.all(lam.real < -0.5) and np.all(np.abs(lam + 10) < 20)
     zeta = -lam.real / np.abs(lam)
     assert np.all(zeta > 0.7)
@@ -156,7 +156,7 @@ def test_region_with_gain_bound_infeasible_reports_smallest_bound():
     kmin = 10.0 + ei.value.violation
     assert 50 < kmin < 300
     cert = design_observer_gain(AXIS.A, AXIS.C, AXIS.Bd, gamma=50.0, gain_bound=1.2 * kmin, region=HalfPlane(3.0))
-    assert np.all(np.linalg.eigvals(AXIS.A - cert.K @ AXIS.C).real < -3.0)
+    assert np.all(np.linalg.eigvals(AXIS.A - cert.gain @ AXIS.C).real < -3.0)
 
 
 def test_region_infeasible_with_noise_bound():

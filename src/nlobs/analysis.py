@@ -102,7 +102,7 @@ class NonlinearReport:
             "geometry_error": self.geometry_error,
         }
 
-    def to_text(self) -> str:
+    def summary(self) -> str:
         """Human-readable multi-line report."""
         dot = "x⁺" if self.time == "discrete" else "ẋ"
         lines = [
@@ -119,11 +119,11 @@ class NonlinearReport:
         x0, u0 = self.operating_point
         if self.linearization is not None:
             lines.append(f"linearisation at x0={list(x0)}, u0={list(u0)} (local properties only):")
-            lines.extend("  " + ln for ln in self.linearization.to_text().splitlines())
+            lines.extend("  " + ln for ln in self.linearization.summary().splitlines())
         else:
             lines.append(f"linearisation at x0={list(x0)}: not available ({self.linearization_error})")
         if self.geometry is not None:
-            lines.append(self.geometry.to_text())
+            lines.append(self.geometry.summary())
         elif self.geometry_error:
             lines.append(f"differential geometry: not available ({self.geometry_error})")
         return "\n".join(lines)

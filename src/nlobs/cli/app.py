@@ -61,7 +61,7 @@ def analyze_cmd(
         data.setdefault("kind", "linear")
         emit_json(data)
     else:
-        console().print(report.to_text(), markup=False)
+        console().print(report.summary(), markup=False)
 
 
 @app.command("reproduce")

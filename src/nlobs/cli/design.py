@@ -145,13 +145,13 @@ def drift_cmd(
     except NlobsError as exc:
         fail(f"{model}: {exc}")
     data: dict[str, Any] = {"design": rep.to_dict()}
-    text = [rep.to_text()]
+    text = [rep.summary()]
     if not rep.usable:  # the report is the evidence; the last line says why there is no observer
         if as_json:
             emit_json(data)
         else:
             console().print("\n".join(text), markup=False)
-        status = EXIT_NO_OBSERVER if not rep.drift_check.holds else EXIT_FAILURE
+        status = EXIT_NO_OBSERVER if not rep.drift_check.passed else EXIT_FAILURE
         fail(f"{model}: no usable observer: " + "; ".join(rep.reasons), status)
     if simulate:
         x0v, xh, uv = _sim_inputs(m, x0, xhat0, u)
@@ -200,7 +200,7 @@ def pinv_cmd(
     except NlobsError as exc:
         fail(f"{model}: {exc}")
     data: dict[str, Any] = {"design": rep.to_dict()}
-    text = [rep.to_text()]
+    text = [rep.summary()]
     if simulate:
         x0v, xh, uv = _sim_inputs(m, x0, xhat0, u)
         res = _run(model, lambda: simulate_pinv(m, x0v, xh, duration, dt=dt, u=uv, k=kv, theta=theta,

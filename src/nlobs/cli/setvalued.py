@@ -34,9 +34,9 @@ from nlobs.errors import AssumptionViolated, CertificateError, DesignInfeasible,
 from nlobs.systems.modelfile import DiscreteUIModel, load_discrete_ui_model
 
 if TYPE_CHECKING:  # the solver stack is imported when a command runs, so that `nlobs` starts fast
-    from nlobs.linear.transform_ui import StructuralCheck
+    from nlobs.linear.transform_ui import StructuralReport
     from nlobs.synthesis.setvalued import SetValuedDesign
-    from nlobs.systems.discrete_ui import ClassCheck
+    from nlobs.checks import Check
 
 
 class Objective(str, Enum):
@@ -62,7 +62,7 @@ def _load(model: str) -> DiscreteUIModel:
         fail(str(exc))
 
 
-def _structure(m: DiscreteUIModel) -> tuple[StructuralCheck | None, str]:
+def _structure(m: DiscreteUIModel) -> tuple[StructuralReport | None, str]:
     """The structural check, or ``None`` with the reason when Lemma 5.1's rank condition fails."""
     from nlobs.linear.transform_ui import structural_check
 
@@ -73,13 +73,10 @@ def _structure(m: DiscreteUIModel) -> tuple[StructuralCheck | None, str]:
         return None, str(exc)
 
 
-def _structure_dict(st: StructuralCheck | None, why: str) -> dict[str, Any]:
+def _structure_dict(st: StructuralReport | None, why: str) -> dict[str, Any]:
     if st is None:
         return {"exists": False, "lemma_5_1_rank": False, "evidence": why}
-    return {"exists": st.exists, "lemma_5_1_rank": True, "strongly_detectable": list(st.strongly_detectable),
-            "reasons": list(st.reasons),
-            "unstable_error_modes": [[[float(z.real), float(z.imag)] for z in b] for b in st.unstable_error_modes],
-            "evidence": st.evidence()}
+    return {"exists": st.exists, "lemma_5_1_rank": True, **st.to_dict()}
 
 
 def _box(m: DiscreteUIModel) -> tuple[np.ndarray, np.ndarray]:
@@ -90,7 +87,7 @@ def _box(m: DiscreteUIModel) -> tuple[np.ndarray, np.ndarray]:
     return s.x0 - half, s.x0 + half
 
 
-def _class_check(m: DiscreteUIModel, samples: int, seed: int) -> ClassCheck:
+def _class_check(m: DiscreteUIModel, samples: int, seed: int) -> Check:
     from nlobs.systems.discrete_ui import check_function_class
 
     lo, hi = _box(m)
@@ -110,20 +107,6 @@ def _no_observer(model: str, data: dict[str, Any], as_json: bool) -> None:
          "detectable, or Lemma 5.1's rank condition fails); evidence printed above", EXIT_NO_OBSERVER)
 
 
-def _design_dict(d: SetValuedDesign) -> dict[str, Any]:
-    return {
-        "objective": d.objective.value, "L_tilde": d.L_tilde.tolist(), "P": d.P.tolist(), "lambda": d.lam,
-        "lambda_eff": d.lam_eff, "kappa": d.kappa, "c": d.c, "theta": list(d.theta), "rho": d.rho,
-        "steady_radius": d.steady_radius, "spectral_radii": list(d.spectral_radii),
-        "hinf_linear": list(d.hinf_linear), "solver": d.solver.value, "solver_status": d.solver_status,
-        "solves": d.solves, "seconds": d.seconds,
-        "function_class_used": d.function_class.label,
-        "lpv_design": d.certified_for.lpv.value if d.certified_for.lpv else None,
-        "checks": [{"name": c.name, "value": c.value, "limit": c.limit, "passed": c.passed} for c in d.checks],
-        "verified": d.verified,
-    }
-
-
 def _design(model: str, m: DiscreteUIModel, objective: str, samples: int, seed: int,
             as_json: bool) -> tuple[SetValuedDesign, dict[str, Any]]:
     """Structure, class check and design, shared by both commands (exits on failure)."""
@@ -137,14 +120,14 @@ def _design(model: str, m: DiscreteUIModel, objective: str, samples: int, seed: 
         "model": s.name, "n": s.n, "p": s.p, "l": s.l, "function_class": s.function_class.label,
         "gamma": s.function_class.gamma, "eta_w": s.eta_w, "eta_v": s.eta_v, "delta0": s.delta0,
         "structure": _structure_dict(st, why),
-        "class_check": {"holds": chk.holds, "worst_margin": chk.worst_margin, "x1": chk.x1.tolist(),
-                        "x2": chk.x2.tolist(), "pairs": chk.n_pairs, "box": [lo.tolist(), hi.tolist()],
-                        "text": chk.describe()},
+        "class_check": {"holds": chk.passed, "worst_margin": chk.value, "x1": chk.values["x1"].tolist(),
+                        "x2": chk.values["x2"].tolist(), "pairs": chk.values["n_pairs"], "box": [lo.tolist(), hi.tolist()],
+                        "text": chk.evidence},
     }
     if st is None or not st.exists:
         _no_observer(model, data, as_json)
-    if not chk.holds:
-        fail(f"{model}: the nonlinear part violates its stated class, so no certificate would hold: {chk.describe()}")
+    if not chk.passed:
+        fail(f"{model}: the nonlinear part violates its stated class, so no certificate would hold: {chk.evidence}")
     try:
         # the CLI runs the observer on the plant's own φ (no run-time LPV weights): a Class III file is designed
         # with the σ̃ Lipschitz multiplier, not at the vertices (docs/setvalued.md, "Soundness conditions")
@@ -158,7 +141,7 @@ def _design(model: str, m: DiscreteUIModel, objective: str, samples: int, seed: 
         fail(f"{model}: the solver's answer failed the independent verification: {exc}", EXIT_FAILURE)
     except NlobsError as exc:
         fail(f"{model}: {exc}")
-    data["design"] = _design_dict(d)
+    data["design"] = d.to_dict()
     return d, data
 
 

@@ -1,6 +1,6 @@
 """The checks a user needs before trusting a differential-geometric observer.
 
-Each returns a frozen :class:`Check` with a verdict and its evidence:
+Each returns a :class:`nlobs.checks.Check` (a verdict with its evidence):
 
 * :func:`check_drift_observability` — ``Φ_s`` is a local diffeomorphism on the
   region: ``det Q_s`` symbolically where tractable, and the smallest singular
@@ -21,13 +21,13 @@ multi-index (the observability indices found by a rank-greedy selection).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
 import sympy as sp
 from numpy.typing import NDArray
 from scipy.optimize import minimize
 
+from nlobs.checks import Check, CheckKind
 from nlobs.geometry.lie import SIMPLIFY_OPS_LIMIT, lie_bracket, tidy
 from nlobs.geometry.observability import (
     AffineFields,
@@ -48,47 +48,6 @@ SYMBOLIC_DET_MAX_N = 4
 #: A matrix is called (numerically) singular where ``σ_min ≤ RANK_RTOL · max(1, σ_max)``: an observer
 #: that inverts it would amplify by more than ``1/RANK_RTOL`` there.
 RANK_RTOL = 1e-7
-
-
-@dataclass(frozen=True)
-class Check:
-    """A verdict with its evidence.
-
-    Attributes
-    ----------
-    name : str
-        What was checked (e.g. ``"drift-observability"``).
-    holds : bool
-    method : str
-        ``"symbolic"``, ``"numeric"`` or ``"structural"``.
-    evidence : str
-        One line a user can read.
-    worst_point : tuple of float or None
-        The sampled point where the condition is closest to failing (or fails).
-    value : float or None
-        The measured quantity at ``worst_point`` (a singular value, a residual).
-    symbolic : str or None
-        A symbolic certificate where one was computed (e.g. ``det Q_s``).
-    """
-
-    name: str
-    holds: bool
-    method: str
-    evidence: str
-    worst_point: tuple[float, ...] | None = None
-    value: float | None = None
-    symbolic: str | None = None
-
-    def to_dict(self) -> dict[str, object]:
-        return {
-            "name": self.name,
-            "holds": self.holds,
-            "method": self.method,
-            "evidence": self.evidence,
-            "worst_point": None if self.worst_point is None else list(self.worst_point),
-            "value": self.value,
-            "symbolic": self.symbolic,
-        }
 
 
 def _sigma_min(fn: object, pts: Array) -> Array:
@@ -146,8 +105,9 @@ def check_full_rank(name: str, what: str, M: sp.MatrixBase, fields: AffineFields
                     break
                 a, b = (mid, b) if dm > 0 else (a, mid)
             pt = (a + b) / 2
-            return Check(name, False, "intermediate value", f"det {what} = {det_txt} changes sign on the region: {what} is singular "
-                         f"at x ≈ {format_point(pt)}", tuple(map(float, pt)), 0.0, det_txt)
+            return Check.verdict(name, False, f"det {what} = {det_txt} changes sign on the region: {what} is singular "
+                                 f"at x ≈ {format_point(pt)}", kind=CheckKind.RANK, method="intermediate value",
+                                 worst_point=tuple(map(float, pt)), value=0.0, symbolic=det_txt)
     fn = compile_matrix(as_sympy_matrix("M", M), (tuple(fields.x),), what=what)
     sv = _sigma_min(fn, pts)
     pt, worst = _refine(fn, pts, sv, reg)
@@ -157,7 +117,8 @@ def check_full_rank(name: str, what: str, M: sp.MatrixBase, fields: AffineFields
           else f"{phrase or what + ' loses rank'} at x = {format_point(pt)} (σ_min = {worst:.3g})")
     if det_txt is not None:
         ev += f"; det {what} = {det_txt}"
-    return Check(name, holds, "numeric", ev, tuple(map(float, pt)), worst, det_txt)
+    return Check.verdict(name, holds, ev, kind=CheckKind.RANK, method="numeric", worst_point=tuple(map(float, pt)),
+                         value=worst, symbolic=det_txt)
 
 
 def check_drift_observability(
@@ -179,10 +140,10 @@ def check_drift_observability(
         det = sp.factor(tidy(Q.det(method="berkowitz")))
         if det.is_number:
             holds = bool(det != 0)
-            return Check("drift-observability", holds, "symbolic",
-                         f"det Q_s = {det} (constant): " + ("Q_s is nonsingular everywhere" if holds
-                                                            else "Q_s is singular everywhere"),
-                         None, float(abs(det)), str(det))
+            return Check.verdict("drift-observability", holds,
+                                 f"det Q_s = {det} (constant): " + ("Q_s is nonsingular everywhere" if holds
+                                                                    else "Q_s is singular everywhere"),
+                                 kind=CheckKind.RANK, method="symbolic", value=float(abs(det)), symbolic=str(det))
     return check_full_rank("drift-observability", "Q_s", Q, fields, reg, samples, seed, det=det)
 
 
@@ -192,8 +153,9 @@ def check_a1(fields: AffineFields, r: Sequence[int], region: Box | None = None, 
     reg = region or Box.unit(fields.n)
     Q = reduced_observability_matrix(fields, r_)
     if Q.shape[0] > fields.n:
-        return Check("A1 (independent dL_f^k h)", False, "structural",
-                     f"Σ r_j = {Q.shape[0]} covectors dL_f^k h in ℝ^{fields.n} cannot be independent")
+        return Check.verdict("A1 (independent dL_f^k h)", False,
+                             f"Σ r_j = {Q.shape[0]} covectors dL_f^k h in ℝ^{fields.n} cannot be independent",
+                             kind=CheckKind.RANK, method="structural")
     det = sp.factor(tidy(Q.det(method="berkowitz"))) if Q.shape[0] == Q.shape[1] <= SYMBOLIC_DET_MAX_N else None
     return check_full_rank("A1 (independent dL_f^k h)", "Q", Q, fields, reg, samples, seed, det=det,
                            phrase="dh, …, dL_f^(r−1) h are dependent")
@@ -219,7 +181,8 @@ def check_involutive(
     Q = reduced_observability_matrix(fields, r_)
     rank = Q.shape[0]
     if rank <= 1 or rank >= fields.n:
-        return Check("A5 (involutive)", True, "structural", f"Δ has rank {rank} ∈ {{1, n}}: always involutive")
+        return Check.verdict("A5 (involutive)", True, f"Δ has rank {rank} ∈ {{1, n}}: always involutive",
+                             kind=CheckKind.STRUCTURAL, method="structural")
     P = sp.Matrix(symbolic_pinv(Q) if Qp is None else as_sympy_matrix("Qp", Qp))
     proj = sp.eye(fields.n) - (P * Q)
     residuals: list[sp.Matrix] = []
@@ -233,8 +196,9 @@ def check_involutive(
             residuals.append(sp.Matrix.hstack(res, br))
             pairs.append((a + 1, b + 1))
     if not residuals:
-        return Check("A5 (involutive)", True, "symbolic",
-                     f"every [τ_i, τ_j] lies in span{{τ}} ((I − Q⁺Q)[τ_i, τ_j] ≡ 0 for all {rank * (rank - 1) // 2} pairs)")
+        return Check.verdict("A5 (involutive)", True,
+                             f"every [τ_i, τ_j] lies in span{{τ}} ((I − Q⁺Q)[τ_i, τ_j] ≡ 0 for all {rank * (rank - 1) // 2} "
+                             "pairs)", kind=CheckKind.STRUCTURAL, method="symbolic")
     pts = reg.sample(samples, seed)
     worst, worst_pt, worst_pair = 0.0, pts[0], pairs[0]
     for pair, M in zip(pairs, residuals):
@@ -250,17 +214,19 @@ def check_involutive(
     ev = (f"every [τ_i, τ_j] lies in span{{τ}} at {samples} sampled points (largest relative residual {worst:.2g})"
           if holds else f"[τ_{worst_pair[0]}, τ_{worst_pair[1]}] leaves span{{τ}} at x = {format_point(worst_pt)} "
           f"(relative residual {worst:.3g})")
-    return Check("A5 (involutive)", holds, "numeric", ev, tuple(map(float, worst_pt)), worst)
+    return Check.verdict("A5 (involutive)", holds, ev, kind=CheckKind.STRUCTURAL, method="numeric",
+                         worst_point=tuple(map(float, worst_pt)), value=worst)
 
 
 def check_s_le_r(s: Sequence[int], r: Sequence[int | None]) -> Check:
     """``s ≤ r`` componentwise (seed 002 Theorems 2.9, 3.4); an undefined ``r_j`` is infinite."""
     ok = all(rj is None or sj <= rj for sj, rj in zip(s, r))
     rt = ["∞" if v is None else str(v) for v in r]
-    return Check("s ≤ r", ok, "structural",
-                 f"s = ({', '.join(map(str, s))}), r = ({', '.join(rt)}): "
-                 + ("s ≤ r, (2.17) is solvable for every (α, μ, γ) (Thm 2.9)" if ok
-                    else "s ≰ r: the input bound μ must be small enough (Thm 2.7)"))
+    return Check.verdict("s ≤ r", ok,
+                         f"s = ({', '.join(map(str, s))}), r = ({', '.join(rt)}): "
+                         + ("s ≤ r, (2.17) is solvable for every (α, μ, γ) (Thm 2.9)" if ok
+                            else "s ≰ r: the input bound μ must be small enough (Thm 2.7)"),
+                         kind=CheckKind.STRUCTURAL, method="structural")
 
 
 def observability_rank(

@@ -74,16 +74,16 @@ class GeometryReport:
             "relative_degree_evidence": list(self.relative_degree_evidence),
             "observability_rank": self.observability_rank,
             "multi_index": list(self.multi_index),
-            "drift_observable": None if self.drift is None else self.drift.holds,
+            "drift_observable": None if self.drift is None else self.drift.passed,
             "drift_observability": None if self.drift is None else self.drift.to_dict(),
             "a1": None if self.a1 is None else self.a1.to_dict(),
-            "involutive": None if self.a5 is None else self.a5.holds,
+            "involutive": None if self.a5 is None else self.a5.passed,
             "a5": None if self.a5 is None else self.a5.to_dict(),
             "pinv_gain": None if self.pinv_gain is None else [list(v) if isinstance(v, tuple) else v for v in self.pinv_gain],
             "notes": list(self.notes),
         }
 
-    def to_text(self) -> str:
+    def summary(self) -> str:
         n = len(self.states)
         lines = [f"differential geometry on {self.region.describe()} (seeds 002, 003):"]
         for o, r, ev in zip(self.outputs, self.relative_degree, self.relative_degree_evidence):
@@ -93,10 +93,10 @@ class GeometryReport:
         if self.drift is None:
             lines.append("  drift-observable: no (the codistribution has rank < n, no Φ_s is a diffeomorphism)")
         else:
-            lines.append(f"  drift-observable (Φ_s local diffeomorphism): {'yes' if self.drift.holds else 'NO'} — {self.drift.evidence}")
+            lines.append(f"  drift-observable (Φ_s local diffeomorphism): {'yes' if self.drift.passed else 'NO'} — {self.drift.evidence}")
         for c in (self.a1, self.a5):
             if c is not None:
-                lines.append(f"  {c.name}: {'holds' if c.holds else 'FAILS'} — {c.evidence}")
+                lines.append(f"  {c.summary()}")
         if self.pinv_gain is not None:
             lines.append("  Moore–Penrose gain l(x) = Q⁺(x) k (seed 003 (17)):")
             for s, e in zip(self.states, self.pinv_gain):
@@ -136,7 +136,7 @@ def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: in
         a1 = check_a1(fields, r_, reg, seed=seed)
         if sum(r_) > fields.n:
             notes.append(f"Σ r_j = {sum(r_)} > n: seed 003's decomposition needs Σ r_j ≤ n")
-        elif a1.holds:
+        elif a1.passed:
             Qp = symbolic_pinv(reduced_observability_matrix(fields, r_))
             a5 = check_involutive(fields, r_, reg, Qp=Qp, seed=seed)
             field_ = pinv_gain_field(Qp, r_)

@@ -24,7 +24,6 @@ from nlobs.linear.stability import (
 )
 from nlobs.linear.zeros import (
     InvariantZeros,
-    MinimumPhase,
     invariant_zeros,
     is_left_invertible,
     is_minimum_phase,
@@ -37,7 +36,6 @@ __all__ = [
     "REPORT_KEYS",
     "InvariantZeros",
     "LinearReport",
-    "MinimumPhase",
     "analyze_linear",
     "eigenvalues",
     "h2_norm",

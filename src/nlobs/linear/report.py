@@ -6,7 +6,7 @@ strong detectability (seed paper, Khajenejad & Yong, Definition 2.1 /
 Remark 2.2, reading ``(A, B, C, D)`` as ``(A, G, C, H)``) and the H∞/H2 norms
 into a frozen :class:`LinearReport`, which serialises to JSON-ready data with
 a stable set of keys (:meth:`LinearReport.to_dict`) and to plain text
-(:meth:`LinearReport.to_text`).
+(:meth:`LinearReport.summary`).
 """
 
 from __future__ import annotations
@@ -148,7 +148,7 @@ class LinearReport:
             "h2_norm": None if self.h2_norm is None else float(self.h2_norm),
         }
 
-    def to_text(self) -> str:
+    def summary(self) -> str:
         """A short human-readable multi-line report (plain text)."""
 
         def yn(b: bool) -> str:
@@ -233,9 +233,9 @@ def analyze_linear(sys: LinearSystem) -> LinearReport:
         invariant_zeros=iz.zeros,
         normal_rank=iz.normal_rank,
         left_invertible=iz.left_invertible,
-        minimum_phase=mp.minimum_phase,
-        strongly_detectable=mp.minimum_phase,
+        minimum_phase=mp.passed,
+        strongly_detectable=mp.passed,
         hinf_norm=hinf if math.isfinite(hinf) else None,
         h2_norm=h2 if math.isfinite(h2) else None,
-        minimum_phase_reason=mp.reason,
+        minimum_phase_reason=mp.evidence,
     )

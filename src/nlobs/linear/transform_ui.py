@@ -24,18 +24,20 @@ class (a member of the class defeats every gain).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, as_square, in_range, readonly
+from nlobs.checks import Check, CheckKind
 from nlobs.errors import AssumptionViolated
 from nlobs.linear.observability import unobservable_modes
 from nlobs.linear.stability import strictly_inside
 from nlobs.linear.zeros import minimum_phase
 
-__all__ = ["UITransform", "ui_transform", "StructuralCheck", "structural_check", "require_structure"]
+__all__ = ["UITransform", "ui_transform", "StructuralReport", "structural_check", "require_structure"]
 
 Array = NDArray[np.float64]
 _EPS = float(np.finfo(float).eps)
@@ -178,45 +180,78 @@ def ui_transform(G: ArrayLike, C: ArrayLike, H: ArrayLike | None = None, D: Arra
 
 
 @dataclass(frozen=True)
-class StructuralCheck:
-    """Structural conditions for a stable observer of the structure (10)-(15).
+class StructuralReport:
+    """Structural conditions for a stable observer of the structure (10)-(15), one :class:`~nlobs.checks.Check` per member.
 
     Attributes
     ----------
-    exists : bool
-        ``False`` when some checked linear member of the class is not strongly
-        detectable or leaves an undetectable error mode: then no stable observer
-        of this structure exists.
-    strongly_detectable : tuple of bool
-        Per linear member ``K``: strong detectability of ``(A + K, G, C, H)``.
-    reasons : tuple of str
-        Per member: the minimum-phase verdict with the offending zeros.
-    unstable_error_modes : tuple of ndarray
-        Per member: unobservable modes of ``(Φ(A + K − Ψ), C₂)`` with ``|λ| ≥ 1``.
+    checks : tuple of Check
+        Per linear member ``K`` of the class (in the order given): passes when ``(A + K, G, C, H)``
+        is strongly detectable and ``(Φ(A + K − Ψ), C₂)`` leaves no undetectable error mode with
+        ``|λ| ≥ 1``. ``values``: ``strongly_detectable`` (bool), ``reason`` (the minimum-phase
+        verdict with the offending zeros) and ``unstable_error_modes`` (tuple of complex).
     transform : UITransform
     """
 
-    exists: bool
-    strongly_detectable: tuple[bool, ...]
-    reasons: tuple[str, ...]
-    unstable_error_modes: tuple[NDArray[np.complex128], ...]
+    checks: tuple[Check, ...]
     transform: UITransform
 
-    def evidence(self) -> str:
+    @property
+    def exists(self) -> bool:
+        """``False`` when some checked linear member of the class is not strongly detectable or leaves an
+        undetectable error mode: then no stable observer of this structure exists."""
+        return all(c.passed for c in self.checks)
+
+    @property
+    def strongly_detectable(self) -> tuple[bool, ...]:
+        """Per linear member ``K``: strong detectability of ``(A + K, G, C, H)``."""
+        return tuple(bool(c.values["strongly_detectable"]) for c in self.checks)
+
+    @property
+    def reasons(self) -> tuple[str, ...]:
+        """Per member: the minimum-phase verdict with the offending zeros."""
+        return tuple(str(c.values["reason"]) for c in self.checks)
+
+    @property
+    def unstable_error_modes(self) -> tuple[NDArray[np.complex128], ...]:
+        """Per member: unobservable modes of ``(Φ(A + K − Ψ), C₂)`` with ``|λ| ≥ 1`` (read-only arrays)."""
+        out = []
+        for c in self.checks:
+            modes = np.array(c.values["unstable_error_modes"], dtype=complex)
+            modes.setflags(write=False)
+            out.append(modes)
+        return tuple(out)
+
+    def summary(self) -> str:
         """The numbers behind the verdict, one line per linear member."""
-        if not self.strongly_detectable:
+        if not self.checks:
             return ("no linear member of the class is known, so strong detectability was not checked "
                     "(Lemma 5.1's rank condition holds)")
-        lines = []
-        for i, (sd, why, bad) in enumerate(zip(self.strongly_detectable, self.reasons, self.unstable_error_modes)):
-            modes = ", ".join(f"{complex(z):.6g}" for z in bad) or "none"
-            lines.append(f"member {i}: strongly detectable={sd} ({why}); undetectable error modes |λ|>=1: {modes}")
-        return "\n".join(lines)
+        return "\n".join(f"member {i}: {c.evidence}" for i, c in enumerate(self.checks))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python view: ``exists``, ``strongly_detectable``, ``reasons``, ``unstable_error_modes`` (``[re, im]``
+        pairs per member), ``evidence`` (:meth:`summary`) and the per-member ``checks``."""
+        return {"exists": self.exists, "strongly_detectable": list(self.strongly_detectable),
+                "reasons": list(self.reasons),
+                "unstable_error_modes": [[[float(z.real), float(z.imag)] for z in b] for b in self.unstable_error_modes],
+                "evidence": self.summary(), "checks": [c.to_dict() for c in self.checks]}
+
+
+def _member_check(i: int, mp: Check, bad: NDArray[np.complex128]) -> Check:
+    modes = ", ".join(f"{complex(z):.6g}" for z in bad) or "none"
+    return Check.verdict(
+        f"member {i}: strongly detectable with detectable error dynamics (Corollary 5.8, Lemma 5.7)",
+        mp.passed and bad.size == 0,
+        f"strongly detectable={mp.passed} ({mp.evidence}); undetectable error modes |λ|>=1: {modes}",
+        kind=CheckKind.STRUCTURAL, method="numeric",
+        values={"strongly_detectable": mp.passed, "reason": mp.evidence,
+                "unstable_error_modes": tuple(complex(z) for z in bad)})
 
 
 def structural_check(A: ArrayLike, G: ArrayLike, C: ArrayLike, H: ArrayLike | None = None, *,
                      members: tuple[ArrayLike, ...] | None = None,
-                     transform: UITransform | None = None) -> StructuralCheck:
+                     transform: UITransform | None = None) -> StructuralReport:
     r"""Strong detectability (Corollary 5.8, Lemma 5.7) and detectability of the error dynamics.
 
     Parameters
@@ -229,14 +264,14 @@ def structural_check(A: ArrayLike, G: ArrayLike, C: ArrayLike, H: ArrayLike | No
         Linear maps ``K`` contained in the nonlinearity class (``φ(x) = K x``). Omitted (``None``):
         ``(0,)``, the LTI system ``(A, G, C, H)`` of Corollary 5.8. An empty tuple (a class with no known
         linear member) checks no member: ``exists`` is then ``True`` by default (nothing shows that no
-        stable observer exists), and :meth:`StructuralCheck.evidence` says that nothing was checked.
+        stable observer exists), and :meth:`StructuralReport.summary` says that nothing was checked.
     transform : UITransform, optional
         Precomputed :func:`ui_transform` (computed here when omitted; raises
         :class:`~nlobs.errors.AssumptionViolated` when Lemma 5.1's rank fails).
 
     Returns
     -------
-    StructuralCheck
+    StructuralReport
     """
     A_ = as_square("A", A)
     n = A_.shape[0]
@@ -246,27 +281,22 @@ def structural_check(A: ArrayLike, G: ArrayLike, C: ArrayLike, H: ArrayLike | No
     tr = ui_transform(G_, C_, H_) if transform is None else transform
     Ks = (np.zeros((n, n)),) if members is None else tuple(as_square(f"members[{i}]", K, n)
                                                             for i, K in enumerate(members))
-    sds, reasons, bads = [], [], []
-    for K in Ks:
+    checks = []
+    for i, K in enumerate(Ks):
         mp = minimum_phase(A_ + K, G_, C_, H_, discrete=True)
-        sds.append(bool(mp.minimum_phase))
-        reasons.append(mp.reason)
         Ae = tr.Phi @ (A_ + K - tr.Psi)
         um = unobservable_modes(Ae, tr.C2, discrete=True)
-        bad = um[~strictly_inside(um, discrete=True)]
-        bad.setflags(write=False)
-        bads.append(bad)
-    exists = all(sds) and all(b.size == 0 for b in bads)
-    return StructuralCheck(exists, tuple(sds), tuple(reasons), tuple(bads), tr)
+        checks.append(_member_check(i, mp, um[~strictly_inside(um, discrete=True)]))
+    return StructuralReport(tuple(checks), tr)
 
 
-def require_structure(check: StructuralCheck) -> None:
+def require_structure(check: StructuralReport) -> None:
     """Raise :class:`~nlobs.errors.AssumptionViolated` (``item="no_stable_observer"``) when ``check.exists`` is false."""
     if not check.exists:
         raise AssumptionViolated(
             "no stable observer of the structure (10)-(15) exists: a linear member of the nonlinearity class is not "
             "strongly detectable (Corollary 5.8 / Lemma 5.7), so every gain L~ leaves an error mode with |λ| >= 1\n"
-            + check.evidence(),
+            + check.summary(),
             item="no_stable_observer",
-            evidence=check.evidence(),
+            evidence=check.summary(),
         )

@@ -27,12 +27,13 @@ Definition 2.1 and Remark 2.2 (strong detectability).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from nlobs.checks import Check, CheckKind
 from nlobs.linear.norms import _check_abcd
 from nlobs.linear.stability import BOUNDARY_TOL, strictly_inside
 
@@ -42,7 +43,6 @@ __all__ = [
     "is_left_invertible",
     "is_minimum_phase",
     "is_strongly_detectable",
-    "MinimumPhase",
     "minimum_phase",
 ]
 
@@ -230,18 +230,6 @@ def is_left_invertible(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | 
     return invariant_zeros(A, B, C, D).left_invertible
 
 
-@dataclass(frozen=True)
-class MinimumPhase:
-    """Outcome of :func:`minimum_phase`: a boolean with the reason when false."""
-
-    minimum_phase: bool
-    reason: str
-    unstable_zeros: NDArray[np.complex128] = field(default_factory=lambda: np.zeros(0, dtype=complex))
-
-    def __bool__(self) -> bool:
-        return self.minimum_phase
-
-
 def minimum_phase(
     A: ArrayLike,
     B: ArrayLike,
@@ -250,23 +238,32 @@ def minimum_phase(
     *,
     discrete: bool = False,
     tol: float = BOUNDARY_TOL,
-) -> MinimumPhase:
+) -> Check:
     """Minimum-phase test with the reason of a negative answer.
 
     See :func:`is_minimum_phase`.
+
+    Returns
+    -------
+    Check
+        ``passed`` is the verdict; ``evidence`` the reason (the rank deficiency, or the offending
+        zeros); ``values["unstable_zeros"]`` the finite invariant zeros outside the open stability
+        region, as a tuple of complex (empty when minimum phase or not left invertible).
     """
     iz = invariant_zeros(A, B, C, D)
+
+    def verdict(ok: bool, why: str, bad: tuple[complex, ...] = ()) -> Check:
+        return Check.verdict("minimum phase", ok, why, kind=CheckKind.STRUCTURAL, method="numeric",
+                             values={"unstable_zeros": bad})
+
     if not iz.left_invertible:
-        return MinimumPhase(
-            False,
-            f"not left invertible: normal rank {iz.normal_rank} < n + m = {iz.n + iz.m}",
-        )
+        return verdict(False, f"not left invertible: normal rank {iz.normal_rank} < n + m = {iz.n + iz.m}")
     bad = iz.zeros[~strictly_inside(iz.zeros, discrete=discrete, tol=tol)]
     if bad.size:
         where = "|z| >= 1" if discrete else "Re z >= 0"
         shown = ", ".join(f"{complex(v):.6g}" for v in bad)
-        return MinimumPhase(False, f"invariant zero(s) with {where}: {shown}", bad)
-    return MinimumPhase(True, "left invertible, all finite invariant zeros strictly stable")
+        return verdict(False, f"invariant zero(s) with {where}: {shown}", tuple(complex(v) for v in bad))
+    return verdict(True, "left invertible, all finite invariant zeros strictly stable")
 
 
 def is_minimum_phase(
@@ -300,7 +297,7 @@ def is_minimum_phase(
         Zeros on the boundary (e.g. ``s = 0`` for ``s/(s + 1)``) fail the test.
         :func:`minimum_phase` returns the reason as well.
     """
-    return minimum_phase(A, B, C, D, discrete=discrete, tol=tol).minimum_phase
+    return minimum_phase(A, B, C, D, discrete=discrete, tol=tol).passed
 
 
 def is_strongly_detectable(
@@ -339,4 +336,4 @@ def is_strongly_detectable(
         Strong detectability is the condition under which the state (and the
         unknown input) can be estimated without knowledge of ``d``.
     """
-    return minimum_phase(A, G, C, H, discrete=discrete, tol=tol).minimum_phase
+    return minimum_phase(A, G, C, H, discrete=discrete, tol=tol).passed

@@ -243,8 +243,8 @@ def design_gains(
     if per_axis:
         A, Bd, C = axis_system(position_only)
         cert = design_observer_gain(A, C, Bd, N=N3, **kw)
-        return kron_gain(cert.K), cert
+        return kron_gain(cert.gain), cert
     A, Bd, C = full_system(position_only)
     N9 = None if N3 is None else np.kron(N3, np.eye(3))
     cert = design_observer_gain(A, C, Bd, N=N9, **kw)
-    return np.array(cert.K), cert
+    return np.array(cert.gain), cert

@@ -75,7 +75,6 @@ from nlobs.errors import (
 from nlobs.linear import hinf_norm
 from nlobs.observers.cascade_assumptions import Assumption4Report, require_assumption4
 from nlobs.synthesis import (
-    CertificateStatus,
     Check,
     CheckKind,
     GainBound,
@@ -634,7 +633,7 @@ class CascadeObserver:
     sigma2 : LinearSubsystem
         Σ₂.
     K : array_like, shape (n_w + p_z, p_y)
-        ``[K_w; K_z]``, e.g. ``design_cascade_gain(...).K``. It is not required to
+        ``[K_w; K_z]``, e.g. ``design_cascade_gain(...).gain``. It is not required to
         be certified here, but ``𝔄 − Kℭ`` must be Hurwitz (checked).
 
     Attributes
@@ -682,7 +681,7 @@ class CascadeObserver:
             raise InvalidArgumentError(
                 "certificate: not verified (failed: " + ", ".join(c.name for c in certificate.failed_checks) + ")"
             )
-        return cls(sigma1, sigma2, certificate.K)
+        return cls(sigma1, sigma2, certificate.gain)
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -964,19 +963,18 @@ def place_cascade_gain(
     eig = np.linalg.eigvals(ext.A - K @ ext.C)
     eig = eig[np.lexsort((eig.imag, eig.real))]
     checks = (
-        Check("max Re λ(𝔄 − Kℭ) < 0", CheckKind.SPECTRUM, float(np.max(eig.real)), 0.0),
-        Check("‖H‖∞ < γ", CheckKind.NORM, float(hH), g),
+        Check.compare("max Re λ(𝔄 − Kℭ) < 0", float(np.max(eig.real)), 0.0, kind=CheckKind.SPECTRUM),
+        Check.compare("‖H‖∞ < γ", float(hH), g, kind=CheckKind.NORM),
     )
     ok = all(c.passed for c in checks)
     cert = ObserverGainCertificate(
-        status=CertificateStatus.VERIFIED if ok else CertificateStatus.FAILED,
-        K=_readonly(K), P=None, gamma=g, gamma_n=None, hinf_H=float(hH), hinf_G=None,
+        gain=_readonly(K), P=None, gamma=g, gamma_n=None, hinf_H=float(hH), hinf_G=None,
         eigenvalues=_readonly_c(eig), checks=checks, objective=None, solver=None,
         solver_status=f"pole placement at ω = {hi:.6g} × pattern", margin=0.0,
         seconds=_time.perf_counter() - t0,
     )
     if not ok:
-        raise DesignError("pole placement: " + "; ".join(c.describe() for c in cert.failed_checks))
+        raise DesignError("pole placement: " + "; ".join(c.summary() for c in cert.failed_checks))
     return cert
 
 
@@ -1070,7 +1068,7 @@ class GammaSweep:
             out.append(d)
         return out
 
-    def to_text(self) -> str:
+    def summary(self) -> str:
         """A plain-text table (no rich markup)."""
         head = [c[1] for c in _COLUMNS]
         body = []
@@ -1155,10 +1153,10 @@ def gamma_sweep(
             "hinf_G": float(cert.hinf_G) if cert.hinf_G is not None else math.nan,
             "gain_norm": cert.gain_norm, "slowest_pole": float(np.max(eig.real)),
             "fastest_pole": float(np.min(eig.real)),
-            "K": tuple(tuple(float(v) for v in r) for r in cert.K),
+            "K": tuple(tuple(float(v) for v in r) for r in cert.gain),
         }
         if simulate is not None:
-            obs = CascadeObserver(sigma1, sigma2, cert.K)
+            obs = CascadeObserver(sigma1, sigma2, cert.gain)
             try:
                 res = simulate(obs)
             except ArithmeticError as exc:  # SimulationDiverged

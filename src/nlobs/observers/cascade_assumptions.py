@@ -16,7 +16,7 @@ r"""The assumptions and sufficient bounds of the cascade/feedback observer (seed
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import cvxpy as cp
@@ -25,6 +25,7 @@ import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, as_square, positive
+from nlobs.checks import Check, CheckKind
 from nlobs.errors import (
     AssumptionViolated,
     DesignInfeasible,
@@ -46,7 +47,6 @@ Array = NDArray[np.float64]
 __all__ = [
     "ASSUMPTION4_ITEMS",
     "Assumption4Report",
-    "AssumptionItem",
     "QuadraticLyapunov",
     "check_assumption4",
     "quadratic_lyapunov_constants",
@@ -79,45 +79,10 @@ def _fmt_list(z: NDArray[Any]) -> str:
     return "[" + ", ".join(_fmt_c(v) for v in z) + "]" if len(z) else "none"
 
 
-@dataclass(frozen=True)
-class AssumptionItem:
-    """One item of an assumption check.
-
-    Attributes
-    ----------
-    key : str
-        Machine name (see :data:`ASSUMPTION4_ITEMS`; ``"minimum_phase"`` and
-        ``"extended_detectable"`` are informational).
-    title : str
-        What is checked, in words.
-    holds : bool
-        The verdict.
-    evidence : str
-        The numbers behind the verdict.
-    required : bool
-        Whether the item is part of Assumption 4 (``False`` for the
-        informational items).
-    values : dict
-        The same numbers in machine-readable form (floats, lists).
-    """
-
-    key: str
-    title: str
-    holds: bool
-    evidence: str
-    required: bool = True
-    values: dict[str, Any] = field(default_factory=dict)
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain-Python view (JSON-serialisable)."""
-        return {
-            "key": self.key,
-            "title": self.title,
-            "holds": self.holds,
-            "required": self.required,
-            "evidence": self.evidence,
-            "values": dict(self.values),
-        }
+def _item(key: str, title: str, holds: bool, evidence: str, required: bool, values: dict[str, Any],
+          kind: CheckKind = CheckKind.STRUCTURAL) -> Check:
+    """One item of Assumption 4 as a :class:`~nlobs.checks.Check` (``key`` its machine name, ``title`` its name)."""
+    return Check.verdict(title, holds, evidence, kind=kind, method="numeric", required=required, key=key, values=values)
 
 
 @dataclass(frozen=True)
@@ -126,9 +91,11 @@ class Assumption4Report:
 
     Attributes
     ----------
-    items : tuple of AssumptionItem
+    items : tuple of Check
         Every item, required ones first (:data:`ASSUMPTION4_ITEMS`), then the
-        informational ``"minimum_phase"`` and ``"extended_detectable"``.
+        informational ``"minimum_phase"`` and ``"extended_detectable"``
+        (``required=False``). Each item's ``key`` is its machine name, ``name`` says
+        what is checked, ``evidence`` and ``values`` give the numbers.
     n_w, p_z, p_y : int
         Dimensions of ``w``, ``z`` and ``y``.
     zeros : ndarray of complex
@@ -137,7 +104,7 @@ class Assumption4Report:
         Normal rank of the Rosenbrock matrix (``n_w + p_z`` iff left-invertible).
     """
 
-    items: tuple[AssumptionItem, ...]
+    items: tuple[Check, ...]
     n_w: int
     p_z: int
     p_y: int
@@ -147,24 +114,24 @@ class Assumption4Report:
     @property
     def holds(self) -> bool:
         """Whether every required item holds (Assumption 4 with the rank conditions)."""
-        return all(it.holds for it in self.items if it.required)
+        return all(it.passed for it in self.items if it.required)
 
     @property
-    def failed(self) -> tuple[AssumptionItem, ...]:
+    def failed(self) -> tuple[Check, ...]:
         """The required items that fail."""
-        return tuple(it for it in self.items if it.required and not it.holds)
+        return tuple(it for it in self.items if it.required and not it.passed)
 
     @property
     def minimum_phase(self) -> bool:
         """Whether ``(A, B_z, C, D_z)`` is minimum phase: then ``γ* = 0`` (Theorem 2)."""
-        return self.item("minimum_phase").holds
+        return self.item("minimum_phase").passed
 
     @property
     def gamma_star_zero(self) -> bool:
         """Theorem 2: ``‖H‖∞`` can be made arbitrarily small iff this is True (sufficient)."""
         return self.holds and self.minimum_phase
 
-    def item(self, key: str) -> AssumptionItem:
+    def item(self, key: str) -> Check:
         """The item named ``key``."""
         for it in self.items:
             if it.key == key:
@@ -182,19 +149,19 @@ class Assumption4Report:
             "p_y": self.p_y,
             "normal_rank": self.normal_rank,
             "zeros": [[float(z.real), float(z.imag)] for z in self.zeros],
-            "items": [it.to_dict() for it in self.items],
+            "items": [{**it.to_dict(), "title": it.name} for it in self.items],
         }
 
-    def to_text(self) -> str:
+    def summary(self) -> str:
         """A plain-text report, one line per item (no rich markup)."""
         lines = [
             f"Assumption 4 (seed 001) for Σ2 with n_w={self.n_w}, p_z={self.p_z}, p_y={self.p_y}: "
             + ("HOLDS" if self.holds else "FAILS (" + ", ".join(it.key for it in self.failed) + ")")
         ]
         for it in self.items:
-            tag = ("ok  " if it.holds else "FAIL") if it.required else ("yes " if it.holds else "no  ")
+            tag = ("ok  " if it.passed else "FAIL") if it.required else ("yes " if it.passed else "no  ")
             kind = "" if it.required else " [info]"
-            lines.append(f"  [{tag}] {it.title}{kind}: {it.evidence}")
+            lines.append(f"  [{tag}] {it.name}{kind}: {it.evidence}")
         if self.holds:
             lines.append(
                 "  => γ* = 0 (Theorem 2): ‖H‖∞ < γ is achievable for every γ > 0"
@@ -204,15 +171,15 @@ class Assumption4Report:
         return "\n".join(lines)
 
 
-def _rank_item(key: str, title: str, M: Array, want: int, what: str) -> AssumptionItem:
+def _rank_item(key: str, title: str, M: Array, want: int, what: str) -> Check:
     s = np.linalg.svd(M, compute_uv=False) if M.size else np.zeros(0)
     tol = max(M.shape, default=1) * _EPS * (float(s[0]) if s.size else 0.0) * 10.0
     r = int(np.sum(s > tol)) if s.size else 0
     smin = float(s[want - 1]) if s.size >= want > 0 else 0.0
     ok = r == want
     ev = f"rank {what} = {r} (need {want}); σ_min = {smin:.3g}" + ("" if ok else " — redundant components: redefine them")
-    return AssumptionItem(key, title, ok, ev, True, {"rank": r, "required_rank": want, "sigma_min": smin,
-                                                    "singular_values": [float(v) for v in s]})
+    return _item(key, title, ok, ev, True, {"rank": r, "required_rank": want, "sigma_min": smin,
+                                            "singular_values": [float(v) for v in s]}, CheckKind.RANK)
 
 
 def check_assumption4(
@@ -263,7 +230,7 @@ def check_assumption4(
         raise DimensionError("B_z: Σ2 needs at least one input z (p_z ≥ 1)")
     if py == 0:
         raise DimensionError("C: Σ2 needs at least one measurement y (p_y ≥ 1)")
-    items: list[AssumptionItem] = [
+    items: list[Check] = [
         _rank_item("rank_Bz_Dz", "rank [B_z; D_z] = p_z (no redundant z)", np.vstack([Bz, Dz]), pz, "[B_z; D_z]"),
         _rank_item("rank_C_Dz", "rank [C, D_z] = p_y (independent y)", np.hstack([C_, Dz]), py, "[C, D_z]"),
     ]
@@ -273,16 +240,16 @@ def check_assumption4(
     bad_modes = unobs[unobs.real >= -tol] if unobs.size else unobs
     ev = f"unobservable modes {_fmt_list(unobs)}"
     ev += "; all strictly stable" if det else f"; not strictly stable: {_fmt_list(bad_modes)}"
-    items.append(AssumptionItem("detectable", "(A, C) detectable", det, ev, True,
-                                {"unobservable_modes": [[float(z.real), float(z.imag)] for z in unobs]}))
+    items.append(_item("detectable", "(A, C) detectable", det, ev, True,
+                       {"unobservable_modes": [[float(z.real), float(z.imag)] for z in unobs]}))
     # left-invertibility and zeros
     iz = invariant_zeros(A_, Bz, C_, Dz)
     want = n + pz
     li = iz.normal_rank == want
-    items.append(AssumptionItem(
+    items.append(_item(
         "left_invertible", "(A, B_z, C, D_z) left-invertible", li,
         f"normal rank of the Rosenbrock matrix = {iz.normal_rank} (n_w + p_z = {want})", True,
-        {"normal_rank": iz.normal_rank, "required": want},
+        {"normal_rank": iz.normal_rank, "required": want}, CheckKind.RANK,
     ))
     zeros = iz.zeros
     at0 = zeros[np.abs(zeros) <= tol] if zeros.size else zeros
@@ -292,18 +259,18 @@ def check_assumption4(
     ev0 += f"; closest to the origin at distance {dist:.3g}" if zeros.size else " (no finite zeros)"
     if not ok0:
         ev0 += f"; {at0.size} zero(s) at s = 0"
-    items.append(AssumptionItem("no_zero_at_origin", "no invariant zero at the origin", ok0, ev0, True,
-                                {"zeros": [[float(z.real), float(z.imag)] for z in zeros], "min_abs_zero": dist}))
+    items.append(_item("no_zero_at_origin", "no invariant zero at the origin", ok0, ev0, True,
+                       {"zeros": [[float(z.real), float(z.imag)] for z in zeros], "min_abs_zero": dist}))
     # informational
     mp = minimum_phase(A_, Bz, C_, Dz, tol=tol)
-    items.append(AssumptionItem(
-        "minimum_phase", "(A, B_z, C, D_z) minimum phase (Theorem 2: γ* = 0)", bool(mp), mp.reason, False,
-        {"unstable_zeros": [[float(z.real), float(z.imag)] for z in mp.unstable_zeros]},
+    items.append(_item(
+        "minimum_phase", "(A, B_z, C, D_z) minimum phase (Theorem 2: γ* = 0)", mp.passed, mp.evidence, False,
+        {"unstable_zeros": [[float(z.real), float(z.imag)] for z in mp.values["unstable_zeros"]]},
     ))
     ext = extended_system(A_, Bz, C_, Dz)
     edet = is_detectable(ext.A, ext.C, tol=tol)
     eun = unobservable_modes(ext.A, ext.C)
-    items.append(AssumptionItem(
+    items.append(_item(
         "extended_detectable", "(𝔄, ℭ) of (8c) detectable (implied by Assumption 4)", edet,
         f"unobservable modes of the extended pair {_fmt_list(eun)}", False,
         {"unobservable_modes": [[float(z.real), float(z.imag)] for z in eun]},
@@ -329,7 +296,7 @@ def require_assumption4(
         it = rep.failed[0]
         more = f" (also failing: {', '.join(f.key for f in rep.failed[1:])})" if len(rep.failed) > 1 else ""
         raise AssumptionViolated(
-            f"Assumption 4 (seed 001) fails: {it.title} [{it.key}] — {it.evidence}{more}",
+            f"Assumption 4 (seed 001) fails: {it.name} [{it.key}] — {it.evidence}{more}",
             item=it.key,
             evidence=it.evidence,
         )

@@ -443,7 +443,7 @@ class DriftDesignReport:
     fields : AffineFields
     s, r : tuple
         Multi-index and observation relative degrees (``None``: undefined on the region).
-    checks : tuple of geometry Check
+    checks : tuple of Check
         Drift-observability on the region and ``s ≤ r``.
     F : ndarray
         ``F_{s,r}`` (2.12).
@@ -501,11 +501,11 @@ class DriftDesignReport:
         """Why the design is not usable (empty when it is): failed premises, a failed certificate, :attr:`warnings`."""
         out = []
         drift = self.drift_check
-        if not drift.holds:
+        if not drift.passed:
             out.append(f"drift-observability fails on the region ({drift.evidence}): Theorem 3.1 does not apply")
         if not self.certificate.verified:
             out.append("the gain certificate of (2.17) failed: "
-                       + "; ".join(k.describe() for k in self.certificate.failed_checks))
+                       + "; ".join(k.summary() for k in self.certificate.failed_checks))
         return (*out, *self.warnings)
 
     @property
@@ -515,10 +515,10 @@ class DriftDesignReport:
 
     def observer(self, *, regularization: float = 0.0, cond_limit: float = COND_LIMIT) -> DriftObserver:
         """The observer (3.1) with this report's ``s`` and ``K``."""
-        return DriftObserver.from_fields(self.fields, self.s, self.certificate.K, regularization=regularization,
+        return DriftObserver.from_fields(self.fields, self.s, self.certificate.gain, regularization=regularization,
                                          cond_limit=cond_limit)
 
-    def to_text(self) -> str:
+    def summary(self) -> str:
         c = self.certificate.constants
         r_txt = ", ".join("∞" if v is None else str(v) for v in self.r)
         lines = [
@@ -526,14 +526,14 @@ class DriftDesignReport:
             f"  multi-index s = ({', '.join(map(str, self.s))}), observation relative degree r = ({r_txt})",
             f"  region {self.region.describe()}",
         ]
-        lines += [f"  [{'ok' if k.holds else 'FAILS'}] {k.name}: {k.evidence}" for k in self.checks]
+        lines += [f"  [{'ok' if k.passed else 'FAILS'}] {k.name}: {k.evidence}" for k in self.checks]
         lines.append(f"  H_s,r(x) = {self.H}")
         L = self.lipschitz
         lines.append(f"  sampled on the region ({L.samples} points): γ_Φ ≈ {L.gamma_phi:.4g}, γ_Φ⁻¹ ≈ {L.gamma_phi_inv:.4g}, "
                      f"γ_L ≈ {L.gamma_L:.4g}, γ_H ≈ {L.gamma_H:.4g}")
         lines.append(f"  (2.17) with α = {c.alpha:g}, μ = {c.mu:g}, γ = {self.gamma:.4g} ({self.gamma_source})")
-        lines += ["  " + ln for ln in self.certificate.describe().splitlines()]
-        lines.append("  K = " + np.array2string(self.certificate.K, precision=5, separator=", ").replace("\n", "\n      "))
+        lines += ["  " + ln for ln in self.certificate.summary().splitlines()]
+        lines.append("  K = " + np.array2string(self.certificate.gain, precision=5, separator=", ").replace("\n", "\n      "))
         lines.append("  " + self.bound.describe())
         lines += [f"  warning: {m}" for m in self.warnings]
         lines.append("  usable: yes (drift-observable on the region, (2.17) verified, γ covers the sampled estimate)"

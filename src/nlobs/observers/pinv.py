@@ -31,6 +31,7 @@ See ``docs/pinv.md``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import warnings
 from collections.abc import Mapping, Sequence
@@ -42,11 +43,11 @@ import sympy as sp
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_batch, as_vector, positive
+from nlobs.checks import Check, CheckKind
 from nlobs.errors import AssumptionViolated, DimensionError, InvalidArgumentError, ModelError
 from nlobs.geometry import (
     AffineFields,
     Box,
-    Check,
     RelativeDegree,
     block_gain,
     check_a1,
@@ -191,7 +192,7 @@ def _require_a1(fields: AffineFields, region: Box, samples: int, seed: int) -> t
             f"{fields.name}: A1 fails: Σ r_j = {sum(r)} > n = {fields.n} for r = {r}; the rows of Q (13) cannot be "
             "independent", item="A1", evidence=f"r = {r}")
     chk = check_a1(fields, r, region, samples=samples, seed=seed)
-    if not chk.holds:
+    if not chk.passed:
         raise AssumptionViolated(f"{fields.name}: A1 fails on {region.describe()}: {chk.evidence}",
                                  item="A1", evidence=chk.evidence)
     return rd, r, chk
@@ -328,7 +329,7 @@ class PinvObserver(_InjectionObserver):
         Q = reduced_observability_matrix(F, r)
         Qp = symbolic_pinv(Q)
         a5 = check_involutive(F, r, region, Qp=Qp, samples=min(self.samples, 128), seed=self.seed)
-        if not a5.holds:
+        if not a5.passed:
             msg = f"{F.name}: A5 fails on {region.describe()}: {a5.evidence}"
             if self.require_a5:
                 raise AssumptionViolated(msg + " (pass require_a5=False to build the observer anyway, without the "
@@ -464,18 +465,19 @@ class ByrnesIsidoriObserver(_InjectionObserver):
         # (5): L_g φ_i ≡ 0
         lg = [sp.simplify(lie_derivative(p, F.g[:, c], F.x)) for p in phis for c in range(F.m)]
         bad = [i for i, e in enumerate(lg) if e != 0]
-        c5 = Check("(5) L_g φ_i ≡ 0", not bad, "symbolic",
-                   "L_g φ_i ≡ 0 for every φ: Byrnes–Isidori normal form" if not bad
-                   else f"L_g φ ≠ 0 for {[str(lg[i]) for i in bad]}: not the Byrnes–Isidori form (gain (8) still valid)")
+        c5 = Check.verdict("(5) L_g φ_i ≡ 0", not bad,
+                           "L_g φ_i ≡ 0 for every φ: Byrnes–Isidori normal form" if not bad
+                           else f"L_g φ ≠ 0 for {[str(lg[i]) for i in bad]}: not the Byrnes–Isidori form (gain (8) still "
+                           "valid)", kind=CheckKind.STRUCTURAL, method="symbolic")
         if bad:
             warnings.warn(AssumptionWarning(f"{F.name}: {c5.evidence}"), stacklevel=3)
         # det Φ' on the region: the pole of the gain (a sign change or a rank loss inside the region)
         sing = self.singular_set_of(det, F.x)
         full = check_full_rank("det Φ' ≠ 0", "Φ'", J, F, region, self.samples, self.seed, det=det)
-        cdet = Check(full.name, full.holds, full.method,
-                     full.evidence + (f"; det Φ' vanishes on {', '.join(sing)} (the gain has a pole there"
-                                      f"{'' if not full.holds else ', outside the region'})" if sing else ""),
-                     full.worst_point, full.value, str(det))
+        cdet = dataclasses.replace(
+            full, symbolic=str(det),
+            evidence=full.evidence + (f"; det Φ' vanishes on {', '.join(sing)} (the gain has a pole there"
+                                      f"{'' if not full.passed else ', outside the region'})" if sing else ""))
         ks = gain_symbols(r)
         rhs_sym = sp.Matrix.vstack(block_gain(r, list(ks)), sp.zeros(F.n - sum(r), len(r)))
         gsym = sp.ImmutableMatrix(sp.Matrix(J).LUsolve(rhs_sym).applyfunc(simplify_bounded))
@@ -580,14 +582,14 @@ class PinvDesignReport:
             "model": self.model, "states": list(self.states), "outputs": list(self.outputs),
             "observation_relative_degree": list(self.relative_degree), "input_gains": list(self.input_gains),
             "observability_rank": self.observability_rank, "checks": [c.to_dict() for c in self.checks],
-            "involutive": next(c.holds for c in self.checks if c.name.startswith("A5")),
+            "involutive": next(c.passed for c in self.checks if c.name.startswith("A5")),
             "Q": [list(r) for r in self.Q], "pinv": [list(r) for r in self.pinv],
             "pinv_gain": [list(r) for r in self.gain_field], "pinv_gain_numeric": [list(r) for r in self.gain_numeric],
             "k": list(self.k), "roots": list(self.roots), "theta": self.theta, "placement": self.placement,
             "usable": self.usable,
         }
 
-    def to_text(self) -> str:
+    def summary(self) -> str:
         """A plain-text report."""
         lines = [f"Moore–Penrose observer (Röbenack 2008, (7) with (17)) for {self.model}"]
         for o, rj, lg in zip(self.outputs, self.relative_degree, self.input_gains):
@@ -595,7 +597,7 @@ class PinvDesignReport:
         lines.append(f"  generic rank of the observability codistribution: {self.observability_rank} "
                      f"(n = {len(self.states)}; {len(self.states) - self.observability_rank} unobservable direction(s))")
         for c in self.checks:
-            lines.append(f"  {'ok  ' if c.holds else 'FAIL'} {c.name}: {c.evidence}")
+            lines.append(f"  {'ok  ' if c.passed else 'FAIL'} {c.name}: {c.evidence}")
         lines.append("  Q⁺(x) (columns τ_i, (18)):")
         lines += [f"    [{', '.join(r)}]" for r in self.pinv]
         lines.append("  gain field l(x) = Q⁺(x) k (17):")
@@ -643,5 +645,5 @@ def design_pinv_report(
         k=tuple(float(v) for v in obs.k_vector), roots=tuple(float(v) for v in roots),
         theta=None if obs.high_gain is None else obs.high_gain.theta,
         placement=None if obs.high_gain is None else obs.high_gain.placement,
-        usable=all(c.holds for c in obs.checks),
+        usable=all(c.passed for c in obs.checks),
     )

@@ -143,7 +143,7 @@ class RadiusRecursion:
         design.certified_for.require(system)
         fc = design.function_class
         evP = np.linalg.eigvalsh(design.P)
-        Acl, Bcl, E = design.dynamics.split(design.L_tilde)
+        Acl, Bcl, E = design.dynamics.split(design.gain)
         l, nw = system.l, system.n_w
         Eb = (E[:, :l], E[:, l:l + nw], E[:, l + nw:])
         eta = _noise_norm(Eb, system.eta_v, system.eta_w)
@@ -253,12 +253,12 @@ def printed_radii(system: DiscreteUISystem, L_tilde: ArrayLike, P: ArrayLike, rh
 
 @dataclass(frozen=True)
 class GivenGain:
-    """A gain ``L̃`` that was not designed by nlobs (e.g. a published one), with its transformation.
+    """A gain ``L̃`` (``gain``) that was not designed by nlobs (e.g. a published one), with its transformation.
 
     Runs Algorithm 1's centres without a certificate; radii must then be supplied.
     """
 
-    L_tilde: Array
+    gain: Array
     transform: UITransform
 
     @classmethod
@@ -319,7 +319,7 @@ class SetValuedObserver:
     ----------
     system : DiscreteUISystem
         The plant (8).
-    gain : SetValuedDesign or GivenGain
+    design : SetValuedDesign or GivenGain
         A design certified for ``system`` (:func:`nlobs.synthesis.setvalued.design_setvalued`), or a
         given ``L̃`` without certificate (then ``radii`` must be given for radii to be reported).
     radii : Radii, optional
@@ -336,7 +336,7 @@ class SetValuedObserver:
     """
 
     system: DiscreteUISystem
-    gain: SetValuedDesign | GivenGain
+    design: SetValuedDesign | GivenGain
     radii: Radii | None = None
     lpv_weights: bool = False
     name: str = "set-valued observer"
@@ -346,13 +346,13 @@ class SetValuedObserver:
     def __post_init__(self) -> None:
         if not isinstance(self.system, DiscreteUISystem):
             raise InvalidArgumentError(f"system: expected a DiscreteUISystem, got {type(self.system).__name__}")
-        if isinstance(self.gain, SetValuedDesign):
-            self.gain.certified_for.require(self.system, weights_given=self.lpv_weights)
-        elif not isinstance(self.gain, GivenGain):
-            raise InvalidArgumentError(f"gain: expected a SetValuedDesign or a GivenGain, got {type(self.gain).__name__}")
+        if isinstance(self.design, SetValuedDesign):
+            self.design.certified_for.require(self.system, weights_given=self.lpv_weights)
+        elif not isinstance(self.design, GivenGain):
+            raise InvalidArgumentError(f"design: expected a SetValuedDesign or a GivenGain, got {type(self.design).__name__}")
         object.__setattr__(self, "time", self.system.time)
-        rec = RadiusRecursion.of(self.system, self.gain) if (
-            self.radii is None and isinstance(self.gain, SetValuedDesign)) else None
+        rec = RadiusRecursion.of(self.system, self.design) if (
+            self.radii is None and isinstance(self.design, SetValuedDesign)) else None
         object.__setattr__(self, "_rec", rec)
 
     @property
@@ -371,7 +371,7 @@ class SetValuedObserver:
         if x.ndim != 2 or x.shape[-1] != self.system.n:
             raise DimensionError(f"x_hat0: expected shape (B, {self.system.n}), got {x.shape}")
         B = x.shape[0]
-        tr = self.gain.transform
+        tr = self.design.transform
         d0 = float(self.system.delta0)
         if self.radii is not None:
             d0 = float(self.radii.state[0])
@@ -392,7 +392,7 @@ class SetValuedObserver:
             raise NonFiniteError(f"y: the measurement at t = {t:g} is not finite (Algorithm 1 needs every sample)")
         if not np.all(fresh):
             raise InvalidArgumentError("Algorithm 1 needs every output at every step")
-        tr, Lt = self.gain.transform, self.gain.L_tilde
+        tr, Lt = self.design.transform, self.design.gain
         uk, _ = self._split_u(u)
         z1, z2 = y @ tr.U1, y @ tr.U2
         if z.k < 0:  # step 0: x̂_{0|0} is given, only (10)
@@ -415,7 +415,7 @@ class SetValuedObserver:
         if not z.corrected:
             raise InvalidArgumentError(f"rhs at t = {t:g}: Algorithm 1 needs the measurement of every step "
                                        "(correct before each time update)")
-        tr = self.gain.transform
+        tr = self.design.transform
         uk, lam = self._split_u(u)
         lam_b = None if lam is None else np.broadcast_to(lam, (*z.x.shape[:-1], lam.shape[-1]))
         xp = self.system.f(z.x, lam_b) + uk @ self.system.B.T + z.d1 @ tr.G1.T  # (13)

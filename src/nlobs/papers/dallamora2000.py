@@ -194,10 +194,10 @@ def simulate_drift(
                                         parameters=parameters)
     bound_consts = rep.bound
     # Theorem 3.1's premises besides (2.17): drift-observable on the region, γ not below its sampled estimate there
-    premises = rep.drift_check.holds and not rep.warnings
+    premises = rep.drift_check.passed and not rep.warnings
     certified = premises and rep.certificate.verified
     if w is None:
-        K, w_used = rep.certificate.K, rep.certificate.w
+        K, w_used = rep.certificate.gain, rep.certificate.w
     else:  # the paper's tuning by simulation: K(w) is checked against (2.17), the bound applies only if it holds
         g = vandermonde_gain(rep.s, w)
         K, w_used = g.K, float(w)
@@ -514,7 +514,7 @@ def rows() -> list[ReproRow]:
     lip = lipschitz_oscillator_model()
     cl = RiccatiConstants((2,), brunovsky_triple((2,))[1], 1.0, 1.0, math.hypot(math.hypot(1.5, 1.0), 0.5))
     cert = smallest_w(cl).certificate
-    obs = DriftObserver.from_model(lip, cert.K)
+    obs = DriftObserver.from_model(lip, cert.gain)
     res = simulate(lip.compile(), obs, x0=[1.0, 0.0], x_hat0=[-1.0, 1.0], duration=6.0, dt=2e-3,
                    u=lambda t: np.array([0.8 * math.sin(2.0 * t)]))
     b = error_bound_constants(cert, 1.0, 1.0, estimated=False)

@@ -49,8 +49,8 @@ def _assumption4(position_only: bool) -> tuple[bool, str]:
     ok = det and iz.left_invertible and not at_origin
     mp = minimum_phase(A, Bz, C, Dz)
     evidence = (f"detectable={det}, normal rank {iz.normal_rank} (n+m=3), "
-                f"finite zeros {[complex(z) for z in iz.zeros] or 'none'}; minimum phase: {mp.minimum_phase}")
-    return ok and mp.minimum_phase, evidence
+                f"finite zeros {[complex(z) for z in iz.zeros] or 'none'}; minimum phase: {mp.passed}")
+    return ok and mp.passed, evidence
 
 
 def reproduce() -> list[ReproRow]:
@@ -109,7 +109,7 @@ def reproduce() -> list[ReproRow]:
     iz = invariant_zeros(Aw, Bw, Cw, np.zeros((1, 1)))
     mp = minimum_phase(Aw, Bw, Cw, np.zeros((1, 1)))
     rows.append(ReproRow("Example 1: Σ2 = 1/(s²+s+1) satisfies Assumption 4, minimum phase", True,
-                         bool(is_detectable(Aw, Cw) and iz.left_invertible and mp.minimum_phase),
+                         bool(is_detectable(Aw, Cw) and iz.left_invertible and mp.passed),
                          f"finite invariant zeros: {len(iz.zeros)}, normal rank {iz.normal_rank}"))
     Ae, Bde, Ce = (np.block([[Aw, Bw], [np.zeros((1, 3))]]), np.array([[0.0], [0.0], [1.0]]),
                    np.hstack([Cw, np.zeros((1, 1))]))

@@ -226,7 +226,7 @@ class Example1Result:
     @property
     def K(self) -> Array:
         """The designed ``[K_w; K_z]``."""
-        return np.asarray(self.certificate.K)
+        return np.asarray(self.certificate.gain)
 
     def to_dict(self) -> dict[str, Any]:
         """The numbers as plain Python (JSON-serialisable)."""
@@ -257,7 +257,7 @@ class Example1Result:
             "figures": [str(p) for p in self.figures],
         }
 
-    def to_text(self) -> str:
+    def summary(self) -> str:
         """A plain-text summary."""
         q = self.lyapunov
         eig = ", ".join(f"{z.real:.4g}{z.imag:+.4g}j" for z in self.observer_eigenvalues)
@@ -269,7 +269,7 @@ class Example1Result:
             f"(α3/α4 = {q.ratio:.4g})"),
             (f"  Assumption 2{chr(39) if self.feedback else ''}: L1 = {self.L1:.5g};  "
             f"Assumption 3{chr(39) if self.feedback else ''}: L2 = {self.L2:.5g}"),
-            *("  " + ln for ln in self.assumption4.to_text().splitlines()),
+            *("  " + ln for ln in self.assumption4.summary().splitlines()),
             (f"  Theorem 1{chr(39) if self.feedback else ''}: γ < {self.gamma_bound:.4g} (best scaling of V; "
             f"{self.gamma_bound_unscaled:.4g} with λ_max(P1) = 1)"),
             (f"  design at γ = {self.gamma_design:.4g}: K = {np.array2string(self.K.ravel(), precision=5)}, "
@@ -279,7 +279,7 @@ class Example1Result:
             f"(linearised prediction {self.predicted_decay[0]:.4g}–{self.predicted_decay[1]:.4g})"),
         ]
         if self.sweep is not None:
-            lines += ["  " + ln for ln in self.sweep.to_text().splitlines()]
+            lines += ["  " + ln for ln in self.sweep.summary().splitlines()]
         if self.figures:
             lines.append("  figures: " + ", ".join(str(p) for p in self.figures))
         return "\n".join(lines)
@@ -342,7 +342,7 @@ def run_example1(
     en = np.asarray(res.error_norm)
     e0 = float(en[0])
     rate = float(res.decay_rate(floor=1e-7 * e0))
-    pred = predicted_decay_range(np.asarray(cert.K), feedback)
+    pred = predicted_decay_range(np.asarray(cert.gain), feedback)
     sw = None
     if sweep:
         gammas = [g for g in SWEEP_GAMMAS if g > g_design] + [g_design]

@@ -414,7 +414,7 @@ def _trajectory_conditions(batch: SimulationResult, system: DiscreteUISystem, ga
     def nrm(M: Array) -> float:
         return float(np.linalg.norm(M, 2)) if M.size else 0.0
 
-    kappa = ((1.0 + nrm(gain.L_tilde) * nrm(tr.C2)) * (1.0 + nrm(tr.G1 @ tr.M1) + nrm(tr.G2 @ tr.M2))
+    kappa = ((1.0 + nrm(gain.gain) * nrm(tr.C2)) * (1.0 + nrm(tr.G1 @ tr.M1) + nrm(tr.G2 @ tr.M2))
              * (1.0 + nrm(system.C) + nrm(system.A)))
     with np.errstate(over="ignore", invalid="ignore"):
         scale = (np.linalg.norm(x, axis=-1) + np.linalg.norm(d @ system.G.T, axis=-1)
@@ -539,7 +539,7 @@ def point_baselines(system: DiscreteUISystem, *, q_d: float, box: tuple[ArrayLik
         E, F = (None, None) if L_b == 0 else _sparsity(phi, lo, hi, n, seed)
         try:
             cert = design_discrete_lipschitz_gain(A_b, system.C, lipschitz=L_b, E=E, F=F)
-            lip = DiscreteLipschitzObserver(system.A, system.C, cert.L, system.time, phi=system.nonlinear,
+            lip = DiscreteLipschitzObserver(system.A, system.C, cert.gain, system.time, phi=system.nonlinear,
                                             B=system.B, D=system.D)
             note = (f"designed for γ = {L_b:.4g}" + ("" if E is None else f", φ = Eψ(Fx) with {E.shape[1]} rows "
                     f"and {F.shape[0]} states") + f": ρ = {cert.rho:.4g}, spectral radius {cert.spectral_radius:.4g}")
@@ -820,7 +820,7 @@ def adversarial_noise(system: DiscreteUISystem, design: SetValuedDesign, steps: 
     """
     design.certified_for.require(system)
     K = int(steps)
-    Acl, Bcl, E = design.dynamics.split(design.L_tilde)
+    Acl, Bcl, E = design.dynamics.split(design.gain)
     members = design.function_class.linear_members()
     AK = Acl + (Bcl @ members[0] if members else 0.0)
     l, nw, n = system.l, system.n_w, system.n
@@ -944,7 +944,7 @@ def _prop516_rows(tag: str, system: DiscreteUISystem, M: Array) -> list[ReproRow
         ReproRow(f"{tag}: θ₁ = |λmax(P**) − 1|/λmin(P**) (32) at Prop. 5.16's P**", None, d.theta1,
                  f"< 1 as Prop. 5.16 claims (eig(P**) in [{d.lambda_min_P:.4g}, {d.lambda_max_P:.4g}]); "
                  f"printed δx∞,1 = {d.theta1_steady:.4g}"),
-        ReproRow(f"{tag}: L̃** (Prop. 5.16 as printed)", None, _lst(d.L_tilde.ravel()),
+        ReproRow(f"{tag}: L̃** (Prop. 5.16 as printed)", None, _lst(d.gain.ravel()),
                  f"(A.16) min eig {d.exact_min_eig:.3g} < 0, spectral radius {d.spectral_radius:.4g} > 1: "
                  "the printed bounds converge while the errors diverge"),
     ]
@@ -990,7 +990,7 @@ def reproduce() -> list[ReproRow]:
                          f"(A.16) min eig {dp.exact_min_eig:.3g} < 0 and spectral radius {dp.spectral_radius:.4g}: "
                          "the printed LMIs accept a gain they do not certify"),
                 ReproRow(f"{tag}: α* (Thm 5.10 as printed)", pr["alpha"], dp.alpha, "best α of the line search"),
-                ReproRow(f"{tag}: L̃* (Thm 5.10 as printed)", _lst(L_), _lst(dp.L_tilde.ravel()), ""),
+                ReproRow(f"{tag}: L̃* (Thm 5.10 as printed)", _lst(L_), _lst(dp.gain.ravel()), ""),
                 ReproRow(f"{tag}: P* (Thm 5.10 as printed)", _lst(P_), _lst(dp.P), ""),
                 ReproRow(f"{tag}: Y* (Thm 5.10 as printed)", _lst(Y_), _lst(np.ravel(dp.Y)), "Y = P L̃"),
             ]
@@ -1004,10 +1004,10 @@ def reproduce() -> list[ReproRow]:
             rows += [
                 ReproRow(f"{tag}: sound design (radius objective), steady radius bound", None, ds.steady_radius,
                          f"λ = {ds.lam:.4g} (α = 1 − λ = {1 - ds.lam:.4g}), κ = {ds.kappa:.4g}; {ex.note}"),
-                ReproRow(f"{tag}: L̃ (sound)", _lst(L_), _lst(ds.L_tilde.ravel()),
+                ReproRow(f"{tag}: L̃ (sound)", _lst(L_), _lst(ds.gain.ravel()),
                              "certified by (⋆) and the spectral radius"),
                 ReproRow(f"{tag}: P (sound, scaled P ⪰ I)", _lst(P_), _lst(ds.P), ""),
-                ReproRow(f"{tag}: Y = P L̃ (sound)", _lst(Y_), _lst((ds.P @ ds.L_tilde).ravel()), ""),
+                ReproRow(f"{tag}: Y = P L̃ (sound)", _lst(Y_), _lst((ds.P @ ds.gain).ravel()), ""),
                 ReproRow(f"{tag}: α (sound: 1 − λ of (⋆))", pr["alpha"], 1.0 - ds.lam,
                          "the sound condition's decay per step; the printed α enters (26)-(28) differently"),
                 ReproRow(f"{tag}: ρ (sound, ℓ2 gain)", pr["rho"], "n/a",
@@ -1056,7 +1056,7 @@ def reproduce() -> list[ReproRow]:
         dp = design_printed(s, np.block([[-np.eye(2), np.zeros((2, 2))], [np.zeros((2, 2)), pr["L_f"] ** 2 * np.eye(2)]]))
         rows += [ReproRow("6.2 ρ* (Thm 5.10 as printed)", pr["rho"], dp.rho, ""),
                  ReproRow("6.2 α* (Thm 5.10 as printed)", pr["alpha"], dp.alpha, ""),
-                 ReproRow("6.2 L̃* (Thm 5.10 as printed)", pr["L_tilde"], _lst(dp.L_tilde.ravel()), ""),
+                 ReproRow("6.2 L̃* (Thm 5.10 as printed)", pr["L_tilde"], _lst(dp.gain.ravel()), ""),
                  ReproRow("6.2 P* (Thm 5.10 as printed)", pr["P"], _lst(dp.P), ""),
                  ReproRow("6.2 Y* (Thm 5.10 as printed)", pr["Y"], _lst(np.ravel(dp.Y)), "")]
     except DesignInfeasible as exc:

@@ -202,7 +202,7 @@ def symbolic_findings(theta: float = THETA) -> SymbolicFindings:
         observability_rank=observability_rank(F, Box.around(np.zeros(4), 3.0)),
         Qp=Qp, Qp_equals_25=_equal(Qp, paper["Q+ (25)"]), Qp_spot=_spot(Qp, paper["Q+ (25)"], syms),
         gain=gain, gain_equals_26=_equal(gain, paper["l (26)"]), gain_spot=_spot(gain, paper["l (26)"], syms),
-        bracket=bracket, bracket_zero=all(sp.simplify(e) == 0 for e in bracket), involutive=obs.checks[1].holds,
+        bracket=bracket, bracket_zero=all(sp.simplify(e) == 0 for e in bracket), involutive=obs.checks[1].passed,
         bi_gain=sp.Matrix(bi.gain_symbolic), bi_det=bi.det, bi_pole=bi.singular_set,
         bi_equals_24_printed=_equal(bi.gain_symbolic, paper["l (24) printed"]),
         bi_equals_24_derived=_equal(bi.gain_symbolic, paper["l (24) derived"]),

@@ -2,14 +2,23 @@
 
 Implements the LMIs (14) and (15) of Grip, Saberi & Johansen (seed 001) with
 Chilali–Gahinet pole regions, well-posed objectives, and an independent
-re-verification of every answer. See ``docs/synthesis.md``. Seed 004: the sound
+re-verification of every answer; every design returns a :class:`Certificate` (``gain``, ``P``,
+``checks``, ``verified``, ``failed_checks``, ``solver``, ``summary()``, ``to_dict()``). See ``docs/synthesis.md``. Seed 004: the sound
 set-valued design (``docs/setvalued.md``), Theorem 5.10 and Propositions 5.6 and 5.16 as printed, the discrete
 Lipschitz observer gain (``docs/baselines.md``) and the affine abstraction of
 Proposition 2.18 (``docs/affine_abstraction.md``).
 """
 
 from nlobs.synthesis.affine_abstraction import AbstractionBound, AffineAbstraction, affine_abstraction
-from nlobs.synthesis.certificate import CertificateStatus, Check, CheckKind, Objective, ObserverGainCertificate
+from nlobs.synthesis.certificate import (
+    Certificate,
+    CertificateMixin,
+    CertificateStatus,
+    Check,
+    CheckKind,
+    Objective,
+    ObserverGainCertificate,
+)
 from nlobs.synthesis.discrete_lipschitz import (
     DiscreteLipschitzCertificate,
     design_discrete_lipschitz_gain,
@@ -46,6 +55,8 @@ from nlobs.synthesis.setvalued_printed import (
 __all__ = [
     "AbstractionBound",
     "AffineAbstraction",
+    "Certificate",
+    "CertificateMixin",
     "CertificateStatus",
     "Check",
     "CheckKind",

@@ -1,7 +1,25 @@
-"""Certificates of observer-gain designs (seed 001, LMIs (14)–(15); Chilali–Gahinet regions).
+"""The certificate protocol of every gain design, and the certificate of the observer-gain LMIs.
 
-A certificate records a gain ``K``, the Lyapunov matrix ``P`` that proves the
-LMIs, the bounds it was designed for and the result of an *independent*
+:class:`Certificate` is what every design in :mod:`nlobs.synthesis` returns: the gain (``gain``),
+the Lyapunov matrix that proves it (``P``), the independent re-verification (``checks``, a tuple of
+:class:`~nlobs.checks.Check`), the verdict (``verified``, ``failed_checks``), the solver, and the two
+verbs ``summary()`` (text) and ``to_dict()`` (data). :class:`CertificateMixin` writes ``verified`` and
+``failed_checks`` once, from ``checks``. The implementations:
+
+* :class:`ObserverGainCertificate` — LMIs (14), (15) of Grip–Saberi–Johansen with Chilali–Gahinet
+  pole regions (this module);
+* :class:`~nlobs.synthesis.drift_gain.DriftGainCertificate` — (2.17) of Dalla Mora–Germani–Manes;
+* :class:`~nlobs.synthesis.discrete_lipschitz.DiscreteLipschitzCertificate` — the discrete
+  Lipschitz observer baseline;
+* :class:`~nlobs.synthesis.setvalued.SetValuedDesign` — the sound design of the set-valued observer
+  of Khajenejad–Yong;
+* :class:`~nlobs.synthesis.setvalued_printed.PrintedDesign` and
+  :class:`~nlobs.synthesis.setvalued_printed.Prop516Design` — Khajenejad–Yong's Theorem 5.10 and
+  Proposition 5.16 as printed, whose checks (the exact condition (A.16), the spectral radius) fail
+  for the paper's examples.
+
+The observer-gain certificate records a gain ``K`` (its ``gain``), the Lyapunov matrix ``P`` that
+proves the LMIs, the bounds it was designed for and the result of an *independent*
 re-verification: every LMI block is re-evaluated in NumPy with the returned
 ``P`` and ``X = P K`` recomputed from the returned ``K``, the closed-loop
 eigenvalues of ``A − K C`` are recomputed, and ``‖H‖∞``, ``‖G‖∞`` are
@@ -11,15 +29,112 @@ is never trusted on its own.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import Enum
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 from numpy.typing import NDArray
 
+from nlobs.checks import Check, CheckKind
 from nlobs.synthesis.lmi import Solver
 
-__all__ = ["CertificateStatus", "CheckKind", "Check", "Objective", "ObserverGainCertificate"]
+__all__ = [
+    "Certificate",
+    "CertificateMixin",
+    "CertificateStatus",
+    "CheckKind",
+    "Check",
+    "Objective",
+    "ObserverGainCertificate",
+    "failed_of",
+    "verified_of",
+]
+
+
+def verified_of(checks: Iterable[Check]) -> bool:
+    """Whether every check passed (the verdict of a certificate)."""
+    return all(c.passed for c in checks)
+
+
+def failed_of(checks: Iterable[Check]) -> tuple[Check, ...]:
+    """The checks that failed (empty when verified)."""
+    return tuple(c for c in checks if not c.passed)
+
+
+@runtime_checkable
+class Certificate(Protocol):
+    """What every gain design returns: the gain, its proof, and the independent re-verification.
+
+    Attributes
+    ----------
+    gain : ndarray
+        The gain (the paper's ``K``, ``L`` or ``L̃``).
+    P : ndarray or None
+        The Lyapunov matrix that proves it (``None`` when none exists for a given gain).
+    checks : tuple of Check
+        Every re-verification check, recomputed without the solver.
+    verified : bool
+        Whether every check passed.
+    failed_checks : tuple of Check
+        The checks that failed (empty when verified).
+    solver : Solver or None
+        The solver that produced the answer (``None`` for a construction without one).
+    """
+
+    @property
+    def gain(self) -> NDArray[np.float64]: ...
+
+    @property
+    def P(self) -> NDArray[np.float64] | None: ...  # noqa: N802 - the paper's symbol
+
+    @property
+    def checks(self) -> tuple[Check, ...]: ...
+
+    @property
+    def verified(self) -> bool: ...
+
+    @property
+    def failed_checks(self) -> tuple[Check, ...]: ...
+
+    @property
+    def solver(self) -> Solver | None: ...
+
+    def summary(self) -> str:
+        """A multi-line human-readable report: the design and every check with its margin."""
+        ...
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python view (JSON types once non-finite floats are sanitised)."""
+        ...
+
+
+class CertificateMixin:
+    """``verified`` and ``failed_checks`` of a :class:`Certificate`, computed from its ``checks``."""
+
+    __slots__ = ()
+    checks: tuple[Check, ...]
+
+    @property
+    def verified(self) -> bool:
+        """Whether every check passed."""
+        return verified_of(self.checks)
+
+    @property
+    def failed_checks(self) -> tuple[Check, ...]:
+        """The checks that failed (empty when verified)."""
+        return failed_of(self.checks)
+
+
+def checks_dict(checks: Iterable[Check]) -> list[dict[str, Any]]:
+    """``[c.to_dict() for c in checks]`` (the ``"checks"`` entry of every certificate's ``to_dict()``)."""
+    return [c.to_dict() for c in checks]
+
+
+def complex_pairs(z: Iterable[complex]) -> list[list[float]]:
+    """``[[re, im], …]`` for JSON."""
+    return [[float(v.real), float(v.imag)] for v in z]
 
 
 class Objective(Enum):
@@ -45,77 +160,19 @@ class CertificateStatus(Enum):
     """At least one check failed (see :attr:`ObserverGainCertificate.failed_checks`)."""
 
 
-class CheckKind(Enum):
-    """What a :class:`Check` verifies."""
-
-    LMI = "lmi"
-    """Largest eigenvalue of a symmetrised LMI block, must be ``< 0``."""
-    POSITIVITY = "positivity"
-    """``−λ_min(P)``, must be ``< 0`` (``P ≻ 0``)."""
-    SPECTRUM = "spectrum"
-    """``max Re λ(A − K C)``, must be ``< 0`` (Hurwitz)."""
-    REGION = "region"
-    """``−margin`` of the closed-loop eigenvalues to a pole region, must be ``< 0``."""
-    NORM = "norm"
-    """An H∞ norm recomputed from ``K`` against its bound."""
-    GAIN = "gain"
-    """``‖K‖₂`` against a gain bound."""
-
-
-@dataclass(frozen=True)
-class Check:
-    """One re-verification check: ``value < limit`` (``strict``) or ``value ≤ limit``.
-
-    Attributes
-    ----------
-    name : str
-        What is checked, e.g. ``"LMI (14)"`` or ``"‖H‖∞ < γ"``.
-    kind : CheckKind
-    value : float
-        The recomputed quantity (e.g. the largest eigenvalue of a block).
-    limit : float
-        Its bound.
-    strict : bool
-        Whether the inequality is strict.
-    """
-
-    name: str
-    kind: CheckKind
-    value: float
-    limit: float
-    strict: bool = True
-
-    @property
-    def passed(self) -> bool:
-        """Whether the check holds."""
-        if not np.isfinite(self.value):
-            return False
-        return self.value < self.limit if self.strict else self.value <= self.limit
-
-    @property
-    def margin(self) -> float:
-        """``limit − value``: positive when the check passes, by how much."""
-        return float(self.limit - self.value)
-
-    def describe(self) -> str:
-        """One line: the check, its value and its margin."""
-        rel = "<" if self.strict else "≤"
-        verdict = "ok" if self.passed else f"FAILED by {-self.margin:.3g}"
-        return f"{self.name}: {self.value:.6g} {rel} {self.limit:.6g} ({verdict})"
-
-
 @dataclass(frozen=True, eq=False)
-class ObserverGainCertificate:
+class ObserverGainCertificate(CertificateMixin):
     """A verified (or, from :func:`verify_observer_gain` with ``strict=False``, failed) observer gain.
 
     Error dynamics ``ẇ = (A − K C) w + B_d d − K N n`` (seed 001, (12a)),
     ``H(s) = (sI − A + K C)⁻¹ B_d`` (13), ``G(s) = −(sI − A + K C)⁻¹ K N``.
 
+    A :class:`Certificate`; :attr:`status` (``VERIFIED`` or ``FAILED``) follows from the checks.
+
     Attributes
     ----------
-    status : CertificateStatus
-    K : ndarray, shape (n, p)
-        Observer gain.
+    gain : ndarray, shape (n, p)
+        Observer gain ``K`` of (12a).
     P : ndarray, shape (n, n), or None
         Common Lyapunov matrix of LMIs (14), (15) and the region LMIs
         (``None`` when none was found for a given gain).
@@ -143,8 +200,7 @@ class ObserverGainCertificate:
         Wall-clock time of the whole design/verification.
     """
 
-    status: CertificateStatus
-    K: NDArray[np.float64]
+    gain: NDArray[np.float64]
     P: NDArray[np.float64] | None
     gamma: float
     gamma_n: float | None
@@ -159,9 +215,9 @@ class ObserverGainCertificate:
     seconds: float = 0.0
 
     @property
-    def verified(self) -> bool:
-        """Whether every check passed."""
-        return self.status is CertificateStatus.VERIFIED
+    def status(self) -> CertificateStatus:
+        """``VERIFIED`` when every check passed, else ``FAILED``."""
+        return CertificateStatus.VERIFIED if self.verified else CertificateStatus.FAILED
 
     @property
     def lmi_checks(self) -> tuple[Check, ...]:
@@ -169,14 +225,9 @@ class ObserverGainCertificate:
         return tuple(c for c in self.checks if c.kind is CheckKind.LMI)
 
     @property
-    def failed_checks(self) -> tuple[Check, ...]:
-        """The checks that failed (empty when verified)."""
-        return tuple(c for c in self.checks if not c.passed)
-
-    @property
     def gain_norm(self) -> float:
         """``‖K‖₂``."""
-        return float(np.linalg.norm(self.K, 2))
+        return float(np.linalg.norm(self.gain, 2))
 
     @property
     def hinf_ratio(self) -> float:
@@ -205,5 +256,27 @@ class ObserverGainCertificate:
             + (f", ‖G‖∞={self.hinf_G:.6g} (γn={self.gamma_n:g})" if self.hinf_G is not None else ""),
             "  eig(A−KC) = " + ", ".join(f"{z:.4g}" for z in self.eigenvalues),
         ]
-        lines += ["  " + c.describe() for c in self.checks]
+        lines += ["  " + c.summary() for c in self.checks]
         return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python view: the gain, ``P``, the bounds, the recomputed norms and eigenvalues, every check."""
+        return {
+            "status": self.status.value,
+            "verified": self.verified,
+            "gain": self.gain.tolist(),
+            "P": None if self.P is None else self.P.tolist(),
+            "gamma": self.gamma,
+            "gamma_n": self.gamma_n,
+            "hinf_H": self.hinf_H,
+            "hinf_G": self.hinf_G,
+            "gain_norm": self.gain_norm,
+            "decay_rate": self.decay_rate,
+            "eigenvalues": complex_pairs(self.eigenvalues),
+            "checks": checks_dict(self.checks),
+            "objective": None if self.objective is None else self.objective.value,
+            "solver": None if self.solver is None else self.solver.value,
+            "solver_status": self.solver_status,
+            "margin": self.margin,
+            "seconds": self.seconds,
+        }

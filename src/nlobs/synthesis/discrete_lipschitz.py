@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Any
 
 import cvxpy as cp
 import numpy as np
@@ -55,7 +56,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, as_square, in_range, positive
 from nlobs.errors import CertificateError, DesignInfeasible
-from nlobs.synthesis.certificate import Check, CheckKind
+from nlobs.checks import Check, CheckKind
+from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.synthesis.lmi import Solver, as_solver, bmat, max_eig, solve, symmetrise
 
 __all__ = ["DiscreteLipschitzCertificate", "design_discrete_lipschitz_gain", "verify_discrete_lipschitz_gain"]
@@ -64,13 +66,13 @@ Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True, eq=False)
-class DiscreteLipschitzCertificate:
-    r"""A verified gain ``L`` of the discrete Lipschitz observer (module docstring).
+class DiscreteLipschitzCertificate(CertificateMixin):
+    r"""A verified gain ``L`` of the discrete Lipschitz observer (module docstring): a :class:`~nlobs.synthesis.certificate.Certificate`.
 
     Attributes
     ----------
-    L : ndarray, shape (n, l)
-        Output-injection gain.
+    gain : ndarray, shape (n, l)
+        Output-injection gain ``L``.
     P : ndarray, shape (n, n)
         Lyapunov matrix (normalised ``P ⪰ I``).
     epsilon : float
@@ -99,7 +101,7 @@ class DiscreteLipschitzCertificate:
         Wall-clock time.
     """
 
-    L: Array
+    gain: Array
     P: Array
     epsilon: float
     rho: float
@@ -114,11 +116,6 @@ class DiscreteLipschitzCertificate:
     n_solves: int
     seconds: float
 
-    @property
-    def verified(self) -> bool:
-        """Whether every check passed (always True for a returned design)."""
-        return all(c.passed for c in self.checks)
-
     def error_bound(self, e0_norm: float, k: int | ArrayLike) -> Array:
         """``√κ(P) ρᵏ ‖e_0‖``, the noise-free error bound at step(s) ``k``."""
         kk = np.asarray(k, dtype=float)
@@ -130,11 +127,21 @@ class DiscreteLipschitzCertificate:
             f"discrete Lipschitz observer gain (γ = {self.lipschitz:g}): ρ = {self.rho:.6g} "
             f"(ρ_min = {self.rho_min:.6g}), √κ(P) = {self.transient:.4g}, "
             f"spectral radius(A − LC) = {self.spectral_radius:.6g}",
-            f"  L = {np.array2string(self.L, precision=5)}",
+            f"  L = {np.array2string(self.gain, precision=5)}",
             f"  solver={self.solver.value} ({self.solver_status}), {self.n_solves} solves, {self.seconds:.3f} s",
         ]
-        lines += ["  " + c.describe() for c in self.checks]
+        lines += ["  " + c.summary() for c in self.checks]
         return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python view: the gain, ``P``, ``ε``, ``ρ``, the transient constant and every check."""
+        return {
+            "gain": self.gain.tolist(), "P": self.P.tolist(), "epsilon": self.epsilon, "rho": self.rho,
+            "rho_min": self.rho_min, "lipschitz": self.lipschitz, "transient": self.transient,
+            "spectral_radius": self.spectral_radius, "verified": self.verified, "checks": checks_dict(self.checks),
+            "solver": self.solver.value, "solver_status": self.solver_status, "margin": self.margin,
+            "n_solves": self.n_solves, "seconds": self.seconds,
+        }
 
 
 def _n_block(A: Array, C: Array, L: Array, P: Array, gamma: float, rho: float, E: Array, F: Array,
@@ -186,10 +193,10 @@ def verify_discrete_lipschitz_gain(A: ArrayLike, C: ArrayLike, L: ArrayLike, P: 
     E_, F_ = _structure(E, F, n)
     radius = float(np.max(np.abs(np.linalg.eigvals(A_ - L_ @ C_))))
     return (
-        Check("P ≻ 0", CheckKind.POSITIVITY, -float(np.linalg.eigvalsh(P_)[0]), 0.0),
-        Check("λ_max(N) < 0 (S-procedure on ΔV, γ-Lipschitz φ)", CheckKind.LMI,
-              max_eig(_n_block(A_, C_, L_, P_, g, r, E_, F_, eps)), 0.0),
-        Check("spectral radius(A − LC) < ρ", CheckKind.SPECTRUM, radius, r),
+        Check.compare("P ≻ 0", -float(np.linalg.eigvalsh(P_)[0]), 0.0, kind=CheckKind.POSITIVITY),
+        Check.compare("λ_max(N) < 0 (S-procedure on ΔV, γ-Lipschitz φ)",
+                      max_eig(_n_block(A_, C_, L_, P_, g, r, E_, F_, eps)), 0.0, kind=CheckKind.LMI),
+        Check.compare("spectral radius(A − LC) < ρ", radius, r, kind=CheckKind.SPECTRUM),
     )
 
 
@@ -353,12 +360,12 @@ def design_discrete_lipschitz_gain(
     failed = [c for c in checks if not c.passed]
     if failed:
         raise CertificateError("discrete Lipschitz gain failed its re-verification: "
-                               + "; ".join(c.describe() for c in failed))
+                               + "; ".join(c.summary() for c in failed))
     ev = np.linalg.eigvalsh(P)
     P.setflags(write=False)
     L.setflags(write=False)
     return DiscreteLipschitzCertificate(
-        L=L, P=P, epsilon=eps_val, rho=float(rho_d), rho_min=float(rho_lo), lipschitz=gamma,
+        gain=L, P=P, epsilon=eps_val, rho=float(rho_d), rho_min=float(rho_lo), lipschitz=gamma,
         transient=float(np.sqrt(ev[-1] / ev[0])), spectral_radius=float(checks[2].value), checks=checks,
         solver=s, solver_status=res.raw_status, margin=eps, n_solves=n_solves,
         seconds=time.perf_counter() - t0,

@@ -79,7 +79,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, positive, readonly
 from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
-from nlobs.synthesis.certificate import Check, CheckKind
+from nlobs.checks import Check, CheckKind
+from nlobs.synthesis.certificate import CertificateMixin, checks_dict, complex_pairs
 from nlobs.systems.brunovsky import brunovsky as brunovsky_triple
 from nlobs.systems.brunovsky import positive_multi_index
 from nlobs.synthesis.lmi import Solver, SolveStatus, as_enum, as_solver, bmat, max_eig, solve, symmetrise
@@ -207,14 +208,15 @@ def _lhs(c: RiccatiConstants, K: Array, P: Array, d: Array) -> tuple[Array, floa
 
 
 @dataclass(frozen=True, eq=False)
-class DriftGainCertificate:
-    """A gain pair ``(K, P)`` for the observer (3.1), re-verified against (2.17).
+class DriftGainCertificate(CertificateMixin):
+    """A gain pair ``(K, P)`` for the observer (3.1), re-verified against (2.17): a :class:`~nlobs.synthesis.certificate.Certificate`.
 
     Attributes
     ----------
     constants : RiccatiConstants
         ``s``, ``F_{s,r}``, ``α``, ``μ``, ``γ`` the pair was checked for.
-    K : ndarray, shape (n, q)
+    gain : ndarray, shape (n, q)
+        The gain ``K`` of (3.1).
     P : ndarray, shape (n, n)
     method : str
         ``"vandermonde"`` (Remark 2.11), ``"sdp"`` or ``"given"``.
@@ -247,7 +249,7 @@ class DriftGainCertificate:
     """
 
     constants: RiccatiConstants
-    K: Array
+    gain: Array
     P: Array
     method: str
     w: float | None
@@ -264,18 +266,10 @@ class DriftGainCertificate:
     lhs_tolerance: float = math.nan
     lhs_rounding: float = math.nan
 
-    @property
-    def verified(self) -> bool:
-        return all(c.passed for c in self.checks)
-
-    @property
-    def failed_checks(self) -> tuple[Check, ...]:
-        return tuple(c for c in self.checks if not c.passed)
-
     def _scaled(self) -> tuple[Array, Array, Array, float] | None:
         """``(d, D L D, D P D, eigenvalues of D P D)``, or ``None`` unless ``D P D`` is positive definite (and all finite)."""
         d = _equilibration(self.P)
-        L, _, _, Pt = _lhs(self.constants, self.K, self.P, d)
+        L, _, _, Pt = _lhs(self.constants, self.gain, self.P, d)
         if not (np.all(np.isfinite(L)) and np.all(np.isfinite(Pt))):
             return None
         ev = np.linalg.eigvalsh(Pt)
@@ -306,7 +300,7 @@ class DriftGainCertificate:
     @property
     def gain_norm(self) -> float:
         """``‖K‖₂``."""
-        return float(np.linalg.norm(self.K, 2))
+        return float(np.linalg.norm(self.gain, 2))
 
     @property
     def decay_margin(self) -> float:
@@ -336,7 +330,8 @@ class DriftGainCertificate:
         """``max Re λ(A_s − K C_s)``; (2.17) implies it is ``< −α`` when ``γ > 0``."""
         return float(np.max(self.eigenvalues.real))
 
-    def describe(self) -> str:
+    def summary(self) -> str:
+        """A multi-line report: the pair, (2.17) scaled and unscaled, ``cn(P)``, the eigenvalues and every check."""
         head = f"{self.method} gain" + (f" (w = {self.w:.6g})" if self.w is not None else "")
         if self.scaling != 1.0:
             head += f" (scaling θ = {self.scaling:.4g})"
@@ -349,10 +344,11 @@ class DriftGainCertificate:
             + (f"decay margin {dm:.4g}" if dm == dm else f"decay margin {self.decay_margin_note}"),
             "  eig(A_s − K C_s) = " + ", ".join(_fmt_complex(z) for z in self.eigenvalues),
         ]
-        lines += ["  " + c.describe() for c in self.checks]
+        lines += ["  " + c.summary() for c in self.checks]
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
+        """Plain-Python view (``"K"`` and ``"gain"`` hold the same gain)."""
         c = self.constants
         return {
             "method": self.method,
@@ -361,7 +357,8 @@ class DriftGainCertificate:
             "mu": c.mu,
             "gamma": c.gamma,
             "w": self.w,
-            "K": self.K.tolist(),
+            "K": self.gain.tolist(),
+            "gain": self.gain.tolist(),
             "P": self.P.tolist(),
             "verified": self.verified,
             "lhs_max_eig": self.lhs_max_eig,
@@ -372,8 +369,8 @@ class DriftGainCertificate:
             "norm_P": self.norm_P,
             "gain_norm": self.gain_norm,
             "decay_margin": self.decay_margin,
-            "eigenvalues": [[float(z.real), float(z.imag)] for z in self.eigenvalues],
-            "checks": [{"name": k.name, "value": k.value, "limit": k.limit, "passed": k.passed} for k in self.checks],
+            "eigenvalues": complex_pairs(self.eigenvalues),
+            "checks": checks_dict(self.checks),
             "objective": self.objective,
             "solver": None if self.solver is None else self.solver.value,
             "solver_status": self.solver_status,
@@ -406,9 +403,9 @@ def _checks(c: RiccatiConstants, K: Array, P: Array) -> _Verification:
     eigs = eigs[np.lexsort((eigs.imag, eigs.real))]
     p_tol = ROUNDING_FACTOR * n * _EPS * float(np.max(np.abs(evP)))
     checks = [
-        Check("(2.17) scaled: λ_max(D L D)", CheckKind.LMI, lam_s, -tol),
-        Check("P ≻ 0 scaled: −λ_min(D P D)", CheckKind.POSITIVITY, -float(evP[0]), -p_tol),
-        Check("A_s − K C_s Hurwitz (max Re λ)", CheckKind.SPECTRUM, float(np.max(eigs.real)), 0.0),
+        Check.compare("(2.17) scaled: λ_max(D L D)", lam_s, -tol, kind=CheckKind.LMI),
+        Check.compare("P ≻ 0 scaled: −λ_min(D P D)", -float(evP[0]), -p_tol, kind=CheckKind.POSITIVITY),
+        Check.compare("A_s − K C_s Hurwitz (max Re λ)", float(np.max(eigs.real)), 0.0, kind=CheckKind.SPECTRUM),
     ]
     fields = {"lhs_max_eig": lam_u, "lhs_rounding": tol_u, "lhs_max_eig_scaled": lam_s, "lhs_tolerance": tol}
     return _Verification(checks, eigs, fields)
@@ -744,8 +741,8 @@ def _sdp_at(c: RiccatiConstants, obj: DriftObjective, margin: float, gb: float |
     checks = v.checks
     Yt = St @ (T[:, None] * K / Th[None, :])  # Ŷ recomputed from the returned K
     blk = _lmi_block(c, St, Yt, theta)
-    checks.append(Check("LMI in (S̃, Ŷ) recomputed (λ_max)", CheckKind.LMI, max_eig(blk),
-                        100 * _EPS * max(1.0, float(np.linalg.norm(blk, 2)))))
+    checks.append(Check.compare("LMI in (S̃, Ŷ) recomputed (λ_max)", max_eig(blk),
+                                100 * _EPS * max(1.0, float(np.linalg.norm(blk, 2))), kind=CheckKind.LMI))
     f = v.fields
     cert = DriftGainCertificate(c, readonly(K), readonly(P), "sdp", None, f["lhs_max_eig"], v.eigenvalues, tuple(checks),
                                 obj.value, sol, res.raw_status, margin, time.perf_counter() - t0, theta,
@@ -753,7 +750,7 @@ def _sdp_at(c: RiccatiConstants, obj: DriftObjective, margin: float, gb: float |
                                 lhs_rounding=f["lhs_rounding"])
     if not cert.verified:
         raise CertificateError(f"SDP answer (θ = {theta:.4g}) failed re-verification: "
-                               + "; ".join(x.describe() for x in cert.failed_checks))
+                               + "; ".join(x.summary() for x in cert.failed_checks))
     return cert
 
 
@@ -883,7 +880,7 @@ def design_drift_gain(
         if not cert.verified:
             raise DesignInfeasible(
                 f"(K(w), P(w)) with w = {w:g} does not solve (2.17) for {c.describe()}: "
-                + "; ".join(x.describe() for x in cert.failed_checks),
+                + "; ".join(x.summary() for x in cert.failed_checks),
                 constraint="(2.17) with P(w) = (V_sᵀV_s)⁻¹", violation=cert.lhs_max_eig_scaled)
         return cert
     if m == "sdp":

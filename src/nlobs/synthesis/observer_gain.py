@@ -56,7 +56,6 @@ from nlobs.linear.norms import hinf_norm
 from nlobs.linear.observability import unobservable_modes
 from nlobs.linear.stability import strictly_inside
 from nlobs.synthesis.certificate import (
-    CertificateStatus,
     Check,
     CheckKind,
     Objective,
@@ -314,30 +313,31 @@ def _certify(d: _Data, K: NDArray[np.float64], P: NDArray[np.float64] | None, ga
         P = 0.5 * (P + P.T)
         X = P @ K  # recomputed from the returned K
         lam_min = float(np.linalg.eigvalsh(P)[0])
-        checks.append(Check("P ≻ 0", CheckKind.POSITIVITY, -lam_min, 0.0))
+        checks.append(Check.compare("P ≻ 0", -lam_min, 0.0, kind=CheckKind.POSITIVITY))
         g2 = gamma**2
         gn2 = gamma_n**2 if gamma_n is not None else 0.0
         for name, blk in _blocks(d, P, X, g2, gn2):
             tol = 100 * _EPS * max(1.0, float(np.linalg.norm(blk, 2)))
-            checks.append(Check(name, CheckKind.LMI, max_eig(blk), -tol))
-    checks.append(Check("A − K C Hurwitz (max Re λ)", CheckKind.SPECTRUM, float(np.max(eigs.real)), 0.0))
+            checks.append(Check.compare(name, max_eig(blk), -tol, kind=CheckKind.LMI))
+    checks.append(Check.compare("A − K C Hurwitz (max Re λ)", float(np.max(eigs.real)), 0.0, kind=CheckKind.SPECTRUM))
     for r in d.regions:
-        checks.append(Check(f"eigenvalues in {r.description} (−margin)", CheckKind.REGION, -r.margin(eigs), 0.0))
+        checks.append(Check.compare(f"eigenvalues in {r.description} (−margin)", -r.margin(eigs), 0.0,
+                                    kind=CheckKind.REGION))
     hH = hinf_norm(Acl, d.Bd, np.eye(n), np.zeros((n, d.Bd.shape[1])))
-    checks.append(Check("‖H‖∞ < γ", CheckKind.NORM, hH, gamma))
+    checks.append(Check.compare("‖H‖∞ < γ", hH, gamma, kind=CheckKind.NORM))
     hG: float | None = None
     if d.N is not None and gamma_n is not None:
         KN = K @ d.N
         hG = hinf_norm(Acl, -KN, np.eye(n), np.zeros((n, KN.shape[1])))
-        checks.append(Check("‖G‖∞ ≤ γn", CheckKind.NORM, hG, gamma_n, strict=False))
+        checks.append(Check.compare("‖G‖∞ ≤ γn", hG, gamma_n, kind=CheckKind.NORM, strict=False))
     if d.gain_bound is not None:
-        checks.append(Check("‖K‖₂ ≤ κ", CheckKind.GAIN, float(np.linalg.norm(K, 2)), d.gain_bound.kappa,
-                            strict=False))
+        checks.append(Check.compare("‖K‖₂ ≤ κ", float(np.linalg.norm(K, 2)), d.gain_bound.kappa, kind=CheckKind.GAIN,
+                                    strict=False))
     return checks, float(hH), (None if hG is None else float(hG)), eigs
 
 
 def _failure_text(checks: Sequence[Check]) -> str:
-    return "; ".join(c.describe() for c in checks if not c.passed)
+    return "; ".join(c.summary() for c in checks if not c.passed)
 
 
 # --------------------------------------------------------------------------- diagnosis
@@ -678,8 +678,7 @@ def design_observer_gain(
 
     checks, hH, hG, eigs = _certify(d, sol.K, sol.P, sol.gamma, sol.gamma_n)
     cert = ObserverGainCertificate(
-        status=CertificateStatus.VERIFIED if all(c.passed for c in checks) else CertificateStatus.FAILED,
-        K=_ro(sol.K), P=_ro(sol.P), gamma=sol.gamma, gamma_n=sol.gamma_n, hinf_H=hH, hinf_G=hG,
+        gain=_ro(sol.K), P=_ro(sol.P), gamma=sol.gamma, gamma_n=sol.gamma_n, hinf_H=hH, hinf_G=hG,
         eigenvalues=_ro(eigs), checks=tuple(checks), objective=obj, solver=slv,
         solver_status=sol.result.raw_status, margin=eps, seconds=time.perf_counter() - t0,
     )
@@ -765,14 +764,13 @@ def verify_observer_gain(
             cons = [P >> eps * np.eye(d.n)] + [b << t * np.eye(b.shape[0]) for _, b in blocks]
             r2 = solve(cp.Problem(cp.Minimize(t), cons + [t >= -1.0]), slv, solver_options)
             tv = float(t.value) if r2.status.has_solution and t.value is not None else math.inf
-            extra.append(Check("common P for the LMIs (min over P of the largest block eigenvalue)",
-                               CheckKind.LMI, tv, -eps))
+            extra.append(Check.compare("common P for the LMIs (min over P of the largest block eigenvalue)", tv, -eps,
+                                       kind=CheckKind.LMI))
     checks, hH, hG, eigs = _certify(d, K_, P_val, g, gn)
     checks = extra + checks
     ok = all(c.passed for c in checks)
     cert = ObserverGainCertificate(
-        status=CertificateStatus.VERIFIED if ok else CertificateStatus.FAILED,
-        K=_ro(K_), P=None if P_val is None else _ro(P_val), gamma=g, gamma_n=gn, hinf_H=hH, hinf_G=hG,
+        gain=_ro(K_), P=None if P_val is None else _ro(P_val), gamma=g, gamma_n=gn, hinf_H=hH, hinf_G=hG,
         eigenvalues=_ro(eigs), checks=tuple(checks), objective=None, solver=slv, solver_status=raw,
         margin=eps, seconds=time.perf_counter() - t0,
     )

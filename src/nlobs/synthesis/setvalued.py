@@ -74,8 +74,9 @@ from numpy.typing import NDArray
 from nlobs._validate import in_range, positive, readonly
 from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
 from nlobs.linear.norms import hinf_norm
-from nlobs.linear.transform_ui import StructuralCheck, UITransform, require_structure, structural_check, ui_transform
-from nlobs.synthesis.certificate import Check, CheckKind
+from nlobs.linear.transform_ui import StructuralReport, UITransform, require_structure, structural_check, ui_transform
+from nlobs.checks import Check, CheckKind
+from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.synthesis.lmi import Solver, as_enum, as_solver, max_eig, solve
 from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, FunctionClass, Lipschitz
 
@@ -250,14 +251,14 @@ def error_dynamics(system: DiscreteUISystem, transform: UITransform | None = Non
 
 
 @dataclass(frozen=True, eq=False)
-class SetValuedDesign:
-    r"""A verified gain ``L̃`` for the observer (10)-(15) with its Lyapunov certificate.
+class SetValuedDesign(CertificateMixin):
+    r"""A verified gain ``L̃`` for the observer (10)-(15) with its Lyapunov certificate (a :class:`~nlobs.synthesis.certificate.Certificate`).
 
     Attributes
     ----------
     objective : SetValuedObjective
-    L_tilde : ndarray, shape (n, l − p_H)
-        Measurement-update gain of (15) (``L = L̃ U₂ᵀ``).
+    gain : ndarray, shape (n, l − p_H)
+        Measurement-update gain ``L̃`` of (15) (``L = L̃ U₂ᵀ``).
     P : ndarray, shape (n, n)
         Lyapunov matrix.
     kappa : float
@@ -283,7 +284,7 @@ class SetValuedDesign:
     checks : tuple of Check
         Independent re-verification.
     dynamics : ErrorDynamics
-    structure : StructuralCheck
+    structure : StructuralReport
     solver : Solver
     solver_status : str
     margin : float
@@ -295,7 +296,7 @@ class SetValuedDesign:
     """
 
     objective: SetValuedObjective
-    L_tilde: Array
+    gain: Array
     P: Array
     kappa: float
     lam: float
@@ -309,7 +310,7 @@ class SetValuedDesign:
     hinf_linear: tuple[float, ...]
     checks: tuple[Check, ...]
     dynamics: ErrorDynamics
-    structure: StructuralCheck
+    structure: StructuralReport
     solver: Solver
     solver_status: str
     margin: float
@@ -323,10 +324,6 @@ class SetValuedDesign:
         return self.certified_for.function_class
 
     @property
-    def verified(self) -> bool:
-        return all(c.passed for c in self.checks)
-
-    @property
     def transform(self) -> UITransform:
         return self.dynamics.transform
 
@@ -335,15 +332,29 @@ class SetValuedDesign:
         lines = [
             f"set-valued observer design ({self.objective.value}), solver {self.solver.value} "
             f"({self.solver_status}), {self.solves} solves, {self.seconds:.2f} s",
-            f"  L~ = {np.array2string(self.L_tilde.ravel(), precision=5)}",
+            f"  L~ = {np.array2string(self.gain.ravel(), precision=5)}",
             f"  λ = {self.lam:.6g}, λ_eff = {self.lam_eff:.6g}, κ = {self.kappa:.4g}, c = {self.c:.4g}, "
             f"steady radius ≤ {self.steady_radius:.5g}" + (f", ρ = {self.rho:.5g}" if self.rho is not None else ""),
             f"  function class used: {self.function_class.label}"
             + (f" (Class III design: {self.certified_for.lpv.value})" if self.certified_for.lpv else ""),
             "  spectral radii of linear members: " + ", ".join(f"{r:.5g}" for r in self.spectral_radii),
         ]
-        lines += ["  " + c.describe() for c in self.checks]
+        lines += ["  " + c.summary() for c in self.checks]
         return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python view (the ``"design"`` of ``nlobs design setvalued --json``; ``"L_tilde"`` and ``"gain"``
+        hold the same gain)."""
+        return {
+            "objective": self.objective.value, "L_tilde": self.gain.tolist(), "gain": self.gain.tolist(),
+            "P": self.P.tolist(), "lambda": self.lam, "lambda_eff": self.lam_eff, "kappa": self.kappa, "q": self.q,
+            "c": self.c, "theta": list(self.theta), "rho": self.rho, "steady_radius": self.steady_radius,
+            "spectral_radii": list(self.spectral_radii), "hinf_linear": list(self.hinf_linear),
+            "solver": self.solver.value, "solver_status": self.solver_status, "margin": self.margin,
+            "solves": self.solves, "seconds": self.seconds, "function_class_used": self.function_class.label,
+            "lpv_design": self.certified_for.lpv.value if self.certified_for.lpv else None,
+            "checks": checks_dict(self.checks), "verified": self.verified,
+        }
 
 
 # --------------------------------------------------------------------------- problem
@@ -489,11 +500,11 @@ def _verify(system: DiscreteUISystem, dyn: ErrorDynamics, P: Array, L: Array, ka
                                                                            tuple[float, ...], tuple[float, ...]]:
     checks: list[Check] = []
     ev = np.linalg.eigvalsh(P)
-    checks.append(Check("P ≻ 0", CheckKind.POSITIVITY, -float(ev[0]), 0.0))
+    checks.append(Check.compare("P ≻ 0", -float(ev[0]), 0.0, kind=CheckKind.POSITIVITY))
     for i, Nm in enumerate(_condition(system, dyn, P, L, kappa, lam, q, theta)):
         # exactly ⪯ 0 (no tolerance): (V) is then implied without any round-off allowance
-        checks.append(Check(f"S-procedure condition (⋆) [{i}] (max eig)", CheckKind.LMI, max_eig(Nm), 0.0,
-                            strict=False))
+        checks.append(Check.compare(f"S-procedure condition (⋆) [{i}] (max eig)", max_eig(Nm), 0.0, kind=CheckKind.LMI,
+                                    strict=False))
     lam_eff = lam - q / float(ev[-1])
     nv, nw = system.eta_v, system.eta_w
     c = (theta[0] + theta[2]) * nv**2 + theta[1] * nw**2 - kappa * system.function_class.gamma
@@ -503,20 +514,21 @@ def _verify(system: DiscreteUISystem, dyn: ErrorDynamics, P: Array, L: Array, ka
     for j, (Ak, E) in enumerate(_linear_instances(system, dyn, L)):
         r = float(np.max(np.abs(np.linalg.eigvals(Ak))))
         radii.append(r)
-        checks.append(Check(f"spectral radius of linear member {j} ≤ √λ_eff", CheckKind.SPECTRUM, r,
-                            math.sqrt(max(lam_eff, 0.0)) * (1 + 1e-7) + 1e-12, strict=False))
+        checks.append(Check.compare(f"spectral radius of linear member {j} ≤ √λ_eff", r,
+                                    math.sqrt(max(lam_eff, 0.0)) * (1 + 1e-7) + 1e-12, kind=CheckKind.SPECTRUM,
+                                    strict=False))
         h = hinf_norm(Ak, E * scale, np.eye(dyn.n), np.zeros((dyn.n, E.shape[1])), discrete=True) if r < 1 else math.inf
         norms.append(float(h))
         if rho is not None:
-            checks.append(Check(f"H∞ norm of linear member {j} ≤ ρ", CheckKind.NORM, float(h), rho * (1 + 1e-7),
-                                strict=False))
+            checks.append(Check.compare(f"H∞ norm of linear member {j} ≤ ρ", float(h), rho * (1 + 1e-7),
+                                        kind=CheckKind.NORM, strict=False))
     return checks, lam_eff, c, tuple(radii), tuple(norms)
 
 
 # --------------------------------------------------------------------------- public API
 
 
-def _structure(system: DiscreteUISystem, tr: UITransform) -> StructuralCheck:
+def _structure(system: DiscreteUISystem, tr: UITransform) -> StructuralReport:
     return structural_check(system.A, system.G, system.C, system.H,
                             members=system.function_class.linear_members(), transform=tr)
 
@@ -683,7 +695,7 @@ def design_setvalued(
 
 
 def _first_verified(system: DiscreteUISystem, dyn: ErrorDynamics, cands: list[_Sol], obj: SetValuedObjective,
-                    qq: float, rho: float | None, st: StructuralCheck, slv: Solver, eps: float, t0: float,
+                    qq: float, rho: float | None, st: StructuralReport, slv: Solver, eps: float, t0: float,
                     solves: int, certified_for: CertifiedFor) -> SetValuedDesign:
     """The first candidate (in the given order) that passes the independent re-verification."""
     failures = []
@@ -692,13 +704,13 @@ def _first_verified(system: DiscreteUISystem, dyn: ErrorDynamics, cands: list[_S
         checks, lam_eff, c, radii, norms = _verify(system, dyn, sol.P, sol.L, sol.kappa, lam_used, qq, sol.theta,
                                                    rho)
         if not all(ch.passed for ch in checks):
-            bad = "; ".join(ch.describe() for ch in checks if not ch.passed)
+            bad = "; ".join(ch.summary() for ch in checks if not ch.passed)
             failures.append(f"λ = {lam_used:.6g} ('{sol.status}'): {bad}")
             continue
         evP = np.linalg.eigvalsh(sol.P)
         steady = math.sqrt(c / ((1.0 - lam_eff) * evP[0])) if lam_eff < 1 else math.inf
         return SetValuedDesign(
-            objective=obj, L_tilde=readonly(sol.L), P=readonly(sol.P), kappa=sol.kappa, lam=lam_used, q=qq, theta=sol.theta,
+            objective=obj, gain=readonly(sol.L), P=readonly(sol.P), kappa=sol.kappa, lam=lam_used, q=qq, theta=sol.theta,
             rho=rho, lam_eff=lam_eff, c=c, steady_radius=steady, spectral_radii=radii, hinf_linear=norms,
             checks=tuple(checks), dynamics=dyn, structure=st, solver=slv, solver_status=sol.status, margin=eps,
             seconds=time.perf_counter() - t0, solves=solves, certified_for=certified_for,
@@ -727,5 +739,5 @@ def verify_setvalued(system: DiscreteUISystem, L_tilde: Any, P: Any, *, kappa: f
     checks, *_ = _verify(system, dyn, 0.5 * (P_ + P_.T), L, float(kappa), float(lam), float(q),
                          tuple(float(t) for t in theta), rho)  # type: ignore[arg-type]
     if strict and not all(c.passed for c in checks):
-        raise CertificateError("; ".join(c.describe() for c in checks if not c.passed))
+        raise CertificateError("; ".join(c.summary() for c in checks if not c.passed))
     return tuple(checks)

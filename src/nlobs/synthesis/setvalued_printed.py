@@ -47,6 +47,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, as_square, as_symmetric, positive, readonly
+from nlobs.checks import Check, CheckKind
+from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.errors import CertificateError, DesignInfeasible, DimensionError, InvalidArgumentError
 from nlobs.linear.transform_ui import UITransform, structural_check, ui_transform
 from nlobs.synthesis.lmi import Solver, as_solver, solve
@@ -62,7 +64,6 @@ __all__ = [
     "Prop516Design",
     "design_prop516",
     "Prop56Verdict",
-    "MemberEvidence",
     "NecessaryConditionPrinted",
     "necessary_condition_printed",
 ]
@@ -81,12 +82,17 @@ def _split_M(M: ArrayLike, n: int) -> tuple[Array, Array, Array, Array]:
 
 
 @dataclass(frozen=True)
-class PrintedDesign:
+class PrintedDesign(CertificateMixin):
     """The answer of Theorem 5.10's SDP as printed, with what it really guarantees.
+
+    A :class:`~nlobs.synthesis.certificate.Certificate` whose checks are the exact condition (A.16) and the
+    spectral radius: ``verified`` is ``False`` when the printed LMIs accepted a gain their own sufficient
+    condition does not support (never use it as a certified observer).
 
     Attributes
     ----------
-    P, Y, L_tilde : ndarray
+    P, Y : ndarray
+    gain : ndarray
         ``L̃ = P⁻¹Y``.
     rho : float
         The printed "H∞ bound" ``ρ*`` (not a certified bound).
@@ -98,11 +104,12 @@ class PrintedDesign:
         Of ``(I − L̃C₂)Φ(A − Ψ)`` (the linear part, ``Δf = A x̃``).
     solves : int
     seconds : float
+    solver : Solver or None
     """
 
     P: Array
     Y: Array
-    L_tilde: Array
+    gain: Array
     rho: float
     alpha: float
     eps1: float
@@ -112,22 +119,28 @@ class PrintedDesign:
     spectral_radius: float
     solves: int
     seconds: float
+    solver: Solver | None = None
+    checks: tuple[Check, ...] = field(init=False, repr=False, compare=False)
+    """Whether the answer is certified at all: exact (A.16) ``min eig ≥ 0`` and spectral radius ``< 1``."""
 
-    @property
-    def certified(self) -> bool:
-        """Whether the answer is certified at all: exact (A.16) ``min eig ≥ 0`` and spectral radius ``< 1``.
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "checks", _printed_checks(self.exact_min_eig, self.spectral_radius))
 
-        ``False`` means the printed LMIs accepted a gain their own sufficient condition does not support
-        (never use it as a certified observer).
-        """
-        return self.exact_min_eig >= 0 and self.spectral_radius < 1
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python view: the printed answer, its exact (A.16) and spectral radius, the checks."""
+        return {"rho": self.rho, "alpha": self.alpha, "eps1": self.eps1, "eps2": self.eps2, "kappa": self.kappa,
+                "P": self.P.tolist(), "Y": np.asarray(self.Y).tolist(), "gain": self.gain.tolist(),
+                "exact_min_eig": self.exact_min_eig, "spectral_radius": self.spectral_radius,
+                "verified": self.verified, "checks": checks_dict(self.checks), "solves": self.solves,
+                "seconds": self.seconds, "solver": None if self.solver is None else self.solver.value}
 
     def summary(self) -> str:
-        """One line per quantity, with the verdict of :attr:`certified`."""
+        """One line per quantity, with the verdict of :attr:`verified`."""
         return (f"Thm 5.10 as printed: rho* = {self.rho:.6g}, alpha = {self.alpha:.4g}, eps1 = {self.eps1:.4g}, "
                 f"eps2 = {self.eps2:.4g}, kappa = {self.kappa:.4g}\n"
                 f"  (A.16) min eig = {self.exact_min_eig:.4g} (>= 0 needed), spectral radius = "
-                f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.certified))
+                f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.verified)
+                + "".join("\n  " + c.summary() for c in self.checks))
 
 
 def exact_condition_a16(M: Array, Phi: Array, Psi: Array, C2: Array, L_tilde: Array, P: Array, kappa: float,
@@ -480,7 +493,7 @@ def design_printed(system: DiscreteUISystem, M: ArrayLike, *, alphas: Sequence[f
     L = np.linalg.solve(Pv, best.Y)
     emin = exact_condition_a16(M_, tr.Phi, tr.Psi, tr.C2, L, Pv, best.kappa, best.alpha)
     return PrintedDesign(Pv, best.Y, L, math.sqrt(best.rho2), best.alpha, best.eps1, best.eps2, best.kappa, emin,
-                         _spectral_radius(system, tr, L), solves, time.perf_counter() - t0)
+                         _spectral_radius(system, tr, L), solves, time.perf_counter() - t0, slv)
 
 
 # --------------------------------------------------------------------------- Proposition 5.16
@@ -510,8 +523,11 @@ class BranchOutcome:
 
 
 @dataclass(frozen=True)
-class Prop516Design:
+class Prop516Design(CertificateMixin):
     r"""Proposition 5.16's mixed-integer SDP as two SDPs, and what its answer really guarantees.
+
+    A :class:`~nlobs.synthesis.certificate.Certificate` whose checks are ``θ₁ < 1`` (32) (verified when
+    the design returns), the exact condition (A.16) and the spectral radius (see :class:`PrintedDesign`).
 
     Attributes
     ----------
@@ -522,8 +538,10 @@ class Prop516Design:
         The branch that gave ``ρ**``.
     branches : tuple of BranchOutcome
         Both branches (A first).
-    P, Y, L_tilde : ndarray
-        At ``ρ**``; ``L̃** = P**⁻¹Y**``.
+    P, Y : ndarray
+        At ``ρ**``.
+    gain : ndarray
+        ``L̃** = P**⁻¹Y**``.
     alpha, eps1, eps2, kappa, kappa1, kappa2 : float
         The search point and the solver's ``κ``, ``κ₁``, ``κ₂`` (A.42).
     lambda_min_P, lambda_max_P : float
@@ -540,6 +558,7 @@ class Prop516Design:
         Of ``(I − L̃C₂)Φ(A − Ψ)``.
     solves : int
     seconds : float
+    solver : Solver or None
     """
 
     rho: float
@@ -547,7 +566,7 @@ class Prop516Design:
     branches: tuple[BranchOutcome, ...]
     P: Array
     Y: Array
-    L_tilde: Array
+    gain: Array
     alpha: float
     eps1: float
     eps2: float
@@ -562,6 +581,14 @@ class Prop516Design:
     spectral_radius: float
     solves: int
     seconds: float
+    solver: Solver | None = None
+    checks: tuple[Check, ...] = field(init=False, repr=False, compare=False)
+    """``θ₁ < 1`` (32) at ``P``, then exact (A.16) ``min eig ≥ 0`` and spectral radius ``< 1`` (:class:`PrintedDesign`)."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "checks", (
+            Check.compare("θ₁ = |λ_max(P) − 1|/λ_min(P) < 1 (32)", self.theta1, 1.0, kind=CheckKind.POSITIVITY),
+            *_printed_checks(self.exact_min_eig, self.spectral_radius)))
 
     def summary(self) -> str:
         """One line per quantity."""
@@ -572,16 +599,32 @@ class Prop516Design:
                 f"  eig(P) in [{self.lambda_min_P:.6g}, {self.lambda_max_P:.6g}], theta1 = {self.theta1:.6g} (< 1 "
                 f"required), printed steady radius delta_inf,1 = {self.theta1_steady:.4g}\n"
                 f"  (A.16) min eig = {self.exact_min_eig:.4g} (>= 0 needed), spectral radius = "
-                f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.certified))
+                f"{self.spectral_radius:.4g} (< 1 needed): " + _verdict(self.verified)
+                + "".join("\n  " + c.summary() for c in self.checks))
 
-    @property
-    def certified(self) -> bool:
-        """Exact (A.16) ``min eig ≥ 0`` and spectral radius ``< 1`` at the returned gain (see :class:`PrintedDesign`)."""
-        return self.exact_min_eig >= 0 and self.spectral_radius < 1
+    def to_dict(self) -> dict[str, Any]:
+        """Plain-Python view: ``ρ**``, both branches, the answer at ``ρ**``, ``θ₁``, (A.16), the checks."""
+        return {"rho": self.rho, "branch": self.branch.value,
+                "branches": [{"branch": b.branch.value, "rho": b.rho, "solves": b.solves, "theta1": b.theta1}
+                             for b in self.branches],
+                "P": self.P.tolist(), "Y": np.asarray(self.Y).tolist(), "gain": self.gain.tolist(),
+                "alpha": self.alpha, "eps1": self.eps1, "eps2": self.eps2, "kappa": self.kappa,
+                "kappa1": self.kappa1, "kappa2": self.kappa2, "lambda_min_P": self.lambda_min_P,
+                "lambda_max_P": self.lambda_max_P, "theta1": self.theta1, "theta1_steady": self.theta1_steady,
+                "exact_min_eig": self.exact_min_eig, "spectral_radius": self.spectral_radius,
+                "verified": self.verified, "checks": checks_dict(self.checks), "solves": self.solves,
+                "seconds": self.seconds, "solver": None if self.solver is None else self.solver.value}
 
 
-def _verdict(certified: bool) -> str:
-    return "certified" if certified else "NOT certified (certified = False: do not use this gain)"
+def _printed_checks(exact_min_eig: float, spectral_radius: float) -> tuple[Check, Check]:
+    """What a printed answer needs to be certified: (A.16) ``min eig ≥ 0`` (the decrease (17)) and a Schur error matrix."""
+    return (Check.compare("exact condition (A.16): −min eig ≤ 0", -exact_min_eig, 0.0, kind=CheckKind.LMI,
+                          strict=False),
+            Check.compare("spectral radius of (I − L̃C₂)Φ(A − Ψ) < 1", spectral_radius, 1.0, kind=CheckKind.SPECTRUM))
+
+
+def _verdict(verified: bool) -> str:
+    return "certified" if verified else "NOT certified (verified = False: do not use this gain)"
 
 
 def design_prop516(system: DiscreteUISystem, M: ArrayLike, *, gamma: float = 0.0,
@@ -674,7 +717,7 @@ def design_prop516(system: DiscreteUISystem, M: ArrayLike, *, gamma: float = 0.0
     steady = rho * math.sqrt((system.eta_w**2 + system.eta_v**2) / (ev[0] * (1.0 - th1)))
     return Prop516Design(rho, br, tuple(outcomes), readonly(Pv), readonly(best.Y), readonly(L), best.alpha, best.eps1, best.eps2,
                          best.kappa, best.extra["kappa1"], best.extra["kappa2"], float(ev[0]), float(ev[-1]), th1,
-                         steady, emin, _spectral_radius(system, tr, L), solves, time.perf_counter() - t0)
+                         steady, emin, _spectral_radius(system, tr, L), solves, time.perf_counter() - t0, slv)
 
 
 # --------------------------------------------------------------------------- Proposition 5.6
@@ -690,31 +733,26 @@ class Prop56Verdict(str, Enum):
     """(23) infeasible: a necessary condition for stability is not violated; this proves nothing."""
 
 
-@dataclass(frozen=True)
-class MemberEvidence:
+def _member_check(name: str, K: Array, spectral_radius: float, min_modulus: float,
+                  undetectable: tuple[complex, ...]) -> Check:
     r"""A linear member ``f(x) = Kx`` of the class (``[K; I]ᵀM[K; I] ⪰ 0``, so it satisfies (2) with ``γ = 0``).
 
-    Attributes
-    ----------
-    name : str
-        ``"A"`` (the system's linear part), ``"0"`` or the caller's name.
-    K : ndarray, shape (n, n)
-    spectral_radius, min_modulus : float
-        Largest and smallest ``|λ|`` of ``(I − L̃C₂)Φ(K − Ψ)`` at the test's gain (``nan`` without one).
-        If ``ΔṼ > δ_f`` holds, every eigenvalue has ``|λ| > 1`` (``EᵀP̃E ≻ P̃``), so ``min_modulus > 1``.
-    stabilisable : bool
-        Whether **some** gain makes this member's error dynamics Schur: ``(Φ(K − Ψ), C₂)`` has no
-        unobservable mode with ``|λ| ≥ 1`` (:func:`~nlobs.linear.transform_ui.structural_check`).
-    undetectable_modes : tuple of complex
-        Those modes (empty when ``stabilisable``).
+    ``passed``: **some** gain makes this member's error dynamics Schur, i.e. ``(Φ(K − Ψ), C₂)`` has no
+    unobservable mode with ``|λ| ≥ 1`` (:func:`~nlobs.linear.transform_ui.structural_check`); ``key``: the
+    member's name (``"A"``, the system's linear part, ``"0"`` or the caller's); ``values``: ``K``,
+    ``spectral_radius`` and ``min_modulus`` — the largest and smallest ``|λ|`` of ``(I − L̃C₂)Φ(K − Ψ)`` at
+    the test's gain (``nan`` without one; if ``ΔṼ > δ_f`` holds every eigenvalue has ``|λ| > 1``, so
+    ``min_modulus > 1``) — and ``undetectable_modes`` (the modes above, empty when it passes).
     """
-
-    name: str
-    K: Array
-    spectral_radius: float
-    min_modulus: float
-    stabilisable: bool
-    undetectable_modes: tuple[complex, ...]
+    modes = ", ".join(f"{z:.6g}" for z in undetectable) or "none"
+    ok = not undetectable
+    return Check.verdict(
+        f"member K = {name}: some gain stabilises it", ok,
+        f"|eig| of (I - L~C2)Phi(K - Psi) in [{min_modulus:.4g}, {spectral_radius:.4g}]; some gain stabilises it: "
+        f"{ok} (undetectable modes |lambda| >= 1: {modes})",
+        kind=CheckKind.STRUCTURAL, method="numeric", key=name,
+        values={"K": K, "spectral_radius": spectral_radius, "min_modulus": min_modulus,
+                "undetectable_modes": undetectable})
 
 
 @dataclass(frozen=True)
@@ -744,7 +782,9 @@ class NecessaryConditionPrinted:
         Minimum eigenvalue of the exact form ``ΔṼ − δ_f`` (A.23), (A.28),
         ``[[B̆ᵀP̃B̆, B̆ᵀP̃Ă], [ĂᵀP̃B̆, ĂᵀP̃Ă − P̃]] − M`` with ``B̆ = (I − L̃C₂)Φ``, ``Ă = −B̆Ψ``; ``> 0``
         certifies the instability of that gain (``Π̃`` is a lower bound of it).
-    members : tuple of MemberEvidence
+    members : tuple of Check
+        One per linear member of the class (its ``key`` the member's name): does some gain stabilise
+        it, with the spectrum at the test's gain as evidence.
     seconds : float
     """
 
@@ -761,10 +801,10 @@ class NecessaryConditionPrinted:
     pi_tilde_min_eig: float | None
     pi_hat_min_eig: float | None
     exact_min_eig: float | None
-    members: tuple[MemberEvidence, ...]
+    members: tuple[Check, ...]
     seconds: float
 
-    def evidence(self) -> str:
+    def summary(self) -> str:
         """The numbers behind the verdict, and what they prove."""
         lines = [f"Proposition 5.6 (23)-(24) as printed, {'Y~ = P~ L~ for the given gain' if self.gain_given else 'Y~ free'}: "
                  f"{'feasible' if self.feasible else 'infeasible'} (solver {self.status}, t* = {self.margin:.4g})"]
@@ -776,11 +816,7 @@ class NecessaryConditionPrinted:
             lines.append("  proves: the error dynamics with THIS gain is unstable (A.13); nothing about other gains")
         else:
             lines.append("  proves: nothing (a necessary condition for stability is not violated)")
-        for m in self.members:
-            modes = ", ".join(f"{z:.6g}" for z in m.undetectable_modes) or "none"
-            lines.append(f"  member K = {m.name}: |eig| of (I - L~C2)Phi(K - Psi) in [{m.min_modulus:.4g}, "
-                         f"{m.spectral_radius:.4g}]; some gain stabilises it: {m.stabilisable} "
-                         f"(undetectable modes |lambda| >= 1: {modes})")
+        lines += [f"  member K = {m.key}: {m.evidence}" for m in self.members]
         return "\n".join(lines)
 
 
@@ -934,7 +970,7 @@ def necessary_condition_printed(system: DiscreteUISystem, M: ArrayLike, *, gamma
             sr, mm = float(eig.max()), float(eig.min())
         else:
             sr = mm = math.nan
-        evid.append(MemberEvidence(nm, readonly(K), sr, mm, not bad, bad))
+        evid.append(_member_check(nm, readonly(K), sr, mm, bad))
     if not feasible:  # an infeasible test has no meaningful point: keep only a given gain
         Pv = Yv = Gv = None
         ev = pit_min = pih_min = ex_min = None

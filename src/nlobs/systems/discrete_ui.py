@@ -43,6 +43,7 @@ import sympy as sp
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_batch, as_matrix, as_square, as_symmetric, as_vector, positive, readonly
+from nlobs.checks import Check, CheckKind
 from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, NonFiniteError
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.symbolic import SymbolicModel
@@ -57,7 +58,6 @@ __all__ = [
     "qcstar_from_bounded_split",
     "DiscreteUISystem",
     "LipschitzEstimate",
-    "ClassCheck",
     "estimate_lipschitz",
     "check_function_class",
     "class_margins",
@@ -731,39 +731,8 @@ def estimate_lipschitz(phi: NonlinearPart, lo: ArrayLike, hi: ArrayLike, *, n_pa
     return LipschitzEstimate(float(ratio[i]), readonly(x1[i]), readonly(x2[i]), int(n_pairs))
 
 
-@dataclass(frozen=True)
-class ClassCheck:
-    """Outcome of :func:`check_function_class`.
-
-    Attributes
-    ----------
-    holds : bool
-        No sampled pair violated the constraint (evidence, not proof).
-    worst_margin : float
-        ``min (QC value − γ)`` over the samples (negative when violated).
-    x1, x2 : ndarray
-        The pair attaining it.
-    n_pairs : int
-    label : str
-        The class checked.
-    """
-
-    holds: bool
-    worst_margin: float
-    x1: Array
-    x2: Array
-    n_pairs: int
-    label: str
-
-    def describe(self) -> str:
-        verdict = "no violation found" if self.holds else "VIOLATED"
-        what = "−(distance of Δφ from conv{AᵢΔx})²" if "LPV" in self.label else "QC − γ"
-        return (f"{self.label}: {verdict} in {self.n_pairs} sampled pairs; worst {what} = {self.worst_margin:.4g} "
-                f"at x1 = {np.array2string(self.x1, precision=4)}, x2 = {np.array2string(self.x2, precision=4)}")
-
-
 def check_function_class(phi: NonlinearPart, function_class: FunctionClass, lo: ArrayLike, hi: ArrayLike, *,
-                         n_pairs: int = 20_000, seed: int = 0, rtol: float = 1e-9) -> ClassCheck:
+                         n_pairs: int = 20_000, seed: int = 0, rtol: float = 1e-9) -> Check:
     """Search sampled pairs in ``[lo, hi]`` for one that violates the claimed class of ``phi``.
 
     The margin of a pair is ``[Δφ; Δx]ᵀ M [Δφ; Δx] − γ`` (seed 004, (2)); a
@@ -772,6 +741,15 @@ def check_function_class(phi: NonlinearPart, function_class: FunctionClass, lo: 
     ``{Σλᵢ Aᵢ Δx}`` (:meth:`LPV.polytope_gap`): the difference quotient of every pair must be a
     member of the class (which implies the Lipschitz bound ``σ̃ = maxᵢ ‖Aᵢ‖`` of Proposition 2.16).
     A non-finite ``φ`` value is a violation (margin ``-inf``).
+
+    Returns
+    -------
+    Check
+        ``passed``: no sampled pair violated the class (evidence, not proof); ``value``: the worst
+        margin ``min (QC value − γ)`` (negative when violated; read against ``limit = 0``);
+        ``evidence``: one line with the class, the verdict, the worst margin and its pair;
+        ``values``: ``worst_margin``, the pair ``x1``, ``x2`` (read-only arrays), ``n_pairs`` and
+        the class ``label``.
     """
     lo_, hi_ = _box(lo, hi)
     if lo_.shape[0] != function_class.n:
@@ -779,7 +757,14 @@ def check_function_class(phi: NonlinearPart, function_class: FunctionClass, lo: 
     x1, x2 = _sample_pairs(lo_, hi_, int(n_pairs), seed, 1e-3)
     margin, rel = class_margins(phi, function_class, x1, x2, rtol=rtol)
     i = int(np.argmin(rel))
-    return ClassCheck(bool(rel[i] >= 0), float(margin[i]), readonly(x1[i]), readonly(x2[i]), int(n_pairs), function_class.label)
+    holds, worst, label = bool(rel[i] >= 0), float(margin[i]), function_class.label
+    what = "−(distance of Δφ from conv{AᵢΔx})²" if "LPV" in label else "QC − γ"
+    ev = (f"{label}: {'no violation found' if holds else 'VIOLATED'} in {int(n_pairs)} sampled pairs; worst {what} = "
+          f"{worst:.4g} at x1 = {np.array2string(x1[i], precision=4)}, x2 = {np.array2string(x2[i], precision=4)}")
+    return Check.verdict(f"function class {label}", holds, ev, kind=CheckKind.FUNCTION_CLASS, method="sampled",
+                         value=worst, limit=0.0,
+                         values={"worst_margin": worst, "x1": readonly(x1[i]), "x2": readonly(x2[i]),
+                                 "n_pairs": int(n_pairs), "label": label})
 
 
 def class_margins(phi: NonlinearPart, function_class: FunctionClass, x1: ArrayLike, x2: ArrayLike, *,
