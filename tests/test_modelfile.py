@@ -127,3 +127,19 @@ def test_unreadable_and_non_utf8_files(tmp_path: Path) -> None:
     p.write_bytes(b'name = "caf\xe9"\n')
     with pytest.raises(ModelFileError, match="not UTF-8"):
         load_model(p)
+
+
+def test_shipped_names_load_and_a_local_namesake_is_refused_as_ambiguous(tmp_path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    from nlobs.errors import ModelFileError
+    from nlobs.systems.modelfile import load_model, resolve_model, shipped_models
+
+    shipped = shipped_models()
+    assert "pendulum" in shipped and resolve_model("pendulum") == shipped["pendulum"]
+    assert load_model("pendulum").n == load_model(shipped["pendulum"]).n
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "pendulum").write_text(shipped["pendulum"].read_text())
+    with pytest.raises(ModelFileError, match="ambiguous"):
+        load_model("pendulum")
+    assert load_model("./pendulum").n == 2
+    with pytest.raises(ModelFileError, match="no such file .shipped models: .*pendulum"):
+        load_model("no-such-model")

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import math
-from importlib import resources
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -18,7 +17,7 @@ from rich.text import Text
 from nlobs._validate import escape_unsafe
 from nlobs.errors import ModelFileError, NlobsError
 from nlobs.geometry.region import Box
-from nlobs.systems.modelfile import Model, load_model
+from nlobs.systems.modelfile import Model, load_model, shipped_models
 
 EXIT_FAILURE = 1
 EXIT_BAD_INPUT = 2
@@ -52,22 +51,10 @@ def fail(message: str, status: int = EXIT_BAD_INPUT) -> NoReturn:
     raise typer.Exit(status)
 
 
-def shipped_models() -> dict[str, Path]:
-    """Model files shipped with nlobs, by name (the file stem)."""
-    root = resources.files("nlobs") / "data" / "models"
-    return {Path(str(p)).stem: Path(str(p)) for p in root.iterdir() if str(p).endswith(".toml")}
-
-
 def load_model_arg(model: str) -> Model:
-    path = Path(model)
-    if not path.exists():
-        shipped = shipped_models()
-        if model in shipped:
-            path = shipped[model]
-        else:
-            fail(f"{model}: no such file (shipped models: {', '.join(sorted(shipped))})")
+    """The model behind a CLI argument (a file or a shipped name: :func:`nlobs.systems.modelfile.resolve_model`)."""
     try:
-        return load_model(path)
+        return load_model(model)
     except ModelFileError as exc:
         fail(str(exc))
 

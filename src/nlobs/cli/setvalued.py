@@ -50,14 +50,8 @@ class UnknownInput(str, Enum):
 
 
 def _load(model: str) -> DiscreteUIModel:
-    path = Path(model)
-    if not path.exists():
-        shipped = shipped_models()
-        if model not in shipped:
-            fail(f"{model}: no such file (shipped models: {', '.join(sorted(shipped))})")
-        path = shipped[model]
     try:
-        return load_discrete_ui_model(path)
+        return load_discrete_ui_model(model)
     except ModelFileError as exc:
         fail(str(exc))
 

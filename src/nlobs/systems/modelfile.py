@@ -174,13 +174,49 @@ class _Source:
         return ModelFileError(self.path, line, text, reason)
 
 
+def shipped_models() -> dict[str, Path]:
+    """The model files shipped with nlobs, by name (the file stem), e.g. ``"pendulum"``."""
+    from importlib import resources
+
+    root = resources.files("nlobs") / "data" / "models"
+    return {Path(str(p)).stem: Path(str(p)) for p in root.iterdir() if str(p).endswith(".toml")}
+
+
+def resolve_model(model: str | os.PathLike[str]) -> Path:
+    """The file behind a model argument: a path to a ``.toml`` file, or the name of a shipped model.
+
+    The one lookup of shipped names (the CLI and :func:`load_model` use it). A bare name that is both a
+    shipped model and a file in the working directory is refused as ambiguous instead of silently
+    taking the local file.
+
+    Raises
+    ------
+    ModelFileError
+        No such file and no shipped model of that name (the message lists the shipped names), or the
+        name is ambiguous.
+    """
+    text = os.fspath(model)
+    path = Path(text)
+    shipped = shipped_models()
+    bare = isinstance(model, str) and text in shipped and os.sep not in text and "/" not in text
+    if os.path.lexists(path):
+        if bare:
+            raise ModelFileError(text, None, "", f"ambiguous: both a file in the working directory and the shipped "
+                                 f"model {text!r}; write ./{text} for the file or rename it")
+        return path
+    if bare:
+        return shipped[text]
+    raise ModelFileError(text, None, "", f"cannot read file: no such file (shipped models: {', '.join(sorted(shipped))})")
+
+
 def load_model(path: str | Path) -> Model:
-    """Read a model file.
+    """Read a model file, or a shipped model by name.
 
     Parameters
     ----------
     path : str or Path
-        A ``.toml`` file in the format described in the module docstring.
+        A ``.toml`` file in the format described in the module docstring, or the name of a shipped model
+        (:func:`shipped_models`, e.g. ``"pendulum"``).
 
     Returns
     -------
@@ -189,11 +225,11 @@ def load_model(path: str | Path) -> Model:
     Raises
     ------
     ModelFileError
-        If the file cannot be read, is not valid TOML, or any key, name,
+        If the file cannot be found or read, is not valid TOML, or any key, name,
         expression or matrix is invalid; the message names the file, the line
         and the offending text.
     """
-    p = Path(path)
+    p = resolve_model(path)
     return parse_model(_read_text(p), source=str(p))
 
 
@@ -593,7 +629,7 @@ def load_discrete_ui_model(path: str | Path) -> DiscreteUIModel:
     ModelFileError
         As :func:`load_discrete_ui`.
     """
-    p = Path(path)
+    p = resolve_model(path)
     text = _read_text(p)
     return parse_discrete_ui(text, source=str(p))
 
