@@ -23,7 +23,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError
-from nlobs.linear import h2_norm, hinf_norm
+from nlobs.linear import h2_norm, hinf_grid_peak, hinf_norm
 
 SETTINGS = settings(max_examples=40, deadline=None, derandomize=True)
 
@@ -236,3 +236,43 @@ def test_bad_input() -> None:
         h2_norm(A, B, C, [[math.inf]])
     with pytest.raises(InvalidArgumentError, match="rtol"):
         hinf_norm(A, B, C, D, rtol=0.0)
+
+
+# --- the H∞ grid safeguard (hinf_grid_peak, hinf_norm(grid=True)) -------------
+
+
+@pytest.mark.parametrize("discrete", [False, True])
+@SETTINGS
+@given(seed=st.integers(0, 2**32 - 1))
+def test_grid_safeguard_is_a_lower_bound_close_to_hinf_norm(discrete: bool, seed: int) -> None:
+    A, B, C, D = _random_system(seed, discrete=discrete, feedthrough=seed % 3 != 0)
+    bs = hinf_norm(A, B, C, D, discrete=discrete)
+    grid = hinf_grid_peak(A, B, C, D, discrete=discrete)
+    # both are attained values σ_max(G(jω)): the grid never exceeds the norm (beyond its 2·rtol) ...
+    assert grid <= bs * (1 + 2.5e-9)
+    # ... and on these systems the refined grid finds the peak
+    assert grid >= bs * (1 - 1e-6)
+    # grid=True returns the larger of the two
+    assert hinf_norm(A, B, C, D, discrete=discrete, grid=True) == max(bs, grid)
+
+
+@pytest.mark.parametrize("gain", _LARGE_GAINS)
+def test_grid_safeguard_agrees_with_hinf_norm_for_large_observer_gains(gain) -> None:
+    # The case the safeguard was written for (Grip–Saberi–Johansen, Example 1 with gains ~1e7–1e10):
+    # before the balancing of hinf_norm, Bruinsma–Steinbuch was 0.12 % low here; now both agree.
+    K = np.array(gain).reshape(3, 1)
+    A, B, C, D = _A3 - K @ _C3, _BD3, np.eye(3), np.zeros((3, 1))
+    bs, grid = hinf_norm(A, B, C, D), hinf_grid_peak(A, B, C, D)
+    assert grid == pytest.approx(bs, rel=1e-9)
+    assert hinf_norm(A, B, C, D, grid=True) == pytest.approx(bs, rel=1e-9)
+
+
+def test_grid_safeguard_edge_cases() -> None:
+    assert hinf_grid_peak([[1.0]], [[1.0]], [[1.0]], [[0.0]]) == math.inf  # unstable
+    assert hinf_grid_peak([[-1.0]], np.zeros((1, 0)), [[1.0]], np.zeros((1, 0))) == 0.0  # no input
+    assert hinf_grid_peak(np.zeros((0, 0)), np.zeros((0, 1)), np.zeros((2, 0)), [[3.0], [4.0]]) == 5.0  # static
+    # G = 1/(s + 1): peak 1 at ω = 0, the first grid point
+    assert hinf_grid_peak([[-1.0]], [[1.0]], [[1.0]], [[0.0]]) == pytest.approx(1.0, rel=1e-12)
+    assert hinf_grid_peak([[0.5]], [[1.0]], [[1.0]], [[0.0]], discrete=True) == pytest.approx(2.0, rel=1e-9)
+    with pytest.raises(InvalidArgumentError, match="points: expected an integer ≥ 2"):
+        hinf_grid_peak([[-1.0]], [[1.0]], [[1.0]], [[0.0]], points=1)

@@ -1,11 +1,11 @@
-"""Linear structural analysis: stability, observability, zeros, norms, reports.
+"""Linear structural analysis: stability, observability, zeros, norms (with the H∞ grid safeguard), reports.
 
 All functions take plain arrays (validated on entry, raising
 :class:`~nlobs.errors.DimensionError` / :class:`~nlobs.errors.NonFiniteError`)
 and a keyword ``discrete`` selecting the time base where it matters.
 """
 
-from nlobs.linear.norms import h2_norm, hinf_norm
+from nlobs.linear.norms import h2_norm, hinf_grid_peak, hinf_norm
 from nlobs.linear.observability import (
     is_detectable,
     is_observable,
@@ -39,6 +39,7 @@ __all__ = [
     "analyze_linear",
     "eigenvalues",
     "h2_norm",
+    "hinf_grid_peak",
     "hinf_norm",
     "invariant_zeros",
     "is_detectable",
