@@ -7,12 +7,9 @@ import pytest
 
 from nlobs.errors import InvalidArgumentError
 from nlobs.papers.grip_example1 import L_RAJAMANI, example1_sigma1, example1_sigma2
-from nlobs.observers.cascade import (
-    CascadeObserver,
-    NonlinearSubsystem,
-    interconnected_plant,
-    place_cascade_gain,
-)
+from nlobs.observers.cascade import CascadeObserver
+from nlobs.synthesis.cascade_gain import place_cascade_gain
+from nlobs.systems.interconnected import NonlinearSubsystem, interconnected_plant
 
 
 def _numeric(feedback: bool) -> NonlinearSubsystem:

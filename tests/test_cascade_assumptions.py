@@ -18,22 +18,16 @@ from nlobs.errors import (
     ModelError,
     NonFiniteError,
 )
-from nlobs.observers.cascade import (
-    CascadeObserver,
-    LinearSubsystem,
-    NonlinearSubsystem,
-    design_cascade_gain,
-    interconnected_plant,
-    place_cascade_gain,
-)
-from nlobs.observers.cascade_assumptions import (
-    check_assumption4,
+from nlobs.linear.assumption4 import check_assumption4, require_assumption4
+from nlobs.observers.cascade import CascadeObserver
+from nlobs.synthesis.cascade_bounds import (
     quadratic_lyapunov_constants,
-    require_assumption4,
     theorem1_gamma_bound,
     theorem1_optimal_scaling,
     theorem1_prime_gamma_bound,
 )
+from nlobs.synthesis.cascade_gain import design_cascade_gain, place_cascade_gain
+from nlobs.systems.interconnected import LinearSubsystem, NonlinearSubsystem, interconnected_plant
 
 EX1 = ([[0.0, 1.0], [-1.0, -1.0]], [[0.0], [1.0]], [[1.0, 0.0]])
 

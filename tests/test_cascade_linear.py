@@ -26,13 +26,9 @@ import scipy.linalg
 import sympy as sp
 
 from nlobs.observers import Observer
-from nlobs.observers.cascade import (
-    CascadeObserver,
-    LinearSubsystem,
-    NonlinearSubsystem,
-    interconnected_plant,
-    place_cascade_gain,
-)
+from nlobs.observers.cascade import CascadeObserver
+from nlobs.synthesis.cascade_gain import place_cascade_gain
+from nlobs.systems.interconnected import LinearSubsystem, NonlinearSubsystem, interconnected_plant
 from nlobs.simulate import simulate
 from nlobs.systems.base import PlantModel
 

@@ -10,7 +10,8 @@ import pytest
 
 from nlobs.papers.grip_example1 import X0, X_HAT0, example1_sigma1, example1_sigma2
 from nlobs.linear import hinf_norm
-from nlobs.observers.cascade import gamma_sweep, interconnected_plant
+from nlobs.systems.interconnected import interconnected_plant
+from nlobs.workflows.gamma_sweep import gamma_sweep
 from nlobs.simulate import simulate
 from nlobs.synthesis import extended_system
 

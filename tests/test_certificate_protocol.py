@@ -22,7 +22,6 @@ from nlobs.checks import Check, CheckKind
 from nlobs.cli.common import jsonable
 from nlobs.errors import InvalidArgumentError
 from nlobs.linear.transform_ui import structural_check, ui_transform
-from nlobs.observers.drift import design_drift_report
 from nlobs.papers.khajenejad_yong import example_61
 from nlobs.synthesis import (
     Certificate,
@@ -37,6 +36,7 @@ from nlobs.synthesis import (
 )
 from nlobs.synthesis.drift_gain import RiccatiConstants, design_drift_gain, smallest_w, verify_drift_gain
 from nlobs.systems.modelfile import load_model
+from nlobs.workflows.design_drift import design_drift_report
 
 AXIS = extended_system([[0.0, 1.0], [0.0, 0.0]], [[0.0], [1.0]], np.eye(2))
 K_PAPER = np.array([[128.9, 17.5], [15.7, 2.4], [1.3, 0.2]])  # Grip–Saberi–Johansen, Sec. 5.2 (one axis)

@@ -1,4 +1,4 @@
-"""Seed 002 examples: simulate_drift, the w sweep, and `nlobs reproduce dallamora2000`."""
+"""Dalla Mora–Germani–Manes examples: simulate_drift, the w sweep, and `nlobs reproduce dallamora2000`."""
 
 from __future__ import annotations
 
@@ -9,12 +9,13 @@ import pytest
 
 from nlobs.papers import dallamora2000 as dm
 from nlobs.papers.reproduce import PAPERS, reproduce
+from nlobs.workflows.design_drift import simulate_drift
 
 
 def test_simulate_drift_bound_and_rate_with_exact_constants() -> None:
     model = dm.lipschitz_oscillator_model()
     gamma = math.hypot(math.hypot(1.5, 1.0), 0.5)  # exact γ_L, γ_H (see lipschitz_oscillator_model)
-    sim = dm.simulate_drift(model, [1.0, 0.0], [-1.0, 1.0], 5.0, dt=2e-3, alpha=1.0, mu=1.0, gamma=gamma,
+    sim = simulate_drift(model, [1.0, 0.0], [-1.0, 1.0], 5.0, dt=2e-3, alpha=1.0, mu=1.0, gamma=gamma,
                             u=lambda t: np.array([0.8 * math.sin(2.0 * t)]))
     assert sim.report.certificate.verified and sim.report.gamma == pytest.approx(gamma)
     assert sim.bound_ratio <= 1.0  # (3.2) with κ₁ from sampled γ_Φ = γ_Φ⁻¹ = 1 (exact here)

@@ -1,4 +1,4 @@
-"""The drift-observability observer (3.1) of seed 002: convergence, the bound (3.2)/(3.17), bad input."""
+"""The drift-observability observer (3.1) of Dalla Mora, Germani & Manes: convergence, the bound (3.2)/(3.17), bad input."""
 
 from __future__ import annotations
 
@@ -12,17 +12,14 @@ import sympy as sp
 from nlobs.errors import InvalidArgumentError, ModelError, NonFiniteError
 from nlobs.geometry import AffineFields, Box
 from nlobs.observers.base import Observer
-from nlobs.observers.drift import (
-    DriftObserver,
-    SingularObservabilityError,
-    design_drift_report,
-    error_bound_constants,
-    lipschitz_estimates,
-)
+from nlobs.geometry.lipschitz import lipschitz_estimates
+from nlobs.observers.drift import DriftObserver, SingularObservabilityError
 from nlobs.simulate import simulate
+from nlobs.synthesis.drift_bounds import error_bound_constants
 from nlobs.synthesis.drift_gain import RiccatiConstants, smallest_w, vandermonde_gain
 from nlobs.systems.modelfile import load_model
 from nlobs.systems.symbolic import SymbolicModel
+from nlobs.workflows.design_drift import design_drift_report, simulate_drift
 
 MODELS = Path(__file__).resolve().parents[1] / "src" / "nlobs" / "data" / "models"
 x1, x2 = sp.symbols("x1 x2", real=True)
@@ -165,8 +162,6 @@ def test_report_is_not_usable_when_drift_observability_fails() -> None:
 
 
 def test_given_gamma_below_the_estimate_is_warned_and_simulations_are_not_certified() -> None:
-    from nlobs.papers.dallamora2000 import simulate_drift
-
     model = _lipschitz_model()
     region = Box([-math.pi, -3.0], [math.pi, 3.0])
     rep = design_drift_report(model, alpha=1.0, mu=1.0, gamma=0.5, region=region, samples=500)

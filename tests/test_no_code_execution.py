@@ -33,9 +33,9 @@ from nlobs.geometry.lie import (
 from nlobs.geometry.observability import AffineFields
 from nlobs.geometry.pinv import block_gain, pinv_gain_field, symbolic_pinv
 from nlobs.geometry.region import Box, vanishes_on
-from nlobs.observers.cascade import NonlinearSubsystem
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.expressions import ExpressionError, as_sympy_expr, as_sympy_matrix, as_symbols
+from nlobs.systems.interconnected import NonlinearSubsystem
 from nlobs.systems.symbolic import SymbolicModel
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "nlobs"

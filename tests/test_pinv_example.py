@@ -1,4 +1,4 @@
-"""Seed 003, Section 5: Example (21) reproduced (robenack2008), simulations of both observers, reproduce rows."""
+"""Röbenack (2008), Section 5: Example (21) reproduced (robenack2008), simulations of both observers, reproduce rows."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import sympy as sp
 
 from nlobs.papers import robenack2008 as R
 from nlobs.papers.reproduce import ReproRow
+from nlobs.workflows.design_pinv import simulate_pinv
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +74,7 @@ def test_plot_writes_a_png(crossing: R.ScenarioResult, tmp_path: Path) -> None:
 
 
 def test_simulate_pinv_helper() -> None:
-    res = R.simulate_pinv(R.model(), [0.5, -2.0, 0.0, 0.0], [0.3, -1.5, -1.5, 0.5], 4.0, dt=2e-3,
+    res = simulate_pinv(R.model(), [0.5, -2.0, 0.0, 0.0], [0.3, -1.5, -1.5, 0.5], 4.0, dt=2e-3,
                           u=R.SineInput(-0.5, 0.5), theta=3.0)
     assert res.error_norm[-1] < 0.05 * res.error_norm[0]  # x̂3: e^{−4}·1.5
 
@@ -98,7 +99,7 @@ def test_simulate_pinv_with_sampled_noisy_measurements() -> None:
 
     kw = dict(dt=2e-3, u=R.SineInput(-0.5, 0.5), theta=3.0,
               measurements=MeasurementGroup("y", ["y"], rate=100.0, noise_std=0.01))
-    a = R.simulate_pinv(R.model(), [0.5, -2.0, 0.0, 0.0], [0.3, -1.5, -1.5, 0.5], 3.0, seed=1, **kw)  # type: ignore[arg-type]
-    b = R.simulate_pinv(R.model(), [0.5, -2.0, 0.0, 0.0], [0.3, -1.5, -1.5, 0.5], 3.0, seed=1, **kw)  # type: ignore[arg-type]
+    a = simulate_pinv(R.model(), [0.5, -2.0, 0.0, 0.0], [0.3, -1.5, -1.5, 0.5], 3.0, seed=1, **kw)  # type: ignore[arg-type]
+    b = simulate_pinv(R.model(), [0.5, -2.0, 0.0, 0.0], [0.3, -1.5, -1.5, 0.5], 3.0, seed=1, **kw)  # type: ignore[arg-type]
     np.testing.assert_array_equal(a.x_hat, b.x_hat)  # seeded
     assert a.sampled[::5].any() and a.error_norm[-1] < 0.2 * a.error_norm[0]

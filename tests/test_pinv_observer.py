@@ -1,4 +1,4 @@
-"""Röbenack's Moore–Penrose observer (seed 003): high-gain vectors, (17), (25), (26), checks, BI gain (24)."""
+"""Röbenack's Moore–Penrose observer: high-gain vectors, (17), (25), (26), checks, BI gain (24)."""
 
 from __future__ import annotations
 
@@ -12,19 +12,12 @@ import sympy as sp
 from nlobs.errors import AssumptionViolated, DimensionError, InvalidArgumentError, ModelError
 from nlobs.geometry import AffineFields, Box, reduced_observability_matrix
 from nlobs.observers.base import Observer
-from nlobs.observers.pinv import (
-    AssumptionWarning,
-    ByrnesIsidoriObserver,
-    HighGain,
-    PinvObserver,
-    companion_error_matrix,
-    design_pinv_report,
-    high_gain_coefficients,
-    high_gain_roots,
-)
+from nlobs.observers.pinv import AssumptionWarning, ByrnesIsidoriObserver, PinvObserver
+from nlobs.synthesis.pinv_gain import HighGain, companion_error_matrix, high_gain_coefficients, high_gain_roots
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.modelfile import load_model
 from nlobs.systems.symbolic import SymbolicModel
+from nlobs.workflows.design_pinv import design_pinv_report
 
 MODEL = Path(__file__).resolve().parents[1] / "src" / "nlobs" / "data" / "models" / "isidori-146.toml"
 x1, x2, x3, x4 = sp.symbols("x1:5", real=True)

@@ -1,10 +1,10 @@
 """``nlobs design drift`` and ``nlobs design pinv``: the differential-geometric observers.
 
-* ``drift`` — observer (3.1) of Dalla Mora, Germani & Manes (seed 002): the gain of
+* ``drift`` — observer (3.1) of Dalla Mora, Germani & Manes: the gain of
   Remark 2.11 (smallest ``w`` solving (2.17)) or the SDP design, verified by the
   eigenvalues of the left side of (2.17), with the bound constants of (3.17).
-* ``pinv`` — observer (7) with Röbenack's Moore–Penrose gain ``l(x) = Q⁺(x) k`` (17)
-  (seed 003), after checking A1 and A5.
+* ``pinv`` — observer (7) with Röbenack's Moore–Penrose gain ``l(x) = Q⁺(x) k`` (17),
+  after checking A1 and A5.
 
 Both can simulate the design from given initial conditions (``--simulate``) and write
 a plot and the trajectories (``--out``).
@@ -122,14 +122,13 @@ def drift_cmd(
     dt: Dt_ = 1e-3,
     out: Out_ = None,
 ) -> None:
-    """Design (and verify) the drift-observability observer (3.1) of seed 002.
+    """Design (and verify) the drift-observability observer (3.1) of Dalla Mora, Germani & Manes.
 
     After the report, exit status 3 when drift-observability fails on the region (no observer of
     this structure there), 1 when the design is not usable otherwise (a given --gamma below the
     sampled estimate, a failed certificate).
     """
-    from nlobs.papers.dallamora2000 import simulate_drift
-    from nlobs.observers.drift import design_drift_report
+    from nlobs.workflows.design_drift import design_drift_report, simulate_drift
 
     m = _symbolic(model)
     if method not in ("vandermonde", "sdp"):
@@ -184,9 +183,8 @@ def pinv_cmd(
     dt: Dt_ = 1e-3,
     out: Out_ = None,
 ) -> None:
-    """Design the Moore–Penrose observer (7), (17) of seed 003 and check A1, A5."""
-    from nlobs.papers.robenack2008 import simulate_pinv
-    from nlobs.observers.pinv import design_pinv_report
+    """Design Röbenack's Moore–Penrose observer (7), (17) and check A1, A5."""
+    from nlobs.workflows.design_pinv import design_pinv_report, simulate_pinv
 
     m = _symbolic(model)
     if placement not in ("powers", "multiple"):
@@ -203,8 +201,7 @@ def pinv_cmd(
     text = [rep.summary()]
     if simulate:
         x0v, xh, uv = _sim_inputs(m, x0, xhat0, u)
-        res = _run(model, lambda: simulate_pinv(m, x0v, xh, duration, dt=dt, u=uv, k=kv, theta=theta,
-                                                placement=placement, region=region))  # type: ignore[arg-type]
+        res = _run(model, lambda: simulate_pinv(m, x0v, xh, duration, dt=dt, u=uv, report=rep))
         data["simulation"], lines = _report_simulation(res, out, "pinv", duration, dt)
         text += lines
     if as_json:

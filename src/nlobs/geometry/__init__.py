@@ -1,13 +1,19 @@
-"""Differential geometry of input-affine models (seeds 002 and 003).
+"""Differential geometry of input-affine models (Dalla Mora–Germani–Manes and Röbenack).
 
 Lie derivatives and brackets (:mod:`~nlobs.geometry.lie`), observability maps,
 observation relative degrees and the Brunovsky form
 (:mod:`~nlobs.geometry.observability`), the Moore–Penrose gain field
-(:mod:`~nlobs.geometry.pinv`), and the checks with their evidence
-(:mod:`~nlobs.geometry.checks`) on regions (:mod:`~nlobs.geometry.region`).
+(:mod:`~nlobs.geometry.pinv`), the checks with their evidence
+(:mod:`~nlobs.geometry.checks`) on regions (:mod:`~nlobs.geometry.region`), and the sampled
+Lipschitz constants of ``Φ_s`` behind the error bound (3.2) (:mod:`~nlobs.geometry.lipschitz`).
 SymPy lives here; everything an observer evaluates at run time is compiled once
 with :func:`nlobs.systems.codegen.compile_matrix`.
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 from nlobs.geometry.checks import (
     Check,
@@ -33,11 +39,31 @@ from nlobs.geometry.observability import (
 from nlobs.geometry.pinv import block_gain, gain_symbols, pinv_gain_field, symbolic_pinv
 from nlobs.geometry.region import Box, ZeroTest, vanishes_on
 
+if TYPE_CHECKING:
+    from nlobs.geometry.lipschitz import LipschitzEstimates, lipschitz_estimates
+
+#: Names imported on first use (the command line imports this package at start-up and needs none of them).
+_LAZY: dict[str, str] = dict.fromkeys(("LipschitzEstimates", "lipschitz_estimates"), "nlobs.geometry.lipschitz")
+
 __all__ = [
-    "AffineFields", "Box", "Check", "RelativeDegree", "ZeroTest", "block_gain", "brunovsky", "check_a1",
-    "check_drift_observability", "check_involutive", "check_s_le_r", "covector_lie_derivative",
-    "default_multi_index", "gain_symbols", "gradient", "input_gain_structure", "lie_bracket", "lie_derivative",
-    "lie_derivatives", "observability_jacobian", "observability_map", "observability_rank",
-    "observation_relative_degree", "output_derivative_terms", "pinv_gain_field", "reduced_observability_matrix",
-    "symbolic_pinv", "vanishes_on",
+    "AffineFields", "Box", "Check", "LipschitzEstimates", "RelativeDegree", "ZeroTest", "block_gain",
+    "brunovsky", "check_a1", "check_drift_observability", "check_involutive", "check_s_le_r",
+    "covector_lie_derivative", "default_multi_index", "gain_symbols", "gradient", "input_gain_structure",
+    "lie_bracket", "lie_derivative", "lie_derivatives", "lipschitz_estimates", "observability_jacobian",
+    "observability_map", "observability_rank", "observation_relative_degree", "output_derivative_terms",
+    "pinv_gain_field", "reduced_observability_matrix", "symbolic_pinv", "vanishes_on",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """Import the module that holds ``name`` on first use (PEP 562)."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'nlobs.geometry' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,9 +1,15 @@
-"""Linear structural analysis: stability, observability, zeros, norms (with the H∞ grid safeguard), reports.
+"""Linear structural analysis: stability, observability, zeros, norms (with the H∞ grid safeguard), reports,
+and Σ₂'s structure in the cascade observer of Grip, Saberi & Johansen (the extended system (8c), Assumption 4).
 
 All functions take plain arrays (validated on entry, raising
 :class:`~nlobs.errors.DimensionError` / :class:`~nlobs.errors.NonFiniteError`)
 and a keyword ``discrete`` selecting the time base where it matters.
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 from nlobs.linear.norms import h2_norm, hinf_grid_peak, hinf_norm
 from nlobs.linear.observability import (
@@ -31,13 +37,33 @@ from nlobs.linear.zeros import (
     minimum_phase,
 )
 
+if TYPE_CHECKING:
+    from nlobs.linear.assumption4 import (
+        ASSUMPTION4_ITEMS,
+        Assumption4Report,
+        ExtendedSystem,
+        check_assumption4,
+        extended_system,
+        require_assumption4,
+    )
+
+#: Names imported on first use (the command line imports this package at start-up and needs none of them).
+_LAZY: dict[str, str] = dict.fromkeys(
+    ("ASSUMPTION4_ITEMS", "Assumption4Report", "ExtendedSystem", "check_assumption4", "extended_system",
+     "require_assumption4"), "nlobs.linear.assumption4")
+
 __all__ = [
+    "ASSUMPTION4_ITEMS",
+    "Assumption4Report",
     "BOUNDARY_TOL",
+    "ExtendedSystem",
     "REPORT_KEYS",
     "InvariantZeros",
     "LinearReport",
     "analyze_linear",
+    "check_assumption4",
     "eigenvalues",
+    "extended_system",
     "h2_norm",
     "hinf_grid_peak",
     "hinf_norm",
@@ -50,9 +76,24 @@ __all__ = [
     "is_strongly_detectable",
     "minimum_phase",
     "observability_matrix",
+    "require_assumption4",
     "spectral_abscissa",
     "spectral_radius",
     "stability_margin",
     "strictly_inside",
     "unobservable_modes",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """Import the module that holds ``name`` on first use (PEP 562)."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'nlobs.linear' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

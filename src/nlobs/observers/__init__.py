@@ -1,9 +1,21 @@
-"""Observers: one module per method, every estimator satisfying :class:`nlobs.observers.base.Observer`."""
+"""Observers: one module per method, every estimator satisfying :class:`nlobs.observers.base.Observer`.
+
+* :class:`CascadeObserver` — Grip, Saberi & Johansen, (9)–(10) / (17)–(18) (``cascade.py``);
+* :class:`DriftObserver` — Dalla Mora, Germani & Manes, (3.1) (``drift.py``);
+* :class:`PinvObserver`, :class:`ByrnesIsidoriObserver` — Röbenack, (7) with the gains (17) and (8)
+  (``pinv.py``);
+* :class:`LuenbergerObserver`, :class:`DiscreteLipschitzObserver`, :class:`UnknownInputEKF` and the
+  set-valued observer of Khajenejad & Yong (``luenberger.py``, ``lipschitz.py``, ``kalman.py``,
+  ``setvalued.py``).
+"""
 
 from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
+from nlobs.observers.cascade import CascadeObserver
+from nlobs.observers.drift import DriftObserver, SingularObservabilityError
 from nlobs.observers.kalman import GaussianState, UnknownInputEKF, joseph_update
 from nlobs.observers.lipschitz import DiscreteLipschitzObserver
 from nlobs.observers.luenberger import LuenbergerObserver
+from nlobs.observers.pinv import AssumptionWarning, ByrnesIsidoriObserver, PinvObserver
 from nlobs.observers.setvalued import (
     GivenGain,
     Radii,
@@ -16,19 +28,25 @@ from nlobs.observers.setvalued import (
 )
 
 __all__ = [
+    "AssumptionWarning",
+    "ByrnesIsidoriObserver",
+    "CascadeObserver",
     "CorrectingObserver",
     "DeferredEstimate",
     "Diagnosing",
     "DiscreteLipschitzObserver",
+    "DriftObserver",
     "GaussianState",
     "GivenGain",
     "LuenbergerObserver",
     "Observer",
+    "PinvObserver",
     "Radii",
     "RadiusRecursion",
     "SelfStepping",
     "SetValuedObserver",
     "SetValuedState",
+    "SingularObservabilityError",
     "UnknownInputEKF",
     "input_error_map",
     "joseph_update",

@@ -1,4 +1,4 @@
-r"""The drift-observability observer of Dalla Mora, Germani & Manes (seed 002).
+r"""The drift-observability observer (3.1) of Dalla Mora, Germani & Manes.
 
 For an input-affine model ``ẋ = f(x) + g(x) u``, ``y = h(x)`` (1.1) that is
 drift-observable with multi-index ``s`` (Def. 2.3: ``Φ_s`` a diffeomorphism,
@@ -36,12 +36,13 @@ Implementation
   stays bounded by ``1/(2ε)`` where it is singular; the convergence theorems do
   not cover it there).
 
-Error-bound constants: :func:`lipschitz_estimates` samples ``‖Q_s‖₂`` and
-``‖Q_s⁻¹‖₂`` on a region (their maxima estimate ``γ_Φ`` on a convex region and
-``γ_{Φ⁻¹}`` on ``Φ_s`` of it — estimates from below of the suprema, and the second
-needs ``Φ_s(region)`` convex or a path argument), and the Lipschitz constants
-``γ_L``, ``γ_H`` of ``L_s∘Φ_s⁻¹`` and ``H_{s,r}∘Φ_s⁻¹`` from their ``z``-Jacobians
-``(∂L_s/∂x) Q_s⁻¹``; :func:`error_bound_constants` turns them into ``κ₁``, ``κ₂``.
+Where the rest lives
+--------------------
+* the gain ``(K, P)`` of (2.17): :mod:`nlobs.synthesis.drift_gain`; the constants ``κ₁``, ``κ₂``
+  of (3.17): :mod:`nlobs.synthesis.drift_bounds`;
+* the sampled Lipschitz constants ``γ_Φ``, ``γ_{Φ⁻¹}``, ``γ_L``, ``γ_H``:
+  :mod:`nlobs.geometry.lipschitz`;
+* design, verify and simulate a model (``nlobs design drift``): :mod:`nlobs.workflows.design_drift`.
 """
 
 from __future__ import annotations
@@ -49,49 +50,25 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 import sympy as sp
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from nlobs._typing import Array
 from nlobs._validate import as_batch, as_matrix, positive
-from nlobs.errors import InvalidArgumentError, NlobsError, NonFiniteError
-from nlobs.geometry import (
-    AffineFields,
-    Box,
-    Check,
-    check_drift_observability,
-    check_s_le_r,
-    default_multi_index,
-    input_gain_structure,
-    observability_jacobian,
-    observation_relative_degree,
-    output_derivative_terms,
-)
-from nlobs.geometry.observability import check_multi_index
-from nlobs.synthesis.drift_gain import DriftGainCertificate, RiccatiConstants, design_drift_gain
+from nlobs.errors import InvalidArgumentError, NlobsError
+from nlobs.geometry.checks import default_multi_index
+from nlobs.geometry.observability import AffineFields, check_multi_index, observability_jacobian
+from nlobs.geometry.region import Box
 from nlobs.systems.codegen import BatchedFunction, compile_matrix
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
 
-Array = NDArray[np.float64]
-
-__all__ = [
-    "DriftDesignReport",
-    "DriftObserver",
-    "ErrorBoundConstants",
-    "LipschitzEstimates",
-    "SingularObservabilityError",
-    "design_drift_report",
-    "error_bound_constants",
-    "lipschitz_estimates",
-]
+__all__ = ["COND_LIMIT", "DriftObserver", "SingularObservabilityError"]
 
 #: Default largest accepted condition number of ``Q_s`` (above it ``Q_s`` counts as singular).
 COND_LIMIT = 1e10
-#: A given ``γ`` counts as below the sampled estimate when smaller by more than this relative amount.
-_GAMMA_RTOL = 1e-9
 
 
 class SingularObservabilityError(NlobsError, ValueError):
@@ -298,334 +275,3 @@ class DriftObserver:
     def estimate(self, z: Array) -> Array:
         """The estimate is the observer state, ``x̂ = z``."""
         return z
-
-
-# --------------------------------------------------------------------------- constants
-
-
-@dataclass(frozen=True)
-class LipschitzEstimates:
-    """Sampled estimates of the constants of (3.3) and Assumption H1 on a region.
-
-    All are maxima over ``samples`` seeded points of the region (estimates from below
-    of the suprema; the mean-value argument needs a convex region, and ``Φ_s(region)``
-    convex for the ``z``-side constants).
-
-    Attributes
-    ----------
-    gamma_phi : float
-        ``max ‖Q_s(x)‖₂`` — Lipschitz constant of ``Φ_s`` (``‖e_z‖ ≤ γ_Φ ‖e_x‖``).
-    gamma_phi_inv : float
-        ``max ‖Q_s(x)⁻¹‖₂`` — Lipschitz constant of ``Φ_s⁻¹`` (``‖e_x‖ ≤ γ_{Φ⁻¹} ‖e_z‖``).
-    gamma_L : float
-        ``max ‖(∂L_s/∂x) Q_s⁻¹‖₂`` — Lipschitz constant of ``L_s∘Φ_s⁻¹`` (2.14).
-    gamma_H : float
-        ``max (Σ_entries ‖(∂H_{ik}/∂x) Q_s⁻¹‖²)^{1/2}`` — Lipschitz constant of
-        ``H_{s,r}∘Φ_s⁻¹`` in the operator norm (Frobenius bound); 0 when ``H`` is constant.
-    region : Box
-    samples : int
-    worst_Q_inv : tuple of float
-        Where ``‖Q_s⁻¹‖`` is largest.
-    """
-
-    gamma_phi: float
-    gamma_phi_inv: float
-    gamma_L: float
-    gamma_H: float
-    region: Box
-    samples: int
-    worst_Q_inv: tuple[float, ...]
-
-    @property
-    def gamma(self) -> float:
-        """``√(γ_L² + γ_H²)``, the ``γ`` of (2.17)."""
-        return math.hypot(self.gamma_L, self.gamma_H)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"gamma_phi": self.gamma_phi, "gamma_phi_inv": self.gamma_phi_inv, "gamma_L": self.gamma_L,
-                "gamma_H": self.gamma_H, "gamma": self.gamma, "region": [self.region.lower.tolist(), self.region.upper.tolist()],
-                "samples": self.samples, "worst_Q_inv": list(self.worst_Q_inv), "estimated": True}
-
-
-def lipschitz_estimates(fields: AffineFields, s: Sequence[int], r: Sequence[int | None], region: Box, *,
-                        samples: int = 2000, seed: int = 0) -> LipschitzEstimates:
-    """Estimate ``γ_Φ``, ``γ_{Φ⁻¹}``, ``γ_L``, ``γ_H`` by sampling ``region`` (see :class:`LipschitzEstimates`).
-
-    Points where any of the sampled quantities is not finite are left out (``samples`` counts the rest).
-
-    Raises
-    ------
-    NonFiniteError
-        Not one sampled point gives finite values (the model is not defined on the region).
-    """
-    s_ = check_multi_index(s, fields.q, fields.n)
-    Q = observability_jacobian(fields, s_)
-    X = sp.Matrix(fields.x)
-    dL = output_derivative_terms(fields, s_).jacobian(X)
-    H, _ = input_gain_structure(fields, s_, r)
-    dH = sp.Matrix(list(H)).jacobian(X) if H.shape[0] * H.shape[1] else sp.zeros(0, fields.n)
-    n = fields.n
-    fn = compile_matrix(sp.Matrix(list(Q) + list(dL) + list(dH)), (fields.x,), vector=True, what="Lipschitz estimates")
-    pts = region.sample(samples, seed)
-    with np.errstate(all="ignore"):
-        v = fn(pts)
-    Qv = v[:, : n * n].reshape(-1, n, n)
-    dLv = v[:, n * n : n * n + dL.shape[0] * n].reshape(len(v), dL.shape[0], n)
-    dHv = v[:, n * n + dL.shape[0] * n :].reshape(len(v), dH.shape[0], n)
-    ok = np.all(np.isfinite(v), axis=-1)
-    if not np.any(ok):
-        raise NonFiniteError(
-            f"{fields.name}: Q_s (s = {list(s_)}) and the z-Jacobians of L_s and H_s,r are not finite at any of the "
-            f"{len(pts)} sampled points of the region {region.describe()}: the model is not defined there "
-            "(choose a region where it is, e.g. --box)")
-    sv = np.linalg.svd(Qv[ok], compute_uv=False)
-    inv_norm = np.where(sv[:, -1] > 0, 1.0 / np.where(sv[:, -1] > 0, sv[:, -1], 1.0), np.inf)
-    Qinv = np.linalg.pinv(Qv[ok])
-    gL = np.linalg.norm(dLv[ok] @ Qinv, ord=2, axis=(-2, -1)) if dL.shape[0] else np.zeros(1)
-    gH = np.linalg.norm(dHv[ok] @ Qinv, axis=(-2, -1)) if dH.shape[0] else np.zeros(1)
-    i = int(np.argmax(inv_norm))
-    return LipschitzEstimates(float(sv[:, 0].max()), float(inv_norm[i]), float(np.max(gL)), float(np.max(gH)),
-                              region, int(ok.sum()), tuple(float(a) for a in pts[ok][i]))
-
-
-@dataclass(frozen=True)
-class ErrorBoundConstants:
-    """``κ₁ = γ_Φ γ_{Φ⁻¹} √cn(P)``, ``κ₂ = γ_{Φ⁻¹} √(‖P‖/(2α))`` of (3.17), from (3.15)–(3.16).
-
-    Valid (Theorem 3.1 / 3.8) when ``(K, P)`` solves (2.17) with ``γ ≥ √(γ_L² + γ_H²)``,
-    ``‖u‖ ≤ μ``, and the trajectories stay where the Lipschitz constants hold; with
-    sampled constants the bound is an estimate.
-    """
-
-    gamma_phi: float
-    gamma_phi_inv: float
-    cond_P: float
-    norm_P: float
-    alpha: float
-    kappa1: float
-    kappa2: float
-    estimated: bool
-
-    def bound(self, t: ArrayLike, e0_norm: float | ArrayLike, b: float = 0.0) -> Array:
-        """``κ₁ e^{−αt} ‖e(0)‖ + κ₂ b`` (3.2), with ``b = √(b_L² + b_H²)`` (0 under H1)."""
-        tt = np.asarray(t, dtype=float)
-        return self.kappa1 * np.exp(-self.alpha * tt) * np.asarray(e0_norm, dtype=float)[..., None] + self.kappa2 * b
-
-    def describe(self) -> str:
-        src = "estimated by sampling" if self.estimated else "given"
-        return (f"κ₁ = γ_Φ γ_Φ⁻¹ √cn(P) = {self.gamma_phi:.4g} · {self.gamma_phi_inv:.4g} · √{self.cond_P:.4g} = {self.kappa1:.4g}; "
-                f"κ₂ = γ_Φ⁻¹ √(‖P‖/2α) = {self.kappa2:.4g} (Lipschitz constants {src})")
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"gamma_phi": self.gamma_phi, "gamma_phi_inv": self.gamma_phi_inv, "cond_P": self.cond_P,
-                "norm_P": self.norm_P, "alpha": self.alpha, "kappa1": self.kappa1, "kappa2": self.kappa2,
-                "estimated": self.estimated}
-
-
-def error_bound_constants(cert: DriftGainCertificate, gamma_phi: float, gamma_phi_inv: float, *,
-                          estimated: bool = True) -> ErrorBoundConstants:
-    """``κ₁``, ``κ₂`` of (3.17) for a verified pair and the Lipschitz constants of ``Φ_s``, ``Φ_s⁻¹``."""
-    gp = positive("gamma_phi", gamma_phi)
-    gpi = positive("gamma_phi_inv", gamma_phi_inv)
-    cn, nP, a = cert.cond_P, cert.norm_P, cert.constants.alpha
-    return ErrorBoundConstants(gp, gpi, cn, nP, a, gp * gpi * math.sqrt(cn), gpi * math.sqrt(nP / (2.0 * a)), estimated)
-
-
-# --------------------------------------------------------------------------- report for the CLI
-
-
-@dataclass(frozen=True, eq=False)
-class DriftDesignReport:
-    """Everything ``nlobs design drift`` prints: structure, checks, gain, verification, bound constants.
-
-    Attributes
-    ----------
-    fields : AffineFields
-    s, r : tuple
-        Multi-index and observation relative degrees (``None``: undefined on the region).
-    checks : tuple of Check
-        Drift-observability on the region and ``s ≤ r``.
-    F : ndarray
-        ``F_{s,r}`` (2.12).
-    H : str
-        ``H_{s,r}(x)`` (2.11), as text.
-    gamma : float
-        ``γ`` used in (2.17).
-    gamma_source : str
-        ``"given"`` or ``"estimated"`` (``√(γ_L² + γ_H²)`` from :attr:`lipschitz`).
-    certificate : DriftGainCertificate
-    lipschitz : LipschitzEstimates
-    bound : ErrorBoundConstants
-    region : Box
-
-    The verdict (:attr:`usable`, with :attr:`reasons`) collects the premises of Theorem 3.1
-    that the report can check: drift-observability on the region, the certificate of
-    (2.17), and ``γ`` not below the sampled ``√(γ_L² + γ_H²)`` (the sampled values are
-    attained, so a ``γ`` below them is too small for the region: :attr:`warnings`). The
-    gain's own certificate may be verified while the design is not usable.
-    """
-
-    fields: AffineFields
-    s: tuple[int, ...]
-    r: tuple[int | None, ...]
-    checks: tuple[Check, ...]
-    F: Array
-    H: str
-    gamma: float
-    gamma_source: str
-    certificate: DriftGainCertificate
-    lipschitz: LipschitzEstimates
-    bound: ErrorBoundConstants
-    region: Box
-
-    @property
-    def model(self) -> str:
-        return self.fields.name
-
-    @property
-    def drift_check(self) -> Check:
-        """The drift-observability check on the region (Def. 2.3: ``Q_s`` nonsingular)."""
-        return next(k for k in self.checks if k.name == "drift-observability")
-
-    @property
-    def warnings(self) -> tuple[str, ...]:
-        """A given ``γ`` below the sampled estimate on the region (the certificate does not cover the model there)."""
-        est = self.lipschitz.gamma
-        if self.gamma < est * (1.0 - _GAMMA_RTOL):
-            return (f"γ = {self.gamma:.4g} ({self.gamma_source}) is below the sampled √(γ_L² + γ_H²) = {est:.4g} on the "
-                    "region: the certificate of (2.17) does not cover the model there (raise γ or shrink the region)",)
-        return ()
-
-    @property
-    def reasons(self) -> tuple[str, ...]:
-        """Why the design is not usable (empty when it is): failed premises, a failed certificate, :attr:`warnings`."""
-        out = []
-        drift = self.drift_check
-        if not drift.passed:
-            out.append(f"drift-observability fails on the region ({drift.evidence}): Theorem 3.1 does not apply")
-        if not self.certificate.verified:
-            out.append("the gain certificate of (2.17) failed: "
-                       + "; ".join(k.summary() for k in self.certificate.failed_checks))
-        return (*out, *self.warnings)
-
-    @property
-    def usable(self) -> bool:
-        """Drift-observable on the region, (2.17) verified, and ``γ`` covering the sampled estimate."""
-        return not self.reasons
-
-    def observer(self, *, regularization: float = 0.0, cond_limit: float = COND_LIMIT) -> DriftObserver:
-        """The observer (3.1) with this report's ``s`` and ``K``."""
-        return DriftObserver.from_fields(self.fields, self.s, self.certificate.gain, regularization=regularization,
-                                         cond_limit=cond_limit)
-
-    def summary(self) -> str:
-        c = self.certificate.constants
-        r_txt = ", ".join("∞" if v is None else str(v) for v in self.r)
-        lines = [
-            f"drift-observability observer (Dalla Mora–Germani–Manes) for {self.model}",
-            f"  multi-index s = ({', '.join(map(str, self.s))}), observation relative degree r = ({r_txt})",
-            f"  region {self.region.describe()}",
-        ]
-        lines += [f"  [{'ok' if k.passed else 'FAILS'}] {k.name}: {k.evidence}" for k in self.checks]
-        lines.append(f"  H_s,r(x) = {self.H}")
-        L = self.lipschitz
-        lines.append(f"  sampled on the region ({L.samples} points): γ_Φ ≈ {L.gamma_phi:.4g}, γ_Φ⁻¹ ≈ {L.gamma_phi_inv:.4g}, "
-                     f"γ_L ≈ {L.gamma_L:.4g}, γ_H ≈ {L.gamma_H:.4g}")
-        lines.append(f"  (2.17) with α = {c.alpha:g}, μ = {c.mu:g}, γ = {self.gamma:.4g} ({self.gamma_source})")
-        lines += ["  " + ln for ln in self.certificate.summary().splitlines()]
-        lines.append("  K = " + np.array2string(self.certificate.gain, precision=5, separator=", ").replace("\n", "\n      "))
-        lines.append("  " + self.bound.describe())
-        lines += [f"  warning: {m}" for m in self.warnings]
-        lines.append("  usable: yes (drift-observable on the region, (2.17) verified, γ covers the sampled estimate)"
-                     if self.usable else "  usable: NO — " + "; ".join(self.reasons))
-        return "\n".join(lines)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "model": self.model,
-            "s": list(self.s),
-            "r": list(self.r),
-            "checks": [k.to_dict() for k in self.checks],
-            "F": self.F.tolist(),
-            "H": self.H,
-            "gamma": self.gamma,
-            "gamma_source": self.gamma_source,
-            "certificate": self.certificate.to_dict(),
-            "lipschitz": self.lipschitz.to_dict(),
-            "bound": self.bound.to_dict(),
-            "usable": self.usable,
-            "reasons": list(self.reasons),
-            "warnings": list(self.warnings),
-        }
-
-
-def design_drift_report(
-    model: SymbolicModel,
-    s: Sequence[int] | None = None,
-    *,
-    alpha: float = 1.0,
-    mu: float = 1.0,
-    gamma: float | None = None,
-    method: str = "vandermonde",
-    region: Box | None = None,
-    parameters: Mapping[str, float] | None = None,
-    w: float | None = None,
-    w_max: float = 1e5,
-    objective: str = "min_gain",
-    samples: int = 2000,
-    seed: int = 0,
-) -> DriftDesignReport:
-    """Design and verify the gain of observer (3.1) for a model; the function behind ``nlobs design drift``.
-
-    Parameters
-    ----------
-    model : SymbolicModel
-        Continuous-time, input-affine, ``h`` independent of ``u``.
-    s : sequence of int, optional
-        Multi-index; default: the observability indices on the region.
-    alpha, mu : float
-        Decay rate ``α`` and input bound ``μ`` of (2.17).
-    gamma : float, optional
-        ``γ = √(γ_L² + γ_H²)``; default: estimated by sampling the region
-        (:func:`lipschitz_estimates`).
-    method : {"vandermonde", "sdp"}
-        Remark 2.11 (smallest ``w``, or the given ``w`` checked) or the LMI design.
-    region : Box, optional
-        Where the checks and constants are evaluated (default ``[−1, 1]ⁿ``).
-    objective : {"min_gain", "min_condition"}
-        SDP objective.
-
-    Returns
-    -------
-    DriftDesignReport
-        Also when drift-observability fails on the region or a given ``γ`` is below the
-        sampled estimate: then :attr:`DriftDesignReport.usable` is false and
-        :attr:`~DriftDesignReport.reasons` says why.
-
-    Raises
-    ------
-    ModelError
-        Not input-affine / not continuous-time.
-    InvalidArgumentError
-        ``s`` does not sum to ``n``.
-    NonFiniteError
-        The model is not finite at any sampled point of the region.
-    DesignInfeasible
-        No gain satisfies (2.17) (the message names the constraint and by how much).
-    """
-    fields = AffineFields.from_model(model, parameters)
-    reg = region or Box.unit(fields.n)
-    s_ = check_multi_index(default_multi_index(fields, reg) if s is None else s, fields.q, fields.n)
-    rd = observation_relative_degree(fields, reg)
-    checks = (check_drift_observability(fields, s_, reg, seed=seed), check_s_le_r(s_, rd.r))
-    H, F = input_gain_structure(fields, s_, rd.r)
-    lip = lipschitz_estimates(fields, s_, rd.r, reg, samples=samples, seed=seed)
-    g = lip.gamma if gamma is None else positive("gamma", gamma, allow_zero=True)
-    c = RiccatiConstants(s_, F, alpha, mu, g)
-    kw: dict[str, Any] = {"objective": objective} if str(method).lower() == "sdp" else {}
-    cert = design_drift_gain(c, method, w=w, w_max=w_max, **kw)
-    bound = error_bound_constants(cert, lip.gamma_phi, lip.gamma_phi_inv)
-    F_ = np.array(F, dtype=float)
-    F_.setflags(write=False)
-    return DriftDesignReport(fields, s_, rd.r, checks, F_, str(H.tolist()), float(g),
-                             "estimated" if gamma is None else "given", cert, lip, bound, reg)

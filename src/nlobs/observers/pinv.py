@@ -1,4 +1,4 @@
-"""Röbenack's observer with a Moore–Penrose gain field (seed 003), and the Byrnes–Isidori gain.
+"""Röbenack's observer (7) with a Moore–Penrose gain field (17), and the Byrnes–Isidori gain (8).
 
 For an input-affine model ``ẋ = f(x) + g(x) u``, ``y = h(x)`` with observation
 relative degree ``r`` (A1), both observers have the form (7)::
@@ -20,19 +20,20 @@ and differ in the gain vector field ``l``:
 ``k`` is a high-gain vector: the coefficients of ``(10)``,
 ``det(λI − (A − kcᵀ)) = λ^r + k_1 λ^{r−1} + … + k_r``, for roots ``−θ^i``
 (``i = 1..r``; Dalla Mora–Germani–Manes [9, 10]) or a multiple root ``−θ``
-(Gauthier–Hammouri–Othman [13]) — :class:`HighGain`. With several outputs the
-vectors are stacked (one block of ``r_j`` entries per output) and the gain is
-``Q⁺ K`` with ``K = blockdiag(k¹, …, k^q)``.
+(Gauthier–Hammouri–Othman [13]) — :class:`~nlobs.synthesis.pinv_gain.HighGain`
+(:mod:`nlobs.synthesis.pinv_gain`). With several outputs the vectors are stacked (one
+block of ``r_j`` entries per output) and the gain is ``Q⁺ K`` with
+``K = blockdiag(k¹, …, k^q)``.
 
 Everything symbolic happens at construction (SymPy); the run-time right-hand side
 is one NumPy function compiled with :func:`nlobs.systems.codegen.compile_matrix`.
-See ``docs/pinv.md``.
+The report behind ``nlobs design pinv`` is :mod:`nlobs.workflows.design_pinv`. See
+``docs/pinv.md``.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -40,131 +41,33 @@ from typing import Any, Literal
 
 import numpy as np
 import sympy as sp
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
-from nlobs._validate import as_batch, as_vector, positive
+from nlobs._typing import Array
+from nlobs._validate import as_batch
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import AssumptionViolated, DimensionError, InvalidArgumentError, ModelError
-from nlobs.geometry import (
+from nlobs.geometry.checks import check_a1, check_full_rank, check_involutive
+from nlobs.geometry.lie import lie_derivative, simplify_bounded, tidy
+from nlobs.geometry.observability import (
     AffineFields,
-    Box,
     RelativeDegree,
-    block_gain,
-    check_a1,
-    check_involutive,
-    gain_symbols,
-    lie_derivative,
-    observability_rank,
     observation_relative_degree,
-    pinv_gain_field,
     reduced_observability_matrix,
-    symbolic_pinv,
 )
-from nlobs.geometry.checks import check_full_rank
-from nlobs.geometry.lie import simplify_bounded, tidy
+from nlobs.geometry.pinv import block_gain, gain_symbols, pinv_gain_field, symbolic_pinv
+from nlobs.geometry.region import Box
+from nlobs.synthesis.pinv_gain import HighGain, companion_error_matrix, resolve_gain
 from nlobs.systems.codegen import BatchedFunction, compile_matrix
 from nlobs.systems.expressions import as_sympy_expr, as_sympy_matrix, as_symbols
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.systems.timebase import Continuous, TimeBase
 
-Array = NDArray[np.float64]
-
-#: Default high-gain parameter θ.
-DEFAULT_THETA = 2.0
-
-Placement = Literal["powers", "multiple"]
-PLACEMENTS: tuple[str, ...] = ("powers", "multiple")
+__all__ = ["AssumptionWarning", "ByrnesIsidoriObserver", "PinvObserver"]
 
 
 class AssumptionWarning(UserWarning):
     """A design assumption that the observer does not need in order to run fails (its guarantee is lost)."""
-
-
-# ----------------------------------------------------------------------------- high gain
-def _check_placement(placement: str) -> str:
-    p = str(placement).lower()
-    if p not in PLACEMENTS:
-        raise InvalidArgumentError(f"placement: expected one of {list(PLACEMENTS)}, got {placement!r}")
-    return p
-
-
-def _check_order(r: int, name: str = "r") -> int:
-    if isinstance(r, bool) or not isinstance(r, (int, np.integer)) or r < 1:
-        raise InvalidArgumentError(f"{name}: expected a positive integer, got {r!r}")
-    return int(r)
-
-
-def high_gain_roots(r: int, theta: float, placement: Placement = "powers") -> Array:
-    """Roots of (10): ``−θ, −θ², …, −θ^r`` (``"powers"``, [9, 10]) or ``−θ`` ``r`` times (``"multiple"``, [13])."""
-    r_ = _check_order(r)
-    th = positive("theta", theta)
-    if _check_placement(placement) == "powers":
-        return -(th ** np.arange(1, r_ + 1, dtype=float))
-    return -np.full(r_, th)
-
-
-def high_gain_coefficients(r: int, theta: float, placement: Placement = "powers") -> Array:
-    """``k = (k_1, …, k_r)`` with ``λ^r + k_1 λ^{r−1} + … + k_r = Π (λ − λ_i)`` (10).
-
-    Closed forms: ``k_i = C(r, i) θ^i`` for the multiple root; for the roots
-    ``−θ^i``, ``k_i = e_i(θ, θ², …, θ^r)`` (elementary symmetric polynomials,
-    ``= θ^{i(i+1)/2}`` times the Gaussian binomial ``[r choose i]_θ``), computed
-    by expanding the product.
-    """
-    r_ = _check_order(r)
-    th = positive("theta", theta)
-    if _check_placement(placement) == "multiple":
-        return np.array([math.comb(r_, i) * th**i for i in range(1, r_ + 1)])
-    coeffs = [1.0]
-    for i in range(1, r_ + 1):  # multiply by (λ + θ^i)
-        p = th**i
-        coeffs = [a + p * b for a, b in zip(coeffs + [0.0], [0.0] + coeffs)]
-    return np.array(coeffs[1:])
-
-
-@dataclass(frozen=True)
-class HighGain:
-    """A high-gain design for ``k``: roots ``−θ^i`` (``"powers"``) or ``−θ`` (``"multiple"``) per output block.
-
-    Parameters
-    ----------
-    theta : float
-        ``θ > 0``; larger is faster (and amplifies noise).
-    placement : {"powers", "multiple"}
-    """
-
-    theta: float = DEFAULT_THETA
-    placement: Placement = "powers"
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "theta", positive("theta", self.theta))
-        object.__setattr__(self, "placement", _check_placement(self.placement))
-
-    def roots(self, r: Sequence[int]) -> Array:
-        """Stacked roots of (10), one block per output."""
-        return np.concatenate([high_gain_roots(_check_order(v), self.theta, self.placement) for v in r])
-
-    def vector(self, r: Sequence[int]) -> Array:
-        """Stacked ``k = (k¹, …, k^q)``, ``Σ r_j`` entries."""
-        return np.concatenate([high_gain_coefficients(_check_order(v), self.theta, self.placement) for v in r])
-
-
-def companion_error_matrix(k: ArrayLike) -> Array:
-    """``A − k cᵀ`` of (9a) for one block (Brunovsky ``A``, ``c = e_1``); its eigenvalues are the roots of (10)."""
-    kv = as_vector("k", k)
-    r = kv.size
-    M = np.diag(np.ones(r - 1), 1)
-    M[:, 0] -= kv
-    return M
-
-
-def _resolve_gain(k: ArrayLike | HighGain, r: Sequence[int]) -> tuple[Array, HighGain | None]:
-    if isinstance(k, HighGain):
-        return k.vector(r), k
-    kv = as_vector("k", k)
-    if kv.size != sum(r):
-        raise DimensionError(f"k: expected {sum(r)} entries (Σ r_j for r = {tuple(r)}), got {kv.size}")
-    return kv, None
 
 
 # ----------------------------------------------------------------------------- helpers
@@ -250,7 +153,7 @@ def _compile_injection(fields: AffineFields, gain: sp.MatrixBase) -> BatchedFunc
 # ----------------------------------------------------------------------------- Moore–Penrose observer
 @dataclass(frozen=True, eq=False)
 class PinvObserver(_InjectionObserver):
-    """Observer (7) with the Moore–Penrose gain ``l(x) = Q⁺(x) K`` (seed 003 (17)).
+    """Observer (7) with the Moore–Penrose gain ``l(x) = Q⁺(x) K`` (17) of Röbenack.
 
     Construction checks A1 (relative degree defined on the region, rows of ``Q``
     independent at every sampled point) and refuses with
@@ -325,7 +228,7 @@ class PinvObserver(_InjectionObserver):
         if region.n != F.n:
             raise DimensionError(f"region: has dimension {region.n}, the model {F.name!r} has n = {F.n}")
         rd, r, a1 = _require_a1(F, region, self.samples, self.seed)
-        kv, hg = _resolve_gain(self.k, r)
+        kv, hg = resolve_gain(self.k, r)
         Q = reduced_observability_matrix(F, r)
         Qp = symbolic_pinv(Q)
         a5 = check_involutive(F, r, region, Qp=Qp, samples=min(self.samples, 128), seed=self.seed)
@@ -389,7 +292,7 @@ class PinvObserver(_InjectionObserver):
 # ----------------------------------------------------------------------------- Byrnes–Isidori gain
 @dataclass(frozen=True, eq=False)
 class ByrnesIsidoriObserver(_InjectionObserver):
-    """Observer (7) with the gain ``l(x) = (Φ'(x))⁻¹ [K; 0]`` (seed 003 (8)/(15)) for given ``φ_{r+1}, …, φ_n``.
+    """Observer (7) with the gain ``l(x) = (Φ'(x))⁻¹ [K; 0]`` ((8)/(15) of Röbenack) for given ``φ_{r+1}, …, φ_n``.
 
     ``Φ = (h, L_f h, …, L_f^{r−1} h, φ_{r+1}, …, φ_n)`` (2). The Byrnes–Isidori
     normal form needs ``L_g φ_i ≡ 0`` (5); when that fails the observer is still
@@ -454,7 +357,7 @@ class ByrnesIsidoriObserver(_InjectionObserver):
         phis = tuple(_as_x_expr(F, e, f"phi[{i}]") for i, e in enumerate(self.phi))
         if len(phis) != F.n - sum(r):
             raise DimensionError(f"phi: expected n − Σ r_j = {F.n - sum(r)} functions for r = {r}, got {len(phis)}")
-        kv, hg = _resolve_gain(self.k, r)
+        kv, hg = resolve_gain(self.k, r)
         chains = [e for j, rj in enumerate(r) for e in F.lie_chain(j, rj)]
         Phi = sp.ImmutableMatrix(chains + list(phis))
         J = sp.ImmutableMatrix(Phi.jacobian(sp.Matrix(F.x)).applyfunc(tidy))
@@ -521,129 +424,3 @@ class ByrnesIsidoriObserver(_InjectionObserver):
         """``l(x)`` at a batch of points, shape ``(..., n, q)`` (``inf``/``nan`` on the singular set)."""
         with np.errstate(all="ignore"):
             return self._gain_fn(as_batch("x", x, self.fields.n))  # type: ignore[attr-defined, no-any-return]
-
-
-# ----------------------------------------------------------------------------- report for the CLI
-def _strings(M: sp.MatrixBase) -> tuple[tuple[str, ...], ...]:
-    return tuple(tuple(str(M[i, j]) for j in range(M.shape[1])) for i in range(M.shape[0]))
-
-
-@dataclass(frozen=True)
-class PinvDesignReport:
-    """What ``nlobs design pinv`` prints: relative degree, checks, ``Q⁺``, the gain field and ``k``.
-
-    Attributes
-    ----------
-    model : str
-    states, outputs : tuple of str
-    relative_degree : tuple of int
-    input_gains : tuple of str
-        Per output, ``L_g L_f^{r_j−1} h_j`` (where it vanishes the relative degree
-        is not uniform, but the observation relative degree still is ``r_j``).
-    observability_rank : int
-        Generic rank of the codistribution spanned by the ``dL_f^k h``.
-    checks : tuple of Check
-        A1 and A5.
-    Q, pinv : tuple of tuple of str
-        ``Q`` (13) and ``Q⁺`` (25), row by row.
-    gain_field : tuple of tuple of str
-        ``l(x) = Q⁺(x) K`` with the symbols ``k1, k2, …`` (n rows, q columns).
-    gain_numeric : tuple of tuple of str
-        The same with the numeric ``k``.
-    k : tuple of float
-    roots : tuple of float
-        Eigenvalues of every ``A − k cᵀ`` (the roots of (10)).
-    theta : float or None
-    placement : str or None
-    usable : bool
-        A1 and A5 hold (Corollary 4.1's structural conditions; A2–A4, A6 are not checked).
-    """
-
-    model: str
-    states: tuple[str, ...]
-    outputs: tuple[str, ...]
-    relative_degree: tuple[int, ...]
-    input_gains: tuple[str, ...]
-    observability_rank: int
-    checks: tuple[Check, ...]
-    Q: tuple[tuple[str, ...], ...]
-    pinv: tuple[tuple[str, ...], ...]
-    gain_field: tuple[tuple[str, ...], ...]
-    gain_numeric: tuple[tuple[str, ...], ...]
-    k: tuple[float, ...]
-    roots: tuple[float, ...]
-    theta: float | None
-    placement: str | None
-    usable: bool
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form (stable keys)."""
-        return {
-            "model": self.model, "states": list(self.states), "outputs": list(self.outputs),
-            "observation_relative_degree": list(self.relative_degree), "input_gains": list(self.input_gains),
-            "observability_rank": self.observability_rank, "checks": [c.to_dict() for c in self.checks],
-            "involutive": next(c.passed for c in self.checks if c.name.startswith("A5")),
-            "Q": [list(r) for r in self.Q], "pinv": [list(r) for r in self.pinv],
-            "pinv_gain": [list(r) for r in self.gain_field], "pinv_gain_numeric": [list(r) for r in self.gain_numeric],
-            "k": list(self.k), "roots": list(self.roots), "theta": self.theta, "placement": self.placement,
-            "usable": self.usable,
-        }
-
-    def summary(self) -> str:
-        """A plain-text report."""
-        lines = [f"Moore–Penrose observer (Röbenack 2008, (7) with (17)) for {self.model}"]
-        for o, rj, lg in zip(self.outputs, self.relative_degree, self.input_gains):
-            lines.append(f"  output {o}: observation relative degree r = {rj}, L_g L_f^{rj - 1} h = {lg}")
-        lines.append(f"  generic rank of the observability codistribution: {self.observability_rank} "
-                     f"(n = {len(self.states)}; {len(self.states) - self.observability_rank} unobservable direction(s))")
-        for c in self.checks:
-            lines.append(f"  {'ok  ' if c.passed else 'FAIL'} {c.name}: {c.evidence}")
-        lines.append("  Q⁺(x) (columns τ_i, (18)):")
-        lines += [f"    [{', '.join(r)}]" for r in self.pinv]
-        lines.append("  gain field l(x) = Q⁺(x) k (17):")
-        for s, g, gn in zip(self.states, self.gain_field, self.gain_numeric):
-            lines.append(f"    {s}: {', '.join(g)}    = {', '.join(gn)}")
-        design = f" (θ = {self.theta:g}, placement {self.placement})" if self.theta is not None else ""
-        lines.append(f"  k = [{', '.join(f'{v:.6g}' for v in self.k)}]{design}; roots of (10): "
-                     f"[{', '.join(f'{v:.6g}' for v in self.roots)}]")
-        lines.append("  usable: " + ("yes (A1, A5 hold; A2–A4 and A6 are the user's to check)" if self.usable
-                                     else "no: A5 fails, Theorem 4.1 does not apply"))
-        return "\n".join(lines)
-
-
-def design_pinv_report(
-    model: SymbolicModel,
-    k: ArrayLike | None = None,
-    theta: float = DEFAULT_THETA,
-    placement: Placement = "powers",
-    region: Box | None = None,
-    *,
-    parameters: Mapping[str, float] | None = None,
-    pinv: Literal["symbolic", "numeric"] = "symbolic",
-) -> PinvDesignReport:
-    """Design the Moore–Penrose observer of ``model`` and report it (for ``nlobs design pinv``).
-
-    ``k`` (stacked, ``Σ r_j`` entries) overrides the high-gain design ``(theta, placement)``.
-    A5 failing is reported (``usable`` false), not raised; A1 failing raises
-    :class:`~nlobs.errors.AssumptionViolated` (no ``Q⁺`` exists).
-    """
-    gain: ArrayLike | HighGain = HighGain(theta, placement) if k is None else k
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", AssumptionWarning)
-        obs = PinvObserver.from_model(model, parameters=parameters, k=gain, region=region, require_a5=False, pinv=pinv)
-    F = obs.fields
-    lg = []
-    for j, rj in enumerate(obs.r):
-        phi = F.lie_chain(j, rj)[-1]
-        row = ", ".join(str(sp.factor(lie_derivative(phi, F.g[:, c], F.x))) for c in range(F.m))
-        lg.append(row if F.m == 1 else f"[{row}]")
-    roots = np.concatenate([np.sort(np.linalg.eigvals(M).real) for M in obs.error_matrices])
-    return PinvDesignReport(
-        model=F.name, states=F.states, outputs=F.outputs, relative_degree=obs.r, input_gains=tuple(lg),
-        observability_rank=observability_rank(F, obs.region), checks=obs.checks, Q=_strings(obs.Q),
-        pinv=_strings(obs.Qp), gain_field=_strings(obs.gain_symbolic), gain_numeric=_strings(obs.gain),
-        k=tuple(float(v) for v in obs.k_vector), roots=tuple(float(v) for v in roots),
-        theta=None if obs.high_gain is None else obs.high_gain.theta,
-        placement=None if obs.high_gain is None else obs.high_gain.placement,
-        usable=all(c.passed for c in obs.checks),
-    )

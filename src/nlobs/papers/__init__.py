@@ -1,6 +1,6 @@
 """Paper examples as functions returning frozen results (used by ``nlobs reproduce``/demos).
 
-* :mod:`nlobs.papers.grip_example1` — seed 001, Example 1 (Sec. 4): cascade and
+* :mod:`nlobs.papers.grip_example1` — Grip, Saberi & Johansen, Example 1 (Sec. 4): cascade and
   feedback observers for a Lipschitz system behind the filter 1/(s² + s + 1).
 """
 

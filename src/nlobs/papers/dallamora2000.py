@@ -1,4 +1,4 @@
-r"""Seed 002 (Dalla Mora, Germani & Manes, IEEE TAC 45(8), 2000): the drift-observability observer.
+r"""Dalla Mora, Germani & Manes (IEEE TAC 45(8), 2000): the drift-observability observer (3.1).
 
 The paper has no numerical example. nlobs exercises its results on models of its own
 (``src/nlobs/data/models``), each a function returning a frozen result:
@@ -15,50 +15,46 @@ The paper has no numerical example. nlobs exercises its results on models of its
   measurement noise.
 * :func:`rows` (also :func:`reproduce`) — ``nlobs reproduce dallamora2000``: what the
   paper states beside what nlobs computes.
-* :func:`simulate_drift` — design + simulate for any model (used by the CLI).
+
+Designs and simulations go through the workflow behind ``nlobs design drift``
+(:func:`nlobs.workflows.design_drift.design_drift_report`,
+:func:`nlobs.workflows.design_drift.simulate_drift`).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import sympy as sp
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from nlobs.errors import CertificateError, DesignInfeasible
-from nlobs.papers.reproduce import ReproRow
 from nlobs.geometry import AffineFields, Box, input_gain_structure, observability_jacobian, observation_relative_degree
-from nlobs.observers.drift import (
-    DriftDesignReport,
-    DriftObserver,
-    ErrorBoundConstants,
-    design_drift_report,
-    error_bound_constants,
-)
-from nlobs.simulate import MeasurementGroup, SimulationResult, simulate
-from nlobs.synthesis.drift_gain import (
+from nlobs.observers import DriftObserver
+from nlobs.papers.reproduce import ReproRow
+from nlobs.simulate import MeasurementGroup, simulate
+from nlobs.synthesis import (
     DriftGainCertificate,
     RiccatiConstants,
     brunovsky_triple,
     design_drift_gain_sdp,
+    error_bound_constants,
     smallest_w,
     vandermonde_gain,
-    verify_drift_gain,
 )
+from nlobs.systems import SymbolicModel, load_model
 from nlobs.systems.codegen import compile_matrix
-from nlobs.systems.modelfile import load_model
-from nlobs.systems.symbolic import SymbolicModel
+from nlobs.workflows.design_drift import DriftDesignReport, DriftSimulation, design_drift_report, simulate_drift
 
 Array = NDArray[np.float64]
 
 __all__ = [
     "DriftExample",
-    "DriftSimulation",
     "WSweep",
     "example_model",
     "lipschitz_oscillator_model",
@@ -68,7 +64,6 @@ __all__ = [
     "rows",
     "run_mimo",
     "run_siso",
-    "simulate_drift",
     "w_sweep",
 ]
 
@@ -113,112 +108,6 @@ def lipschitz_oscillator_model() -> SymbolicModel:
     x1, x2 = sp.symbols("x1 x2", real=True)
     return SymbolicModel.input_affine(["x1", "x2"], ["u"], ["y"], f=[x2, -x1 - x2 + sp.sin(x1) / 2],
                                       g=[[0], [1 + sp.sin(x1) / 2]], h=[x1], name="lipschitz-oscillator")
-
-
-# --------------------------------------------------------------------------- simulate
-
-
-@dataclass(frozen=True, eq=False)
-class DriftSimulation:
-    """A designed observer (3.1) simulated against its plant, with the bound (3.2).
-
-    Attributes
-    ----------
-    report : DriftDesignReport
-        Structure, checks, gain certificate, Lipschitz estimates and ``κ₁, κ₂``.
-    w : float or None
-        Vandermonde parameter of the simulated gain.
-    result : SimulationResult
-    bound : ndarray, shape (*batch, K)
-        ``κ₁ e^{−αt} ‖e(0)‖`` (3.2) with ``b = 0`` (Lipschitz case, H1); NaN when the simulated
-        gain does not satisfy (2.17) for the report's constants.
-    bound_ratio : float
-        ``max_t ‖e(t)‖ / bound(t)`` (``≤ 1`` where the bound holds; NaN when not certified).
-    decay_rate : float
-        Fitted exponential rate of ``‖e‖`` (``floor`` 1e-9 relative, see
-        :meth:`SimulationResult.decay_rate`), smallest over the batch.
-    certified : bool
-        Whether Theorem 3.1 covers the run as far as the report can check: the simulated gain
-        (with its ``P``) satisfies (2.17) for the report's constants, the model is drift-observable
-        on the region, and ``γ`` is not below the sampled estimate there (report's ``warnings``).
-    constants : ErrorBoundConstants
-        ``κ₁``, ``κ₂`` of the simulated gain's ``P``.
-    """
-
-    report: DriftDesignReport
-    w: float | None
-    result: SimulationResult
-    bound: Array
-    bound_ratio: float
-    decay_rate: float
-    certified: bool
-    constants: ErrorBoundConstants
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"design": self.report.to_dict(), "w": self.w, "certified": self.certified,
-                "bound_constants": self.constants.to_dict(), "bound_ratio": self.bound_ratio,
-                "decay_rate": self.decay_rate, "final_error_norm": float(np.max(self.result.error_norm[..., -1]))}
-
-
-def simulate_drift(
-    model: SymbolicModel,
-    x0: ArrayLike,
-    x_hat0: ArrayLike,
-    duration: float,
-    *,
-    dt: float,
-    u: Callable[[float], Array] | ArrayLike | None = None,
-    s: Sequence[int] | None = None,
-    alpha: float = 1.0,
-    mu: float = 1.0,
-    gamma: float | None = None,
-    method: str = "vandermonde",
-    w: float | None = None,
-    region: Box | None = None,
-    parameters: Mapping[str, float] | None = None,
-    noise_std: float = 0.0,
-    seed: int | None = None,
-    regularization: float = 0.0,
-    save_every: int = 1,
-    report: DriftDesignReport | None = None,
-) -> DriftSimulation:
-    """Design observer (3.1) with :func:`~nlobs.observers.drift.design_drift_report` and simulate it.
-
-    ``w`` given: the gain ``K(w)`` of Remark 2.11 (checked against (2.17); if it fails,
-    the report keeps the theory's smallest ``w`` and the simulation still uses ``w`` —
-    the paper's "tuning by simulation"). A run is marked ``certified`` (and gets the bound
-    (3.2)) only when the report's premises hold too (see :class:`DriftSimulation`). ``noise_std > 0`` samples every output at
-    ``1/dt`` with that Gaussian noise (``seed`` required). ``report`` reuses a design.
-    """
-    rep = report or design_drift_report(model, s, alpha=alpha, mu=mu, gamma=gamma, method=method, region=region,
-                                        parameters=parameters)
-    bound_consts = rep.bound
-    # Theorem 3.1's premises besides (2.17): drift-observable on the region, γ not below its sampled estimate there
-    premises = rep.drift_check.passed and not rep.warnings
-    certified = premises and rep.certificate.verified
-    if w is None:
-        K, w_used = rep.certificate.gain, rep.certificate.w
-    else:  # the paper's tuning by simulation: K(w) is checked against (2.17), the bound applies only if it holds
-        g = vandermonde_gain(rep.s, w)
-        K, w_used = g.K, float(w)
-        cw = verify_drift_gain(rep.certificate.constants, g.K, g.P, method="vandermonde", w=w_used)
-        certified = premises and cw.verified
-        bound_consts = error_bound_constants(cw, rep.lipschitz.gamma_phi, rep.lipschitz.gamma_phi_inv)
-    obs = DriftObserver.from_fields(rep.fields, rep.s, K, regularization=regularization)
-    plant = model.compile(parameters)
-    meas = None
-    if noise_std > 0:
-        meas = MeasurementGroup("y", list(model.outputs), rate=1.0 / dt, noise_std=noise_std)
-    res = simulate(plant, obs, x0=x0, x_hat0=x_hat0, duration=duration, dt=dt, u=u, measurements=meas, seed=seed,
-                   save_every=save_every)
-    e = res.error_norm
-    bnd = bound_consts.bound(res.t, e[..., 0])
-    if not certified:
-        bnd = np.full_like(bnd, np.nan)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = float(np.nanmax(np.where(bnd > 0, e / bnd, np.nan))) if certified else math.nan
-    rate = float(np.nanmin(res.decay_rate(floor=1e-9 * float(np.max(e[..., 0])))))
-    return DriftSimulation(rep, w_used, res, bnd, ratio, rate, certified, bound_consts)
 
 
 # --------------------------------------------------------------------------- examples

@@ -1,4 +1,4 @@
-"""``nlobs reproduce grip2013``: seed 001 (Grip, Saberi, Johansen), numbers stated and derived.
+"""``nlobs reproduce grip2013``: Grip, Saberi & Johansen (2013), numbers stated and derived.
 
 Every row recomputes its ``nlobs`` value with the library (synthesis, linear
 analysis); nothing is pasted. See ``docs/synthesis.md`` for why the designed gain
@@ -54,7 +54,7 @@ def _assumption4(position_only: bool) -> tuple[bool, str]:
 
 
 def reproduce() -> list[ReproRow]:
-    """Rows for seed 001: Sec. 5 gains and norms, Lemma 2 / Sec. 5.2 structure, Example 1, Theorem 2."""
+    """Rows for Grip, Saberi & Johansen: Sec. 5 gains and norms, Lemma 2 / Sec. 5.2 structure, Example 1, Theorem 2."""
     rows: list[ReproRow] = []
     K9, cert = design_gains(PAPER_GAMMA_HINF, DEFAULT_GAMMA_N)
     K3 = K9[0::3, 0::3]  # one axis: rows p_x, v_x, z_x; columns p_x, v_x measured

@@ -1,4 +1,4 @@
-r"""Seed 001 (Grip, Saberi & Johansen), Example 1 of Section 4, reproduced numerically.
+r"""Grip, Saberi & Johansen, Example 1 of Section 4, reproduced numerically.
 
 Σ₁: ``ẋ = A₁ x + Φ(x)``, ``z = C₁ x`` with ``A₁ = [[0, 1], [1, −1]]``, ``C₁ = [0, 1]``,
 and Rajamani's observer ``x̂̇ = A₁x̂ + Φ(x̂) + L(z − C₁x̂)``, ``L = [69.6, 11.6]ᵀ``,
@@ -16,7 +16,7 @@ i.e. ``g(u, x̂, z) = L(z − C₁x̂)``. Σ₂ = 1/(s² + s + 1):
 Constants (derived in the docstrings of :func:`lipschitz_constants`):
 
 * Assumption 1: ``V = x̃ᵀP₁x̃`` from the S-procedure SDP
-  (:func:`~nlobs.observers.cascade_assumptions.quadratic_lyapunov_constants`);
+  (:func:`~nlobs.synthesis.cascade_bounds.quadratic_lyapunov_constants`);
 * Assumption 2 (2'): ``L₁ = ‖L‖`` (``√(‖L‖² + 0.4²)``);
 * Assumption 3 (3'): ``d = C₁(A₁x + Φ) = x₁ − x₂ + 0.4 sin(x₁ [+ w₁])`` so
   ``L₂ = sup‖∇d‖ = √(1.4² + 1)`` (``√(1.4² + 1 + 0.4²)``).
@@ -39,27 +39,20 @@ import numpy as np
 import sympy as sp
 from numpy.typing import NDArray
 
-from nlobs.linear import hinf_norm
-from nlobs.observers.cascade import (
-    CascadeObserver,
-    GammaSweep,
-    LinearSubsystem,
-    NonlinearSubsystem,
-    gamma_sweep,
-    interconnected_plant,
-    place_cascade_gain,
-)
-from nlobs.observers.cascade_assumptions import (
-    Assumption4Report,
+from nlobs.linear import Assumption4Report, check_assumption4, hinf_norm
+from nlobs.observers import CascadeObserver
+from nlobs.simulate import SimulationResult, simulate
+from nlobs.synthesis import (
+    ObserverGainCertificate,
     QuadraticLyapunov,
-    check_assumption4,
+    place_cascade_gain,
     quadratic_lyapunov_constants,
     theorem1_gamma_bound,
     theorem1_optimal_scaling,
     theorem1_prime_gamma_bound,
 )
-from nlobs.simulate import SimulationResult, simulate
-from nlobs.synthesis import ObserverGainCertificate
+from nlobs.systems import LinearSubsystem, NonlinearSubsystem, interconnected_plant
+from nlobs.workflows import GammaSweep, gamma_sweep
 
 Array = NDArray[np.float64]
 
@@ -263,7 +256,7 @@ class Example1Result:
         eig = ", ".join(f"{z.real:.4g}{z.imag:+.4g}j" for z in self.observer_eigenvalues)
         ceig = ", ".join(f"{z.real:.4g}{z.imag:+.4g}j" for z in self.certificate.eigenvalues)
         lines = [
-            f"Seed 001, Example 1 ({'feedback, Φ(x, w)' if self.feedback else 'cascade, Φ(x)'}): {self.phi}",
+            f"Grip–Saberi–Johansen, Example 1 ({'feedback, Φ(x, w)' if self.feedback else 'cascade, Φ(x)'}): {self.phi}",
             f"  eig(A1 − L C1) = {eig};  1/‖(sI − A1 + L C1)⁻¹‖∞ = {self.lipschitz_margin:.4f} > 0.4",
             (f"  Assumption 1: α1={q.alpha1:.4g}, α2={q.alpha2:.4g}, α3={q.alpha3:.4g}, α4={q.alpha4:.4g} "
             f"(α3/α4 = {q.ratio:.4g})"),
@@ -298,7 +291,7 @@ def run_example1(
     sweep: bool = False,
     sweep_duration: float = 4.0,
 ) -> Example1Result:
-    r"""Run Example 1 of seed 001 (cascade or feedback) end to end.
+    r"""Run Example 1 of Grip, Saberi & Johansen (cascade or feedback) end to end.
 
     Parameters
     ----------
@@ -403,7 +396,7 @@ def _figures(out: Path, feedback: bool, res: SimulationResult, rate: float, pred
     ax1.legend(fontsize=8, loc="upper right")
     ax1.grid(alpha=0.3, which="both")
     fig.suptitle(
-        f"Seed 001 Example 1 ({case}): certified K at γ = {g_design:.2e} < Theorem 1{'′' if feedback else ''} "
+        f"Grip–Saberi–Johansen, Example 1 ({case}): certified K at γ = {g_design:.2e} < Theorem 1{'′' if feedback else ''} "
         f"bound {bound:.2e}", fontsize=10)
     fig.tight_layout()
     p = out / f"example1_{case}_error.png"

@@ -1,11 +1,11 @@
-"""Röbenack (seed 003), Section 5: Example (21), the Moore–Penrose gain (26) against the Byrnes–Isidori gain (24).
+"""Röbenack (2008), Section 5: Example (21), the Moore–Penrose gain (26) against the Byrnes–Isidori gain (24).
 
 Model (21) (Isidori, p. 146; shipped as ``isidori-146.toml`` with ``k = 2``)::
 
     ẋ = (x1 x2 − x1³, x1, −x3, x1² + x2)ᵀ + (0, 2 + 2 x3, 1, 0)ᵀ u,   y = x4.
 
 :func:`symbolic_findings` recomputes every symbolic statement of Section 5 with
-:mod:`nlobs.geometry` and :mod:`nlobs.observers.pinv` and compares it with the
+:mod:`nlobs.geometry` and :mod:`nlobs.observers` and compares it with the
 printed formula (``simplify(a − b) == 0`` plus a numeric spot check at random
 points); :func:`simulate_scenarios` runs both observers (7) on bounded inputs
 ``u = a + sin t`` along trajectories that cross ``x3 = −1``; :func:`plot_scenario`
@@ -25,7 +25,7 @@ Two findings that differ from the paper as printed:
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -33,10 +33,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import sympy as sp
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from nlobs.errors import ModelError, SimulationDiverged
-from nlobs.papers.reproduce import ReproRow
 from nlobs.geometry import (
     AffineFields,
     Box,
@@ -45,13 +44,13 @@ from nlobs.geometry import (
     lie_derivative,
     observability_rank,
 )
-from nlobs.observers.pinv import DEFAULT_THETA, ByrnesIsidoriObserver, HighGain, Placement, PinvObserver
-from nlobs.simulate import MeasurementGroup, SimulationResult, simulate
-from nlobs.simulate.signals import InputLike
+from nlobs.observers import ByrnesIsidoriObserver, PinvObserver
+from nlobs.papers.reproduce import ReproRow
+from nlobs.simulate import SimulationResult, simulate
+from nlobs.synthesis import HighGain
+from nlobs.systems import SymbolicModel, load_model
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.expressions import as_sympy_matrix
-from nlobs.systems.modelfile import load_model
-from nlobs.systems.symbolic import SymbolicModel
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -172,7 +171,7 @@ class SymbolicFindings:
 
 
 def symbolic_findings(theta: float = THETA) -> SymbolicFindings:
-    """Recompute Section 5 of seed 003 (see :class:`SymbolicFindings`)."""
+    """Recompute Section 5 of Röbenack (2008) (see :class:`SymbolicFindings`)."""
     m = model()
     F = AffineFields.from_model(m)
     x = F.x
@@ -408,37 +407,6 @@ def bi_step_dependence(scenario: Scenario, dts: Sequence[float] = (1e-3, 1e-4), 
         r = _run(plant, bi, "bi", scenario, duration, dt)
         out.append((dt, r.max_gain, r.final_error))
     return out
-
-
-# ----------------------------------------------------------------------------- CLI helper
-def simulate_pinv(
-    model: SymbolicModel,
-    x0: ArrayLike,
-    x_hat0: ArrayLike,
-    duration: float,
-    *,
-    dt: float = 1e-3,
-    u: InputLike = None,
-    k: ArrayLike | None = None,
-    theta: float = DEFAULT_THETA,
-    placement: Placement = "powers",
-    region: Box | None = None,
-    pinv: str = "symbolic",
-    parameters: Mapping[str, float] | None = None,
-    measurements: MeasurementGroup | Sequence[MeasurementGroup] | None = None,
-    seed: int | None = None,
-) -> SimulationResult:
-    """Simulate ``model`` with its Moore–Penrose observer (7)/(17) (for ``nlobs design pinv --simulate``).
-
-    The observer is built as in :func:`nlobs.observers.pinv.design_pinv_report`
-    (``k`` overrides ``(theta, placement)``; A5 failing only warns); the plant is
-    ``model.compile(parameters)``. ``u``, ``measurements``, ``seed`` are passed
-    to :func:`nlobs.simulate.simulate` (``u=None``: zero input).
-    """
-    obs = PinvObserver.from_model(model, parameters=parameters, k=HighGain(theta, placement) if k is None else k,
-                                  region=region, pinv=pinv, require_a5=False)  # type: ignore[arg-type]
-    return simulate(model.compile(parameters), obs, x0, x_hat0, duration=duration, dt=dt, u=u,
-                    measurements=measurements, seed=seed)
 
 
 # ----------------------------------------------------------------------------- reproduction table

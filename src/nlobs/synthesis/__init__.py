@@ -1,15 +1,30 @@
-"""nlobs.synthesis — certified LMI synthesis of observer gains.
+"""nlobs.synthesis — every gain and its certificate.
 
-Implements the LMIs (14) and (15) of Grip, Saberi & Johansen (seed 001) with
-Chilali–Gahinet pole regions, well-posed objectives, and an independent
-re-verification of every answer; every design returns a :class:`Certificate` (``gain``, ``P``,
-``checks``, ``verified``, ``failed_checks``, ``solver``, ``summary()``, ``to_dict()``). See ``docs/synthesis.md``. Seed 004: the sound
-set-valued design (``docs/setvalued.md``), Theorem 5.10 and Propositions 5.6 and 5.16 as printed, the discrete
-Lipschitz observer gain (``docs/baselines.md``) and the affine abstraction of
-Proposition 2.18 (``docs/affine_abstraction.md``).
+* Grip, Saberi & Johansen: the LMIs (14) and (15) with Chilali–Gahinet pole regions, well-posed
+  objectives and an independent re-verification of every answer (:mod:`~nlobs.synthesis.observer_gain`,
+  ``docs/synthesis.md``); the cascade gain on the extended system (8c) by those LMIs or by pole
+  placement (:mod:`~nlobs.synthesis.cascade_gain`); the bounds of Theorem 1 / 1' and the quadratic
+  Lyapunov constants of Assumption 1 (:mod:`~nlobs.synthesis.cascade_bounds`).
+* Dalla Mora, Germani & Manes: the pair ``(K, P)`` of (2.17) (:mod:`~nlobs.synthesis.drift_gain`) and
+  the constants ``κ₁``, ``κ₂`` of (3.17) (:mod:`~nlobs.synthesis.drift_bounds`).
+* Röbenack: the high-gain vector ``k`` of (10) (:mod:`~nlobs.synthesis.pinv_gain`).
+* Khajenejad & Yong: the sound set-valued design (``docs/setvalued.md``), Theorem 5.10 and Propositions
+  5.6 and 5.16 as printed, the discrete Lipschitz observer gain (``docs/baselines.md``) and the affine
+  abstraction of Proposition 2.18 (``docs/affine_abstraction.md``).
+
+Every design returns a :class:`Certificate` (``gain``, ``P``, ``checks``, ``verified``,
+``failed_checks``, ``solver``, ``summary()``, ``to_dict()``).
 """
 
 from nlobs.synthesis.affine_abstraction import AbstractionBound, AffineAbstraction, affine_abstraction
+from nlobs.synthesis.cascade_bounds import (
+    QuadraticLyapunov,
+    quadratic_lyapunov_constants,
+    theorem1_gamma_bound,
+    theorem1_optimal_scaling,
+    theorem1_prime_gamma_bound,
+)
+from nlobs.synthesis.cascade_gain import design_cascade_gain, place_cascade_gain
 from nlobs.synthesis.certificate import (
     Certificate,
     CertificateMixin,
@@ -24,6 +39,17 @@ from nlobs.synthesis.discrete_lipschitz import (
     design_discrete_lipschitz_gain,
     verify_discrete_lipschitz_gain,
 )
+from nlobs.synthesis.drift_bounds import ErrorBoundConstants, error_bound_constants
+from nlobs.synthesis.drift_gain import (
+    DriftGainCertificate,
+    RiccatiConstants,
+    brunovsky_triple,
+    design_drift_gain,
+    design_drift_gain_sdp,
+    smallest_w,
+    vandermonde_gain,
+    verify_drift_gain,
+)
 from nlobs.synthesis.lmi import Solver, SolveResult, SolveStatus
 from nlobs.synthesis.observer_gain import (
     ExtendedSystem,
@@ -32,6 +58,7 @@ from nlobs.synthesis.observer_gain import (
     extended_system,
     verify_observer_gain,
 )
+from nlobs.synthesis.pinv_gain import HighGain, companion_error_matrix, high_gain_coefficients, high_gain_roots
 from nlobs.synthesis.regions import Disk, HalfPlane, LmiRegion, PoleRegion, Sector
 from nlobs.synthesis.setvalued import (
     ErrorDynamics,
@@ -62,10 +89,13 @@ __all__ = [
     "CheckKind",
     "DiscreteLipschitzCertificate",
     "Disk",
+    "DriftGainCertificate",
+    "ErrorBoundConstants",
     "ErrorDynamics",
     "ExtendedSystem",
     "GainBound",
     "HalfPlane",
+    "HighGain",
     "LmiRegion",
     "NecessaryConditionPrinted",
     "Objective",
@@ -75,6 +105,8 @@ __all__ = [
     "Prop516Branch",
     "Prop516Design",
     "Prop56Verdict",
+    "QuadraticLyapunov",
+    "RiccatiConstants",
     "Sector",
     "SetValuedDesign",
     "SetValuedObjective",
@@ -82,15 +114,31 @@ __all__ = [
     "SolveStatus",
     "Solver",
     "affine_abstraction",
+    "brunovsky_triple",
+    "companion_error_matrix",
+    "design_cascade_gain",
     "design_discrete_lipschitz_gain",
+    "design_drift_gain",
+    "design_drift_gain_sdp",
     "design_observer_gain",
     "design_printed",
     "design_prop516",
     "design_setvalued",
+    "error_bound_constants",
     "error_dynamics",
     "extended_system",
+    "high_gain_coefficients",
+    "high_gain_roots",
     "necessary_condition_printed",
+    "place_cascade_gain",
+    "quadratic_lyapunov_constants",
+    "smallest_w",
+    "theorem1_gamma_bound",
+    "theorem1_optimal_scaling",
+    "theorem1_prime_gamma_bound",
+    "vandermonde_gain",
     "verify_discrete_lipschitz_gain",
+    "verify_drift_gain",
     "verify_observer_gain",
     "verify_setvalued",
 ]

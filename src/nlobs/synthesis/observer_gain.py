@@ -1,4 +1,4 @@
-r"""Certified LMI synthesis of observer gains (Grip, Saberi & Johansen, seed 001, Sec. 3.2).
+r"""Certified LMI synthesis of observer gains (Grip, Saberi & Johansen, Sec. 3.2).
 
 Error dynamics of the observer (9) for the extended system (8):
 
@@ -38,7 +38,7 @@ import math
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, NamedTuple, NoReturn
+from typing import Any, NoReturn
 
 import cvxpy as cp
 import numpy as np
@@ -52,6 +52,7 @@ from nlobs.errors import (
     DimensionError,
     InvalidArgumentError,
 )
+from nlobs.linear.assumption4 import ExtendedSystem, extended_system
 from nlobs.linear.norms import hinf_norm
 from nlobs.linear.observability import unobservable_modes
 from nlobs.linear.stability import strictly_inside
@@ -82,54 +83,6 @@ _UNBOUNDED_GROWTH = 10.0  # gain growth (per 100× change of ε) that flags a ma
 # --------------------------------------------------------------------------- data
 
 
-class ExtendedSystem(NamedTuple):
-    """Extended system matrices of seed 001, (8c): state ``w_e = [w; z]``."""
-
-    A: NDArray[np.float64]
-    """``𝔄 = [[A, B_z], [0, 0]]``."""
-    Bd: NDArray[np.float64]
-    """``𝔅_d = [[0], [I]]``."""
-    C: NDArray[np.float64]
-    """``ℭ = [C, D_z]``."""
-
-
-def extended_system(A: ArrayLike, B_z: ArrayLike, C: ArrayLike, D_z: ArrayLike | None = None) -> ExtendedSystem:
-    r"""Extended system (8c) of seed 001 that includes ``z`` as a state.
-
-    Parameters
-    ----------
-    A : array_like, shape (n_w, n_w)
-    B_z : array_like, shape (n_w, p_z)
-    C : array_like, shape (p_y, n_w)
-    D_z : array_like, shape (p_y, p_z), optional
-        Zero when omitted.
-
-    Returns
-    -------
-    ExtendedSystem
-        ``𝔄 = [[A, B_z], [0, 0]]``, ``𝔅_d = [[0], [I_{p_z}]]``, ``ℭ = [C, D_z]``.
-
-    Examples
-    --------
-    Per-axis GNSS/INS model (seed 001, Sec. 5): position and velocity with
-    acceleration ``z`` as input, both measured:
-
-    >>> ext = extended_system([[0, 1], [0, 0]], [[0], [1]], [[1, 0], [0, 1]])
-    >>> ext.A.shape, ext.Bd.shape, ext.C.shape
-    ((3, 3), (3, 1), (2, 3))
-    """
-    A_ = as_square("A", A)
-    n = A_.shape[0]
-    Bz = as_matrix("B_z", B_z, (n, None))
-    C_ = as_matrix("C", C, (None, n))
-    pz, py = Bz.shape[1], C_.shape[0]
-    Dz = np.zeros((py, pz)) if D_z is None else as_matrix("D_z", D_z, (py, pz))
-    Ae = np.block([[A_, Bz], [np.zeros((pz, n)), np.zeros((pz, pz))]])
-    Bde = np.vstack([np.zeros((n, pz)), np.eye(pz)])
-    Ce = np.hstack([C_, Dz])
-    return ExtendedSystem(Ae, Bde, Ce)
-
-
 @dataclass(frozen=True)
 class GainBound:
     r"""Gain bound ``‖K‖₂ ≤ κ``, imposed as an LMI.
@@ -138,7 +91,7 @@ class GainBound:
     ``[[κ μ I, Xᵀ], [X, κ μ I]] ⪰ 0`` (i.e. ``‖X‖₂ ≤ κ μ``) are jointly linear in
     ``(P, X, μ)`` and give ``‖K‖₂ = ‖P⁻¹ X‖₂ ≤ ‖P⁻¹‖₂ ‖X‖₂ ≤ (1/μ)(κ μ) = κ``.
     Letting ``μ`` float (instead of the textbook ``P ⪰ I, ‖X‖ ≤ κ``) removes most
-    of the conservatism: on the seed-001 example the fixed ``P ⪰ I`` version
+    of the conservatism: on a Grip–Saberi–Johansen example the fixed ``P ⪰ I`` version
     capped ``‖K‖₂`` at 1.42 whatever ``κ`` was, while this one reaches ``‖K‖₂ ≈ κ``.
 
     Parameters
@@ -592,7 +545,7 @@ def design_observer_gain(
     margin: float = 1e-6,
     solver_options: Mapping[str, Any] | None = None,
 ) -> ObserverGainCertificate:
-    r"""Design an observer gain ``K`` from LMIs (14), (15) of seed 001 and certify it.
+    r"""Design an observer gain ``K`` from LMIs (14), (15) of Grip, Saberi & Johansen and certify it.
 
     Parameters
     ----------

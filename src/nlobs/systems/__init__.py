@@ -1,1 +1,79 @@
-"""nlobs.systems"""
+"""nlobs.systems — plants: models, time bases, model files, and the interconnected plant.
+
+* :class:`~nlobs.systems.base.PlantModel` (the protocol every plant satisfies), the time bases
+  :class:`Continuous` / :class:`Discrete`;
+* :class:`SymbolicModel` (SymPy, compiled once), :class:`LinearSystem`, :class:`DiscreteUISystem`
+  (the discrete-time model with unknown inputs of Khajenejad & Yong);
+* model files: :func:`load_model` (a ``.toml`` file or a shipped name), :func:`shipped_models`;
+* the plant of Grip, Saberi & Johansen: :class:`NonlinearSubsystem` (Σ₁ / Σ₁*),
+  :class:`LinearSubsystem` (Σ₂), :class:`InterconnectedPlant` (:func:`interconnected_plant`).
+
+Every module of nlobs imports from this package, the command line at start-up too, so the names
+are imported on first use (PEP 562): ``import nlobs.systems.modelfile`` loads only what the
+model files need.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from nlobs.systems.base import PlantModel
+    from nlobs.systems.discrete_ui import DiscreteUISystem
+    from nlobs.systems.interconnected import (
+        InterconnectedPlant,
+        LinearSubsystem,
+        NonlinearSubsystem,
+        check_interconnection,
+        interconnected_plant,
+    )
+    from nlobs.systems.linear import LinearSystem
+    from nlobs.systems.modelfile import load_model, resolve_model, shipped_models
+    from nlobs.systems.symbolic import CompiledModel, SymbolicModel
+    from nlobs.systems.timebase import Continuous, Discrete, TimeBase
+
+#: Names imported on first use, and the module that holds each.
+_LAZY: dict[str, str] = {
+    "PlantModel": "nlobs.systems.base",
+    "DiscreteUISystem": "nlobs.systems.discrete_ui",
+    **dict.fromkeys(("InterconnectedPlant", "LinearSubsystem", "NonlinearSubsystem", "check_interconnection",
+                     "interconnected_plant"), "nlobs.systems.interconnected"),
+    "LinearSystem": "nlobs.systems.linear",
+    **dict.fromkeys(("load_model", "resolve_model", "shipped_models"), "nlobs.systems.modelfile"),
+    **dict.fromkeys(("CompiledModel", "SymbolicModel"), "nlobs.systems.symbolic"),
+    **dict.fromkeys(("Continuous", "Discrete", "TimeBase"), "nlobs.systems.timebase"),
+}
+
+__all__ = [
+    "CompiledModel",
+    "Continuous",
+    "Discrete",
+    "DiscreteUISystem",
+    "InterconnectedPlant",
+    "LinearSubsystem",
+    "LinearSystem",
+    "NonlinearSubsystem",
+    "PlantModel",
+    "SymbolicModel",
+    "TimeBase",
+    "check_interconnection",
+    "interconnected_plant",
+    "load_model",
+    "resolve_model",
+    "shipped_models",
+]
+
+
+def __getattr__(name: str) -> Any:
+    """Import the module that holds ``name`` on first use (PEP 562)."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'nlobs.systems' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -1,0 +1,69 @@
+r"""The constants ``κ₁``, ``κ₂`` of the error bound (3.2) of Dalla Mora, Germani & Manes, from a certificate.
+
+Theorem 3.1 (3.8) bounds the error of the drift-observability observer (3.1) by
+
+.. math:: ‖x(t) − \hat x(t)‖ ≤ κ_1 e^{−αt} ‖x(0) − \hat x(0)‖ + κ_2 \sqrt{b_L² + b_H²}, \qquad (3.2)
+
+with (3.17), read from the proof (3.15)–(3.16) (the scan drops the square root):
+``κ₁ = γ_Φ γ_{Φ⁻¹} √cn(P)`` and ``κ₂ = γ_{Φ⁻¹} √(‖P‖ / (2α))``, where ``(K, P)`` solves (2.17)
+(:mod:`nlobs.synthesis.drift_gain`) and ``γ_Φ``, ``γ_{Φ⁻¹}`` are the Lipschitz constants of
+``Φ_s`` and ``Φ_s⁻¹`` (3.3) (sampled by :func:`nlobs.geometry.lipschitz.lipschitz_estimates`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from nlobs._typing import Array
+from nlobs._validate import positive
+from nlobs.synthesis.drift_gain import DriftGainCertificate
+
+__all__ = ["ErrorBoundConstants", "error_bound_constants"]
+
+
+@dataclass(frozen=True)
+class ErrorBoundConstants:
+    """``κ₁ = γ_Φ γ_{Φ⁻¹} √cn(P)``, ``κ₂ = γ_{Φ⁻¹} √(‖P‖/(2α))`` of (3.17), from (3.15)–(3.16).
+
+    Valid (Theorem 3.1 / 3.8) when ``(K, P)`` solves (2.17) with ``γ ≥ √(γ_L² + γ_H²)``,
+    ``‖u‖ ≤ μ``, and the trajectories stay where the Lipschitz constants hold; with
+    sampled constants the bound is an estimate.
+    """
+
+    gamma_phi: float
+    gamma_phi_inv: float
+    cond_P: float
+    norm_P: float
+    alpha: float
+    kappa1: float
+    kappa2: float
+    estimated: bool
+
+    def bound(self, t: ArrayLike, e0_norm: float | ArrayLike, b: float = 0.0) -> Array:
+        """``κ₁ e^{−αt} ‖e(0)‖ + κ₂ b`` (3.2), with ``b = √(b_L² + b_H²)`` (0 under H1)."""
+        tt = np.asarray(t, dtype=float)
+        return self.kappa1 * np.exp(-self.alpha * tt) * np.asarray(e0_norm, dtype=float)[..., None] + self.kappa2 * b
+
+    def describe(self) -> str:
+        src = "estimated by sampling" if self.estimated else "given"
+        return (f"κ₁ = γ_Φ γ_Φ⁻¹ √cn(P) = {self.gamma_phi:.4g} · {self.gamma_phi_inv:.4g} · √{self.cond_P:.4g} = {self.kappa1:.4g}; "
+                f"κ₂ = γ_Φ⁻¹ √(‖P‖/2α) = {self.kappa2:.4g} (Lipschitz constants {src})")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"gamma_phi": self.gamma_phi, "gamma_phi_inv": self.gamma_phi_inv, "cond_P": self.cond_P,
+                "norm_P": self.norm_P, "alpha": self.alpha, "kappa1": self.kappa1, "kappa2": self.kappa2,
+                "estimated": self.estimated}
+
+
+def error_bound_constants(cert: DriftGainCertificate, gamma_phi: float, gamma_phi_inv: float, *,
+                          estimated: bool = True) -> ErrorBoundConstants:
+    """``κ₁``, ``κ₂`` of (3.17) for a verified pair and the Lipschitz constants of ``Φ_s``, ``Φ_s⁻¹``."""
+    gp = positive("gamma_phi", gamma_phi)
+    gpi = positive("gamma_phi_inv", gamma_phi_inv)
+    cn, nP, a = cert.cond_P, cert.norm_P, cert.constants.alpha
+    return ErrorBoundConstants(gp, gpi, cn, nP, a, gp * gpi * math.sqrt(cn), gpi * math.sqrt(nP / (2.0 * a)), estimated)

@@ -1,0 +1,363 @@
+r"""``nlobs design drift``: design, verify and simulate the observer (3.1) of Dalla Mora, Germani & Manes.
+
+For a continuous-time input-affine model that is drift-observable with multi-index ``s``
+(Def. 2.3) the observer is (3.1), ``x̂̇ = f(x̂) + g(x̂) u + Q_s(x̂)⁻¹ K (y − h(x̂))``
+(:class:`nlobs.observers.drift.DriftObserver`). This module puts the pieces together:
+
+* :func:`design_drift_report` — structure on a region (``s``, the observation relative degree
+  ``r``, drift-observability, ``s ≤ r``), ``F_{s,r}`` (2.12) and ``H_{s,r}`` (2.11), the sampled
+  Lipschitz constants (:func:`nlobs.geometry.lipschitz.lipschitz_estimates`), the gain of (2.17)
+  (Remark 2.11 or the SDP, :mod:`nlobs.synthesis.drift_gain`) and the constants ``κ₁``, ``κ₂`` of
+  (3.17) (:mod:`nlobs.synthesis.drift_bounds`), as a :class:`DriftDesignReport` with a verdict;
+* :func:`simulate_drift` — that design simulated against its plant, with the bound (3.2), as a
+  :class:`DriftSimulation`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from nlobs._typing import Array
+from nlobs._validate import positive, readonly
+from nlobs.geometry.checks import Check, check_drift_observability, check_s_le_r, default_multi_index
+from nlobs.geometry.lipschitz import LipschitzEstimates, lipschitz_estimates
+from nlobs.geometry.observability import (
+    AffineFields,
+    check_multi_index,
+    input_gain_structure,
+    observation_relative_degree,
+)
+from nlobs.geometry.region import Box
+from nlobs.observers.drift import COND_LIMIT, DriftObserver
+from nlobs.simulate.loop import simulate
+from nlobs.simulate.result import SimulationResult
+from nlobs.simulate.sampling import MeasurementGroup
+from nlobs.synthesis.drift_bounds import ErrorBoundConstants, error_bound_constants
+from nlobs.synthesis.drift_gain import (
+    DriftGainCertificate,
+    RiccatiConstants,
+    design_drift_gain,
+    vandermonde_gain,
+    verify_drift_gain,
+)
+from nlobs.systems.symbolic import SymbolicModel
+
+__all__ = [
+    "DriftDesignReport",
+    "DriftSimulation",
+    "design_drift_report",
+    "simulate_drift",
+]
+
+#: A given ``γ`` counts as below the sampled estimate when smaller by more than this relative amount.
+_GAMMA_RTOL = 1e-9
+
+
+# --------------------------------------------------------------------------- the design
+
+
+@dataclass(frozen=True, eq=False)
+class DriftDesignReport:
+    """Everything ``nlobs design drift`` prints: structure, checks, gain, verification, bound constants.
+
+    Attributes
+    ----------
+    fields : AffineFields
+    s, r : tuple
+        Multi-index and observation relative degrees (``None``: undefined on the region).
+    checks : tuple of Check
+        Drift-observability on the region and ``s ≤ r``.
+    F : ndarray
+        ``F_{s,r}`` (2.12).
+    H : str
+        ``H_{s,r}(x)`` (2.11), as text.
+    gamma : float
+        ``γ`` used in (2.17).
+    gamma_source : str
+        ``"given"`` or ``"estimated"`` (``√(γ_L² + γ_H²)`` from :attr:`lipschitz`).
+    certificate : DriftGainCertificate
+    lipschitz : LipschitzEstimates
+    bound : ErrorBoundConstants
+    region : Box
+
+    The verdict (:attr:`usable`, with :attr:`reasons`) collects the premises of Theorem 3.1
+    that the report can check: drift-observability on the region, the certificate of
+    (2.17), and ``γ`` not below the sampled ``√(γ_L² + γ_H²)`` (the sampled values are
+    attained, so a ``γ`` below them is too small for the region: :attr:`warnings`). The
+    gain's own certificate may be verified while the design is not usable.
+    """
+
+    fields: AffineFields
+    s: tuple[int, ...]
+    r: tuple[int | None, ...]
+    checks: tuple[Check, ...]
+    F: Array
+    H: str
+    gamma: float
+    gamma_source: str
+    certificate: DriftGainCertificate
+    lipschitz: LipschitzEstimates
+    bound: ErrorBoundConstants
+    region: Box
+
+    @property
+    def model(self) -> str:
+        return self.fields.name
+
+    @property
+    def drift_check(self) -> Check:
+        """The drift-observability check on the region (Def. 2.3: ``Q_s`` nonsingular)."""
+        return next(k for k in self.checks if k.name == "drift-observability")
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """A given ``γ`` below the sampled estimate on the region (the certificate does not cover the model there)."""
+        est = self.lipschitz.gamma
+        if self.gamma < est * (1.0 - _GAMMA_RTOL):
+            return (f"γ = {self.gamma:.4g} ({self.gamma_source}) is below the sampled √(γ_L² + γ_H²) = {est:.4g} on the "
+                    "region: the certificate of (2.17) does not cover the model there (raise γ or shrink the region)",)
+        return ()
+
+    @property
+    def reasons(self) -> tuple[str, ...]:
+        """Why the design is not usable (empty when it is): failed premises, a failed certificate, :attr:`warnings`."""
+        out = []
+        drift = self.drift_check
+        if not drift.passed:
+            out.append(f"drift-observability fails on the region ({drift.evidence}): Theorem 3.1 does not apply")
+        if not self.certificate.verified:
+            out.append("the gain certificate of (2.17) failed: "
+                       + "; ".join(k.summary() for k in self.certificate.failed_checks))
+        return (*out, *self.warnings)
+
+    @property
+    def usable(self) -> bool:
+        """Drift-observable on the region, (2.17) verified, and ``γ`` covering the sampled estimate."""
+        return not self.reasons
+
+    def observer(self, *, regularization: float = 0.0, cond_limit: float = COND_LIMIT) -> DriftObserver:
+        """The observer (3.1) with this report's ``s`` and ``K``."""
+        return DriftObserver.from_fields(self.fields, self.s, self.certificate.gain, regularization=regularization,
+                                         cond_limit=cond_limit)
+
+    def summary(self) -> str:
+        c = self.certificate.constants
+        r_txt = ", ".join("∞" if v is None else str(v) for v in self.r)
+        lines = [
+            f"drift-observability observer (Dalla Mora–Germani–Manes) for {self.model}",
+            f"  multi-index s = ({', '.join(map(str, self.s))}), observation relative degree r = ({r_txt})",
+            f"  region {self.region.describe()}",
+        ]
+        lines += [f"  [{'ok' if k.passed else 'FAILS'}] {k.name}: {k.evidence}" for k in self.checks]
+        lines.append(f"  H_s,r(x) = {self.H}")
+        L = self.lipschitz
+        lines.append(f"  sampled on the region ({L.samples} points): γ_Φ ≈ {L.gamma_phi:.4g}, γ_Φ⁻¹ ≈ {L.gamma_phi_inv:.4g}, "
+                     f"γ_L ≈ {L.gamma_L:.4g}, γ_H ≈ {L.gamma_H:.4g}")
+        lines.append(f"  (2.17) with α = {c.alpha:g}, μ = {c.mu:g}, γ = {self.gamma:.4g} ({self.gamma_source})")
+        lines += ["  " + ln for ln in self.certificate.summary().splitlines()]
+        lines.append("  K = " + np.array2string(self.certificate.gain, precision=5, separator=", ").replace("\n", "\n      "))
+        lines.append("  " + self.bound.describe())
+        lines += [f"  warning: {m}" for m in self.warnings]
+        lines.append("  usable: yes (drift-observable on the region, (2.17) verified, γ covers the sampled estimate)"
+                     if self.usable else "  usable: NO — " + "; ".join(self.reasons))
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "model": self.model,
+            "s": list(self.s),
+            "r": list(self.r),
+            "checks": [k.to_dict() for k in self.checks],
+            "F": self.F.tolist(),
+            "H": self.H,
+            "gamma": self.gamma,
+            "gamma_source": self.gamma_source,
+            "certificate": self.certificate.to_dict(),
+            "lipschitz": self.lipschitz.to_dict(),
+            "bound": self.bound.to_dict(),
+            "usable": self.usable,
+            "reasons": list(self.reasons),
+            "warnings": list(self.warnings),
+        }
+
+
+def design_drift_report(
+    model: SymbolicModel,
+    s: Sequence[int] | None = None,
+    *,
+    alpha: float = 1.0,
+    mu: float = 1.0,
+    gamma: float | None = None,
+    method: str = "vandermonde",
+    region: Box | None = None,
+    parameters: Mapping[str, float] | None = None,
+    w: float | None = None,
+    w_max: float = 1e5,
+    objective: str = "min_gain",
+    samples: int = 2000,
+    seed: int = 0,
+) -> DriftDesignReport:
+    """Design and verify the gain of observer (3.1) for a model; the function behind ``nlobs design drift``.
+
+    Parameters
+    ----------
+    model : SymbolicModel
+        Continuous-time, input-affine, ``h`` independent of ``u``.
+    s : sequence of int, optional
+        Multi-index; default: the observability indices on the region.
+    alpha, mu : float
+        Decay rate ``α`` and input bound ``μ`` of (2.17).
+    gamma : float, optional
+        ``γ = √(γ_L² + γ_H²)``; default: estimated by sampling the region
+        (:func:`~nlobs.geometry.lipschitz.lipschitz_estimates`).
+    method : {"vandermonde", "sdp"}
+        Remark 2.11 (smallest ``w``, or the given ``w`` checked) or the LMI design.
+    region : Box, optional
+        Where the checks and constants are evaluated (default ``[−1, 1]ⁿ``).
+    objective : {"min_gain", "min_condition"}
+        SDP objective.
+
+    Returns
+    -------
+    DriftDesignReport
+        Also when drift-observability fails on the region or a given ``γ`` is below the
+        sampled estimate: then :attr:`DriftDesignReport.usable` is false and
+        :attr:`~DriftDesignReport.reasons` says why.
+
+    Raises
+    ------
+    ModelError
+        Not input-affine / not continuous-time.
+    InvalidArgumentError
+        ``s`` does not sum to ``n``.
+    NonFiniteError
+        The model is not finite at any sampled point of the region.
+    DesignInfeasible
+        No gain satisfies (2.17) (the message names the constraint and by how much).
+    """
+    fields = AffineFields.from_model(model, parameters)
+    reg = region or Box.unit(fields.n)
+    s_ = check_multi_index(default_multi_index(fields, reg) if s is None else s, fields.q, fields.n)
+    rd = observation_relative_degree(fields, reg)
+    checks = (check_drift_observability(fields, s_, reg, seed=seed), check_s_le_r(s_, rd.r))
+    H, F = input_gain_structure(fields, s_, rd.r)
+    lip = lipschitz_estimates(fields, s_, rd.r, reg, samples=samples, seed=seed)
+    g = lip.gamma if gamma is None else positive("gamma", gamma, allow_zero=True)
+    c = RiccatiConstants(s_, F, alpha, mu, g)
+    kw: dict[str, Any] = {"objective": objective} if str(method).lower() == "sdp" else {}
+    cert = design_drift_gain(c, method, w=w, w_max=w_max, **kw)
+    bound = error_bound_constants(cert, lip.gamma_phi, lip.gamma_phi_inv)
+    return DriftDesignReport(fields, s_, rd.r, checks, readonly(F), str(H.tolist()), float(g),
+                             "estimated" if gamma is None else "given", cert, lip, bound, reg)
+
+
+# --------------------------------------------------------------------------- simulate
+
+
+@dataclass(frozen=True, eq=False)
+class DriftSimulation:
+    """A designed observer (3.1) simulated against its plant, with the bound (3.2).
+
+    Attributes
+    ----------
+    report : DriftDesignReport
+        Structure, checks, gain certificate, Lipschitz estimates and ``κ₁, κ₂``.
+    w : float or None
+        Vandermonde parameter of the simulated gain.
+    result : SimulationResult
+    bound : ndarray, shape (*batch, K)
+        ``κ₁ e^{−αt} ‖e(0)‖`` (3.2) with ``b = 0`` (Lipschitz case, H1); NaN when the simulated
+        gain does not satisfy (2.17) for the report's constants.
+    bound_ratio : float
+        ``max_t ‖e(t)‖ / bound(t)`` (``≤ 1`` where the bound holds; NaN when not certified).
+    decay_rate : float
+        Fitted exponential rate of ``‖e‖`` (``floor`` 1e-9 relative, see
+        :meth:`SimulationResult.decay_rate`), smallest over the batch.
+    certified : bool
+        Whether Theorem 3.1 covers the run as far as the report can check: the simulated gain
+        (with its ``P``) satisfies (2.17) for the report's constants, the model is drift-observable
+        on the region, and ``γ`` is not below the sampled estimate there (report's ``warnings``).
+    constants : ErrorBoundConstants
+        ``κ₁``, ``κ₂`` of the simulated gain's ``P``.
+    """
+
+    report: DriftDesignReport
+    w: float | None
+    result: SimulationResult
+    bound: Array
+    bound_ratio: float
+    decay_rate: float
+    certified: bool
+    constants: ErrorBoundConstants
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"design": self.report.to_dict(), "w": self.w, "certified": self.certified,
+                "bound_constants": self.constants.to_dict(), "bound_ratio": self.bound_ratio,
+                "decay_rate": self.decay_rate, "final_error_norm": float(np.max(self.result.error_norm[..., -1]))}
+
+
+def simulate_drift(
+    model: SymbolicModel,
+    x0: ArrayLike,
+    x_hat0: ArrayLike,
+    duration: float,
+    *,
+    dt: float,
+    u: Callable[[float], Array] | ArrayLike | None = None,
+    s: Sequence[int] | None = None,
+    alpha: float = 1.0,
+    mu: float = 1.0,
+    gamma: float | None = None,
+    method: str = "vandermonde",
+    w: float | None = None,
+    region: Box | None = None,
+    parameters: Mapping[str, float] | None = None,
+    noise_std: float = 0.0,
+    seed: int | None = None,
+    regularization: float = 0.0,
+    save_every: int = 1,
+    report: DriftDesignReport | None = None,
+) -> DriftSimulation:
+    """Design observer (3.1) with :func:`design_drift_report` (or take ``report``) and simulate it.
+
+    ``w`` given: the gain ``K(w)`` of Remark 2.11 (checked against (2.17); if it fails,
+    the report keeps the theory's smallest ``w`` and the simulation still uses ``w`` —
+    the paper's "tuning by simulation"). A run is marked ``certified`` (and gets the bound
+    (3.2)) only when the report's premises hold too (see :class:`DriftSimulation`). ``noise_std > 0`` samples every output at
+    ``1/dt`` with that Gaussian noise (``seed`` required). ``report`` reuses a design.
+    """
+    rep = report or design_drift_report(model, s, alpha=alpha, mu=mu, gamma=gamma, method=method, region=region,
+                                        parameters=parameters)
+    bound_consts = rep.bound
+    # Theorem 3.1's premises besides (2.17): drift-observable on the region, γ not below its sampled estimate there
+    premises = rep.drift_check.passed and not rep.warnings
+    certified = premises and rep.certificate.verified
+    if w is None:
+        K, w_used = rep.certificate.gain, rep.certificate.w
+    else:  # the paper's tuning by simulation: K(w) is checked against (2.17), the bound applies only if it holds
+        g = vandermonde_gain(rep.s, w)
+        K, w_used = g.K, float(w)
+        cw = verify_drift_gain(rep.certificate.constants, g.K, g.P, method="vandermonde", w=w_used)
+        certified = premises and cw.verified
+        bound_consts = error_bound_constants(cw, rep.lipschitz.gamma_phi, rep.lipschitz.gamma_phi_inv)
+    obs = DriftObserver.from_fields(rep.fields, rep.s, K, regularization=regularization)
+    plant = model.compile(parameters)
+    meas = None
+    if noise_std > 0:
+        meas = MeasurementGroup("y", list(model.outputs), rate=1.0 / dt, noise_std=noise_std)
+    res = simulate(plant, obs, x0=x0, x_hat0=x_hat0, duration=duration, dt=dt, u=u, measurements=meas, seed=seed,
+                   save_every=save_every)
+    e = res.error_norm
+    bnd = bound_consts.bound(res.t, e[..., 0])
+    if not certified:
+        bnd = np.full_like(bnd, np.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = float(np.nanmax(np.where(bnd > 0, e / bnd, np.nan))) if certified else math.nan
+    rate = float(np.nanmin(res.decay_rate(floor=1e-9 * float(np.max(e[..., 0])))))
+    return DriftSimulation(rep, w_used, res, bnd, ratio, rate, certified, bound_consts)

@@ -1,0 +1,220 @@
+r"""``nlobs design pinv``: design, check and simulate Röbenack's Moore–Penrose observer (7), (17).
+
+For a continuous-time input-affine model with observation relative degree ``r`` (A1) the observer
+is ``x̂̇ = f(x̂) + g(x̂) u + Q⁺(x̂) K (y − h(x̂))`` (7) with the gain field (17)
+(:class:`nlobs.observers.pinv.PinvObserver`) and ``K`` from a high-gain placement of the roots of
+(10) (:class:`nlobs.synthesis.pinv_gain.HighGain`).
+
+* :func:`design_pinv_report` — builds the observer once (checking A1 and A5 on the region) and
+  reports its structure, ``Q⁺`` (25), the gain field and ``k``; the :class:`PinvDesignReport`
+  keeps that observer (:attr:`PinvDesignReport.observer`);
+* :func:`simulate_pinv` — simulates a model with that observer (or builds one the same way).
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+import sympy as sp
+from numpy.typing import ArrayLike
+
+from nlobs.checks import Check
+from nlobs.geometry.checks import observability_rank
+from nlobs.geometry.lie import lie_derivative
+from nlobs.geometry.region import Box
+from nlobs.observers.pinv import AssumptionWarning, PinvObserver
+from nlobs.simulate.loop import simulate
+from nlobs.simulate.result import SimulationResult
+from nlobs.simulate.sampling import MeasurementGroup
+from nlobs.simulate.signals import InputLike
+from nlobs.synthesis.pinv_gain import DEFAULT_THETA, HighGain, Placement
+from nlobs.systems.symbolic import SymbolicModel
+
+__all__ = [
+    "PinvDesignReport",
+    "design_pinv_report",
+    "simulate_pinv",
+]
+
+
+def _build_observer(
+    model: SymbolicModel,
+    k: ArrayLike | None,
+    theta: float,
+    placement: Placement,
+    region: Box | None,
+    parameters: Mapping[str, float] | None,
+    pinv: Literal["symbolic", "numeric"],
+) -> PinvObserver:
+    """Observer (7)/(17) with ``k`` or ``HighGain(theta, placement)``; A5 failing only warns (silenced here)."""
+    gain: ArrayLike | HighGain = HighGain(theta, placement) if k is None else k
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", AssumptionWarning)
+        return PinvObserver.from_model(model, parameters=parameters, k=gain, region=region, require_a5=False,
+                                       pinv=pinv)
+
+
+# ----------------------------------------------------------------------------- the design
+def _strings(M: sp.MatrixBase) -> tuple[tuple[str, ...], ...]:
+    return tuple(tuple(str(M[i, j]) for j in range(M.shape[1])) for i in range(M.shape[0]))
+
+
+@dataclass(frozen=True)
+class PinvDesignReport:
+    """What ``nlobs design pinv`` prints: relative degree, checks, ``Q⁺``, the gain field and ``k``.
+
+    Attributes
+    ----------
+    model : str
+    states, outputs : tuple of str
+    relative_degree : tuple of int
+    input_gains : tuple of str
+        Per output, ``L_g L_f^{r_j−1} h_j`` (where it vanishes the relative degree
+        is not uniform, but the observation relative degree still is ``r_j``).
+    observability_rank : int
+        Generic rank of the codistribution spanned by the ``dL_f^k h``.
+    checks : tuple of Check
+        A1 and A5.
+    Q, pinv : tuple of tuple of str
+        ``Q`` (13) and ``Q⁺`` (25), row by row.
+    gain_field : tuple of tuple of str
+        ``l(x) = Q⁺(x) K`` with the symbols ``k1, k2, …`` (n rows, q columns).
+    gain_numeric : tuple of tuple of str
+        The same with the numeric ``k``.
+    k : tuple of float
+    roots : tuple of float
+        Eigenvalues of every ``A − k cᵀ`` (the roots of (10)).
+    theta : float or None
+    placement : str or None
+    usable : bool
+        A1 and A5 hold (Corollary 4.1's structural conditions; A2–A4, A6 are not checked).
+    observer : PinvObserver
+        The observer this report describes (built once; :func:`simulate_pinv` with
+        ``report=`` runs this very object). Not part of :meth:`to_dict` nor of equality.
+    """
+
+    model: str
+    states: tuple[str, ...]
+    outputs: tuple[str, ...]
+    relative_degree: tuple[int, ...]
+    input_gains: tuple[str, ...]
+    observability_rank: int
+    checks: tuple[Check, ...]
+    Q: tuple[tuple[str, ...], ...]
+    pinv: tuple[tuple[str, ...], ...]
+    gain_field: tuple[tuple[str, ...], ...]
+    gain_numeric: tuple[tuple[str, ...], ...]
+    k: tuple[float, ...]
+    roots: tuple[float, ...]
+    theta: float | None
+    placement: str | None
+    usable: bool
+    observer: PinvObserver = field(repr=False, compare=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready form (stable keys)."""
+        return {
+            "model": self.model, "states": list(self.states), "outputs": list(self.outputs),
+            "observation_relative_degree": list(self.relative_degree), "input_gains": list(self.input_gains),
+            "observability_rank": self.observability_rank, "checks": [c.to_dict() for c in self.checks],
+            "involutive": next(c.passed for c in self.checks if c.name.startswith("A5")),
+            "Q": [list(r) for r in self.Q], "pinv": [list(r) for r in self.pinv],
+            "pinv_gain": [list(r) for r in self.gain_field], "pinv_gain_numeric": [list(r) for r in self.gain_numeric],
+            "k": list(self.k), "roots": list(self.roots), "theta": self.theta, "placement": self.placement,
+            "usable": self.usable,
+        }
+
+    def summary(self) -> str:
+        """A plain-text report."""
+        lines = [f"Moore–Penrose observer (Röbenack 2008, (7) with (17)) for {self.model}"]
+        for o, rj, lg in zip(self.outputs, self.relative_degree, self.input_gains):
+            lines.append(f"  output {o}: observation relative degree r = {rj}, L_g L_f^{rj - 1} h = {lg}")
+        lines.append(f"  generic rank of the observability codistribution: {self.observability_rank} "
+                     f"(n = {len(self.states)}; {len(self.states) - self.observability_rank} unobservable direction(s))")
+        for c in self.checks:
+            lines.append(f"  {'ok  ' if c.passed else 'FAIL'} {c.name}: {c.evidence}")
+        lines.append("  Q⁺(x) (columns τ_i, (18)):")
+        lines += [f"    [{', '.join(r)}]" for r in self.pinv]
+        lines.append("  gain field l(x) = Q⁺(x) k (17):")
+        for s, g, gn in zip(self.states, self.gain_field, self.gain_numeric):
+            lines.append(f"    {s}: {', '.join(g)}    = {', '.join(gn)}")
+        design = f" (θ = {self.theta:g}, placement {self.placement})" if self.theta is not None else ""
+        lines.append(f"  k = [{', '.join(f'{v:.6g}' for v in self.k)}]{design}; roots of (10): "
+                     f"[{', '.join(f'{v:.6g}' for v in self.roots)}]")
+        lines.append("  usable: " + ("yes (A1, A5 hold; A2–A4 and A6 are the user's to check)" if self.usable
+                                     else "no: A5 fails, Theorem 4.1 does not apply"))
+        return "\n".join(lines)
+
+
+def design_pinv_report(
+    model: SymbolicModel,
+    k: ArrayLike | None = None,
+    theta: float = DEFAULT_THETA,
+    placement: Placement = "powers",
+    region: Box | None = None,
+    *,
+    parameters: Mapping[str, float] | None = None,
+    pinv: Literal["symbolic", "numeric"] = "symbolic",
+) -> PinvDesignReport:
+    """Design the Moore–Penrose observer of ``model`` and report it (for ``nlobs design pinv``).
+
+    ``k`` (stacked, ``Σ r_j`` entries) overrides the high-gain design ``(theta, placement)``.
+    A5 failing is reported (``usable`` false), not raised; A1 failing raises
+    :class:`~nlobs.errors.AssumptionViolated` (no ``Q⁺`` exists). The observer is built once and
+    kept in the report (:attr:`PinvDesignReport.observer`).
+    """
+    obs = _build_observer(model, k, theta, placement, region, parameters, pinv)
+    F = obs.fields
+    lg = []
+    for j, rj in enumerate(obs.r):
+        phi = F.lie_chain(j, rj)[-1]
+        row = ", ".join(str(sp.factor(lie_derivative(phi, F.g[:, c], F.x))) for c in range(F.m))
+        lg.append(row if F.m == 1 else f"[{row}]")
+    roots = np.concatenate([np.sort(np.linalg.eigvals(M).real) for M in obs.error_matrices])
+    return PinvDesignReport(
+        model=F.name, states=F.states, outputs=F.outputs, relative_degree=obs.r, input_gains=tuple(lg),
+        observability_rank=observability_rank(F, obs.region), checks=obs.checks, Q=_strings(obs.Q),
+        pinv=_strings(obs.Qp), gain_field=_strings(obs.gain_symbolic), gain_numeric=_strings(obs.gain),
+        k=tuple(float(v) for v in obs.k_vector), roots=tuple(float(v) for v in roots),
+        theta=None if obs.high_gain is None else obs.high_gain.theta,
+        placement=None if obs.high_gain is None else obs.high_gain.placement,
+        usable=all(c.passed for c in obs.checks), observer=obs,
+    )
+
+
+# ----------------------------------------------------------------------------- simulation
+def simulate_pinv(
+    model: SymbolicModel,
+    x0: ArrayLike,
+    x_hat0: ArrayLike,
+    duration: float,
+    *,
+    dt: float = 1e-3,
+    u: InputLike = None,
+    k: ArrayLike | None = None,
+    theta: float = DEFAULT_THETA,
+    placement: Placement = "powers",
+    region: Box | None = None,
+    pinv: Literal["symbolic", "numeric"] = "symbolic",
+    parameters: Mapping[str, float] | None = None,
+    measurements: MeasurementGroup | Sequence[MeasurementGroup] | None = None,
+    seed: int | None = None,
+    report: PinvDesignReport | None = None,
+) -> SimulationResult:
+    """Simulate ``model`` with its Moore–Penrose observer (7)/(17).
+
+    With ``report`` the simulation uses :attr:`PinvDesignReport.observer` (the observer the
+    report describes; ``k``, ``theta``, ``placement``, ``region`` and ``pinv`` are then not used).
+    Without it the observer is built as :func:`design_pinv_report` builds it (``k`` overrides
+    ``(theta, placement)``; A5 failing only warns). The plant is ``model.compile(parameters)``;
+    ``u``, ``measurements``, ``seed`` are passed to :func:`nlobs.simulate.simulate`
+    (``u=None``: zero input).
+    """
+    obs = report.observer if report is not None else _build_observer(model, k, theta, placement, region, parameters,
+                                                                      pinv)
+    return simulate(model.compile(parameters), obs, x0, x_hat0, duration=duration, dt=dt, u=u,
+                    measurements=measurements, seed=seed)
