@@ -21,7 +21,9 @@ ALLOWED: dict[str, set[str]] = {
     "simulate": CORE | {"systems", "linear", "synthesis", "geometry", "observers"},
     "analysis": CORE | {"systems", "linear", "geometry"},
     "navigation": CORE | {"systems", "linear", "synthesis", "observers", "simulate"},
-    "papers": CORE | {"systems", "linear", "synthesis", "observers", "simulate", "geometry", "navigation", "analysis"},
+    "workflows": CORE | {"systems", "linear", "synthesis", "observers", "simulate", "geometry", "navigation", "analysis"},
+    "papers": CORE | {"systems", "linear", "synthesis", "observers", "simulate", "geometry", "navigation", "analysis",
+                      "workflows"},
 }
 
 
