@@ -97,6 +97,11 @@ def parse_box(option: str, text: str, n: int) -> Box:
         fail(f"{option}: {exc}")
 
 
+def box_numbers(option: str, text: str | None) -> list[float] | None:
+    """The numbers of a ``--box`` option (the workflow builds the region and checks their count)."""
+    return parse_floats(option, text) if text is not None else None
+
+
 def jsonable(obj: Any) -> Any:
     if isinstance(obj, dict):
         return {str(k): jsonable(v) for k, v in obj.items()}

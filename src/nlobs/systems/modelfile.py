@@ -185,8 +185,9 @@ def shipped_models() -> dict[str, Path]:
 def resolve_model(model: str | os.PathLike[str]) -> Path:
     """The file behind a model argument: a path to a ``.toml`` file, or the name of a shipped model.
 
-    The one lookup of shipped names (the CLI and :func:`load_model` use it). A bare name that is both a
-    shipped model and a file in the working directory is refused as ambiguous instead of silently
+    The one lookup of shipped names (the CLI and :func:`load_model` use it). A string that is not an
+    existing file is looked up among the shipped models; a ``Path`` is always a path. A bare name that is
+    both a shipped model and a file in the working directory is refused as ambiguous instead of silently
     taking the local file.
 
     Raises
@@ -195,10 +196,12 @@ def resolve_model(model: str | os.PathLike[str]) -> Path:
         No such file and no shipped model of that name (the message lists the shipped names), or the
         name is ambiguous.
     """
-    text = os.fspath(model)
+    if not isinstance(model, str):  # a path object is a path: the reader says why it cannot be read
+        return Path(model)
+    text = model
     path = Path(text)
     shipped = shipped_models()
-    bare = isinstance(model, str) and text in shipped and os.sep not in text and "/" not in text
+    bare = text in shipped and os.sep not in text and "/" not in text
     if os.path.lexists(path):
         if bare:
             raise ModelFileError(text, None, "", f"ambiguous: both a file in the working directory and the shipped "
@@ -206,7 +209,7 @@ def resolve_model(model: str | os.PathLike[str]) -> Path:
         return path
     if bare:
         return shipped[text]
-    raise ModelFileError(text, None, "", f"cannot read file: no such file (shipped models: {', '.join(sorted(shipped))})")
+    raise ModelFileError(text, None, "", f"no such file (shipped models: {', '.join(sorted(shipped))})")
 
 
 def load_model(path: str | Path) -> Model:
