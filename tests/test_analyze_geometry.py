@@ -14,7 +14,7 @@ import pytest
 import sympy as sp
 from typer.testing import CliRunner
 
-from nlobs.analysis import analyze
+from nlobs.workflows.analyze import analyze
 from nlobs.cli import app
 from nlobs.geometry import Box
 from nlobs.systems.expressions import parse_expression

@@ -22,8 +22,8 @@ ALLOWED: dict[str, set[str]] = {
     "analysis": CORE | {"systems", "linear", "geometry"},
     "navigation": CORE | {"systems", "linear", "synthesis", "observers", "simulate"},
     "workflows": CORE | {"systems", "linear", "synthesis", "observers", "simulate", "geometry", "navigation", "analysis"},
-    "papers": CORE
-    | {"systems", "linear", "synthesis", "observers", "simulate", "geometry", "navigation", "analysis", "workflows"},
+    "papers": CORE | {"systems", "linear", "synthesis", "observers", "simulate", "geometry", "navigation", "analysis",
+                      "workflows"},
 }
 
 

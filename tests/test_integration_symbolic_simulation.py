@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from nlobs.analysis import linearize
+from nlobs.systems.linearize import linearize
 from nlobs.observers import LuenbergerObserver
 from nlobs.simulate import simulate
 from nlobs.systems.modelfile import load_model

@@ -145,7 +145,8 @@ def test_adversarial_noise_at_the_bound_stays_inside(ex61) -> None:  # type: ign
 
 def test_growing_unknown_input_breaks_a_naive_point_observer_but_not_the_set_observer(ex61) -> None:  # type: ignore[no-untyped-def]
     """Sec. 6.2's claim on Example 6.1: with d growing without bound the set-valued observer stays bounded."""
-    from nlobs.papers.khajenejad_yong import ball_samples, naive_point_observer
+    from nlobs.papers.khajenejad_yong import naive_point_observer
+    from nlobs.simulate.setvalued import ball_samples
 
     ex, design = ex61
     s = ex.system
@@ -170,7 +171,7 @@ def test_growing_unknown_input_breaks_a_naive_point_observer_but_not_the_set_obs
 
 def test_lpv_with_run_time_weights_is_contained() -> None:
     """Class III end to end: vertex design, plant and observer driven by the same random weights."""
-    from nlobs.papers.khajenejad_yong import ball_samples
+    from nlobs.simulate.setvalued import ball_samples
     from nlobs.systems.discrete_ui import LPV
 
     A = np.array([[0.5, 0.2, 0.0], [0.0, 0.4, 0.3], [0.1, 0.0, 0.6]])

@@ -8,7 +8,8 @@ import pytest
 from nlobs.errors import InvalidArgumentError, NonFiniteError
 from nlobs.observers.base import CorrectingObserver, Diagnosing
 from nlobs.observers.setvalued import SetValuedObserver, sound_radii
-from nlobs.papers.khajenejad_yong import ball_samples, example_61
+from nlobs.papers.khajenejad_yong import example_61
+from nlobs.simulate.setvalued import ball_samples
 from nlobs.simulate import run_observer
 from nlobs.simulate.setvalued import input_estimates, radii_of, run_setvalued
 from nlobs.synthesis.setvalued import design_setvalued

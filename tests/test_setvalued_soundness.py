@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from nlobs.errors import InvalidArgumentError
-from nlobs.papers.khajenejad_yong import ball_samples, example_61
+from nlobs.papers.khajenejad_yong import example_61
+from nlobs.simulate.setvalued import ball_samples
 from nlobs.observers.setvalued import sound_radii
 from nlobs.simulate.setvalued import run_setvalued, state_containment
 from nlobs.synthesis.setvalued import design_setvalued
@@ -115,7 +116,7 @@ def _cubic() -> DiscreteUISystem:
 
 
 def test_monte_carlo_evaluates_the_class_on_the_visited_pairs_and_the_box() -> None:
-    from nlobs.papers.khajenejad_yong import monte_carlo
+    from nlobs.workflows.setvalued import monte_carlo
 
     s = _cubic()
     d = design_setvalued(s)
@@ -157,7 +158,7 @@ def test_estimate_lipschitz_refuses_a_nan_phi() -> None:
 
 def test_plant_overflow_is_a_typed_error_naming_the_step() -> None:
     from nlobs.errors import SimulationDiverged
-    from nlobs.papers.khajenejad_yong import simulate_batch
+    from nlobs.simulate.setvalued import simulate_batch
 
     s = _cubic()
     with pytest.raises(SimulationDiverged, match="the plant overflowed at step 17"):

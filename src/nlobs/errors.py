@@ -129,3 +129,14 @@ class AssumptionViolated(DesignError):
         self.item = item
         self.evidence = evidence
         super().__init__(message)
+
+
+class OutputError(NlobsError, OSError):
+    """An output file or folder cannot be written (an existing file where a folder is needed, read-only, full disk).
+
+    Nothing is left half-written: every output of nlobs is written atomically.
+    """
+
+
+class StudyFailed(NlobsError):
+    """A simulation study (Monte Carlo runs) could not be completed; the cause is chained and named in the message."""

@@ -13,22 +13,19 @@ from typing import Annotated
 
 import typer
 
-from nlobs import __version__
-from nlobs.analysis import analyze
 from nlobs.cli.common import (
     EXIT_FAILURE,
-    parse_box,
+    box_numbers,
     console,
+    design_app,
     emit_json,
     fail,
-    parse_floats,
     jsonable,
-    load_model_arg,
-    design_app,
-    shipped_models,
+    parse_floats,
     simulate_app,
 )
-from nlobs.errors import NlobsError
+from nlobs.errors import ModelFileError, NlobsError
+from nlobs.systems.modelfile import shipped_models
 
 app = typer.Typer(
     name="nlobs",
@@ -50,16 +47,20 @@ def analyze_cmd(
              "lo1,hi1,lo2,hi2,... (default -1,1).")] = None,
 ) -> None:
     """Report a model's dimensions, structural properties and norms."""
-    m = load_model_arg(model)
+    from nlobs.workflows.analyze import analyze_model
+    from nlobs.workflows.inputs import BoxError
+
     try:
-        region = parse_box("--box", box, m.n) if box is not None else None
-        report = analyze(m, x0=parse_floats("--x0", x0), u0=parse_floats("--u0", u0), region=region)
+        report = analyze_model(model, x0=parse_floats("--x0", x0), u0=parse_floats("--u0", u0),
+                               box=box_numbers("--box", box))
+    except ModelFileError as exc:
+        fail(str(exc))
+    except BoxError as exc:
+        fail(f"--box: {exc}")
     except NlobsError as exc:
         fail(f"{model}: {exc}")
     if as_json:
-        data = report.to_dict()
-        data.setdefault("kind", "linear")
-        emit_json(data)
+        emit_json(report.to_dict())
     else:
         console().print(report.summary(), markup=False)
 
@@ -165,7 +166,9 @@ def models_cmd(
 @app.command("version")
 def version_cmd() -> None:
     """Print the nlobs version."""
-    typer.echo(__version__)
+    from importlib.metadata import version
+
+    typer.echo(version("nlobs"))
 
 
 app.add_typer(design_app, name="design")

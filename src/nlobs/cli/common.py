@@ -51,6 +51,20 @@ def fail(message: str, status: int = EXIT_BAD_INPUT) -> NoReturn:
     raise typer.Exit(status)
 
 
+def finish(report: Any, as_json: bool = False) -> None:
+    """Exit by a workflow report's verdict after it was printed: 0 ``OK``, 1 ``FAILED``, 3 ``NO_OBSERVER``.
+
+    The report's ``message`` (or, after ``--json``, its ``json_message`` when it has one) is the one line.
+    """
+    from nlobs.workflows.verdict import Verdict
+
+    verdict = report.verdict
+    if verdict is Verdict.OK:
+        return
+    message = getattr(report, "json_message", None) if as_json else None
+    fail(message or report.message, EXIT_NO_OBSERVER if verdict is Verdict.NO_OBSERVER else EXIT_FAILURE)
+
+
 def load_model_arg(model: str) -> Model:
     """The model behind a CLI argument (a file or a shipped name: :func:`nlobs.systems.modelfile.resolve_model`)."""
     try:
@@ -81,6 +95,11 @@ def parse_box(option: str, text: str, n: int) -> Box:
         return Box(np.array(vals[0::2]), np.array(vals[1::2]))
     except NlobsError as exc:
         fail(f"{option}: {exc}")
+
+
+def box_numbers(option: str, text: str | None) -> list[float] | None:
+    """The numbers of a ``--box`` option (the workflow builds the region and checks their count)."""
+    return parse_floats(option, text) if text is not None else None
 
 
 def jsonable(obj: Any) -> Any:

@@ -191,10 +191,14 @@ class StructuralReport:
         ``|λ| ≥ 1``. ``values``: ``strongly_detectable`` (bool), ``reason`` (the minimum-phase
         verdict with the offending zeros) and ``unstable_error_modes`` (tuple of complex).
     transform : UITransform
+    inputs : str
+        A digest of the matrices and linear members it was computed for (:func:`structure_inputs`),
+        so that a design can reuse this report only for the same system.
     """
 
     checks: tuple[Check, ...]
     transform: UITransform
+    inputs: str = ""
 
     @property
     def exists(self) -> bool:
@@ -287,7 +291,20 @@ def structural_check(A: ArrayLike, G: ArrayLike, C: ArrayLike, H: ArrayLike | No
         Ae = tr.Phi @ (A_ + K - tr.Psi)
         um = unobservable_modes(Ae, tr.C2, discrete=True)
         checks.append(_member_check(i, mp, um[~strictly_inside(um, discrete=True)]))
-    return StructuralReport(tuple(checks), tr)
+    return StructuralReport(tuple(checks), tr, structure_inputs(A_, G_, C_, H_, Ks, tr))
+
+
+def structure_inputs(A: ArrayLike, G: ArrayLike, C: ArrayLike, H: ArrayLike, members: tuple[ArrayLike, ...],
+                     transform: UITransform) -> str:
+    """A digest of what :func:`structural_check` depends on (matrices, members, transformation)."""
+    import hashlib
+
+    h = hashlib.sha256()
+    for M in (A, G, C, H, *members, transform.Phi, transform.Psi, transform.C2):
+        arr = np.ascontiguousarray(np.asarray(M, dtype=float))
+        h.update(repr(arr.shape).encode())
+        h.update(arr.tobytes())
+    return h.hexdigest()
 
 
 def require_structure(check: StructuralReport) -> None:

@@ -29,19 +29,10 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from nlobs.papers.khajenejad_yong import (
-    ContainmentResult,
-    MonteCarloStudy,
-    PaperExample,
-    ball_samples,
-    containment_of,
-    example_61,
-    monte_carlo,
-    plot_errors_vs_radii,
-    point_baselines,
-    save_figure,
-    simulate_batch,
-)
+from nlobs.papers.khajenejad_yong import PaperExample, example_61
+from nlobs.simulate.setvalued import ContainmentResult, ball_samples, containment_of, simulate_batch
+from nlobs.simulate.setvalued_plots import plot_errors_vs_radii, save_figure
+from nlobs.workflows.setvalued import MonteCarloStudy, monte_carlo, point_baselines
 from nlobs.simulate.result import SimulationResult
 from nlobs.simulate.setvalued import (
     input_containment,

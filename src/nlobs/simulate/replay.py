@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nlobs._progress import Progress
-from nlobs._typing import Array, BoolArray, IntArray
+from nlobs._typing import Array, IntArray
 from nlobs._validate import as_finite_array
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError, SimulationDiverged
 from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping

@@ -1,27 +1,47 @@
-"""Algorithm 1 of Khajenejad & Yong on recorded measurements, and the containment of the truth in its balls.
+"""Algorithm 1 of Khajenejad & Yong on recorded measurements and in Monte Carlo, and the containment of the truth.
 
-:func:`run_setvalued` is a thin call of :func:`nlobs.simulate.run_observer` with
-:class:`~nlobs.observers.setvalued.SetValuedObserver`; the functions below read its result.
+* :func:`run_setvalued` is a thin call of :func:`nlobs.simulate.run_observer` with
+  :class:`~nlobs.observers.setvalued.SetValuedObserver`; :func:`radii_of`, :func:`input_estimates`,
+  :func:`state_containment`, :func:`input_containment` read its result.
+* :func:`simulate_batch` simulates the plant (8) over seeded runs (initial states and noises drawn in
+  their balls, a fraction exactly at the bound, :func:`ball_samples`) and runs Algorithm 1 on them;
+  :func:`containment_of` measures the containment of the truth in the balls at every step of every run,
+  with the conditions the certificate rests on evaluated along the runs (:class:`ContainmentResult`).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from nlobs._typing import Array, BoolArray
 from nlobs._validate import as_finite_array, as_vector
-from nlobs.errors import DimensionError, InvalidArgumentError
+from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError, SimulationDiverged
 from nlobs.observers.setvalued import GivenGain, Radii, SetValuedObserver
 from nlobs.simulate.replay import run_observer
 from nlobs.simulate.result import SimulationResult
 from nlobs.synthesis.setvalued import SetValuedDesign
 from nlobs.systems.discrete_ui import DiscreteUISystem
 
-__all__ = ["input_containment", "input_estimates", "radii_of", "run_setvalued", "state_containment"]
+__all__ = [
+    "ROUNDOFF_FRACTION",
+    "ContainmentResult",
+    "ball_samples",
+    "containment_of",
+    "input_containment",
+    "input_estimates",
+    "radii_of",
+    "run_setvalued",
+    "simulate_batch",
+    "state_containment",
+]
 
 
 def run_setvalued(system: DiscreteUISystem, design: SetValuedDesign | GivenGain, y: ArrayLike, *,
@@ -146,3 +166,224 @@ def input_containment(result: SimulationResult, d_true: ArrayLike, rtol: float =
     rad = _radii_or_fail(result, "input_containment")
     e = np.linalg.norm(np.asarray(d_true) - input_estimates(result), axis=-1)
     return e <= rad.input * (1 + rtol) + rtol
+
+
+def ball_samples(rng: np.random.Generator, shape: tuple[int, ...], radius: float, dim: int,
+                 at_bound: float = 0.5) -> Array:
+    """Points in the ball of ``radius`` in ``R^dim``: uniform direction; a fraction ``at_bound`` exactly on the sphere,
+    the rest uniform in the ball."""
+    if dim == 0:
+        return np.zeros(shape + (0,))
+    g = rng.standard_normal(shape + (dim,))
+    g /= np.linalg.norm(g, axis=-1, keepdims=True)
+    mag = radius * rng.random(shape + (1,)) ** (1.0 / dim)
+    on = rng.random(shape + (1,)) < at_bound
+    return g * np.where(on, radius, mag)
+
+
+@dataclass(frozen=True)
+class ContainmentResult:
+    """Monte Carlo containment of the truth in the balls of Algorithm 1.
+
+    Attributes
+    ----------
+    runs, steps : int
+    rate_state, rate_input : float
+        Fraction of runs whose true state (unknown input) was inside its ball at *every* step.
+    max_error_over_radius : float
+        ``max ‖x_k − x̂_k‖ / δˣ_k`` over runs and steps.
+    final_radius_state, final_radius_input : float
+    first_violation_step : int or None
+        Earliest step at which some run left the state ball.
+    seconds : float
+        Simulation + observer time.
+    label : str
+    errors : ndarray, shape (runs, steps + 1)
+        ``‖x_k − x̂_k‖`` (for plots).
+    radii : Radii
+    class_violated_in_runs : int or None
+        Runs in which a visited pair ``(x_k, x̂_k)`` violates the class condition the certificate uses
+        (:func:`~nlobs.systems.discrete_ui.class_margins`; ``None`` when not evaluated).
+    class_worst_margin : float or None
+        The smallest margin ``QC − γ`` over those pairs (negative: violated).
+    left_box_runs : int or None
+        Runs in which ``x_k`` or ``x̂_k`` left the box where the class was checked (``None``: no box given).
+    roundoff_runs : int or None
+        Runs in which the floating-point round-off estimate ``ε·κ·(‖x_k‖ + ‖Gd_k‖ + ‖Hd_k‖ + ‖y_k‖)``
+        (``κ`` from the observer's gains) exceeds :data:`ROUNDOFF_FRACTION` of the radius ``δˣ_k``,
+        or the estimate is not finite.
+    roundoff_ratio : float or None
+        The largest ratio of that estimate to the radius.
+    max_abs_input : float or None
+        ``max |d|`` over the runs.
+    """
+
+    runs: int
+    steps: int
+    rate_state: float
+    rate_input: float
+    max_error_over_radius: float
+    final_radius_state: float
+    final_radius_input: float
+    first_violation_step: int | None
+    seconds: float
+    label: str
+    errors: Array = field(repr=False)
+    radii: Radii = field(repr=False)
+    class_violated_in_runs: int | None = None
+    class_worst_margin: float | None = None
+    left_box_runs: int | None = None
+    roundoff_runs: int | None = None
+    roundoff_ratio: float | None = None
+    max_abs_input: float | None = None
+
+    @property
+    def guarantee_held(self) -> bool:
+        """The truth stayed inside both balls at every step of every run."""
+        return self.rate_state == 1.0 and self.rate_input == 1.0
+
+    def likely_causes(self) -> list[str]:
+        """Measured reasons why a certified guarantee can fail on these runs (empty when none was found)."""
+        out = []
+        if self.class_violated_in_runs:
+            out.append(f"the function class is violated along the trajectories in {self.class_violated_in_runs} "
+                       f"of {self.runs} runs (worst QC − γ = {self.class_worst_margin:.4g})")
+        if self.left_box_runs and self.class_violated_in_runs != 0:  # harmless where the class held on every pair
+            out.append(f"the state or its estimate left the box where the class was checked in {self.left_box_runs} "
+                       f"of {self.runs} runs")
+        if self.roundoff_runs:
+            out.append(f"containment lost to floating-point round-off in {self.roundoff_runs} of {self.runs} runs "
+                       f"(|d| = {self.max_abs_input:.4g}; round-off estimate up to {self.roundoff_ratio:.3g} × the "
+                       "radius)")
+        return out
+
+
+#: Round-off flag: the estimated floating-point error of one step exceeds this fraction of the radius.
+ROUNDOFF_FRACTION = 0.01
+
+
+def simulate_batch(system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
+                   unknown_input: Callable[[Array], Array], *, runs: int, steps: int, seed: int = 0,
+                   radii: Radii | None = None, at_bound: float = 0.5) -> SimulationResult:
+    """Simulate the plant (8) and run Algorithm 1 for ``runs`` seeded runs (vectorised).
+
+    Initial states are drawn in the initial ball and the noises in theirs, a fraction
+    ``at_bound`` of each exactly on the bound (:func:`ball_samples`); ``unknown_input``
+    maps ``t`` ``(K + 1,)`` to ``d`` ``(K + 1, p)``, the same in every run.
+
+    Returns
+    -------
+    SimulationResult
+        Of :func:`~nlobs.simulate.setvalued.run_setvalued`, with the truth ``x`` ``(B, K + 1, n)``, the
+        measurements ``y`` ``(B, K + 1, l)`` and the extra ``d`` ``(B, K + 1, p)`` (the unknown input);
+        ``info["seconds"]`` is the plant and observer time.
+    """
+    R, K = int(runs), int(steps)
+    if R < 1 or K < 1:
+        raise InvalidArgumentError(f"runs and steps must be >= 1, got {runs!r}, {steps!r}")
+    rng = np.random.default_rng(seed)
+    t0 = time.perf_counter()
+    x0 = system.x0 + ball_samples(rng, (R,), system.delta0, system.n, at_bound)
+    t = np.arange(K + 1) * system.time.dt
+    with np.errstate(over="ignore", invalid="ignore"):
+        d1 = np.asarray(unknown_input(t), dtype=float).reshape(K + 1, system.p)
+    bad_d = ~np.all(np.isfinite(d1), axis=-1)
+    if np.any(bad_d):
+        k = int(np.argmax(bad_d))
+        raise NonFiniteError(f"unknown input: d(t) is not finite at step {k} (t = {t[k]:g}): the signal overflows "
+                             "the floating-point range; shorten the horizon (--steps) or bound the signal")
+    d = np.broadcast_to(d1[None], (R, K + 1, system.p))
+    w = ball_samples(rng, (R, K), system.eta_w, system.n_w, at_bound)
+    v = ball_samples(rng, (R, K + 1), system.eta_v, system.l, at_bound)
+    with np.errstate(over="ignore", invalid="ignore"):
+        x, y = system.simulate(x0, d, w, v)
+    bad_x = ~np.all(np.isfinite(x), axis=-1)  # (R, K + 1)
+    if np.any(bad_x):
+        k = int(np.argmax(bad_x.any(axis=0)))
+        i = int(np.argmax((~np.isfinite(x[:, k])).any(axis=0)))
+        exc = SimulationDiverged(float(t[k]), "plant", f"x{i + 1}")
+        exc.args = (f"the plant overflowed at step {k} (t = {t[k]:g}): state x{i + 1} is not finite in "
+                    f"{int(bad_x[:, k].sum())} of {R} runs (the model's f or the unknown input drives it past the "
+                    "floating-point range)",)
+        raise exc
+    res = run_setvalued(system, gain, y, radii=radii, truth=x)
+    return dataclasses.replace(res, y=y, extras={**res.extras, "d": np.array(d)},
+                               info={**res.info, "seconds": time.perf_counter() - t0})
+
+
+def containment_of(batch: SimulationResult, label: str = "sound", *, system: DiscreteUISystem | None = None,
+                   gain: SetValuedDesign | GivenGain | None = None,
+                   box: tuple[ArrayLike, ArrayLike] | None = None) -> ContainmentResult:
+    """Containment of the truth in the balls of ``batch`` (every step of every run), with the conditions it rests on.
+
+    ``batch`` is a :func:`simulate_batch` result. With its ``system`` and ``gain``, also evaluates on the
+    pairs the runs visit: the class condition the certificate uses, whether the states left ``box`` (where
+    the class was checked), and a floating-point round-off estimate against the radius (``ContainmentResult``).
+    """
+    rad = radii_of(batch)
+    if rad is None:
+        raise InvalidArgumentError("containment_study: a GivenGain needs radii")
+    x, d = batch.x, batch.extras["d"]
+    with np.errstate(over="ignore", invalid="ignore"):
+        inside = state_containment(batch)
+        inside_d = _input_inside(batch, d[:, :-1], rad)
+        err = np.linalg.norm(x - batch.x_hat, axis=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(rad.state > 0, err / rad.state, np.where(err > 0, np.inf, 0.0))
+    ratio = np.where(np.isnan(ratio), np.inf, ratio)
+    bad = np.flatnonzero(~inside.all(axis=0))
+    R, K1 = err.shape
+    extra = _trajectory_conditions(batch, system, gain, box) if system is not None and gain is not None else {}
+    return ContainmentResult(
+        runs=R, steps=K1 - 1, rate_state=float(inside.all(axis=1).mean()),
+        rate_input=float(inside_d.all(axis=1).mean()), max_error_over_radius=float(np.max(ratio)),
+        final_radius_state=float(rad.state[-1]), final_radius_input=float(rad.input[-1]),
+        first_violation_step=int(bad[0]) if bad.size else None, seconds=float(batch.info.get("seconds", 0.0)),
+        label=label, errors=err, radii=rad, **extra,
+    )
+
+
+def _input_inside(batch: SimulationResult, d_true: Array, rad: Radii, rtol: float = 1e-9) -> Array:
+    e = np.linalg.norm(d_true - input_estimates(batch), axis=-1)
+    return e <= rad.input * (1 + rtol) + rtol
+
+
+def _trajectory_conditions(batch: SimulationResult, system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
+                           box: tuple[ArrayLike, ArrayLike] | None) -> dict[str, Any]:
+    """Class condition on the visited pairs, box exits and the round-off estimate (see :class:`ContainmentResult`)."""
+    from nlobs.systems.discrete_ui import LPV, class_margins
+
+    x, xh = batch.x, batch.x_hat
+    d = batch.extras["d"]
+    out: dict[str, Any] = {}
+    fc = gain.function_class if isinstance(gain, SetValuedDesign) else system.function_class
+    if not isinstance(fc, LPV):  # a vertex design is run with the plant's weights: π is in the polytope by construction
+        margin, rel = class_margins(system.nonlinear, fc, xh[:, :-1], x[:, :-1])
+        out["class_violated_in_runs"] = int(np.sum((rel < 0).any(axis=1)))
+        out["class_worst_margin"] = float(np.min(margin)) if margin.size else None
+    if box is not None:
+        lo, hi = np.asarray(box[0], dtype=float), np.asarray(box[1], dtype=float)
+        with np.errstate(invalid="ignore"):
+            outside = ((x < lo) | (x > hi)).any(axis=(1, 2)) | ~((xh >= lo) & (xh <= hi)).all(axis=(1, 2))
+        out["left_box_runs"] = int(np.sum(outside))
+    tr = gain.transform
+
+    def nrm(M: Array) -> float:
+        return float(np.linalg.norm(M, 2)) if M.size else 0.0
+
+    kappa = ((1.0 + nrm(gain.gain) * nrm(tr.C2)) * (1.0 + nrm(tr.G1 @ tr.M1) + nrm(tr.G2 @ tr.M2))
+             * (1.0 + nrm(system.C) + nrm(system.A)))
+    with np.errstate(over="ignore", invalid="ignore"):
+        scale = (np.linalg.norm(x, axis=-1) + np.linalg.norm(d @ system.G.T, axis=-1)
+                 + np.linalg.norm(d @ system.H.T, axis=-1) + np.linalg.norm(batch.y, axis=-1))
+        scale[:, 1:] = np.maximum(scale[:, 1:], scale[:, :-1])  # the error of step k carries that of step k - 1
+        est = float(np.finfo(float).eps) * kappa * scale
+        rad = np.asarray(batch.extras["radius_state"])
+        rr = np.where(rad > 0, est / np.where(rad > 0, rad, 1.0), np.where(est > 0, np.inf, 0.0))
+    rr = np.where(np.isfinite(rr) & np.isfinite(xh).all(axis=-1), rr, np.inf)
+    out["roundoff_runs"] = int(np.sum((rr > ROUNDOFF_FRACTION).any(axis=1)))
+    out["roundoff_ratio"] = float(np.max(rr))
+    out["max_abs_input"] = float(np.max(np.abs(d))) if d.size else 0.0
+    return out
+
+

@@ -74,7 +74,14 @@ from numpy.typing import NDArray
 from nlobs._validate import in_range, positive, readonly
 from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
 from nlobs.linear.norms import hinf_norm
-from nlobs.linear.transform_ui import StructuralReport, UITransform, require_structure, structural_check, ui_transform
+from nlobs.linear.transform_ui import (
+    StructuralReport,
+    UITransform,
+    require_structure,
+    structural_check,
+    structure_inputs,
+    ui_transform,
+)
 from nlobs.checks import Check, CheckKind
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.synthesis.lmi import Solver, as_enum, as_solver, max_eig, solve
@@ -528,9 +535,13 @@ def _verify(system: DiscreteUISystem, dyn: ErrorDynamics, P: Array, L: Array, ka
 # --------------------------------------------------------------------------- public API
 
 
-def _structure(system: DiscreteUISystem, tr: UITransform) -> StructuralReport:
-    return structural_check(system.A, system.G, system.C, system.H,
-                            members=system.function_class.linear_members(), transform=tr)
+def _structure(system: DiscreteUISystem, tr: UITransform, given: StructuralReport | None = None) -> StructuralReport:
+    """The structural check of ``system``, reusing ``given`` when it was computed for exactly these inputs."""
+    members = system.function_class.linear_members()
+    if given is not None and given.inputs and given.inputs == structure_inputs(
+            system.A, system.G, system.C, system.H, tuple(members), tr):
+        return given
+    return structural_check(system.A, system.G, system.C, system.H, members=members, transform=tr)
 
 
 #: The bisection for the smallest feasible ``λ`` stops once its bracket is below this fraction of ``1 − λ_min``.
@@ -549,6 +560,7 @@ def design_setvalued(
     rtol: float = 1e-3,
     solver_options: Mapping[str, Any] | None = None,
     lpv: LPVMode | str = LPVMode.VERTICES,
+    structure: StructuralReport | None = None,
 ) -> SetValuedDesign:
     r"""Design and certify ``L̃`` for the observer (10)-(15) of seed 004 (sound replacement of Thms. 5.4/5.10).
 
@@ -579,6 +591,9 @@ def design_setvalued(
         Class III only: ``"vertices"`` (default; the observer must then be run with the plant's run-time
         weights) or ``"lipschitz"`` (the ``σ̃`` multiplier; for an observer that evaluates the plant's own
         ``φ``). See :class:`LPVMode`.
+    structure : StructuralReport, optional
+        A structural check already computed (:func:`~nlobs.linear.transform_ui.structural_check`); reused
+        only when its inputs digest matches this system and class (else recomputed).
 
     Returns
     -------
@@ -609,7 +624,7 @@ def design_setvalued(
     if certified_for.function_class is not system.function_class:
         system = dataclasses.replace(system, function_class=certified_for.function_class)
     tr = ui_transform(system.G, system.C, system.H, system.D)
-    st = _structure(system, tr)
+    st = _structure(system, tr, structure)
     require_structure(st)
     dyn = error_dynamics(system, tr)
     gamma = system.function_class.gamma

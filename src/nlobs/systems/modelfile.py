@@ -185,9 +185,10 @@ def shipped_models() -> dict[str, Path]:
 def resolve_model(model: str | os.PathLike[str]) -> Path:
     """The file behind a model argument: a path to a ``.toml`` file, or the name of a shipped model.
 
-    The one lookup of shipped names (the CLI and :func:`load_model` use it). A bare name that is both a
-    shipped model and a file in the working directory is refused as ambiguous instead of silently
-    taking the local file.
+    The one lookup of shipped names (the CLI and :func:`load_model` use it). A ``Path``, or a string with
+    a folder separator or the ``.toml`` suffix, is a path (the reader says why it cannot be read); a bare
+    name is looked up among the shipped models, and one that is both a shipped model and a file in the
+    working directory is refused as ambiguous instead of silently taking the local file.
 
     Raises
     ------
@@ -195,18 +196,25 @@ def resolve_model(model: str | os.PathLike[str]) -> Path:
         No such file and no shipped model of that name (the message lists the shipped names), or the
         name is ambiguous.
     """
-    text = os.fspath(model)
+    if not isinstance(model, str):  # a path object is a path: the reader says why it cannot be read
+        return Path(model)
+    text = model
     path = Path(text)
+    bare = os.sep not in text and "/" not in text and not text.endswith(".toml")
     shipped = shipped_models()
-    bare = isinstance(model, str) and text in shipped and os.sep not in text and "/" not in text
+    if not bare:  # a path
+        if os.path.lexists(path):
+            return path  # the reader says why it cannot be read, if it cannot
+        raise ModelFileError(text, None, "", f"no such file (cannot read file; shipped models: "
+                             f"{', '.join(sorted(shipped))})")
     if os.path.lexists(path):
-        if bare:
+        if text in shipped:
             raise ModelFileError(text, None, "", f"ambiguous: both a file in the working directory and the shipped "
                                  f"model {text!r}; write ./{text} for the file or rename it")
         return path
-    if bare:
+    if text in shipped:
         return shipped[text]
-    raise ModelFileError(text, None, "", f"cannot read file: no such file (shipped models: {', '.join(sorted(shipped))})")
+    raise ModelFileError(text, None, "", f"no such file (shipped models: {', '.join(sorted(shipped))})")
 
 
 def load_model(path: str | Path) -> Model:

@@ -1,17 +1,20 @@
-"""Model-level analysis: what ``nlobs analyze`` reports for any model.
+"""``nlobs analyze``: what nlobs reports about any model.
 
 For a linear model, the structural properties and norms of
 :func:`nlobs.linear.analyze_linear`. For a nonlinear model, its dimensions and
 form, and the same linear analysis of its Jacobian linearisation at an
 operating point (the origin by default), clearly labelled as *local*, and for
 a continuous-time input-affine model the symbolic (Lie-derivative) analyses of
-seeds 002/003 on a region (:func:`nlobs.geometry.report.geometry_report`).
+Dalla Mora–Germani–Manes and Röbenack on a region
+(:func:`nlobs.geometry.report.geometry_report`). :func:`analyze_model` is the workflow
+behind the command (a file, a shipped name or a model; the region as numbers).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -23,32 +26,11 @@ from nlobs.geometry.region import Box
 from nlobs.geometry.report import GeometryReport, geometry_report
 from nlobs.linear import LinearReport, analyze_linear
 from nlobs.systems.linear import LinearSystem
+from nlobs.systems.linearize import linearize
+from nlobs.systems.modelfile import Model, load_model
 from nlobs.systems.symbolic import SymbolicModel
-
-
-def linearize(model: SymbolicModel, x0: ArrayLike | None = None, u0: ArrayLike | None = None) -> LinearSystem:
-    """Jacobian linearisation ``(∂F/∂x, ∂F/∂u, ∂h/∂x, ∂h/∂u)`` at ``(x0, u0)`` (default: the origin).
-
-    Raises
-    ------
-    NonFiniteError
-        If a Jacobian is not finite at the point (e.g. ``log(x1)`` at ``x1 = 0``).
-    """
-    x = np.zeros(model.n) if x0 is None else as_vector("x0", x0, model.n)
-    u = np.zeros(model.m) if u0 is None else as_vector("u0", u0, model.m)
-    c = model.compile()
-    with np.errstate(all="ignore"):
-        mats = {
-            "A": c.rhs_jacobian_x(0.0, x, u),
-            "B": c.rhs_jacobian_u(0.0, x, u),
-            "C": c.output_jacobian_x(0.0, x, u),
-            "D": c.output_jacobian_u(0.0, x, u),
-        }
-    for k, v in mats.items():
-        if not np.all(np.isfinite(v)):
-            raise NonFiniteError(f"{model.name}: Jacobian {k} is not finite at x0={x.tolist()}, u0={u.tolist()}")
-    return LinearSystem(mats["A"], mats["B"], mats["C"], mats["D"], time=model.time, states=model.states,
-                        inputs=model.inputs, outputs=model.outputs, name=f"{model.name} (linearised)")
+from nlobs.workflows.inputs import box_from_numbers
+from nlobs.workflows.verdict import Verdict
 
 
 @dataclass(frozen=True)
@@ -181,3 +163,58 @@ def analyze(
         geometry=geo,
         geometry_error=geo_err,
     )
+
+
+@dataclass(frozen=True, eq=False)
+class AnalysisReport:
+    """What ``nlobs analyze`` prints: the linear report of a linear model, or the nonlinear report.
+
+    Attributes
+    ----------
+    report : LinearReport or NonlinearReport
+    verdict : Verdict
+        Always ``OK`` (an analysis reports; it does not fail).
+    message : str
+    """
+
+    report: LinearReport | NonlinearReport
+    verdict: Verdict = Verdict.OK
+    message: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON report (``kind`` is ``"linear"`` or ``"nonlinear"``)."""
+        data = self.report.to_dict()
+        data.setdefault("kind", "linear")
+        return data
+
+    def summary(self) -> str:
+        """The text report."""
+        return self.report.summary()
+
+
+def analyze_model(model: str | Path | Model, *, x0: Sequence[float] | None = None,
+                  u0: Sequence[float] | None = None, box: Sequence[float] | None = None) -> AnalysisReport:
+    """The workflow of ``nlobs analyze``: load the model and :func:`analyze` it.
+
+    Parameters
+    ----------
+    model : str, Path, SymbolicModel or LinearSystem
+        A model file, the name of a shipped model, or a model.
+    x0, u0 : sequence of float, optional
+        Operating point of the linearisation of a nonlinear model.
+    box : sequence of float, optional
+        Region of the symbolic analyses: ``lo, hi`` for every state or ``lo1, hi1, lo2, hi2, ...``
+        (:func:`~nlobs.workflows.inputs.box_from_numbers`).
+
+    Raises
+    ------
+    ModelFileError
+        The file cannot be read or is invalid.
+    BoxError
+        A malformed region.
+    NlobsError
+        Anything else the analysis refuses (a typed error naming the quantity).
+    """
+    m = model if isinstance(model, (SymbolicModel, LinearSystem)) else load_model(model)
+    region = box_from_numbers(box, m.n) if box is not None else None
+    return AnalysisReport(analyze(m, x0=x0, u0=u0, region=region))

@@ -1,0 +1,683 @@
+"""``nlobs design setvalued`` and ``nlobs simulate setvalued``: the set-valued observer of Khajenejad & Yong.
+
+Both read a model file with unknown inputs (:func:`nlobs.systems.modelfile.load_discrete_ui_model`), run
+the structural checks first (Lemma 5.1's rank, strong detectability of every linear member of the class,
+Corollary 5.8 / Lemma 5.7) and conclude :attr:`~nlobs.workflows.verdict.Verdict.NO_OBSERVER` when no stable
+observer of the structure (10)-(15) exists, with the evidence. :func:`design_setvalued_observer` adds the
+sampled check of the function class, the design (:func:`nlobs.synthesis.setvalued.design_setvalued`) and its
+independent verification; :func:`simulate_setvalued_observer` runs Algorithm 1 in Monte Carlo with the point
+baselines of ``docs/baselines.md`` on the same runs (:func:`monte_carlo`).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from nlobs._typing import Array
+from nlobs.errors import (
+    AssumptionViolated,
+    InvalidArgumentError,
+    ModelError,
+    NlobsError,
+    OutputError,
+    SimulationDiverged,
+    StudyFailed,
+)
+from nlobs.linear.transform_ui import StructuralReport, structural_check
+from nlobs.observers.kalman import UnknownInputEKF
+from nlobs.observers.lipschitz import DiscreteLipschitzObserver
+from nlobs.simulate.replay import run_observer
+from nlobs.simulate.result import SimulationResult
+from nlobs.simulate.setvalued import ContainmentResult, containment_of, input_estimates, simulate_batch
+from nlobs.simulate.setvalued_plots import plot_trajectories, save_figure
+from nlobs.synthesis.setvalued import SetValuedDesign, design_setvalued
+from nlobs.systems.discrete_ui import DiscreteUISystem, Lipschitz, check_function_class
+from nlobs.systems.modelfile import DiscreteUIModel, load_discrete_ui_model
+from nlobs.workflows.verdict import Verdict
+
+__all__ = [
+    "MAX_BATCH",
+    "MonteCarloStudy",
+    "PointBaselines",
+    "SetValuedDesignReport",
+    "SetValuedStudyReport",
+    "class_check_box",
+    "design_setvalued_observer",
+    "monte_carlo",
+    "plot_study",
+    "point_baselines",
+    "run_baselines",
+    "simulate_setvalued_observer",
+]
+
+
+@dataclass(frozen=True)
+class PointBaselines:
+    """The two point observers of ``docs/baselines.md`` set up for a :class:`DiscreteUISystem`.
+
+    Attributes
+    ----------
+    lipschitz : DiscreteLipschitzObserver or None
+        Lipschitz LMI observer (ignores ``d``); ``None`` when its LMI is infeasible.
+    lipschitz_note : str
+        The constant and structure it was designed for, or why it could not be designed.
+    ekf : UnknownInputEKF or None
+        EKF modelling ``d`` as white noise of covariance ``Q_d`` (``None`` when it cannot be set up, e.g. a
+        non-finite ``Q_d``; ``ekf_note`` says why).
+    ekf_P0 : ndarray
+        Its initial covariance.
+    ekf_note : str
+    """
+
+    lipschitz: DiscreteLipschitzObserver | None
+    lipschitz_note: str
+    ekf: UnknownInputEKF | None
+    ekf_P0: Array
+    ekf_note: str
+
+
+def _jacobian_fd(phi: Callable[[Array], Array], n: int) -> Callable[[Array], Array]:
+    """Central-difference Jacobian of a batched map (used by the EKF baseline only)."""
+    def jac(x: Array) -> Array:
+        x = np.asarray(x, dtype=float)
+        h = 1e-6 * np.maximum(1.0, np.abs(x))
+        cols = []
+        for j in range(n):
+            e = np.zeros(n)
+            e[j] = 1.0
+            hj = h[..., j:j + 1]
+            cols.append((np.asarray(phi(x + hj * e)) - np.asarray(phi(x - hj * e))) / (2 * hj))
+        return np.stack(cols, axis=-1)
+    return jac
+
+
+def _sparsity(phi: Callable[[Array], Array], lo: Array, hi: Array, n: int, seed: int) -> tuple[Array, Array]:
+    """``E``, ``F`` of ``φ = E ψ(F x) + const`` from sampled Jacobians (rows that vary, states it depends on)."""
+    x = lo + (hi - lo) * np.random.default_rng(seed).random((256, n))
+    J = np.abs(_jacobian_fd(phi, n)(x)).max(axis=0)
+    tol = 1e-7 * max(1.0, float(J.max()))
+    rows = np.flatnonzero(J.max(axis=1) > tol)
+    cols = np.flatnonzero(J.max(axis=0) > tol)
+    eye = np.eye(n)
+    return eye[:, rows], eye[cols, :]
+
+
+def point_baselines(system: DiscreteUISystem, *, q_d: float, box: tuple[ArrayLike, ArrayLike] | None = None,
+                    seed: int = 0) -> PointBaselines:
+    r"""Design the Lipschitz LMI observer and set up the EKF for ``system`` (``docs/baselines.md``).
+
+    Lipschitz observer, designed by :func:`~nlobs.synthesis.discrete_lipschitz.design_discrete_lipschitz_gain`
+    for ``f = A_b x + φ_b``: Class I ``(A, L)``; Class III ``(A, σ̃)``; Class 0 ``(A, k)`` with ``k`` the increment
+    bound of (2) when ``M11 ≺ 0``; Class II ``(A + 𝒜, 0)``, the bounded remainder of Lemma 2.14 acting as a
+    disturbance. When the constant is positive the structured bound ``φ = Eψ(Fx)`` is used, with the rows
+    that vary and the states ``φ`` depends on read from Jacobians sampled in ``box`` (a sampled structure:
+    evidence, not proof). EKF: ``Q_w = η_w²/(n_w + 2) I``, ``R_v = η_v²/(l + 2) I`` (covariances of the
+    uniform distribution in the noise balls), ``Q_d = q_d I``, ``P₀ = δ₀²/(n + 2) I``, Jacobian of ``φ`` by
+    central differences.
+    """
+    from nlobs.errors import DesignInfeasible
+    from nlobs.synthesis.discrete_lipschitz import design_discrete_lipschitz_gain
+    from nlobs.systems.discrete_ui import LPV, QCStar
+
+    n, fc = system.n, system.function_class
+    phi = system.nonlinear
+    if box is None:
+        half = max(10.0 * system.delta0, 1.0)
+        lo, hi = system.x0 - half, system.x0 + half
+    else:
+        lo, hi = np.asarray(box[0], dtype=float), np.asarray(box[1], dtype=float)
+    A_b, L_b = system.A, math.nan
+    if isinstance(fc, Lipschitz):
+        L_b = fc.L
+    elif isinstance(fc, LPV):
+        L_b = fc.sigma
+    elif isinstance(fc, QCStar):
+        A_b, L_b = system.A + fc.A_aux, 0.0
+    else:
+        L_b = fc.increment_bound(np.zeros((n, n)), np.eye(n))[0]
+    lip: DiscreteLipschitzObserver | None = None
+    if not math.isfinite(L_b):
+        note = f"not designed: {fc.label} gives no Lipschitz bound (M11 is not negative definite)"
+    else:
+        E, F = (None, None) if L_b == 0 else _sparsity(phi, lo, hi, n, seed)
+        try:
+            cert = design_discrete_lipschitz_gain(A_b, system.C, lipschitz=L_b, E=E, F=F)
+            lip = DiscreteLipschitzObserver(system.A, system.C, cert.gain, system.time, phi=system.nonlinear,
+                                            B=system.B, D=system.D)
+            note = (f"designed for γ = {L_b:.4g}" + ("" if E is None else f", φ = Eψ(Fx) with {E.shape[1]} rows "
+                    f"and {F.shape[0]} states") + f": ρ = {cert.rho:.4g}, spectral radius {cert.spectral_radius:.4g}")
+        except DesignInfeasible as exc:
+            note = f"not designed: {exc}"
+    from nlobs.errors import NlobsError
+
+    ekf: UnknownInputEKF | None
+    P0 = max(system.delta0, 1e-6) ** 2 / (n + 2) * np.eye(n)
+    try:
+        ekf = UnknownInputEKF(system.A, system.C, system.time,
+                              Q_w=system.eta_w**2 / (system.n_w + 2) * np.eye(system.n_w),
+                              R_v=max(system.eta_v, 1e-6) ** 2 / (system.l + 2) * np.eye(system.l),
+                              Q_d=max(float(q_d), 1e-12) * np.eye(system.p), phi=phi,
+                              phi_jacobian=_jacobian_fd(phi, n), B=system.B, D=system.D, G=system.G, H=system.H,
+                              W=system.W, P0=P0)
+        ekf_note = f"Q_d = {q_d:.4g} I (d modelled as white noise)"
+    except NlobsError as exc:
+        ekf, ekf_note = None, f"EKF diverged before its first step (not set up): {exc}"
+    return PointBaselines(lip, note, ekf, P0, ekf_note)
+
+
+def run_baselines(baselines: PointBaselines, system: DiscreteUISystem, y: Array) -> tuple[Array | None, Array]:
+    """Run both point baselines on measurements ``y`` of shape ``(B, K + 1, l)``, from ``system.x0``.
+
+    Parameters
+    ----------
+    baselines : PointBaselines
+    system : DiscreteUISystem
+    y : ndarray, shape (B, K + 1, l)
+
+    Returns
+    -------
+    lipschitz : ndarray of shape (B, K + 1, n), or None
+        Estimates ``x̂_k`` of the Lipschitz observer (a predictor: ``x̂_k`` uses ``y_0..y_{k−1}``);
+        ``None`` when it could not be designed.
+    ekf : ndarray of shape (B, K + 1, n), or None
+        The EKF's priors ``x̂_{k|k−1}``; ``None`` when it was not set up.
+
+    Raises
+    ------
+    SimulationDiverged
+        The EKF diverged (its innovation covariance became singular or non-finite: ``LinAlgError``).
+    """
+    B, K1, _ = y.shape
+    x0 = np.broadcast_to(system.x0, (B, system.n))
+    t = np.arange(K1) * system.time.dt
+    lip = None
+    if baselines.lipschitz is not None:
+        lip = run_observer(baselines.lipschitz, t, x_hat0=x0, y=y, divergence="keep").x_hat
+    if baselines.ekf is None:
+        return lip, None
+    return lip, run_observer(baselines.ekf, t, x_hat0=x0, y=y, divergence="keep").x_hat
+
+
+@dataclass(frozen=True)
+class MonteCarloStudy:
+    """Algorithm 1 and the point baselines on the same Monte Carlo runs.
+
+    Attributes
+    ----------
+    containment : ContainmentResult
+    batch : SimulationResult
+        The runs themselves (of :func:`simulate_batch`, for plots).
+    final_error_state : float
+        ``max_runs ‖x_K − x̂_{K|K}‖`` of the set-valued observer.
+    baseline_lipschitz_final_error, baseline_ekf_final_error : float or None
+        ``max_runs ‖x_K − x̂_K‖`` of the baselines (``None`` when not designed / not run).
+    baseline_lipschitz_errors, baseline_ekf_errors : ndarray or None, shape (B, K + 1)
+    baselines : PointBaselines or None
+    baseline_lipschitz_x_hat, baseline_ekf_x_hat : ndarray or None, shape (B, K + 1, n)
+        The baselines' estimates (for plots).
+    baseline_ekf_failure : str or None
+        Why the EKF produced no estimates on these runs (e.g. "EKF diverged at step …").
+    """
+
+    containment: ContainmentResult
+    batch: SimulationResult = field(repr=False)
+    final_error_state: float
+    baseline_lipschitz_final_error: float | None
+    baseline_ekf_final_error: float | None
+    baseline_lipschitz_errors: Array | None = field(repr=False)
+    baseline_ekf_errors: Array | None = field(repr=False)
+    baselines: PointBaselines | None = field(repr=False)
+    baseline_lipschitz_x_hat: Array | None = field(default=None, repr=False)
+    baseline_ekf_x_hat: Array | None = field(default=None, repr=False)
+    baseline_ekf_failure: str | None = None
+
+
+def monte_carlo(system: DiscreteUISystem, design: SetValuedDesign, unknown_input: Callable[[Array], Array], *,
+                runs: int, steps: int, seed: int = 0, baselines: bool | PointBaselines = True,
+                q_d: float | None = None, box: tuple[ArrayLike, ArrayLike] | None = None,
+                label: str = "sound") -> MonteCarloStudy:
+    """Containment of Algorithm 1 and, on the same runs, the errors of the point baselines.
+
+    Parameters
+    ----------
+    system : DiscreteUISystem
+    design : SetValuedDesign
+        A verified design (its sound radii are used).
+    unknown_input : callable
+        ``t`` ``(K + 1,)`` → ``d`` ``(K + 1, p)``, the same in every run.
+    runs, steps : int
+    seed : int
+        Seed of the initial states and noises (:func:`simulate_batch`).
+    baselines : bool or PointBaselines
+        ``True``: set them up with :func:`point_baselines`; ``False``: Algorithm 1 only.
+    q_d : float, optional
+        The EKF's ``Q_d = q_d I``; by default the mean square of ``unknown_input`` over the horizon (pass
+        the bounded signal's to see how a filter tuned for a bounded ``d`` copes with a growing one).
+    box : (lo, hi), optional
+        Where the class was checked: the baselines' structure is sampled there, and runs whose states leave
+        it are counted (``ContainmentResult.left_box_runs``).
+    label : str
+
+    Returns
+    -------
+    MonteCarloStudy
+    """
+    batch = simulate_batch(system, design, unknown_input, runs=runs, steps=steps, seed=seed)
+    res = containment_of(batch, label, system=system, gain=design, box=box)
+    fe = float(res.errors[:, -1].max())
+    if baselines is False:
+        return MonteCarloStudy(res, batch, fe, None, None, None, None, None)
+    pb = baselines if isinstance(baselines, PointBaselines) else point_baselines(
+        system, q_d=(float(np.mean(batch.extras["d"][0] ** 2)) if system.p else 0.0) if q_d is None else q_d, box=box,
+        seed=seed)
+    failure = None if pb.ekf is not None else pb.ekf_note
+    with np.errstate(over="ignore", invalid="ignore"):
+        try:
+            lip, ekf = run_baselines(pb, system, batch.y)
+        except SimulationDiverged as exc:  # the EKF's covariance broke down: report it, keep the other results
+            failure = str(exc)
+            lip, ekf = run_baselines(dataclasses.replace(pb, ekf=None), system, batch.y)
+        el = None if lip is None else np.linalg.norm(batch.x - lip, axis=-1)
+        ee = None if ekf is None else np.linalg.norm(batch.x - ekf, axis=-1)
+    if ee is not None and not np.all(np.isfinite(ee[:, -1])) and failure is None:
+        failure = "EKF diverged (non-finite estimates)"
+
+    def final(e: Array | None) -> float | None:
+        if e is None:
+            return None
+        v = float(np.max(e[:, -1]))
+        return v if math.isfinite(v) else math.inf
+
+    return MonteCarloStudy(res, batch, fe, final(el), final(ee), el, ee, pb, lip, ekf, failure)
+
+
+def plot_study(study: MonteCarloStudy, path: str | Path, *, title: str = "", dt: float = 1.0) -> Path:
+    """Errors of Algorithm 1 against its radii, and the baselines' errors on the same runs (log scale)."""
+    from matplotlib.figure import Figure
+
+    res = study.containment
+    t = np.arange(res.steps + 1) * dt
+    fig = Figure(figsize=(8.0, 6.0), layout="constrained")
+    ax, axd = fig.add_subplot(2, 1, 1), fig.add_subplot(2, 1, 2)
+    ax.fill_between(t, np.min(res.errors, axis=0), np.max(res.errors, axis=0), color="C0", alpha=0.25,
+                    label=f"set-valued: error range ({res.runs} runs)")
+    ax.plot(t, res.radii.state, "C0--", lw=2, label="set-valued: radius δˣ_k")
+    for errs, col, name in ((study.baseline_lipschitz_errors, "C3", "Lipschitz LMI observer"),
+                            (study.baseline_ekf_errors, "C2", "EKF, d as noise")):
+        if errs is not None:
+            ax.fill_between(t, np.min(errs, axis=0), np.max(errs, axis=0), color=col, alpha=0.2)
+            ax.plot(t, np.median(errs, axis=0), color=col, lw=1.2, label=f"{name}: median error (band: range)")
+    ax.set_yscale("log")
+    ax.set_ylabel("‖x_k − x̂_k‖")
+    ax.set_title(title)
+    ax.legend(fontsize=7)
+    b = study.batch
+    de = np.linalg.norm(b.extras["d"][:, :-1] - input_estimates(b), axis=-1)
+    axd.fill_between(t[:-1], de.min(axis=0), de.max(axis=0), color="C0", alpha=0.25, label="input error range")
+    axd.plot(t[:-1], res.radii.input, "C0--", lw=2, label="input radius δᵈ_{k−1}")
+    axd.set_yscale("log")
+    axd.set_xlabel("t [s]" if dt != 1.0 else "step k")
+    axd.set_ylabel("‖d_{k−1} − d̂_{k−1}‖")
+    axd.legend(fontsize=7)
+    return save_figure(fig, path)
+
+
+# --------------------------------------------------------------------------- the two commands
+
+
+def _structure(s: DiscreteUISystem) -> tuple[StructuralReport | None, str]:
+    """The structural check, or ``None`` with the reason when Lemma 5.1's rank condition fails."""
+    try:
+        return structural_check(s.A, s.G, s.C, s.H, members=s.function_class.linear_members()), ""
+    except AssumptionViolated as exc:
+        return None, str(exc)
+
+
+def _structure_dict(st: StructuralReport | None, why: str) -> dict[str, Any]:
+    if st is None:
+        return {"exists": False, "lemma_5_1_rank": False, "evidence": why}
+    return {"exists": st.exists, "lemma_5_1_rank": True, **st.to_dict()}
+
+
+def class_check_box(m: DiscreteUIModel) -> tuple[Array, Array]:
+    """Where the function class is checked: the file's ``box``, else ``x0 ± max(10 δ0, 1)``."""
+    if m.box is not None:
+        return m.box
+    s = m.system
+    half = max(10.0 * s.delta0, 1.0)
+    return s.x0 - half, s.x0 + half
+
+
+def _load(model: str | Path | DiscreteUIModel) -> DiscreteUIModel:
+    return model if isinstance(model, DiscreteUIModel) else load_discrete_ui_model(model)
+
+
+_NO_OBSERVER = ("no stable observer of this structure exists (a linear member of the class is not strongly "
+                "detectable, or Lemma 5.1's rank condition fails); evidence printed above")
+
+
+@dataclass(frozen=True, eq=False)
+class SetValuedDesignReport:
+    """What ``nlobs design setvalued`` prints: structure, sampled class check, design and verification.
+
+    Attributes
+    ----------
+    model : str
+        The model as the user named it (for messages).
+    data : dict
+        The JSON report (``to_dict()``).
+    design : SetValuedDesign or None
+        ``None`` when no stable observer of the structure exists.
+    structure : StructuralReport or None
+        ``None`` when Lemma 5.1's rank condition fails.
+    verdict : Verdict
+        ``OK`` or ``NO_OBSERVER``.
+    message : str
+        The line printed after the report when the verdict is not ``OK``.
+    """
+
+    model: str
+    data: dict[str, Any]
+    design: SetValuedDesign | None
+    structure: StructuralReport | None
+    verdict: Verdict
+    message: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON report."""
+        return copy.deepcopy(self.data)
+
+    def head(self) -> str:
+        """The model, structure and class-check lines (shared with the simulation report)."""
+        d = self.data
+        st = d["structure"]
+        return "\n".join([
+            f"model {d['model']}: n = {d['n']}, unknown inputs p = {d['p']}, measurements l = {d['l']}; "
+            f"{d['function_class']} (γ = {d['gamma']:.4g}); η_w = {d['eta_w']:g}, η_v = {d['eta_v']:g}, "
+            f"δ0 = {d['delta0']:g}",
+            "structural checks: Lemma 5.1 rank ok; stable observer of this structure exists: "
+            f"{'yes' if st['exists'] else 'NO'}",
+            "  " + st["evidence"].replace("\n", "\n  "),
+            "function class (sampled): " + d["class_check"]["text"],
+        ])
+
+    def summary(self) -> str:
+        """The text report."""
+        if self.design is None:
+            return f"{self.model}: NO stable observer of the structure (10)-(15) exists\n" + \
+                self.data["structure"]["evidence"]
+        return self.head() + "\n" + self.design.summary()
+
+
+def design_setvalued_observer(model: str | Path | DiscreteUIModel, *, objective: str = "radius",
+                              samples: int = 20_000, seed: int = 0) -> SetValuedDesignReport:
+    """Structural checks, the sampled function-class check and the certified design of Algorithm 1's gain.
+
+    Parameters
+    ----------
+    model : str, Path or DiscreteUIModel
+        A model file with unknown inputs, the name of a shipped one, or a loaded model.
+    objective : {"radius", "hinf"}
+        The design objective of :func:`nlobs.synthesis.setvalued.design_setvalued`.
+    samples : int
+        Sampled pairs for the function-class check (in :func:`class_check_box`).
+    seed : int
+        Seed of that sampling.
+
+    Returns
+    -------
+    SetValuedDesignReport
+        Verdict ``NO_OBSERVER`` (with the evidence) when no stable observer of the structure (10)-(15) exists.
+
+    Raises
+    ------
+    ModelFileError
+        The model file cannot be read or is invalid.
+    ModelError
+        The nonlinear part violates its stated class on the sampled pairs (no certificate would hold).
+    DesignInfeasible, CertificateError
+        The design failed (the message says which LMI and by how much) or failed its re-verification.
+    """
+    m = _load(model)
+    label = str(model) if not isinstance(model, DiscreteUIModel) else m.system.name
+    s = m.system
+    st, why = _structure(s)
+    lo, hi = class_check_box(m)
+    chk = check_function_class(s.nonlinear, s.function_class, lo, hi, n_pairs=samples, seed=seed)
+    data: dict[str, Any] = {
+        "model": s.name, "n": s.n, "p": s.p, "l": s.l, "function_class": s.function_class.label,
+        "gamma": s.function_class.gamma, "eta_w": s.eta_w, "eta_v": s.eta_v, "delta0": s.delta0,
+        "structure": _structure_dict(st, why),
+        "class_check": {"holds": chk.passed, "worst_margin": chk.value, "x1": chk.values["x1"].tolist(),
+                        "x2": chk.values["x2"].tolist(), "pairs": chk.values["n_pairs"],
+                        "box": [lo.tolist(), hi.tolist()], "text": chk.evidence},
+    }
+    if st is None or not st.exists:
+        return SetValuedDesignReport(label, data, None, st, Verdict.NO_OBSERVER, f"{label}: {_NO_OBSERVER}")
+    if not chk.passed:
+        raise ModelError(f"the nonlinear part violates its stated class, so no certificate would hold: {chk.evidence}")
+    try:
+        # the observer runs on the plant's own φ (no run-time LPV weights): a Class III file is designed with
+        # the σ̃ Lipschitz multiplier, not at the vertices (docs/setvalued.md, "Soundness conditions")
+        d = design_setvalued(s, objective=objective, lpv="lipschitz", structure=st)
+    except AssumptionViolated as exc:  # pragma: no cover - the structural check above catches these first
+        data["structure"]["evidence"] = exc.evidence or str(exc)
+        return SetValuedDesignReport(label, data, None, st, Verdict.NO_OBSERVER, f"{label}: {_NO_OBSERVER}")
+    data["design"] = d.to_dict()
+    return SetValuedDesignReport(label, data, d, st, Verdict.OK, "")
+
+
+#: The largest Monte Carlo batch, runs · (steps + 1) · n (one batch is held in memory).
+MAX_BATCH = 5e8
+
+
+@dataclass(frozen=True, eq=False)
+class SetValuedStudyReport:
+    """What ``nlobs simulate setvalued`` prints: the design report, then the Monte Carlo study.
+
+    Attributes
+    ----------
+    design : SetValuedDesignReport
+    study : MonteCarloStudy or None
+        ``None`` when there is no observer (the design report's verdict).
+    data : dict
+        The JSON report (``to_dict()``).
+    figures : tuple of Path
+    warnings : tuple of str
+    verdict : Verdict
+        ``OK`` when the certified balls contained the truth in every run, ``FAILED`` (GUARANTEE VIOLATED)
+        otherwise, ``NO_OBSERVER`` from the design.
+    message : str
+    """
+
+    design: SetValuedDesignReport
+    study: MonteCarloStudy | None
+    data: dict[str, Any]
+    figures: tuple[Path, ...]
+    warnings: tuple[str, ...]
+    verdict: Verdict
+    message: str
+    violated: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON report."""
+        return copy.deepcopy(self.data)
+
+    @property
+    def json_message(self) -> str:
+        """The line after the JSON report: the whole verdict with the likely cause."""
+        return f"{self.design.model}: {self.violated}" if self.violated else self.message
+
+    def summary(self) -> str:
+        """The text report."""
+        if self.study is None:
+            return self.design.summary()
+        d = self.design.design
+        assert d is not None
+        res, study, data = self.study.containment, self.study, self.data
+
+        def num(v: float | None) -> str:
+            return "n/a" if v is None else f"{v:.4g}"
+
+        lines = [self.design.head(), d.summary(),
+                 f"Monte Carlo: {data['runs']} runs x {data['steps']} steps, {data['unknown_input']} unknown input, "
+                 f"seed {data['seed']} ({res.seconds:.2f} s)",
+                 f"  containment (truth inside the ball at every step): state {res.rate_state:.4f}, "
+                 f"input {res.rate_input:.4f}",
+                 f"  final radius: state {res.final_radius_state:.4g}, input {res.final_radius_input:.4g}; "
+                 f"max error/radius {res.max_error_over_radius:.4g} (after step 0: "
+                 f"{float(np.max(res.errors[:, 1:] / res.radii.state[1:])):.4g}); max final error "
+                 f"{study.final_error_state:.4g}",
+                 f"  baselines, max final error: Lipschitz LMI observer {num(study.baseline_lipschitz_final_error)}, "
+                 f"EKF (d as noise) {num(study.baseline_ekf_final_error)}"]
+        if study.baselines is not None:
+            lines.append(f"    Lipschitz: {study.baselines.lipschitz_note}; EKF: "
+                         f"{study.baseline_ekf_failure or study.baselines.ekf_note}")
+        lines += [f"wrote {f}" for f in self.figures]
+        lines += [f"warning: {w}" for w in self.warnings]
+        if self.violated:
+            lines.append(self.violated)
+        return "\n".join(lines)
+
+
+def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: int = 1000, steps: int = 200,
+                                unknown_input: str = "bounded", seed: int = 0, objective: str = "radius",
+                                baselines: bool = True, samples: int = 20_000,
+                                out: str | Path | None = None) -> SetValuedStudyReport:
+    """Design Algorithm 1's gain (:func:`design_setvalued_observer`) and run it in Monte Carlo with the baselines.
+
+    Parameters
+    ----------
+    model : str, Path or DiscreteUIModel
+        A model file with unknown inputs, a shipped name, or a loaded model.
+    runs, steps : int
+        Monte Carlo runs and steps per run (``runs·(steps + 1)·n ≤`` :data:`MAX_BATCH`).
+    unknown_input : {"bounded", "growing"}
+        The file's signal ``d(t)``.
+    seed : int
+        Seed of the initial states and noises.
+    objective : str
+        The design objective.
+    baselines : bool
+        Also run the Lipschitz LMI observer and the EKF on the same runs.
+    samples : int
+        Sampled pairs for the function-class check.
+    out : str or Path, optional
+        Folder for the figures (written atomically).
+
+    Returns
+    -------
+    SetValuedStudyReport
+        Verdict ``FAILED`` (GUARANTEE VIOLATED, with the likely cause) when a certified ball missed the truth.
+
+    Raises
+    ------
+    InvalidArgumentError
+        The batch is too large.
+    StudyFailed
+        The runs could not be completed (e.g. the plant overflows); the cause is chained.
+    OutputError
+        ``out`` cannot be written.
+    """
+    m = _load(model)
+    if runs * (steps + 1) * m.system.n > MAX_BATCH:
+        raise InvalidArgumentError(f"--runs {runs} x --steps {steps}: too large for one batch (runs·steps·n > 5e8)")
+    rep = design_setvalued_observer(m, objective=objective, samples=samples, seed=0)
+    rep = dataclasses.replace(rep, model=str(model) if not isinstance(model, DiscreteUIModel) else rep.model,
+                              message=rep.message.replace(rep.model, str(model), 1)
+                              if not isinstance(model, DiscreteUIModel) else rep.message)
+    if rep.design is None:
+        return SetValuedStudyReport(rep, None, rep.to_dict(), (), (), rep.verdict, rep.message)
+    d = rep.design
+    s = m.system
+    box = class_check_box(m)
+    t = np.arange(steps + 1) * s.time.dt
+    with np.errstate(over="ignore", invalid="ignore"):  # a non-finite Q_d is reported by the EKF's note
+        q_d = float(np.mean(m.signals["bounded"](t) ** 2)) if s.p else 0.0
+    try:
+        # overflow in the runs is not silent: the plant's raises SimulationDiverged, the observer's and the
+        # round-off it causes are measured (ContainmentResult.roundoff_runs) and reported below
+        with np.errstate(over="ignore", invalid="ignore"):
+            study = monte_carlo(s, d, m.signals[unknown_input], runs=runs, steps=steps, seed=seed,
+                                baselines=baselines, q_d=q_d, box=box)
+    except NlobsError as exc:
+        raise StudyFailed(str(exc)) from exc
+    res = study.containment
+    causes = res.likely_causes()
+    held = res.guarantee_held
+    warnings = []
+    if res.class_violated_in_runs:
+        warnings.append(f"the function class is violated along the trajectories in {res.class_violated_in_runs} "
+                        f"of {runs} runs (worst QC − γ = {res.class_worst_margin:.4g}): the certificate does not "
+                        "apply to these runs")
+    if res.left_box_runs:
+        warnings.append(f"the state or its estimate left the box where the class was checked ({box[0].tolist()} "
+                        f"to {box[1].tolist()}) in {res.left_box_runs} of {runs} runs; on the visited pairs the "
+                        "class condition " + ("is VIOLATED" if res.class_violated_in_runs else "holds"))
+    if res.roundoff_runs:
+        warnings.append(f"floating-point round-off reaches {res.roundoff_ratio:.3g} × the radius in "
+                        f"{res.roundoff_runs} of {runs} runs (|d| = {res.max_abs_input:.4g}): containment may be "
+                        "lost to round-off (docs/setvalued.md, 'Soundness conditions')")
+    data = rep.data
+    out_data = {
+        "model": s.name, "runs": runs, "steps": steps, "seed": seed, "unknown_input": unknown_input,
+        "objective": d.objective.value,
+        "rho": d.rho,
+        "rho_meaning": ("ℓ2 gain bound ρ of Definition 5.9 (hinf design)" if d.rho is not None else
+                        "null: the radius design certifies no ℓ2 gain (use --objective hinf, needs γ ≥ 0)"),
+        "contraction_factor": math.sqrt(d.lam_eff),
+        "containment_rate_state": res.rate_state, "containment_rate_input": res.rate_input,
+        "first_violation_step": res.first_violation_step,
+        "final_radius_state": res.final_radius_state, "final_radius_input": res.final_radius_input,
+        "steady_radius_state": d.steady_radius,
+        "max_error_over_radius": res.max_error_over_radius,
+        "max_error_over_radius_after_step_0": (float(np.max(res.errors[:, 1:] / res.radii.state[1:]))
+                                               if steps >= 1 else None),
+        "final_error_state": study.final_error_state,
+        "baseline_lipschitz_final_error": study.baseline_lipschitz_final_error,
+        "baseline_ekf_final_error": study.baseline_ekf_final_error,
+        "baseline_lipschitz_note": study.baselines.lipschitz_note if study.baselines else None,
+        "baseline_ekf_note": study.baselines.ekf_note if study.baselines else None,
+        "baseline_ekf_failure": study.baseline_ekf_failure,
+        "guarantee_held": held,
+        "likely_causes": causes if not held else [],
+        "class_violated_in_runs": res.class_violated_in_runs,
+        "class_worst_margin_in_runs": res.class_worst_margin,
+        "left_box_runs": res.left_box_runs,
+        "roundoff_runs": res.roundoff_runs,
+        "roundoff_over_radius": res.roundoff_ratio,
+        "max_abs_unknown_input": res.max_abs_input,
+        "warnings": warnings,
+        "seconds": res.seconds, "design": data["design"], "structure": data["structure"],
+        "class_check": data["class_check"],
+    }
+    violated = ("GUARANTEE VIOLATED: the certified balls did not contain the truth in every run (state "
+                f"{res.rate_state:.4f}, input {res.rate_input:.4f}); likely cause: "
+                + ("; ".join(causes) if causes else "none found (class held on the visited pairs, states stayed in "
+                   "the box, no round-off flagged): please report it"))
+    figures: list[Path] = []
+    if out is not None:
+        folder = Path(out)
+        try:
+            figures.append(plot_study(study, folder / f"{s.name}-{unknown_input}-errors.png",
+                                      title=f"{s.name}, {unknown_input} d, {runs} runs", dt=s.time.dt))
+            figures.append(plot_trajectories(study.batch, folder / f"{s.name}-{unknown_input}-run0.png",
+                                             title=f"{s.name}, {unknown_input} d, run 0"))
+        except OSError as exc:
+            raise OutputError(f"--out {out}: {exc}") from exc
+    out_data["figures"] = [str(f) for f in figures]
+    label = rep.model
+    if held:
+        return SetValuedStudyReport(rep, study, out_data, tuple(figures), tuple(warnings), Verdict.OK, "")
+    return SetValuedStudyReport(rep, study, out_data, tuple(figures), tuple(warnings), Verdict.FAILED,
+                                f"{label}: GUARANTEE VIOLATED (containment state {res.rate_state:.4f}, input "
+                                f"{res.rate_input:.4f})", violated=violated)
