@@ -115,7 +115,7 @@ class SimulationDiverged(NlobsError, ArithmeticError):
 
 
 class AssumptionViolated(DesignError):
-    """A structural assumption of a design method fails (e.g. seed 001, Assumption 4).
+    """A structural assumption of a design method fails (e.g. Assumption 4 of Grip, Saberi & Johansen).
 
     Attributes
     ----------
@@ -139,4 +139,8 @@ class OutputError(NlobsError, OSError):
 
 
 class StudyFailed(NlobsError):
-    """A simulation study (Monte Carlo runs) could not be completed; the cause is chained and named in the message."""
+    """A simulation study a workflow ran (one simulation or Monte Carlo runs) could not be completed.
+
+    The cause is chained and named in the message. A divergence of a single simulation is
+    :class:`SimulationDiverged` instead.
+    """

@@ -1,5 +1,9 @@
 """Shared pieces of the ``nlobs`` command line: exit statuses, one-line errors, model loading,
 option parsing and JSON output. Every command module imports these; none defines its own.
+
+From the library this module imports only :mod:`nlobs.workflows`, :mod:`nlobs.systems.modelfile`
+and :mod:`nlobs.errors`: the escaping of terminal text comes from :mod:`nlobs.workflows.inputs`,
+and a ``--box`` goes to the workflows as numbers (:func:`box_numbers`), which build the region.
 """
 
 from __future__ import annotations
@@ -14,10 +18,9 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
-from nlobs._validate import escape_unsafe
-from nlobs.errors import ModelFileError, NlobsError
-from nlobs.geometry.region import Box
+from nlobs.errors import ModelFileError
 from nlobs.systems.modelfile import Model, load_model, shipped_models
+from nlobs.workflows.inputs import escape_unsafe
 
 EXIT_FAILURE = 1
 EXIT_BAD_INPUT = 2
@@ -83,18 +86,6 @@ def parse_floats(option: str, text: str | None) -> list[float] | None:
     if not all(math.isfinite(v) for v in vals):
         fail(f"{option}: values must be finite, got {text!r}")
     return vals
-
-
-def parse_box(option: str, text: str, n: int) -> Box:
-    vals = parse_floats(option, text) or []
-    if len(vals) == 2:
-        vals = vals * n
-    if len(vals) != 2 * n:
-        fail(f"{option}: expected 'lo,hi' or {2 * n} numbers lo1,hi1,...; got {len(vals)} numbers")
-    try:
-        return Box(np.array(vals[0::2]), np.array(vals[1::2]))
-    except NlobsError as exc:
-        fail(f"{option}: {exc}")
 
 
 def box_numbers(option: str, text: str | None) -> list[float] | None:

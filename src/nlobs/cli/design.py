@@ -1,37 +1,46 @@
 """``nlobs design drift`` and ``nlobs design pinv``: the differential-geometric observers.
 
-* ``drift`` — observer (3.1) of Dalla Mora, Germani & Manes: the gain of
-  Remark 2.11 (smallest ``w`` solving (2.17)) or the SDP design, verified by the
-  eigenvalues of the left side of (2.17), with the bound constants of (3.17).
-* ``pinv`` — observer (7) with Röbenack's Moore–Penrose gain ``l(x) = Q⁺(x) k`` (17),
-  after checking A1 and A5.
+* ``drift`` — observer (3.1) of Dalla Mora, Germani & Manes: the gain of Remark 2.11 (smallest
+  ``w`` solving (2.17)) or the SDP design, verified by the eigenvalues of the left side of (2.17),
+  with the bound constants of (3.17).
+* ``pinv`` — observer (7) with Röbenack's Moore–Penrose gain ``l(x) = Q⁺(x) k`` (17), after
+  checking A1 and A5.
 
-Both can simulate the design from given initial conditions (``--simulate``) and write
-a plot and the trajectories (``--out``).
+Both can simulate the design from given initial conditions (``--simulate``) and write a plot and
+the trajectories (``--out``). Each command parses its options, calls one workflow
+(:func:`nlobs.workflows.design_drift.design_drift_observer`,
+:func:`nlobs.workflows.design_pinv.design_pinv_observer`), prints the report's ``summary()`` or
+its ``to_dict()`` as JSON, and exits by the report's verdict.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from collections.abc import Callable
-from typing import Annotated, Any, TypeVar
+from typing import Annotated, Any, NoReturn
 
-import numpy as np
 import typer
 
 from nlobs.cli.common import (
     EXIT_FAILURE,
     EXIT_NO_OBSERVER,
+    box_numbers,
     console,
     design_app,
     emit_json,
     fail,
-    load_model_arg,
-    parse_box,
+    finish,
     parse_floats,
 )
-from nlobs.errors import AssumptionViolated, DesignError, NlobsError, SimulationDiverged
-from nlobs.systems.symbolic import SymbolicModel
+from nlobs.errors import (
+    AssumptionViolated,
+    DesignError,
+    ModelFileError,
+    NlobsError,
+    OutputError,
+    SimulationDiverged,
+    StudyFailed,
+)
+from nlobs.workflows.inputs import BoxError, SimulationRequest, SymbolicModel, symbolic_model
 
 # Options shared by both commands (one definition each).
 Box_ = Annotated[str | None, typer.Option("--box", help="Region: 'lo,hi' or 2n numbers (default -1,1).")]
@@ -46,10 +55,12 @@ Out_ = Annotated[Path | None, typer.Option("--out", help="Folder for the plot (.
 
 
 def _symbolic(model: str) -> SymbolicModel:
-    m = load_model_arg(model)
-    if not isinstance(m, SymbolicModel):
-        fail(f"{model}: a nonlinear (symbolic) model is needed; this one is linear")
-    return m
+    try:
+        return symbolic_model(model)
+    except ModelFileError as exc:
+        fail(str(exc))
+    except NlobsError as exc:
+        fail(f"{model}: {exc}")
 
 
 def _ints(option: str, text: str | None) -> list[int] | None:
@@ -61,7 +72,11 @@ def _ints(option: str, text: str | None) -> list[int] | None:
     return [int(v) for v in vals]
 
 
-def _sim_inputs(m: SymbolicModel, x0: str | None, xhat0: str | None, u: str | None) -> tuple[Any, Any, Any]:
+def _request(m: SymbolicModel, simulate: bool, x0: str | None, xhat0: str | None, u: str | None, duration: float,
+             dt: float, out: Path | None) -> SimulationRequest | None:
+    """The simulation asked for by ``--simulate`` (``None`` without it), its vectors checked against the model."""
+    if not simulate:
+        return None
     if x0 is None:
         fail("--simulate needs --x0 (the initial plant state)")
     x0v = parse_floats("--x0", x0)
@@ -70,37 +85,32 @@ def _sim_inputs(m: SymbolicModel, x0: str | None, xhat0: str | None, u: str | No
     for name, v, size in (("--x0", x0v, m.n), ("--xhat0", xh, m.n), ("--u", uv, m.m)):
         if v is None or len(v) != size:
             fail(f"{name}: expected {size} numbers for model {m.name}, got {0 if v is None else len(v)}")
-    return np.array(x0v), np.array(xh), np.array(uv)
-
-
-T = TypeVar("T")
-
-
-def _run(model: str, simulate: Callable[[], T]) -> T:
-    """Run a simulation; a divergence or another nlobs failure is a one-line error with status 1."""
     try:
-        return simulate()
-    except SimulationDiverged as exc:
-        fail(f"{model}: simulation diverged: {exc} (try a smaller --dt)", EXIT_FAILURE)
+        return SimulationRequest(x0v, xh, uv, duration=duration, dt=dt, out=out)  # type: ignore[arg-type]
     except NlobsError as exc:
+        fail(str(exc))
+
+
+def _print(report: Any, as_json: bool) -> None:
+    """Print a workflow report (JSON or text), then exit by its verdict with its message."""
+    if as_json:
+        emit_json(report.to_dict())
+    else:
+        console().print(report.summary(), markup=False)
+    finish(report, as_json)  # the report is the evidence; the last line says why there is no observer
+
+
+def _errors(model: str, exc: NlobsError) -> NoReturn:
+    """The one-line error and exit status of a workflow's typed error (the design's are mapped by the caller)."""
+    if isinstance(exc, BoxError):
+        fail(f"--box: {exc}")
+    if isinstance(exc, SimulationDiverged):
+        fail(f"{model}: simulation diverged: {exc} (try a smaller --dt)", EXIT_FAILURE)
+    if isinstance(exc, StudyFailed):
         fail(f"{model}: {exc}", EXIT_FAILURE)
-
-
-def _report_simulation(result: Any, out: Path | None, stem: str, duration: float, dt: float) -> tuple[dict[str, Any], list[str]]:
-    """Error-norm summary of a simulation, with the plot and trajectories written to ``out`` (if given)."""
-    e = result.error_norm
-    summ: dict[str, Any] = {"final_error_norm": float(np.max(e[..., -1])), "initial_error_norm": float(np.max(e[..., 0])),
-                            "max_error_norm": float(np.max(e))}
-    files: list[Path] = []
-    if out is not None:
-        out.mkdir(parents=True, exist_ok=True)
-        png = out / f"{stem}.png"
-        result.plot(png)
-        files = [png, result.save(out / f"{stem}.npz")]
-    summ["files"] = [str(f) for f in files]
-    lines = [f"simulation ({duration:g} s, dt = {dt:g}): ‖e(0)‖ = {summ['initial_error_norm']:.4g}, "
-             f"‖e(T)‖ = {summ['final_error_norm']:.4g}, max ‖e‖ = {summ['max_error_norm']:.4g}"]
-    return summ, lines + [f"wrote {f}" for f in files]
+    if isinstance(exc, OutputError):
+        fail(f"--out {exc}")
+    fail(f"{model}: {exc}")
 
 
 @design_app.command("drift")
@@ -128,43 +138,24 @@ def drift_cmd(
     this structure there), 1 when the design is not usable otherwise (a given --gamma below the
     sampled estimate, a failed certificate).
     """
-    from nlobs.workflows.design_drift import design_drift_report, simulate_drift
+    from nlobs.workflows.design_drift import METHODS, design_drift_observer
 
     m = _symbolic(model)
-    if method not in ("vandermonde", "sdp"):
+    if method not in METHODS:
         fail(f"--method: expected 'vandermonde' or 'sdp', got {method!r}")
-    region = parse_box("--box", box, m.n) if box is not None else None
+    region = box_numbers("--box", box)
+    multi_index = _ints("--s", s)
+    request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
     try:
-        rep = design_drift_report(m, _ints("--s", s), alpha=alpha, mu=mu, gamma=gamma, method=method, region=region,
-                                  w=w)
+        report = design_drift_observer(m, s=multi_index, alpha=alpha, mu=mu, gamma=gamma, method=method, w=w,
+                                       box=region, simulate=request, name=model)
     except AssumptionViolated as exc:
         fail(f"{model}: {exc}", EXIT_NO_OBSERVER)
     except DesignError as exc:
         fail(f"{model}: design failed: {exc}", EXIT_FAILURE)
     except NlobsError as exc:
-        fail(f"{model}: {exc}")
-    data: dict[str, Any] = {"design": rep.to_dict()}
-    text = [rep.summary()]
-    if not rep.usable:  # the report is the evidence; the last line says why there is no observer
-        if as_json:
-            emit_json(data)
-        else:
-            console().print("\n".join(text), markup=False)
-        status = EXIT_NO_OBSERVER if not rep.drift_check.passed else EXIT_FAILURE
-        fail(f"{model}: no usable observer: " + "; ".join(rep.reasons), status)
-    if simulate:
-        x0v, xh, uv = _sim_inputs(m, x0, xhat0, u)
-        sim = _run(model, lambda: simulate_drift(m, x0v, xh, duration, dt=dt, u=uv, w=w, report=rep))
-        summ, lines = _report_simulation(sim.result, out, "drift", duration, dt)
-        summ.update(decay_rate=sim.decay_rate, bound_ratio=sim.bound_ratio, certified=sim.certified)
-        data["simulation"] = summ
-        lines[0] += (f", fitted decay rate {sim.decay_rate:.4g} (α = {alpha:g}), max ‖e‖/bound(3.2) = "
-                     f"{sim.bound_ratio:.3g}" + ("" if sim.certified else " (gain not certified)"))
-        text += lines
-    if as_json:
-        emit_json(data)
-    else:
-        console().print("\n".join(text), markup=False)
+        _errors(model, exc)
+    _print(report, as_json)
 
 
 @design_app.command("pinv")
@@ -184,27 +175,19 @@ def pinv_cmd(
     out: Out_ = None,
 ) -> None:
     """Design Röbenack's Moore–Penrose observer (7), (17) and check A1, A5."""
-    from nlobs.workflows.design_pinv import design_pinv_report, simulate_pinv
+    from nlobs.workflows.design_pinv import PLACEMENTS, design_pinv_observer
 
     m = _symbolic(model)
-    if placement not in ("powers", "multiple"):
+    if placement not in PLACEMENTS:
         fail(f"--placement: expected 'powers' or 'multiple', got {placement!r}")
-    region = parse_box("--box", box, m.n) if box is not None else None
+    region = box_numbers("--box", box)
     kv = parse_floats("--k", k)
+    request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
     try:
-        rep = design_pinv_report(m, kv, theta, placement, region)  # type: ignore[arg-type]
+        report = design_pinv_observer(m, k=kv, theta=theta, placement=placement, box=region,  # type: ignore[arg-type]
+                                      simulate=request)
     except AssumptionViolated as exc:
         fail(f"{model}: {exc}", EXIT_NO_OBSERVER)
     except NlobsError as exc:
-        fail(f"{model}: {exc}")
-    data: dict[str, Any] = {"design": rep.to_dict()}
-    text = [rep.summary()]
-    if simulate:
-        x0v, xh, uv = _sim_inputs(m, x0, xhat0, u)
-        res = _run(model, lambda: simulate_pinv(m, x0v, xh, duration, dt=dt, u=uv, report=rep))
-        data["simulation"], lines = _report_simulation(res, out, "pinv", duration, dt)
-        text += lines
-    if as_json:
-        emit_json(data)
-    else:
-        console().print("\n".join(text), markup=False)
+        _errors(model, exc)
+    _print(report, as_json)

@@ -10,7 +10,10 @@ For a continuous-time input-affine model that is drift-observable with multi-ind
   (Remark 2.11 or the SDP, :mod:`nlobs.synthesis.drift_gain`) and the constants ``κ₁``, ``κ₂`` of
   (3.17) (:mod:`nlobs.synthesis.drift_bounds`), as a :class:`DriftDesignReport` with a verdict;
 * :func:`simulate_drift` — that design simulated against its plant, with the bound (3.2), as a
-  :class:`DriftSimulation`.
+  :class:`DriftSimulation`;
+* :func:`design_drift_observer` — the command ``nlobs design drift``: one call, one frozen
+  :class:`DriftWorkflowReport` whose ``to_dict()`` is what ``--json`` prints and ``summary()``
+  what the text output prints, with its :class:`~nlobs.workflows.verdict.Verdict`.
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,6 +29,7 @@ from numpy.typing import ArrayLike
 
 from nlobs._typing import Array
 from nlobs._validate import positive, readonly
+from nlobs.errors import InvalidArgumentError, NlobsError, SimulationDiverged, StudyFailed
 from nlobs.geometry.checks import Check, check_drift_observability, check_s_le_r, default_multi_index
 from nlobs.geometry.lipschitz import LipschitzEstimates, lipschitz_estimates
 from nlobs.geometry.observability import (
@@ -47,14 +52,22 @@ from nlobs.synthesis.drift_gain import (
     verify_drift_gain,
 )
 from nlobs.systems.symbolic import SymbolicModel
+from nlobs.workflows._results import error_line, error_summary, prepare_out, write_result
+from nlobs.workflows.inputs import SimulationRequest, as_region, model_label, symbolic_model
+from nlobs.workflows.verdict import Verdict
 
 __all__ = [
+    "METHODS",
     "DriftDesignReport",
     "DriftSimulation",
+    "DriftWorkflowReport",
+    "design_drift_observer",
     "design_drift_report",
     "simulate_drift",
 ]
 
+#: The gain designs of (2.17): Remark 2.11 (Vandermonde) and the LMI in ``S = P⁻¹``, ``Y = S K``.
+METHODS: tuple[str, ...] = ("vandermonde", "sdp")
 #: A given ``γ`` counts as below the sampled estimate when smaller by more than this relative amount.
 _GAMMA_RTOL = 1e-9
 
@@ -361,3 +374,159 @@ def simulate_drift(
         ratio = float(np.nanmax(np.where(bnd > 0, e / bnd, np.nan))) if certified else math.nan
     rate = float(np.nanmin(res.decay_rate(floor=1e-9 * float(np.max(e[..., 0])))))
     return DriftSimulation(rep, w_used, res, bnd, ratio, rate, certified, bound_consts)
+
+
+# --------------------------------------------------------------------------- the command
+
+
+@dataclass(frozen=True, eq=False)
+class DriftWorkflowReport:
+    """What ``nlobs design drift`` reports: the design, its simulation if asked for, the files written.
+
+    Attributes
+    ----------
+    design : DriftDesignReport
+    simulation : DriftSimulation or None
+        ``None`` without a :class:`~nlobs.workflows.inputs.SimulationRequest`, and when the design
+        is not usable (nothing is simulated then).
+    request : SimulationRequest or None
+        The simulation asked for.
+    files : tuple of Path
+        The plot (``drift.png``) and trajectories (``drift.npz``) written to ``request.out``.
+    verdict : Verdict
+        ``OK`` when the design is usable (:attr:`DriftDesignReport.usable`); ``NO_OBSERVER`` when
+        drift-observability fails on the region (Def. 2.3: no observer (3.1) there); ``FAILED``
+        when the design is not usable otherwise (a given ``γ`` below the sampled estimate, a failed
+        certificate of (2.17)).
+    message : str
+        Empty when ``OK``; else ``"<model>: no usable observer: "`` and the reasons.
+    """
+
+    design: DriftDesignReport
+    simulation: DriftSimulation | None
+    request: SimulationRequest | None
+    files: tuple[Path, ...]
+    verdict: Verdict
+    message: str
+
+    def _simulation_dict(self) -> dict[str, Any]:
+        sim = self.simulation
+        assert sim is not None
+        out = error_summary(sim.result, self.files)
+        out.update(decay_rate=sim.decay_rate, bound_ratio=sim.bound_ratio, certified=sim.certified)
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"design": …, "simulation": …}``: what ``nlobs design drift --json`` prints.
+
+        ``simulation`` (present only when one ran) has ``final_error_norm``,
+        ``initial_error_norm``, ``max_error_norm`` (largest over a batch), ``files``,
+        ``decay_rate``, ``bound_ratio`` (``max ‖e‖ / bound (3.2)``; NaN when not certified) and
+        ``certified``.
+        """
+        data: dict[str, Any] = {"design": self.design.to_dict()}
+        if self.simulation is not None:
+            data["simulation"] = self._simulation_dict()
+        return data
+
+    def summary(self) -> str:
+        """The design report, then the simulation line and a ``wrote <file>`` line per file."""
+        lines = [self.design.summary()]
+        sim, req = self.simulation, self.request
+        if sim is not None and req is not None:
+            alpha = self.design.certificate.constants.alpha
+            lines.append(error_line(self._simulation_dict(), req.duration, req.dt)
+                         + f", fitted decay rate {sim.decay_rate:.4g} (α = {alpha:g}), max ‖e‖/bound(3.2) = "
+                         f"{sim.bound_ratio:.3g}" + ("" if sim.certified else " (gain not certified)"))
+            lines += [f"wrote {f}" for f in self.files]
+        return "\n".join(lines)
+
+
+def design_drift_observer(
+    model: str | Path | SymbolicModel,
+    *,
+    s: Sequence[int] | None = None,
+    alpha: float = 1.0,
+    mu: float = 1.0,
+    gamma: float | None = None,
+    method: str = "vandermonde",
+    w: float | None = None,
+    box: Sequence[float] | Box | None = None,
+    simulate: SimulationRequest | None = None,
+    name: str | None = None,
+) -> DriftWorkflowReport:
+    """Design and verify observer (3.1) for a model, and simulate it if asked: ``nlobs design drift``.
+
+    Parameters
+    ----------
+    model : str, Path or SymbolicModel
+        A model file, a shipped model name (:func:`nlobs.systems.modelfile.load_model`) or a
+        loaded continuous-time input-affine model.
+    s : sequence of int, optional
+        Multi-index (default: the observability indices on the region).
+    alpha, mu : float
+        Decay rate ``α`` and input bound ``μ`` of (2.17).
+    gamma : float, optional
+        ``γ`` of (2.17) (default: estimated by sampling the region).
+    method : {"vandermonde", "sdp"}
+        Remark 2.11 (smallest ``w``, or ``w`` checked) or the LMI design.
+    w : float, optional
+        Use ``K(w)`` of Remark 2.11 instead of the smallest ``w`` solving (2.17); it is checked,
+        and the simulation (if any) uses it.
+    box : sequence of float, or Box, optional
+        The region: ``lo, hi`` for every state or ``lo1, hi1, …``
+        (:func:`~nlobs.workflows.inputs.box_from_numbers`); default ``[−1, 1]ⁿ``.
+    simulate : SimulationRequest, optional
+        Simulate the design from these initial conditions (only when it is usable) and write
+        the plot and trajectories to ``simulate.out``.
+    name : str, optional
+        How :attr:`DriftWorkflowReport.message` names the model (default: ``model`` as given, or
+        the model's name).
+
+    Returns
+    -------
+    DriftWorkflowReport
+        Also when the design is not usable: then the verdict says why and nothing is simulated.
+
+    Raises
+    ------
+    ModelFileError, ModelError
+        The model cannot be loaded, is linear, or is not input-affine.
+    InvalidArgumentError, NonFiniteError, DimensionError
+        A bad option (``method``, ``s``, the sizes of the simulation's vectors).
+    BoxError
+        ``box`` does not make a box of the state space.
+    AssumptionViolated
+        A structural assumption fails before a design exists.
+    DesignError
+        No gain satisfies (2.17) (infeasible; a given ``w`` that does not solve it).
+    OutputError
+        ``simulate.out`` or a file in it cannot be written.
+    SimulationDiverged
+        The simulation diverged.
+    StudyFailed
+        The simulation stopped with another nlobs error (e.g. ``Q_s`` singular along the estimate);
+        the cause is chained.
+    """
+    m = symbolic_model(model)
+    label = model_label(model) if name is None else str(name)
+    if method not in METHODS:
+        raise InvalidArgumentError(f"method: expected 'vandermonde' or 'sdp', got {method!r}")
+    region = None if box is None else as_region(box, m.n)
+    rep = design_drift_report(m, s, alpha=alpha, mu=mu, gamma=gamma, method=method, region=region, w=w)
+    if not rep.usable:
+        verdict = Verdict.NO_OBSERVER if not rep.drift_check.passed else Verdict.FAILED
+        return DriftWorkflowReport(rep, None, simulate, (), verdict,
+                                   f"{label}: no usable observer: " + "; ".join(rep.reasons))
+    if simulate is None:
+        return DriftWorkflowReport(rep, None, None, (), Verdict.OK, "")
+    x0, x_hat0, u = simulate.resolved(m.n, m.m, m.name)
+    prepare_out(simulate.out)
+    try:
+        sim = simulate_drift(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, w=w, report=rep)
+    except SimulationDiverged:
+        raise
+    except NlobsError as exc:
+        raise StudyFailed(str(exc)) from exc
+    files = write_result(sim.result, simulate.out, "drift")
+    return DriftWorkflowReport(rep, sim, simulate, files, Verdict.OK, "")

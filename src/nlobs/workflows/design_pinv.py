@@ -8,7 +8,10 @@ is ``x̂̇ = f(x̂) + g(x̂) u + Q⁺(x̂) K (y − h(x̂))`` (7) with the gain 
 * :func:`design_pinv_report` — builds the observer once (checking A1 and A5 on the region) and
   reports its structure, ``Q⁺`` (25), the gain field and ``k``; the :class:`PinvDesignReport`
   keeps that observer (:attr:`PinvDesignReport.observer`);
-* :func:`simulate_pinv` — simulates a model with that observer (or builds one the same way).
+* :func:`simulate_pinv` — simulates a model with that observer (or builds one the same way);
+* :func:`design_pinv_observer` — the command ``nlobs design pinv``: one call, one frozen
+  :class:`PinvWorkflowReport` whose ``to_dict()`` is what ``--json`` prints and ``summary()``
+  what the text output prints; the simulation uses the report's own observer.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
@@ -23,6 +27,7 @@ import sympy as sp
 from numpy.typing import ArrayLike
 
 from nlobs.checks import Check
+from nlobs.errors import InvalidArgumentError, NlobsError, SimulationDiverged, StudyFailed
 from nlobs.geometry.checks import observability_rank
 from nlobs.geometry.lie import lie_derivative
 from nlobs.geometry.region import Box
@@ -31,11 +36,17 @@ from nlobs.simulate.loop import simulate
 from nlobs.simulate.result import SimulationResult
 from nlobs.simulate.sampling import MeasurementGroup
 from nlobs.simulate.signals import InputLike
-from nlobs.synthesis.pinv_gain import DEFAULT_THETA, HighGain, Placement
+from nlobs.synthesis.pinv_gain import DEFAULT_THETA, PLACEMENTS, HighGain, Placement
 from nlobs.systems.symbolic import SymbolicModel
+from nlobs.workflows._results import error_line, error_summary, prepare_out, write_result
+from nlobs.workflows.inputs import SimulationRequest, as_region, symbolic_model
+from nlobs.workflows.verdict import Verdict
 
 __all__ = [
+    "PLACEMENTS",
     "PinvDesignReport",
+    "PinvWorkflowReport",
+    "design_pinv_observer",
     "design_pinv_report",
     "simulate_pinv",
 ]
@@ -218,3 +229,119 @@ def simulate_pinv(
                                                                       pinv)
     return simulate(model.compile(parameters), obs, x0, x_hat0, duration=duration, dt=dt, u=u,
                     measurements=measurements, seed=seed)
+
+
+# ----------------------------------------------------------------------------- the command
+@dataclass(frozen=True, eq=False)
+class PinvWorkflowReport:
+    """What ``nlobs design pinv`` reports: the design, its simulation if asked for, the files written.
+
+    Attributes
+    ----------
+    design : PinvDesignReport
+        With the observer it built (:attr:`PinvDesignReport.observer`).
+    simulation : SimulationResult or None
+        That observer simulated against the model (``None`` without a request).
+    request : SimulationRequest or None
+    files : tuple of Path
+        The plot (``pinv.png``) and trajectories (``pinv.npz``) written to ``request.out``.
+    verdict : Verdict
+        ``OK`` whenever the observer was built (A1 failing raises instead): A5 failing
+        (``design.usable`` false) loses the guarantee of Theorem 4.1 but not the observer, and is
+        reported in the design, not as a failure.
+    message : str
+        Empty.
+    """
+
+    design: PinvDesignReport
+    simulation: SimulationResult | None
+    request: SimulationRequest | None
+    files: tuple[Path, ...]
+    verdict: Verdict = Verdict.OK
+    message: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"design": …, "simulation": …}``: what ``nlobs design pinv --json`` prints.
+
+        ``simulation`` (present only when one ran) has ``final_error_norm``,
+        ``initial_error_norm``, ``max_error_norm`` (largest over a batch) and ``files``.
+        """
+        data: dict[str, Any] = {"design": self.design.to_dict()}
+        if self.simulation is not None:
+            data["simulation"] = error_summary(self.simulation, self.files)
+        return data
+
+    def summary(self) -> str:
+        """The design report, then the simulation line and a ``wrote <file>`` line per file."""
+        lines = [self.design.summary()]
+        if self.simulation is not None and self.request is not None:
+            lines.append(error_line(error_summary(self.simulation, self.files), self.request.duration, self.request.dt))
+            lines += [f"wrote {f}" for f in self.files]
+        return "\n".join(lines)
+
+
+def design_pinv_observer(
+    model: str | Path | SymbolicModel,
+    *,
+    k: Sequence[float] | None = None,
+    theta: float = DEFAULT_THETA,
+    placement: Placement = "powers",
+    box: Sequence[float] | Box | None = None,
+    simulate: SimulationRequest | None = None,
+) -> PinvWorkflowReport:
+    """Design the Moore–Penrose observer (7), (17), check A1 and A5, and simulate it if asked: ``nlobs design pinv``.
+
+    Parameters
+    ----------
+    model : str, Path or SymbolicModel
+        A model file, a shipped model name (:func:`nlobs.systems.modelfile.load_model`) or a
+        loaded continuous-time input-affine model.
+    k : sequence of float, optional
+        The stacked gain vector (``Σ r_j`` numbers), instead of the high-gain design.
+    theta, placement
+        The high-gain design of the roots of (10) (:class:`~nlobs.synthesis.pinv_gain.HighGain`).
+    box : sequence of float, or Box, optional
+        Where A1 and A5 are checked: ``lo, hi`` for every state or ``lo1, hi1, …``; default
+        ``[−1, 1]ⁿ``.
+    simulate : SimulationRequest, optional
+        Simulate the observer the design built (the same object, :attr:`PinvDesignReport.observer`)
+        and write the plot and trajectories to ``simulate.out``.
+
+    Returns
+    -------
+    PinvWorkflowReport
+
+    Raises
+    ------
+    ModelFileError, ModelError
+        The model cannot be loaded, is linear, or is not input-affine.
+    InvalidArgumentError, NonFiniteError, DimensionError
+        A bad option (``placement``, ``k``, the sizes of the simulation's vectors).
+    BoxError
+        ``box`` does not make a box of the state space.
+    AssumptionViolated
+        A1 fails (no ``Q⁺`` exists on the region).
+    OutputError
+        ``simulate.out`` or a file in it cannot be written.
+    SimulationDiverged
+        The simulation diverged.
+    StudyFailed
+        The simulation stopped with another nlobs error; the cause is chained.
+    """
+    m = symbolic_model(model)
+    if placement not in PLACEMENTS:
+        raise InvalidArgumentError(f"placement: expected 'powers' or 'multiple', got {placement!r}")
+    region = None if box is None else as_region(box, m.n)
+    rep = design_pinv_report(m, None if k is None else [float(v) for v in k], theta, placement, region)
+    if simulate is None:
+        return PinvWorkflowReport(rep, None, None, ())
+    x0, x_hat0, u = simulate.resolved(m.n, m.m, m.name)
+    prepare_out(simulate.out)
+    try:
+        res = simulate_pinv(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, report=rep)
+    except SimulationDiverged:
+        raise
+    except NlobsError as exc:
+        raise StudyFailed(str(exc)) from exc
+    files = write_result(res, simulate.out, "pinv")
+    return PinvWorkflowReport(rep, res, simulate, files)

@@ -1,16 +1,46 @@
-"""Inputs of the workflows given as plain numbers (what a command line or a script has): regions."""
+"""Inputs of the workflows given as plain values (what a command line or a script has).
+
+* :func:`box_from_numbers` — a region (:class:`~nlobs.geometry.region.Box`) from ``lo, hi`` (every
+  state) or ``lo1, hi1, …, lon, hin``; :func:`as_region` — the same, or a given box checked;
+* :func:`symbolic_model` — a nonlinear model from a model file, a shipped name
+  (:func:`nlobs.systems.modelfile.load_model`) or an already loaded model;
+* :class:`SimulationRequest` — initial plant state and estimate, constant input, horizon, step,
+  and the folder for the plot and trajectories;
+* :func:`escape_unsafe` — text with control characters escaped (for anything that reaches a
+  terminal).
+
+The command line imports this module when it starts: it loads no solver, observer or simulation.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from nlobs.errors import InvalidArgumentError, NlobsError
+from nlobs._typing import Array
+from nlobs._validate import escape_unsafe, readonly
+from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, NlobsError, NonFiniteError
 from nlobs.geometry.region import Box
+from nlobs.systems.linear import LinearSystem
+from nlobs.systems.modelfile import load_model
+from nlobs.systems.symbolic import SymbolicModel
 
-__all__ = ["BoxError", "box_from_numbers"]
-
+__all__ = [
+    "Box",
+    "BoxError",
+    "SimulationRequest",
+    "SymbolicModel",
+    "as_region",
+    "box_from_numbers",
+    "escape_unsafe",
+    "model_label",
+    "symbolic_model",
+]
 
 class BoxError(InvalidArgumentError):
     """A region given as numbers is malformed (the CLI prefixes the option name, ``--box``)."""
@@ -33,3 +63,111 @@ def box_from_numbers(values: Sequence[float], n: int) -> Box:
         return Box(np.array(vals[0::2]), np.array(vals[1::2]))
     except NlobsError as exc:
         raise BoxError(str(exc)) from exc
+
+
+def as_region(box: Sequence[float] | Box | None, n: int) -> Box | None:
+    """``None``, a given :class:`~nlobs.geometry.region.Box` (its dimension checked), or :func:`box_from_numbers`.
+
+    Raises
+    ------
+    BoxError
+        Numbers that do not make a box of ``ℝⁿ``, or a box of another dimension.
+    """
+    if box is None:
+        return None
+    if isinstance(box, Box):
+        if box.n != n:
+            raise BoxError(f"the region has dimension {box.n}, the model has n = {n}")
+        return box
+    return box_from_numbers(box, n)
+
+
+def symbolic_model(model: str | Path | SymbolicModel) -> SymbolicModel:
+    """The nonlinear model behind ``model``: a model file, a shipped model name, or a loaded model.
+
+    Raises
+    ------
+    ModelFileError
+        The file cannot be found, read or validated (the message names the file and line).
+    ModelError
+        The model is linear (``"a nonlinear (symbolic) model is needed; this one is linear"``).
+    InvalidArgumentError
+        ``model`` is neither a path, a name nor a model.
+    """
+    m = load_model(model) if isinstance(model, (str, Path)) else model
+    if isinstance(m, SymbolicModel):
+        return m
+    if isinstance(m, LinearSystem):
+        raise ModelError("a nonlinear (symbolic) model is needed; this one is linear")
+    raise InvalidArgumentError(f"model: expected a model file, a shipped model name or a model, got {type(model).__name__}")
+
+
+def model_label(model: str | Path | Any) -> str:
+    """How messages name ``model``: a path or shipped name as given, else the model's ``name``."""
+    if isinstance(model, (str, Path)):
+        return str(model)
+    return str(getattr(model, "name", type(model).__name__))
+
+
+def _finite_vector(name: str, value: ArrayLike | None) -> Array | None:
+    if value is None:
+        return None
+    v = np.asarray(value, dtype=float)
+    if v.ndim != 1:
+        raise DimensionError(f"{name}: expected a list of numbers, got shape {v.shape}")
+    if not np.all(np.isfinite(v)):
+        raise NonFiniteError(f"{name}: values must be finite, got {v.tolist()}")
+    return readonly(v, owned=True)
+
+
+@dataclass(frozen=True, eq=False)
+class SimulationRequest:
+    """A simulation of a designed observer against its plant (what ``--simulate`` asks for).
+
+    Parameters
+    ----------
+    x0 : array_like, shape (n,)
+        Initial plant state.
+    x_hat0 : array_like, shape (n,), optional
+        Initial estimate (default: zeros).
+    u : array_like, shape (m,), optional
+        Constant input (default: zeros).
+    duration : float
+        Simulated time [s] (checked by :func:`nlobs.simulate.simulate`).
+    dt : float
+        RK4 step [s]; it must resolve the gain's fastest pole.
+    out : path, optional
+        Folder for the plot (``<stem>.png``) and the trajectories (``<stem>.npz``); created if
+        missing. ``None``: nothing is written.
+    """
+
+    x0: Array
+    x_hat0: Array | None = None
+    u: Array | None = None
+    duration: float = 10.0
+    dt: float = 1e-3
+    out: Path | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "x0", _finite_vector("x0", self.x0))
+        object.__setattr__(self, "x_hat0", _finite_vector("x_hat0", self.x_hat0))
+        object.__setattr__(self, "u", _finite_vector("u", self.u))
+        object.__setattr__(self, "duration", float(self.duration))
+        object.__setattr__(self, "dt", float(self.dt))
+        if self.out is not None:
+            object.__setattr__(self, "out", Path(self.out))
+
+    def resolved(self, n: int, m: int, model: str) -> tuple[Array, Array, Array]:
+        """``(x0, x_hat0, u)`` with the defaults filled in, checked against the model's ``n`` and ``m``.
+
+        Raises
+        ------
+        DimensionError
+            A vector of the wrong length (the message names it and the model).
+        """
+        x_hat0 = np.zeros(n) if self.x_hat0 is None else self.x_hat0
+        u = np.zeros(m) if self.u is None else self.u
+        for name, v, size in (("x0", self.x0, n), ("x_hat0", x_hat0, n), ("u", u, m)):
+            if v.size != size:
+                raise DimensionError(f"{name}: expected {size} numbers for model {model}, got {v.size}")
+        return self.x0, x_hat0, u

@@ -1,0 +1,69 @@
+"""Shared pieces of the design workflows: the output folder, the simulation summary and its files."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from nlobs.errors import OutputError
+from nlobs.simulate.result import SimulationResult
+
+
+def _reason(exc: OSError) -> str:
+    return exc.strerror or str(exc)
+
+
+def prepare_out(out: Path | None) -> None:
+    """Create the output folder (and its parents) before anything is simulated.
+
+    Raises
+    ------
+    OutputError
+        The folder cannot be created (a file of that name, no permission, a read-only file system).
+    """
+    if out is None:
+        return
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"{out}: cannot create the folder ({_reason(exc)})") from exc
+
+
+def write_result(result: SimulationResult, out: Path | None, stem: str) -> tuple[Path, ...]:
+    """Write ``<stem>.png`` (the plot) and ``<stem>.npz`` (the trajectories) to ``out``, each atomically.
+
+    Returns the paths written (empty when ``out`` is ``None``).
+
+    Raises
+    ------
+    OutputError
+        A file cannot be written (a file that was there before is left as it was).
+    """
+    if out is None:
+        return ()
+    prepare_out(out)
+    png, npz = out / f"{stem}.png", out / f"{stem}.npz"
+    try:
+        result.plot(png)
+    except OSError as exc:
+        raise OutputError(f"{png}: {_reason(exc)}") from exc
+    try:
+        saved = result.save(npz)
+    except OSError as exc:
+        raise OutputError(f"{npz}: {_reason(exc)}") from exc
+    return (png, saved)
+
+
+def error_summary(result: SimulationResult, files: tuple[Path, ...]) -> dict[str, Any]:
+    """``final_error_norm``, ``initial_error_norm``, ``max_error_norm`` (largest over a batch) and ``files``."""
+    e = result.error_norm
+    return {"final_error_norm": float(np.max(e[..., -1])), "initial_error_norm": float(np.max(e[..., 0])),
+            "max_error_norm": float(np.max(e)), "files": [str(f) for f in files]}
+
+
+def error_line(summary: dict[str, Any], duration: float, dt: float) -> str:
+    """The first line the CLI prints about a simulation."""
+    return (f"simulation ({duration:g} s, dt = {dt:g}): ‖e(0)‖ = {summary['initial_error_norm']:.4g}, "
+            f"‖e(T)‖ = {summary['final_error_norm']:.4g}, max ‖e‖ = {summary['max_error_norm']:.4g}")
