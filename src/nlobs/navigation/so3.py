@@ -105,6 +105,15 @@ def unskew(M: ArrayLike) -> Array:
     )
 
 
+#: ``S(x) = (_S9 @ x).reshape(3, 3, n)`` for ``x`` of shape ``(3, n)`` (batch last; exact: one ±1 per row).
+_S9 = np.zeros((9, 3))
+_S9[1, 2], _S9[2, 1], _S9[3, 2], _S9[5, 0], _S9[6, 1], _S9[7, 0] = -1.0, 1.0, 1.0, -1.0, -1.0, 1.0
+_S9 = readonly(_S9, owned=True)
+_I33 = readonly(np.eye(3)[:, :, None])
+_S9T = readonly(np.ascontiguousarray(_S9.T))  # S(x) = (x @ _S9T).reshape(..., 3, 3), batch first
+_EYE3 = readonly(np.eye(3))
+
+
 def exp_so3(phi: ArrayLike) -> Array:
     r"""Rotation matrix ``exp(S(φ))`` by Rodrigues' formula, stable near ``φ = 0``.
 
@@ -123,37 +132,30 @@ def exp_so3(phi: ArrayLike) -> Array:
     ndarray, shape (..., 3, 3)
     """
     phi = _vec3("exp_so3: phi", phi)
-    th2 = np.sum(phi * phi, axis=-1)
-    th = np.sqrt(th2)
-    small = th < _SMALL
-    th_safe = np.where(small, 1.0, th)
-    A = np.where(small, 1.0 - th2 / 6.0 + th2 * th2 / 120.0, np.sin(th_safe) / th_safe)
-    B = np.where(small, 0.5 - th2 / 24.0 + th2 * th2 / 720.0, (1.0 - np.cos(th_safe)) / (th_safe * th_safe))
-    K = skew(phi)
-    eye = np.broadcast_to(np.eye(3), K.shape)
-    return eye + A[..., None, None] * K + B[..., None, None] * (K @ K)
+    A, B = _rodrigues_coefficients(np.sum(phi * phi, axis=-1))
+    K = (phi @ _S9T).reshape(*phi.shape[:-1], 3, 3)  # S(φ), exactly (one ±φ_i per entry)
+    return _EYE3 + A[..., None, None] * K + B[..., None, None] * (K @ K)
 
 
 def _rodrigues_coefficients(th2: Array) -> tuple[Array, Array]:
-    """``A = sin θ / θ`` and ``B = (1 − cos θ)/θ²`` of ``θ² = th2``, by their Taylor series below :data:`_SMALL`."""
+    """``A = sin θ / θ`` and ``B = (1 − cos θ)/θ²`` of ``θ² = th2``, by their Taylor series below :data:`_SMALL`.
+
+    The series and the closed forms are evaluated only where they are used (the same values as
+    evaluating both everywhere and selecting).
+    """
+    th2 = np.asarray(th2)
     th = np.sqrt(th2)
     small = th < _SMALL
     if small.all():
-        return 1.0 - th2 / 6.0 + th2 * th2 / 120.0, 0.5 - th2 / 24.0 + th2 * th2 / 720.0
-    th_safe = np.where(small, 1.0, th) if small.any() else th
+        return np.asarray(1.0 - th2 / 6.0 + th2 * th2 / 120.0), np.asarray(0.5 - th2 / 24.0 + th2 * th2 / 720.0)
+    some = bool(small.any())
+    th_safe = np.where(small, 1.0, th) if some else th
     A = np.sin(th_safe) / th_safe
     B = (1.0 - np.cos(th_safe)) / (th_safe * th_safe)
-    if small.any():
+    if some:
         A = np.where(small, 1.0 - th2 / 6.0 + th2 * th2 / 120.0, A)
         B = np.where(small, 0.5 - th2 / 24.0 + th2 * th2 / 720.0, B)
-    return A, B
-
-
-#: ``S(x) = (_S9 @ x).reshape(3, 3, n)`` for ``x`` of shape ``(3, n)`` (batch last; exact: one ±1 per row).
-_S9 = np.zeros((9, 3))
-_S9[1, 2], _S9[2, 1], _S9[3, 2], _S9[5, 0], _S9[6, 1], _S9[7, 0] = -1.0, 1.0, 1.0, -1.0, -1.0, 1.0
-_S9 = readonly(_S9, owned=True)
-_I33 = readonly(np.eye(3)[:, :, None])
+    return np.asarray(A), np.asarray(B)
 
 
 def skew_columns(x: Array) -> Array:
