@@ -287,11 +287,18 @@ def test_the_observer_implements_the_protocol_and_its_estimates():
     np.testing.assert_array_equal(obs.raw_estimate(st), x0)
     st, u = _moving_state(obs, (4,))
     raw = np.stack([obs.raw_estimate(st), obs.raw_estimate(obs.step(0.0, st, u, None, 0.01))], axis=-2)  # (4, 2, 15)
-    est, extras = obs.finish_estimates(raw)
+    raw.setflags(write=False)
+    est, extras = obs.finish_estimates(raw)                                  # read-only record: a new array
     np.testing.assert_array_equal(extras["R_raw"], raw[..., 6:].reshape(4, 2, 3, 3))
     np.testing.assert_allclose(est[:, 0], obs.estimate(st), rtol=0.0, atol=1e-13)   # Newton polar = SVD
     np.testing.assert_allclose(est[..., 6:].reshape(4, 2, 3, 3), project_so3(extras["R_raw"]), atol=1e-13)
-    assert not est.flags.writeable
+    np.testing.assert_array_equal(est[..., :6], raw[..., :6])
+    assert not est.flags.writeable and not np.shares_memory(est, raw)
+    record = np.moveaxis(np.ascontiguousarray(np.moveaxis(raw, -2, 0)), 0, -2)  # the loop's time-major layout
+    est2, extras2 = obs.finish_estimates(record)                             # writable: projected in place
+    assert est2 is record and not extras2["R_raw"].flags.writeable
+    np.testing.assert_array_equal(est2, est)
+    np.testing.assert_array_equal(extras2["R_raw"], extras["R_raw"])
     z = obs.diagnostics(st, u)["z_hat"]
     np.testing.assert_allclose(z, st.R @ u[3:6] + st.xi, rtol=1e-14)
 

@@ -523,27 +523,40 @@ class GnssInsObserver:
 
         Newton's polar iteration (:func:`nlobs.navigation.polar.nearest_rotation`), equal to the
         SVD projection of :meth:`estimate` to rounding and about 20× cheaper per matrix in bulk,
-        applied once to the whole record in the record's memory order (no copy of it).
+        applied once to the whole record, in the record's memory order.
 
         Parameters
         ----------
         raw : ndarray, shape (..., K, 15)
-            :meth:`raw_estimate` at every saved step.
+            :meth:`raw_estimate` at every saved step. When it is writable (the loop hands over its
+            own record) the projection is written into it **in place** and ``raw`` itself is
+            returned, so a large record exists once (plus the raw ``R̂`` kept as the extra); a
+            read-only ``raw`` is left untouched.
 
         Returns
         -------
         estimates : ndarray, shape (..., K, 15)
-            Read-only.
+            ``raw`` (writable input) or a new read-only array.
         extras : dict
-            ``{"R_raw": (..., K, 3, 3)}``, a view of ``raw``.
+            ``{"R_raw": (..., K, 3, 3)}``, read-only (a copy of the raw ``R̂`` when ``raw`` was
+            overwritten, else a view of it).
         """
         raw = np.asarray(raw, dtype=float)
         if raw.ndim < 2 or raw.shape[-1] != 15:
             raise DimensionError(f"raw: expected shape (..., K, 15), got {raw.shape}")
-        tm = np.moveaxis(raw, -2, 0)                       # the loop's time-major record: a contiguous view
+        tm = np.moveaxis(raw, -2, 0)                       # (K, ..., 15): the loop's record is contiguous so
+        mats = (*tm.shape[:-1], 3, 3)
+        if raw.flags.writeable:
+            R_tm = readonly(tm[..., NAV_R].copy(), owned=True).reshape(mats)
+            dest = tm[..., NAV_R].view()
+            dest.shape = mats                              # a view into raw (splitting the last axis)
+            nearest_rotation(R_tm, out=dest)
+            return raw, {"R_raw": np.moveaxis(R_tm, 0, -3)}
         out = np.empty_like(tm)                            # same memory order as the record
         out[..., 0:6] = tm[..., 0:6]
-        out[..., NAV_R] = nearest_rotation(tm[..., NAV_R].reshape(*tm.shape[:-1], 3, 3)).reshape(*tm.shape[:-1], 9)
+        dest = out[..., NAV_R].view()
+        dest.shape = mats
+        nearest_rotation(tm[..., NAV_R].reshape(mats), out=dest)
         return np.moveaxis(readonly(out, owned=True), 0, -2), {"R_raw": raw[..., NAV_R].reshape(*raw.shape[:-1], 3, 3)}
 
     def diagnostics(self, z: GnssInsState, u: Array) -> dict[str, Array]:

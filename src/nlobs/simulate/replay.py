@@ -23,6 +23,11 @@ by the number of batch members: the cost of one step of one run, amortised over 
 
 Divergence: the recorded estimates are checked for non-finite entries every few steps; the first
 one stops the run with :class:`~nlobs.errors.SimulationDiverged` naming its time and component.
+
+Deferred estimates (:class:`~nlobs.observers.base.DeferredEstimate`): the record of raw estimates
+is the loop's own buffer and is handed to ``finish_estimates`` writable, so an observer may write
+its estimates into it and return it (the GNSS/INS observer projects ``R̂`` in place: no second copy
+of a 1000-flight record); the loop makes it read-only afterwards.
 """
 
 from __future__ import annotations
@@ -304,12 +309,14 @@ def run_observer(
             bar.update(k + 1)
         check(Ks - 1)
 
-    rec.flags.writeable = False
     x_hat = np.moveaxis(rec, 0, -2)
     out_extras = time_major_extras(extras, len(batch))
-    if deferred:
+    if deferred:  # the record is the loop's own buffer: handed over writable (the observer may finish in place)
         x_hat, more = finish(observer, x_hat, n_x)
         out_extras.update(more)
+    rec.flags.writeable = False
+    if x_hat.base is rec:  # a view made while the record was writable: the result keeps it without a copy
+        x_hat.flags.writeable = False
     truth_arr = None
     n_states = len(states) if states is not None else n_x
     if truth is not None:
