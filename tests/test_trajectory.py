@@ -56,7 +56,7 @@ def test_signals_are_the_exact_derivatives(pattern) -> None:  # type: ignore[no-
 
 
 def test_signals_are_smooth(pattern) -> None:  # type: ignore[no-untyped-def]
-    """ȧ^b continuous and bounded (seed 001, Sec. 5.1): second differences of a^b and ω^b divided by
+    """ȧ^b continuous and bounded (Grip, Saberi & Johansen, Sec. 5.1): second differences of a^b and ω^b divided by
     dt² stay bounded as dt shrinks (a jump in ȧ would grow like 1/dt). Measured 1.24 and 0.44."""
     for rate in (100.0, 400.0):
         tr = pattern(np.arange(60.0, 140.0, 1.0 / rate))  # rotation to downwind turn
@@ -82,7 +82,7 @@ def test_plausible_traffic_pattern(pattern) -> None:  # type: ignore[no-untyped-
 
 
 def test_triad_condition_holds_along_the_flight(pattern) -> None:  # type: ignore[no-untyped-def]
-    """Seed 001, Sec. 5.1: ‖m^b × a^b‖ ≥ c_obs > 0 (non-parallel vector measurements)."""
+    """Grip, Saberi & Johansen, Sec. 5.1: ‖m^b × a^b‖ ≥ c_obs > 0 (non-parallel vector measurements)."""
     margin = triad_margin(pattern.sample(20.0))
     assert margin.min() > 1.0  # measured 1.38 for seed 0; 3.35 = g·sin 20° at rest
 
