@@ -516,6 +516,9 @@ class GnssInsObserver:
         record to :meth:`finish_estimates` once (one projection per run instead of per step).
         """
         b = z.p.shape[:-1]
+        if z._flat is not None and not b:  # a state of the fused kernel: its floats, no NumPy concatenation
+            f = z._flat
+            return np.array(f[0:6] + f[9:18])
         return np.concatenate([z.p, z.v, z.R.reshape(*b, 9)], axis=-1)
 
     def finish_estimates(self, raw: Array) -> tuple[Array, dict[str, Array]]:

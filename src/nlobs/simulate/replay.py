@@ -250,11 +250,17 @@ def run_observer(
     perf = _time.perf_counter
     wall = perf()
 
+    # per-step lookups on Python lists (cheaper than NumPy scalars in the loop; the same values)
+    t_list: list[float] = grid.tolist()
+    h_list: list[float] = h.tolist()
+    fix_list: list[int] = fix_at.tolist()
+    row_list: list[int] = row_of.tolist()
+
     def advance(k: int, z: Any, u_k: Array) -> Any:
-        tk = float(grid[k])
+        tk = t_list[k]
         if discrete:
             return observer.rhs(tk, z, u_k, y_held)
-        hk = float(h[k])
+        hk = h_list[k]
         if self_step:
             return observer.step(tk, z, u_k, y_held, hk)  # type: ignore[attr-defined]
         f = observer.rhs
@@ -285,23 +291,23 @@ def run_observer(
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"), Progress(K, progress, label) as bar:
         for k in range(K):
             u_k = u_arr[..., k, :] if u_arr is not None else u0
-            g = fix_at[k]
+            g = fix_list[k]
             if g >= 0:
                 y_g = y_arr[..., g, :]
                 fresh = rows[g]
                 if correcting:
                     t0 = perf()
-                    z = observer.correct(float(grid[k]), z, u_k, y_g, fresh)  # type: ignore[attr-defined]
+                    z = observer.correct(t_list[k], z, u_k, y_g, fresh)  # type: ignore[attr-defined]
                     busy += perf() - t0
                 else:
                     y_held[..., fresh] = y_g[..., fresh]
-            j = row_of[k]
+            j = row_list[k]
             if j >= 0:
                 rec[j] = estimate(z)
                 if diagnose:
-                    record_diagnostics(extras, observer.diagnostics(z, u_k), int(j), Ks)  # type: ignore[attr-defined]
+                    record_diagnostics(extras, observer.diagnostics(z, u_k), j, Ks)  # type: ignore[attr-defined]
                 if j - checked + 1 >= check_every:
-                    check(int(j))
+                    check(j)
             if k < K - 1:
                 t0 = perf()
                 z = advance(k, z, u_k)
