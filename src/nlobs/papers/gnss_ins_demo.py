@@ -1,4 +1,4 @@
-"""The main job: ``nlobs demo gnss-ins`` (seed 001, Sec. 5).
+"""The main job: ``nlobs demo gnss-ins`` (Grip, Saberi & Johansen, Sec. 5).
 
 Simulates a light-aircraft traffic-pattern flight with exact inertial signals,
 samples the IMU (+ magnetometer) at 100 Hz and GNSS position/velocity at 5 Hz
@@ -23,11 +23,13 @@ from nlobs.errors import InvalidArgumentError
 from nlobs.navigation.ekf import EkfConfig, ExtendedKalmanFilter
 from nlobs.navigation.gains import PAPER_GAMMA, design_gains, paper_gains
 from nlobs.navigation.gnss_ins import GnssInsObserver
+from nlobs.navigation.metrics import summary_dict
 from nlobs.navigation.plots import plot_navigation
-from nlobs.navigation.run import NavResult, run_navigation
+from nlobs.navigation.run import run_navigation
 from nlobs.navigation.sensors import SensorNoise, generate_sensors
 from nlobs.navigation.so3 import rot_z
 from nlobs.navigation.trajectory import traffic_pattern
+from nlobs.simulate.result import SimulationResult
 
 #: Sensor noise of the demo: a consumer-grade IMU and a standalone GNSS receiver.
 DEMO_NOISE = SensorNoise(
@@ -87,11 +89,14 @@ class DemoConfig:
 
 @dataclass(frozen=True)
 class DemoResult:
-    """What the demo computed: one :class:`NavResult` per filter, and the figures."""
+    """What the demo computed: one :class:`~nlobs.simulate.SimulationResult` per filter, and the figures.
+
+    Their navigation metrics are the functions of :mod:`nlobs.navigation.metrics`.
+    """
 
     config: DemoConfig
-    observer: NavResult
-    ekf: NavResult | None
+    observer: SimulationResult
+    ekf: SimulationResult | None
     figures: dict[str, Path]
     flight_duration: float
 
@@ -100,7 +105,7 @@ class DemoResult:
         res = self.observer if which == "observer" else self.ekf
         if res is None:
             raise InvalidArgumentError(f"no result for {which!r}")
-        return res.to_dict(threshold_deg=self.config.converge_deg)
+        return summary_dict(res, threshold_deg=self.config.converge_deg)
 
     def to_dict(self) -> dict[str, Any]:
         """Stable JSON form: ``observer`` and ``ekf`` objects (see the README) plus the setup."""
@@ -140,7 +145,8 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
     obs_res = run_navigation(observer, data, p0, v0, R0, progress=progress)
     ekf_res = None
     if config.ekf:
-        ekf = ExtendedKalmanFilter(EkfConfig.for_noise(config.noise, yaw_std_deg=max(30.0, abs(config.yaw_error_deg))),
+        ekf = ExtendedKalmanFilter(EkfConfig.for_noise(config.noise, yaw_std_deg=max(30.0, abs(config.yaw_error_deg)),
+                                                       sample_period_s=1.0 / config.imu_rate_hz),
                                    flight.m_n, flight.g_n, position_only=config.position_only)
         ekf_res = run_navigation(ekf, data, p0, v0, R0, progress=progress)
     figures: dict[str, Path] = {}
