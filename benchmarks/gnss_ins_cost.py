@@ -33,7 +33,7 @@ import platform
 
 import numpy as np
 
-from nlobs.papers.gnss_ins_demo import DEMO_NOISE
+from nlobs.workflows.demo import DEMO_NOISE
 from nlobs.navigation.ekf import EkfConfig, ExtendedKalmanFilter
 from nlobs.navigation.gains import PAPER_GAMMA, paper_gains
 from nlobs.navigation import metrics

@@ -26,7 +26,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from nlobs.papers.gnss_ins_demo import DEMO_NOISE
+from nlobs.workflows.demo import DEMO_NOISE
 from nlobs.navigation.gains import PAPER_GAMMA, paper_gains
 from nlobs.navigation import metrics
 from nlobs.navigation.gnss_ins import GnssInsObserver

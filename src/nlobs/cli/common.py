@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 from typing import Any, NoReturn
 
 import numpy as np
@@ -14,10 +13,10 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
-from nlobs._validate import escape_unsafe
 from nlobs.errors import ModelFileError, NlobsError
 from nlobs.geometry.region import Box
-from nlobs.systems.modelfile import Model, load_model, shipped_models
+from nlobs.systems.modelfile import Model, load_model
+from nlobs.workflows import escape_unsafe, jsonable
 
 EXIT_FAILURE = 1
 EXIT_BAD_INPUT = 2
@@ -100,18 +99,6 @@ def parse_box(option: str, text: str, n: int) -> Box:
 def box_numbers(option: str, text: str | None) -> list[float] | None:
     """The numbers of a ``--box`` option (the workflow builds the region and checks their count)."""
     return parse_floats(option, text) if text is not None else None
-
-
-def jsonable(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [jsonable(v) for v in obj]
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
 
 
 def emit_json(data: dict[str, Any]) -> None:

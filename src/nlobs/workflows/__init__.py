@@ -4,6 +4,8 @@ The command line parses its options, calls one workflow and prints the report; t
 scripts and notebooks. See :mod:`nlobs.workflows.verdict` for how a report says what it concluded.
 """
 
+from nlobs._io import jsonable
+from nlobs._validate import escape_unsafe
 from nlobs.workflows.verdict import Verdict
 
-__all__ = ["Verdict"]
+__all__ = ["Verdict", "escape_unsafe", "jsonable"]
