@@ -111,6 +111,7 @@ from nlobs.navigation.base import (
 )
 from nlobs.navigation.polar import nearest_rotation
 from nlobs.navigation.so3 import exp_so3, exp_so3_columns, project_so3, skew, skew_columns
+from nlobs.simulate.integrators import rk4_step
 from nlobs.navigation.split_kernel import ScalarFlow, SplitConstants, split_step
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
 
@@ -648,12 +649,11 @@ class GnssInsObserver:
                     f"h·ρ = {dt / n * rho:.3g} > {RK4_STABILITY}); increase substeps or use substeps=None")
         h = dt / n
         X = self._pack(state)
+        def f(_t: float, X: Array) -> Array:
+            return self._rhs(X, c)
+
         for _ in range(n):
-            k1 = self._rhs(X, c)
-            k2 = self._rhs(X + (0.5 * h) * k1, c)
-            k3 = self._rhs(X + (0.5 * h) * k2, c)
-            k4 = self._rhs(X + h * k3, c)
-            X = X + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+            X = rk4_step(f, 0.0, X, h)
         return self._unpack(X, state)
 
     def _step_constants(self, w: Array, a: Array, m: Array, has_fix: BoolArray) -> _Step:

@@ -47,7 +47,7 @@ from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError, S
 from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
 from nlobs.simulate.loop import finish, initial_state, observer_label, record_diagnostics, time_major_extras
 from nlobs.simulate.result import SimulationResult
-from nlobs.simulate.state import tree_map
+from nlobs.simulate.integrators import rk4_step
 from nlobs.systems.timebase import Continuous, Discrete
 
 __all__ = ["run_observer"]
@@ -270,18 +270,7 @@ def run_observer(
         hk = h_list[k]
         if self_step:
             return observer.step(tk, z, u_k, y_held, hk)  # type: ignore[attr-defined]
-        f = observer.rhs
-        if isinstance(z, np.ndarray):
-            k1 = f(tk, z, u_k, y_held)
-            k2 = f(tk + 0.5 * hk, z + (0.5 * hk) * k1, u_k, y_held)
-            k3 = f(tk + 0.5 * hk, z + (0.5 * hk) * k2, u_k, y_held)
-            k4 = f(tk + hk, z + hk * k3, u_k, y_held)
-            return z + (hk / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        k1 = f(tk, z, u_k, y_held)
-        k2 = f(tk + 0.5 * hk, tree_map(lambda a, b: a + (0.5 * hk) * b, z, k1), u_k, y_held)
-        k3 = f(tk + 0.5 * hk, tree_map(lambda a, b: a + (0.5 * hk) * b, z, k2), u_k, y_held)
-        k4 = f(tk + hk, tree_map(lambda a, b: a + hk * b, z, k3), u_k, y_held)
-        return tree_map(lambda a, b1, b2, b3, b4: a + (hk / 6.0) * (b1 + 2.0 * b2 + 2.0 * b3 + b4), z, k1, k2, k3, k4)
+        return rk4_step(lambda tt, zz: observer.rhs(tt, zz, u_k, y_held), tk, z, hk)
 
     if divergence not in ("raise", "keep"):
         raise InvalidArgumentError(f"divergence: expected 'raise' or 'keep', got {divergence!r}")
