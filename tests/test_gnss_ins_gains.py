@@ -1,4 +1,4 @@
-"""Gains of the GNSS/INS observer (seed 001, Sec. 5): the paper's, certified, and nlobs designs.
+"""Gains of the GNSS/INS observer (Grip, Saberi & Johansen, Sec. 5): the paper's, certified, and nlobs designs.
 
 Independent sources: the numbers of /work/shared/guide/facts.md (‖H‖∞ ≈ 32.18,
 ‖G‖∞ ≈ 1.002, per-axis poles ≈ −130.9, −0.257, −0.129), closed-loop

@@ -52,3 +52,17 @@ def test_input_is_not_modified():
         except np.linalg.LinAlgError:
             pass
         np.testing.assert_array_equal(M, before)
+
+
+def test_out_receives_the_result_in_place():
+    M = exp_so3(np.random.default_rng(3).normal(size=(5, 7, 3))) * 1.3 + 0.01
+    record = np.zeros((7, 5, 15))                              # matrices stored as row-major 9-blocks of a record
+    dest = record[..., 6:].view()
+    dest.shape = (7, 5, 3, 3)
+    assert nearest_rotation(np.swapaxes(M, 0, 1), out=dest) is dest
+    np.testing.assert_allclose(record[..., 6:].reshape(7, 5, 3, 3), project_so3(np.swapaxes(M, 0, 1)), atol=1e-14)
+    assert np.all(record[..., :6] == 0.0)
+    strided = np.empty((3, 3, 5, 7)).transpose(2, 3, 0, 1)     # not flattenable in place: written by index
+    np.testing.assert_allclose(nearest_rotation(M, out=strided), project_so3(M), atol=1e-14)
+    with pytest.raises(DimensionError, match="out"):
+        nearest_rotation(M, out=np.empty((5, 3, 3)))

@@ -1,4 +1,8 @@
-"""The navigation runner: multi-rate loop, batching, skipped fixes, validation, metrics, save/load."""
+"""The navigation runner: multi-rate loop, batching, skipped fixes, validation, metrics, save/load.
+
+``run_navigation`` is a thin call of ``run_observer``; the filters are correcting observers, the
+result a ``SimulationResult`` and the metrics functions of it (``nlobs.navigation.metrics``).
+"""
 
 from __future__ import annotations
 
@@ -15,11 +19,15 @@ from nlobs.errors import (
     NonFiniteError,
     SimulationDiverged,
 )
-from nlobs.navigation.base import GnssSample, ImuSample, NavEstimate, NavFilter
+from nlobs.navigation import metrics as M
+from nlobs.navigation.base import IMU_ACCEL, IMU_OMEGA, NAV_STATES, nav_vector, split_nav
 from nlobs.navigation.gnss_ins import GnssInsObserver
 from nlobs.navigation.polar import nearest_rotation
-from nlobs.navigation.run import NavResult, run_navigation
-from nlobs.navigation.so3 import exp_so3, rot_z
+from nlobs.navigation.run import run_navigation
+from nlobs.navigation.so3 import exp_so3, rot_z, skew
+from nlobs.observers.base import CorrectingObserver, DeferredEstimate, SelfStepping
+from nlobs.simulate import SimulationResult, run_observer
+from nlobs.systems.timebase import Continuous
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +52,7 @@ def test_batched_run_equals_single_runs(data, substeps):
         v_gnss=data.v_gnss + rng.normal(scale=0.1, size=(2, *data.v_gnss.shape)))
     R0 = np.stack([rot_z(0.3) @ data.R[0], exp_so3([0.0, 1.0, 0.5]) @ data.R[0]])
     rb = run_navigation(obs, batch, data.p[0], data.v[0], R0)
-    assert rb.batch_shape == (2,) and rb.p_hat.shape == (2, len(data.t_imu), 3)
+    assert rb.batch_shape == (2,) and M.p_hat(rb).shape == (2, len(data.t_imu), 3)
     # a fixed number of RK4 steps gives identical arithmetic; with substeps=None a batch takes the
     # step count its stiffest member needs, so single runs agree only to RK4 accuracy (measured 3e-2 m
     # at the peak of the transient from a 1.1 rad attitude error)
@@ -54,11 +62,8 @@ def test_batched_run_equals_single_runs(data, substeps):
                                      v_gnss=batch.v_gnss[i])
         rs = run_navigation(obs, single, data.p[0], data.v[0], R0[i])
         assert rs.batch_shape == ()
-        np.testing.assert_allclose(rb.p_hat[i], rs.p_hat, **tol)
-        np.testing.assert_allclose(rb.v_hat[i], rs.v_hat, **tol)
-        np.testing.assert_allclose(rb.R_hat[i], rs.R_hat, **tol)
-        np.testing.assert_allclose(rb.R_raw[i], rs.R_raw, **tol)
-        np.testing.assert_allclose(rb.z_hat[i], rs.z_hat, **tol)
+        for get in (M.p_hat, M.v_hat, M.R_hat, M.R_raw, M.z_hat):
+            np.testing.assert_allclose(get(rb)[i], get(rs), **tol)
 
 
 def test_nan_fix_is_skipped_and_counted(data, obs):
@@ -67,13 +72,13 @@ def test_nan_fix_is_skipped_and_counted(data, obs):
     p_g[1, 10] = np.nan  # and fix 10
     d2 = dataclasses.replace(data, p_gnss=p_g)
     r = run_navigation(obs, d2, data.p[0], data.v[0], data.R[0])
-    np.testing.assert_array_equal(r.skipped_fixes, [0, 2])
-    assert r.to_dict()["skipped_fixes"] == [0, 2]
+    np.testing.assert_array_equal(r.info["skipped_fixes"], [0, 2])
+    assert M.summary_dict(r)["skipped_fixes"] == [0, 2]
     clean = run_navigation(obs, data, data.p[0], data.v[0], data.R[0])
-    np.testing.assert_allclose(r.p_hat[0], clean.p_hat, atol=1e-9)
+    np.testing.assert_allclose(M.p_hat(r)[0], M.p_hat(clean), atol=1e-9)
     # the flight with missing fixes keeps going on the predicted measurement: still accurate
-    assert np.all(np.isfinite(r.p_hat[1]))
-    assert r.position_error_m()[1].max() < 1e-2
+    assert np.all(np.isfinite(M.p_hat(r)[1]))
+    assert M.position_error_m(r)[1].max() < 1e-2
 
 
 def test_fixes_off_the_imu_grid_or_out_of_order_are_refused(data, obs):
@@ -111,65 +116,75 @@ def test_other_bad_inputs(data, obs):
         run_navigation(obs, data, data.p[0], data.v[0], np.eye(2))
     with pytest.raises(DimensionError, match="do not broadcast"):
         run_navigation(obs, data, np.zeros((2, 3)), np.zeros((3, 3)), data.R[0])
-    with pytest.raises(InvalidArgumentError, match="NavFilter"):
+    with pytest.raises(InvalidArgumentError, match="not a navigation filter"):
         run_navigation(object(), data, data.p[0], data.v[0], data.R[0])  # type: ignore[arg-type]
 
 
 @dataclasses.dataclass(frozen=True)
 class _DeadReckoning:
-    """A minimal NavFilter (strapdown, no fixes used): checks the runner against the protocol only."""
+    """A minimal navigation filter (strapdown, fixes ignored): checks the runner against the protocol only."""
 
     name: str = "dead-reckoning"
     blow_up_at: int = -1
+    time: Continuous = Continuous()
+    n_x: int = 15
 
-    def init(self, p0: Any, v0: Any, R0: Any) -> Any:
-        return (np.array(p0), np.array(v0), np.array(R0), 0)
+    def init(self, x_hat0: np.ndarray) -> Any:
+        p, v, R = split_nav(x_hat0)
+        return (p.copy(), v.copy(), R.copy(), 0)
 
-    def propagate(self, state: Any, imu: ImuSample, dt: float) -> Any:
-        p, v, R, k = state
-        acc = np.einsum("...ij,...j->...i", R, imu.a_b) + G_N
-        R = R @ exp_so3(imu.omega_b * dt)
+    def rhs(self, t: float, z: Any, u: np.ndarray, y: np.ndarray) -> Any:
+        p, v, R, k = z
+        return (v, np.einsum("...ij,...j->...i", R, u[..., IMU_ACCEL]) + G_N, R @ skew(u[..., IMU_OMEGA]), k)
+
+    def step(self, t: float, z: Any, u: np.ndarray, y: np.ndarray, h: float) -> Any:
+        p, v, R, k = z
+        acc = np.einsum("...ij,...j->...i", R, u[..., IMU_ACCEL]) + G_N
+        R = R @ exp_so3(u[..., IMU_OMEGA] * h)
         if k + 1 == self.blow_up_at:
             v = v * np.nan
-        return (p + v * dt + 0.5 * acc * dt**2, v + acc * dt, R, k + 1)
+        return (p + v * h + 0.5 * acc * h**2, v + acc * h, R, k + 1)
 
-    def update(self, state: Any, gnss: GnssSample) -> Any:
-        return state
+    def correct(self, t: float, z: Any, u: np.ndarray, y: np.ndarray, fresh: np.ndarray) -> Any:
+        return z
 
-    def estimate(self, state: Any) -> NavEstimate:
-        return NavEstimate(state[0], state[1], state[2])
+    def estimate(self, z: Any) -> np.ndarray:
+        return nav_vector(z[0], z[1], z[2])
 
 
-def test_runner_takes_any_navfilter_and_reports_divergence(data):
+def test_runner_takes_any_navigation_filter_and_reports_divergence(data):
     f = _DeadReckoning()
-    assert isinstance(f, NavFilter)
+    assert isinstance(f, CorrectingObserver) and isinstance(f, SelfStepping)
     r = run_navigation(f, data, data.p[0], data.v[0], data.R[0])
-    assert r.filter_name == "dead-reckoning" and r.R_raw is None and r.z_hat is None
-    assert r.position_error_m().max() < 0.5  # exact strapdown on exact data, 8 s
-    with pytest.raises(SimulationDiverged, match="t=0.47: dead-reckoning state 'p'"):
+    assert r.observer == "dead-reckoning" and M.R_raw(r) is None and M.z_hat(r) is None
+    assert M.position_error_m(r).max() < 0.5  # exact strapdown on exact data, 8 s
+    with pytest.raises(SimulationDiverged, match="t=0.47: dead-reckoning state 'p_n'"):
         run_navigation(_DeadReckoning(blow_up_at=47), data, data.p[0], data.v[0], data.R[0])
 
 
 class _PerStepProjection:
-    """The observer without ``raw_estimate``/``project_attitude``: the runner projects at every step."""
+    """The observer without ``raw_estimate``/``finish_estimates``: its estimate projects at every step."""
 
     def __init__(self, obs: GnssInsObserver) -> None:
-        self.obs, self.name = obs, obs.name
+        self.obs, self.name, self.time, self.n_x = obs, obs.name, obs.time, obs.n_x
 
-    def init(self, p0: Any, v0: Any, R0: Any) -> Any:
-        return self.obs.init(p0, v0, R0)
+    def init(self, x_hat0: np.ndarray) -> Any:
+        return self.obs.init(x_hat0)
 
-    def propagate(self, state: Any, imu: ImuSample, dt: float) -> Any:
-        return self.obs.propagate(state, imu, dt)
+    def rhs(self, t: float, z: Any, u: np.ndarray, y: np.ndarray) -> Any:
+        return self.obs.rhs(t, z, u, y)
 
-    def update(self, state: Any, gnss: GnssSample) -> Any:
-        return self.obs.update(state, gnss)
+    def step(self, t: float, z: Any, u: np.ndarray, y: np.ndarray, h: float) -> Any:
+        return self.obs.step(t, z, u, y, h)
 
-    def estimate(self, state: Any) -> NavEstimate:
-        return self.obs.estimate(state)
+    def correct(self, t: float, z: Any, u: np.ndarray, y: np.ndarray, fresh: np.ndarray) -> Any:
+        return self.obs.correct(t, z, u, y, fresh)
 
-    def diagnostics(self, state: Any, imu: ImuSample | None = None) -> dict[str, np.ndarray]:
-        return self.obs.diagnostics(state, imu)
+    def estimate(self, z: Any) -> np.ndarray:
+        return self.obs.estimate(z)
+
+    def diagnostics(self, z: Any, u: np.ndarray) -> dict[str, np.ndarray]:
+        return {**self.obs.diagnostics(z, u), "R_raw": z.R}
 
 
 @pytest.mark.parametrize("batch", [None, 3])
@@ -177,13 +192,14 @@ def test_projection_once_at_the_end_equals_projection_at_every_step(data, obs, b
     R0 = data.R[0] if batch is None else np.stack([rot_z(a) @ data.R[0] for a in (0.5, -1.5, 2.5)])
     deferred = run_navigation(obs, data, data.p[0], data.v[0], R0)
     per_step = run_navigation(_PerStepProjection(obs), data, data.p[0], data.v[0], R0)
-    np.testing.assert_array_equal(deferred.p_hat, per_step.p_hat)
-    np.testing.assert_array_equal(deferred.R_raw, per_step.R_raw)
-    np.testing.assert_array_equal(deferred.z_hat, per_step.z_hat)
-    np.testing.assert_allclose(deferred.R_hat, per_step.R_hat, rtol=0.0, atol=1e-13)
-    np.testing.assert_allclose(deferred.attitude_error_deg(), per_step.attitude_error_deg(), rtol=0.0, atol=1e-9)
-    for name in ("p_hat", "R_hat", "R_raw", "z_hat"):
-        assert not getattr(deferred, name).flags.writeable, name
+    assert not isinstance(_PerStepProjection(obs), DeferredEstimate)
+    np.testing.assert_array_equal(M.p_hat(deferred), M.p_hat(per_step))
+    np.testing.assert_array_equal(M.R_raw(deferred), M.R_raw(per_step))
+    np.testing.assert_array_equal(M.z_hat(deferred), M.z_hat(per_step))
+    np.testing.assert_allclose(M.R_hat(deferred), M.R_hat(per_step), rtol=0.0, atol=1e-13)
+    np.testing.assert_allclose(M.attitude_error_deg(deferred), M.attitude_error_deg(per_step), rtol=0.0, atol=1e-9)
+    for get in (M.p_hat, M.R_hat, M.R_raw, M.z_hat):
+        assert not get(deferred).flags.writeable, get.__name__
 
 
 @dataclasses.dataclass(frozen=True)
@@ -192,73 +208,97 @@ class _ScaledAttitude(_DeadReckoning):
 
     nan_R_at: int = -1
 
-    def propagate(self, state: Any, imu: ImuSample, dt: float) -> Any:
-        p, v, R, k = super().propagate(state, imu, dt)
+    def step(self, t: float, z: Any, u: np.ndarray, y: np.ndarray, h: float) -> Any:
+        p, v, R, k = super().step(t, z, u, y, h)
         return (p, v, R * np.nan if k == self.nan_R_at else R, k)
 
-    def raw_estimate(self, state: Any) -> NavEstimate:
-        return NavEstimate(state[0], state[1], 2.0 * state[2])
+    def raw_estimate(self, z: Any) -> np.ndarray:
+        return nav_vector(z[0], z[1], 2.0 * z[2])
 
-    @staticmethod
-    def project_attitude(R_raw: Any) -> np.ndarray:
-        return nearest_rotation(R_raw)
+    def finish_estimates(self, raw: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        p, v, R_raw = split_nav(raw)
+        return nav_vector(p, v, nearest_rotation(R_raw)), {"R_raw": R_raw}
 
 
-def test_deferred_projection_protocol_and_divergence_in_the_raw_attitude(data):
+def test_deferred_estimate_protocol_and_divergence_in_the_raw_attitude(data):
+    assert isinstance(_ScaledAttitude(), DeferredEstimate)
     r = run_navigation(_ScaledAttitude(), data, data.p[0], data.v[0], data.R[0])
-    np.testing.assert_allclose(r.R_raw, 2.0 * r.R_hat, rtol=0.0, atol=1e-12)
-    assert r.attitude_error_deg().max() < 0.1
-    with pytest.raises(SimulationDiverged, match="t=0.33: dead-reckoning state 'R'"):
+    np.testing.assert_allclose(M.R_raw(r), 2.0 * M.R_hat(r), rtol=0.0, atol=1e-12)
+    assert M.attitude_error_deg(r).max() < 0.1
+    with pytest.raises(SimulationDiverged, match="t=0.33: dead-reckoning state 'R11'"):
         run_navigation(_ScaledAttitude(nan_R_at=33), data, data.p[0], data.v[0], data.R[0])
 
 
-def _result(att_deg: np.ndarray, t: np.ndarray, pos_err: float = 1.0) -> NavResult:
+def test_run_navigation_is_run_observer_on_the_sensor_channels(data, obs):
+    R0 = rot_z(0.3) @ data.R[0]
+    nav = run_navigation(obs, data, data.p[0], data.v[0], R0)
+    direct = run_observer(obs, data.t_imu, x_hat0=nav_vector(data.p[0], data.v[0], R0), u=data.imu_input(),
+                          y=data.gnss_output(), y_times=data.t_gnss, truth=data.truth(), states=NAV_STATES)
+    np.testing.assert_array_equal(nav.x_hat, direct.x_hat)
+    np.testing.assert_array_equal(nav.extras["R_raw"], direct.extras["R_raw"])
+    assert nav.estimates == NAV_STATES and nav.method == "observer step"
+    assert nav.info["n_fixes"] == data.t_gnss.size and nav.info["imu_rate_hz"] == 100.0
+    assert nav.info["gnss_rate_hz"] == 5.0 and int(nav.info["skipped_fixes"]) == 0
+
+
+def _result(att_deg: np.ndarray, t: np.ndarray, pos_err: float = 1.0) -> SimulationResult:
     K = len(t)
     R = np.broadcast_to(np.eye(3), (K, 3, 3))
-    return NavResult(
-        t=t, p_hat=np.zeros((K, 3)) + [pos_err, 0.0, 0.0], v_hat=np.zeros((K, 3)), R_hat=rot_z(np.radians(att_deg)),
-        p=np.zeros((K, 3)), v=np.zeros((K, 3)) + [0.0, 2.0, 0.0], R=R, filter_name="x",
-        skipped_fixes=np.array(0), n_fixes=3, cost_per_step_us=1.5, wall_s=0.1, imu_rate_hz=10.0, gnss_rate_hz=1.0)
+    return SimulationResult(
+        t=t, x=nav_vector(np.zeros((K, 3)), np.zeros((K, 3)) + [0.0, 2.0, 0.0], R),
+        x_hat=nav_vector(np.zeros((K, 3)) + [pos_err, 0.0, 0.0], np.zeros((K, 3)), rot_z(np.radians(att_deg))),
+        y=None, sampled=None, states=NAV_STATES, outputs=(), estimates=NAV_STATES, dt=float(t[1] - t[0]),
+        method="observer step", observer="x",
+        info={"cost_per_step_us": 1.5, "observer_s": 0.1, "skipped_fixes": np.array(0), "n_fixes": 3,
+              "imu_rate_hz": 10.0, "gnss_rate_hz": 1.0})
 
 
 def test_metrics_definitions():
     t = np.arange(11) / 10.0
     att = np.array([50.0, 10.0, 1.0, 3.0, 1.5, 1.0, 0.5, 0.5, 1.0, 0.5, 0.5])
     r = _result(att, t)
-    np.testing.assert_allclose(r.attitude_error_deg(), att, atol=1e-9)
-    assert float(r.converge_s(2.0)) == pytest.approx(0.4)  # last sample ≥ 2° is t = 0.3
-    assert float(r.converge_s(5.0)) == pytest.approx(0.2)
-    assert float(r.converge_s(100.0)) == 0.0
-    assert np.isnan(float(r.converge_s(0.4)))  # never below 0.4° at the end
+    np.testing.assert_allclose(M.attitude_error_deg(r), att, atol=1e-9)
+    assert float(M.converge_s(r, 2.0)) == pytest.approx(0.4)  # last sample ≥ 2° is t = 0.3
+    assert float(M.converge_s(r, 5.0)) == pytest.approx(0.2)
+    assert float(M.converge_s(r, 100.0)) == 0.0
+    assert np.isnan(float(M.converge_s(r, 0.4)))  # never below 0.4° at the end
     # RMS over t ≥ converge time (default) or t ≥ after
-    assert float(r.attitude_rms_deg()) == pytest.approx(np.sqrt(np.mean(att[4:] ** 2)))
-    assert float(r.attitude_rms_deg(after=0.65)) == pytest.approx(np.sqrt(np.mean(att[7:] ** 2)))
-    assert float(r.position_rms_m()) == pytest.approx(1.0)
-    assert float(r.velocity_rms_mps(after=0.0)) == pytest.approx(2.0)
-    assert np.isnan(float(r.attitude_rms_deg(threshold_deg=0.4)))
-    d = r.to_dict()
+    assert float(M.attitude_rms_deg(r)) == pytest.approx(np.sqrt(np.mean(att[4:] ** 2)))
+    assert float(M.attitude_rms_deg(r, after=0.65)) == pytest.approx(np.sqrt(np.mean(att[7:] ** 2)))
+    assert float(M.position_rms_m(r)) == pytest.approx(1.0)
+    assert float(M.velocity_rms_mps(r, after=0.0)) == pytest.approx(2.0)
+    assert np.isnan(float(M.attitude_rms_deg(r, threshold_deg=0.4)))
+    d = M.summary_dict(r)
+    assert list(d) == ["filter", "position_rms_m", "velocity_rms_mps", "attitude_rms_deg", "converge_s",
+                       "cost_per_step_us", "skipped_fixes", "n_fixes", "after", "threshold_deg"]
     for key in ("position_rms_m", "velocity_rms_mps", "attitude_rms_deg", "converge_s", "cost_per_step_us"):
         assert isinstance(d[key], float), key
     assert d["converge_s"] == pytest.approx(0.4) and d["cost_per_step_us"] == 1.5
+    assert d["filter"] == "x" and d["skipped_fixes"] == 0 and d["n_fixes"] == 3
+    with pytest.raises(InvalidArgumentError, match="no truth"):
+        M.position_error_m(dataclasses.replace(r, x=None))
+    with pytest.raises(InvalidArgumentError, match="info lacks"):
+        M.summary_dict(dataclasses.replace(r, info={}))
 
 
 def test_save_load_round_trip_and_timing(tmp_path, data, obs):
     r = run_navigation(obs, data, data.p[0], data.v[0], rot_z(0.05) @ data.R[0], progress=True)
-    assert np.isfinite(r.to_dict()["attitude_rms_deg"])
-    assert r.cost_per_step_us > 0
-    assert r.cost_per_step_us == pytest.approx(r.wall_s / len(r.t) * 1e6)
+    assert np.isfinite(M.summary_dict(r)["attitude_rms_deg"])
+    assert r.info["cost_per_step_us"] > 0
+    assert r.info["cost_per_step_us"] == pytest.approx(r.info["observer_s"] / len(r.t) * 1e6)
     path = r.save(tmp_path / "run.npz")
-    back = NavResult.load(path)
-    for name in ("t", "p_hat", "v_hat", "R_hat", "p", "v", "R", "R_raw", "z_hat", "skipped_fixes"):
-        np.testing.assert_array_equal(getattr(back, name), getattr(r, name))
-    assert back.to_dict() == r.to_dict()
+    back = SimulationResult.load(path)
+    for get in (M.p_hat, M.v_hat, M.R_hat, M.p, M.v, M.R, M.R_raw, M.z_hat):
+        np.testing.assert_array_equal(get(back), get(r))
+    np.testing.assert_array_equal(back.t, r.t)
+    np.testing.assert_array_equal(back.info["skipped_fixes"], r.info["skipped_fixes"])
+    assert M.summary_dict(back) == M.summary_dict(r)
     assert not any(p.name.endswith(".tmp") for p in tmp_path.iterdir())
     with pytest.raises(ValueError):
-        r.p_hat[0, 0] = 1.0  # read-only
+        M.p_hat(r)[0, 0] = 1.0  # read-only
     np.savez(tmp_path / "other.npz", x=np.zeros(2))
-    with pytest.raises(InvalidArgumentError, match="not an nlobs navigation result"):
-        NavResult.load(tmp_path / "other.npz")
-
+    with pytest.raises(InvalidArgumentError, match="not an nlobs simulation result"):
+        SimulationResult.load(tmp_path / "other.npz")
 
 def test_figures_like_the_papers_figs_4_to_6(tmp_path, data):
     from nlobs.navigation.plots import (

@@ -2,17 +2,19 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
-from nlobs.errors import InvalidArgumentError, NonFiniteError
+from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError
+from nlobs.navigation.base import GNSS_OUTPUTS, IMU_INPUTS, NAV_STATES, nav_vector, split_nav
 from nlobs.navigation.sensors import SensorNoise, drop_fixes, generate_sensors
-from nlobs.navigation.trajectory import traffic_pattern
 
 
 @pytest.fixture(scope="module")
-def traj():  # type: ignore[no-untyped-def]
-    return traffic_pattern(seed=3, duration=40.0).sample(50.0)
+def traj(make_traj):  # type: ignore[no-untyped-def]
+    return make_traj(3, 40.0, 50.0)
 
 
 def test_noise_free_streams_equal_the_trajectory(traj) -> None:  # type: ignore[no-untyped-def]
@@ -68,8 +70,6 @@ def test_validation(traj) -> None:  # type: ignore[no-untyped-def]
 
 
 def test_bad_trajectories_raise_typed_errors(traj) -> None:  # type: ignore[no-untyped-def]
-    from dataclasses import replace
-
     kw = dict(imu_rate_hz=50.0, gnss_rate_hz=5.0, noise=SensorNoise(), seed=0)
     a_b = traj.a_b.copy()
     a_b[7, 1] = np.nan
@@ -91,3 +91,40 @@ def test_fixes_fall_on_imu_instants_and_single_equals_batch_member_shapes(traj) 
     np.testing.assert_array_equal(d.t_imu[k], d.t_gnss)
     np.testing.assert_array_equal(np.diff(k), 25)
     assert d.omega_b.shape == traj.omega_b.shape and d.p_gnss.shape == (k.size, 3)
+
+
+def test_channel_layouts_and_the_observer_inputs_without_copies(traj) -> None:  # type: ignore[no-untyped-def]
+    assert len(IMU_INPUTS) == 9 and len(GNSS_OUTPUTS) == 6 and len(NAV_STATES) == 15
+    assert NAV_STATES[6:9] == ("R11", "R12", "R13")  # R row-major
+    d = generate_sensors(traj, imu_rate_hz=50.0, gnss_rate_hz=5.0, noise=SensorNoise(gyro_std=0.01, gnss_p_std=1.0),
+                         seed=0, batch=4)
+    u = d.imu_input()
+    assert u.shape == (4, traj.t.size, 9) and not u.flags.writeable
+    np.testing.assert_array_equal(u, np.concatenate([d.omega_b, d.a_b, d.m_b], axis=-1))
+    assert np.shares_memory(u, d.omega_b) and np.shares_memory(u, d.m_b)  # a view of the one buffer: no copy
+    one = replace(d, omega_b=d.omega_b[2], a_b=d.a_b[2], m_b=d.m_b[2], p_gnss=d.p_gnss[2], v_gnss=d.v_gnss[2])
+    assert np.shares_memory(one.imu_input(), d.omega_b) and one.imu_input().shape == (traj.t.size, 9)
+    np.testing.assert_array_equal(one.imu_input(), u[2])
+    y = d.gnss_output()
+    assert y.shape == (4, d.t_gnss.size, 6) and np.shares_memory(y, d.p_gnss)
+    np.testing.assert_array_equal(y, np.concatenate([d.p_gnss, d.v_gnss], axis=-1))
+    # streams that are not side by side (here: a broadcast single-flight rate gyro) are concatenated once
+    mixed = replace(d, omega_b=traj.omega_b)
+    np.testing.assert_array_equal(mixed.imu_input()[3, :, :3], traj.omega_b)
+    np.testing.assert_array_equal(mixed.imu_input()[..., 3:], u[..., 3:])
+    dropped = drop_fixes(d, [1], batch_index=0)
+    assert np.isnan(dropped.gnss_output()[0, 1]).all() and np.isfinite(dropped.gnss_output()[1:]).all()
+    po = generate_sensors(traj, imu_rate_hz=50.0, gnss_rate_hz=5.0, noise=SensorNoise(), seed=0, position_only=True)
+    np.testing.assert_array_equal(po.gnss_output(), po.p_gnss)
+    x = d.truth()
+    assert x.shape == (traj.t.size, 15)
+    p, v, R = split_nav(x)
+    np.testing.assert_array_equal(p, traj.p)
+    np.testing.assert_array_equal(v, traj.v)
+    np.testing.assert_array_equal(R, traj.R)
+    np.testing.assert_array_equal(R[5].reshape(9), x[5, 6:])
+    np.testing.assert_array_equal(nav_vector(p, v, R), x)
+    with pytest.raises(DimensionError, match="split_nav"):
+        split_nav(np.zeros((3, 14)))
+    with pytest.raises(DimensionError, match="nav_vector"):
+        nav_vector(np.zeros(3), np.zeros(3), np.eye(2))

@@ -206,6 +206,26 @@ def test_deferred_estimates_are_finished_once_on_the_whole_record() -> None:
     assert calls == [4]
 
 
+@dataclass(frozen=True)
+class SquaredInPlace(Squared):
+    """Finishes on the loop's own record, in place (as the GNSS/INS observer projects R̂)."""
+
+    def finish_estimates(self, raw: np.ndarray) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        assert raw.flags.writeable  # the loop hands its record over writable
+        root = raw[..., 0].copy()
+        np.square(raw, out=raw)
+        return raw, {"root": root}
+
+
+def test_a_deferred_observer_may_finish_in_place_and_the_record_is_kept_without_a_copy() -> None:
+    res = run_observer(SquaredInPlace(), np.arange(6.0), x_hat0=[[4.0], [9.0]], y=np.zeros((6, 1)), save_every=2)
+    np.testing.assert_array_equal(res.x_hat[..., 0], [[4.0, 16.0, 36.0, 49.0], [9.0, 25.0, 49.0, 64.0]])
+    np.testing.assert_array_equal(res.extras["root"], [[2.0, 4.0, 6.0, 7.0], [3.0, 5.0, 7.0, 8.0]])
+    assert not res.x_hat.flags.writeable and not res.x_hat.flags.owndata  # the loop's record itself
+    plain = run_observer(Decay(a=2.0), np.arange(11) * 0.1, x_hat0=[[1.0], [2.0]], y=np.zeros((11, 1)))
+    assert not plain.x_hat.flags.writeable and not plain.x_hat.flags.owndata
+
+
 def test_divergence_names_the_time_and_the_component() -> None:
     obs = Decay(a=-50.0)  # e^{50 t} overflows near t = 14.2
     t = np.arange(2001) * 0.01

@@ -13,6 +13,7 @@ from nlobs.navigation.so3 import (
     angle_between,
     euler_from_R,
     exp_so3,
+    exp_so3_columns,
     log_so3,
     project_so3,
     quat_from_R,
@@ -20,8 +21,10 @@ from nlobs.navigation.so3 import (
     rot_y,
     rot_z,
     skew,
+    skew_columns,
     unskew,
 )
+from nlobs.navigation.split_kernel import exp_so3_scalar
 
 vec3 = st.lists(st.floats(-10, 10, allow_nan=False), min_size=3, max_size=3).map(np.array)
 
@@ -151,3 +154,28 @@ def test_angle_between() -> None:
     assert angle_between(np.eye(3), rot_z(np.pi)) == pytest.approx(np.pi)
     # broadcasting one matrix against a batch
     assert angle_between(np.eye(3), R1).shape == (300,)
+
+
+@pytest.mark.parametrize("scale", [0.0, 1e-9, 1e-4, 9e-4, 1.2e-3, 2e-3, 0.3, 3.0])
+def test_the_rodrigues_forms_agree(scale: float) -> None:
+    """One formula per form: exp_so3 (NumPy, batch first), its batch-last layout, the fused scalar form."""
+    rng = np.random.default_rng(int(scale * 1e9) % 2**32)
+    phi = scale * rng.normal(size=(200, 3)) / np.sqrt(3.0)
+    E = exp_so3(phi)
+    # exactly the textbook evaluation I + A S + B S² (series below θ = 1e-3), with fewer NumPy calls
+    th2 = np.sum(phi * phi, axis=-1)
+    th = np.sqrt(th2)
+    small = th < 1e-3
+    ts = np.where(small, 1.0, th)
+    A = np.where(small, 1.0 - th2 / 6.0 + th2 * th2 / 120.0, np.sin(ts) / ts)[:, None, None]
+    B = np.where(small, 0.5 - th2 / 24.0 + th2 * th2 / 720.0, (1.0 - np.cos(ts)) / (ts * ts))[:, None, None]
+    K = skew(phi)
+    np.testing.assert_array_equal(E, np.eye(3) + A * K + B * (K @ K))
+    np.testing.assert_allclose(exp_so3_columns(np.ascontiguousarray(phi.T)), E.transpose(1, 2, 0), rtol=0.0,
+                               atol=1e-15)
+    scalar = np.array([exp_so3_scalar(*map(float, f)) for f in phi]).reshape(-1, 3, 3)
+    np.testing.assert_allclose(scalar, E, rtol=0.0, atol=1e-15)
+    np.testing.assert_array_equal(skew_columns(np.ascontiguousarray(phi.T)), skew(phi).transpose(1, 2, 0))
+    if scale == 0.0:
+        np.testing.assert_array_equal(E, np.broadcast_to(np.eye(3), E.shape))
+        np.testing.assert_array_equal(scalar, E)

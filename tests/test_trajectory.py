@@ -1,5 +1,6 @@
 """The generated flight: its inertial signals are exact (integrating them reproduces the flight),
-it is a plausible light-aircraft traffic pattern, and it satisfies the TRIAD condition of seed 001."""
+it is a plausible light-aircraft traffic pattern, and it satisfies the TRIAD condition of Grip, Saberi &
+Johansen (Sec. 5.1). The whole pattern of seed 0 is the session fixture ``pattern`` (``conftest.py``)."""
 
 from __future__ import annotations
 
@@ -11,12 +12,7 @@ from nlobs.navigation.so3 import exp_so3, log_so3, skew, unskew
 from nlobs.navigation.trajectory import traffic_pattern, triad_margin
 
 
-@pytest.fixture(scope="module")
-def flight():  # type: ignore[no-untyped-def]
-    return traffic_pattern(seed=0)
-
-
-def test_strapdown_integration_of_the_exact_signals_reproduces_the_flight(flight) -> None:  # type: ignore[no-untyped-def]
+def test_strapdown_integration_of_the_exact_signals_reproduces_the_flight(pattern) -> None:  # type: ignore[no-untyped-def]
     """Ṙ = R S(ω^b), v̇ = R a^b + gⁿ, ṗ = v integrated by RK4 at 1 kHz (independent of how the
     generator computed ω^b and a^b) must return the flight's own p, v, R.
 
@@ -24,10 +20,10 @@ def test_strapdown_integration_of_the_exact_signals_reproduces_the_flight(flight
     flare and roll-out included) are integrated side by side, each from the true state at its
     start. Measured: p 1e-9 m, v 3e-13 m/s, R 2e-14 (rounding level)."""
     h, span, every = 1e-3, 4.0, 12.0
-    starts = np.arange(0.0, flight.duration - span, every)
+    starts = np.arange(0.0, pattern.duration - span, every)
     n = int(round(span / h))
     ts = (starts[:, None] + np.arange(2 * n + 1)[None, :] * (h / 2)).ravel()
-    tr = flight(ts)
+    tr = pattern(ts)
     W = tr.omega_b.reshape(starts.size, 2 * n + 1, 3)
     A = tr.a_b.reshape(starts.size, 2 * n + 1, 3)
     P, V, RR = (x.reshape(starts.size, 2 * n + 1, *x.shape[1:]) for x in (tr.p, tr.v, tr.R))
@@ -47,11 +43,11 @@ def test_strapdown_integration_of_the_exact_signals_reproduces_the_flight(flight
     assert np.abs(p - P[:, -1]).max() < 1e-7
 
 
-def test_signals_are_the_exact_derivatives(flight) -> None:  # type: ignore[no-untyped-def]
+def test_signals_are_the_exact_derivatives(pattern) -> None:  # type: ignore[no-untyped-def]
     """Central differences (h = 1e-4 s): ω^b = unskew(Rᵀ Ṙ), v = ṗ, v̇ = d/dt v (measured ≤ 1e-8)."""
     h = 1e-4
-    ts = np.linspace(1.0, flight.duration - 1.0, 1501)
-    a, b, c = flight(ts - h), flight(ts), flight(ts + h)
+    ts = np.linspace(1.0, pattern.duration - 1.0, 1501)
+    a, b, c = pattern(ts - h), pattern(ts), pattern(ts + h)
     np.testing.assert_allclose(unskew(np.swapaxes(b.R, -1, -2) @ (c.R - a.R) / (2 * h)), b.omega_b, atol=1e-8)
     np.testing.assert_allclose((c.p - a.p) / (2 * h), b.v, atol=1e-7)
     np.testing.assert_allclose((c.v - a.v) / (2 * h), b.vdot, atol=1e-7)
@@ -59,22 +55,22 @@ def test_signals_are_the_exact_derivatives(flight) -> None:  # type: ignore[no-u
     np.testing.assert_allclose(np.einsum("kji,j->ki", b.R, b.m_n), b.m_b, atol=1e-15)
 
 
-def test_signals_are_smooth(flight) -> None:  # type: ignore[no-untyped-def]
-    """ȧ^b continuous and bounded (seed 001, Sec. 5.1): second differences of a^b and ω^b divided by
+def test_signals_are_smooth(pattern) -> None:  # type: ignore[no-untyped-def]
+    """ȧ^b continuous and bounded (Grip, Saberi & Johansen, Sec. 5.1): second differences of a^b and ω^b divided by
     dt² stay bounded as dt shrinks (a jump in ȧ would grow like 1/dt). Measured 1.24 and 0.44."""
     for rate in (100.0, 400.0):
-        tr = flight(np.arange(60.0, 140.0, 1.0 / rate))  # rotation to downwind turn
+        tr = pattern(np.arange(60.0, 140.0, 1.0 / rate))  # rotation to downwind turn
         dt = 1.0 / rate
         assert np.abs(np.diff(tr.a_b, 2, axis=0)).max() / dt**2 < 3.0
         assert np.abs(np.diff(tr.omega_b, 2, axis=0)).max() / dt**2 < 1.0
 
 
-def test_plausible_traffic_pattern(flight) -> None:  # type: ignore[no-untyped-def]
-    tr = flight.sample(10.0)
+def test_plausible_traffic_pattern(pattern) -> None:  # type: ignore[no-untyped-def]
+    tr = pattern.sample(10.0)
     alt = -tr.p[:, 2]
     speed = np.linalg.norm(tr.v, axis=-1)
     roll, pitch = np.rad2deg(tr.rpy[:, 0]), np.rad2deg(tr.rpy[:, 1])
-    assert 300.0 < flight.duration < 600.0
+    assert 300.0 < pattern.duration < 600.0
     assert abs(alt[0]) < 1.0 and abs(alt[-1]) < 1.0  # takes off from and lands on the runway
     assert 200.0 < alt.max() < 400.0  # pattern altitude (≈ 280–300 m AGL)
     assert 25.0 < speed.max() < 70.0  # light aircraft
@@ -82,12 +78,12 @@ def test_plausible_traffic_pattern(flight) -> None:  # type: ignore[no-untyped-d
     yaw_span = np.rad2deg(tr.rpy[:, 2].max() - tr.rpy[:, 2].min())
     assert yaw_span == pytest.approx(360.0, abs=30.0)  # four turns of a closed pattern
     # a level aircraft at rest on the runway reads a^b = [0, 0, −g] (specific force convention)
-    np.testing.assert_allclose(tr.a_b[0], [0.0, 0.0, -flight.g_n[2]], atol=1e-6)
+    np.testing.assert_allclose(tr.a_b[0], [0.0, 0.0, -pattern.g_n[2]], atol=1e-6)
 
 
-def test_triad_condition_holds_along_the_flight(flight) -> None:  # type: ignore[no-untyped-def]
-    """Seed 001, Sec. 5.1: ‖m^b × a^b‖ ≥ c_obs > 0 (non-parallel vector measurements)."""
-    margin = triad_margin(flight.sample(20.0))
+def test_triad_condition_holds_along_the_flight(pattern) -> None:  # type: ignore[no-untyped-def]
+    """Grip, Saberi & Johansen, Sec. 5.1: ‖m^b × a^b‖ ≥ c_obs > 0 (non-parallel vector measurements)."""
+    margin = triad_margin(pattern.sample(20.0))
     assert margin.min() > 1.0  # measured 1.38 for seed 0; 3.35 = g·sin 20° at rest
 
 

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import math
 import os
 import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import IO, Any
+
+import numpy as np
 
 
 def _mode_for(target: Path) -> int:
@@ -63,3 +66,47 @@ def save_figure(fig: Any, path: str | Path, *, dpi: int = 110) -> Path:
     target = Path(path)
     fmt = target.suffix.lstrip(".").lower() or "png"
     return atomic_write(target, lambda fh: fig.savefig(fh, format=fmt, dpi=dpi))
+
+
+def jsonable(obj: Any) -> Any:
+    """``obj`` with NumPy scalars and arrays as Python values and non-finite floats as ``None`` (JSON ``null``).
+
+    The one conversion behind every JSON nlobs prints or writes (``json.dumps(..., allow_nan=False)``
+    then never fails on a NaN metric, e.g. a convergence time that was never reached).
+    """
+    if isinstance(obj, dict):
+        return {str(k): jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return jsonable(obj.tolist())
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def atomic_write_json(path: str | Path, data: Any) -> Path:
+    """Write ``data`` as indented JSON (:func:`jsonable`) atomically."""
+    import json
+
+    return atomic_write_text(path, json.dumps(jsonable(data), indent=2, allow_nan=False) + "\n")
+
+
+def prepare_output_dir(path: str | Path) -> Path:
+    """Create the folder ``path`` (and its parents) and check a file can be written in it, before any work.
+
+    Raises
+    ------
+    OSError
+        It exists and is not a folder, or it cannot be created or written (no temporary file is left).
+    """
+    folder = Path(path)
+    if folder.exists() and not folder.is_dir():
+        raise NotADirectoryError(20, "exists and is not a folder", str(folder))
+    folder.mkdir(parents=True, exist_ok=True)
+    fd, probe = tempfile.mkstemp(prefix=".nlobs-probe.", dir=folder)
+    os.close(fd)
+    os.unlink(probe)
+    return folder

@@ -24,7 +24,7 @@ from nlobs.cli.common import (
     parse_floats,
     simulate_app,
 )
-from nlobs.errors import ModelFileError, NlobsError
+from nlobs.errors import ModelFileError, NlobsError, OutputError
 from nlobs.systems.modelfile import shipped_models
 
 app = typer.Typer(
@@ -111,7 +111,7 @@ def demo_cmd(
     from rich.markup import escape
     from rich.table import Table
 
-    from nlobs.papers.gnss_ins_demo import DemoConfig, run_demo, write_json
+    from nlobs.workflows.demo import DemoConfig, gnss_ins_demo
 
     if name not in DEMOS:
         fail(f"unknown demo {name!r} (known: {', '.join(DEMOS)})")
@@ -121,32 +121,25 @@ def demo_cmd(
     except NlobsError as exc:
         fail(str(exc))
     try:
-        result = run_demo(config, out, progress=not as_json)
+        report = gnss_ins_demo(config, out, progress=not as_json)
+    except OutputError as exc:
+        fail(str(exc))
     except NlobsError as exc:
         fail(f"demo {name}: {exc}", EXIT_FAILURE)
-    write_json(result, out / "results.json")
     if as_json:
-        emit_json(result.to_dict())
+        emit_json(report.to_dict())
         return
-    rows = [("position RMS after convergence [m]", "position_rms_m", "{:.3f}"),
-            ("velocity RMS after convergence [m/s]", "velocity_rms_mps", "{:.3f}"),
-            ("attitude RMS after convergence [deg]", "attitude_rms_deg", "{:.3f}"),
-            (f"time to converge below {config.converge_deg:g}° [s]", "converge_s", "{:.2f}"),
-            ("cost per step [µs]", "cost_per_step_us", "{:.1f}")]
-    filters = ["observer"] + (["ekf"] if result.ekf is not None else [])
-    table = Table(title=f"GNSS/INS, {result.flight_duration:.0f} s flight, {config.yaw_error_deg:g}° initial yaw "
-                        f"error, IMU {config.imu_rate_hz:g} Hz, GNSS {config.gnss_rate_hz:g} Hz, seed {seed}")
-    table.add_column("quantity")
-    for f in filters:
-        table.add_column("observer (24)" if f == "observer" else "EKF", justify="right")
-    metrics = {f: result.metrics(f) for f in filters}
-    for label, key, fmt in rows:
-        table.add_row(escape(label), *(fmt.format(metrics[f][key]) for f in filters))
+    title, heads, rows = report.table()
+    table = Table(title=title)
+    table.add_column(heads[0])
+    for h in heads[1:]:
+        table.add_column(h, justify="right")
+    for row in rows:
+        table.add_row(escape(row[0]), *row[1:])
     con = console()
     con.print(table)
-    for fig in result.figures.values():
-        con.print(f"wrote {fig}", markup=False)
-    con.print(f"wrote {out / 'results.json'}", markup=False)
+    for f in report.files:
+        con.print(f"wrote {f}", markup=False)
 
 
 @app.command("models")

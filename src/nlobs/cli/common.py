@@ -2,25 +2,24 @@
 option parsing and JSON output. Every command module imports these; none defines its own.
 
 From the library this module imports only :mod:`nlobs.workflows`, :mod:`nlobs.systems.modelfile`
-and :mod:`nlobs.errors`: the escaping of terminal text comes from :mod:`nlobs.workflows.inputs`,
-and a ``--box`` goes to the workflows as numbers (:func:`box_numbers`), which build the region.
+and :mod:`nlobs.errors`: the escaping of terminal text and the JSON conversion come from
+:mod:`nlobs.workflows`, and a ``--box`` goes to the workflows as numbers (:func:`box_numbers`),
+which build the region.
 """
 
 from __future__ import annotations
 
 import json
 import math
-from pathlib import Path
 from typing import Any, NoReturn
 
-import numpy as np
 import typer
 from rich.console import Console
 from rich.text import Text
 
 from nlobs.errors import ModelFileError
-from nlobs.systems.modelfile import Model, load_model, shipped_models
-from nlobs.workflows.inputs import escape_unsafe
+from nlobs.systems.modelfile import Model, load_model
+from nlobs.workflows import escape_unsafe, jsonable
 
 EXIT_FAILURE = 1
 EXIT_BAD_INPUT = 2
@@ -91,18 +90,6 @@ def parse_floats(option: str, text: str | None) -> list[float] | None:
 def box_numbers(option: str, text: str | None) -> list[float] | None:
     """The numbers of a ``--box`` option (the workflow builds the region and checks their count)."""
     return parse_floats(option, text) if text is not None else None
-
-
-def jsonable(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [jsonable(v) for v in obj]
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, float) and not math.isfinite(obj):
-        return None
-    return obj
 
 
 def emit_json(data: dict[str, Any]) -> None:

@@ -1,7 +1,10 @@
 r"""The EKF baseline for GNSS/INS: what a navigation engineer would use instead of observer (24).
 
 Same states (p, v, R) and measurements (IMU and magnetometer at the IMU rate,
-GNSS p, v or p only at the GNSS rate) as the seed-001 observer.
+GNSS p, v or p only at the GNSS rate) as observer (24) of Grip, Saberi & Johansen (Sec. 5),
+and the same observer protocol (:mod:`nlobs.observers.base`): a correcting observer with its
+own step, the IMU as input ``u = [ω^b, a^b, m^b]``, a GNSS fix as the sampled measurement
+``y = [p, v]`` (channel layouts of :mod:`nlobs.navigation.base`), the estimate ``[p̂, v̂, R̂]``.
 
 Error state and model
 ---------------------
@@ -27,21 +30,47 @@ Update in **Joseph form**, ``P⁺ = (I − KH) P (I − KH)ᵀ + K R Kᵀ``, the
 and for any (even suboptimal) gain, unlike ``(I − KH) P``. After each update the
 error is injected into the nominal state and reset to zero.
 
+Continuous time
+---------------
+:meth:`ExtendedKalmanFilter.rhs` is the continuous-time mean and covariance propagation that
+:meth:`~ExtendedKalmanFilter.step` discretises (with the IMU sample held)::
+
+    ṗ = v̂,   v̇ = R̂ a + gⁿ,   Ṙ = R̂ S(ω),   Ṗ = F P + P Fᵀ + Q̇,   Q̇ = G diag(σ_a² I, σ_g² I) Gᵀ T
+
+with ``T`` = :attr:`EkfConfig.sample_period_s`: a per-sample std ``σ`` held over a sample of
+period ``T`` is white noise of spectral density ``σ² T``, so that ``Q̇ dt = Q`` for ``dt = T``.
+The step agrees with the flow of ``rhs`` to first order in ``dt`` (the nominal velocity uses
+``R̂`` at the start of the period, ``Φ`` is second order). The magnetometer is fused in
+``step`` only (a discrete update at every IMU sample); ``rhs`` leaves it out.
+
 Everything is vectorised over a leading batch axis: ``P`` has shape ``(..., 9, 9)``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from nlobs._typing import Array, BoolArray
 from nlobs._validate import as_vector, positive
-from nlobs.navigation.base import Array, GnssSample, ImuSample, NavEstimate
+from nlobs.errors import DimensionError
+from nlobs.navigation.base import (
+    GNSS_P,
+    GNSS_V,
+    IMU_ACCEL,
+    IMU_MAG,
+    IMU_OMEGA,
+    GnssSample,
+    ImuSample,
+    nav_vector,
+    split_nav,
+)
 from nlobs.navigation.sensors import SensorNoise
 from nlobs.navigation.so3 import exp_so3, skew
 from nlobs.observers.kalman import joseph_update  # the one implementation (re-exported here)
+from nlobs.systems.timebase import CONTINUOUS, TimeBase
 
 _I3 = np.eye(3)
 
@@ -62,6 +91,11 @@ class EkfConfig:
         Magnetometer noise per sample.
     gnss_p_std, gnss_v_std : float
         GNSS noise per fix.
+    sample_period_s : float
+        IMU sample period ``T`` [s] behind the per-sample noise std's, used by the continuous-time
+        :meth:`ExtendedKalmanFilter.rhs` only (``Q̇ = G diag(σ²) Gᵀ T``, module docstring); the
+        discrete :meth:`~ExtendedKalmanFilter.step` uses the actual step. Default 0.01 s (the
+        demo's 100 Hz IMU).
     """
 
     p0_std: float = 5.0
@@ -73,17 +107,20 @@ class EkfConfig:
     mag_std: float = 0.01
     gnss_p_std: float = 1.5
     gnss_v_std: float = 0.1
+    sample_period_s: float = 0.01
 
     def __post_init__(self) -> None:
         for name in self.__dataclass_fields__:
             positive(name, getattr(self, name))
 
     @classmethod
-    def for_noise(cls, noise: SensorNoise, *, yaw_std_deg: float = 60.0, floor: float = 1e-4) -> EkfConfig:
+    def for_noise(cls, noise: SensorNoise, *, yaw_std_deg: float = 60.0, floor: float = 1e-4,
+                  sample_period_s: float = 0.01) -> EkfConfig:
         """A configuration matched to a sensor error model (zero std's are floored to ``floor``)."""
         f = max(floor, 0.0)
         return cls(
             yaw0_std_deg=yaw_std_deg,
+            sample_period_s=sample_period_s,
             gyro_std=max(noise.gyro_std, f),
             accel_std=max(noise.accel_std, f),
             mag_std=max(noise.mag_std, f),
@@ -106,7 +143,10 @@ class EkfState:
 
 @dataclass(frozen=True)
 class ExtendedKalmanFilter:
-    """Error-state EKF with multiplicative attitude (module docstring); a :class:`NavFilter`.
+    """Error-state EKF with multiplicative attitude (module docstring), a correcting observer.
+
+    ``time = Continuous()``, ``n_x = 15`` (the estimate ``[p̂, v̂, R̂]``); ``step`` is the EKF
+    prediction with the magnetometer update, ``correct`` the GNSS update.
 
     Parameters
     ----------
@@ -125,13 +165,66 @@ class ExtendedKalmanFilter:
     position_only: bool = False
     use_magnetometer: bool = True
     name: str = "ekf"
+    time: TimeBase = field(default=CONTINUOUS, init=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "m_n", as_vector("m_n", self.m_n, 3))
         object.__setattr__(self, "g_n", as_vector("g_n", self.g_n, 3))
 
     # ------------------------------------------------------------------ protocol
-    def init(self, p0: ArrayLike, v0: ArrayLike, R0: ArrayLike) -> EkfState:
+    @property
+    def n_x(self) -> int:
+        """15: the estimate is the navigation vector ``[p̂, v̂, R̂]``."""
+        return 15
+
+    def init(self, x_hat0: ArrayLike) -> EkfState:
+        """Initial state from a navigation vector ``x̂0 = [p̂, v̂, R̂]`` of shape ``(..., 15)`` (:meth:`init_state`)."""
+        p, v, R = split_nav(x_hat0)
+        return self.init_state(p, v, R)
+
+    def rhs(self, t: float, z: EkfState, u: Array, y: Array) -> EkfState:
+        """The continuous-time mean and covariance propagation of the module docstring, ``u`` held.
+
+        ``ṗ = v̂``, ``v̇ = R̂ a + gⁿ``, ``Ṙ = R̂ S(ω)``, ``Ṗ = F P + P Fᵀ + Q̇`` with
+        ``Q̇ = G diag(σ_a² I, σ_g² I) Gᵀ T`` (``T`` = :attr:`EkfConfig.sample_period_s`). No
+        magnetometer (it is fused by :meth:`step` only); ``t`` and ``y`` are unused.
+        """
+        u_ = np.asarray(u, dtype=float)
+        w, a = u_[..., IMU_OMEGA], u_[..., IMU_ACCEL]
+        c = self.config
+        F, G = self._jacobians(z.R, w, a, z.P.shape[:-2])
+        Qc = np.diag(np.r_[np.full(3, c.accel_std**2), np.full(3, c.gyro_std**2)]) * c.sample_period_s
+        FP = F @ z.P
+        Pdot = FP + np.swapaxes(FP, -1, -2) + G @ Qc @ np.swapaxes(G, -1, -2)
+        return EkfState(p=z.v, v=np.einsum("...ij,...j->...i", z.R, a) + self.g_n, R=z.R @ skew(w), P=Pdot,
+                        skipped=z.skipped)
+
+    def step(self, t: float, z: EkfState, u: Array, y: Array, h: float) -> EkfState:
+        """Predict over ``h`` with ``u = [ω^b, a^b, m^b]`` held, then fuse the magnetometer (:meth:`propagate`)."""
+        u_ = np.asarray(u, dtype=float)
+        return self.propagate(z, ImuSample(u_[..., IMU_OMEGA], u_[..., IMU_ACCEL], u_[..., IMU_MAG]), h)
+
+    def correct(self, t: float, z: EkfState, u: Array, y: Array, fresh: BoolArray) -> EkfState:
+        """GNSS update with the fix ``y = [p, v]`` (or ``p``); a fix with a non-finite entry is skipped for
+        that batch member (:meth:`update`).
+
+        Raises
+        ------
+        DimensionError
+            ``y`` has neither 3 nor 6 channels.
+        """
+        y_ = np.asarray(y, dtype=float)
+        if y_.ndim == 0 or y_.shape[-1] not in (3, 6):
+            raise DimensionError(f"y: expected a GNSS fix of shape (..., 6) or (..., 3), got {y_.shape}")
+        valid = np.isfinite(y_).all(axis=-1)
+        return self.update(z, GnssSample(y_[..., GNSS_P], y_[..., GNSS_V] if y_.shape[-1] == 6 else None, valid))
+
+    def estimate(self, state: EkfState) -> Array:
+        """The nominal state ``[p̂, v̂, R̂]`` (``R̂`` is a rotation matrix by construction), shape ``(..., 15)``."""
+        return nav_vector(state.p, state.v, state.R)
+
+    # ------------------------------------------------------ functional form (domain types)
+    def init_state(self, p0: ArrayLike, v0: ArrayLike, R0: ArrayLike) -> EkfState:
         """Initial state; the covariance is diagonal from :class:`EkfConfig`."""
         p = np.array(p0, dtype=float)
         v = np.array(v0, dtype=float)
@@ -158,16 +251,9 @@ class ExtendedKalmanFilter:
         p = state.p + state.v * dt + 0.5 * acc_n * dt**2
         v = state.v + acc_n * dt
         R_new = R @ exp_so3(w * dt)
-        batch = state.P.shape[:-2]
-        F = np.zeros(batch + (9, 9))
-        F[..., 0:3, 3:6] = _I3
-        F[..., 3:6, 6:9] = -R @ skew(a)
-        F[..., 6:9, 6:9] = -skew(w)
+        F, G = self._jacobians(R, w, a, state.P.shape[:-2])
         Fdt = F * dt
         Phi = np.eye(9) + Fdt + 0.5 * Fdt @ Fdt
-        G = np.zeros(batch + (9, 6))
-        G[..., 3:6, 0:3] = -R
-        G[..., 6:9, 3:6] = -_I3
         # per-sample white noise of std σ on a held sample over dt: velocity/angle random walk σ·dt per step
         Qc = np.diag(np.r_[np.full(3, c.accel_std**2), np.full(3, c.gyro_std**2)]) * dt**2
         Q = G @ Qc @ np.swapaxes(G, -1, -2)
@@ -207,11 +293,19 @@ class ExtendedKalmanFilter:
             skipped=state.skipped + (~valid).astype(int),
         )
 
-    def estimate(self, state: EkfState) -> NavEstimate:
-        """The nominal state (``R`` is a rotation matrix by construction)."""
-        return NavEstimate(p=state.p, v=state.v, R=state.R)
-
     # ------------------------------------------------------------------ pieces
+    @staticmethod
+    def _jacobians(R: Array, w: Array, a: Array, batch: tuple[int, ...]) -> tuple[Array, Array]:
+        """``F`` of ``δẋ = F δx + G n`` and the noise input ``G`` (module docstring), batched."""
+        F = np.zeros(batch + (9, 9))
+        F[..., 0:3, 3:6] = _I3
+        F[..., 3:6, 6:9] = -R @ skew(a)
+        F[..., 6:9, 6:9] = -skew(w)
+        G = np.zeros(batch + (9, 6))
+        G[..., 3:6, 0:3] = -R
+        G[..., 6:9, 3:6] = -_I3
+        return F, G
+
     def _magnetometer(self, state: EkfState, m_b: Array) -> EkfState:
         m_pred = np.einsum("...ji,j->...i", state.R, self.m_n)  # R̂ᵀ mⁿ
         H = np.zeros(state.P.shape[:-2] + (3, 9))

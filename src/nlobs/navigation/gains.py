@@ -87,7 +87,7 @@ DEFAULT_GAMMA_N_POSITION_ONLY = 1.05
 
 
 def axis_system(position_only: bool = False) -> ExtendedSystem:
-    """The per-axis extended system (8c) of Σ2 (seed 001, Sec. 5).
+    """The per-axis extended system (8c) of Σ2 (Grip, Saberi & Johansen, Sec. 5).
 
     States ``p, v, z`` of one NED axis, ``𝔄 = [[0,1,0],[0,0,1],[0,0,0]]``,
     ``𝔅_d = [0,0,1]ᵀ``, ``ℭ = [[1,0,0],[0,1,0]]`` (or ``[[1,0,0]]`` when
@@ -163,7 +163,7 @@ def _position_only_gain() -> Array:
 
 def verify_paper_gains(*, gamma: float = PAPER_GAMMA_HINF, gamma_n: float | None = 1.01,
                        N: ArrayLike | None = None) -> ObserverGainCertificate:
-    """Certificate of the paper's per-axis gain :data:`PAPER_K3` (seed 001, Theorem 3, LMIs (14), (15)).
+    """Certificate of the paper's per-axis gain :data:`PAPER_K3` (Grip, Saberi & Johansen, Theorem 3, LMIs (14), (15)).
 
     Measured: ``‖H‖∞ ≈ 32.18 < 50``, ``‖G‖∞ ≈ 1.0021`` (``N = I``), poles
     ≈ −130.9, −0.257, −0.129. The paper's gain has ``‖G‖∞ > 1.0019``, so the

@@ -1,4 +1,4 @@
-r"""The GNSS/INS observer of Grip, Saberi & Johansen (seed 001, Sec. 5).
+r"""The GNSS/INS observer of Grip, Saberi & Johansen, Sec. 5, as a correcting observer of :mod:`nlobs.observers.base`.
 
 Dynamics (21), conventions of :mod:`nlobs.navigation.base` (NED, ``R`` body→Earth,
 ``gⁿ = [0, 0, +g]``, ``aⁿ = R a^b`` the proper acceleration, ``a^b`` the measured
@@ -28,17 +28,29 @@ terms cancel in ``dẑ/dt``. For the position-only receiver (Sec. 5.2,
 
 ``R̂`` is **not** a rotation matrix in general (it converges to one);
 :meth:`GnssInsObserver.estimate` returns its projection onto SO(3)
-(post-orthogonalisation, Sec. 5.2), :meth:`GnssInsObserver.diagnostics` the
-raw ``R̂`` and ``ẑ``.
+(post-orthogonalisation, Sec. 5.2); the recorded-data loop keeps the raw ``R̂``
+(extra ``R_raw``, :meth:`GnssInsObserver.finish_estimates`) and ``ẑ`` (extra
+``z_hat``, :meth:`GnssInsObserver.diagnostics`).
+
+The observer protocol
+---------------------
+:class:`GnssInsObserver` is a :class:`~nlobs.observers.base.CorrectingObserver` with the
+capabilities ``SelfStepping``, ``Diagnosing`` and ``DeferredEstimate``; the IMU is its input
+``u = [ω^b, a^b, m^b]`` (9 channels) and a GNSS fix its sampled measurement ``y = [p, v]``
+(6, or 3 for a position-only receiver), see :mod:`nlobs.navigation.base`. ``rhs`` is the
+right-hand side of (24a)–(24d) with the measurement predictor, ``step`` its discretisation
+over one IMU period, ``correct`` takes a fix, ``estimate`` is ``[p̂, v̂, R̂ projected]``.
+``propagate`` and ``update`` are the same steps on the domain types
+(:class:`~nlobs.navigation.base.ImuSample`, :class:`~nlobs.navigation.base.GnssSample`).
 
 Sampled-data implementation
 ---------------------------
 The observer is a continuous-time system; the data are sampled (IMU at, e.g.,
-100 Hz, GNSS at 5 Hz). :meth:`~GnssInsObserver.propagate` integrates (24) over
+100 Hz, GNSS at 5 Hz). :meth:`~GnssInsObserver.step` integrates (24) over
 one IMU period, the IMU sample held constant, with ``integrator="split"``
 (default: one exponential Strang-splitting step, see :class:`GnssInsObserver`)
 or ``integrator="rk4"`` (classical RK4, ``substeps`` steps). GNSS fixes enter through a *held measurement* ``(y_p, y_v)`` stored in
-the state by :meth:`~GnssInsObserver.update`; between fixes it is either
+the state by :meth:`~GnssInsObserver.correct`; between fixes it is either
 
 * ``intersample="hold"`` — held constant (zero-order hold, the literal reading
   of (24) with sampled ``p, v``), or
@@ -82,14 +94,26 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nlobs._typing import Array, BoolArray
 from nlobs._validate import as_batch, as_matrix, as_symmetric, as_vector, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError
-from nlobs.navigation.base import GnssSample, ImuSample, NavEstimate
+from nlobs.navigation.base import (
+    GNSS_P,
+    GNSS_V,
+    IMU_ACCEL,
+    IMU_MAG,
+    IMU_OMEGA,
+    NAV_R,
+    GnssSample,
+    ImuSample,
+    nav_vector,
+    split_nav,
+)
 from nlobs.navigation.polar import nearest_rotation
-from nlobs.navigation.so3 import project_so3
+from nlobs.navigation.so3 import exp_so3, exp_so3_columns, project_so3, skew, skew_columns
+from nlobs.simulate.integrators import rk4_step
 from nlobs.navigation.split_kernel import ScalarFlow, SplitConstants, split_step
-
-Array = NDArray[np.float64]
+from nlobs.systems.timebase import CONTINUOUS, TimeBase
 
 __all__ = ["GnssInsObserver", "GnssInsState", "triad_J", "triad_matrix"]
 
@@ -107,7 +131,7 @@ def _cross(a: Array, b: Array) -> Array:
 
 
 def triad_matrix(m: ArrayLike, a: ArrayLike) -> Array:
-    """``A = [m, m × a, m × (m × a)]`` (columns), shape ``(..., 3, 3)`` (seed 001, (22)).
+    """``A = [m, m × a, m × (m × a)]`` (columns), shape ``(..., 3, 3)`` (Grip, Saberi & Johansen, (22)).
 
     The columns are mutually orthogonal, so ``A Aᵀ`` has eigenvalues
     ``|m|², |m × a|², |m|² |m × a|²``.
@@ -160,6 +184,10 @@ class GnssInsState:
     y_v: Array | None
     has_fix: NDArray[np.bool_]
     skipped: NDArray[np.int64]
+    #: The floats ``[p̂, v̂, ξ, R̂ (row-major), y_p, (y_v)]`` of a state made by the fused single-flight
+    #: kernel (whose arrays are then read-only views of them), else ``None``; never set by hand
+    #: (``dataclasses.replace`` and the loops' arithmetic reset it).
+    _flat: list[float] | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def batch_shape(self) -> tuple[int, ...]:
@@ -169,7 +197,9 @@ class GnssInsState:
 
 @dataclass(frozen=True)
 class GnssInsObserver:
-    """The complete GNSS/INS observer (24) of seed 001 (Sec. 5), implementing ``NavFilter``.
+    """The complete GNSS/INS observer (24) of Grip, Saberi & Johansen (Sec. 5), a correcting observer.
+
+    ``time = Continuous()``, ``n_x = 15`` (the estimate ``[p̂, v̂, R̂]``, module docstring).
 
     Parameters
     ----------
@@ -191,7 +221,7 @@ class GnssInsObserver:
         ``integrator="rk4"`` only (ignored by ``"split"``): RK4 steps per IMU period; ``None`` (default) chooses, per IMU period, the
         fewest steps with ``h · ρ ≤ 2`` where ``ρ`` is the stiffest rate of the
         step: ``max(ρ(𝔄 − Kℭ), λmax(Γ) · λmax(A_b A_bᵀ))``. With a fixed number,
-        ``propagate`` raises when ``h · ρ`` exceeds RK4's stability limit 2.785.
+        ``step`` raises when ``h · ρ`` exceeds RK4's stability limit 2.785.
     integrator : {"split", "rk4"}
         Discretisation of (24) over one IMU period ``h`` (see Notes). ``"split"``
         (default): one Strang step of exactly solved sub-flows, unconditionally
@@ -274,6 +304,7 @@ class GnssInsObserver:
     integrator: Literal["split", "rk4"] = "split"
     kernel: Literal["auto", "batched", "scalar"] = "auto"
     name: str = "observer"
+    time: TimeBase = field(default=CONTINUOUS, init=False)
     _rho: float = field(init=False, repr=False, compare=False)
     _gamma: Array = field(init=False, repr=False, compare=False)
     _V: Array | None = field(init=False, repr=False, compare=False)
@@ -317,7 +348,7 @@ class GnssInsObserver:
         for nm, val in (("K", K), ("Gamma", G), ("m_n", m_n), ("g_n", g_n)):
             object.__setattr__(self, nm, readonly(val))
         object.__setattr__(self, "_gamma_max", float(lam[-1]))
-        Sm = _skew(m_n)
+        Sm = skew(m_n)
         object.__setattr__(self, "_SmPowers", readonly(np.stack([Sm, Sm @ Sm])))
         # spectral radius of the linear error dynamics 𝔄 − Kℭ (9 states), for the RK4 step check
         I3, Z3 = np.eye(3), np.zeros((3, 3))
@@ -361,10 +392,30 @@ class GnssInsObserver:
                    intersample=intersample, substeps=substeps, integrator=integrator, kernel=kernel)
 
     # ---------------------------------------------------------------- protocol
-    def init(self, p0: ArrayLike, v0: ArrayLike, R0: ArrayLike, xi0: ArrayLike | None = None) -> GnssInsState:
+    @property
+    def n_x(self) -> int:
+        """15: the estimate is the navigation vector ``[p̂, v̂, R̂]`` (:data:`~nlobs.navigation.base.NAV_STATES`)."""
+        return 15
+
+    def init(self, x_hat0: ArrayLike) -> GnssInsState:
+        """Initial state from a navigation vector ``x̂0 = [p̂, v̂, R̂]`` of shape ``(..., 15)`` (``ξ = 0``).
+
+        See :meth:`init_state` (the same from ``p0, v0, R0`` and an optional ``ξ0``).
+        """
+        p, v, R = split_nav(x_hat0)
+        return self.init_state(p, v, R)
+
+    def init_state(self, p0: ArrayLike, v0: ArrayLike, R0: ArrayLike, xi0: ArrayLike | None = None) -> GnssInsState:
         """Initial state: ``p̂ = p0``, ``v̂ = v0``, ``R̂ = R0``, ``ξ = xi0`` (default 0, i.e. ``ẑ = R̂ a^b``).
 
         The inputs are broadcast to a common batch shape. No fix is held yet.
+
+        Raises
+        ------
+        DimensionError
+            Wrong trailing shapes or batch shapes that do not broadcast.
+        NonFiniteError
+            A non-finite entry.
         """
         p = as_batch("p0", p0, 3)
         v = as_batch("v0", v0, 3)
@@ -386,6 +437,138 @@ class GnssInsObserver:
             has_fix=np.zeros(batch, dtype=bool), skipped=np.zeros(batch, dtype=np.int64),
         )
 
+    def rhs(self, t: float, z: GnssInsState, u: Array, y: Array) -> GnssInsState:
+        """The right-hand side of (24a)–(24d) and of the measurement predictor, with the IMU ``u`` held.
+
+        Parameters
+        ----------
+        t : float
+            Time (unused: (24) is time-invariant).
+        z : GnssInsState
+        u : ndarray, shape (..., 9)
+            ``[ω^b, a^b, m^b]`` (:data:`~nlobs.navigation.base.IMU_INPUTS`).
+        y : ndarray
+            Unused: the observer holds (or predicts) the last fix in its state (``y_p``, ``y_v``,
+            taken by :meth:`correct`), and ``ẏ_p``, ``ẏ_v`` are part of the returned derivative.
+
+        Returns
+        -------
+        GnssInsState
+            The time derivatives ``dp̂/dt, dv̂/dt, dξ/dt, dR̂/dt, ẏ_p, ẏ_v`` (zero for
+            ``intersample="hold"``); ``has_fix`` and ``skipped`` carried over from ``z``.
+            :meth:`step` is its discretisation (split or RK4).
+        """
+        u_ = np.asarray(u, dtype=float)
+        c = self._step_constants(u_[..., IMU_OMEGA], u_[..., IMU_ACCEL], u_[..., IMU_MAG], z.has_fix)
+        return self._unpack(self._rhs(self._pack(z), c), z)
+
+    def step(self, t: float, z: GnssInsState, u: Array, y: Array, h: float) -> GnssInsState:
+        """The state at ``t + h``: (24) integrated over one IMU period with ``u`` held (``integrator``, ``kernel``).
+
+        The discretisation of :meth:`rhs` (class docstring: the Strang split, by the fused
+        single-flight kernel for one flight under ``kernel="auto"``, or RK4). ``y`` is unused
+        (the held fix is in the state). Same as :meth:`propagate` with the IMU as a 9-channel input.
+
+        Raises
+        ------
+        InvalidArgumentError
+            ``h`` is not positive, or (RK4 with fixed ``substeps``) too large for RK4's stability.
+        DimensionError
+            ``kernel="scalar"`` for more than one flight.
+        """
+        if self.integrator == "split" and self.kernel != "batched" and z.p.size == 3 and u.size == 9 \
+                and (u.ndim == 1 or u.shape[:-1] == z.p.shape[:-1]):
+            h = float(h)
+            if not h > 0:
+                raise InvalidArgumentError(f"dt: must be positive, got {h!r}")
+            f = u.ravel().tolist()
+            return self._propagate_scalar(z, f, h)
+        u_ = np.asarray(u, dtype=float)
+        return self._advance(z, u_[..., IMU_OMEGA], u_[..., IMU_ACCEL], u_[..., IMU_MAG], h)
+
+    def correct(self, t: float, z: GnssInsState, u: Array, y: Array, fresh: BoolArray) -> GnssInsState:
+        """Take a GNSS fix ``y = [p, v]`` (or ``p``) as the held measurement: :meth:`update` with
+        ``valid`` = every entry of the fix finite, per batch member (a missing fix is skipped there).
+
+        Raises
+        ------
+        DimensionError
+            ``y`` has neither 3 nor 6 channels.
+        InvalidArgumentError
+            A fix that carries only some of its channels (``fresh`` not all True), or a
+            position-only fix for an observer that needs velocity.
+        """
+        y_ = np.asarray(y, dtype=float)
+        if y_.ndim == 0 or y_.shape[-1] not in (3, 6):
+            raise DimensionError(f"y: expected a GNSS fix of shape (..., 6) or (..., 3), got {y_.shape}")
+        if not np.all(fresh):
+            raise InvalidArgumentError("fresh: a GNSS fix carries all its channels at once")
+        valid = np.isfinite(y_).all(axis=-1)
+        return self.update(z, GnssSample(y_[..., GNSS_P], y_[..., GNSS_V] if y_.shape[-1] == 6 else None, valid))
+
+    def estimate(self, z: GnssInsState) -> Array:
+        """``[p̂, v̂, R̂ projected onto SO(3)]`` (post-orthogonalisation, Sec. 5.2; SVD), shape ``(..., 15)``."""
+        return nav_vector(z.p, z.v, project_so3(z.R))
+
+    def raw_estimate(self, z: GnssInsState) -> Array:
+        """``[p̂, v̂, R̂]`` with the raw ``R̂`` of (24d) (row-major), shape ``(..., 15)``.
+
+        :func:`~nlobs.simulate.run_observer` records these at every step and hands the whole
+        record to :meth:`finish_estimates` once (one projection per run instead of per step).
+        """
+        b = z.p.shape[:-1]
+        if z._flat is not None and not b:  # a state of the fused kernel: its floats, no NumPy concatenation
+            f = z._flat
+            return np.array(f[0:6] + f[9:18])
+        return np.concatenate([z.p, z.v, z.R.reshape(*b, 9)], axis=-1)
+
+    def finish_estimates(self, raw: Array) -> tuple[Array, dict[str, Array]]:
+        """The recorded raw estimates with ``R̂`` projected onto SO(3), and the raw ``R̂`` as an extra.
+
+        Newton's polar iteration (:func:`nlobs.navigation.polar.nearest_rotation`), equal to the
+        SVD projection of :meth:`estimate` to rounding and about 20× cheaper per matrix in bulk,
+        applied once to the whole record, in the record's memory order.
+
+        Parameters
+        ----------
+        raw : ndarray, shape (..., K, 15)
+            :meth:`raw_estimate` at every saved step. When it is writable (the loop hands over its
+            own record) the projection is written into it **in place** and ``raw`` itself is
+            returned, so a large record exists once (plus the raw ``R̂`` kept as the extra); a
+            read-only ``raw`` is left untouched.
+
+        Returns
+        -------
+        estimates : ndarray, shape (..., K, 15)
+            ``raw`` (writable input) or a new read-only array.
+        extras : dict
+            ``{"R_raw": (..., K, 3, 3)}``, read-only (a copy of the raw ``R̂`` when ``raw`` was
+            overwritten, else a view of it).
+        """
+        raw = np.asarray(raw, dtype=float)
+        if raw.ndim < 2 or raw.shape[-1] != 15:
+            raise DimensionError(f"raw: expected shape (..., K, 15), got {raw.shape}")
+        tm = np.moveaxis(raw, -2, 0)                       # (K, ..., 15): the loop's record is contiguous so
+        mats = (*tm.shape[:-1], 3, 3)
+        if raw.flags.writeable:
+            R_tm = readonly(tm[..., NAV_R].copy(), owned=True).reshape(mats)
+            dest = tm[..., NAV_R].view()
+            dest.shape = mats                              # a view into raw (splitting the last axis)
+            nearest_rotation(R_tm, out=dest)
+            return raw, {"R_raw": np.moveaxis(R_tm, 0, -3)}
+        out = np.empty_like(tm)                            # same memory order as the record
+        out[..., 0:6] = tm[..., 0:6]
+        dest = out[..., NAV_R].view()
+        dest.shape = mats
+        nearest_rotation(tm[..., NAV_R].reshape(mats), out=dest)
+        return np.moveaxis(readonly(out, owned=True), 0, -2), {"R_raw": raw[..., NAV_R].reshape(*raw.shape[:-1], 3, 3)}
+
+    def diagnostics(self, z: GnssInsState, u: Array) -> dict[str, Array]:
+        """``{"z_hat": ẑ = R̂ a^b + ξ}``, the estimate of ``aⁿ`` of (24b)–(24c), shape ``(..., 3)``."""
+        a = np.asarray(u, dtype=float)[..., IMU_ACCEL]
+        return {"z_hat": np.einsum("...ij,...j->...i", z.R, a) + z.xi}
+
+    # ------------------------------------------------------ functional form (domain types)
     def update(self, state: GnssInsState, gnss: GnssSample) -> GnssInsState:
         """Store a GNSS fix as the held measurement, per batch member where ``gnss.valid``.
 
@@ -421,33 +604,39 @@ class GnssInsObserver:
     def propagate(self, state: GnssInsState, imu: ImuSample, dt: float) -> GnssInsState:
         """Integrate (24a)–(24d) over ``[t, t + dt]``, the IMU sample held (``integrator``: split or RK4).
 
+        The functional form of :meth:`step` on an :class:`~nlobs.navigation.base.ImuSample`.
+
         Raises
         ------
         InvalidArgumentError
             ``dt`` is not positive, or (RK4 with fixed ``substeps``) too large for
             RK4's stability (``(dt/substeps)·ρ > 2.785``).
         """
+        if self.integrator == "split" and self.kernel != "batched":
+            scalar = _single(state, imu)
+            if scalar is not None:
+                dt = float(dt)
+                if not dt > 0:
+                    raise InvalidArgumentError(f"dt: must be positive, got {dt!r}")
+                return self._propagate_scalar(state, scalar, dt)
+        return self._advance(state, np.asarray(imu.omega_b, dtype=float), np.asarray(imu.a_b, dtype=float),
+                             np.asarray(imu.m_b, dtype=float), dt)
+
+    # ----------------------------------------------------------------- private
+    def _advance(self, state: GnssInsState, w: Array, a: Array, m: Array, dt: float) -> GnssInsState:
+        """One IMU period by the batched split step or RK4 (``w``, ``a``, ``m`` of shape ``(..., 3)``)."""
         dt = float(dt)
         if not dt > 0:
             raise InvalidArgumentError(f"dt: must be positive, got {dt!r}")
         if self.integrator == "split":
-            if self.kernel != "batched":
-                scalar = _single(state, imu)
-                if scalar is not None:
-                    return self._propagate_scalar(state, scalar, dt)
-                if self.kernel == "scalar":
-                    raise DimensionError(
-                        f"kernel='scalar' needs a single flight: state batch {state.batch_shape}, IMU shapes "
-                        f"{np.shape(imu.omega_b)}, {np.shape(imu.a_b)}, {np.shape(imu.m_b)}")
-            return self._propagate_split(state, imu, dt)
-        w = np.asarray(imu.omega_b, dtype=float)
-        a = np.asarray(imu.a_b, dtype=float)
-        m = np.asarray(imu.m_b, dtype=float)
+            if self.kernel == "scalar":
+                raise DimensionError(
+                    f"kernel='scalar' needs a single flight: state batch {state.batch_shape}, IMU shapes "
+                    f"{w.shape}, {a.shape}, {m.shape}")
+            return self._propagate_split(state, w, a, m, dt)
         # IMU-only quantities are constant over the step: precompute them once
-        Ab = triad_matrix(m, a)
-        AbT = np.swapaxes(Ab, -1, -2)
-        M = Ab @ AbT  # A_b A_bᵀ, eigenvalues = squared column norms of A_b
-        rho_att = self._gamma_max * float(np.max(np.sum(Ab * Ab, axis=-2)))
+        c = self._step_constants(w, a, m, state.has_fix)
+        rho_att = self._gamma_max * float(np.max(c.mu))
         rho = max(self._rho, rho_att)
         if self.substeps is None:
             n = max(1, int(np.ceil(dt * rho / RK4_AUTO)))
@@ -459,64 +648,29 @@ class GnssInsObserver:
                     f"ρ(𝔄 − Kℭ) = {self._rho:.4g}, λmax(Γ)·λmax(A_b A_bᵀ) = {rho_att:.4g}; "
                     f"h·ρ = {dt / n * rho:.3g} > {RK4_STABILITY}); increase substeps or use substeps=None")
         h = dt / n
+        X = self._pack(state)
+        def f(_t: float, X: Array) -> Array:
+            return self._rhs(X, c)
+
+        for _ in range(n):
+            X = rk4_step(f, 0.0, X, h)
+        return self._unpack(X, state)
+
+    def _step_constants(self, w: Array, a: Array, m: Array, has_fix: BoolArray) -> _Step:
+        """The quantities of (24) that are constant over one IMU period (the held IMU sample)."""
+        Ab = triad_matrix(m, a)
+        AbT = np.swapaxes(Ab, -1, -2)
         # per-step constants of (24): A_n A_bᵀ = mⁿ m^bᵀ + (S(mⁿ) ẑ) c₂ᵀ + (S(mⁿ)² ẑ) c₃ᵀ, c_j the columns of A_b
-        c = _Step(
+        return _Step(
             a=a[..., None],
             GM0=np.einsum("ij,j,...k->...ik", self.Gamma, self.m_n, m),  # Γ mⁿ m^bᵀ
             C23=AbT[..., 1:, :],                                         # rows c₂ᵀ, c₃ᵀ
-            M=M,
-            Sw=_skew(w),
-            act=np.asarray(state.has_fix, dtype=float)[..., None],
+            M=Ab @ AbT,                                                  # A_b A_bᵀ, eigenvalues |c_j|²
+            mu=np.sum(Ab * Ab, axis=-2),                                 # |c_j|² (the columns are orthogonal)
+            Sw=skew(w),
+            act=np.asarray(has_fix, dtype=float)[..., None],
         )
-        X = self._pack(state)
-        for _ in range(n):
-            k1 = self._rhs(X, c)
-            k2 = self._rhs(X + (0.5 * h) * k1, c)
-            k3 = self._rhs(X + (0.5 * h) * k2, c)
-            k4 = self._rhs(X + h * k3, c)
-            X = X + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
-        return self._unpack(X, state)
 
-    def estimate(self, state: GnssInsState) -> NavEstimate:
-        """``p̂``, ``v̂`` and ``R̂`` projected onto SO(3) (post-orthogonalisation, Sec. 5.2)."""
-        return NavEstimate(p=state.p, v=state.v, R=project_so3(state.R))
-
-    def raw_estimate(self, state: GnssInsState) -> NavEstimate:
-        """``p̂``, ``v̂`` and the raw ``R̂`` (not projected): :meth:`estimate` is this with
-        :meth:`project_attitude` applied to ``R``.
-
-        :func:`~nlobs.navigation.run.run_navigation` records these at every step and
-        projects the whole record once at the end.
-        """
-        return NavEstimate(p=state.p, v=state.v, R=state.R)
-
-    @staticmethod
-    def project_attitude(R_raw: ArrayLike) -> Array:
-        """Raw ``R̂`` (any leading axes, e.g. a whole recorded flight) projected onto SO(3).
-
-        Newton's polar iteration (:func:`nlobs.navigation.polar.nearest_rotation`),
-        equal to the SVD projection of :meth:`estimate` to rounding and about 20× cheaper
-        per matrix on large batches.
-
-        Parameters
-        ----------
-        R_raw : array_like, shape (..., 3, 3)
-
-        Returns
-        -------
-        ndarray, shape (..., 3, 3)
-            A new array of rotation matrices.
-        """
-        return nearest_rotation(R_raw)
-
-    def diagnostics(self, state: GnssInsState, imu: ImuSample | None = None) -> dict[str, Array]:
-        """Raw quantities: ``R_raw`` (``R̂`` of (24d)), ``xi``, and ``z_hat = R̂ a^b + ξ`` when ``imu`` is given."""
-        out = {"R_raw": state.R, "xi": state.xi}
-        if imu is not None:
-            out["z_hat"] = np.einsum("...ij,...j->...i", state.R, np.asarray(imu.a_b, dtype=float)) + state.xi
-        return out
-
-    # ----------------------------------------------------------------- private
     def _linear_generator(self, K: Array) -> Array:
         """Generator of the linear sub-flow (R̂ frozen): ``L' = F L`` on ``L = [p̂, v̂, ẑ, y_p, (y_v), 1]``."""
         po, pred = self.position_only, self.intersample == "predict"
@@ -563,30 +717,39 @@ class GnssInsObserver:
             self._scalar_cache[dt] = out
         return out
 
-    def _propagate_scalar(self, state: GnssInsState, imu: tuple[list[float], list[float], list[float]],
-                          h: float) -> GnssInsState:
-        """The split step of one flight by the fused kernel (:func:`nlobs.navigation.split_kernel.split_step`)."""
-        w, a, m = imu
+    def _propagate_scalar(self, state: GnssInsState, u: list[float], h: float) -> GnssInsState:
+        """The split step of one flight by the fused kernel (:func:`nlobs.navigation.split_kernel.split_step`);
+        ``u`` is the IMU sample ``[ω^b, a^b, m^b]`` as 9 floats.
+
+        The new state's arrays are read-only views of one array, and the state keeps its floats
+        (:attr:`GnssInsState._flat`) so that the next scalar step needs no conversion.
+        """
+        w, a, m = u[0:3], u[3:6], u[6:9]
         flow1, flow0 = self._scalar_flows(0.5 * h)
-        p, v, xi, yp = state.p.ravel().tolist(), state.v.ravel().tolist(), state.xi.ravel().tolist(), \
-            state.y_p.ravel().tolist()
-        R = state.R.ravel().tolist()
+        flat = state._flat
+        if flat is None:  # [p̂, v̂, ξ, R̂ (row-major), y_p, (y_v)]
+            flat = state.p.ravel().tolist() + state.v.ravel().tolist() + state.xi.ravel().tolist() \
+                + state.R.ravel().tolist() + state.y_p.ravel().tolist()
+            if state.y_v is not None:
+                flat += state.y_v.ravel().tolist()
+        R = flat[9:18]
         a0, a1, a2 = a
-        z = [R[0] * a0 + R[1] * a1 + R[2] * a2 + xi[0], R[3] * a0 + R[4] * a1 + R[5] * a2 + xi[1],
-             R[6] * a0 + R[7] * a1 + R[8] * a2 + xi[2]]                 # ẑ = R̂ a^b + ξ
-        L = p + v + z + yp
-        if state.y_v is not None:
-            L += state.y_v.ravel().tolist()
-        L, R2, Ra = split_step(self._scalar, flow1 if state.has_fix else flow0, h, L, R, w, a, m)
-        X = np.array(L[0:6] + [L[6] - Ra[0], L[7] - Ra[1], L[8] - Ra[2]] + list(R2) + L[9:])
+        z = [R[0] * a0 + R[1] * a1 + R[2] * a2 + flat[6], R[3] * a0 + R[4] * a1 + R[5] * a2 + flat[7],
+             R[6] * a0 + R[7] * a1 + R[8] * a2 + flat[8]]                # ẑ = R̂ a^b + ξ
+        L, R2, Ra = split_step(self._scalar, flow1 if state.has_fix else flow0, h, flat[0:6] + z + flat[18:], R,
+                               w, a, m)
+        out = L[0:6] + [L[6] - Ra[0], L[7] - Ra[1], L[8] - Ra[2]] + list(R2) + L[9:]
+        X = readonly(np.array(out), owned=True)
         batch = state.batch_shape
         if batch:
             X = X.reshape(*batch, X.shape[0])
-        return GnssInsState(p=X[..., 0:3], v=X[..., 3:6], xi=X[..., 6:9], R=X[..., 9:18].reshape(*batch, 3, 3),
-                            y_p=X[..., 18:21], y_v=None if state.y_v is None else X[..., 21:24],
-                            has_fix=state.has_fix, skipped=state.skipped)
+        new = GnssInsState(p=X[..., 0:3], v=X[..., 3:6], xi=X[..., 6:9], R=X[..., 9:18].reshape(*batch, 3, 3),
+                           y_p=X[..., 18:21], y_v=None if state.y_v is None else X[..., 21:24],
+                           has_fix=state.has_fix, skipped=state.skipped)
+        object.__setattr__(new, "_flat", out)
+        return new
 
-    def _propagate_split(self, state: GnssInsState, imu: ImuSample, h: float) -> GnssInsState:
+    def _propagate_split(self, state: GnssInsState, w: Array, a: Array, m: Array, h: float) -> GnssInsState:
         """One Strang step ``C(h/2) A(h/2) B(h) A(h/2) C(h/2)`` of exactly solved sub-flows (class docstring).
 
         Vectorised over the batch in one of two layouts, the same arithmetic: up to
@@ -596,7 +759,7 @@ class GnssInsObserver:
         ``n``; NumPy's stacked ``matmul`` on ``(n, 3, 3)`` and its reductions over small axes
         cost several times more per flight).
         """
-        shapes = (np.shape(imu.omega_b), np.shape(imu.a_b), np.shape(imu.m_b))
+        shapes = (w.shape, a.shape, m.shape)
         try:
             batch = np.broadcast_shapes(state.batch_shape, *(sh[:-1] for sh in shapes))
         except ValueError:
@@ -613,14 +776,11 @@ class GnssInsObserver:
         for d in batch:
             n *= d
         if n < BATCH_LAST_MIN:
-            return self._split_rows(state, imu, h)
-        return self._split_columns(state, imu, h)
+            return self._split_rows(state, w, a, m, h)
+        return self._split_columns(state, w, a, m, h)
 
-    def _split_columns(self, state: GnssInsState, imu: ImuSample, h: float) -> GnssInsState:
+    def _split_columns(self, state: GnssInsState, w: Array, a: Array, m: Array, h: float) -> GnssInsState:
         """The split step with the batch axis last: 3-vectors ``(3, n)``, 3×3 matrices ``(3, 3, n)``."""
-        w = np.asarray(imu.omega_b, dtype=float)
-        a = np.asarray(imu.a_b, dtype=float)
-        m = np.asarray(imu.m_b, dtype=float)
         batch = np.broadcast_shapes(state.batch_shape, w.shape[:-1], a.shape[:-1], m.shape[:-1])
         n = int(np.prod(batch, dtype=int))
         b3 = (*batch, 3)
@@ -646,11 +806,11 @@ class GnssInsObserver:
         if state.y_v is not None:
             parts.append(rows(state.y_v))
         L = lin(np.concatenate(parts, axis=-1))                      # L = [p̂, v̂, ẑ, y_p, (y_v)], ẑ = R̂ a^b + ξ
-        E = _exp_so3_t(w * (0.5 * h))                                # A(h/2): R̂ ← R̂ exp(S(ω^b) h/2), ξ fixed
+        E = exp_so3_columns(w * (0.5 * h))                           # A(h/2): R̂ ← R̂ exp(S(ω^b) h/2), ξ fixed
         RE = _mm_t(R, E)
         z = L[:, 6:9].T + _mv_t(RE - R, a)                           # ẑ after A(h/2)
         # B(h): Ṙ̂ = Γ J, ξ̇ = −Γ J a^b with ẑ exactly invariant: elementwise in R̃ = Vᵀ R̂ U, U = [c_j/|c_j|]
-        Sm = (_S9 @ m).reshape(3, 3, n)                              # S(m^b)
+        Sm = skew_columns(m)                                         # S(m^b)
         c2 = _mv_t(Sm, a)                                            # m^b × a^b
         m2 = np.einsum("in,in->n", m, m)
         q = np.einsum("in,in->n", c2, c2)                            # |m^b × a^b|²
@@ -684,11 +844,8 @@ class GnssInsObserver:
                             y_p=L[:, 9:12].reshape(b3), y_v=None if state.y_v is None else L[:, 12:15].reshape(b3),
                             has_fix=state.has_fix, skipped=state.skipped)
 
-    def _split_rows(self, state: GnssInsState, imu: ImuSample, h: float) -> GnssInsState:
+    def _split_rows(self, state: GnssInsState, w: Array, a: Array, m: Array, h: float) -> GnssInsState:
         """The split step for a small batch: batch axis first, ``(..., 3, 3)`` matrices (fewest NumPy calls)."""
-        w = np.asarray(imu.omega_b, dtype=float)
-        a = np.asarray(imu.a_b, dtype=float)
-        m = np.asarray(imu.m_b, dtype=float)
         a_col = a[..., None]
         R = state.R
         P1, d1, P0, d0 = self._transitions(0.5 * h)
@@ -706,7 +863,7 @@ class GnssInsObserver:
         if state.y_v is not None:
             parts.append(state.y_v)
         L = lin(np.concatenate(parts, axis=-1))                      # L = [p̂, v̂, ẑ, y_p, (y_v)]
-        E = _exp_so3(w * (0.5 * h))                                  # A(h/2): R̂ ← R̂ exp(S(ω^b) h/2), ξ fixed
+        E = exp_so3(w * (0.5 * h))                                   # A(h/2): R̂ ← R̂ exp(S(ω^b) h/2), ξ fixed
         RE = R @ E
         z = L[..., 6:9] + ((RE - R) @ a_col)[..., 0]                # ẑ after A(h/2)
         # B(h): Ṙ̂ = Γ J, ξ̇ = −Γ J a^b with ẑ exactly invariant: elementwise in R̃ = Vᵀ R̂ U, U = [c_j/|c_j|]
@@ -783,12 +940,13 @@ class _Step:
     GM0: Array   # Γ mⁿ m^bᵀ, (..., 3, 3)
     C23: Array   # [c₂ᵀ; c₃ᵀ] of A_b, (..., 2, 3)
     M: Array     # A_b A_bᵀ, (..., 3, 3)
+    mu: Array    # |c_j|², the eigenvalues of M, (..., 3)
     Sw: Array    # S(ω^b), (..., 3, 3)
     act: Array   # 1.0 once a fix has arrived, else 0.0, (..., 1)
 
 
-def _single(state: GnssInsState, imu: ImuSample) -> tuple[list[float], list[float], list[float]] | None:
-    """The IMU sample as three lists of floats when ``state`` and ``imu`` are one flight (size 1), else ``None``."""
+def _single(state: GnssInsState, imu: ImuSample) -> list[float] | None:
+    """The IMU sample as 9 floats ``[ω^b, a^b, m^b]`` when ``state`` and ``imu`` are one flight (size 1), else ``None``."""
     shape = state.p.shape
     if state.p.size != 3:
         return None
@@ -796,7 +954,7 @@ def _single(state: GnssInsState, imu: ImuSample) -> tuple[list[float], list[floa
     for x in (w, a, m):
         if x.shape != shape and x.shape != (3,):
             return None
-    return w.ravel().tolist(), a.ravel().tolist(), m.ravel().tolist()
+    return w.ravel().tolist() + a.ravel().tolist() + m.ravel().tolist()
 
 
 #: Batches of at least this many flights use the batch-last layout of the split step
@@ -807,27 +965,7 @@ BATCH_LAST_MIN = 16
 #: ``S(x) = (x @ _EPS).reshape(3, 3)`` (minus the Levi-Civita symbol, flattened), batch first.
 _EPS = np.zeros((3, 9))
 _EPS[2, 1], _EPS[1, 2], _EPS[2, 3], _EPS[0, 5], _EPS[1, 6], _EPS[0, 7] = -1.0, 1.0, 1.0, -1.0, -1.0, 1.0
-_EPS.setflags(write=False)
-#: ``S(x) = (_S9 @ x).reshape(3, 3, n)`` for ``x`` of shape ``(3, n)``, batch last.
-_S9 = np.ascontiguousarray(_EPS.T)
-_S9.setflags(write=False)
-_I33 = np.eye(3)[:, :, None]
-_I33.setflags(write=False)
-
-
-def _exp_so3(phi: Array) -> Array:
-    """Rodrigues' ``exp(S(φ)) = cos θ I + (sin θ/θ) S(φ) + ((1 − cos θ)/θ²) φφᵀ``, batched, few NumPy calls.
-
-    ``(1 − cos θ)/θ² = 2 sin²(θ/2)/θ²`` (no cancellation); exact at ``θ = 0``.
-    """
-    th = np.sqrt(np.sum(phi * phi, axis=-1))[..., None, None] + 1e-300  # θ = 0: sin(1e-300)/1e-300 = 1
-    A = np.sin(th) / th
-    sh = np.sin(0.5 * th)
-    B = 2.0 * (sh / th) ** 2                                     # (1 − cos θ)/θ² = 2 sin²(θ/2)/θ²
-    return (1.0 - 2.0 * sh * sh) * np.eye(3) + A * (phi @ _EPS).reshape(*phi.shape[:-1], 3, 3) \
-        + B * (phi[..., :, None] * phi[..., None, :])
-
-
+_EPS = readonly(_EPS, owned=True)
 # 3×3 algebra with the batch axis last: vectors (3, n), matrices (3, 3, n) (row, column, flight).
 def _mm_t(A: Array, B: Array) -> Array:
     """``A @ B`` per flight."""
@@ -849,20 +987,3 @@ def _const_mm_t(C: Array, B: Array) -> Array:
     if C.ndim == 2:
         return (C @ B.reshape(3, -1)).reshape(B.shape)
     return np.einsum("kij,jn->ikn", C, B)
-
-
-def _exp_so3_t(phi: Array) -> Array:
-    """Rodrigues' formula of :func:`_exp_so3` per flight, ``φ`` of shape ``(3, n)`` → ``(3, 3, n)``."""
-    th = np.sqrt(np.einsum("in,in->n", phi, phi)) + 1e-300
-    A = np.sin(th) / th
-    sh = np.sin(0.5 * th)
-    B = 2.0 * (sh / th) ** 2
-    return (_S9 @ (A * phi)).reshape(3, 3, -1) + phi[:, None] * (B * phi)[None, :] + _I33 * (1.0 - 2.0 * sh * sh)
-
-
-def _skew(w: Array) -> Array:
-    Z = np.zeros(w.shape[:-1])
-    w0, w1, w2 = w[..., 0], w[..., 1], w[..., 2]
-    return np.stack([np.stack([Z, -w2, w1], -1), np.stack([w2, Z, -w0], -1), np.stack([-w1, w0, Z], -1)], -2)
-
-

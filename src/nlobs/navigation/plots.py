@@ -1,4 +1,4 @@
-"""Figures of a navigation run in the style of seed 001, Figs. 4–6.
+"""Figures of a navigation run in the style of Grip, Saberi & Johansen, Figs. 4–6.
 
 * :func:`plot_ground_track` (Fig. 4): true position (markers) and estimate (solid)
   in local north–east coordinates, with the altitude ``−p_d`` against time;
@@ -8,10 +8,11 @@
   left axis; yaw wrapped to ±180°) and the true Euler angles (dashed, right axis).
   The estimate's angles come from the projected ``R̂`` by inverse trigonometry.
 
-Each takes a :class:`~nlobs.navigation.run.NavResult` and optionally a second one
-(``compare``, e.g. the EKF on the same data) drawn in another colour; ``index``
-picks a flight of a batch. With ``path`` the figure is saved as a PNG (dpi 100).
-Matplotlib is imported lazily and only its object API is used (no pyplot state).
+Each takes the :class:`~nlobs.simulate.SimulationResult` of a navigation run
+(:func:`nlobs.navigation.run.run_navigation`; quantities read by :mod:`nlobs.navigation.metrics`)
+and optionally a second one (``compare``, e.g. the EKF on the same data) drawn in another
+colour; ``index`` picks a flight of a batch. With ``path`` the figure is saved atomically as a
+PNG (dpi 100). Matplotlib is imported lazily and only its object API is used (no pyplot state).
 """
 
 from __future__ import annotations
@@ -21,17 +22,16 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import NDArray
 
+from nlobs._io import save_figure
+from nlobs._typing import Array
 from nlobs.errors import InvalidArgumentError
+from nlobs.navigation import metrics as navm
 from nlobs.navigation.so3 import euler_from_R
+from nlobs.simulate.result import SimulationResult
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
-
-    from nlobs.navigation.run import NavResult
-
-Array = NDArray[np.float64]
 
 __all__ = ["euler_error_deg", "plot_euler_error", "plot_ground_track", "plot_navigation", "plot_velocity_error"]
 
@@ -40,7 +40,7 @@ _AXES = ("North", "East", "Down")
 _ANGLES = ("roll", "pitch", "yaw")
 
 
-def _pick(result: NavResult, arr: Array, index: int | tuple[int, ...], tail: int) -> Array:
+def _pick(result: SimulationResult, arr: Array, index: int | tuple[int, ...], tail: int) -> Array:
     """Flight ``index`` of a batched estimate array (``tail`` trailing axes beyond time)."""
     batch = arr.shape[: arr.ndim - 1 - tail]
     if not batch:
@@ -52,7 +52,7 @@ def _pick(result: NavResult, arr: Array, index: int | tuple[int, ...], tail: int
         raise InvalidArgumentError(f"index: {index} is out of range for the batch shape {batch}") from None
 
 
-def _runs(result: NavResult, compare: NavResult | None) -> list[NavResult]:
+def _runs(result: SimulationResult, compare: SimulationResult | None) -> list[SimulationResult]:
     runs = [result] if compare is None else [result, compare]
     for r in runs[1:]:
         if r.t.shape != result.t.shape or not np.allclose(r.t, result.t):
@@ -60,9 +60,9 @@ def _runs(result: NavResult, compare: NavResult | None) -> list[NavResult]:
     return runs
 
 
-def _labels(runs: list[NavResult], labels: tuple[str, ...] | None) -> list[str]:
+def _labels(runs: list[SimulationResult], labels: tuple[str, ...] | None) -> list[str]:
     if labels is None:
-        return [r.filter_name for r in runs]
+        return [r.observer for r in runs]
     if len(labels) != len(runs):
         raise InvalidArgumentError(f"labels: expected {len(runs)} labels, got {len(labels)}")
     return [str(x) for x in labels]
@@ -73,7 +73,7 @@ def _finish(fig: Figure, path: str | os.PathLike[str] | None) -> Figure:
     if path is not None:
         target = Path(path)
         target.parent.mkdir(parents=True, exist_ok=True)
-        fig.savefig(target, dpi=100)
+        save_figure(fig, target, dpi=100)
     return fig
 
 
@@ -83,7 +83,7 @@ def _new(figsize: tuple[float, float]) -> Figure:
     return Figure(figsize=figsize)
 
 
-def plot_ground_track(result: NavResult, *, compare: NavResult | None = None, index: int | tuple[int, ...] = 0,
+def plot_ground_track(result: SimulationResult, *, compare: SimulationResult | None = None, index: int | tuple[int, ...] = 0,
                       marker_every_s: float = 5.0, labels: tuple[str, ...] | None = None,
                       path: str | os.PathLike[str] | None = None) -> Figure:
     """Fig. 4: true position (markers every ``marker_every_s``) and estimated position (solid)."""
@@ -92,18 +92,19 @@ def plot_ground_track(result: NavResult, *, compare: NavResult | None = None, in
     fig = _new((11.0, 5.0))
     ax, ax_h = fig.subplots(1, 2, gridspec_kw={"width_ratios": [1.3, 1.0]})
     t = result.t
-    every = max(1, round(marker_every_s * result.imu_rate_hz))
-    p = result.p
+    rate = float(result.info.get("imu_rate_hz", 1.0 / result.dt if result.dt > 0 else 1.0))
+    every = max(1, round(marker_every_s * rate))
+    p = navm.p(result)
     ax.plot(p[::every, 1], p[::every, 0], "o", ms=3.5, mfc="none", color="0.35", label="true")
     ax_h.plot(t[::every], -p[::every, 2], "o", ms=3.5, mfc="none", color="0.35", label="true")
     for j, (r, c, nm) in enumerate(zip(runs, _COLOURS, names)):
-        ph = _pick(r, r.p_hat, index, 1)
+        ph = _pick(r, navm.p_hat(r), index, 1)
         z = 3 - j  # the main result on top
         ax.plot(ph[:, 1], ph[:, 0], "-", color=c, lw=1.3, label=f"{nm} estimate", zorder=z)
         ax_h.plot(t, -ph[:, 2], "-", color=c, lw=1.3, label=f"{nm} estimate", zorder=z)
     ax.plot(p[0, 1], p[0, 0], "k^", ms=8, label="start")
-    ax.set_xlabel("East [m]")
-    ax.set_ylabel("North [m]")
+    ax.set_xlabel("East p_e [m]")
+    ax.set_ylabel("North p_n [m]")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, alpha=0.3)
     ax.legend(loc="best", fontsize=8)
@@ -115,7 +116,7 @@ def plot_ground_track(result: NavResult, *, compare: NavResult | None = None, in
     return _finish(fig, path)
 
 
-def _error_figure(result: NavResult, runs: list[NavResult], labels: list[str], err: list[Array], truth: Array,
+def _error_figure(result: SimulationResult, runs: list[SimulationResult], labels: list[str], err: list[Array], truth: Array,
                   names: tuple[str, ...],
                   unit_err: str, unit_true: str, title: str, ylim: tuple[float, float] | None,
                   path: str | os.PathLike[str] | None) -> Figure:
@@ -145,36 +146,38 @@ def _error_figure(result: NavResult, runs: list[NavResult], labels: list[str], e
     return _finish(fig, path)
 
 
-def plot_velocity_error(result: NavResult, *, compare: NavResult | None = None, index: int | tuple[int, ...] = 0,
+def plot_velocity_error(result: SimulationResult, *, compare: SimulationResult | None = None, index: int | tuple[int, ...] = 0,
                         ylim: tuple[float, float] | None = None, labels: tuple[str, ...] | None = None,
                         path: str | os.PathLike[str] | None = None) -> Figure:
     """Fig. 5: velocity estimation error ``v − v̂`` (solid) and true velocity (dashed), N/E/D."""
     runs = _runs(result, compare)
-    err = [result.v - _pick(r, r.v_hat, index, 1) for r in runs]
-    return _error_figure(result, runs, _labels(runs, labels), err, result.v, _AXES, "m/s", "m/s",
+    v = navm.v(result)
+    err = [v - _pick(r, navm.v_hat(r), index, 1) for r in runs]
+    return _error_figure(result, runs, _labels(runs, labels), err, v, _AXES, "m/s", "m/s",
                          "Velocity estimation error (solid) and true velocity (dashed)", ylim, path)
 
 
-def euler_error_deg(result: NavResult, index: int | tuple[int, ...] = 0) -> Array:
+def euler_error_deg(result: SimulationResult, index: int | tuple[int, ...] = 0) -> Array:
     """``true − estimated`` ZYX Euler angles [deg] of flight ``index``, yaw wrapped to ±180°, shape (K, 3)."""
-    est = np.degrees(euler_from_R(_pick(result, result.R_hat, index, 2)))
-    true = np.degrees(euler_from_R(result.R))
+    est = np.degrees(euler_from_R(_pick(result, navm.R_hat(result), index, 2)))
+    true = np.degrees(euler_from_R(navm.R(result)))
     return (true - est + 180.0) % 360.0 - 180.0
 
 
-def plot_euler_error(result: NavResult, *, compare: NavResult | None = None, index: int | tuple[int, ...] = 0,
+def plot_euler_error(result: SimulationResult, *, compare: SimulationResult | None = None, index: int | tuple[int, ...] = 0,
                      ylim: tuple[float, float] | None = None, labels: tuple[str, ...] | None = None,
                      path: str | os.PathLike[str] | None = None) -> Figure:
     """Fig. 6: Euler-angle error ``true − estimate`` (solid) and true Euler angles (dashed), degrees."""
     runs = _runs(result, compare)
     err = [euler_error_deg(r, index) for r in runs]
-    true = np.degrees(euler_from_R(result.R))
+    true = np.degrees(euler_from_R(navm.R(result)))
     true[:, 2] = np.degrees(np.unwrap(np.radians(true[:, 2])))
     return _error_figure(result, runs, _labels(runs, labels), err, true, _ANGLES, "deg", "deg",
                          "Euler angle error (solid) and true Euler angles (dashed)", ylim, path)
 
 
-def plot_navigation(result: NavResult, directory: str | os.PathLike[str], *, compare: NavResult | None = None,
+def plot_navigation(result: SimulationResult, directory: str | os.PathLike[str], *,
+                    compare: SimulationResult | None = None,
                     index: int | tuple[int, ...] = 0, prefix: str = "nav",
                     velocity_ylim: tuple[float, float] | None = None,
                     euler_ylim: tuple[float, float] | None = None,

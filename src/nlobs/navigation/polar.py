@@ -45,7 +45,7 @@ _TOL = 1e-9
 _DET_MIN = 1e-6
 
 
-def nearest_rotation(M: ArrayLike, *, max_iter: int = 30) -> Array:
+def nearest_rotation(M: ArrayLike, *, max_iter: int = 30, out: Array | None = None) -> Array:
     """The rotation nearest ``M`` in the Frobenius norm, batched (module docstring).
 
     Parameters
@@ -53,25 +53,38 @@ def nearest_rotation(M: ArrayLike, *, max_iter: int = 30) -> Array:
     M : array_like, shape (..., 3, 3)
     max_iter : int
         Newton steps before a matrix is handed to the SVD.
+    out : ndarray, shape (..., 3, 3), optional
+        Where to write the result (e.g. a view into a larger record); a new array by default.
 
     Returns
     -------
     ndarray, shape (..., 3, 3)
-        Equal to :func:`nlobs.navigation.so3.project_so3` of ``M`` to rounding.
+        Equal to :func:`nlobs.navigation.so3.project_so3` of ``M`` to rounding (``out`` when given).
 
     Raises
     ------
     DimensionError
-        ``M`` is not of shape ``(..., 3, 3)``.
+        ``M`` is not of shape ``(..., 3, 3)``, or ``out`` not of ``M``'s shape.
     """
     A = np.asarray(M, dtype=float)
     if A.ndim < 2 or A.shape[-2:] != (3, 3):
         raise DimensionError(f"nearest_rotation: M: expected shape (..., 3, 3), got {A.shape}")
+    if out is None:
+        out = np.empty(A.shape)
+    elif out.shape != A.shape or out.dtype != np.float64:
+        raise DimensionError(f"nearest_rotation: out: expected a float array of shape {A.shape}, got {out.shape}")
     flat = A.reshape(-1, 9)
-    out = np.empty(A.shape)
-    out_flat = out.reshape(-1, 9)
+    out_flat = out.view()
+    try:
+        out_flat.shape = (-1, 9)   # a view of out (no copy), or AttributeError
+    except AttributeError:
+        out_flat = None
     for s in range(0, flat.shape[0], _CHUNK):
-        out_flat[s:s + _CHUNK] = _chunk(flat[s:s + _CHUNK], max_iter)
+        block = _chunk(flat[s:s + _CHUNK], max_iter)
+        if out_flat is not None:
+            out_flat[s:s + _CHUNK] = block
+        else:  # an ``out`` whose matrices cannot be flattened in place: by index
+            out[np.unravel_index(np.arange(s, s + block.shape[0]), A.shape[:-2])] = block.reshape(-1, 3, 3)
     return out
 
 

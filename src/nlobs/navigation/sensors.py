@@ -79,12 +79,14 @@ def generate_sensors(
         Number of independent noise realisations of the same flight (a leading
         batch axis on every measured array); ``None`` for a single one.
     position_only : bool
-        GNSS position only (``v_gnss`` is ``None``), seed 001 Sec. 5.2.
+        GNSS position only (``v_gnss`` is ``None``; Grip, Saberi & Johansen, Sec. 5.2).
 
     Returns
     -------
     SensorData
-        GNSS fixes at ``t_gnss = t_imu[::imu_rate_hz / gnss_rate_hz]``.
+        GNSS fixes at ``t_gnss = t_imu[::imu_rate_hz / gnss_rate_hz]``. The three IMU streams are
+        views of one ``(..., K, 9)`` buffer (and ``p_gnss``, ``v_gnss`` of one ``(..., G, 6)``), so
+        :meth:`~nlobs.navigation.base.SensorData.imu_input` needs no copy.
     """
     imu = positive("imu_rate_hz", imu_rate_hz)
     gnss = positive("gnss_rate_hz", gnss_rate_hz)
@@ -115,20 +117,23 @@ def generate_sensors(
     K = t.size
     idx = np.arange(0, K, step)
 
-    def noisy(x: Array, std: float, bias: Sequence[float] = (0.0, 0.0, 0.0)) -> Array:
-        out = np.broadcast_to(x + np.asarray(bias), shape + x.shape).copy()
+    def noisy(out: Array, x: Array, std: float, bias: Sequence[float] = (0.0, 0.0, 0.0)) -> Array:
+        out[...] = x + np.asarray(bias)
         if std > 0:
             out += std * rng.standard_normal(out.shape)
         return out
 
+    # the streams lie side by side in one buffer each: SensorData.imu_input() and gnss_output() are views
+    imu_buf = np.empty((*shape, K, 9))
+    gnss_buf = np.empty((*shape, idx.size, 3 if position_only else 6))
     return SensorData(
         t_imu=t.copy(),
-        omega_b=noisy(traj.omega_b, noise.gyro_std, noise.gyro_bias),
-        a_b=noisy(traj.a_b, noise.accel_std, noise.accel_bias),
-        m_b=noisy(traj.m_b, noise.mag_std),
+        omega_b=noisy(imu_buf[..., 0:3], traj.omega_b, noise.gyro_std, noise.gyro_bias),
+        a_b=noisy(imu_buf[..., 3:6], traj.a_b, noise.accel_std, noise.accel_bias),
+        m_b=noisy(imu_buf[..., 6:9], traj.m_b, noise.mag_std),
         t_gnss=t[idx].copy(),
-        p_gnss=noisy(traj.p[idx], noise.gnss_p_std),
-        v_gnss=None if position_only else noisy(traj.v[idx], noise.gnss_v_std),
+        p_gnss=noisy(gnss_buf[..., 0:3], traj.p[idx], noise.gnss_p_std),
+        v_gnss=None if position_only else noisy(gnss_buf[..., 3:6], traj.v[idx], noise.gnss_v_std),
         m_n=np.array(traj.m_n, dtype=float),
         g_n=np.array(traj.g_n, dtype=float),
         p=traj.p.copy(),

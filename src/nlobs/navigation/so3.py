@@ -1,13 +1,19 @@
 """Rotation-group utilities: skew matrices, exponential/logarithm, projection, Euler angles.
 
 Conventions (see :mod:`nlobs.navigation.base`): ``R`` maps **body to Earth** (NED)
-coordinates, ``Ṙ = R S(ω^b)`` with ``S(a) b = a × b`` (seed 001, eq. 21), and
+coordinates, ``Ṙ = R S(ω^b)`` with ``S(a) b = a × b`` (Grip, Saberi & Johansen, (21)), and
 Euler angles are aerospace ZYX, ``R = Rz(yaw) Ry(pitch) Rx(roll)``.
 
 Every function is batched over leading axes: a ``(..., 3)`` vector argument gives
 a ``(..., 3, 3)`` matrix result and vice versa. Only shapes are checked (cheaply,
 these functions sit in filter inner loops); NaN entries propagate to NaN results.
 The name ``S`` of the paper is spelled :func:`skew` here.
+
+Rodrigues' formula has one NumPy implementation, :func:`exp_so3` (batch axes first), with
+:func:`exp_so3_columns` the same formula on the batch-last layout ``(3, n) → (3, 3, n)`` that the
+GNSS/INS observer's large-batch step uses (there every 3×3 product is an ``einsum`` over contiguous
+rows of length ``n``; transposing :func:`exp_so3`'s result would cost twice as much). The fused
+single-flight form on Python floats is :func:`nlobs.navigation.split_kernel.exp_so3_scalar`.
 """
 
 from __future__ import annotations
@@ -15,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nlobs._validate import readonly
 from nlobs.errors import DimensionError
 
 Array = NDArray[np.float64]
@@ -23,6 +30,8 @@ __all__ = [
     "skew",
     "unskew",
     "exp_so3",
+    "exp_so3_columns",
+    "skew_columns",
     "log_so3",
     "project_so3",
     "euler_from_R",
@@ -53,7 +62,7 @@ def _mat3(name: str, M: ArrayLike) -> Array:
 
 
 def skew(a: ArrayLike) -> Array:
-    """The skew-symmetric matrix ``S(a)`` with ``S(a) b = a × b`` (seed 001, Sec. 5).
+    """The skew-symmetric matrix ``S(a)`` with ``S(a) b = a × b`` (Grip, Saberi & Johansen, Sec. 5).
 
     Parameters
     ----------
@@ -96,6 +105,15 @@ def unskew(M: ArrayLike) -> Array:
     )
 
 
+#: ``S(x) = (_S9 @ x).reshape(3, 3, n)`` for ``x`` of shape ``(3, n)`` (batch last; exact: one ±1 per row).
+_S9 = np.zeros((9, 3))
+_S9[1, 2], _S9[2, 1], _S9[3, 2], _S9[5, 0], _S9[6, 1], _S9[7, 0] = -1.0, 1.0, 1.0, -1.0, -1.0, 1.0
+_S9 = readonly(_S9, owned=True)
+_I33 = readonly(np.eye(3)[:, :, None])
+_S9T = readonly(np.ascontiguousarray(_S9.T))  # S(x) = (x @ _S9T).reshape(..., 3, 3), batch first
+_EYE3 = readonly(np.eye(3))
+
+
 def exp_so3(phi: ArrayLike) -> Array:
     r"""Rotation matrix ``exp(S(φ))`` by Rodrigues' formula, stable near ``φ = 0``.
 
@@ -114,15 +132,48 @@ def exp_so3(phi: ArrayLike) -> Array:
     ndarray, shape (..., 3, 3)
     """
     phi = _vec3("exp_so3: phi", phi)
-    th2 = np.sum(phi * phi, axis=-1)
+    A, B = _rodrigues_coefficients(np.sum(phi * phi, axis=-1))
+    K = (phi @ _S9T).reshape(*phi.shape[:-1], 3, 3)  # S(φ), exactly (one ±φ_i per entry)
+    return _EYE3 + A[..., None, None] * K + B[..., None, None] * (K @ K)
+
+
+def _rodrigues_coefficients(th2: Array) -> tuple[Array, Array]:
+    """``A = sin θ / θ`` and ``B = (1 − cos θ)/θ²`` of ``θ² = th2``, by their Taylor series below :data:`_SMALL`.
+
+    The series and the closed forms are evaluated only where they are used (the same values as
+    evaluating both everywhere and selecting).
+    """
+    th2 = np.asarray(th2)
     th = np.sqrt(th2)
     small = th < _SMALL
-    th_safe = np.where(small, 1.0, th)
-    A = np.where(small, 1.0 - th2 / 6.0 + th2 * th2 / 120.0, np.sin(th_safe) / th_safe)
-    B = np.where(small, 0.5 - th2 / 24.0 + th2 * th2 / 720.0, (1.0 - np.cos(th_safe)) / (th_safe * th_safe))
-    K = skew(phi)
-    eye = np.broadcast_to(np.eye(3), K.shape)
-    return eye + A[..., None, None] * K + B[..., None, None] * (K @ K)
+    if small.all():
+        return np.asarray(1.0 - th2 / 6.0 + th2 * th2 / 120.0), np.asarray(0.5 - th2 / 24.0 + th2 * th2 / 720.0)
+    some = bool(small.any())
+    th_safe = np.where(small, 1.0, th) if some else th
+    A = np.sin(th_safe) / th_safe
+    B = (1.0 - np.cos(th_safe)) / (th_safe * th_safe)
+    if some:
+        A = np.where(small, 1.0 - th2 / 6.0 + th2 * th2 / 120.0, A)
+        B = np.where(small, 0.5 - th2 / 24.0 + th2 * th2 / 720.0, B)
+    return np.asarray(A), np.asarray(B)
+
+
+def skew_columns(x: Array) -> Array:
+    """:func:`skew` with the batch axis last: ``x`` of shape ``(3, n)`` → ``S(x)`` of shape ``(3, 3, n)`` (exact)."""
+    return (_S9 @ x).reshape(3, 3, -1)
+
+
+def exp_so3_columns(phi: Array) -> Array:
+    r"""Rodrigues' formula of :func:`exp_so3` with the batch axis **last**: ``φ`` of shape ``(3, n)`` →
+    ``(3, 3, n)`` (row, column, member).
+
+    The same coefficients ``A = sin θ/θ``, ``B = (1 − cos θ)/θ²`` (Taylor series below ``θ = 1e-3``),
+    with ``S(φ)² = φφᵀ − θ² I`` written out: ``exp(S(φ)) = (1 − Bθ²) I + A S(φ) + B φφᵀ``. Equal to
+    ``exp_so3(φ.T).transpose(1, 2, 0)`` to rounding (tested). No shape checks (an inner-loop helper).
+    """
+    th2 = np.einsum("in,in->n", phi, phi)
+    A, B = _rodrigues_coefficients(th2)
+    return skew_columns(A * phi) + phi[:, None] * (B * phi)[None, :] + _I33 * (1.0 - B * th2)
 
 
 def quat_from_R(R: ArrayLike) -> Array:
@@ -186,7 +237,7 @@ def project_so3(M: ArrayLike) -> Array:
     """The rotation nearest ``M`` in the Frobenius norm (orthogonal polar factor, ``det = +1``).
 
     ``M = U Σ Vᵀ`` → ``R = U diag(1, 1, det(U Vᵀ)) Vᵀ``. Used to post-orthogonalise
-    the seed-001 observer's ``R̂`` (Sec. 5.2), which is not a rotation in general.
+    the ``R̂`` of observer (24) (Grip, Saberi & Johansen, Sec. 5.2), which is not a rotation in general.
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
 """A smooth, exactly differentiable light-aircraft flight around an airport traffic pattern.
 
-The flight mirrors the test case of seed 001, Sec. 5.2 (a Cessna 172 flying a
+The flight mirrors the test case of Grip, Saberi & Johansen, Sec. 5.2 (a Cessna 172 flying a
 traffic pattern from take-off to landing), but is generated analytically so that
 the inertial signals are **exact**, not finite-differenced:
 
@@ -18,7 +18,7 @@ the inertial signals are **exact**, not finite-differenced:
   that contain no profile breakpoint (the integrand is analytic there), i.e. to
   rounding error.
 
-``ω^b`` is C², ``a^b`` is C² (so ``ȧ^b`` is continuous and bounded, as seed 001,
+``ω^b`` is C², ``a^b`` is C² (so ``ȧ^b`` is continuous and bounded, as Grip, Saberi & Johansen,
 Sec. 5.1 assumes). The magnetic field is a fixed unit NED vector
 (:data:`M_N_DEFAULT`, inclination 70°, declination 2°).
 
@@ -28,7 +28,7 @@ level: the unknowns are the climb and descent flight-path angles and the
 downwind and base leg durations.
 
 The runway heading is ``45° + k·90°`` (±8° jitter, ``k`` from the seed). That
-choice keeps the TRIAD condition ``‖m^b × a^b‖ ≥ c_obs > 0`` (seed 001, Sec. 5.1)
+choice keeps the TRIAD condition ``‖m^b × a^b‖ ≥ c_obs > 0`` (Grip, Saberi & Johansen, Sec. 5.1)
 comfortably satisfied: the specific force tilts away from the turn centre by the
 bank angle and ``mⁿ`` tilts 20° from the vertical toward magnetic north, so the
 two would become parallel during a turn whose bank is ≈20° while its centre
@@ -476,7 +476,7 @@ def traffic_pattern(
     m_n: ArrayLike | None = None,
     g: float = G0,
 ) -> Flight:
-    """A light-aircraft flight around a rectangular traffic pattern (seed 001, Sec. 5.2).
+    """A light-aircraft flight around a rectangular traffic pattern (Grip, Saberi & Johansen, Sec. 5.2).
 
     Take-off roll, rotation, climb straight out, crosswind turn (climbing),
     level-off, downwind, power reduction and descent abeam the runway, base and
@@ -533,7 +533,7 @@ def traffic_pattern(
 
 
 def triad_margin(traj: Trajectory) -> Array:
-    """``‖m^b × a^b‖`` at each sample: the TRIAD observability margin of seed 001, Sec. 5.1.
+    """``‖m^b × a^b‖`` at each sample: the TRIAD observability margin of Grip, Saberi & Johansen, Sec. 5.1.
 
     The attitude observer (22) needs ``‖m^b × a^b‖ ≥ c_obs > 0``; ``min`` of this
     array is the ``c_obs`` of the flight [m/s², with a unit ``m``].

@@ -122,5 +122,9 @@ class DeferredEstimate(Protocol[Z]):
         ...
 
     def finish_estimates(self, raw: Array) -> tuple[Array, Mapping[str, Array]]:
-        """Estimates ``(..., K, n_x)`` from the recorded raw ones ``(..., K, n_x)``, and extras to keep."""
+        """Estimates ``(..., K, n_x)`` from the recorded raw ones ``(..., K, n_x)``, and extras to keep.
+
+        ``raw`` may be the loop's own record, handed over writable: the observer may then write the
+        estimates into it and return it (extras must not be views of what it overwrites).
+        """
         ...

@@ -28,6 +28,7 @@ from scipy.integrate import solve_ivp
 
 from nlobs._validate import as_finite_array, positive
 from nlobs.errors import DimensionError, InvalidArgumentError
+from nlobs.simulate.state import tree_map
 
 Array = NDArray[np.float64]
 VectorField = Callable[[float, Array], Array]
@@ -84,32 +85,37 @@ class SolveIVP:
 Integrator = RK4 | SolveIVP
 
 
-def rk4_step(f: VectorField, t: float, y: Array, h: float) -> Array:
-    """One classical RK4 step of ``ẏ = f(t, y)`` from ``t`` to ``t + h``.
+def rk4_step(f: Callable[[float, Any], Any], t: float, y: Any, h: float) -> Any:
+    """One classical RK4 step of ``ẏ = f(t, y)`` from ``t`` to ``t + h`` — the one RK4 of nlobs.
 
-    ``y`` may carry any leading batch axes; ``f`` must accept and return them.
+    ``y`` is an array with any leading batch axes (``f`` must accept and return them), or a tree of
+    arrays (a tuple such as ``(plant state, observer state)``, or a dataclass of arrays: an observer
+    state) whose float-array leaves are combined stage by stage (:func:`nlobs.simulate.state.tree_map`);
+    ``f`` returns a tree of the same structure. Integrating the parts of a tuple together keeps them
+    coupled at every stage (the observer sees the plant output of the same stage).
     """
+    if isinstance(y, np.ndarray):
+        k1 = f(t, y)
+        k2 = f(t + 0.5 * h, y + (0.5 * h) * k1)
+        k3 = f(t + 0.5 * h, y + (0.5 * h) * k2)
+        k4 = f(t + h, y + h * k3)
+        return y + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    if isinstance(y, tuple) and all(isinstance(a, np.ndarray) for a in y):  # (x, z) of arrays: no tree walk
+        k1 = f(t, y)
+        k2 = f(t + 0.5 * h, tuple(a + (0.5 * h) * b for a, b in zip(y, k1, strict=True)))
+        k3 = f(t + 0.5 * h, tuple(a + (0.5 * h) * b for a, b in zip(y, k2, strict=True)))
+        k4 = f(t + h, tuple(a + h * b for a, b in zip(y, k3, strict=True)))
+        return tuple(a + (h / 6.0) * (b1 + 2.0 * b2 + 2.0 * b3 + b4)
+                     for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4, strict=True))
     k1 = f(t, y)
-    k2 = f(t + 0.5 * h, y + (0.5 * h) * k1)
-    k3 = f(t + 0.5 * h, y + (0.5 * h) * k2)
-    k4 = f(t + h, y + h * k3)
-    return y + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    k2 = f(t + 0.5 * h, tree_map(lambda a, b: a + (0.5 * h) * b, y, k1))
+    k3 = f(t + 0.5 * h, tree_map(lambda a, b: a + (0.5 * h) * b, y, k2))
+    k4 = f(t + h, tree_map(lambda a, b: a + h * b, y, k3))
+    return tree_map(lambda a, b1, b2, b3, b4: a + (h / 6.0) * (b1 + 2.0 * b2 + 2.0 * b3 + b4), y, k1, k2, k3, k4)
 
 
-def rk4_step_joint(f: JointField, t: float, y: tuple[Array, ...], h: float) -> tuple[Array, ...]:
-    """One RK4 step of a system whose state is a tuple of arrays (e.g. plant and observer).
-
-    ``f(t, (y1, y2, ...))`` returns the tuple of derivatives. Integrating the
-    parts together keeps them coupled at every stage (the observer sees the
-    plant output of the same stage).
-    """
-    k1 = f(t, y)
-    k2 = f(t + 0.5 * h, tuple(a + (0.5 * h) * b for a, b in zip(y, k1, strict=True)))
-    k3 = f(t + 0.5 * h, tuple(a + (0.5 * h) * b for a, b in zip(y, k2, strict=True)))
-    k4 = f(t + h, tuple(a + h * b for a, b in zip(y, k3, strict=True)))
-    return tuple(
-        a + (h / 6.0) * (b1 + 2.0 * b2 + 2.0 * b3 + b4) for a, b1, b2, b3, b4 in zip(y, k1, k2, k3, k4, strict=True)
-    )
+#: :func:`rk4_step` on a tuple state (the plant and observer integrated together); the same function.
+rk4_step_joint = rk4_step
 
 
 def rk4_integrate(f: VectorField, y0: ArrayLike, t: ArrayLike) -> Array:

@@ -37,7 +37,7 @@ from __future__ import annotations
 
 import math
 import time as _time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -49,9 +49,9 @@ from nlobs._typing import Array
 from nlobs._validate import as_batch, positive
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError, SimulationDiverged
 from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
-from nlobs.simulate.integrators import RK4, Integrator, SolveIVP, rk4_step, rk4_step_joint, solve_ivp_batch
+from nlobs.simulate.integrators import RK4, Integrator, SolveIVP, rk4_step, solve_ivp_batch
 from nlobs.simulate.result import SimulationResult
-from nlobs.simulate.state import first_nonfinite, tree_map
+from nlobs.simulate.state import first_nonfinite
 from nlobs.simulate.sampling import (
     InputSensor,
     MeasurementGroup,
@@ -282,7 +282,6 @@ def _run_fixed(s: _Setup, rec: _Recorder, progress: Progress) -> None:
     x, z = s.x0, s.z0
     plant, obs = s.plant, s.observer
     exact_y = s.groups is None
-    joint_rk4 = rk4_step_joint if s.array_state else _rk4_step_tree
 
     u_step = s.u_fn(s.t0)  # u(t_k), used at every stage for a piecewise-constant input
 
@@ -315,21 +314,11 @@ def _run_fixed(s: _Setup, rec: _Recorder, progress: Progress) -> None:
                 z = obs.step(t, z, st.u_obs(s, u), _measurement(s, st, t, x, u), s.dt)
             x = plant.rhs(t, x, u) if s.plant_discrete else rk4_step(plant_only, t, x, s.dt)
         elif s.has_observer:
-            x, z = joint_rk4(joint, t, (x, z), s.dt)
+            x, z = rk4_step(joint, t, (x, z), s.dt)
         else:
             x = rk4_step(plant_only, t, x, s.dt)
         _check_finite(s, s.t(k + 1), x, z)
         progress.update(k + 1)
-
-
-def _rk4_step_tree(f: Callable[[float, tuple[Any, ...]], tuple[Any, ...]], t: float, y: tuple[Any, ...],
-                   h: float) -> tuple[Any, ...]:
-    """:func:`~nlobs.simulate.integrators.rk4_step_joint` for a state that is a tree of arrays."""
-    k1 = f(t, y)
-    k2 = f(t + 0.5 * h, tree_map(lambda a, b: a + (0.5 * h) * b, y, k1))
-    k3 = f(t + 0.5 * h, tree_map(lambda a, b: a + (0.5 * h) * b, y, k2))
-    k4 = f(t + h, tree_map(lambda a, b: a + h * b, y, k3))
-    return tree_map(lambda a, b1, b2, b3, b4: a + (h / 6.0) * (b1 + 2.0 * b2 + 2.0 * b3 + b4), y, k1, k2, k3, k4)
 
 
 def _run_ivp(s: _Setup, rec: _Recorder, progress: Progress, options: dict[str, Any]) -> None:

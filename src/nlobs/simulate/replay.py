@@ -23,6 +23,11 @@ by the number of batch members: the cost of one step of one run, amortised over 
 
 Divergence: the recorded estimates are checked for non-finite entries every few steps; the first
 one stops the run with :class:`~nlobs.errors.SimulationDiverged` naming its time and component.
+
+Deferred estimates (:class:`~nlobs.observers.base.DeferredEstimate`): the record of raw estimates
+is the loop's own buffer and is handed to ``finish_estimates`` writable, so an observer may write
+its estimates into it and return it (the GNSS/INS observer projects ``R̂`` in place: no second copy
+of a 1000-flight record); the loop makes it read-only afterwards.
 """
 
 from __future__ import annotations
@@ -42,7 +47,7 @@ from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError, S
 from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
 from nlobs.simulate.loop import finish, initial_state, observer_label, record_diagnostics, time_major_extras
 from nlobs.simulate.result import SimulationResult
-from nlobs.simulate.state import tree_map
+from nlobs.simulate.integrators import rk4_step
 from nlobs.systems.timebase import Continuous, Discrete
 
 __all__ = ["run_observer"]
@@ -252,25 +257,20 @@ def run_observer(
     perf = _time.perf_counter
     wall = perf()
 
+    # per-step lookups on Python lists (cheaper than NumPy scalars in the loop; the same values)
+    t_list: list[float] = grid.tolist()
+    h_list: list[float] = h.tolist()
+    fix_list: list[int] = fix_at.tolist()
+    row_list: list[int] = row_of.tolist()
+
     def advance(k: int, z: Any, u_k: Array) -> Any:
-        tk = float(grid[k])
+        tk = t_list[k]
         if discrete:
             return observer.rhs(tk, z, u_k, y_held)
-        hk = float(h[k])
+        hk = h_list[k]
         if self_step:
             return observer.step(tk, z, u_k, y_held, hk)  # type: ignore[attr-defined]
-        f = observer.rhs
-        if isinstance(z, np.ndarray):
-            k1 = f(tk, z, u_k, y_held)
-            k2 = f(tk + 0.5 * hk, z + (0.5 * hk) * k1, u_k, y_held)
-            k3 = f(tk + 0.5 * hk, z + (0.5 * hk) * k2, u_k, y_held)
-            k4 = f(tk + hk, z + hk * k3, u_k, y_held)
-            return z + (hk / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
-        k1 = f(tk, z, u_k, y_held)
-        k2 = f(tk + 0.5 * hk, tree_map(lambda a, b: a + (0.5 * hk) * b, z, k1), u_k, y_held)
-        k3 = f(tk + 0.5 * hk, tree_map(lambda a, b: a + (0.5 * hk) * b, z, k2), u_k, y_held)
-        k4 = f(tk + hk, tree_map(lambda a, b: a + hk * b, z, k3), u_k, y_held)
-        return tree_map(lambda a, b1, b2, b3, b4: a + (hk / 6.0) * (b1 + 2.0 * b2 + 2.0 * b3 + b4), z, k1, k2, k3, k4)
+        return rk4_step(lambda tt, zz: observer.rhs(tt, zz, u_k, y_held), tk, z, hk)
 
     if divergence not in ("raise", "keep"):
         raise InvalidArgumentError(f"divergence: expected 'raise' or 'keep', got {divergence!r}")
@@ -295,23 +295,23 @@ def run_observer(
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"), Progress(K, progress, label) as bar:
         for k in range(K):
             u_k = u_arr[..., k, :] if u_arr is not None else u0
-            g = fix_at[k]
+            g = fix_list[k]
             if g >= 0:
                 y_g = y_arr[..., g, :]
                 fresh = rows[g]
                 if correcting:
                     t0 = perf()
-                    z = observer.correct(float(grid[k]), z, u_k, y_g, fresh)  # type: ignore[attr-defined]
+                    z = observer.correct(t_list[k], z, u_k, y_g, fresh)  # type: ignore[attr-defined]
                     busy += perf() - t0
                 else:
                     y_held[..., fresh] = y_g[..., fresh]
-            j = row_of[k]
+            j = row_list[k]
             if j >= 0:
                 rec[j] = estimate(z)
                 if diagnose:
-                    record_diagnostics(extras, observer.diagnostics(z, u_k), int(j), Ks)  # type: ignore[attr-defined]
+                    record_diagnostics(extras, observer.diagnostics(z, u_k), j, Ks)  # type: ignore[attr-defined]
                 if j - checked + 1 >= check_every:
-                    check(int(j))
+                    check(j)
             if k < K - 1:
                 t0 = perf()
                 z = advance(k, z, u_k)
@@ -319,12 +319,14 @@ def run_observer(
             bar.update(k + 1)
         check(Ks - 1)
 
-    rec.flags.writeable = False
     x_hat = np.moveaxis(rec, 0, -2)
     out_extras = time_major_extras(extras, len(batch))
-    if deferred:
+    if deferred:  # the record is the loop's own buffer: handed over writable (the observer may finish in place)
         x_hat, more = finish(observer, x_hat, n_x)
         out_extras.update(more)
+    rec.flags.writeable = False
+    if x_hat.base is rec:  # a view made while the record was writable: the result keeps it without a copy
+        x_hat.flags.writeable = False
     truth_arr = None
     n_states = len(states) if states is not None else n_x
     if truth is not None:

@@ -11,7 +11,8 @@ scripts and notebooks. See :mod:`nlobs.workflows.verdict` for how a report says 
   simulate for decreasing ``γ`` (:mod:`nlobs.workflows.gamma_sweep`);
 * the inputs a caller hands over as plain values (:mod:`nlobs.workflows.inputs`):
   :class:`SimulationRequest`, :func:`box_from_numbers` (:class:`BoxError`), :func:`symbolic_model`,
-  and :func:`escape_unsafe` for text that reaches a terminal.
+  :func:`escape_unsafe` for text that reaches a terminal, and :func:`jsonable` for what is printed
+  as JSON.
 
 Importing this package is cheap (the command line imports it when it starts): every name is
 imported on first use, the workflows (and with them the observers, the solvers and the
@@ -24,6 +25,7 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
+    from nlobs._io import jsonable
     from nlobs.workflows.design_drift import (
         DriftDesignReport,
         DriftSimulation,
@@ -55,6 +57,7 @@ _LAZY: dict[str, str] = {
     **dict.fromkeys(("BoxError", "SimulationRequest", "box_from_numbers", "escape_unsafe", "symbolic_model"),
                     "nlobs.workflows.inputs"),
     "Verdict": "nlobs.workflows.verdict",
+    "jsonable": "nlobs._io",
 }
 
 __all__ = [
@@ -75,6 +78,7 @@ __all__ = [
     "design_pinv_report",
     "escape_unsafe",
     "gamma_sweep",
+    "jsonable",
     "simulate_drift",
     "simulate_pinv",
     "symbolic_model",

@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from nlobs._validate import as_vector
 from nlobs.errors import DimensionError, ModelError, NonFiniteError

@@ -42,6 +42,7 @@ __all__ = [
     "symbolic_model",
 ]
 
+
 class BoxError(InvalidArgumentError):
     """A region given as numbers is malformed (the CLI prefixes the option name, ``--box``)."""
 

@@ -22,6 +22,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from nlobs._io import prepare_output_dir
+
 from nlobs._typing import Array
 from nlobs.errors import (
     AssumptionViolated,
@@ -591,6 +593,11 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
     m = _load(model)
     if runs * (steps + 1) * m.system.n > MAX_BATCH:
         raise InvalidArgumentError(f"--runs {runs} x --steps {steps}: too large for one batch (runs·steps·n > 5e8)")
+    if out is not None:
+        try:
+            prepare_output_dir(out)
+        except OSError as exc:
+            raise OutputError(f"--out {out}: {exc.strerror or exc}") from exc
     rep = design_setvalued_observer(m, objective=objective, samples=samples, seed=0)
     rep = dataclasses.replace(rep, model=str(model) if not isinstance(model, DiscreteUIModel) else rep.model,
                               message=rep.message.replace(rep.model, str(model), 1)

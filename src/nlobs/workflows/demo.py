@@ -1,4 +1,4 @@
-"""The main job: ``nlobs demo gnss-ins`` (seed 001, Sec. 5).
+"""The main job: ``nlobs demo gnss-ins`` (Grip, Saberi & Johansen, Sec. 5).
 
 Simulates a light-aircraft traffic-pattern flight with exact inertial signals,
 samples the IMU (+ magnetometer) at 100 Hz and GNSS position/velocity at 5 Hz
@@ -17,17 +17,20 @@ from typing import Any
 
 import numpy as np
 
-from nlobs._io import atomic_write_text
+from nlobs._io import atomic_write_json, prepare_output_dir
 from nlobs._validate import in_range, positive
-from nlobs.errors import InvalidArgumentError
+from nlobs.errors import InvalidArgumentError, OutputError
 from nlobs.navigation.ekf import EkfConfig, ExtendedKalmanFilter
 from nlobs.navigation.gains import PAPER_GAMMA, design_gains, paper_gains
 from nlobs.navigation.gnss_ins import GnssInsObserver
+from nlobs.navigation.metrics import summary_dict
 from nlobs.navigation.plots import plot_navigation
-from nlobs.navigation.run import NavResult, run_navigation
+from nlobs.navigation.run import run_navigation
 from nlobs.navigation.sensors import SensorNoise, generate_sensors
 from nlobs.navigation.so3 import rot_z
 from nlobs.navigation.trajectory import traffic_pattern
+from nlobs.workflows.verdict import Verdict
+from nlobs.simulate.result import SimulationResult
 
 #: Sensor noise of the demo: a consumer-grade IMU and a standalone GNSS receiver.
 DEMO_NOISE = SensorNoise(
@@ -37,6 +40,10 @@ DEMO_NOISE = SensorNoise(
     gnss_p_std=1.5,  # m
     gnss_v_std=0.1,  # m/s
 )
+
+
+#: The longest flight the demo simulates, in IMU samples (a flight is held in memory: ~1 kB per sample).
+MAX_IMU_SAMPLES = 2e6
 
 
 @dataclass(frozen=True)
@@ -75,8 +82,14 @@ class DemoConfig:
     noise: SensorNoise = field(default_factory=lambda: DEMO_NOISE)
 
     def __post_init__(self) -> None:
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise InvalidArgumentError(f"seed: expected an integer >= 0, got {self.seed!r}")
         if self.duration is not None:
             positive("duration", self.duration)
+            if self.duration * self.imu_rate_hz > MAX_IMU_SAMPLES:
+                raise InvalidArgumentError(
+                    f"duration: {self.duration:g} s at {self.imu_rate_hz:g} Hz is {self.duration * self.imu_rate_hz:.3g} "
+                    f"IMU samples; at most {MAX_IMU_SAMPLES:.0e} fit in memory")
         positive("imu_rate_hz", self.imu_rate_hz)
         positive("gnss_rate_hz", self.gnss_rate_hz)
         in_range("yaw_error_deg", self.yaw_error_deg, -180.0, 180.0, hi_open=False)
@@ -87,11 +100,14 @@ class DemoConfig:
 
 @dataclass(frozen=True)
 class DemoResult:
-    """What the demo computed: one :class:`NavResult` per filter, and the figures."""
+    """What the demo computed: one :class:`~nlobs.simulate.SimulationResult` per filter, and the figures.
+
+    Their navigation metrics are the functions of :mod:`nlobs.navigation.metrics`.
+    """
 
     config: DemoConfig
-    observer: NavResult
-    ekf: NavResult | None
+    observer: SimulationResult
+    ekf: SimulationResult | None
     figures: dict[str, Path]
     flight_duration: float
 
@@ -100,7 +116,7 @@ class DemoResult:
         res = self.observer if which == "observer" else self.ekf
         if res is None:
             raise InvalidArgumentError(f"no result for {which!r}")
-        return res.to_dict(threshold_deg=self.config.converge_deg)
+        return summary_dict(res, threshold_deg=self.config.converge_deg)
 
     def to_dict(self) -> dict[str, Any]:
         """Stable JSON form: ``observer`` and ``ekf`` objects (see the README) plus the setup."""
@@ -140,7 +156,8 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
     obs_res = run_navigation(observer, data, p0, v0, R0, progress=progress)
     ekf_res = None
     if config.ekf:
-        ekf = ExtendedKalmanFilter(EkfConfig.for_noise(config.noise, yaw_std_deg=max(30.0, abs(config.yaw_error_deg))),
+        ekf = ExtendedKalmanFilter(EkfConfig.for_noise(config.noise, yaw_std_deg=max(30.0, abs(config.yaw_error_deg)),
+                                                       sample_period_s=1.0 / config.imu_rate_hz),
                                    flight.m_n, flight.g_n, position_only=config.position_only)
         ekf_res = run_navigation(ekf, data, p0, v0, R0, progress=progress)
     figures: dict[str, Path] = {}
@@ -151,7 +168,85 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
 
 
 def write_json(result: DemoResult, path: str | Path) -> Path:
-    """Write ``result.to_dict()`` as JSON, atomically."""
-    import json
+    """Write ``result.to_dict()`` as JSON (NaN metrics as ``null``), atomically."""
+    return atomic_write_json(path, result.to_dict())
 
-    return atomic_write_text(path, json.dumps(result.to_dict(), indent=2, allow_nan=False) + "\n")
+
+#: The rows of the comparison table: label, key of :func:`~nlobs.navigation.metrics.summary_dict`, format.
+TABLE_ROWS = (("position RMS after convergence [m]", "position_rms_m", "{:.3f}"),
+              ("velocity RMS after convergence [m/s]", "velocity_rms_mps", "{:.3f}"),
+              ("attitude RMS after convergence [deg]", "attitude_rms_deg", "{:.3f}"),
+              ("time to converge below {converge_deg:g}° [s]", "converge_s", "{:.2f}"),
+              ("cost per step [µs]", "cost_per_step_us", "{:.1f}"))
+
+
+@dataclass(frozen=True, eq=False)
+class DemoReport:
+    """What ``nlobs demo gnss-ins`` prints: the comparison table and the files it wrote.
+
+    Attributes
+    ----------
+    result : DemoResult
+    files : tuple of Path
+        The figures and ``results.json``.
+    verdict : Verdict
+        Always ``OK`` (the demo reports what it measured).
+    message : str
+    """
+
+    result: DemoResult
+    files: tuple[Path, ...]
+    verdict: Verdict = Verdict.OK
+    message: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON report (the same as ``results.json``)."""
+        return self.result.to_dict()
+
+    def table(self) -> tuple[str, tuple[str, ...], tuple[tuple[str, ...], ...]]:
+        """``(title, column headers, rows)`` of the comparison table."""
+        r, c = self.result, self.result.config
+        filters = ["observer"] + (["ekf"] if r.ekf is not None else [])
+        title = (f"GNSS/INS, {r.flight_duration:.0f} s flight, {c.yaw_error_deg:g}° initial yaw error, IMU "
+                 f"{c.imu_rate_hz:g} Hz, GNSS {c.gnss_rate_hz:g} Hz, seed {c.seed}")
+        heads = ("quantity", *("observer (24)" if f == "observer" else "EKF" for f in filters))
+        metrics = {f: r.metrics(f) for f in filters}
+        rows = tuple((label.format(converge_deg=c.converge_deg), *(fmt.format(metrics[f][key]) for f in filters))
+                     for label, key, fmt in TABLE_ROWS)
+        return title, heads, rows
+
+    def summary(self) -> str:
+        """The table as plain text, then the files written."""
+        title, heads, rows = self.table()
+        widths = [max(len(h), *(len(row[i]) for row in rows)) for i, h in enumerate(heads)]
+        lines = [title, "  ".join(h.ljust(w) if i == 0 else h.rjust(w) for i, (h, w) in enumerate(zip(heads, widths)))]
+        lines += ["  ".join(v.ljust(w) if i == 0 else v.rjust(w) for i, (v, w) in enumerate(zip(row, widths)))
+                  for row in rows]
+        return "\n".join(lines + [f"wrote {f}" for f in self.files])
+
+
+def gnss_ins_demo(config: DemoConfig = DemoConfig(), out: str | Path | None = Path("out/gnss-ins"), *,
+                  progress: bool | None = None) -> DemoReport:
+    """The workflow of ``nlobs demo gnss-ins``: :func:`run_demo`, then the figures and ``results.json`` in ``out``.
+
+    Raises
+    ------
+    OutputError
+        ``out`` cannot be written (an existing file, read-only, a full disk); nothing is left half-written.
+    NlobsError
+        A typed error of the simulation or the design.
+    """
+    folder = None if out is None else Path(out)
+    if folder is not None:
+        try:
+            prepare_output_dir(folder)
+        except OSError as exc:
+            raise OutputError(f"--out {folder}: {exc.strerror or exc}") from exc
+    try:
+        result = run_demo(config, folder, progress=bool(progress))
+        files = list(result.figures.values())
+        if folder is not None:
+            files.append(write_json(result, folder / "results.json"))
+    except OSError as exc:
+        raise OutputError(f"--out {folder}: {exc.strerror or exc}") from exc
+    return DemoReport(result, tuple(files))

@@ -1,0 +1,210 @@
+"""Navigation metrics: functions of the :class:`~nlobs.simulate.SimulationResult` of a navigation run.
+
+A navigation run (:func:`nlobs.navigation.run.run_navigation`, or
+:func:`nlobs.simulate.run_observer` with the channel layouts of :mod:`nlobs.navigation.base`)
+records the estimate ``x̂ = [p̂, v̂, R̂]`` (15 components, ``R̂`` row-major) and the truth
+``x = [p, v, R]`` on the IMU grid, the raw ``R̂`` of observer (24) (extra ``R_raw``) and its ``ẑ``
+(extra ``z_hat``), and in ``info`` the GNSS bookkeeping (``skipped_fixes`` per flight, ``n_fixes``,
+``imu_rate_hz``, ``gnss_rate_hz``) and the cost (``cost_per_step_us``). This module reads them:
+
+* accessors: :func:`p_hat`, :func:`v_hat`, :func:`R_hat` (estimates), :func:`p`, :func:`v`,
+  :func:`R` (truth), :func:`R_raw`, :func:`z_hat` (extras, ``None`` when not recorded);
+* errors along the flight: :func:`position_error_m`, :func:`velocity_error_mps`,
+  :func:`attitude_error_deg` (geodesic angle between ``R̂`` and ``R``);
+* convergence and accuracy: :func:`converge_s`, :func:`position_rms_m`, :func:`velocity_rms_mps`,
+  :func:`attitude_rms_deg`, and :func:`summary_dict` (the demo's JSON row).
+
+Every function is batched: a result of a batch of flights gives arrays with that batch shape.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from nlobs._typing import Array, BoolArray
+from nlobs._validate import in_range, positive
+from nlobs.errors import DimensionError, InvalidArgumentError
+from nlobs.navigation.base import NAV_P, NAV_R, NAV_V
+from nlobs.navigation.so3 import angle_between
+from nlobs.simulate.result import SimulationResult
+
+__all__ = [
+    "DEFAULT_CONVERGE_DEG", "R", "R_hat", "R_raw", "attitude_error_deg", "attitude_rms_deg", "converge_s", "p",
+    "p_hat", "position_error_m", "position_rms_m", "summary_dict", "v", "v_hat", "velocity_error_mps",
+    "velocity_rms_mps", "z_hat",
+]
+
+#: Attitude-error threshold [deg] defining :func:`converge_s` by default.
+DEFAULT_CONVERGE_DEG = 2.0
+
+
+def _nav(arr: Array, what: str) -> Array:
+    if arr.shape[-1] != 15:
+        raise DimensionError(f"{what}: a navigation run has 15 components [p, v, R], got {arr.shape[-1]}")
+    return arr
+
+
+def _est(res: SimulationResult) -> Array:
+    return _nav(res.x_hat, "x_hat")
+
+
+def _truth(res: SimulationResult) -> Array:
+    if res.x is None:
+        raise InvalidArgumentError("this result has no truth (x is None): navigation errors are undefined")
+    return _nav(res.x, "x")
+
+
+def _matrix(a: Array) -> Array:
+    return a[..., NAV_R].reshape(*a.shape[:-1], 3, 3)
+
+
+# ------------------------------------------------------------------ accessors
+def p_hat(res: SimulationResult) -> Array:
+    """Estimated position ``p̂`` [m] (NED), shape ``(..., K, 3)``."""
+    return _est(res)[..., NAV_P]
+
+
+def v_hat(res: SimulationResult) -> Array:
+    """Estimated velocity ``v̂`` [m/s] (NED), shape ``(..., K, 3)``."""
+    return _est(res)[..., NAV_V]
+
+
+def R_hat(res: SimulationResult) -> Array:
+    """Estimated attitude (body → NED), shape ``(..., K, 3, 3)``: a rotation (observer (24): ``R̂`` projected)."""
+    return _matrix(_est(res))
+
+
+def p(res: SimulationResult) -> Array:
+    """True position [m], shape ``(K, 3)`` (or with the truth's batch shape)."""
+    return _truth(res)[..., NAV_P]
+
+
+def v(res: SimulationResult) -> Array:
+    """True velocity [m/s], shape ``(K, 3)`` (or with the truth's batch shape)."""
+    return _truth(res)[..., NAV_V]
+
+
+def R(res: SimulationResult) -> Array:
+    """True attitude, shape ``(K, 3, 3)`` (or with the truth's batch shape)."""
+    return _matrix(_truth(res))
+
+
+def R_raw(res: SimulationResult) -> Array | None:
+    """The raw ``R̂`` of observer (24d) (not a rotation in general), ``(..., K, 3, 3)``; ``None`` if not recorded."""
+    return res.extras.get("R_raw")
+
+
+def z_hat(res: SimulationResult) -> Array | None:
+    """Observer (24)'s ``ẑ = R̂ a^b + ξ`` (estimate of ``aⁿ``) [m/s²], ``(..., K, 3)``; ``None`` if not recorded."""
+    return res.extras.get("z_hat")
+
+
+# --------------------------------------------------------------------- errors
+def position_error_m(res: SimulationResult) -> Array:
+    """``‖p̂ − p‖`` [m], shape ``(..., K)``."""
+    return np.linalg.norm(p_hat(res) - p(res), axis=-1)
+
+
+def velocity_error_mps(res: SimulationResult) -> Array:
+    """``‖v̂ − v‖`` [m/s], shape ``(..., K)``."""
+    return np.linalg.norm(v_hat(res) - v(res), axis=-1)
+
+
+def attitude_error_deg(res: SimulationResult) -> Array:
+    """Geodesic angle between ``R̂`` (projected) and ``R`` [deg], shape ``(..., K)``."""
+    return np.degrees(angle_between(R_hat(res), R(res)))
+
+
+def converge_s(res: SimulationResult, threshold_deg: float = DEFAULT_CONVERGE_DEG) -> Array:
+    """First time after which the attitude error stays below ``threshold_deg`` for good.
+
+    ``t[k*]`` with ``k*`` the smallest index such that the error is ``< threshold_deg`` at every
+    ``t[k] ≥ t[k*]``; ``t[0]`` if it always is, NaN if it is not below at the last sample.
+    Shape ``(...)``.
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``threshold_deg`` is not positive.
+    """
+    thr = positive("threshold_deg", threshold_deg)
+    bad = attitude_error_deg(res) >= thr
+    K = res.t.shape[0]
+    # index of the last bad sample (−1 if none)
+    last_bad = np.where(bad.any(axis=-1), K - 1 - np.argmax(bad[..., ::-1], axis=-1), -1)
+    idx = last_bad + 1
+    out = np.where(idx < K, res.t[np.minimum(idx, K - 1)], np.nan)
+    return np.asarray(out, dtype=float)
+
+
+def _window(res: SimulationResult, after: float | None, threshold_deg: float) -> BoolArray:
+    if after is None:
+        start = converge_s(res, threshold_deg)
+    else:
+        start = np.full(res.batch_shape, in_range("after", after, -np.inf, np.inf, hi_open=True))
+    return res.t >= np.asarray(start)[..., None]  # NaN start → empty window
+
+
+def _rms(err: Array, mask: BoolArray) -> Array:
+    n = mask.sum(axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, np.sqrt(np.sum(np.where(mask, err**2, 0.0), axis=-1) / np.maximum(n, 1)), np.nan)
+
+
+def position_rms_m(res: SimulationResult, after: float | None = None,
+                   threshold_deg: float = DEFAULT_CONVERGE_DEG) -> Array:
+    """RMS of ``‖p̂ − p‖`` [m] over ``t ≥ after`` (default: ``t ≥ converge_s(res, threshold_deg)``), shape ``(...)``.
+
+    NaN when the window is empty (never converged).
+    """
+    return _rms(position_error_m(res), _window(res, after, threshold_deg))
+
+
+def velocity_rms_mps(res: SimulationResult, after: float | None = None,
+                     threshold_deg: float = DEFAULT_CONVERGE_DEG) -> Array:
+    """RMS of ``‖v̂ − v‖`` [m/s] over the same window as :func:`position_rms_m`."""
+    return _rms(velocity_error_mps(res), _window(res, after, threshold_deg))
+
+
+def attitude_rms_deg(res: SimulationResult, after: float | None = None,
+                     threshold_deg: float = DEFAULT_CONVERGE_DEG) -> Array:
+    """RMS of the geodesic attitude error [deg] over the same window as :func:`position_rms_m`."""
+    return _rms(attitude_error_deg(res), _window(res, after, threshold_deg))
+
+
+def summary_dict(res: SimulationResult, after: float | None = None,
+                 threshold_deg: float = DEFAULT_CONVERGE_DEG) -> dict[str, Any]:
+    """The metrics of a run: ``filter``, ``position_rms_m``, ``velocity_rms_mps``, ``attitude_rms_deg``,
+    ``converge_s``, ``cost_per_step_us``, ``skipped_fixes``, ``n_fixes``, ``after``, ``threshold_deg``.
+
+    Per-flight metrics are floats for a single flight and (nested) lists for a batch. ``filter``
+    is the observer's name; ``cost_per_step_us``, ``skipped_fixes`` and ``n_fixes`` come from
+    ``res.info`` (:func:`~nlobs.navigation.run.run_navigation` puts them there).
+
+    Raises
+    ------
+    InvalidArgumentError
+        The result has no truth, or its ``info`` lacks the GNSS bookkeeping.
+    """
+
+    def py(a: Any) -> Any:
+        a = np.asarray(a)
+        return float(a) if a.ndim == 0 and a.dtype.kind == "f" else a.tolist()
+
+    missing = [k for k in ("cost_per_step_us", "skipped_fixes", "n_fixes") if k not in res.info]
+    if missing:
+        raise InvalidArgumentError(f"summary_dict: res.info lacks {missing} (run it with run_navigation)")
+    return {
+        "filter": res.observer,
+        "position_rms_m": py(position_rms_m(res, after, threshold_deg)),
+        "velocity_rms_mps": py(velocity_rms_mps(res, after, threshold_deg)),
+        "attitude_rms_deg": py(attitude_rms_deg(res, after, threshold_deg)),
+        "converge_s": py(converge_s(res, threshold_deg)),
+        "cost_per_step_us": float(res.info["cost_per_step_us"]),
+        "skipped_fixes": py(res.info["skipped_fixes"]),
+        "n_fixes": int(res.info["n_fixes"]),
+        "after": after,
+        "threshold_deg": float(threshold_deg),
+    }
