@@ -1,8 +1,7 @@
-"""Shared pieces of the ``nlobs`` command line: exit statuses, one-line errors, model loading,
-option parsing and JSON output. Every command module imports these; none defines its own.
+"""Shared pieces of the ``nlobs`` command line: exit statuses, one-line errors, option parsing and
+JSON output. Every command module imports these; none defines its own.
 
-From the library this module imports only :mod:`nlobs.workflows`, :mod:`nlobs.systems.modelfile`
-and :mod:`nlobs.errors`: the escaping of terminal text and the JSON conversion come from
+From the library this module imports only :mod:`nlobs.workflows`: the escaping of terminal text and the JSON conversion come from
 :mod:`nlobs.workflows`, and a ``--box`` goes to the workflows as numbers (:func:`box_numbers`),
 which build the region.
 """
@@ -17,8 +16,6 @@ import typer
 from rich.console import Console
 from rich.text import Text
 
-from nlobs.errors import ModelFileError
-from nlobs.systems.modelfile import Model, load_model
 from nlobs.workflows import escape_unsafe, jsonable
 
 EXIT_FAILURE = 1
@@ -65,14 +62,6 @@ def finish(report: Any, as_json: bool = False) -> None:
         return
     message = getattr(report, "json_message", None) if as_json else None
     fail(message or report.message, EXIT_NO_OBSERVER if verdict is Verdict.NO_OBSERVER else EXIT_FAILURE)
-
-
-def load_model_arg(model: str) -> Model:
-    """The model behind a CLI argument (a file or a shipped name: :func:`nlobs.systems.modelfile.resolve_model`)."""
-    try:
-        return load_model(model)
-    except ModelFileError as exc:
-        fail(str(exc))
 
 
 def parse_floats(option: str, text: str | None) -> list[float] | None:
