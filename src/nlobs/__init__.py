@@ -1,5 +1,136 @@
-"""nlobs: design, certify and simulate nonlinear state observers."""
+"""nlobs: design, certify and simulate nonlinear state observers.
+
+The names a script needs, importable from the top (``from nlobs import load_model, run_observer``);
+each is imported on first use (PEP 562), so ``import nlobs`` loads neither NumPy nor SymPy.
+
+Plants and models
+    :func:`load_model` (a model file or a shipped name), :func:`shipped_models`,
+    :class:`Continuous`, :class:`Discrete`, :class:`LinearSystem`, :class:`DiscreteUISystem`.
+The observer protocol and the observers
+    :class:`Observer`, :class:`CorrectingObserver`; :class:`LuenbergerObserver`,
+    :class:`CascadeObserver` (Grip, Saberi & Johansen, (3)), :class:`DriftObserver` (Dalla Mora,
+    Germani & Manes, (3.1)), :class:`PinvObserver` and :class:`ByrnesIsidoriObserver` (Röbenack,
+    (7), (17)), :class:`SetValuedObserver` (Khajenejad & Yong, (10)–(15)),
+    :class:`DiscreteLipschitzObserver`, :class:`UnknownInputEKF`, :class:`GnssInsObserver`
+    (Grip, Saberi & Johansen, (22)/(24)) and the navigation :class:`ExtendedKalmanFilter`.
+The loops and the result
+    :func:`nlobs.simulate.simulate` (plant and observer together; ``nlobs.simulate`` is the
+    simulation subpackage, so the function is not re-exported under the same name),
+    :func:`run_observer` (an observer on recorded measurements), :class:`SimulationResult`.
+Gains and certificates
+    ``design_*`` and ``verify_*`` for each method; every certificate satisfies :class:`Certificate`
+    and reports its conditions as :class:`Check` values.
+Workflows
+    One call per command of the ``nlobs`` command line, each returning a frozen report:
+    :func:`analyze_model`, :func:`design_drift_observer`, :func:`design_pinv_observer`,
+    :func:`design_setvalued_observer`, :func:`simulate_setvalued_observer`, :func:`gnss_ins_demo`.
+Errors
+    :class:`NlobsError` and its typed subclasses (:mod:`nlobs.errors`).
+"""
 
 from __future__ import annotations
 
-__version__ = "0.1.0"
+import importlib
+from importlib.metadata import PackageNotFoundError, version
+from typing import TYPE_CHECKING, Any
+
+try:
+    __version__: str = version("nlobs")
+except PackageNotFoundError:  # pragma: no cover - a source tree that was never installed
+    __version__ = "0+unknown"
+
+if TYPE_CHECKING:
+    from nlobs.checks import Check
+    from nlobs.errors import (
+        AssumptionViolated,
+        CertificateError,
+        DesignError,
+        DesignInfeasible,
+        DimensionError,
+        ModelError,
+        ModelFileError,
+        NlobsError,
+        NonFiniteError,
+        SimulationDiverged,
+        UnknownNameError,
+    )
+    from nlobs.navigation.ekf import ExtendedKalmanFilter
+    from nlobs.navigation.gnss_ins import GnssInsObserver
+    from nlobs.observers import (
+        ByrnesIsidoriObserver,
+        CascadeObserver,
+        CorrectingObserver,
+        DiscreteLipschitzObserver,
+        DriftObserver,
+        LuenbergerObserver,
+        Observer,
+        PinvObserver,
+        SetValuedObserver,
+        UnknownInputEKF,
+    )
+    from nlobs.simulate import SimulationResult, run_observer
+    from nlobs.synthesis import (
+        Certificate,
+        design_cascade_gain,
+        design_discrete_lipschitz_gain,
+        design_drift_gain,
+        design_observer_gain,
+        design_setvalued,
+        verify_discrete_lipschitz_gain,
+        verify_drift_gain,
+        verify_observer_gain,
+        verify_setvalued,
+    )
+    from nlobs.systems import (
+        Continuous,
+        Discrete,
+        DiscreteUISystem,
+        LinearSystem,
+        load_model,
+        shipped_models,
+    )
+    from nlobs.workflows import (
+        analyze_model,
+        design_drift_observer,
+        design_pinv_observer,
+        design_setvalued_observer,
+        gnss_ins_demo,
+        simulate_setvalued_observer,
+    )
+
+#: Every public name, and the module that holds it (imported on first use).
+_LAZY: dict[str, str] = {
+    "Check": "nlobs.checks",
+    **dict.fromkeys(("AssumptionViolated", "CertificateError", "DesignError", "DesignInfeasible", "DimensionError",
+                     "ModelError", "ModelFileError", "NlobsError", "NonFiniteError", "SimulationDiverged",
+                     "UnknownNameError"), "nlobs.errors"),
+    "ExtendedKalmanFilter": "nlobs.navigation.ekf",
+    "GnssInsObserver": "nlobs.navigation.gnss_ins",
+    **dict.fromkeys(("ByrnesIsidoriObserver", "CascadeObserver", "CorrectingObserver", "DiscreteLipschitzObserver",
+                     "DriftObserver", "LuenbergerObserver", "Observer", "PinvObserver", "SetValuedObserver",
+                     "UnknownInputEKF"), "nlobs.observers"),
+    **dict.fromkeys(("SimulationResult", "run_observer"), "nlobs.simulate"),
+    **dict.fromkeys(("Certificate", "design_cascade_gain", "design_discrete_lipschitz_gain", "design_drift_gain",
+                     "design_observer_gain", "design_setvalued", "verify_discrete_lipschitz_gain",
+                     "verify_drift_gain", "verify_observer_gain", "verify_setvalued"), "nlobs.synthesis"),
+    **dict.fromkeys(("Continuous", "Discrete", "DiscreteUISystem", "LinearSystem", "load_model", "shipped_models"),
+                    "nlobs.systems"),
+    **dict.fromkeys(("analyze_model", "design_drift_observer", "design_pinv_observer", "design_setvalued_observer",
+                     "gnss_ins_demo", "simulate_setvalued_observer"), "nlobs.workflows"),
+}
+
+__all__ = sorted([*_LAZY, "__version__"])
+
+
+def __getattr__(name: str) -> Any:
+    """Import the module that holds ``name`` on first use (PEP 562)."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'nlobs' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -7,6 +7,13 @@ scripts and notebooks. See :mod:`nlobs.workflows.verdict` for how a report says 
   the observer (3.1) of Dalla Mora, Germani & Manes (:mod:`nlobs.workflows.design_drift`);
 * :func:`design_pinv_observer` (``nlobs design pinv``) → :class:`PinvWorkflowReport`:
   Röbenack's Moore–Penrose observer (7), (17) (:mod:`nlobs.workflows.design_pinv`);
+* :func:`analyze_model` (``nlobs analyze``) → :class:`AnalysisReport`: the linear and nonlinear
+  structural tests of a model (:mod:`nlobs.workflows.analyze`);
+* :func:`design_setvalued_observer` (``nlobs design setvalued``) → :class:`SetValuedDesignReport` and
+  :func:`simulate_setvalued_observer` (``nlobs simulate setvalued``) → :class:`SetValuedStudyReport`:
+  the set-valued input-and-state observer of Khajenejad & Yong (:mod:`nlobs.workflows.setvalued`);
+* :func:`gnss_ins_demo` (``nlobs demo gnss-ins``) → :class:`DemoReport`: the GNSS/INS example of
+  Grip, Saberi & Johansen, Sec. 5, against an EKF (:mod:`nlobs.workflows.demo`);
 * :func:`gamma_sweep` → :class:`GammaSweep`: Sec. 3.2 of Grip, Saberi & Johansen, design and
   simulate for decreasing ``γ`` (:mod:`nlobs.workflows.gamma_sweep`);
 * the inputs a caller hands over as plain values (:mod:`nlobs.workflows.inputs`):
@@ -26,6 +33,9 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from nlobs._io import jsonable
+    from nlobs._validate import escape_unsafe
+    from nlobs.workflows.analyze import AnalysisReport, analyze_model
+    from nlobs.workflows.demo import DemoConfig, DemoReport, gnss_ins_demo
     from nlobs.workflows.design_drift import (
         DriftDesignReport,
         DriftSimulation,
@@ -42,11 +52,23 @@ if TYPE_CHECKING:
         simulate_pinv,
     )
     from nlobs.workflows.gamma_sweep import GammaSweep, GammaSweepRow, gamma_sweep
-    from nlobs.workflows.inputs import BoxError, SimulationRequest, box_from_numbers, escape_unsafe, symbolic_model
+    from nlobs.workflows.inputs import BoxError, SimulationRequest, box_from_numbers, symbolic_model
+    from nlobs.workflows.setvalued import (
+        MonteCarloStudy,
+        SetValuedDesignReport,
+        SetValuedStudyReport,
+        design_setvalued_observer,
+        monte_carlo,
+        simulate_setvalued_observer,
+    )
     from nlobs.workflows.verdict import Verdict
 
 #: Names imported on first use, and the module that holds each.
 _LAZY: dict[str, str] = {
+    **dict.fromkeys(("AnalysisReport", "analyze_model"), "nlobs.workflows.analyze"),
+    **dict.fromkeys(("DemoConfig", "DemoReport", "gnss_ins_demo"), "nlobs.workflows.demo"),
+    **dict.fromkeys(("MonteCarloStudy", "SetValuedDesignReport", "SetValuedStudyReport", "design_setvalued_observer",
+                     "monte_carlo", "simulate_setvalued_observer"), "nlobs.workflows.setvalued"),
     **dict.fromkeys(
         ("DriftDesignReport", "DriftSimulation", "DriftWorkflowReport", "design_drift_observer", "design_drift_report",
          "simulate_drift"), "nlobs.workflows.design_drift"),
@@ -54,33 +76,44 @@ _LAZY: dict[str, str] = {
         ("PinvDesignReport", "PinvWorkflowReport", "design_pinv_observer", "design_pinv_report", "simulate_pinv"),
         "nlobs.workflows.design_pinv"),
     **dict.fromkeys(("GammaSweep", "GammaSweepRow", "gamma_sweep"), "nlobs.workflows.gamma_sweep"),
-    **dict.fromkeys(("BoxError", "SimulationRequest", "box_from_numbers", "escape_unsafe", "symbolic_model"),
-                    "nlobs.workflows.inputs"),
+    **dict.fromkeys(("BoxError", "SimulationRequest", "box_from_numbers", "symbolic_model"), "nlobs.workflows.inputs"),
+    "escape_unsafe": "nlobs._validate",
     "Verdict": "nlobs.workflows.verdict",
     "jsonable": "nlobs._io",
 }
 
 __all__ = [
+    "AnalysisReport",
     "BoxError",
+    "DemoConfig",
+    "DemoReport",
     "DriftDesignReport",
     "DriftSimulation",
     "DriftWorkflowReport",
     "GammaSweep",
     "GammaSweepRow",
+    "MonteCarloStudy",
     "PinvDesignReport",
     "PinvWorkflowReport",
+    "SetValuedDesignReport",
+    "SetValuedStudyReport",
     "SimulationRequest",
     "Verdict",
+    "analyze_model",
     "box_from_numbers",
     "design_drift_observer",
     "design_drift_report",
     "design_pinv_observer",
     "design_pinv_report",
+    "design_setvalued_observer",
     "escape_unsafe",
     "gamma_sweep",
+    "gnss_ins_demo",
     "jsonable",
+    "monte_carlo",
     "simulate_drift",
     "simulate_pinv",
+    "simulate_setvalued_observer",
     "symbolic_model",
 ]
 
