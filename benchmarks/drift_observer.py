@@ -1,4 +1,4 @@
-"""Cost of the drift-observability observer (seed 002): symbolic set-up and compiled run time.
+"""Cost of the drift-observability observer (Dalla Mora, Germani & Manes): symbolic set-up and compiled run time.
 
 Models: chains of Duffing oscillators ``p̈_k = −p_k − p_k³ − 0.2 ṗ_k + c (p_{k−1} − 2p_k + p_{k+1})``
 (free ends), ``y = p_1``, the input on the last oscillator (through a first-order

@@ -1,4 +1,4 @@
-"""Design speed of the seed-004 set-valued observer: one compiled problem vs a naive grid rebuilt per point.
+"""Design speed of the Khajenejad–Yong set-valued observer: one compiled problem vs a naive grid rebuilt per point.
 
 The issue's target: a full design of Example 6.1 (flexible-joint robot, Class II with Lemma 2.14's γ) at
 least 10× faster than a naive grid that rebuilds the problem per point, at the same objective to 1 %.
@@ -20,7 +20,7 @@ times, both objectives, the ratio, whether the 10× target is met, and why not w
 
 By default (``--no-printed`` skips it) also the comparison the issue describes for the paper's own
 formulation, Theorem 5.10 as printed (:func:`nlobs.synthesis.setvalued_printed.design_printed`:
-compiled once, α by bisection and golden section, ε coarse to fine) against facts.md's naive 575-point
+compiled once, α by bisection and golden section, ε coarse to fine) against a naive 575-point
 (α, ε₁, ε₂) grid rebuilt per point (``--printed-sample K`` times K of its points and extrapolates).
 
 Run ``python benchmarks/setvalued_design.py [--json] [--repeat R] [--no-printed] [--printed-sample K]``.
@@ -105,13 +105,13 @@ def printed_fast(system: DiscreteUISystem, M: np.ndarray) -> tuple[float, int, f
     return time.perf_counter() - t, d.solves, d.rho
 
 
-#: The naive grid of facts.md for the printed formulation: 23 α × 5 ε₁ × 5 ε₂ = 575 points.
+#: A naive grid for the printed formulation: 23 α × 5 ε₁ × 5 ε₂ = 575 points.
 NAIVE_ALPHAS = tuple(i / 23 for i in range(1, 24))
 NAIVE_EPS = (0.01, 0.1, 1.0, 10.0, 100.0)
 
 
 def printed_naive(system: DiscreteUISystem, M: np.ndarray, limit: int | None = None) -> tuple[float, int, float]:
-    """The (α, ε₁, ε₂) grid of facts.md, the CVXPY problem rebuilt (recompiled) at every point.
+    """A naive (α, ε₁, ε₂) grid, the CVXPY problem rebuilt (recompiled) at every point.
 
     ``limit`` times only the first ``limit`` points and extrapolates the time to the whole grid (the best
     ``ρ`` is then that of the points solved).
@@ -137,7 +137,7 @@ def main() -> None:
     ap.add_argument("--json", action="store_true")
     ap.add_argument("--repeat", type=int, default=1)
     ap.add_argument("--printed", action=argparse.BooleanOptionalAction, default=True,
-                    help="also benchmark Theorem 5.10 as printed against facts.md's grid (default; ~40 s)")
+                    help="also benchmark Theorem 5.10 as printed against a naive 575-point grid (default; ~40 s)")
     ap.add_argument("--printed-sample", type=int, default=None,
                     help="time only this many of the 575 naive points and extrapolate (default: all)")
     args = ap.parse_args()
@@ -167,7 +167,7 @@ def main() -> None:
                           f"{per_fast:.3f} s per solve of the fast design (verification included), so the "
                           f"ratio is {n_pts}·{per_rebuilt:.3f}/({f_solves}·{per_fast:.3f}) = {ratio:.1f}: a "
                           f"10x gain would need a grid of >= {math.ceil(TARGET * f_sec / per_rebuilt)} points or "
-                          "a compilation as slow as facts.md measured (0.08-0.18 s per problem)")
+                          "a compilation as slow as measured before (0.08-0.18 s per problem)")
     if args.printed:
         A = system.A
         M = np.block([[-np.eye(4), A], [A.T, -A.T @ A]])
@@ -175,7 +175,7 @@ def main() -> None:
         q_sec, q_pts, q_obj = printed_naive(system, M, args.printed_sample)
         out["printed"] = {"fast": {"seconds": round(p_sec, 3), "solves": p_solves, "rho": p_obj},
                           "naive_grid": {"seconds": round(q_sec, 3), "points": q_pts, "rho": q_obj,
-                                         "grid": "23 alpha x 5 eps1 x 5 eps2 (facts.md), rebuilt per point",
+                                         "grid": "23 alpha x 5 eps1 x 5 eps2, rebuilt per point",
                                          "extrapolated_from": args.printed_sample},
                           "speedup": q_sec / p_sec, "rho_ratio": p_obj / q_obj,
                           "target_met": q_sec / p_sec >= TARGET and p_obj <= (1 + TOL) * q_obj}
@@ -197,7 +197,7 @@ def main() -> None:
         print("Example 6.1 Class II, Theorem 5.10 as printed (the (α, ε1, ε2) search the issue describes)")
         print(f"  fast (compiled once, α line search, ε coarse to fine): {p['fast']['seconds']:7.3f} s, "
               f"{p['fast']['solves']:4d} solves, ρ {p['fast']['rho']:.6g}")
-        print(f"  naive (facts.md's 575-point grid, rebuilt per point): {g['seconds']:7.3f} s"
+        print(f"  naive (575-point grid, rebuilt per point): {g['seconds']:7.3f} s"
               f"{' (extrapolated from %d points)' % g['extrapolated_from'] if g['extrapolated_from'] else ''}, "
               f"ρ {g['rho']:.6g}")
         print(f"  ρ fast/naive {p['rho_ratio']:.4f}; speed-up {p['speedup']:.1f}x; target {TARGET:g}x at the same ρ "

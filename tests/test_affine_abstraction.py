@@ -1,4 +1,4 @@
-"""Affine abstraction (seed 004, Prop. 2.18, LP (3), form (6)): closed forms, certified bound, bad input."""
+"""Affine abstraction (Khajenejad & Yong, Prop. 2.18, LP (3), form (6)): closed forms, certified bound, bad input."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """``nlobs analyze`` on nonlinear models: the symbolic (seeds 002/003) part of the report.
 
 Expected values are derived by hand from the models (closed forms) or quoted from
-seed 003 (Example (21): r = 2, Q⁺ = (25), l = (26), [τ1, τ2] ≡ 0).
+Röbenack (Example (21): r = 2, Q⁺ = (25), l = (26), [τ1, τ2] ≡ 0).
 """
 
 from __future__ import annotations
@@ -37,9 +37,9 @@ def _write(tmp_path: Path, name: str, body: str) -> str:
 
 def test_example_21_relative_degree_rank_involutivity_and_gain_26() -> None:
     d = _json("analyze", "isidori-146")
-    assert d["observation_relative_degree"] == [2]  # L_g h = 0, L_g L_f h = 2 + 2 x3 (seed 003, Sec. 5)
+    assert d["observation_relative_degree"] == [2]  # L_g h = 0, L_g L_f h = 2 + 2 x3 (Röbenack, Sec. 5)
     assert d["observability_rank"] == 3  # x3 never reaches y: dL_f^k h never involves dx3
-    assert d["involutive"] is True  # [τ1, τ2] ≡ 0 (seed 003, Sec. 5)
+    assert d["involutive"] is True  # [τ1, τ2] ≡ 0 (Röbenack, Sec. 5)
     assert d["drift_observable"] is False  # rank 3 < 4: Q_s is singular everywhere
     names = {s: sp.Symbol(s, real=True) for s in ("x1", "x2", "x3", "x4", "k1", "k2")}
     got = [parse_expression(e, names) for e in d["pinv_gain"]]
@@ -79,7 +79,7 @@ h = ["x1", "x3"]
 def test_mimo_multi_index_and_relative_degrees(tmp_path: Path) -> None:
     # By hand: L_g x1 = 0, L_g L_f x1 = L_g x2 = 1 → r1 = 2; L_g x3 = 0, L_f x3 = −x3 + x1 x2,
     # L_g L_f x3 = x1 ≢ 0 → r2 = 2. Observability indices: dx1, dx3 (k = 0), dx2 (k = 1) → s = (2, 1),
-    # Q_s = I so Φ_s is a global diffeomorphism. Σ r = 4 > n: no seed-003 gain.
+    # Q_s = I so Φ_s is a global diffeomorphism. Σ r = 4 > n: no Röbenack gain.
     d = _json("analyze", _write(tmp_path, "mimo3", MIMO))
     assert d["observation_relative_degree"] == [2, 2]
     assert d["multi_index"] == [2, 1]

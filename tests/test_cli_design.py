@@ -27,7 +27,7 @@ def _write(tmp_path: Path, body: str) -> str:
 
 
 def test_pinv_high_gain_vector_is_the_closed_form_polynomial() -> None:
-    # θ = 2, roots −θ, −θ²: (λ + 2)(λ + 4) = λ² + 6λ + 8 → k = (6, 8) (seed 003 (10))
+    # θ = 2, roots −θ, −θ²: (λ + 2)(λ + 4) = λ² + 6λ + 8 → k = (6, 8) (Röbenack (10))
     d = _json("design", "pinv", "isidori-146")["design"]
     assert d["k"] == pytest.approx([6.0, 8.0])
     assert sorted(d["roots"]) == pytest.approx([-4.0, -2.0])
@@ -83,7 +83,7 @@ h = ["x1"]
 
 
 def test_pinv_refuses_a_model_violating_a1_with_status_3(tmp_path: Path) -> None:
-    # L_f h = x2², Q = [[1, 0], [0, 2 x2]]: dh, dL_f h dependent on x2 = 0 (seed 003 A1 fails).
+    # L_f h = x2², Q = [[1, 0], [0, 2 x2]]: dh, dL_f h dependent on x2 = 0 (Röbenack A1 fails).
     res = runner.invoke(app, ["design", "pinv", _write(tmp_path, FOLD)])
     assert res.exit_code == 3, res.output
     assert "A1 fails" in res.output and "det Q = 2*x2 changes sign" in res.output

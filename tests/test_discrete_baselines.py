@@ -1,4 +1,4 @@
-"""Baseline point observers for seed 004 (Sec. 6.2): discrete Lipschitz LMI observer and the unknown-input EKF."""
+"""Baseline point observers for Khajenejad & Yong (Sec. 6.2): discrete Lipschitz LMI observer and the unknown-input EKF."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Gains of the drift-observability observer (seed 002): Remark 2.11, (2.17) and its LMI."""
+"""Gains of the drift-observability observer (Dalla Mora, Germani & Manes): Remark 2.11, (2.17) and its LMI."""
 
 from __future__ import annotations
 

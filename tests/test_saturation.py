@@ -1,4 +1,4 @@
-"""Saturations of seed 001, Appendix A: identity on the box, bounded, smooth derivative."""
+"""Saturations of Grip, Saberi & Johansen, Appendix A: identity on the box, bounded, smooth derivative."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Monte Carlo containment of the truth in the balls of Algorithm 1 (seed 004), sound vs printed bounds.
+"""Monte Carlo containment of the truth in the balls of Algorithm 1 (Khajenejad & Yong), sound vs printed bounds.
 
 Every study draws 1000 seeded runs with noises in their balls, half of them exactly at the bound.
 The sound radii must contain the true state and unknown input at every step in 100 % of runs;
@@ -53,7 +53,7 @@ def test_example_61_printed_gains_and_bounds_are_reported(ex61) -> None:  # type
             res = containment_study(e, gain, runs=RUNS, steps=300, seed=0, radii=rad, label="printed")
         print(f"\n6.1 class {cls} printed gain: spectral radius {srad:.4g}; printed-bound containment "
               f"{res.rate_state:.3f} (state) {res.rate_input:.3f} (input); final printed radius {res.final_radius_state:.3g}")
-        assert srad > 1  # facts.md: the printed L~ destabilise the error dynamics (16)
+        assert srad > 1  # measured independently: the printed L~ destabilise the error dynamics (16)
 
 
 def test_unbounded_unknown_input_does_not_break_containment(ex61) -> None:  # type: ignore[no-untyped-def]

@@ -1,4 +1,4 @@
-"""Sound design of the seed-004 observer gain: error dynamics, certificate, failures."""
+"""Sound design of the Khajenejad–Yong observer gain: error dynamics, certificate, failures."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Seed 004 figures (Figs. 2-7 analogues, Sec. 6.2 claim, affine output): the runs behind them can fail."""
+"""Khajenejad & Yong figures (Figs. 2-7 analogues, Sec. 6.2 claim, affine output): the runs behind them can fail."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Seed 004 model data and function classes: validation, sampled Lipschitz estimates, class checks."""
+"""Khajenejad & Yong model data and function classes: validation, sampled Lipschitz estimates, class checks."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Seed 004 Theorem 5.10 as printed: the SDP runs, and what it accepts is not a stable observer."""
+"""Khajenejad & Yong Theorem 5.10 as printed: the SDP runs, and what it accepts is not a stable observer."""
 
 from __future__ import annotations
 

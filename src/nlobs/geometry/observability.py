@@ -1,7 +1,7 @@
 """Observability maps, observation relative degrees and the Brunovsky form (seeds 002, 003).
 
 For an input-affine model ``ẋ = f(x) + g(x) u``, ``y = h(x)`` with ``q`` outputs
-(seed 002 (1.1), seed 003 (1)):
+(Dalla Mora, Germani & Manes (1.1), Röbenack (1)):
 
 * Observability map of a multi-index ``s = (s_1, …, s_q)`` with ``Σ s_j = n``
   (002 (2.2)–(2.3))::
@@ -9,7 +9,7 @@ For an input-affine model ``ẋ = f(x) + g(x) u``, ``y = h(x)`` with ``q`` outpu
       Φ_s^j(x) = [h_j, L_f h_j, …, L_f^{s_j−1} h_j]ᵀ,   Φ_s = [Φ_s^1ᵀ … Φ_s^qᵀ]ᵀ
 
   and its Jacobian ``Q_s = ∂Φ_s/∂x`` (2.5). With ``s = r`` and ``Σ r_j < n`` the
-  same construction gives seed 003's reduced observability matrix ``Q`` (13).
+  same construction gives Röbenack's reduced observability matrix ``Q`` (13).
 * Observation relative degree ``r_j`` (002 Def. 2.5, 003 A1): the smallest
   integer with ``L_g L_f^{r_j−1} h_j ≢ 0`` on the region (``None`` when
   ``L_g L_f^k h_j`` vanishes for every ``k`` up to ``max_order``).
@@ -30,8 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import sympy as sp
-from numpy.typing import NDArray
 
+from nlobs._typing import Array
 from nlobs.errors import DimensionError, InvalidArgumentError, ModelError
 from nlobs.geometry.lie import lie_derivative_along_columns, lie_derivatives, tidy
 from nlobs.geometry.region import Box, ZeroTest, vanishes_on
@@ -40,7 +40,6 @@ from nlobs.systems.expressions import as_sympy_matrix, as_symbols
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.systems.timebase import Continuous
 
-Array = NDArray[np.float64]
 
 __all__ = [
     "AffineFields", "RelativeDegree", "brunovsky", "check_multi_index", "input_gain_structure", "lie_map",
@@ -161,29 +160,29 @@ def lie_map(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
 
 
 def observability_map(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
-    """``Φ_s(x)`` of seed 002 (2.2)–(2.3); ``s`` must sum to ``n``."""
+    """``Φ_s(x)`` of Dalla Mora, Germani & Manes (2.2)–(2.3); ``s`` must sum to ``n``."""
     return lie_map(fields, check_multi_index(s, fields.q, fields.n))
 
 
 def observability_jacobian(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
-    """``Q_s(x) = ∂Φ_s/∂x`` of seed 002 (2.5); ``s`` must sum to ``n``."""
+    """``Q_s(x) = ∂Φ_s/∂x`` of Dalla Mora, Germani & Manes (2.5); ``s`` must sum to ``n``."""
     return sp.ImmutableMatrix(observability_map(fields, s).jacobian(sp.Matrix(fields.x)).applyfunc(tidy))
 
 
 def reduced_observability_matrix(fields: AffineFields, r: Sequence[int]) -> sp.ImmutableMatrix:
-    """``Q(x) = [dh; dL_f h; …; dL_f^{r−1} h]`` of seed 003 (13), stacked over outputs."""
+    """``Q(x) = [dh; dL_f h; …; dL_f^{r−1} h]`` of Röbenack (13), stacked over outputs."""
     return sp.ImmutableMatrix(lie_map(fields, r).jacobian(sp.Matrix(fields.x)).applyfunc(tidy))
 
 
 def output_derivative_terms(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
-    """``L_s(x) = [L_f^{s_1} h_1, …, L_f^{s_q} h_q]ᵀ`` (seed 002, before (2.14))."""
+    """``L_s(x) = [L_f^{s_1} h_1, …, L_f^{s_q} h_q]ᵀ`` (Dalla Mora, Germani & Manes, before (2.14))."""
     s_ = check_multi_index(s, fields.q)
     return sp.ImmutableMatrix([fields.lie_chain(j, sj + 1)[-1] for j, sj in enumerate(s_)])
 
 
 @dataclass(frozen=True)
 class RelativeDegree:
-    """Observation relative degrees of every output (seed 002 Def. 2.5, seed 003 A1).
+    """Observation relative degrees of every output (Dalla Mora, Germani & Manes Def. 2.5, Röbenack A1).
 
     Attributes
     ----------
@@ -224,7 +223,7 @@ def observation_relative_degree(
     """Observation relative degree vector ``r`` on a region (default ``[−1, 1]ⁿ``).
 
     ``r_j`` is the smallest integer with ``L_g L_f^{r_j−1} h_j ≢ 0`` on the region
-    (seed 002 (2.8)). Each zero test is symbolic where SymPy proves it and numeric
+    (Dalla Mora, Germani & Manes (2.8)). Each zero test is symbolic where SymPy proves it and numeric
     (``samples`` seeded random points) otherwise; see :func:`vanishes_on`.
     """
     reg = region or Box.unit(fields.n)
@@ -252,7 +251,7 @@ def observation_relative_degree(
 def input_gain_structure(
     fields: AffineFields, s: Sequence[int], r: Sequence[int | None]
 ) -> tuple[sp.ImmutableMatrix, Array]:
-    """``(H_{s,r}(x), F_{s,r})`` of seed 002 (2.11)–(2.13), with ``Q_s g = F_{s,r} H_{s,r}``.
+    """``(H_{s,r}(x), F_{s,r})`` of Dalla Mora, Germani & Manes (2.11)–(2.13), with ``Q_s g = F_{s,r} H_{s,r}``.
 
     ``r_j = None`` (undefined relative degree) counts as ``s_j < r_j``: the output
     contributes no rows to ``H`` and zero rows to ``F``.

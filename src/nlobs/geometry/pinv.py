@@ -1,4 +1,4 @@
-"""The Moore–Penrose inverse of the reduced observability matrix (seed 003, Sec. 4).
+"""The Moore–Penrose inverse of the reduced observability matrix (Röbenack, Sec. 4).
 
 ``Q⁺(x) = Qᵀ (Q Qᵀ)⁻¹`` for ``Q`` of full row rank (A1), whose columns are the
 vector fields ``τ_1, …, τ_r`` (18); the gain vector field is ``l(x) = Q⁺(x) k`` (17).
@@ -52,7 +52,7 @@ def block_gain(r: Sequence[int], k: Sequence[sp.Expr | float]) -> sp.Matrix:
 
 
 def pinv_gain_field(Qp: sp.MatrixBase, r: Sequence[int], k: Sequence[sp.Expr | float] | None = None) -> sp.ImmutableMatrix:
-    """``l(x) = Q⁺(x) K`` (seed 003 (17)); ``n × q`` (a column for one output).
+    """``l(x) = Q⁺(x) K`` (Röbenack (17)); ``n × q`` (a column for one output).
 
     ``k`` defaults to the symbols ``k1, k2, …``.
     """

@@ -15,15 +15,15 @@ from typing import Literal
 
 import numpy as np
 import sympy as sp
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from nlobs._typing import Array
 from nlobs._validate import as_vector
 from nlobs.errors import InvalidArgumentError, NonFiniteError
 from nlobs.geometry.lie import simplify_bounded
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.expressions import as_sympy_expr, as_symbols
 
-Array = NDArray[np.float64]
 
 #: A numeric zero test calls a value zero when ``|value| ≤ ZERO_RTOL · Σ|terms|`` (cancellation level).
 ZERO_RTOL = 1e-9

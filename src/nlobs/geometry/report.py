@@ -1,9 +1,9 @@
 """The differential-geometric part of ``nlobs analyze`` for a nonlinear model.
 
-Per output the observation relative degree (seed 002 Def. 2.5 / seed 003 A1),
+Per output the observation relative degree (Dalla Mora, Germani & Manes Def. 2.5 / Röbenack A1),
 the generic rank of the observability codistribution, whether ``Φ_s`` for the
 default multi-index is a local diffeomorphism at sampled points (and the worst
-point), A1 and A5 of seed 003, and the Moore–Penrose gain field ``Q⁺(x) k`` (17).
+point), A1 and A5 of Röbenack, and the Moore–Penrose gain field ``Q⁺(x) k`` (17).
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ class GeometryReport:
     drift : Check or None
         Drift-observability for ``s`` (``None`` when ``Σ s_j < n``: not drift-observable).
     a1, a5 : Check or None
-        Seed 003's A1 and A5 (``None`` when a relative degree is undefined).
+        Röbenack's A1 and A5 (``None`` when a relative degree is undefined).
     pinv_gain : tuple of str or None
         ``Q⁺(x) k`` with ``k = (k1, k2, …)``: one string per state (one output), or one
         row of ``q`` strings per state (several outputs, ``K = blockdiag``).
@@ -98,7 +98,7 @@ class GeometryReport:
             if c is not None:
                 lines.append(f"  {c.summary()}")
         if self.pinv_gain is not None:
-            lines.append("  Moore–Penrose gain l(x) = Q⁺(x) k (seed 003 (17)):")
+            lines.append("  Moore–Penrose gain l(x) = Q⁺(x) k (Röbenack (17)):")
             for s, e in zip(self.states, self.pinv_gain):
                 lines.append(f"    l_{s} = {e if not isinstance(e, tuple) else ', '.join(e)}")
         lines.extend(f"  note: {t}" for t in self.notes)
@@ -135,7 +135,7 @@ def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: in
         r_ = rd.require(fields.outputs)
         a1 = check_a1(fields, r_, reg, seed=seed)
         if sum(r_) > fields.n:
-            notes.append(f"Σ r_j = {sum(r_)} > n: seed 003's decomposition needs Σ r_j ≤ n")
+            notes.append(f"Σ r_j = {sum(r_)} > n: Röbenack's decomposition needs Σ r_j ≤ n")
         elif a1.passed:
             Qp = symbolic_pinv(reduced_observability_matrix(fields, r_))
             a5 = check_involutive(fields, r_, reg, Qp=Qp, seed=seed)
@@ -145,6 +145,6 @@ def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: in
             else:
                 gain = tuple(tuple(str(e) for e in field_.row(i)) for i in range(fields.n))
     else:
-        notes.append("a relative degree is undefined on the region: seed 003's gain Q⁺k is not available")
+        notes.append("a relative degree is undefined on the region: Röbenack's gain Q⁺k is not available")
     return GeometryReport(reg, rd.r, tuple(evidence), rank, s, drift, a1, a5, gain, fields.outputs, fields.states,
                           tuple(notes))

@@ -1,4 +1,4 @@
-r"""Unknown-input decoupling of seed 004 (Appendix A.1, Lemma 5.1) and its structural checks.
+r"""Unknown-input decoupling of Khajenejad & Yong (Appendix A.1, Lemma 5.1) and its structural checks.
 
 :func:`ui_transform` computes the SVD ``H = [U₁ U₂] [[Σ, 0], [0, 0]] [V₁ V₂]ᵀ``
 (``p_H = rank H``; the cases ``p_H = 0`` and ``p_H = l`` give empty blocks), the
@@ -30,6 +30,7 @@ import numpy as np
 import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
+from nlobs._typing import Array
 from nlobs._validate import as_matrix, as_square, in_range, readonly
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import AssumptionViolated
@@ -39,7 +40,6 @@ from nlobs.linear.zeros import minimum_phase
 
 __all__ = ["UITransform", "ui_transform", "StructuralReport", "structural_check", "require_structure"]
 
-Array = NDArray[np.float64]
 _EPS = float(np.finfo(float).eps)
 
 

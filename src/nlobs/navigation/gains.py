@@ -1,6 +1,6 @@
 """Gains of the GNSS/INS observer (24): the paper's, and certified nlobs designs.
 
-Seed 001, Sec. 5. The linear part Σ2 of (21) is, on each NED axis, a double
+Grip, Saberi & Johansen, Sec. 5. The linear part Σ2 of (21) is, on each NED axis, a double
 integrator ``ṗ = v``, ``v̇ = z + g`` driven by ``z = aⁿ`` (the unmeasured input),
 with ``p, v`` measured (``C = [I 0; 0 I]``) or only ``p`` (Sec. 5.2,
 ``C = [I 0]``). The extended system (8c) therefore decouples into three
@@ -34,8 +34,9 @@ from functools import lru_cache
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from nlobs._typing import Array
 from nlobs._validate import as_matrix, positive
 from nlobs.errors import DimensionError, InvalidArgumentError
 from nlobs.synthesis import (
@@ -50,7 +51,6 @@ from nlobs.synthesis import (
     verify_observer_gain,
 )
 
-Array = NDArray[np.float64]
 
 __all__ = [
     "DEFAULT_GAMMA_N",

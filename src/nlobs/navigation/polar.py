@@ -28,12 +28,12 @@ Matrices for which the iteration is not the right tool — ``det M ≤ 10⁻⁶ 
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from nlobs._typing import Array
 from nlobs.errors import DimensionError
 from nlobs.navigation.so3 import project_so3
 
-Array = NDArray[np.float64]
 
 __all__ = ["nearest_rotation"]
 

@@ -19,12 +19,12 @@ single-flight form on Python floats is :func:`nlobs.navigation.split_kernel.exp_
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from nlobs._typing import Array
 from nlobs._validate import readonly
 from nlobs.errors import DimensionError
 
-Array = NDArray[np.float64]
 
 __all__ = [
     "skew",

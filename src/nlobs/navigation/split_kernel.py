@@ -38,9 +38,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
-Array = NDArray[np.float64]
+from nlobs._typing import Array
+
 
 __all__ = ["ScalarFlow", "SplitConstants", "exp_so3_scalar", "split_step"]
 

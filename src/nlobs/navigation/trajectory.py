@@ -41,15 +41,15 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from scipy.optimize import fsolve
 
+from nlobs._typing import Array
 from nlobs._validate import as_vector, positive
 from nlobs.errors import DesignInfeasible, InvalidArgumentError
 from nlobs.navigation.base import G0
 from nlobs.navigation.so3 import R_from_euler
 
-Array = NDArray[np.float64]
 
 __all__ = [
     "M_N_DEFAULT",

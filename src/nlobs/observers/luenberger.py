@@ -19,14 +19,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from nlobs._typing import Array
 from nlobs._validate import as_batch, as_matrix
 from nlobs.errors import InvalidArgumentError
 from nlobs.systems.linear import LinearSystem
 from nlobs.systems.timebase import TimeBase
-
-Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True, eq=False)

@@ -25,7 +25,7 @@ and ``V̄_k ← min(V̄_k, λ_max(P) δ_k²)``. The input radius is
 ``δᵈ_{k−1} = θ_d δ_{k−1} + r_d + α`` with ``d̃_{k−1} = F_ζζ + F_ππ + F_ωω``.
 
 :func:`printed_radii` evaluates Theorem 5.13 exactly as printed, for comparison
-only: it is not safe (facts.md).
+only: it is not safe (measured in ``docs/setvalued.md``).
 """
 
 from __future__ import annotations
@@ -36,10 +36,10 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from nlobs._typing import Array, BoolArray
-from nlobs._validate import as_finite_array, as_vector, positive, readonly
+from nlobs._validate import as_finite_array, positive, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError
 from nlobs.linear.transform_ui import UITransform, ui_transform
 from nlobs.synthesis.setvalued import SetValuedDesign
@@ -205,7 +205,7 @@ def sound_radii(system: DiscreteUISystem, design: SetValuedDesign, steps: int, *
 
 def printed_radii(system: DiscreteUISystem, L_tilde: ArrayLike, P: ArrayLike, rho: float, steps: int, *,
                   L_f: float | None = None, A_aux: ArrayLike | None = None, delta0: float | None = None) -> Radii:
-    r"""Theorem 5.13 **as printed** (for comparison; not safe, see facts.md and ``docs/setvalued.md``).
+    r"""Theorem 5.13 **as printed** (for comparison; not safe, see ``docs/setvalued.md``).
 
     ``δ_{k,1} = √(δ₀²θ₁ᵏ + ρ²/λ_min(P) (η_w² + η_v²) Σθ₁^{i−1})`` (31), ``θ₁ = |λ_max(P) − 1|/λ_min(P)`` (32),
     ``δ_{k,2} = δ₀θ₂ᵏ + η Σθ₂^{i−1}`` (33), ``η = ‖ℜ‖η_v + ‖ΨΦW‖η_w``,

@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-from numpy.typing import NDArray
 
+from nlobs._typing import Array
 from nlobs.errors import CertificateError, DesignInfeasible
 from nlobs.geometry import AffineFields, Box, input_gain_structure, observability_jacobian, observation_relative_degree
 from nlobs.observers import DriftObserver
@@ -51,7 +51,6 @@ from nlobs.systems import SymbolicModel, load_model
 from nlobs.systems.codegen import compile_matrix
 from nlobs.workflows.design_drift import DriftDesignReport, DriftSimulation, design_drift_report, simulate_drift
 
-Array = NDArray[np.float64]
 
 __all__ = [
     "DriftExample",
@@ -368,7 +367,7 @@ def rows() -> list[ReproRow]:
                         f"bracket ({w1.bracket[0]:.5g}, {w1.bracket[1]:.5g}); λ_max(D L D) = {w1.certificate.lhs_max_eig_scaled:.3g}, "
                         f"cn(P) = {w1.certificate.cond_P:.4g}, ‖K‖ = {w1.certificate.gain_norm:.4g}"))
     sdp1 = design_drift_gain_sdp(c1)
-    out.append(ReproRow("SDP design (facts.md LMI in S = P⁻¹, Y = SK), same constants: ‖K‖, cn(P)", None,
+    out.append(ReproRow("SDP design (LMI in S = P⁻¹, Y = SK), same constants: ‖K‖, cn(P)", None,
                         [_r(sdp1.gain_norm), _r(sdp1.cond_P)],
                         f"derived; verified by eig of (2.17) scaled: λ_max(D L D) = {sdp1.lhs_max_eig_scaled:.3g}; Vandermonde at w*: "
                         f"‖K‖ = {w1.certificate.gain_norm:.4g}, cn(P) = {w1.certificate.cond_P:.4g}"))

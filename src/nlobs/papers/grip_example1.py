@@ -39,6 +39,7 @@ import numpy as np
 import sympy as sp
 from numpy.typing import NDArray
 
+from nlobs._typing import Array
 from nlobs.linear import Assumption4Report, check_assumption4, hinf_norm
 from nlobs.observers import CascadeObserver
 from nlobs.simulate import SimulationResult, simulate
@@ -54,7 +55,6 @@ from nlobs.synthesis import (
 from nlobs.systems import LinearSubsystem, NonlinearSubsystem, interconnected_plant
 from nlobs.workflows import GammaSweep, gamma_sweep
 
-Array = NDArray[np.float64]
 
 __all__ = [
     "A1",

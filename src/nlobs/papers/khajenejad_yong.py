@@ -1,4 +1,4 @@
-r"""Seed 004 (Khajenejad & Yong), Section 6: the two examples as printed, and Monte Carlo containment.
+r"""Khajenejad & Yong, Section 6: the two examples as printed, and Monte Carlo containment.
 
 * :func:`example_61` — single-link flexible-joint robot (Sec. 6.1), ``n = 4``,
   ``T_s = 0.01``, Classes 0, I, II with the paper's constants and printed
@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nlobs._typing import Array
 from nlobs._io import atomic_write
 from nlobs._validate import positive
 from nlobs.errors import InvalidArgumentError
@@ -62,7 +63,6 @@ __all__ = [
     "reproduce",
 ]
 
-Array = NDArray[np.float64]
 TS = 0.01
 
 

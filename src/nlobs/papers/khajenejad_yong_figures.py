@@ -1,4 +1,4 @@
-r"""Seed 004, Sec. 6: figures like the paper's Figs. 2-7, each runner a function returning a frozen result.
+r"""Khajenejad & Yong, Sec. 6: figures like the paper's Figs. 2-7, each runner a function returning a frozen result.
 
 * :func:`fig_61_states` (Fig. 2): Example 6.1, states ``x₁..x₄`` and the unknown input ``d`` with their
   set-valued estimates (Class II with Lemma 2.14's ``γ``, and nlobs's structured Class 0 multiplier) and
@@ -27,8 +27,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from numpy.typing import NDArray
 
+from nlobs._typing import Array
 from nlobs.papers.khajenejad_yong import PaperExample, example_61
 from nlobs.simulate.setvalued import ContainmentResult, ball_samples, containment_of, simulate_batch
 from nlobs.simulate.setvalued_plots import plot_errors_vs_radii, save_figure
@@ -57,8 +57,6 @@ __all__ = [
     "fig_affine_output",
     "make_figures",
 ]
-
-Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -33,8 +33,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import sympy as sp
-from numpy.typing import NDArray
 
+from nlobs._typing import Array
 from nlobs.errors import ModelError, SimulationDiverged
 from nlobs.geometry import (
     AffineFields,
@@ -55,7 +55,6 @@ from nlobs.systems.expressions import as_sympy_matrix
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-Array = NDArray[np.float64]
 
 #: High-gain parameter of the example's runs: roots −θ, −θ² of (10), k = (12, 27).
 THETA = 3.0
@@ -422,7 +421,7 @@ def rows(*, duration: float = DURATION, dt: float = DT) -> list[ReproRow]:
         ReproRow("L_g h (Sec. 5)", "0", str(s.lg_h)),
         ReproRow("L_g L_f h (Sec. 5)", "2(1 + x3)", str(s.lg_lf_h),
                  "vanishes at x3 = −1: the relative degree is not uniform there"),
-        ReproRow("L_g L_f² h", None, str(s.lg_lf2_h), "derived (facts.md: 4x1²(x3+1))"),
+        ReproRow("L_g L_f² h", None, str(s.lg_lf2_h), "derived by hand: 4x1²(x3+1)"),
         ReproRow("observation relative degree r (A1)", 2, s.r),
         ReproRow("generic rank of span{dL_f^k h}", None, s.observability_rank,
                  "derived: 3 < n = 4; x3 is unobservable and x̂3 converges only through ẋ3 = −x3 + u (A4)"),

@@ -23,14 +23,14 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 from scipy.integrate import solve_ivp
 
+from nlobs._typing import Array
 from nlobs._validate import as_finite_array, positive
 from nlobs.errors import DimensionError, InvalidArgumentError
 from nlobs.simulate.state import tree_map
 
-Array = NDArray[np.float64]
 VectorField = Callable[[float, Array], Array]
 JointField = Callable[[float, tuple[Array, ...]], tuple[Array, ...]]
 

@@ -9,12 +9,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
+from nlobs._typing import Array
 from nlobs._validate import positive
 from nlobs.errors import DimensionError, InvalidArgumentError
-
-Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True)

@@ -23,10 +23,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nlobs._typing import Array
 from nlobs._validate import as_finite_array, positive
 from nlobs.errors import DimensionError, InvalidArgumentError, UnknownNameError
 
-Array = NDArray[np.float64]
 
 #: Relative tolerance on ``1 / (rate dt)`` being an integer.
 STRIDE_RTOL = 1e-6

@@ -51,7 +51,7 @@ def plot_errors_vs_radii(results: tuple[ContainmentResult, ...], path: str | Pat
 
 
 def plot_trajectories(batch: SimulationResult, path: str | Path, *, run: int = 0, title: str = "") -> Path:
-    """States, unknown inputs, their estimates and the balls over time for one run (like seed 004, Figs. 2-5).
+    """States, unknown inputs, their estimates and the balls over time for one run (like Khajenejad & Yong, Figs. 2-5).
 
     The ball ``‖x − x̂‖ ≤ δˣ`` is drawn per component as the interval ``x̂ᵢ ± δˣ`` (a projection of the ball).
     """

@@ -13,12 +13,12 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from nlobs._typing import Array
 from nlobs._validate import as_finite_array, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError
 
-Array = NDArray[np.float64]
 InputFunction = Callable[[float], Array]
 
 

@@ -1,4 +1,4 @@
-r"""Affine abstraction of a nonlinear observation function on a box (seed 004, Prop. 2.18, (3), (5), (6)).
+r"""Affine abstraction of a nonlinear observation function on a box (Khajenejad & Yong, Prop. 2.18, (3), (5), (6)).
 
 For a function :math:`q: \mathcal B \subset \mathbb R^{n} \to \mathbb R^{p}` on a box
 :math:`\mathcal B = [\underline z, \overline z]` this module computes an upper and a lower
@@ -7,7 +7,7 @@ affine abstraction
 .. math:: \underline A z + \underline e \;\le\; q(z) \;\le\; \overline A z + \overline e
           \qquad \forall z \in \mathcal B \qquad (5)
 
-from the linear program (3) of seed 004, solved with SciPy's HiGHS, one program per
+from the linear program (3) of Khajenejad & Yong, solved with SciPy's HiGHS, one program per
 output component :math:`i`:
 
 .. math::
@@ -77,8 +77,9 @@ from enum import Enum
 import numpy as np
 import scipy.optimize
 import scipy.sparse
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from nlobs._typing import Array
 from nlobs._validate import as_finite_array, as_vector, positive
 from nlobs.errors import (
     AssumptionViolated,
@@ -90,7 +91,6 @@ from nlobs.errors import (
 
 __all__ = ["AbstractionBound", "AffineAbstraction", "affine_abstraction"]
 
-Array = NDArray[np.float64]
 
 _MAX_GRID_POINTS = 200_000
 _MAX_DIM = 12
@@ -355,7 +355,7 @@ def affine_abstraction(
     n_check: int = 10_000,
     seed: int = 0,
 ) -> AffineAbstraction:
-    r"""Affine abstraction of ``q`` on the box ``[lower, upper]`` (seed 004, Prop. 2.18, LP (3), form (6)).
+    r"""Affine abstraction of ``q`` on the box ``[lower, upper]`` (Khajenejad & Yong, Prop. 2.18, LP (3), form (6)).
 
     Parameters
     ----------

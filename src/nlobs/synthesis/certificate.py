@@ -145,7 +145,7 @@ class Objective(Enum):
     (the analytic centre): a finite, well-conditioned gain deep inside the set.
     Needs a bounded set (``gamma_n`` with LMI (15), or a gain bound)."""
     MIN_GAMMA_N = "min_gamma_n"
-    """Minimise ``γn²`` subject to (14), (15) (seed 001, Sec. 3.2) — raises
+    """Minimise ``γn²`` subject to (14), (15) (Grip, Saberi & Johansen, Sec. 3.2) — raises
     :class:`~nlobs.errors.DesignUnbounded` when the minimum is not attained."""
     MIN_GAMMA = "min_gamma"
     """Minimise ``γ²`` subject to (14) (and the other constraints) — same detection."""
@@ -164,7 +164,7 @@ class CertificateStatus(Enum):
 class ObserverGainCertificate(CertificateMixin):
     """A verified (or, from :func:`verify_observer_gain` with ``strict=False``, failed) observer gain.
 
-    Error dynamics ``ẇ = (A − K C) w + B_d d − K N n`` (seed 001, (12a)),
+    Error dynamics ``ẇ = (A − K C) w + B_d d − K N n`` (Grip, Saberi & Johansen, (12a)),
     ``H(s) = (sI − A + K C)⁻¹ B_d`` (13), ``G(s) = −(sI − A + K C)⁻¹ K N``.
 
     A :class:`Certificate`; :attr:`status` (``VERIFIED`` or ``FAILED``) follows from the checks.

@@ -1,4 +1,4 @@
-r"""Gain of a discrete-time Lipschitz point observer by an LMI (baseline for seed 004, Sec. 6.2).
+r"""Gain of a discrete-time Lipschitz point observer by an LMI (baseline for Khajenejad & Yong, Sec. 6.2).
 
 Plant and observer (the unknown input ``d`` is ignored by the observer, as such
 observers do; see ``docs/baselines.md``):
@@ -52,8 +52,9 @@ from typing import Any
 
 import cvxpy as cp
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from nlobs._typing import Array
 from nlobs._validate import as_matrix, as_square, in_range, positive
 from nlobs.errors import CertificateError, DesignInfeasible
 from nlobs.checks import Check, CheckKind
@@ -61,8 +62,6 @@ from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.synthesis.lmi import Solver, as_solver, bmat, max_eig, solve, symmetrise
 
 __all__ = ["DiscreteLipschitzCertificate", "design_discrete_lipschitz_gain", "verify_discrete_lipschitz_gain"]
-
-Array = NDArray[np.float64]
 
 
 @dataclass(frozen=True, eq=False)

@@ -1,4 +1,4 @@
-r"""Gains of the drift-observability observer (Dalla Mora, Germani & Manes, seed 002).
+r"""Gains of the drift-observability observer (Dalla Mora, Germani & Manes).
 
 The observer (3.1) needs a gain ``K`` (``n × q``) and a matrix ``P ≻ 0`` solving the
 H∞ Riccati-like inequality (2.17)
@@ -77,6 +77,7 @@ import cvxpy as cp
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nlobs._typing import Array
 from nlobs._validate import as_matrix, positive, readonly
 from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
 from nlobs.checks import Check, CheckKind
@@ -85,7 +86,6 @@ from nlobs.systems.brunovsky import brunovsky as brunovsky_triple
 from nlobs.systems.brunovsky import positive_multi_index
 from nlobs.synthesis.lmi import Solver, SolveStatus, as_enum, as_solver, bmat, max_eig, solve, symmetrise
 
-Array = NDArray[np.float64]
 
 __all__ = [
     "ROUNDING_FACTOR",

@@ -84,7 +84,7 @@ _STATUS_MAP = {
 }
 
 # SCS's defaults (eps 1e-4) are too loose for certificates: one "optimal" SCS
-# answer on the seed-001 example had a non-Hurwitz closed loop. Tighter
+# answer on the Grip–Saberi–Johansen example had a non-Hurwitz closed loop. Tighter
 # tolerances with an iteration cap (~1 s on small problems); SCS answers are
 # re-verified like any other and often end "optimal_inaccurate" on log-det
 # (exponential-cone) objectives.

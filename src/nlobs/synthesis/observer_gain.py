@@ -44,7 +44,7 @@ import cvxpy as cp
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_matrix, as_square, positive
+from nlobs._validate import as_matrix, as_square, positive, readonly
 from nlobs.errors import (
     CertificateError,
     DesignInfeasible,
@@ -631,8 +631,8 @@ def design_observer_gain(
 
     checks, hH, hG, eigs = _certify(d, sol.K, sol.P, sol.gamma, sol.gamma_n)
     cert = ObserverGainCertificate(
-        gain=_ro(sol.K), P=_ro(sol.P), gamma=sol.gamma, gamma_n=sol.gamma_n, hinf_H=hH, hinf_G=hG,
-        eigenvalues=_ro(eigs), checks=tuple(checks), objective=obj, solver=slv,
+        gain=readonly(sol.K, None), P=readonly(sol.P, None), gamma=sol.gamma, gamma_n=sol.gamma_n, hinf_H=hH, hinf_G=hG,
+        eigenvalues=readonly(eigs, None), checks=tuple(checks), objective=obj, solver=slv,
         solver_status=sol.result.raw_status, margin=eps, seconds=time.perf_counter() - t0,
     )
     if not cert.verified:
@@ -723,16 +723,11 @@ def verify_observer_gain(
     checks = extra + checks
     ok = all(c.passed for c in checks)
     cert = ObserverGainCertificate(
-        gain=_ro(K_), P=None if P_val is None else _ro(P_val), gamma=g, gamma_n=gn, hinf_H=hH, hinf_G=hG,
-        eigenvalues=_ro(eigs), checks=tuple(checks), objective=None, solver=slv, solver_status=raw,
+        gain=readonly(K_, None), P=None if P_val is None else readonly(P_val, None), gamma=g, gamma_n=gn,
+        hinf_H=hH, hinf_G=hG,
+        eigenvalues=readonly(eigs, None), checks=tuple(checks), objective=None, solver=slv, solver_status=raw,
         margin=eps, seconds=time.perf_counter() - t0,
     )
     if strict and not ok:
         raise CertificateError(f"the given gain K failed verification: {_failure_text(checks)}")
     return cert
-
-
-def _ro(a: NDArray[Any]) -> NDArray[Any]:
-    out = np.array(a)
-    out.setflags(write=False)
-    return out

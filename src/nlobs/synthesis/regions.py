@@ -8,7 +8,7 @@ of a real matrix ``F`` lie in ``D`` iff there is ``P ≻ 0`` with
 
 (They write it with ``F X``, ``X = P⁻¹``; for the observer we apply it to ``Fᵀ``,
 which has the same eigenvalues, and every region here is symmetric about the
-real axis.) For ``F = A − K C`` and ``X = P K`` (seed 001, LMI (14)) the product
+real axis.) For ``F = A − K C`` and ``X = P K`` (Grip, Saberi & Johansen, LMI (14)) the product
 ``P F = P A − X C`` is affine in ``(P, X)``, so a region constraint with the
 *same* ``P`` as LMIs (14)/(15) is again an LMI — this is the "common Lyapunov
 matrix" multi-objective design the paper mentions in Sec. 3.2.

@@ -1,4 +1,4 @@
-r"""Sound gain design for the set-valued unknown-input observer of seed 004 (Khajenejad & Yong).
+r"""Sound gain design for the set-valued unknown-input observer of Khajenejad & Yong,.
 
 The error dynamics (16) of the observer (10)-(15), with ``f = A x + φ`` and
 the gains of Lemma 5.1, is (derived in ``docs/setvalued.md``)
@@ -54,7 +54,7 @@ eigensolver and a bisection) allow a relative ``1e-7``. A failed check raises
 of cost).
 
 The paper's printed LMIs (18), (26)-(28) are *not* implemented as a design here:
-they are not sufficient (``../shared/guide/facts.md``).
+they are not sufficient (measured in ``docs/setvalued.md``).
 """
 
 from __future__ import annotations
@@ -69,8 +69,8 @@ from typing import Any
 
 import cvxpy as cp
 import numpy as np
-from numpy.typing import NDArray
 
+from nlobs._typing import Array
 from nlobs._validate import in_range, positive, readonly
 from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
 from nlobs.linear.norms import hinf_norm
@@ -97,8 +97,6 @@ __all__ = [
     "design_setvalued",
     "verify_setvalued",
 ]
-
-Array = NDArray[np.float64]
 
 
 class SetValuedObjective(str, Enum):
@@ -562,7 +560,7 @@ def design_setvalued(
     lpv: LPVMode | str = LPVMode.VERTICES,
     structure: StructuralReport | None = None,
 ) -> SetValuedDesign:
-    r"""Design and certify ``L̃`` for the observer (10)-(15) of seed 004 (sound replacement of Thms. 5.4/5.10).
+    r"""Design and certify ``L̃`` for the observer (10)-(15) of Khajenejad & Yong (sound replacement of Thms. 5.4/5.10).
 
     Parameters
     ----------

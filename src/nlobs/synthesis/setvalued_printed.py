@@ -1,6 +1,6 @@
-r"""Seed 004's Theorems 5.4 and 5.10, Proposition 5.6 and Proposition 5.16 **as printed**, for comparison.
+r"""Khajenejad & Yong's Theorems 5.4 and 5.10, Proposition 5.6 and Proposition 5.16 **as printed**, for comparison.
 
-These LMIs are *not* a sound design (``../shared/guide/facts.md``; ``docs/setvalued.md``): a gain they
+These LMIs are *not* a sound design (measured in ``docs/setvalued.md``): a gain they
 accept can give unstable error dynamics. :func:`design_printed` solves the SDP of Theorem 5.10,
 
 .. math:: (\rho^\star)^2 = \min \rho^2 \ \text{s.t. (18), (26)-(28)},
@@ -44,8 +44,9 @@ from typing import Any
 
 import cvxpy as cp
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from nlobs._typing import Array
 from nlobs._validate import as_matrix, as_square, as_symmetric, positive, readonly
 from nlobs.checks import Check, CheckKind
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
@@ -67,9 +68,6 @@ __all__ = [
     "NecessaryConditionPrinted",
     "necessary_condition_printed",
 ]
-
-Array = NDArray[np.float64]
-
 
 
 def _sym(X: Any) -> Any:

@@ -9,12 +9,9 @@ from __future__ import annotations
 
 from typing import Protocol, runtime_checkable
 
-import numpy as np
-from numpy.typing import NDArray
 
+from nlobs._typing import Array
 from nlobs.systems.timebase import TimeBase
-
-Array = NDArray[np.float64]
 
 
 @runtime_checkable

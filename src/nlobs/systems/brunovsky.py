@@ -1,4 +1,4 @@
-"""The block-diagonal Brunovsky triple of a multi-index (seed 002 (2.16)).
+"""The block-diagonal Brunovsky triple of a multi-index (Dalla Mora, Germani & Manes (2.16)).
 
 Used by the symbolic layer (``geometry``: the form (2.15) of a drift-observable model)
 and by gain synthesis (``synthesis.drift_gain``: inequality (2.17)), so it lives here,
@@ -10,11 +10,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from numpy.typing import NDArray
 
+from nlobs._typing import Array
 from nlobs.errors import InvalidArgumentError
-
-Array = NDArray[np.float64]
 
 
 def positive_multi_index(s: Sequence[int], name: str = "s") -> tuple[int, ...]:
@@ -29,7 +27,7 @@ def positive_multi_index(s: Sequence[int], name: str = "s") -> tuple[int, ...]:
 
 
 def brunovsky(s: Sequence[int]) -> tuple[Array, Array, Array]:
-    """``(A_s, B_s, C_s)`` of seed 002 (2.16): ``n × n``, ``n × q``, ``q × n`` with ``n = Σ s_j``.
+    """``(A_s, B_s, C_s)`` of Dalla Mora, Germani & Manes (2.16): ``n × n``, ``n × q``, ``q × n`` with ``n = Σ s_j``.
 
     Block ``j``: ``A_j`` the ``s_j × s_j`` upper shift, ``B_j = e_{s_j}``, ``C_j = e_1ᵀ``.
     """

@@ -16,12 +16,11 @@ from typing import Any, Callable
 
 import numpy as np
 import sympy as sp
-from numpy.typing import NDArray
 
+from nlobs._typing import Array
 from nlobs.errors import DimensionError, ModelError
 from nlobs.systems.expressions import as_sympy_matrix, as_symbols
 
-Array = NDArray[np.float64]
 
 _NUMPY_MODULES: list[Any] = [{"Abs": np.abs, "sign": np.sign}, "numpy"]
 

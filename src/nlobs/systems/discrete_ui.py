@@ -1,6 +1,6 @@
-r"""Discrete-time systems with unknown inputs and their function classes (seed 004, Secs. 2-3).
+r"""Discrete-time systems with unknown inputs and their function classes (Khajenejad & Yong, Secs. 2-3).
 
-The model (seed 004, (8)) is
+The model (Khajenejad & Yong, (8)) is
 
 .. math::
 
@@ -40,8 +40,9 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
+from nlobs._typing import Array
 from nlobs._validate import as_batch, as_matrix, as_square, as_symmetric, as_vector, positive, readonly
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, NonFiniteError
@@ -66,7 +67,6 @@ __all__ = [
     "qc_linear_members",
 ]
 
-Array = NDArray[np.float64]
 NonlinearPart = Callable[[Array], Array]
 
 
@@ -76,7 +76,7 @@ NonlinearPart = Callable[[Array], Array]
 
 @dataclass(frozen=True)
 class QuadraticConstraint:
-    r"""Class 0: ``φ`` is ``(M, γ)``-QC (seed 004, Definition 2.6, (2)).
+    r"""Class 0: ``φ`` is ``(M, γ)``-QC (Khajenejad & Yong, Definition 2.6, (2)).
 
     ``[Δφ; Δx]ᵀ M [Δφ; Δx] ≥ γ`` for all ``x₁, x₂`` (``Δφ`` first, as in the paper).
 
@@ -404,7 +404,7 @@ def qcstar_from_bounded_split(A_aux: ArrayLike, r: float) -> QCStar:
 
 @dataclass(frozen=True)
 class DiscreteUISystem:
-    r"""``x⁺ = A x + φ(x) + B u + G d + W w``, ``y = C x + D u + H d + v`` (seed 004, (8)).
+    r"""``x⁺ = A x + φ(x) + B u + G d + W w``, ``y = C x + D u + H d + v`` (Khajenejad & Yong, (8)).
 
     Parameters
     ----------
@@ -735,7 +735,7 @@ def check_function_class(phi: NonlinearPart, function_class: FunctionClass, lo: 
                          n_pairs: int = 20_000, seed: int = 0, rtol: float = 1e-9) -> Check:
     """Search sampled pairs in ``[lo, hi]`` for one that violates the claimed class of ``phi``.
 
-    The margin of a pair is ``[Δφ; Δx]ᵀ M [Δφ; Δx] − γ`` (seed 004, (2)); a
+    The margin of a pair is ``[Δφ; Δx]ᵀ M [Δφ; Δx] − γ`` (Khajenejad & Yong, (2)); a
     margin below ``−rtol (‖Δφ‖² + ‖Δx‖²) − rtol`` counts as a violation. For
     :class:`LPV` the margin is ``−d²``, ``d`` the distance of ``Δφ`` from the polytope
     ``{Σλᵢ Aᵢ Δx}`` (:meth:`LPV.polytope_gap`): the difference quotient of every pair must be a

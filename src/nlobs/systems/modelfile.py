@@ -17,7 +17,7 @@ A nonlinear model::
 A linear model replaces ``[dynamics]`` by ``[linear]`` with numeric ``A``,
 ``B``, ``C`` and optional ``D`` (names are then optional).
 
-A discrete-time model with **unknown inputs** (seed 004, (8)) adds the tables
+A discrete-time model with **unknown inputs** (Khajenejad & Yong, (8)) adds the tables
 ``[unknown_inputs]``, ``[noise]``, ``[initial]`` and ``[function_class]``; they
 are read by :func:`load_discrete_ui`, which returns a
 :class:`~nlobs.systems.discrete_ui.DiscreteUISystem` (``load_model`` reads the
@@ -558,7 +558,7 @@ def _linear(src: _Source, data: Mapping[str, Any], name: str, time: TimeBase) ->
         raise src.error(str(exc), key="linear") from None
 
 
-# ------------------------------------------------------------- unknown-input models (seed 004)
+# ------------------------------------------------------------- unknown-input models (Khajenejad & Yong)
 _UI_INPUT_KEYS = {"G", "H", "bounded", "growing"}
 _UI_NOISE_KEYS = {"W", "eta_w", "eta_v"}
 _UI_INITIAL_KEYS = {"centre", "radius"}
@@ -573,7 +573,7 @@ class DiscreteUIModel:
     Attributes
     ----------
     system : DiscreteUISystem
-        The model (8) of seed 004 with its noise bounds, initial ball and function class.
+        The model (8) of Khajenejad & Yong with its noise bounds, initial ball and function class.
     signals : mapping of str to callable
         Unknown-input signals for simulations, ``"bounded"`` and ``"growing"``:
         ``t`` of shape ``(K + 1,)`` (seconds) → ``d`` of shape ``(K + 1, p)``; the
@@ -608,7 +608,7 @@ def load_discrete_ui(path: str | Path) -> DiscreteUISystem:
     Returns
     -------
     DiscreteUISystem
-        ``x⁺ = A x + φ(x) + B u + G d + W w``, ``y = C x + D u + H d + v`` (seed 004, (8)).
+        ``x⁺ = A x + φ(x) + B u + G d + W w``, ``y = C x + D u + H d + v`` (Khajenejad & Yong, (8)).
 
     Raises
     ------
@@ -722,7 +722,7 @@ def _linear_output(src: _Source, model: SymbolicModel, params: Mapping[str, floa
     for i in range(h.shape[0]):
         if Cs[i, :].free_symbols or (model.m and Ds[i, :].free_symbols) or rest[i] != 0:
             raise src.error("[dynamics].h must be linear in the states and inputs (y = C x + D u + H d + v, "
-                            "seed 004 (8)); put a nonlinear output through an affine abstraction first",
+                            "Khajenejad & Yong (8)); put a nonlinear output through an affine abstraction first",
                             key="h", string=str(model.h[i]), text=str(model.h[i]))
     return np.array(Cs, dtype=float).reshape(h.shape[0], model.n), np.array(Ds, dtype=float).reshape(h.shape[0], model.m)
 
@@ -786,7 +786,7 @@ def _function_class(src: _Source, fc: Mapping[str, Any], model: Model, params: M
     kind = fc.get("kind")
     if kind not in _UI_CLASS_CONSTANTS:
         raise src.table_error("function_class", "kind",
-                              "[function_class].kind must be \"0\", \"I\", \"II\" or \"III\" (seed 004, Classes 0-III)",
+                              "[function_class].kind must be \"0\", \"I\", \"II\" or \"III\" (Khajenejad & Yong, Classes 0-III)",
                               repr(kind))
     extra = sorted(set(fc) & (set().union(*_UI_CLASS_CONSTANTS.values()) - _UI_CLASS_CONSTANTS[kind]))
     if extra:

@@ -1,4 +1,4 @@
-r"""Saturations that make local Lipschitz conditions global (seed 001, Appendix A).
+r"""Saturations that make local Lipschitz conditions global (Grip, Saberi & Johansen, Appendix A).
 
 If the signals ``u, u̇, x, z`` are known to stay in compact sets, the global
 Lipschitz-type Assumptions 2 and 3 of Grip, Saberi & Johansen can be obtained from
@@ -41,10 +41,10 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nlobs._typing import Array
 from nlobs._validate import as_batch, as_vector, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError
 
-Array = NDArray[np.float64]
 
 __all__ = ["Saturation", "SmoothSaturation"]
 

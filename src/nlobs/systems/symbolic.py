@@ -17,15 +17,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import sympy as sp
-from numpy.typing import NDArray
 
+from nlobs._typing import Array
 from nlobs._validate import check_names
 from nlobs.errors import DimensionError, ModelError, NonFiniteError, UnknownNameError
 from nlobs.systems.codegen import BatchedFunction, compile_matrix
 from nlobs.systems.expressions import as_sympy_matrix
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
-
-Array = NDArray[np.float64]
 
 
 def _canonical(mat: sp.MatrixBase, known: Mapping[str, sp.Symbol]) -> sp.ImmutableMatrix:

@@ -1,13 +1,11 @@
-"""Matrix-valued states as vectors: ``vec`` stacks columns (seed 001, Sec. 3 and 5: ``x = vec R``)."""
+"""Matrix-valued states as vectors: ``vec`` stacks columns (Grip, Saberi & Johansen, Sec. 3 and 5: ``x = vec R``)."""
 
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import NDArray
 
+from nlobs._typing import Array
 from nlobs.errors import DimensionError
-
-Array = NDArray[np.float64]
 
 
 def vec(M: Array) -> Array:
