@@ -23,16 +23,20 @@ The protocol
 instant where at least one output was sampled (``fresh[j]`` is True for a new sample of output
 ``j``), before the estimate at that instant is recorded (an EKF update at a GNSS fix). A
 non-finite entry of ``y`` at a sampled output is a missing sample *for that batch member*: a
-correcting observer must skip it there (it keeps its previous information).
+correcting observer skips it there (it keeps its previous information), or, when skipping would
+void what it guarantees, refuses it with a typed error naming the time (the set-valued observer of
+Khajenejad & Yong: Algorithm 1 and its radii need every output at every step).
 
 Optional capabilities
 ---------------------
 The loops look for these methods and use them when present (each is a small protocol below):
 
-* :class:`SelfStepping` — ``step(t, z, u, y, h)``: the observer's own discretisation of its
-  continuous dynamics over ``[t, t + h]`` with ``u`` and ``y`` held (an exact or split
-  integrator, e.g. the Strang split of the GNSS/INS observer and its fused single-flight kernel).
-  A continuous observer that has it is advanced by it instead of by RK4 on ``rhs``.
+* :class:`SelfStepping` — ``step(t, z, u, y, h)``: the observer's own advance over ``[t, t + h]``
+  with ``u`` and ``y`` held: its discretisation of the continuous dynamics (an exact or split
+  integrator, e.g. the Strang split of the GNSS/INS observer and its fused single-flight kernel)
+  and, for a filter, the fusion of input-rate channels that ``rhs`` leaves out (the navigation
+  EKF fuses the magnetometer, an input channel, after its prediction). A continuous observer
+  that has it is advanced by it instead of by RK4 on ``rhs``.
 * :class:`Diagnosing` — ``diagnostics(z, u)``: named arrays recorded at every saved step as
   extras of the result (radii, covariance diagonals, raw attitude...).
 * :class:`DeferredEstimate` — ``raw_estimate(z)`` and ``finish_estimates(raw)``: the loop records
@@ -97,7 +101,7 @@ class CorrectingObserver(Observer[Z], Protocol[Z]):
 
 @runtime_checkable
 class SelfStepping(Protocol[Z]):
-    """A continuous-time observer with its own discretisation over one held step."""
+    """A continuous-time observer with its own advance over one held step (module docstring)."""
 
     def step(self, t: float, z: Z, u: Array, y: Array, h: float) -> Z:
         """The state at ``t + h`` from the state at ``t``, ``u`` and ``y`` held over the step."""

@@ -272,16 +272,16 @@ class GivenGain:
 
 @dataclass(frozen=True)
 class SetValuedState:
-    """State of :class:`SetValuedObserver` for a batch of runs (leading axis ``B``).
+    """State of :class:`SetValuedObserver` for a batch of runs (leading batch axes).
 
     Attributes
     ----------
-    x : ndarray, shape (B, n)
+    x : ndarray, shape (..., n)
         After :meth:`SetValuedObserver.correct` at step ``k``: the centre ``x̂_{k|k}``; after
         :meth:`SetValuedObserver.rhs`: the time update ``x̂_{k+1|k}`` of (13).
-    d1 : ndarray, shape (B, p₁)
+    d1 : ndarray, shape (..., p₁)
         ``d̂₁,k`` of (10), from the last measurement.
-    d : ndarray, shape (B, p)
+    d : ndarray, shape (..., p)
         ``d̂_{k−1}`` of (12), the centre of the input ball (NaN before the first step).
     k : int
         The step of the last measurement (``−1`` before the first one).
@@ -368,16 +368,16 @@ class SetValuedObserver:
     def init(self, x_hat0: Array) -> SetValuedState:
         """The initial centre ``x̂_{0|0} = x̂0`` with radius ``δ₀`` (``system.delta0``)."""
         x = np.array(x_hat0, dtype=float)
-        if x.ndim != 2 or x.shape[-1] != self.system.n:
-            raise DimensionError(f"x_hat0: expected shape (B, {self.system.n}), got {x.shape}")
-        B = x.shape[0]
+        if x.ndim < 1 or x.shape[-1] != self.system.n:
+            raise DimensionError(f"x_hat0: expected shape (..., {self.system.n}), got {x.shape}")
+        B = x.shape[:-1]
         tr = self.design.transform
         d0 = float(self.system.delta0)
         if self.radii is not None:
             d0 = float(self.radii.state[0])
         V = self._rec.start(d0) if self._rec is not None else math.nan
         radius = d0 if (self._rec is not None or self.radii is not None) else math.nan
-        return SetValuedState(x=x, d1=np.zeros((B, tr.M1.shape[0])), d=np.full((B, self.system.p), np.nan), k=-1,
+        return SetValuedState(x=x, d1=np.zeros((*B, tr.M1.shape[0])), d=np.full((*B, self.system.p), np.nan), k=-1,
                               corrected=False, radius=radius, radius_input=math.nan, V=V)
 
     def _split_u(self, u: Array) -> tuple[Array, Array | None]:
