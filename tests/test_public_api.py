@@ -77,3 +77,16 @@ def test_the_top_level_objects_work_together() -> None:
     for k in (100, 400, 800):
         t = res.t[k]
         assert e1[k] == pytest.approx(-np.exp(-t) + 2 * np.exp(-2 * t), abs=1e-9)
+
+
+SUBPACKAGES = ("systems", "geometry", "linear", "synthesis", "observers", "simulate", "navigation", "workflows")
+
+
+@pytest.mark.parametrize("package", SUBPACKAGES)
+def test_every_subpackage_name_resolves(package: str) -> None:
+    mod = importlib.import_module(f"nlobs.{package}")
+    assert mod.__all__, f"nlobs.{package} exports nothing"
+    missing = [n for n in mod.__all__ if not hasattr(mod, n)]
+    assert not missing, missing
+    with pytest.raises(AttributeError):
+        getattr(mod, "no_such_name")

@@ -5,3 +5,48 @@ the navigation metrics of its :class:`~nlobs.simulate.SimulationResult`, and plo
 
 Conventions and channel layouts are stated in :mod:`nlobs.navigation.base`.
 """
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from nlobs.navigation.base import SensorData, nav_vector, split_nav
+    from nlobs.navigation.ekf import EkfConfig, EkfState, ExtendedKalmanFilter
+    from nlobs.navigation.gains import design_gains, paper_gains, verify_paper_gains
+    from nlobs.navigation.gnss_ins import GnssInsObserver, GnssInsState
+    from nlobs.navigation.metrics import summary_dict
+    from nlobs.navigation.plots import plot_navigation
+    from nlobs.navigation.run import run_navigation
+    from nlobs.navigation.sensors import SensorNoise, drop_fixes, generate_sensors
+    from nlobs.navigation.trajectory import Flight, Trajectory, traffic_pattern
+
+#: Names imported on first use (PEP 562), and the module that holds each.
+_LAZY: dict[str, str] = {
+    **dict.fromkeys(("SensorData", "nav_vector", "split_nav"), "nlobs.navigation.base"),
+    **dict.fromkeys(("EkfConfig", "EkfState", "ExtendedKalmanFilter"), "nlobs.navigation.ekf"),
+    **dict.fromkeys(("design_gains", "paper_gains", "verify_paper_gains"), "nlobs.navigation.gains"),
+    **dict.fromkeys(("GnssInsObserver", "GnssInsState"), "nlobs.navigation.gnss_ins"),
+    "summary_dict": "nlobs.navigation.metrics",
+    "plot_navigation": "nlobs.navigation.plots",
+    "run_navigation": "nlobs.navigation.run",
+    **dict.fromkeys(("SensorNoise", "drop_fixes", "generate_sensors"), "nlobs.navigation.sensors"),
+    **dict.fromkeys(("Flight", "Trajectory", "traffic_pattern"), "nlobs.navigation.trajectory"),
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    """Import the module that holds ``name`` on first use (PEP 562)."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'nlobs.navigation' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
