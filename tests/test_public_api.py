@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import importlib
+import inspect
 import subprocess
 import sys
 from importlib.metadata import version
@@ -27,20 +28,23 @@ def test_import_nlobs_loads_no_numerical_library() -> None:
 def test_every_public_name_is_its_home_modules_object(name: str) -> None:
     obj = getattr(nlobs, name)
     home = importlib.import_module(nlobs._LAZY[name])
-    assert obj is getattr(home, name)
+    assert obj is (home if home.__name__ == f"nlobs.{name}" else getattr(home, name))
     assert obj.__doc__, f"nlobs.{name} has no docstring"
 
 
 def test_the_public_names_cover_each_method_and_the_one_house() -> None:
-    expected = {"load_model", "run_observer", "SimulationResult", "Observer", "CorrectingObserver",
+    expected = {"load_model", "simulate", "run_observer", "SimulationResult", "Observer", "CorrectingObserver",
                 "Certificate", "Check", "NlobsError", "CascadeObserver", "DriftObserver", "PinvObserver",
                 "SetValuedObserver", "GnssInsObserver", "ExtendedKalmanFilter", "analyze_model"}
     assert expected <= set(nlobs.__all__)
     assert nlobs.__all__ == sorted(nlobs.__all__)
     assert set(dir(nlobs)) >= set(nlobs.__all__)
-    # no public name is also a subpackage: importing the subpackage would replace the name on the package
+    # a public name that is also a subpackage is the subpackage itself (importing it sets that attribute), and
+    # only ``simulate`` is one: the package is callable as its loop, with the loop's signature
     subpackages = {p.name for p in Path(nlobs.__file__).parent.iterdir() if (p / "__init__.py").exists()}
-    assert not subpackages & set(nlobs.__all__)
+    assert subpackages & set(nlobs.__all__) == {"simulate"}
+    assert nlobs.simulate is sys.modules["nlobs.simulate"]
+    assert inspect.signature(nlobs.simulate) == inspect.signature(nlobs.simulate.simulate)
 
 
 def test_an_unknown_name_is_an_attribute_error() -> None:
@@ -67,10 +71,10 @@ def test_the_top_level_objects_work_together() -> None:
                                 np.array([[1.0, 0.0]]))
     obs = nlobs.LuenbergerObserver(system, np.array([[3.0], [2.0]]))  # poles of A − LC: −1, −2
     assert isinstance(obs, nlobs.Observer)
-    from nlobs.simulate import simulate
-
-    res = simulate(system, obs, np.array([1.0, 0.0]), np.zeros(2), duration=8.0, dt=0.01, u=0.0)
+    res = nlobs.simulate(system, obs, np.array([1.0, 0.0]), np.zeros(2), duration=8.0, dt=0.01, u=0.0)
     assert isinstance(res, nlobs.SimulationResult)
+    same = nlobs.simulate.simulate(system, obs, np.array([1.0, 0.0]), np.zeros(2), duration=8.0, dt=0.01, u=0.0)
+    np.testing.assert_array_equal(res.x_hat, same.x_hat)
     # error e(t) = exp((A − LC) t) e0 with e0 = (1, 0): e1'' + 3e1' + 2e1 = 0, e1(0) = 1, e1'(0) = −3,
     # so e1(t) = −e^{−t} + 2e^{−2t}
     e1 = res.x[:, 0] - res.x_hat[:, 0]

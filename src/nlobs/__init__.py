@@ -1,6 +1,6 @@
 """nlobs: design, certify and simulate nonlinear state observers.
 
-The names a script needs, importable from the top (``from nlobs import load_model, run_observer``);
+The names a script needs, importable from the top (``from nlobs import load_model, simulate``);
 each is imported on first use (PEP 562), so ``import nlobs`` loads neither NumPy nor SymPy.
 
 Plants and models
@@ -14,9 +14,9 @@ The observer protocol and the observers
     :class:`DiscreteLipschitzObserver`, :class:`UnknownInputEKF`, :class:`GnssInsObserver`
     (Grip, Saberi & Johansen, (22)/(24)) and the navigation :class:`ExtendedKalmanFilter`.
 The loops and the result
-    :func:`nlobs.simulate.simulate` (plant and observer together; ``nlobs.simulate`` is the
-    simulation subpackage, so the function is not re-exported under the same name),
-    :func:`run_observer` (an observer on recorded measurements), :class:`SimulationResult`.
+    :func:`simulate` (plant and observer together: the simulation subpackage ``nlobs.simulate``,
+    which called is its loop), :func:`run_observer` (an observer on recorded measurements),
+    :class:`SimulationResult`.
 Gains and certificates
     ``design_*`` and ``verify_*`` for each method; every certificate satisfies :class:`Certificate`
     and reports its conditions as :class:`Check` values.
@@ -69,6 +69,7 @@ if TYPE_CHECKING:
         SetValuedObserver,
         UnknownInputEKF,
     )
+    from nlobs import simulate
     from nlobs.simulate import SimulationResult, run_observer
     from nlobs.synthesis import (
         Certificate,
@@ -111,6 +112,7 @@ _LAZY: dict[str, str] = {
                      "DriftObserver", "LuenbergerObserver", "Observer", "PinvObserver", "SetValuedObserver",
                      "UnknownInputEKF"), "nlobs.observers"),
     **dict.fromkeys(("SimulationResult", "run_observer"), "nlobs.simulate"),
+    "simulate": "nlobs.simulate",
     **dict.fromkeys(("Certificate", "design_cascade_gain", "design_discrete_lipschitz_gain", "design_drift_gain",
                      "design_observer_gain", "design_setvalued", "verify_discrete_lipschitz_gain",
                      "verify_drift_gain", "verify_observer_gain", "verify_setvalued"), "nlobs.synthesis"),

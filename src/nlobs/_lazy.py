@@ -18,7 +18,8 @@ def lazy_exports(package: str, names: Mapping[str, str]) -> tuple[Callable[[str]
     package : str
         The package's ``__name__``.
     names : mapping of str to str
-        Each public name and the dotted module that holds it.
+        Each public name and the dotted module that holds it; a name mapped to its own subpackage
+        (``"simulate": "nlobs.simulate"`` in ``nlobs``) is that subpackage.
 
     Returns
     -------
@@ -32,7 +33,8 @@ def lazy_exports(package: str, names: Mapping[str, str]) -> tuple[Callable[[str]
         module = names.get(name)
         if module is None:
             raise AttributeError(f"module {package!r} has no attribute {name!r}")
-        value = getattr(importlib.import_module(module), name)
+        imported = importlib.import_module(module)
+        value = imported if module == f"{package}.{name}" else getattr(imported, name)
         namespace[name] = value
         return value
 

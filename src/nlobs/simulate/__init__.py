@@ -3,9 +3,18 @@
 Two entry points, one result: :func:`simulate` runs a plant and an observer together,
 :func:`run_observer` runs any observer on recorded data; both return an immutable
 :class:`SimulationResult` with error metrics, extras, a plot and an ``.npz`` round trip.
+
+The package is callable: ``nlobs.simulate(plant, observer, x0, ...)`` is
+``nlobs.simulate.simulate(plant, observer, x0, ...)`` (same signature), so the top-level name
+``nlobs.simulate`` is both this package and its loop.
 """
 
 from __future__ import annotations
+
+import inspect
+import sys
+import types
+from typing import Any
 
 from nlobs.simulate.integrators import RK4, SolveIVP, rk4_integrate, rk4_step, rk4_step_joint, solve_ivp_batch
 from nlobs.simulate.loop import simulate
@@ -30,3 +39,14 @@ __all__ = [
     "simulate",
     "solve_ivp_batch",
 ]
+
+
+class _CallablePackage(types.ModuleType):
+    """The ``nlobs.simulate`` package, which called is its loop :func:`simulate`."""
+
+    def __call__(self, *args: Any, **kwargs: Any) -> SimulationResult:
+        return simulate(*args, **kwargs)
+
+
+sys.modules[__name__].__class__ = _CallablePackage
+__signature__ = inspect.signature(simulate)
