@@ -57,3 +57,15 @@ def test_reproduce_dallamora2000_rows() -> None:
     assert rows["Thm 3.1 (H1)"].nlobs >= 1.0
     assert rows["(3.2)"].nlobs <= 1.0
     assert rows["(3.2) with exact constants (Φ_s = id, γ_L = √3.25, γ_H = 0.5, μ = 1)"].nlobs <= 1.0
+
+
+def test_the_example_figures_are_written_whole_and_replace_an_old_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    import matplotlib.image as mpimg
+
+    ex = dm.run_siso(duration=2.0, simulate_theory=False)
+    target = tmp_path / "siso.png"
+    target.write_bytes(b"not a png")  # a previous (here: broken) figure is replaced in one rename
+    for path in (dm.plot_example(ex, target), dm.plot_w_sweep(dm.w_sweep((1.0, 4.0), duration=1.0, after=0.5, dt=1e-2), tmp_path / "sweep.png")):
+        img = mpimg.imread(path)
+        assert img.ndim == 3 and img.shape[0] > 100 and img.shape[1] > 100
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["siso.png", "sweep.png"]  # no temporary file left

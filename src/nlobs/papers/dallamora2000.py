@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from nlobs._io import save_figure
 from nlobs._typing import Array
 from nlobs.errors import CertificateError, DesignInfeasible
 from nlobs.geometry import AffineFields, Box, input_gain_structure, observability_jacobian, observation_relative_degree
@@ -279,8 +280,7 @@ def plot_example(ex: DriftExample, path: str | Path) -> Path:
     ax.set_title(f"states (solid) and estimates (dashed), w = {ex.tuned.w:.3g}", fontsize=9)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=110)
+    out = save_figure(fig, path, dpi=110)
     plt.close(fig)
     return out
 
@@ -301,8 +301,7 @@ def plot_w_sweep(sw: WSweep, path: str | Path) -> Path:
     ax.set_title("Van der Pol (Liénard): the high-gain trade-off")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=110)
+    out = save_figure(fig, path, dpi=110)
     plt.close(fig)
     return out
 

@@ -39,6 +39,7 @@ import numpy as np
 import sympy as sp
 from numpy.typing import NDArray
 
+from nlobs._io import save_figure
 from nlobs._typing import Array
 from nlobs.linear import Assumption4Report, check_assumption4, hinf_norm
 from nlobs.observers import CascadeObserver
@@ -400,7 +401,7 @@ def _figures(out: Path, feedback: bool, res: SimulationResult, rate: float, pred
         f"bound {bound:.2e}", fontsize=10)
     fig.tight_layout()
     p = out / f"example1_{case}_error.png"
-    fig.savefig(p, dpi=90)
+    save_figure(fig, p, dpi=90)
     plt.close(fig)
     paths.append(p)
     if sw is not None:
@@ -426,7 +427,7 @@ def _figures(out: Path, feedback: bool, res: SimulationResult, rate: float, pred
                      fontsize=10)
         fig.tight_layout()
         p = out / f"example1_{case}_sweep.png"
-        fig.savefig(p, dpi=90)
+        save_figure(fig, p, dpi=90)
         plt.close(fig)
         paths.append(p)
     return tuple(paths)

@@ -29,14 +29,11 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from pathlib import Path
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._typing import Array
-from nlobs._io import atomic_write
 from nlobs._validate import positive
 from nlobs.errors import InvalidArgumentError
 from nlobs.papers.reproduce import ReproRow, Value
@@ -208,14 +205,6 @@ def containment_study(example: PaperExample, gain: SetValuedDesign | GivenGain, 
 
 
 # --------------------------------------------------------------------------- point-observer baselines
-
-
-# --------------------------------------------------------------------------- plots
-
-
-def save_figure(fig: Any, path: str | Path) -> Path:
-    """Save a matplotlib figure as PNG atomically (:func:`nlobs._io.atomic_write`); returns the path."""
-    return atomic_write(path, lambda fh: fig.savefig(fh, format="png", dpi=120))
 
 
 # --------------------------------------------------------------------------- adversarial noise

@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import sympy as sp
 
+from nlobs._io import save_figure
 from nlobs._typing import Array
 from nlobs.errors import ModelError, SimulationDiverged
 from nlobs.geometry import (
@@ -380,7 +381,7 @@ def plot_scenario(sr: ScenarioResult, path: str | os.PathLike[str] | None = None
         ax.legend(loc="best", fontsize=7)
     fig.suptitle(f"Example (21), u = {sr.scenario.u.describe()}: {sr.scenario.title}", fontsize=10)
     if path is not None:
-        fig.savefig(Path(path), dpi=90)
+        save_figure(fig, path, dpi=90)
     return fig
 
 
