@@ -144,3 +144,12 @@ class StudyFailed(NlobsError):
     The cause is chained and named in the message. A divergence of a single simulation is
     :class:`SimulationDiverged` instead.
     """
+
+
+class NumericalError(NlobsError, ArithmeticError):
+    """A result cannot be trusted in double precision: it failed its a-posteriori accuracy check.
+
+    Raised instead of returning a number that is known to be wrong (a Gramian whose Lyapunov
+    residual is not small, data whose magnitude overflows the computation). The message names
+    the quantity and the measured residual or magnitude.
+    """

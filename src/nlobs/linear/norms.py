@@ -34,7 +34,7 @@ import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, as_square, in_range
-from nlobs.errors import DimensionError, InvalidArgumentError
+from nlobs.errors import DimensionError, InvalidArgumentError, NumericalError
 
 __all__ = ["h2_norm", "hinf_grid_peak", "hinf_norm"]
 
@@ -466,6 +466,29 @@ def hinf_norm(
     return max(value, safeguard)
 
 
+def _check_gramian(A: NDArray, R: NDArray, G: NDArray, val: float, discrete: bool) -> None:
+    """Raise :class:`NumericalError` unless the Gramian ``G`` solves its Lyapunov equation to working accuracy.
+
+    The residual ``A G + G Aᵀ + R`` (``A G Aᵀ − G + R``) is measured relative to the size of its
+    terms; a trace ``val`` that is negative beyond rounding is a wrong Gramian, not a small norm.
+    """
+    if not (np.all(np.isfinite(G)) and math.isfinite(val)):
+        return  # an overflowing Gramian is reported as an infinite norm by the caller
+    if discrete:
+        res = A @ G @ A.T - G + R
+        size = float(np.linalg.norm(A, 2)) ** 2 * float(np.linalg.norm(G, 2)) + float(np.linalg.norm(G, 2))
+    else:
+        res = A @ G + G @ A.T + R
+        size = 2.0 * float(np.linalg.norm(A, 2)) * float(np.linalg.norm(G, 2))
+    size += float(np.linalg.norm(R, 2))
+    rel = float(np.linalg.norm(res, 2)) / size if size > 0.0 else 0.0
+    neg = val < -1e3 * _EPS * abs(float(np.trace(G))) * max(1.0, float(np.linalg.norm(R, 2)))
+    if rel > 1e-8 or neg:
+        raise NumericalError(
+            f"h2_norm: the Gramian cannot be trusted (relative Lyapunov residual {rel:.1e}, "
+            f"trace {val:.3e}); the realisation is too badly conditioned for double precision")
+
+
 def h2_norm(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, *, discrete: bool = False) -> float:
     r"""H2 norm of ``G = C (sI − A)⁻¹ B + D`` (or ``G(z)``).
 
@@ -489,6 +512,17 @@ def h2_norm(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, *, discrete:
     ``A P + P Aᵀ + B Bᵀ = 0`` and ``Aᵀ Q + Q A + Cᵀ C = 0``. Discrete time:
     ``‖G‖₂² = trace(C P Cᵀ + D Dᵀ)`` with ``P = A P Aᵀ + B Bᵀ`` (Zhou, Doyle &
     Glover 1996, §4.3). The Gramian of the smaller of ``m`` and ``p`` is used.
+
+    ``A`` is first balanced by an exact power-of-2 diagonal similarity
+    (Parlett–Reinsch, :func:`scipy.linalg.matrix_balance`), which leaves ``G``
+    unchanged, and the Gramian is accepted only if its Lyapunov residual is
+    below ``1e−8`` relative to the equation's terms.
+
+    Raises
+    ------
+    NumericalError
+        The Gramian fails that check (or has a negative trace): the realisation is
+        too badly conditioned for the result to be trusted.
     """
     A_, B_, C_, D_ = _check_abcd(A, B, C, D)
     n, m, p = A_.shape[0], B_.shape[1], C_.shape[0]
@@ -501,20 +535,31 @@ def h2_norm(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, *, discrete:
     dd = float(np.sum(D_**2)) if discrete else 0.0
     if n == 0:
         return math.sqrt(dd)
+    # Diagonal similarity balancing A (Parlett–Reinsch, LAPACK xGEBAL, exact powers of 2):
+    # G is unchanged, and the Lyapunov solver (Bartels–Stewart) then works on a realisation
+    # whose entries no longer span many orders of magnitude. Unbalanced, e.g.
+    # A = [[0, 1e12], [−1e−12, −1e−6]] gave a Gramian of the wrong sign, clipped to ‖G‖₂ = 0.
+    _, (sc, _) = scipy.linalg.matrix_balance(A_, permute=False, separate=True)
+    A_ = (A_ / sc[:, None]) * sc[None, :]
+    B_ = B_ / sc[:, None]
+    C_ = C_ * sc[None, :]
     if m <= p:
         # observability Gramian: trace(Bᵀ Q B)
+        Acheck, R = A_.T, C_.T @ C_
         if discrete:
-            Q = scipy.linalg.solve_discrete_lyapunov(A_.T, C_.T @ C_)
+            Q = scipy.linalg.solve_discrete_lyapunov(Acheck, R)
         else:
-            Q = scipy.linalg.solve_continuous_lyapunov(A_.T, -(C_.T @ C_))
-        val = float(np.trace(B_.T @ Q @ B_))
+            Q = scipy.linalg.solve_continuous_lyapunov(Acheck, -R)
+        G, val = Q, float(np.trace(B_.T @ Q @ B_))
     else:
+        Acheck, R = A_, B_ @ B_.T
         if discrete:
-            P = scipy.linalg.solve_discrete_lyapunov(A_, B_ @ B_.T)
+            P = scipy.linalg.solve_discrete_lyapunov(Acheck, R)
         else:
-            P = scipy.linalg.solve_continuous_lyapunov(A_, -(B_ @ B_.T))
-        val = float(np.trace(C_ @ P @ C_.T))
-    total = max(val, 0.0) + dd
+            P = scipy.linalg.solve_continuous_lyapunov(Acheck, -R)
+        G, val = P, float(np.trace(C_ @ P @ C_.T))
+    _check_gramian(Acheck, R, G, val, discrete)
+    total = val + dd
     if not math.isfinite(total):
         return math.inf
     return math.sqrt(total)
