@@ -38,6 +38,7 @@ import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, as_square, in_range
+from nlobs.linear.norms import _balance
 from nlobs.linear.stability import BOUNDARY_TOL, strictly_inside
 
 __all__ = ["observability_matrix", "is_observable", "unobservable_modes", "is_detectable"]
@@ -45,7 +46,8 @@ __all__ = ["observability_matrix", "is_observable", "unobservable_modes", "is_de
 _EPS = float(np.finfo(float).eps)
 
 DEFAULT_RTOL = 1e-10
-"""Default relative rank tolerance of the unobservable-subspace recursion (times ``‖[A; C]‖_F``)."""
+"""Default relative rank tolerance of the unobservable-subspace recursion (times ``‖[A; C]‖_F`` of the
+scaled and balanced realisation, see :func:`unobservable_modes`)."""
 
 
 def _check_ac(A: ArrayLike, C: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -150,10 +152,22 @@ def _unobservable_eigs(A: NDArray, C: NDArray, rtol: float) -> NDArray:
     n = A.shape[0]
     if n == 0:
         return np.zeros(0, dtype=complex)
+    # Scale-aware rank decisions. The unobservable subspace does not change when C is scaled,
+    # when A is scaled (the modes scale with it) or under a diagonal state similarity, so
+    # (i) A and C are each scaled by a power of 2 to a largest entry in [0.5, 1) and (ii) an
+    # exact power-of-2 diagonal similarity balances [A; C] (Parlett–Reinsch). The rank
+    # decisions below are relative to ‖[A; C]‖ of that realisation. Without (i) and (ii) an
+    # observable chain with couplings 1e−6 … 1e6 (residuals ~1e−6 against ‖A‖ ~ 1e6) was
+    # called unobservable in every mode, and so was [[a, a], [−a, a]], C = [1, 0] for a = 1e100.
+    kA = _exponent(A)
+    A = np.ldexp(A, -kA)
+    C = np.ldexp(C, -_exponent(C))
+    A, _, C = _balance(A, np.zeros((n, 0)), C)
     scale = float(np.linalg.norm(np.vstack([A, C])))
     tol = max(rtol * scale, n * _EPS * scale)
     if C.shape[0] == 0 or scale == 0.0:
-        return np.asarray(scipy.linalg.eigvals(A), dtype=complex)
+        lam0 = np.asarray(scipy.linalg.eigvals(A), dtype=complex)
+        return np.ldexp(lam0.real, kA) + 1j * np.ldexp(lam0.imag, kA)
     T0, _ = scipy.linalg.schur(A, output="complex")
     lam = np.diag(T0).copy()
     ctol = 1e-4 * float(np.linalg.norm(A)) + _EPS * scale
@@ -170,7 +184,14 @@ def _unobservable_eigs(A: NDArray, C: NDArray, rtol: float) -> NDArray:
             continue
         out.append(_unobservable_in_subspace(T[:k, :k], C @ Zs[:, :k], tol))
     z = np.concatenate(out) if out else np.zeros(0, dtype=complex)
-    return _conjugate_symmetric(z, 1e3 * _EPS * scale)
+    z = _conjugate_symmetric(z, 1e3 * _EPS * scale)
+    return np.ldexp(z.real, kA) + 1j * np.ldexp(z.imag, kA)
+
+
+def _exponent(M: NDArray) -> int:
+    """``k`` with ``max |M_ij| = f · 2^k``, ``f ∈ [0.5, 1)`` (0 for an empty or zero matrix)."""
+    big = float(np.max(np.abs(M))) if M.size else 0.0
+    return int(np.frexp(big)[1]) if big > 0.0 else 0
 
 
 def _conjugate_symmetric(z: NDArray, atol: float) -> NDArray:
@@ -213,7 +234,12 @@ def unobservable_modes(
         Relative rank tolerance (times ``‖[A; C]‖_F``) of the SVD rank
         decisions: a direction is deemed unobservable when its residual is
         below it, i.e. when the pair is within about ``rtol`` (relative) of
-        having that mode unobservable.
+        having that mode unobservable. The norm is that of the realisation
+        actually tested: ``A`` and ``C`` each scaled by a power of 2 to a
+        largest entry in ``[0.5, 1)`` and the states balanced by an exact
+        power-of-2 diagonal similarity — none of which changes the
+        unobservable subspace — so the verdict does not depend on units (an
+        observable chain with couplings ``1e−6 … 1e6`` is observable).
 
     Returns
     -------

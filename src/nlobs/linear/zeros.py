@@ -34,7 +34,7 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs.checks import Check, CheckKind
-from nlobs.linear.norms import _check_abcd
+from nlobs.linear.norms import _balance, _check_abcd
 from nlobs.linear.stability import BOUNDARY_TOL, strictly_inside
 
 __all__ = [
@@ -80,6 +80,12 @@ class InvariantZeros:
     def right_invertible(self) -> bool:
         """Normal rank ``n + p``."""
         return self.normal_rank == self.n + self.p
+
+
+def _exponent(M: NDArray) -> int:
+    """``k`` with ``max |M_ij| = f · 2^k``, ``f ∈ [0.5, 1)`` (0 for an empty or zero matrix)."""
+    big = float(np.max(np.abs(M))) if M.size else 0.0
+    return int(np.frexp(big)[1]) if big > 0.0 else 0
 
 
 def _row_compress(M: NDArray, tol: float) -> tuple[NDArray, int]:
@@ -190,6 +196,16 @@ def invariant_zeros(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | Non
     """
     A_, B_, C_, D_ = _check_abcd(A, B, C, D)
     n, m, p = A_.shape[0], B_.shape[1], C_.shape[0]
+    # Exact power-of-2 equivalence diag(α I, β) R(z) diag(I, γ) and a diagonal state
+    # similarity (Parlett–Reinsch balancing of [A B; C 0]) before any rank decision: the zeros
+    # become α z and the normal rank is unchanged, while the tolerance below, relative to
+    # ‖R‖, no longer lets one block's scale swamp another's. Unscaled, [[a, a], [−a, a]],
+    # B = [0; 1], C = [1, 0] (no finite zero, normal rank 3) was given normal rank 2 and the
+    # zeros a (1 ± j) for a ≥ 1e20.
+    kA, kB, kC = _exponent(A_), _exponent(B_), _exponent(C_)
+    A_, B_, C_ = np.ldexp(A_, -kA), np.ldexp(B_, -kB), np.ldexp(C_, -kC)
+    D_ = np.ldexp(D_, kA - kB - kC)
+    A_, B_, C_ = _balance(A_, B_, C_)
     tol, _ = _normal_rank_tol(A_, B_, C_, D_)
     A1, B1, C1, D1, r1 = _reduce(A_, B_, C_, D_, tol)
     A2, B2, C2, D2, r2 = _reduce(A1.T, C1.T, B1.T, D1.T, tol)
@@ -213,6 +229,7 @@ def invariant_zeros(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | Non
         keep = keep[np.abs(beta[keep]) > 0]
         z = alpha[keep] / beta[keep]
     z = np.asarray(z, dtype=complex)
+    z = np.ldexp(z.real, kA) + 1j * np.ldexp(z.imag, kA)
     # exact conjugate symmetry for real data: snap tiny imaginary parts
     small = np.abs(z.imag) <= 1e3 * _EPS * np.maximum(np.abs(z), 1.0)
     z = np.where(small, z.real + 0j, z)
