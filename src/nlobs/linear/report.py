@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from nlobs.errors import InvalidArgumentError
 from nlobs.linear.norms import h2_norm, hinf_norm
 from nlobs.linear.observability import unobservable_modes
-from nlobs.linear.stability import eigenvalues, is_stable, strictly_inside
+from nlobs.linear.stability import eigenvalues, is_stable, require_magnitude, strictly_inside
 from nlobs.linear.zeros import invariant_zeros, minimum_phase
 from nlobs.systems.linear import LinearSystem
 
@@ -196,6 +196,10 @@ def analyze_linear(sys: LinearSystem) -> LinearReport:
     ------
     InvalidArgumentError
         ``sys`` is not a :class:`~nlobs.systems.linear.LinearSystem`.
+    NumericalError
+        An entry of ``A, B, C`` or ``D`` exceeds
+        :data:`~nlobs.linear.stability.MAGNITUDE_LIMIT` in magnitude (the analyses would
+        overflow or return wrong numbers).
 
     Notes
     -----
@@ -208,6 +212,8 @@ def analyze_linear(sys: LinearSystem) -> LinearReport:
     if not isinstance(sys, LinearSystem):
         raise InvalidArgumentError(f"sys: expected a LinearSystem, got {type(sys).__name__}")
     A, B, C, D = (np.asarray(M, dtype=float) for M in (sys.A, sys.B, sys.C, sys.D))
+    for name, M in zip("ABCD", (A, B, C, D)):
+        require_magnitude(name, M)
     disc = bool(sys.is_discrete)
     dt = float(sys.time.dt) if disc else None  # type: ignore[union-attr]
     eig = eigenvalues(A)

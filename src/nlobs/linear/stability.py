@@ -12,14 +12,51 @@ import scipy.linalg
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_square, in_range
+from nlobs.errors import NumericalError
 
 __all__ = ["BOUNDARY_TOL", "strictly_inside", "eigenvalues", "is_stable", "spectral_abscissa", "spectral_radius", "stability_margin"]
 
 
+MAGNITUDE_LIMIT = 1e130
+"""Largest entry magnitude the linear analyses accept (:func:`require_magnitude`).
+
+LAPACK's eigenvalue drivers rescale a matrix whose largest entry exceeds
+``eps / sqrt(safe_min) ≈ 1.5e138``; through SciPy this was measured to return wrong
+eigenvalues (``[[a, a], [−a, a]]`` with ``a = 1e140`` gave ``1.49e138 (1 ± j)`` instead of
+``1e140 (1 ± j)``), and Frobenius norms, Gramians and Hamiltonian pencils of such data
+overflow. Below this limit they are computed in range."""
+
+
+def require_magnitude(name: str, M: NDArray[np.float64]) -> None:
+    """Raise :class:`~nlobs.errors.NumericalError` naming ``name`` when ``max |M_ij| > MAGNITUDE_LIMIT``."""
+    if M.size == 0:
+        return
+    big = float(np.max(np.abs(M)))
+    if big > MAGNITUDE_LIMIT:
+        raise NumericalError(
+            f"{name}: entries up to {big:.3g} in magnitude exceed {MAGNITUDE_LIMIT:.0e}; eigenvalues, "
+            "norms and Gramians of such data overflow or lose all accuracy in double precision "
+            "(rescale the model's units)")
+
+
 def _eigs(A: NDArray[np.float64]) -> NDArray[np.complex128]:
+    """Eigenvalues, computed from ``2^k A`` with ``max |2^k A_ij| ≈ 1`` (exact scaling).
+
+    The power-of-2 scaling changes no digit of a well-scaled matrix's eigenvalues and keeps
+    LAPACK's own (here unreliable) rescaling of huge or tiny matrices from triggering.
+    """
     if A.shape[0] == 0:
         return np.zeros(0, dtype=complex)
-    return np.asarray(scipy.linalg.eigvals(A), dtype=complex)
+    big = float(np.max(np.abs(A)))
+    if big == 0.0:
+        return np.zeros(A.shape[0], dtype=complex)
+    k = -int(np.frexp(big)[1])
+    lam = np.asarray(scipy.linalg.eigvals(np.ldexp(A, k)), dtype=complex)
+    with np.errstate(over="ignore"):
+        lam = np.ldexp(lam.real, -k) + 1j * np.ldexp(lam.imag, -k)
+    if not np.all(np.isfinite(lam)):
+        raise NumericalError(f"A: eigenvalues overflow double precision (largest entry {big:.3g})")
+    return lam
 
 
 BOUNDARY_TOL = 1e-9

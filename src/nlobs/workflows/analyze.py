@@ -20,15 +20,17 @@ from typing import Any
 import numpy as np
 
 from nlobs._validate import as_vector
-from nlobs.errors import DimensionError, ModelError, NonFiniteError
-from nlobs.geometry.region import Box
+from nlobs.errors import DimensionError, ModelError, NonFiniteError, NumericalError
+from nlobs.geometry.observability import AffineFields, lie_map
+from nlobs.geometry.region import Box, format_point
 from nlobs.geometry.report import GeometryReport, geometry_report
 from nlobs.linear import LinearReport, analyze_linear
 from nlobs.systems.linear import LinearSystem
 from nlobs.systems.linearize import linearize
 from nlobs.systems.modelfile import Model, load_model
 from nlobs.systems.symbolic import SymbolicModel
-from nlobs.workflows.inputs import box_from_numbers
+from nlobs.systems.codegen import compile_matrix
+from nlobs.workflows.inputs import BoxError, box_from_numbers
 from nlobs.workflows.verdict import Verdict
 
 
@@ -137,7 +139,7 @@ def analyze(
     err: str | None = None
     try:
         lin = analyze_linear(linearize(model, x, u))
-    except NonFiniteError as exc:
+    except (NonFiniteError, NumericalError) as exc:
         err = str(exc)
     geo: GeometryReport | None = None
     geo_err: str | None = None
@@ -216,4 +218,39 @@ def analyze_model(model: str | Path | Model, *, x0: Sequence[float] | None = Non
     """
     m = model if isinstance(model, (SymbolicModel, LinearSystem)) else load_model(model)
     region = box_from_numbers(box, m.n) if box is not None else None
+    if region is not None and isinstance(m, SymbolicModel):
+        _require_evaluable(m, region)
     return AnalysisReport(analyze(m, x0=x0, u0=u0, region=region))
+
+
+def _require_evaluable(model: SymbolicModel, region: Box, samples: int = 32, seed: int = 0) -> None:
+    """Raise :class:`BoxError` when the region's points or the observability codistribution overflow there.
+
+    The symbolic analyses sample the region and evaluate ``d L_f^k h`` at the samples; a box
+    such as ``[−1e308, 1e308]`` makes the samples themselves overflow (``upper − lower = ∞``),
+    and a wide box can overflow ``L_f^k h`` (``x³`` at ``1e200``). Non-finite evaluations were
+    dropped and, none left, the observability rank was reported as 0 — a wrong number.
+    """
+    with np.errstate(over="ignore"):
+        width = region.upper - region.lower
+    bad = np.flatnonzero(~np.isfinite(width))
+    if bad.size:
+        i = int(bad[0])
+        raise BoxError(f"the width of the interval of state {model.states[i]!r}, "
+                       f"[{region.lower[i]:g}, {region.upper[i]:g}], overflows double precision")
+    try:
+        fields = AffineFields.from_model(model)
+    except ModelError:
+        return  # no symbolic analyses for this model (reported by geometry_error)
+    if fields.n > 12:
+        return  # the codistribution of a large model is not built twice
+    M = lie_map(fields, [fields.n] * fields.q).jacobian(list(fields.x))
+    fn = compile_matrix(M, (tuple(fields.x),), what="observability codistribution")
+    pts = np.vstack([region.sample(samples, seed), region.lower, region.upper])
+    with np.errstate(all="ignore"):
+        vals = np.asarray(fn(pts), dtype=float)
+    finite = np.all(np.isfinite(vals), axis=(-2, -1))
+    if not np.all(finite):
+        k = int(np.argmin(finite))
+        raise BoxError(f"the observability codistribution d L_f^k h overflows (is not finite) at x = "
+                       f"{format_point(pts[k])} of the region {region.describe()}; choose a smaller box")
