@@ -55,7 +55,7 @@ from nlobs.errors import (
 from nlobs.linear.assumption4 import ExtendedSystem, extended_system
 from nlobs.linear.norms import hinf_norm
 from nlobs.linear.observability import unobservable_modes
-from nlobs.linear.stability import strictly_inside
+from nlobs.linear.stability import require_magnitude, strictly_inside
 from nlobs.synthesis.certificate import (
     Check,
     CheckKind,
@@ -138,6 +138,9 @@ def _validate_data(A: ArrayLike, C: ArrayLike, Bd: ArrayLike, N: ArrayLike | Non
         N_ = as_matrix("N", N, (p, None))
     elif need_noise:
         N_ = np.eye(p)
+    for name, M in (("A", A_), ("C", C_), ("Bd", Bd_), ("N", N_)):
+        if M is not None:
+            require_magnitude(name, M)
     gb = _as_gain_bound(gain_bound)
     return _Data(A_, C_, Bd_, N_, as_regions(region), gb)  # type: ignore[arg-type]
 
@@ -322,11 +325,65 @@ def _min_bound(d: _Data, which: str, *, margin: float, gamma2: Any, gamma_n2: An
     return math.sqrt(max(float(v.value), 0.0))
 
 
-def _smallest_gain_bound(d: _Data, kappa: float, **kw: Any) -> float | None:
-    """Bisection (in log κ) for the smallest feasible gain bound, or ``None`` beyond 1e9."""
+def _value(x: Any) -> float:
+    """A number, or the value a CVXPY variable took in the last solve."""
+    return float(x.value) if isinstance(x, cp.Variable) else float(x)
+
+
+def _verified_feasible(d: _Data, *, gain_bound: GainBound | None, margin: float, gamma2: Any, gamma_n2: Any,
+                       with15: bool, regions: tuple[PoleRegion, ...], with14: bool, solver: Solver,
+                       options: Mapping[str, Any] | None) -> bool | None:
+    """Feasibility of the constraints themselves (no slack): ``True`` only for an answer re-verified in NumPy.
+
+    ``False`` when the solver claims infeasibility, ``None`` when undecided (a solver failure, or an
+    answer that does not verify). The slack problems of :func:`_stage_slack` add a variable whose
+    scale differs from the blocks'; on stiff data (eigenvalues spanning 1e−3 … 1e4) Clarabel was
+    measured to fail on every one of them while the plain problem solves and verifies.
+    """
+    f = _formulate(d, margin=margin, gamma2=gamma2, gamma_n2=gamma_n2, with15=with15, regions=regions,
+                   gain_bound=gain_bound, with14=with14)
+    # With a gain bound the feasible set is bounded and its analytic centre (the design's own
+    # objective) exists; it is also the better-conditioned problem for the interior-point solver.
+    obj = _central_objective(f) if gain_bound is not None else cp.Minimize(0)
+    res = solve(cp.Problem(obj, f.constraints), solver, options)
+    if res.status.is_infeasible:
+        return False
+    if not res.status.has_solution or f.P.value is None or f.X.value is None:
+        return None
+    P = 0.5 * (np.asarray(f.P.value) + np.asarray(f.P.value).T)
+    X = np.asarray(f.X.value)
+    try:
+        g2 = _value(gamma2) if with14 else 0.0
+        gn2 = _value(gamma_n2) if with15 else 0.0
+        K = np.linalg.solve(P, X)
+    except (TypeError, np.linalg.LinAlgError):
+        return None
+    if not (np.all(np.isfinite(K)) and float(np.linalg.eigvalsh(P)[0]) > 0.0):
+        return None
+    blocks = _blocks(d, P, X, g2, gn2, with14=with14, with15=with15, regions=regions)
+    if any(max_eig(blk) >= 0.0 for _, blk in blocks):
+        return None
+    if gain_bound is not None and float(np.linalg.norm(K, 2)) > gain_bound.kappa:
+        return None
+    return True
+
+
+def _smallest_gain_bound(d: _Data, kappa: float, *, undecided: list[str] | None = None,
+                         **kw: Any) -> float | None:
+    """Bisection (in log κ) for the smallest feasible gain bound, or ``None`` beyond 1e9.
+
+    A bound is feasible when the plain problem gives a verified answer, or else when the slack
+    problem's minimal slack is ≤ 0; bounds the solver could not decide either way are
+    recorded in ``undecided`` (and treated as infeasible by the bisection).
+    """
 
     def feasible(k: float) -> bool:
+        v = _verified_feasible(d, gain_bound=GainBound(k), **kw)
+        if v is not None:
+            return v
         res, t = _stage_slack(d, "gain bound", gain_bound=GainBound(k), **kw)
+        if t is None and not res.status.is_infeasible and undecided is not None:
+            undecided.append(f"κ = {k:.3g}: {res.raw_status}")
         return t is not None and t <= _SLACK_TOL
 
     hi = kappa
@@ -372,6 +429,8 @@ def _diagnose(d: _Data, *, gamma: float | None, gamma_n: float | None, margin: f
         res, t = _stage_slack(d, stage, gain_bound=gb, **kw)  # type: ignore[arg-type]
         if t is not None and t <= _SLACK_TOL:
             continue
+        if t is None and not res.status.is_infeasible and _verified_feasible(d, gain_bound=gb, **kw):  # type: ignore[arg-type]
+            continue  # the slack problem failed, the constraints themselves hold (verified)
         before = ", ".join(on[:-1]) or "P ≻ 0"
         if stage == "LMI (14)":
             gmin = _min_bound(d, "gamma", gamma_n2=gn2, gamma2=None, with15=False, regions=(), **common)  # type: ignore[arg-type]
@@ -399,8 +458,15 @@ def _diagnose(d: _Data, *, gamma: float | None, gamma_n: float | None, margin: f
         if stage == "gain bound":
             assert d.gain_bound is not None
             kw2 = dict(kw)
-            kmin = _smallest_gain_bound(d, d.gain_bound.kappa, **kw2)
-            shown = f"≈ {kmin:.4g}" if kmin is not None else "above 1e9"
+            undecided: list[str] = []
+            kmin = _smallest_gain_bound(d, d.gain_bound.kappa, undecided=undecided, **kw2)
+            if kmin is not None:
+                shown = f"≈ {kmin:.4g}"
+            elif undecided:
+                shown = ("unknown: the solver could not decide the larger bounds "
+                         f"({'; '.join(undecided[:3])}), so none up to 1e9 was verified")
+            else:
+                shown = "above 1e9"
             raise DesignInfeasible(
                 f"the gain bound ‖K‖₂ ≤ κ = {d.gain_bound.kappa:g} is infeasible together with {before}: "
                 f"the smallest feasible gain bound with these constraints is {shown}. Relax the pole region(s), "
@@ -589,7 +655,9 @@ def design_observer_gain(
         ``(A, C)`` not detectable (``constraint='detectability'``), or the first
         constraint that makes the problem infeasible — ``'LMI (14)'`` (message
         gives the smallest achievable ``γ``), ``'LMI (15)'`` (smallest ``γn``), a
-        region (minimal slack of its block) or ``'gain bound'`` (smallest ``κ``).
+        region (minimal slack of its block) or ``'gain bound'`` (smallest ``κ``,
+        a bound for which the design was solved and re-verified, or "unknown" with
+        the solver statuses when the solver could not decide the larger bounds).
     DesignUnbounded
         A minimisation whose optimum moves with ``ε`` (gain ×>10 when ``ε``
         shrinks 100×): the infimum is not attained.
@@ -597,6 +665,9 @@ def design_observer_gain(
         The solver's answer failed the independent re-verification.
     DimensionError, NonFiniteError, InvalidArgumentError
         Bad input.
+    NumericalError
+        An entry of ``A, C, Bd`` or ``N`` exceeds
+        :data:`~nlobs.linear.stability.MAGNITUDE_LIMIT` in magnitude.
     """
     t0 = time.perf_counter()
     obj = _as_objective(objective)
