@@ -1,0 +1,173 @@
+"""Invalid numbers are refused with a typed error naming the argument, never silently turned into a result.
+
+Complex matrices (whose imaginary part a float conversion would drop), out-of-range or non-finite
+scalars of the set-valued design of Khajenejad & Yong, overflow inside its Algorithm 1, non-finite
+sensor data of the GNSS/INS observer of Grip, Saberi & Johansen, and simulation grids that cannot
+be run.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from nlobs.errors import InvalidArgumentError, NonFiniteError
+
+A2 = np.array([[0.0, 1.0], [-2.0, -3.0]])
+C2 = np.array([[1.0, 0.0]])
+BD2 = np.array([[0.0], [1.0]])
+AD2 = np.array([[0.5, 0.1], [0.0, 0.6]])
+
+
+def _lti():
+    from nlobs.systems.discrete_ui import DiscreteUISystem, Lipschitz
+    from nlobs.systems.timebase import Discrete
+
+    A = np.array([[0.9, 0.2, 0.0], [0.0, 0.8, 0.3], [0.1, 0.0, 1.05]])
+    G = np.array([[1.0], [0.0], [0.5]])
+    C = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    H = np.array([[0.0], [0.2]])
+    return DiscreteUISystem(A, G, C, H, function_class=Lipschitz(0.0, 3), eta_w=0.05, eta_v=0.02, delta0=1.0,
+                            time=Discrete(1.0))
+
+
+@pytest.fixture(scope="module")
+def lti_design():
+    from nlobs.synthesis.setvalued import design_setvalued
+
+    sysm = _lti()
+    return sysm, design_setvalued(sysm)
+
+
+# ----------------------------------------------------------------------------- complex input
+
+
+def _complex_cases():
+    from nlobs.linear.norms import hinf_norm
+    from nlobs.synthesis.discrete_lipschitz import design_discrete_lipschitz_gain, verify_discrete_lipschitz_gain
+    from nlobs.synthesis.observer_gain import design_observer_gain, verify_observer_gain
+    from nlobs.systems.linear import LinearSystem
+
+    K = np.array([[1.0], [1.0]])
+    return {
+        # before: a verified certificate for the real part of A
+        "design_observer_gain": ("A", lambda: design_observer_gain(A2 + 1j, C2, BD2, gamma=10.0, gain_bound=100.0)),
+        "verify_observer_gain": ("K", lambda: verify_observer_gain(A2, C2, BD2, K + [[1j], [0]], gamma=10.0)),
+        "LinearSystem": ("B", lambda: LinearSystem(A2, BD2 + 2j, C2)),
+        "design_discrete_lipschitz_gain": ("A", lambda: design_discrete_lipschitz_gain(AD2 + 0.5j, C2, lipschitz=0.1)),
+        "discrete_lipschitz_constant": ("lipschitz", lambda: design_discrete_lipschitz_gain(
+            AD2, C2, lipschitz=np.complex128(0.1 + 1j))),
+        "verify_discrete_lipschitz_gain": ("P", lambda: verify_discrete_lipschitz_gain(
+            AD2, C2, np.zeros((2, 1)), np.eye(2) * (1 + 1e-3j), lipschitz=0.1)),
+        "hinf_norm": ("C", lambda: hinf_norm(A2, BD2, C2 * (1 + 1j), np.zeros((1, 1)))),
+        "DiscreteUISystem": ("G", lambda: _lti_with(G=np.array([[1.0], [0.0], [0.5j]]))),
+        "nested list": ("A", lambda: LinearSystem([[0.0, 1.0], [-2.0, complex(-3, 1e-9)]], BD2, C2)),
+        "NaN imaginary part": ("C", lambda: LinearSystem(A2, BD2, np.array([[1.0, complex(0, math.nan)]]))),
+    }
+
+
+def _lti_with(**kw):
+    from nlobs.systems.discrete_ui import DiscreteUISystem, Lipschitz
+    from nlobs.systems.timebase import Discrete
+
+    s = _lti()
+    d = {"A": s.A, "G": s.G, "C": s.C, "H": s.H}
+    d.update(kw)
+    return DiscreteUISystem(d["A"], d["G"], d["C"], d["H"], function_class=Lipschitz(0.0, 3), eta_w=0.05,
+                            eta_v=0.02, delta0=1.0, time=Discrete(1.0))
+
+
+@pytest.mark.parametrize("case", list(_complex_cases()))
+def test_complex_input_is_refused_naming_the_argument(case):
+    name, call = _complex_cases()[case]
+    with pytest.raises(InvalidArgumentError, match=rf"^{name}: .*complex"):
+        call()
+
+
+def test_complex_setvalued_arguments_are_refused(lti_design):
+    from nlobs.synthesis.setvalued import design_setvalued, verify_setvalued
+
+    sysm, des = lti_design
+    with pytest.raises(InvalidArgumentError, match=r"^P: .*complex"):
+        verify_setvalued(sysm, des.gain, des.P * (1 + 1j), kappa=des.kappa, lam=des.lam, theta=des.theta)
+    with pytest.raises(InvalidArgumentError, match=r"^L_tilde: .*complex"):
+        verify_setvalued(sysm, des.gain + 1j, des.P, kappa=des.kappa, lam=des.lam, theta=des.theta)
+    with pytest.raises(InvalidArgumentError, match=r"^lam: .*complex"):
+        design_setvalued(sysm, lam=np.complex128(0.8 + 0.1j))
+
+
+def test_complex_with_zero_imaginary_part_is_its_real_value():
+    from nlobs._validate import as_matrix, positive
+    from nlobs.systems.linear import LinearSystem
+
+    sys_c = LinearSystem(A2 + 0j, BD2, C2)
+    assert sys_c.A.dtype == np.float64 and np.array_equal(sys_c.A, A2)
+    assert as_matrix("M", [[1 + 0j, 2]]).tolist() == [[1.0, 2.0]]
+    assert positive("x", np.complex128(2.5)) == 2.5
+
+
+# ----------------------------------------------------------------------------- set-valued scalars
+
+
+@pytest.mark.parametrize(("kw", "err", "name"), [
+    ({"lam": 1.5}, InvalidArgumentError, "lam"),       # before: passed (3 checks, no contraction certified)
+    ({"lam": 1.0}, InvalidArgumentError, "lam"),       # λ = 1 with q = 0: no contraction
+    ({"lam": 0.0}, InvalidArgumentError, "lam"),
+    ({"lam": math.nan}, NonFiniteError, "lam"),        # before: LinAlgError
+    ({"kappa": -1.0}, InvalidArgumentError, "kappa"),  # before: CertificateError by chance
+    ({"kappa": math.inf}, NonFiniteError, "kappa"),
+    ({"q": -1.0}, InvalidArgumentError, "q"),          # before: passed
+    ({"theta": (math.inf, 1.0, 1.0)}, NonFiniteError, "theta"),
+    ({"theta": (-1.0, 1.0, 1.0)}, InvalidArgumentError, "theta"),
+    ({"theta": (1.0, 1.0)}, InvalidArgumentError, "theta"),
+    ({"rho": -1.0}, InvalidArgumentError, "rho"),
+    ({"rho": math.nan}, NonFiniteError, "rho"),
+])
+def test_verify_setvalued_refuses_bad_scalars(lti_design, kw, err, name):
+    from nlobs.synthesis.setvalued import verify_setvalued
+
+    sysm, des = lti_design
+    args = {"kappa": des.kappa, "lam": des.lam, "theta": des.theta}
+    args.update(kw)
+    with pytest.raises(err, match=rf"^{name}: "):
+        verify_setvalued(sysm, des.gain, des.P, strict=False, **args)
+
+
+def test_verify_setvalued_refuses_non_finite_gain(lti_design):
+    from nlobs.synthesis.setvalued import verify_setvalued
+
+    sysm, des = lti_design
+    with pytest.raises(NonFiniteError, match=r"^L_tilde: "):  # before: LinAlgError
+        verify_setvalued(sysm, des.gain * np.nan, des.P, kappa=des.kappa, lam=des.lam, theta=des.theta, strict=False)
+
+
+def test_lambda_one_needs_q_positive(lti_design):
+    """λ = 1 certifies a contraction only through q > 0 (the H∞ form): the H∞ design re-verifies with its
+    own (λ = 1, q = 1), the same λ with q = 0 is refused; the radius design (λ < 1, q = 0) re-verifies."""
+    from nlobs.synthesis.setvalued import design_setvalued, verify_setvalued
+
+    sysm, des = lti_design
+    assert all(c.passed for c in verify_setvalued(sysm, des.gain, des.P, kappa=des.kappa, lam=des.lam,
+                                                  theta=des.theta))
+    h = design_setvalued(sysm, objective="hinf")
+    assert h.lam == 1.0 and h.q == 1.0
+    checks = verify_setvalued(sysm, h.gain, h.P, kappa=h.kappa, lam=h.lam, q=h.q, theta=h.theta, rho=h.rho)
+    assert all(c.passed for c in checks)
+    with pytest.raises(InvalidArgumentError, match=r"^lam: must lie in \(0, 1\)"):
+        verify_setvalued(sysm, h.gain, h.P, kappa=h.kappa, lam=h.lam, q=0.0, theta=h.theta, strict=False)
+
+
+@pytest.mark.parametrize(("kw", "err", "name"), [
+    ({"rtol": -1.0}, InvalidArgumentError, "rtol"),            # before: ran, stopping at once
+    ({"rtol": math.nan}, NonFiniteError, "rtol"),
+    ({"bisection_steps": -3}, InvalidArgumentError, "bisection_steps"),  # before: λ = 0.999999, no search
+    ({"golden_steps": 2.5}, InvalidArgumentError, "golden_steps"),
+    ({"objective": "hinf", "lam": 0.5}, InvalidArgumentError, "lam"),     # before: lam silently ignored
+])
+def test_design_setvalued_refuses_bad_search_settings(kw, err, name):
+    from nlobs.synthesis.setvalued import design_setvalued
+
+    with pytest.raises(err, match=rf"^{name}: "):
+        design_setvalued(_lti(), **kw)
