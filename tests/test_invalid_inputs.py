@@ -171,3 +171,53 @@ def test_design_setvalued_refuses_bad_search_settings(kw, err, name):
 
     with pytest.raises(err, match=rf"^{name}: "):
         design_setvalued(_lti(), **kw)
+
+
+def test_verify_drift_gain_refuses_non_finite_w():
+    from nlobs.synthesis.drift_gain import RiccatiConstants, vandermonde_gain, verify_drift_gain
+
+    c = RiccatiConstants((2,), None, 1.0, 0.0, 0.0)
+    g = vandermonde_gain((2,), 5.0)
+    assert verify_drift_gain(c, g.K, g.P, method="vandermonde", w=5.0).w == 5.0
+    for w, err in ((math.nan, NonFiniteError), (-5.0, InvalidArgumentError)):  # before: recorded as given
+        with pytest.raises(err, match=r"^w: "):
+            verify_drift_gain(c, g.K, g.P, method="vandermonde", w=w)
+
+
+# ----------------------------------------------------------------------------- Algorithm 1 overflow
+
+
+@pytest.fixture(scope="module")
+def ex61():
+    from nlobs.papers.khajenejad_yong import example_61
+    from nlobs.synthesis.setvalued import design_setvalued
+
+    sysm = example_61("II").system
+    return sysm, design_setvalued(sysm)
+
+
+def test_setvalued_observer_overflow_raises_naming_the_step(ex61):
+    """y = 1e308 is finite, but (10) overflows: before, correct returned a state whose d̂₁ was ±inf."""
+    from nlobs.errors import SimulationDiverged
+    from nlobs.observers.setvalued import SetValuedObserver
+
+    sysm, des = ex61
+    obs = SetValuedObserver(sysm, des)
+    u, fresh = np.zeros((1, sysm.m)), np.ones(sysm.l, dtype=bool)
+    z = obs.correct(0.0, obs.init(np.zeros((1, sysm.n))), u, np.zeros((1, sysm.l)), fresh)
+    z = obs.rhs(0.0, z, u, np.zeros((1, sysm.l)))
+    with np.errstate(over="ignore", invalid="ignore"), \
+            pytest.raises(SimulationDiverged, match=r"step 1: overflow.*d1_hat\[0\]") as exc:
+        obs.correct(sysm.time.dt, z, u, np.full((1, sysm.l), 1e308), fresh)
+    assert exc.value.time == sysm.time.dt
+
+
+def test_run_setvalued_overflow_names_the_step(ex61):
+    from nlobs.errors import SimulationDiverged
+    from nlobs.simulate.setvalued import run_setvalued
+
+    sysm, des = ex61
+    y = np.zeros((2, 6, sysm.l))
+    y[1, 3, 0] = -1e308
+    with pytest.raises(SimulationDiverged, match=r"Algorithm 1, step 3: overflow"):
+        run_setvalued(sysm, des, y)
