@@ -221,3 +221,80 @@ def test_run_setvalued_overflow_names_the_step(ex61):
     y[1, 3, 0] = -1e308
     with pytest.raises(SimulationDiverged, match=r"Algorithm 1, step 3: overflow"):
         run_setvalued(sysm, des, y)
+
+
+# ----------------------------------------------------------------------------- GNSS/INS observer and EKF
+
+
+@pytest.fixture(scope="module")
+def nav():
+    from test_gnss_ins_synthetic import G_N, M_N, turn_data
+
+    from nlobs.navigation.ekf import EkfConfig, ExtendedKalmanFilter
+    from nlobs.navigation.gnss_ins import GnssInsObserver
+    from nlobs.navigation.sensors import SensorNoise
+
+    data = turn_data(2.0)
+    filters = {
+        "observer": GnssInsObserver.paper(M_N, G_N),
+        "observer-batched": GnssInsObserver.paper(M_N, G_N, kernel="batched"),
+        "observer-rk4": GnssInsObserver.paper(M_N, G_N, integrator="rk4"),
+        "ekf": ExtendedKalmanFilter(EkfConfig.for_noise(SensorNoise(0.01, 0.1, 0.01, 1.0, 0.1)), M_N, G_N),
+    }
+    return data, filters
+
+
+NAV_FILTERS = ["observer", "observer-batched", "observer-rk4", "ekf"]
+
+
+def _imu(data, k=0):
+    return np.r_[data.omega_b[k], data.a_b[k], data.m_b[k]]
+
+
+@pytest.mark.parametrize(("which", "dt"), [
+    *((w, math.inf) for w in NAV_FILTERS), ("ekf", math.nan), ("ekf", -0.01), ("ekf", 0.0)])
+def test_nav_step_refuses_non_finite_or_non_positive_dt(nav, which, dt):
+    """Before: dt = inf returned a NaN state (split kernels, EKF) or an OverflowError (RK4); the EKF took any dt
+    (the observer already refused NaN and non-positive steps)."""
+    from nlobs.navigation.base import ImuSample
+
+    data, filters = nav
+    f = filters[which]
+    z = f.init_state(data.p[0], data.v[0], data.R[0])
+    with pytest.raises(InvalidArgumentError, match=r"^dt: must be positive and finite"):
+        f.step(0.0, z, _imu(data), None, dt)
+    with pytest.raises(InvalidArgumentError, match=r"^dt: must be positive and finite"):
+        f.propagate(z, ImuSample(data.omega_b[0], data.a_b[0], data.m_b[0]), dt)
+
+
+@pytest.mark.parametrize("which", NAV_FILTERS)
+def test_non_finite_fix_marked_valid_is_a_missing_fix(nav, which):
+    """update(GnssSample(valid=True)) with a NaN entry: skipped and counted for that flight only, like a
+    fix flagged invalid (before: the observer held the NaN and returned NaN; the EKF fused it as a zero
+    innovation, shrinking its covariance)."""
+    from nlobs.navigation.base import GnssSample
+
+    data, filters = nav
+    f = filters[which]
+    z = f.init_state(np.stack([data.p[0]] * 2), data.v[0], data.R[0])
+    p = np.stack([data.p[0] + 1.0, data.p[0] + 1.0])
+    p[1, 2] = np.nan
+    v = np.stack([data.v[0], data.v[0]])
+    got = f.update(z, GnssSample(p, v, np.array([True, True])))
+    flagged = f.update(z, GnssSample(p, v, np.array([True, False])))
+    assert got.skipped.tolist() == [0, 1]
+    for name in ("p", "v", "R"):
+        np.testing.assert_array_equal(getattr(got, name), getattr(flagged, name))
+    if which == "ekf":
+        np.testing.assert_array_equal(got.P[1], z.P[1])
+    else:
+        assert got.has_fix.tolist() == [True, False]
+        np.testing.assert_array_equal(got.y_p, flagged.y_p)
+    z1 = f.step(0.0, got, np.stack([_imu(data)] * 2), None, 0.01)
+    assert np.isfinite(f.estimate(z1)).all()
+
+
+def test_ekf_init_refuses_non_finite_initial_estimate(nav):
+    data, filters = nav
+    with pytest.raises(NonFiniteError, match=r"^p0: "):  # before: a NaN state
+        filters["ekf"].init_state([np.nan, 0.0, 0.0], data.v[0], data.R[0])
