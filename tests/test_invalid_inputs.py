@@ -9,6 +9,7 @@ be run.
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -298,3 +299,46 @@ def test_ekf_init_refuses_non_finite_initial_estimate(nav):
     data, filters = nav
     with pytest.raises(NonFiniteError, match=r"^p0: "):  # before: a NaN state
         filters["ekf"].init_state([np.nan, 0.0, 0.0], data.v[0], data.R[0])
+
+
+# ----------------------------------------------------------------------------- simulate grid
+
+
+def _plant():
+    from nlobs.systems.linear import LinearSystem
+
+    return LinearSystem(A2, BD2, C2)
+
+
+@pytest.mark.parametrize(("kw", "steps"), [
+    ({"duration": 1.0, "dt": 1e-300}, "1e+300"),      # before: ValueError "Maximum allowed size exceeded"
+    ({"duration": 1e4, "dt": 1e-12}, "1e+16"),        # before: MemoryError (71 PiB)
+    ({"duration": 1e308, "dt": 1e-10}, "inf"),        # before: OverflowError
+])
+def test_simulate_refuses_a_grid_too_long_naming_the_step_count(kw, steps):
+    from nlobs.simulate.loop import MAX_STEPS, simulate
+
+    with pytest.raises(InvalidArgumentError, match=rf"^dt: .*needs {re.escape(steps)} steps, more than MAX_STEPS = {MAX_STEPS:,}"):
+        simulate(_plant(), None, [1.0, 0.0], u=0.0, **kw)
+
+
+def test_simulate_refuses_a_step_the_float_times_cannot_resolve():
+    """Before: t0 = 1e12 with dt = 1e-6 ran, its 1001 times quantised to steps of 1.2e-4 s (0 or 122 dt)."""
+    from nlobs.simulate.loop import simulate
+
+    with pytest.raises(InvalidArgumentError, match=r"^dt: 1e-06 s is below the resolution"):
+        simulate(_plant(), None, [1.0, 0.0], u=0.0, duration=1e-3, dt=1e-6, t0=1e12)
+    res = simulate(_plant(), None, [1.0, 0.0], u=0.0, duration=1e-3, dt=1e-6, t0=1e3)  # resolvable: runs
+    assert res.t.shape == (1001,) and np.allclose(np.diff(res.t), 1e-6, rtol=1e-6)
+
+
+def test_simulate_refuses_complex_initial_states():
+    from nlobs.observers.luenberger import LuenbergerObserver
+    from nlobs.simulate.loop import simulate
+
+    plant = _plant()
+    with pytest.raises(InvalidArgumentError, match=r"^x0: .*complex"):  # before: ran from the real part
+        simulate(plant, None, [1.0 + 1j, 0.0], u=0.0, duration=0.1, dt=0.05)
+    obs = LuenbergerObserver(plant, np.array([[2.0], [1.0]]))
+    with pytest.raises(InvalidArgumentError, match=r"^x_hat0: .*complex"):
+        simulate(plant, obs, [1.0, 0.0], [0.0, 2j], u=0.0, duration=0.1, dt=0.05)
