@@ -342,3 +342,46 @@ def test_simulate_refuses_complex_initial_states():
     obs = LuenbergerObserver(plant, np.array([[2.0], [1.0]]))
     with pytest.raises(InvalidArgumentError, match=r"^x_hat0: .*complex"):
         simulate(plant, obs, [1.0, 0.0], [0.0, 2j], u=0.0, duration=0.1, dt=0.05)
+
+
+# ----------------------------------------------------------------------------- recorded data
+
+
+def test_run_observer_refuses_complex_recorded_data():
+    """Before: u and y were read with np.asarray(..., dtype=float), the imaginary parts dropped."""
+    from nlobs.observers.luenberger import LuenbergerObserver
+    from nlobs.simulate import run_observer
+
+    obs = LuenbergerObserver(_plant(), np.array([[2.0], [1.0]]))
+    t = np.linspace(0.0, 0.1, 11)
+    u, y = np.zeros((11, 1)), np.zeros((11, 1))
+    with pytest.raises(InvalidArgumentError, match=r"^u: entry \(3, 0\) is complex"):
+        run_observer(obs, t, x_hat0=[0.0, 0.0], u=u + np.where(np.arange(11)[:, None] == 3, 1j, 0), y=y)
+    with pytest.raises(InvalidArgumentError, match=r"^y: .*complex"):
+        run_observer(obs, t, x_hat0=[0.0, 0.0], u=u, y=y + 0.5j)
+    y_missing = y.copy()
+    y_missing[4] = np.nan  # a NaN is still a missing sample, handled by the observer's rule (this one refuses it)
+    with pytest.raises(NonFiniteError, match=r"^y: sample 4 \(output 0\) is not finite"):
+        run_observer(obs, t, x_hat0=[0.0, 0.0], u=u, y=y_missing)
+
+
+def test_run_navigation_refuses_complex_sensor_data(nav):
+    import dataclasses
+
+    from nlobs.navigation.run import run_navigation
+
+    data, filters = nav
+    bad = dataclasses.replace(data, a_b=data.a_b + 1e-3j)
+    with pytest.raises(InvalidArgumentError, match=r"^data.a_b: .*complex"):
+        run_navigation(filters["observer"], bad, data.p[0], data.v[0], data.R[0])
+    bad = dataclasses.replace(data, p_gnss=data.p_gnss * (1 + 1j))
+    with pytest.raises(InvalidArgumentError, match=r"^data.p_gnss: .*complex"):
+        run_navigation(filters["observer"], bad, data.p[0], data.v[0], data.R[0])
+
+
+def test_quadratic_constraint_refuses_a_complex_gamma():
+    from nlobs.systems.discrete_ui import Lipschitz, QuadraticConstraint
+
+    M = Lipschitz(0.33, 2).multiplier()[0]
+    with pytest.raises(InvalidArgumentError, match=r"^gamma: .*complex"):  # before: γ = its real part
+        QuadraticConstraint(M, np.complex128(-0.1 + 0.2j))

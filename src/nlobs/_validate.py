@@ -92,19 +92,28 @@ def real_scalar(name: str, value: Any) -> Any:
     return value
 
 
-def as_finite_array(name: str, value: ArrayLike, ndim: int | None = None) -> NDArray[np.float64]:
-    """Return ``value`` as a float64 array, checking finiteness and (optionally) ``ndim``.
+def as_real_array(name: str, value: ArrayLike) -> NDArray[np.float64]:
+    """Return ``value`` as a float64 array (a copy), NaN and ±inf allowed (e.g. missing samples).
 
     Complex input with a non-zero imaginary part is refused (:class:`~nlobs.errors.InvalidArgumentError`),
-    never cut to its real part.
+    never cut to its real part; unreadable input is :class:`~nlobs.errors.DimensionError`.
     """
     try:
         raw = value if isinstance(value, np.ndarray) else np.asarray(value)
-        arr = np.array(_refuse_complex(name, raw), dtype=float)
+        return np.array(_refuse_complex(name, raw), dtype=float)
     except (TypeError, ValueError) as exc:
         if isinstance(exc, InvalidArgumentError):
             raise
         raise DimensionError(f"{name}: cannot be read as a numeric array ({exc})") from None
+
+
+def as_finite_array(name: str, value: ArrayLike, ndim: int | None = None) -> NDArray[np.float64]:
+    """Return ``value`` as a float64 array, checking finiteness and (optionally) ``ndim``.
+
+    Complex input with a non-zero imaginary part is refused (:class:`~nlobs.errors.InvalidArgumentError`),
+    never cut to its real part (:func:`as_real_array`).
+    """
+    arr = as_real_array(name, value)
     if ndim is not None and arr.ndim != ndim:
         raise DimensionError(f"{name}: expected a {ndim}-d array, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
