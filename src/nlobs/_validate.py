@@ -61,12 +61,59 @@ def readonly(a: ArrayLike, dtype: DTypeLike | None = np.float64, *, owned: bool 
     return out
 
 
-def as_finite_array(name: str, value: ArrayLike, ndim: int | None = None) -> NDArray[np.float64]:
-    """Return ``value`` as a float64 array, checking finiteness and (optionally) ``ndim``."""
+def _refuse_complex(name: str, raw: NDArray[Any]) -> NDArray[Any]:
+    """``raw`` itself, or its real part when ``raw`` is complex with every imaginary part zero.
+
+    A complex entry with a non-zero (or NaN) imaginary part raises
+    :class:`~nlobs.errors.InvalidArgumentError` naming the argument and the entry: converting
+    it to float would keep the real part only (NumPy's ``ComplexWarning``), a silently different
+    number.
+    """
+    if raw.dtype.kind != "c":
+        return raw
+    nonzero = raw.imag != 0  # a NaN imaginary part counts as non-zero
+    if np.any(nonzero):
+        bad = tuple(int(i) for i in np.argwhere(nonzero)[0]) if raw.ndim else ()
+        where = f"entry {bad}" if raw.ndim else "the value"
+        raise InvalidArgumentError(f"{name}: {where} is complex ({complex(raw[bad])}); a real number is required "
+                                   "(nlobs never drops an imaginary part)")
+    return raw.real
+
+
+def real_scalar(name: str, value: Any) -> Any:
+    """``value`` unchanged, or the real part of a complex scalar whose imaginary part is zero.
+
+    A complex scalar (Python ``complex``, a NumPy complex scalar or 0-d array) with a non-zero
+    imaginary part raises :class:`~nlobs.errors.InvalidArgumentError` naming ``name``
+    (``float(np.complex128(1 + 2j))`` would silently give ``1.0``).
+    """
+    if isinstance(value, (complex, np.complexfloating, np.ndarray)) and np.iscomplexobj(value):
+        return _refuse_complex(name, np.asarray(value))[()]
+    return value
+
+
+def as_real_array(name: str, value: ArrayLike) -> NDArray[np.float64]:
+    """Return ``value`` as a float64 array (a copy), NaN and ±inf allowed (e.g. missing samples).
+
+    Complex input with a non-zero imaginary part is refused (:class:`~nlobs.errors.InvalidArgumentError`),
+    never cut to its real part; unreadable input is :class:`~nlobs.errors.DimensionError`.
+    """
     try:
-        arr = np.array(value, dtype=float)
+        raw = value if isinstance(value, np.ndarray) else np.asarray(value)
+        return np.array(_refuse_complex(name, raw), dtype=float)
     except (TypeError, ValueError) as exc:
+        if isinstance(exc, InvalidArgumentError):
+            raise
         raise DimensionError(f"{name}: cannot be read as a numeric array ({exc})") from None
+
+
+def as_finite_array(name: str, value: ArrayLike, ndim: int | None = None) -> NDArray[np.float64]:
+    """Return ``value`` as a float64 array, checking finiteness and (optionally) ``ndim``.
+
+    Complex input with a non-zero imaginary part is refused (:class:`~nlobs.errors.InvalidArgumentError`),
+    never cut to its real part (:func:`as_real_array`).
+    """
+    arr = as_real_array(name, value)
     if ndim is not None and arr.ndim != ndim:
         raise DimensionError(f"{name}: expected a {ndim}-d array, got shape {arr.shape}")
     if not np.all(np.isfinite(arr)):
@@ -133,10 +180,12 @@ def as_batch(name: str, value: ArrayLike, n: int) -> NDArray[np.float64]:
 
 
 def positive(name: str, value: float, *, allow_zero: bool = False) -> float:
-    """Return ``value`` as a float, checking it is finite and positive."""
+    """Return ``value`` as a float, checking it is finite and positive (and real: see :func:`real_scalar`)."""
     try:
-        v = float(value)
-    except (TypeError, ValueError):
+        v = float(real_scalar(name, value))
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, InvalidArgumentError):
+            raise
         raise DimensionError(f"{name}: expected a number, got {value!r}") from None
     if not np.isfinite(v):
         raise NonFiniteError(f"{name}: must be finite, got {v!r}")
@@ -149,11 +198,14 @@ def in_range(name: str, value: float, lo: float, hi: float, *, lo_open: bool = F
     """Return ``value`` as a finite float in the interval from ``lo`` to ``hi``.
 
     ``lo_open``/``hi_open`` make the bounds exclusive. Raises
-    :class:`~nlobs.errors.NonFiniteError` or :class:`~nlobs.errors.InvalidArgumentError`.
+    :class:`~nlobs.errors.NonFiniteError` or :class:`~nlobs.errors.InvalidArgumentError` (also for a
+    complex value, see :func:`real_scalar`).
     """
     try:
-        v = float(value)
-    except (TypeError, ValueError):
+        v = float(real_scalar(name, value))
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, InvalidArgumentError):
+            raise
         raise InvalidArgumentError(f"{name}: expected a number, got {value!r}") from None
     if not np.isfinite(v):
         raise NonFiniteError(f"{name}: must be finite, got {v!r}")
@@ -161,6 +213,17 @@ def in_range(name: str, value: float, lo: float, hi: float, *, lo_open: bool = F
         interval = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
         raise InvalidArgumentError(f"{name}: must lie in {interval}, got {v!r}")
     return v
+
+
+def as_count(name: str, value: Any, *, minimum: int = 0) -> int:
+    """Return ``value`` as an ``int`` of at least ``minimum`` (an integer type, not ``bool``, not a float).
+
+    Raises :class:`~nlobs.errors.InvalidArgumentError` naming ``name`` otherwise (a negative or
+    fractional iteration count would silently change what is computed).
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise InvalidArgumentError(f"{name}: expected an integer ≥ {minimum}, got {value!r}")
+    return int(value)
 
 
 #: Characters that must not reach a terminal from a file: C0 controls but tab and

@@ -48,14 +48,15 @@ Everything is vectorised over a leading batch axis: ``P`` has shape ``(..., 9, 9
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from nlobs._typing import Array, BoolArray
-from nlobs._validate import as_vector, positive
-from nlobs.errors import DimensionError
+from nlobs._validate import as_batch, as_vector, positive
+from nlobs.errors import DimensionError, InvalidArgumentError
 from nlobs.navigation.base import (
     GNSS_P,
     GNSS_V,
@@ -225,11 +226,21 @@ class ExtendedKalmanFilter:
 
     # ------------------------------------------------------ functional form (domain types)
     def init_state(self, p0: ArrayLike, v0: ArrayLike, R0: ArrayLike) -> EkfState:
-        """Initial state; the covariance is diagonal from :class:`EkfConfig`."""
-        p = np.array(p0, dtype=float)
-        v = np.array(v0, dtype=float)
-        R = np.array(R0, dtype=float)
-        batch = np.broadcast_shapes(p.shape[:-1], v.shape[:-1], R.shape[:-2])
+        """Initial state; the covariance is diagonal from :class:`EkfConfig`.
+
+        Raises :class:`~nlobs.errors.NonFiniteError` / :class:`~nlobs.errors.DimensionError` for a
+        non-finite entry or shapes other than ``(..., 3)``, ``(..., 3)``, ``(..., 3, 3)`` that broadcast.
+        """
+        p = as_batch("p0", p0, 3)
+        v = as_batch("v0", v0, 3)
+        R = as_batch("R0", R0, 3)
+        if R.ndim < 2 or R.shape[-2] != 3:
+            raise DimensionError(f"R0: expected shape (..., 3, 3), got {R.shape}")
+        try:
+            batch = np.broadcast_shapes(p.shape[:-1], v.shape[:-1], R.shape[:-2])
+        except ValueError:
+            raise DimensionError(f"p0, v0, R0: batch shapes {p.shape[:-1]}, {v.shape[:-1]}, {R.shape[:-2]} "
+                                 "do not broadcast") from None
         c = self.config
         d = np.r_[np.full(3, c.p0_std**2), np.full(3, c.v0_std**2),
                   np.deg2rad([c.tilt0_std_deg, c.tilt0_std_deg, c.yaw0_std_deg]) ** 2]
@@ -243,7 +254,15 @@ class ExtendedKalmanFilter:
         )
 
     def propagate(self, state: EkfState, imu: ImuSample, dt: float) -> EkfState:
-        """Predict over ``dt`` with the IMU sample held, then fuse the magnetometer."""
+        """Predict over ``dt`` with the IMU sample held, then fuse the magnetometer.
+
+        Raises :class:`~nlobs.errors.InvalidArgumentError` when ``dt`` is not positive and finite. The IMU
+        sample is not checked per step: the loops check the record once up front
+        (:func:`~nlobs.navigation.run.run_navigation`, :func:`~nlobs.simulate.run_observer`).
+        """
+        dt = float(dt)
+        if not 0.0 < dt < math.inf:
+            raise InvalidArgumentError(f"dt: must be positive and finite, got {dt!r}")
         c = self.config
         w, a = imu.omega_b, imu.a_b
         R = state.R
@@ -265,9 +284,17 @@ class ExtendedKalmanFilter:
         return st
 
     def update(self, state: EkfState, gnss: GnssSample) -> EkfState:
-        """GNSS update (Joseph form); batch members with ``valid == False`` are left unchanged."""
+        """GNSS update (Joseph form); batch members with ``valid == False`` are left unchanged.
+
+        A member whose fix has a non-finite entry (of ``p``, or of ``v`` when fused) is invalid even when
+        ``gnss.valid`` says otherwise: a missing fix for that flight, skipped and counted (it would
+        otherwise be fused as a zero innovation and shrink the covariance).
+        """
         c = self.config
-        valid = np.broadcast_to(np.asarray(gnss.valid, dtype=bool), state.P.shape[:-2])
+        finite = np.isfinite(gnss.p).all(axis=-1)
+        if not (self.position_only or gnss.v is None):
+            finite = finite & np.isfinite(gnss.v).all(axis=-1)
+        valid = np.broadcast_to(np.asarray(gnss.valid, dtype=bool) & finite, state.P.shape[:-2])
         if self.position_only or gnss.v is None:
             y, yhat = gnss.p, state.p
             H = np.zeros((3, 9))

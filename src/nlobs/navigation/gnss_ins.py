@@ -115,6 +115,8 @@ from nlobs.simulate.integrators import rk4_step
 from nlobs.navigation.split_kernel import ScalarFlow, SplitConstants, split_step
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
 
+_INF = float("inf")
+
 __all__ = ["GnssInsObserver", "GnssInsState", "triad_J", "triad_matrix"]
 
 #: RK4's stability interval on the negative real axis.
@@ -469,18 +471,23 @@ class GnssInsObserver:
         single-flight kernel for one flight under ``kernel="auto"``, or RK4). ``y`` is unused
         (the held fix is in the state). Same as :meth:`propagate` with the IMU as a 9-channel input.
 
+        The IMU sample is not checked here (this is the measured speed path): the loops check the
+        whole record once up front — :func:`~nlobs.navigation.run.run_navigation` and
+        :func:`~nlobs.simulate.run_observer` raise :class:`~nlobs.errors.NonFiniteError` naming the
+        sample's index and time. A non-finite sample passed here directly gives a non-finite state.
+
         Raises
         ------
         InvalidArgumentError
-            ``h`` is not positive, or (RK4 with fixed ``substeps``) too large for RK4's stability.
+            ``h`` is not positive and finite, or (RK4 with fixed ``substeps``) too large for RK4's stability.
         DimensionError
             ``kernel="scalar"`` for more than one flight.
         """
         if self.integrator == "split" and self.kernel != "batched" and z.p.size == 3 and u.size == 9 \
                 and (u.ndim == 1 or u.shape[:-1] == z.p.shape[:-1]):
             h = float(h)
-            if not h > 0:
-                raise InvalidArgumentError(f"dt: must be positive, got {h!r}")
+            if not 0.0 < h < _INF:
+                raise InvalidArgumentError(f"dt: must be positive and finite, got {h!r}")
             f = u.ravel().tolist()
             return self._propagate_scalar(z, f, h)
         u_ = np.asarray(u, dtype=float)
@@ -504,7 +511,7 @@ class GnssInsObserver:
         if not np.all(fresh):
             raise InvalidArgumentError("fresh: a GNSS fix carries all its channels at once")
         valid = np.isfinite(y_).all(axis=-1)
-        return self.update(z, GnssSample(y_[..., GNSS_P], y_[..., GNSS_V] if y_.shape[-1] == 6 else None, valid))
+        return self._store(z, y_[..., GNSS_P], y_[..., GNSS_V] if y_.shape[-1] == 6 else None, valid)
 
     def estimate(self, z: GnssInsState) -> Array:
         """``[p̂, v̂, R̂ projected onto SO(3)]`` (post-orthogonalisation, Sec. 5.2; SVD), shape ``(..., 15)``."""
@@ -570,10 +577,13 @@ class GnssInsObserver:
 
     # ------------------------------------------------------ functional form (domain types)
     def update(self, state: GnssInsState, gnss: GnssSample) -> GnssInsState:
-        """Store a GNSS fix as the held measurement, per batch member where ``gnss.valid``.
+        """Store a GNSS fix as the held measurement, per batch member where ``gnss.valid`` and the fix is finite.
 
         Invalid members keep their previous held measurement (or stay without
         injection if none has arrived) and their ``skipped`` count grows by one.
+        A member whose fix has a non-finite entry (of ``p``, or of ``v`` when the
+        observer uses it) counts as invalid even when ``gnss.valid`` says otherwise:
+        it is a missing fix for that flight (the protocol of :mod:`nlobs.observers.base`).
         A position-only observer ignores ``gnss.v``.
 
         Raises
@@ -583,17 +593,25 @@ class GnssInsObserver:
         DimensionError
             Shapes do not broadcast to the state's batch shape.
         """
+        p = np.asarray(gnss.p, dtype=float)
+        v = None if gnss.v is None else np.asarray(gnss.v, dtype=float)
+        finite = np.isfinite(p).all(axis=-1)
+        if v is not None and not self.position_only:
+            finite = finite & np.isfinite(v).all(axis=-1)
+        return self._store(state, p, v, np.asarray(gnss.valid, dtype=bool) & finite)
+
+    def _store(self, state: GnssInsState, p: Array, v: Array | None, valid: BoolArray) -> GnssInsState:
+        """:meth:`update` with ``valid`` already false wherever the fix is not finite."""
         batch = state.batch_shape
-        valid = np.asarray(gnss.valid, dtype=bool)
         try:
             valid = np.broadcast_to(valid, batch)
-            yp = np.where(valid[..., None], np.broadcast_to(gnss.p, (*batch, 3)), state.y_p)
+            yp = np.where(valid[..., None], np.broadcast_to(p, (*batch, 3)), state.y_p)
             yv = state.y_v
             if not self.position_only:
-                if gnss.v is None:
+                if v is None:
                     raise InvalidArgumentError(
                         "gnss.v: the fix has no velocity but the observer expects p and v (use position_only=True)")
-                yv = np.where(valid[..., None], np.broadcast_to(gnss.v, (*batch, 3)), state.y_v)
+                yv = np.where(valid[..., None], np.broadcast_to(v, (*batch, 3)), state.y_v)
         except ValueError as exc:
             if isinstance(exc, InvalidArgumentError):
                 raise
@@ -609,15 +627,15 @@ class GnssInsObserver:
         Raises
         ------
         InvalidArgumentError
-            ``dt`` is not positive, or (RK4 with fixed ``substeps``) too large for
-            RK4's stability (``(dt/substeps)·ρ > 2.785``).
+            ``dt`` is not positive and finite, or (RK4 with fixed ``substeps``) too large for
+            RK4's stability (``(dt/substeps)·ρ > 2.785``). The IMU sample is not checked (see :meth:`step`).
         """
         if self.integrator == "split" and self.kernel != "batched":
             scalar = _single(state, imu)
             if scalar is not None:
                 dt = float(dt)
-                if not dt > 0:
-                    raise InvalidArgumentError(f"dt: must be positive, got {dt!r}")
+                if not 0.0 < dt < _INF:
+                    raise InvalidArgumentError(f"dt: must be positive and finite, got {dt!r}")
                 return self._propagate_scalar(state, scalar, dt)
         return self._advance(state, np.asarray(imu.omega_b, dtype=float), np.asarray(imu.a_b, dtype=float),
                              np.asarray(imu.m_b, dtype=float), dt)
@@ -626,8 +644,8 @@ class GnssInsObserver:
     def _advance(self, state: GnssInsState, w: Array, a: Array, m: Array, dt: float) -> GnssInsState:
         """One IMU period by the batched split step or RK4 (``w``, ``a``, ``m`` of shape ``(..., 3)``)."""
         dt = float(dt)
-        if not dt > 0:
-            raise InvalidArgumentError(f"dt: must be positive, got {dt!r}")
+        if not 0.0 < dt < _INF:
+            raise InvalidArgumentError(f"dt: must be positive and finite, got {dt!r}")
         if self.integrator == "split":
             if self.kernel == "scalar":
                 raise DimensionError(

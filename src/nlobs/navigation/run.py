@@ -41,7 +41,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nlobs._typing import Array, IntArray
-from nlobs._validate import as_batch, as_finite_array, positive
+from nlobs._validate import as_batch, as_finite_array, as_real_array, positive
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError
 from nlobs.navigation.base import GNSS_OUTPUTS, GNSS_OUTPUTS_P, NAV_STATES, SensorData, nav_vector
 from nlobs.observers.base import CorrectingObserver
@@ -69,7 +69,7 @@ def _check_imu(data: SensorData) -> tuple[Array, tuple[int, ...]]:
             f"data.t_imu: not uniform at {rate:g} Hz: step {dt[k - 1]:.9g} s before sample {k} (t = {t[k]:.9g} s)")
     batches: list[tuple[int, ...]] = []
     for name in ("omega_b", "a_b", "m_b"):
-        arr = np.asarray(getattr(data, name), dtype=float)
+        arr = as_real_array(f"data.{name}", getattr(data, name))
         if arr.ndim < 2 or arr.shape[-2:] != (K, 3):
             raise DimensionError(f"data.{name}: expected shape (..., {K}, 3), got {arr.shape}")
         finite = np.isfinite(arr).all(axis=-1)  # (..., K)
@@ -105,7 +105,7 @@ def _check_gnss(data: SensorData, t: Array) -> tuple[IntArray, tuple[int, ...]]:
         val = getattr(data, name)
         if val is None:
             continue
-        arr = np.asarray(val, dtype=float)
+        arr = as_real_array(f"data.{name}", val)
         if arr.ndim < 2 or arr.shape[-2:] != (G, 3):
             raise DimensionError(f"data.{name}: expected shape (..., {G}, 3), got {arr.shape}")
         batches.append(arr.shape[:-2])

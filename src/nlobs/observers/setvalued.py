@@ -40,7 +40,7 @@ from numpy.typing import ArrayLike
 
 from nlobs._typing import Array, BoolArray
 from nlobs._validate import as_finite_array, positive, readonly
-from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError
+from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError, SimulationDiverged
 from nlobs.linear.transform_ui import UITransform, ui_transform
 from nlobs.synthesis.setvalued import SetValuedDesign
 from nlobs.systems.discrete_ui import DiscreteUISystem
@@ -79,6 +79,20 @@ class Radii:
     state_steady: float
     input_steady: float
     label: str
+
+
+def _require_finite(t: float, k: int, parts: tuple[tuple[str, Array], ...]) -> None:
+    """Raise :class:`~nlobs.errors.SimulationDiverged` naming step ``k`` when a quantity of Algorithm 1 overflowed.
+
+    Finite but huge measurements (e.g. ``y = 1e308``) can overflow (10)–(15); the centres and the input
+    estimate would then be NaN or ±inf, which no radius bounds.
+    """
+    for label, a in parts:
+        ok = np.isfinite(a)
+        if not ok.all():
+            j = int(np.argmin(ok.reshape(-1, a.shape[-1]).all(axis=0)))
+            raise SimulationDiverged(t, f"set-valued observer (Algorithm 1, step {k}: overflow from the measurement)",
+                                     f"{label}[{j}]")
 
 
 def _nrm(M: Array) -> float:
@@ -397,6 +411,7 @@ class SetValuedObserver:
         z1, z2 = y @ tr.U1, y @ tr.U2
         if z.k < 0:  # step 0: x̂_{0|0} is given, only (10)
             d1 = (z1 - z.x @ tr.C1.T - uk @ tr.D1.T) @ tr.M1.T
+            _require_finite(t, 0, (("d1_hat", d1),))
             return SetValuedState(x=z.x, d1=d1, d=z.d, k=0, corrected=True, radius=z.radius,
                                   radius_input=z.radius_input, V=z.V)
         if z.corrected:
@@ -407,6 +422,7 @@ class SetValuedObserver:
         xs = xp + d2 @ tr.G2.T  # (14)
         xh = xs + (z2 - xs @ tr.C2.T - uk @ tr.D2.T) @ Lt.T  # (15)
         d1 = (z1 - xh @ tr.C1.T - uk @ tr.D1.T) @ tr.M1.T  # (10)
+        _require_finite(t, z.k, (("x_hat", xh), ("d_hat", d), ("d1_hat", d1)))
         return SetValuedState(x=xh, d1=d1, d=d, k=z.k, corrected=True, radius=z.radius,
                               radius_input=z.radius_input, V=z.V)
 

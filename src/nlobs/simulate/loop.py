@@ -67,6 +67,14 @@ from nlobs.systems.timebase import Continuous, Discrete, TimeBase
 #: Relative tolerance when comparing the step sizes of discrete models and ``dt``.
 DT_RTOL = 1e-9
 
+#: Most steps ``N = ceil(duration / dt)`` one :func:`simulate` call runs: a longer grid (e.g. ``dt = 1e-300``)
+#: is refused up front, naming the step count, instead of failing later for memory or running for days.
+MAX_STEPS = 100_000_000
+
+#: The step must be at least this many units in the last place of the largest time ``|t0| + duration``:
+#: a smaller one is not resolved by the float times ``t0 + k dt`` (they would repeat or jump).
+MIN_STEP_ULPS = 1000.0
+
 
 class _NullObserver:
     """Stand-in when only the plant is simulated: no state, no estimate."""
@@ -504,9 +512,11 @@ def simulate(
     DimensionError
         ``x0``, ``x_hat0``, ``u`` or the observer's ``init``/``estimate`` have the wrong shape.
     NonFiniteError
-        ``x0``, ``x_hat0`` or ``u(t0)`` is not finite.
+        ``x0``, ``x_hat0``, ``u(t0)``, ``dt``, ``duration`` or ``t0`` is not finite (a complex ``x0`` or
+        ``x_hat0`` is :class:`~nlobs.errors.InvalidArgumentError`).
     InvalidArgumentError
-        Non-positive ``dt`` or ``duration``, a missing ``dt``, a ``dt`` that
+        Non-positive ``dt`` or ``duration``, a grid of more than :data:`MAX_STEPS` steps or with a ``dt``
+        the float times cannot resolve (:data:`MIN_STEP_ULPS`), a missing ``dt``, a ``dt`` that
         disagrees with a discrete model, a sensor rate that does not fit ``dt``,
         outputs without a measurement group, or noise without a seed.
     SimulationDiverged
@@ -545,7 +555,17 @@ def simulate(
         raise NonFiniteError(f"t0: must be finite, got {t0!r}")
     if isinstance(save_every, bool) or not isinstance(save_every, (int, np.integer)) or save_every < 1:
         raise InvalidArgumentError(f"save_every: expected a positive integer, got {save_every!r}")
-    n_steps = max(1, math.ceil(duration / step - 1e-9))
+    steps_needed = duration / step
+    if not steps_needed <= MAX_STEPS:  # also an overflow to inf
+        raise InvalidArgumentError(
+            f"dt: duration={duration:g} s with dt={step:g} s needs {steps_needed:.4g} steps, more than "
+            f"MAX_STEPS = {MAX_STEPS:,}; use a larger dt or a shorter duration")
+    t_end = abs(t0) + duration
+    if step < MIN_STEP_ULPS * math.ulp(t_end):
+        raise InvalidArgumentError(
+            f"dt: {step:g} s is below the resolution of the times up to {t_end:g} s (one unit in the last place "
+            f"is {math.ulp(t_end):.3g} s; dt must be at least {MIN_STEP_ULPS:g} of them); shift t0 or use a larger dt")
+    n_steps = max(1, math.ceil(steps_needed - 1e-9))
 
     n = plant.n
     x0a = as_batch("x0", x0, n)

@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike
 
 from nlobs._progress import Progress
 from nlobs._typing import Array, IntArray
-from nlobs._validate import as_finite_array
+from nlobs._validate import as_finite_array, as_real_array
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError, SimulationDiverged
 from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
 from nlobs.simulate.loop import finish, initial_state, observer_label, record_diagnostics, time_major_extras
@@ -179,7 +179,7 @@ def run_observer(
 
     u_arr: Array | None = None
     if u is not None:
-        u_arr = np.asarray(u, dtype=float)
+        u_arr = as_real_array("u", u)
         if u_arr.ndim < 2 or u_arr.shape[-2] != K:
             raise DimensionError(f"u: expected shape (..., {K}, m) on the time grid, got {u_arr.shape}")
         finite = np.isfinite(u_arr).all(axis=-1)
@@ -195,7 +195,7 @@ def run_observer(
         fix_at = np.full(K, -1, dtype=np.intp)
         rows = np.zeros((0, 0), dtype=bool)
     else:
-        y_arr = np.asarray(y, dtype=float)
+        y_arr = as_real_array("y", y)
         if y_arr.ndim < 2:
             raise DimensionError(f"y: expected shape (..., G, p), got {y_arr.shape}")
         G, p = y_arr.shape[-2:]

@@ -413,7 +413,12 @@ def _checks(c: RiccatiConstants, K: Array, P: Array) -> _Verification:
 
 def verify_drift_gain(c: RiccatiConstants, K: ArrayLike, P: ArrayLike, *, method: str = "given",
                       w: float | None = None) -> DriftGainCertificate:
-    """Verify a pair ``(K, P)`` against (2.17) in scaled coordinates (Def. 2.6); never raises on failure."""
+    """Verify a pair ``(K, P)`` against (2.17) in scaled coordinates (Def. 2.6); never raises on failure.
+
+    Bad input is still refused: ``K``, ``P`` not finite, real and of the right shape, or ``w`` (the
+    Remark 2.11 parameter the certificate records) not positive and finite.
+    """
+    w = None if w is None else positive("w", w)
     K_ = as_matrix("K", K, (c.n, c.q)).copy()
     P_ = as_matrix("P", P, (c.n, c.n))
     P_ = 0.5 * (P_ + P_.T)

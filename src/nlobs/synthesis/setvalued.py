@@ -71,8 +71,8 @@ import cvxpy as cp
 import numpy as np
 
 from nlobs._typing import Array
-from nlobs._validate import in_range, positive, readonly
-from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
+from nlobs._validate import as_count, as_finite_array, as_square, in_range, positive, readonly
+from nlobs.errors import CertificateError, DesignInfeasible, DimensionError, InvalidArgumentError
 from nlobs.linear.norms import hinf_norm
 from nlobs.linear.transform_ui import (
     StructuralReport,
@@ -611,12 +611,17 @@ def design_setvalued(
     CertificateError
         The solver's answer failed the independent re-verification.
     InvalidArgumentError
-        ``"hinf"`` with ``γ < 0`` (no finite ℓ₂ gain follows from the multiplier).
+        ``"hinf"`` with ``γ < 0`` (no finite ℓ₂ gain follows from the multiplier) or with ``lam``; ``lam``
+        outside ``(0, 1)``; negative ``bisection_steps`` / ``golden_steps``; a ``rtol`` or ``margin`` that
+        is not positive (``NonFiniteError`` when not finite).
     """
     t0 = time.perf_counter()
     obj = as_enum("objective", SetValuedObjective, objective)
     slv = as_solver(solver)
     eps = positive("margin", margin)
+    n_bisect = as_count("bisection_steps", bisection_steps)
+    n_golden = as_count("golden_steps", golden_steps)
+    rtol = positive("rtol", rtol)
     mode = as_enum("lpv", LPVMode, lpv)
     certified_for = CertifiedFor.of(system, mode)
     if certified_for.function_class is not system.function_class:
@@ -626,6 +631,9 @@ def design_setvalued(
     require_structure(st)
     dyn = error_dynamics(system, tr)
     gamma = system.function_class.gamma
+    if obj is SetValuedObjective.HINF and lam is not None:
+        raise InvalidArgumentError(f"lam: the 'hinf' objective fixes λ = 1 (with q = 1); lam={lam!r} applies to "
+                                   "objective='radius' only")
     if obj is SetValuedObjective.HINF and gamma < 0:
         raise InvalidArgumentError(
             f"objective: 'hinf' needs γ ≥ 0 (got γ = {gamma:g}); with γ < 0 the multiplier leaves a constant term "
@@ -667,7 +675,7 @@ def design_setvalued(
                     "multiplier contracts the error dynamics (16); try a tighter class (smaller constants) or a "
                     "Class 0 multiplier that describes φ better", constraint="(⋆)")
             lo_l = 0.0
-            for _ in range(int(bisection_steps)):
+            for _ in range(n_bisect):
                 if hi_l - lo_l <= LAMBDA_BRACKET * (1.0 - hi_l):
                     break
                 mid = 0.5 * (lo_l + hi_l)
@@ -689,7 +697,7 @@ def design_setvalued(
             a, b = lam_min, 1.0 - 1e-6
             gr = (math.sqrt(5.0) - 1) / 2
             x1, x2 = b - gr * (b - a), a + gr * (b - a)
-            for _ in range(int(golden_steps)):
+            for _ in range(n_golden):
                 j1, j2 = J(x1), J(x2)
                 if math.isfinite(j1) and math.isfinite(j2) and abs(j1 - j2) <= rtol * min(j1, j2):
                     break
@@ -744,13 +752,34 @@ def verify_setvalued(system: DiscreteUISystem, L_tilde: Any, P: Any, *, kappa: f
 
     Used to check published gains. Returns the checks; with ``strict`` raises
     :class:`~nlobs.errors.CertificateError` when one fails.
+
+    The scalars are those of condition (⋆) (``docs/setvalued.md`` §4): ``κ ≥ 0``, ``q ≥ 0``,
+    ``Θ = (θ₁, θ_w, θ₂) ⪰ 0``, and ``λ ∈ (0, 1)`` — or ``λ = 1`` with ``q > 0`` (the ``hinf`` form,
+    whose contraction is ``λ_eff = λ − q/λ_max(P) < 1``); ``rho`` positive when given.
+
+    Raises
+    ------
+    InvalidArgumentError, NonFiniteError, DimensionError
+        A scalar outside its range or not finite (a ``λ ≥ 1`` with ``q = 0`` certifies no
+        contraction), or a complex, non-finite or wrongly shaped ``L̃`` or ``P``.
     """
     tr = ui_transform(system.G, system.C, system.H, system.D)
     dyn = error_dynamics(system, tr)
-    L = np.asarray(L_tilde, dtype=float).reshape(system.n, dyn.Xic.shape[0])
-    P_ = np.asarray(P, dtype=float)
-    checks, *_ = _verify(system, dyn, 0.5 * (P_ + P_.T), L, float(kappa), float(lam), float(q),
-                         tuple(float(t) for t in theta), rho)  # type: ignore[arg-type]
+    shape = (system.n, dyn.Xic.shape[0])
+    L = as_finite_array("L_tilde", L_tilde)
+    if L.size != shape[0] * shape[1]:
+        raise DimensionError(f"L_tilde: expected shape {shape}, got {L.shape}")
+    L = L.reshape(shape)
+    P_ = as_square("P", P, system.n)
+    kv = positive("kappa", kappa, allow_zero=True)
+    qv = positive("q", q, allow_zero=True)
+    lv = in_range("lam", lam, 0.0, 1.0, lo_open=True, hi_open=qv == 0.0)
+    th = as_finite_array("theta", theta, ndim=1)
+    if th.shape != (3,) or np.any(th < 0):
+        raise InvalidArgumentError(f"theta: expected three non-negative weights (θ₁, θ_w, θ₂), got {th.tolist()}")
+    rv = None if rho is None else positive("rho", rho)
+    checks, *_ = _verify(system, dyn, 0.5 * (P_ + P_.T), L, kv, lv, qv,
+                         (float(th[0]), float(th[1]), float(th[2])), rv)
     if strict and not all(c.passed for c in checks):
         raise CertificateError("; ".join(c.summary() for c in checks if not c.passed))
     return tuple(checks)

@@ -43,7 +43,7 @@ import sympy as sp
 from numpy.typing import ArrayLike
 
 from nlobs._typing import Array
-from nlobs._validate import as_batch, as_matrix, as_square, as_symmetric, as_vector, positive, readonly
+from nlobs._validate import as_batch, as_matrix, as_square, as_symmetric, as_vector, positive, readonly, real_scalar
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, NonFiniteError
 from nlobs.systems.codegen import compile_matrix
@@ -96,7 +96,7 @@ class QuadraticConstraint:
         if M.shape[0] % 2:
             raise DimensionError(f"M: expected an even size 2n, got shape {M.shape}")
         object.__setattr__(self, "M", readonly(M))
-        g = float(self.gamma)
+        g = float(real_scalar("gamma", self.gamma))
         if not math.isfinite(g):
             raise InvalidArgumentError(f"gamma: must be finite, got {self.gamma!r}")
         if g > 0:
