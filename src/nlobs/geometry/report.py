@@ -99,6 +99,8 @@ class GeometryReport:
             lines.append(f"  observation relative degree of {o}: {'undefined' if r is None else r}   ({ev})")
         rank = "undecided" if self.observability_rank is None else f"generic rank {self.observability_rank} of n = {n}"
         ev = "" if self.rank_evidence is None else f"   ({self.rank_evidence.describe()})"
+        if self.rank_evidence is not None and self.rank_evidence.rank != self.observability_rank:
+            ev = f"   (from Q_s nonsingular; the scaled singular values alone: {self.rank_evidence.describe()})"
         lines.append(f"  observability codistribution: {rank}{ev}")
         lines.append(f"  default multi-index s = {list(self.multi_index)}")
         if self.drift is None:
