@@ -17,12 +17,14 @@ from typing import TYPE_CHECKING
 from nlobs._lazy import lazy_exports
 from nlobs.geometry.checks import (
     Check,
+    RankEvidence,
     check_a1,
     check_drift_observability,
     check_involutive,
     check_s_le_r,
     default_multi_index,
     observability_rank,
+    observability_rank_evidence,
 )
 from nlobs.geometry.lie import covector_lie_derivative, gradient, lie_bracket, lie_derivative, lie_derivatives
 from nlobs.geometry.observability import (
@@ -46,11 +48,12 @@ if TYPE_CHECKING:
 _LAZY: dict[str, str] = dict.fromkeys(("LipschitzEstimates", "lipschitz_estimates"), "nlobs.geometry.lipschitz")
 
 __all__ = [
-    "AffineFields", "Box", "Check", "LipschitzEstimates", "RelativeDegree", "ZeroTest", "block_gain",
+    "AffineFields", "Box", "Check", "LipschitzEstimates", "RankEvidence", "RelativeDegree", "ZeroTest", "block_gain",
     "brunovsky", "check_a1", "check_drift_observability", "check_involutive", "check_s_le_r",
     "covector_lie_derivative", "default_multi_index", "gain_symbols", "gradient", "input_gain_structure",
     "lie_bracket", "lie_derivative", "lie_derivatives", "lipschitz_estimates", "observability_jacobian",
-    "observability_map", "observability_rank", "observation_relative_degree", "output_derivative_terms",
+    "observability_map", "observability_rank", "observability_rank_evidence", "observation_relative_degree",
+    "output_derivative_terms",
     "pinv_gain_field", "reduced_observability_matrix", "symbolic_pinv", "vanishes_on",
 ]
 

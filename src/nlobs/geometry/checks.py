@@ -21,6 +21,8 @@ multi-index (the observability indices found by a rank-greedy selection).
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import sympy as sp
@@ -28,6 +30,7 @@ from scipy.optimize import minimize
 
 from nlobs._typing import Array
 from nlobs.checks import Check, CheckKind
+from nlobs.errors import ModelError
 from nlobs.geometry.lie import SIMPLIFY_OPS_LIMIT, lie_bracket, tidy
 from nlobs.geometry.observability import (
     AffineFields,
@@ -44,8 +47,9 @@ from nlobs.systems.expressions import as_sympy_expr, as_sympy_matrix
 
 #: Largest ``Q_s`` (rows) whose determinant is computed symbolically.
 SYMBOLIC_DET_MAX_N = 4
-#: A matrix is called (numerically) singular where ``σ_min ≤ RANK_RTOL · max(1, σ_max)``: an observer
-#: that inverts it would amplify by more than ``1/RANK_RTOL`` there.
+#: A matrix is called (numerically) singular where the ``σ_min`` of its scaled form (columns times
+#: the state scales, rows divided by their size on the region) is ``≤ RANK_RTOL · σ_max``: an
+#: observer that inverts it would amplify relative errors by more than ``1/RANK_RTOL`` there.
 RANK_RTOL = 1e-7
 
 
@@ -82,9 +86,13 @@ def check_full_rank(name: str, what: str, M: sp.MatrixBase, fields: AffineFields
 
     A sign change of ``det`` (square case) between two sampled points proves a singular point on the
     segment between them (intermediate values; located by bisection; ``method="intermediate value"``).
-    Otherwise ``σ_min`` at sampled points, refined by a bounded local minimisation from the worst ones;
-    singular where ``σ_min ≤ RANK_RTOL · max(1, σ_max)``. ``phrase`` words a failure (default
-    "``what`` loses rank").
+    Otherwise ``σ_min`` at sampled points, refined by a bounded local minimisation from the worst ones.
+    The decision is taken on the scaled matrix of :func:`observability_rank_evidence` (columns times
+    the state scales of the region, rows divided by their largest norm over the points examined), at
+    every sampled point and the refined one:
+    singular where its ``σ_min ≤ max(RANK_RTOL · σ_max, RANK_GAP_FACTOR · η)``, ``η`` the error bound
+    of the evaluation (a non-finite point counts as singular). ``value`` is the unscaled ``σ_min``.
+    ``phrase`` words a failure (default "``what`` loses rank").
     """
     pts = reg.sample(samples, seed)
     det_txt = None if det is None else str(det)
@@ -107,13 +115,29 @@ def check_full_rank(name: str, what: str, M: sp.MatrixBase, fields: AffineFields
             return Check.verdict(name, False, f"det {what} = {det_txt} changes sign on the region: {what} is singular "
                                  f"at x ≈ {format_point(pt)}", kind=CheckKind.RANK, method="intermediate value",
                                  worst_point=tuple(map(float, pt)), value=0.0, symbolic=det_txt)
-    fn = compile_matrix(as_sympy_matrix("M", M), (tuple(fields.x),), what=what)
+    M = as_sympy_matrix("M", M)
+    fn = compile_matrix(M, (tuple(fields.x),), what=what)
     sv = _sigma_min(fn, pts)
     pt, worst = _refine(fn, pts, sv, reg)
-    holds = bool(worst > RANK_RTOL * max(1.0, float(np.max(sv))))
+    # the decision is taken on the scaled matrix (columns × state scales, rows by their size), as the
+    # observability rank is, so that units and the growth of L_f^k h cannot decide it
+    scd = _ScaledCodistribution.build(M, fields.x, reg)
+    spts, S, E = scd._scale(np.vstack([pts, pt[None, :]]))
+    holds, ssv = False, 0.0
+    if len(spts):
+        ssvs = np.linalg.svd(S, compute_uv=False)
+        eta = np.linalg.norm(E, axis=(-2, -1)) + 4 * max(S.shape[-2:]) * UNIT_ROUNDOFF * ssvs[:, 0]
+        thr = np.maximum(RANK_RTOL * ssvs[:, 0], RANK_GAP_FACTOR * eta)
+        margin = ssvs[:, -1] / thr
+        holds = bool(np.all(margin > 1.0)) and len(spts) == len(pts) + 1
+        j = int(np.argmin(margin))
+        ssv = float(ssvs[j, -1])
+        if not holds:
+            pt = spts[j] if margin[j] <= 1.0 else pt
+            worst = float(_sigma_min(fn, pt[None, :])[0])
     ev = (f"σ_min({what}) ≥ {worst:.3g} on {reg.describe()} ({samples} sampled points and local minimisation), "
-          f"smallest at x = {format_point(pt)}" if holds
-          else f"{phrase or what + ' loses rank'} at x = {format_point(pt)} (σ_min = {worst:.3g})")
+          f"smallest at x = {format_point(pt)}; scaled σ_min ≥ {ssv:.3g}" if holds
+          else f"{phrase or what + ' loses rank'} at x = {format_point(pt)} (σ_min = {worst:.3g}, scaled {ssv:.3g})")
     if det_txt is not None:
         ev += f"; det {what} = {det_txt}"
     return Check.verdict(name, holds, ev, kind=CheckKind.RANK, method="numeric", worst_point=tuple(map(float, pt)),
@@ -228,47 +252,305 @@ def check_s_le_r(s: Sequence[int], r: Sequence[int | None]) -> Check:
                          kind=CheckKind.STRUCTURAL, method="structural")
 
 
-def observability_rank(
+#: Unit roundoff of IEEE double precision.
+UNIT_ROUNDOFF = float(np.finfo(float).eps) / 2
+#: A scaled singular value counts as nonzero above ``RANK_GAP_FACTOR · η`` and as zero at or below
+#: ``η`` (the error bound of the evaluation); between the two the rank is undecided.
+RANK_GAP_FACTOR = 10.0
+
+
+@dataclass(frozen=True)
+class RankEvidence:
+    """How :func:`observability_rank_evidence` decided the generic rank (or why it could not).
+
+    Attributes
+    ----------
+    rank : int or None
+        The generic rank, or ``None`` (undecided: a scaled singular value lies within a factor
+        ``RANK_GAP_FACTOR`` above the evaluation's error bound, or no sampled point is finite).
+    lower, upper : int
+        The counts ``#{σ > RANK_GAP_FACTOR · η}`` and ``#{σ > η}`` maximised over the sampled
+        points (``lower ≤ rank ≤ upper``; equal when decided).
+    singular_values : tuple of float
+        Singular values of the scaled codistribution matrix at ``point``.
+    tolerance : float or None
+        ``η`` at ``point``: the bound on the error of those singular values (``None``: no point).
+    gap : float or None
+        ``σ_r / max(σ_(r+1), η)`` at ``point``, ``r`` the rank (for an undecided rank, ``#{σ > η}``
+        there): how far the last nonzero singular value stands above the next one or the noise
+        (``None`` when ``r`` is ``0`` or ``n``).
+    point : tuple of float or None
+        The sampled point whose singular values are reported (the one of largest rank, or for an
+        undecided rank the one with a singular value in the undecided band).
+    points : int
+        Finite sampled points used.
+    state_scales : tuple of float
+        Column scales ``d_i = max(|lower_i|, |upper_i|)`` from the region.
+    method : str
+        How the rank was decided (double precision; checked or decided at ``HIGH_PRECISION_DIGITS``
+        digits).
+    high_precision_singular_values, high_precision_tolerance : tuple of float or None, float or None
+        The scaled singular values at ``point`` recomputed at ``HIGH_PRECISION_DIGITS`` digits and
+        their error bound (``None`` when not needed: double precision proved full rank).
+    """
+
+    rank: int | None
+    lower: int
+    upper: int
+    singular_values: tuple[float, ...]
+    tolerance: float | None
+    gap: float | None
+    point: tuple[float, ...] | None
+    points: int
+    state_scales: tuple[float, ...]
+    method: str = "double precision"
+    high_precision_singular_values: tuple[float, ...] | None = None
+    high_precision_tolerance: float | None = None
+
+    def describe(self) -> str:
+        """One line of evidence."""
+        sv = ", ".join(f"{v:.3g}" for v in self.singular_values)
+        where = "" if self.point is None else f" at x = {format_point(self.point)}"
+        if self.tolerance is None:
+            return f"undecided: {self.method}"
+        if self.rank is None:
+            return (f"undecided: rank between {self.lower} and {self.upper}; scaled singular values ({sv}){where}, "
+                    f"error bound η = {self.tolerance:.2g}; {self.method}")
+        gap = "" if self.gap is None else f", gap σ_{self.rank}/σ_{self.rank + 1} = {self.gap:.3g}"
+        return f"scaled singular values ({sv}){where}, error bound η = {self.tolerance:.2g}{gap}; {self.method}"
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON view (the ``observability_rank_evidence`` key of ``nlobs analyze --json``)."""
+        return {"rank": self.rank, "lower": self.lower, "upper": self.upper,
+                "singular_values": list(self.singular_values), "tolerance": self.tolerance, "gap": self.gap,
+                "point": None if self.point is None else list(self.point), "points": self.points,
+                "state_scales": list(self.state_scales), "gap_factor": RANK_GAP_FACTOR, "method": self.method,
+                "high_precision_singular_values": None if self.high_precision_singular_values is None
+                else list(self.high_precision_singular_values),
+                "high_precision_tolerance": self.high_precision_tolerance}
+
+
+@dataclass(frozen=True)
+class _ScaledCodistribution:
+    """The compiled codistribution matrix ``J(x)``, its entries' term magnitudes and rounding factors."""
+
+    J: Any
+    A: Any
+    gamma: Array
+    scales: Array
+
+    @classmethod
+    def build(cls, M: sp.MatrixBase, x: Sequence[sp.Symbol], region: Box) -> _ScaledCodistribution:
+        terms = [sp.Add.make_args(sp.expand(e)) for e in M]
+        A = sp.Matrix(M.shape[0], M.shape[1], [sp.Add(*[sp.Abs(t) for t in ts]) for ts in terms])
+        # γ_m = m·u/(1 − m·u) with m the floating operations of an entry (Higham, Accuracy and
+        # Stability of Numerical Algorithms, §3.1), plus one rounding of each parameter and of the result
+        ops = np.array([float(sp.count_ops(e)) + len(ts) + 2 for e, ts in zip(M, terms)]).reshape(M.shape)
+        gamma = ops * UNIT_ROUNDOFF / (1 - ops * UNIT_ROUNDOFF)
+        scales = np.maximum(np.abs(region.lower), np.abs(region.upper))
+        return cls(compile_matrix(M, (tuple(x),), what="observability codistribution"),
+                   compile_matrix(A, (tuple(x),), what="codistribution term magnitudes"), gamma, scales)
+
+    def row_factors(self, pts: Array) -> Array:
+        """The diagonal of ``R`` (see :meth:`_scale`) over ``pts``."""
+        return self._scale(pts, factors=True)[1]
+
+    def _scale(self, pts: Array, factors: bool = False) -> tuple[Array, Array, Array]:
+        """Finite points, the scaled matrices ``R J D`` and their entrywise error bounds ``R (γ ∘ A) D``.
+
+        ``D`` holds the state scales; ``R`` divides each row by its largest norm over ``pts`` (the
+        magnitude of that Lie derivative on the region, so that a row vanishing at a point still shows
+        as a loss of rank there). A row never above its own error bound is dropped (zero).
+        """
+        with np.errstate(all="ignore"):
+            J, A = self.J(pts), self.A(pts)
+        ok = np.all(np.isfinite(J), axis=(-2, -1)) & np.all(np.isfinite(A), axis=(-2, -1))
+        JD = J[ok] * self.scales
+        ED = self.gamma * A[ok] * self.scales
+        if len(JD) == 0:
+            return pts[ok], np.zeros(self.gamma.shape[0]) if factors else JD, ED
+        norms = np.max(np.linalg.norm(JD, axis=-1), axis=0)
+        keep = np.any(np.linalg.norm(JD, axis=-1) > np.linalg.norm(ED, axis=-1), axis=0)
+        inv = np.where(keep, 1.0 / np.where(keep, norms, 1.0), 0.0)
+        if factors:
+            return pts[ok], inv, ED
+        return pts[ok], JD * inv[:, None], ED * inv[:, None]
+
+    def scaled(self, pt: Array, region: Box) -> tuple[Array | None, Array | None]:
+        """The scaled matrix and its error bounds at one point, rows scaled over 32 points of the region
+        and ``pt`` (``None, None`` where not finite)."""
+        pts = np.vstack([pt, region.sample(32, 1)])
+        with np.errstate(all="ignore"):
+            finite = bool(np.all(np.isfinite(self.J(pt))))
+        if not finite:
+            return None, None
+        _, S, E = self._scale(pts)
+        return S[0], E[0]
+
+    def svd(self, pts: Array) -> tuple[Array, Array, Array]:
+        """Finite points, the scaled singular values at each and their error bounds ``η``.
+
+        Columns are multiplied by the state scales, rows divided by their largest norm over
+        ``pts``; a row never above its own error bound is indistinguishable from zero and is
+        dropped (set to zero).
+        """
+        pts, S, E = self._scale(pts)
+        if len(pts) == 0:
+            return pts, np.zeros((0, min(self.gamma.shape))), np.zeros(0)
+        sv = np.linalg.svd(S, compute_uv=False)
+        # evaluation error (Weyl: |σ_i(S + ΔS) − σ_i(S)| ≤ ‖ΔS‖₂ ≤ ‖ΔS‖_F) plus the SVD's backward error
+        eta = np.linalg.norm(E, axis=(-2, -1)) + 4 * max(S.shape[-2:]) * UNIT_ROUNDOFF * sv[:, 0]
+        return pts, sv, eta
+
+
+def observability_rank_evidence(
     fields: AffineFields, region: Box | None = None, *, samples: int = 32, seed: int = 0, max_order: int | None = None
-) -> int:
-    """Generic rank of the codistribution spanned by ``dL_f^k h_j`` (``k < n``): its largest rank at sampled points."""
+) -> RankEvidence:
+    """Generic rank of the codistribution spanned by ``dL_f^k h_j`` (``k < n``), with its evidence.
+
+    The rank is decided on a scaled matrix, at ``samples`` seeded points of the region:
+
+    1. ``J(x)``, the Jacobian of ``(L_f^k h_j)``, has its columns multiplied by the state scales
+       ``d_i = max(|lower_i|, |upper_i|)`` of the region and each row divided by its largest norm
+       over the sampled points (the magnitude of that Lie derivative on the region; a
+       nonsingular diagonal scaling on either side leaves the exact rank unchanged; it removes the
+       spread of magnitudes that physical units and high-order Lie derivatives put into ``J``).
+    2. The error of the evaluated scaled matrix is bounded entrywise by ``γ_m · Σ|terms|``: each
+       entry is expanded into its terms, ``m`` counts its floating operations and
+       ``γ_m = m·u/(1 − m·u)`` (``u`` the unit roundoff). By Weyl's inequality the singular values
+       of the scaled matrix are then within ``η = ‖R (γ ∘ A) D‖_F + 4 max(rows, n) u σ_1`` of the exact
+       ones. A row not above its own error bound is indistinguishable from zero and is dropped.
+    3. At each point ``lower(x) = #{σ > RANK_GAP_FACTOR · η}`` and ``upper(x) = #{σ > η}``. The
+       generic rank (the largest rank on the region; sampled points are generic with probability
+       one) is decided when ``max lower(x) = max upper(x)``; otherwise it is ``None`` (undecided)
+       and the evidence keeps both counts, the singular values and ``η``.
+
+    Raises
+    ------
+    ModelError
+        If the region's dimension differs from the model's.
+    """
     reg = region or Box.unit(fields.n)
+    if reg.n != fields.n:
+        raise ModelError(f"{fields.name}: region has dimension {reg.n}, the model {fields.n}")
     kmax = fields.n if max_order is None else int(max_order)
     M = lie_map(fields, [kmax] * fields.q).jacobian(sp.Matrix(fields.x))
-    fn = compile_matrix(M, (tuple(fields.x),), what="observability codistribution")
-    with np.errstate(all="ignore"):
-        vals = fn(reg.sample(samples, seed))
-    vals = vals[np.all(np.isfinite(vals), axis=(-2, -1))]
-    if len(vals) == 0:
-        return 0
-    sv = np.linalg.svd(vals, compute_uv=False)
-    tol = RANK_RTOL * np.maximum(1.0, sv[:, :1])
-    return int(np.max(np.sum(sv > tol, axis=-1)))
+    scd = _ScaledCodistribution.build(M, fields.x, reg)
+    pts, sv, eta = scd.svd(reg.sample(samples, seed))
+    scales = tuple(map(float, scd.scales))
+    if len(pts) == 0:
+        return RankEvidence(None, 0, 0, (), None, None, None, 0, scales, "no finite sampled point")
+    lower = np.sum(sv > RANK_GAP_FACTOR * eta[:, None], axis=-1)
+    upper = np.sum(sv > eta[:, None], axis=-1)
+    lo, hi = int(np.max(lower)), int(np.max(upper))
+    i = int(np.argmax(lower)) if lo == hi else int(np.argmax((upper > lower) * (upper + 1)))
+    s, e, pt = sv[i], float(eta[i]), pts[i]
+    rank: int | None = lo if lo == hi else None
+    method = "double precision"
+    hp_sv: tuple[float, ...] | None = None
+    hp_eta: float | None = None
+    if rank is None or rank < min(M.shape):
+        # a deficiency (or no decision) in double precision: the singular values at or near the rounding
+        # error are recomputed from the exact rational point at HIGH_PRECISION_DIGITS digits
+        hp = _high_precision_singular_values(M, fields.x, pt, scd.scales, scd.row_factors(pts))
+        if hp is None:
+            method = "double precision (the high-precision evaluation is not finite)"
+        else:
+            hp_sv, hp_eta = hp
+            hp_lo = sum(v > RANK_GAP_FACTOR * hp_eta for v in hp_sv)
+            hp_hi = sum(v > hp_eta for v in hp_sv)
+            method = f"double precision, checked at {HIGH_PRECISION_DIGITS} digits"
+            if hp_lo != hp_hi:
+                rank, lo, hi = None, max(lo, hp_lo), max(hi, hp_hi)
+                s, e = np.array(hp_sv), hp_eta
+                method = f"undecided at {HIGH_PRECISION_DIGITS} digits too"
+            elif rank is None or hp_lo != rank:
+                rank = lo = hi = max(lo, hp_lo)
+                s, e = np.array(hp_sv), hp_eta
+                method = f"{HIGH_PRECISION_DIGITS} digits (double precision could not decide)"
+    r = rank if rank is not None else int(np.sum(s > e))
+    gap = float(s[r - 1] / max(float(s[r]), e)) if 0 < r < len(s) else None
+    return RankEvidence(rank, lo, hi, tuple(map(float, s)), e, gap, tuple(map(float, pt)), len(pts), scales, method,
+                        hp_sv, hp_eta)
+
+
+#: Digits of the high-precision re-evaluation that confirms or corrects a double-precision deficiency.
+HIGH_PRECISION_DIGITS = 48
+
+
+def _high_precision_singular_values(M: sp.MatrixBase, x: Sequence[sp.Symbol], pt: Array, scales: Array,
+                                    rows: Array) -> tuple[tuple[float, ...], float] | None:
+    """Singular values of the scaled ``M`` (the same column and row factors as in double precision; a
+    row that double precision dropped is scaled to unit norm) at ``pt`` (taken as exact binary
+    rationals) to ``HIGH_PRECISION_DIGITS`` digits, and their error bound; ``None`` if an entry is
+    not finite."""
+    import mpmath
+
+    subs = {xi: sp.Rational(float(v)) for xi, v in zip(x, pt)}
+    digits = HIGH_PRECISION_DIGITS
+    with mpmath.workdps(digits + 10):
+        out = []
+        for i in range(M.shape[0]):
+            row = []
+            for j in range(M.shape[1]):
+                v = sp.N(M[i, j].xreplace(subs), digits + 10)
+                if not (v.is_real and v.is_finite):
+                    return None
+                row.append(mpmath.mpf(v) * mpmath.mpf(float(scales[j])))
+            norm = mpmath.norm(row)
+            factor = mpmath.mpf(float(rows[i])) if rows[i] > 0 else (1 / norm if norm > 0 else mpmath.mpf(1))
+            out.append([v * factor for v in row])
+        S = mpmath.matrix(out)
+        sv = sorted((abs(v) for v in mpmath.svd_r(S, compute_uv=False)), reverse=True)
+        # entries correct to `digits` significant digits (SymPy's evalf), the SVD at digits + 10
+        eta = mpmath.mpf(10) ** (2 - digits) * mpmath.sqrt(M.shape[0] * M.shape[1])
+        return tuple(float(v) for v in sv), float(eta)
+
+
+def observability_rank(
+    fields: AffineFields, region: Box | None = None, *, samples: int = 32, seed: int = 0, max_order: int | None = None
+) -> int | None:
+    """Generic rank of the codistribution spanned by ``dL_f^k h_j`` (``k < n``), ``None`` when undecided.
+
+    The rank of :func:`observability_rank_evidence` (scaled matrix, tolerance from the evaluation's
+    rounding error; see there for the rule and the evidence).
+    """
+    return observability_rank_evidence(fields, region, samples=samples, seed=seed, max_order=max_order).rank
 
 
 def default_multi_index(fields: AffineFields, region: Box | None = None, *, seed: int = 0) -> tuple[int, ...]:
     """Observability indices: add ``dL_f^k h_j`` in the order ``k = 0, 1, …`` (outputs in turn) while the
     rank at a random point of the region grows and output ``j`` has not stalled; ``Σ s_j`` is the
-    generic rank (``= n`` for a drift-observable model). SISO: ``s = (n,)``."""
+    generic rank (``= n`` for a drift-observable model). SISO: ``s = (n,)``.
+
+    The rows are scaled as in :func:`observability_rank_evidence` (columns by the state scales, each
+    row by its largest norm on the region); a row is added when the smallest singular value of the scaled rows chosen so
+    far and the candidate exceeds ``RANK_GAP_FACTOR`` times their error bound ``η``."""
     if fields.q == 1:
         return (fields.n,)
     reg = region or Box.unit(fields.n)
     pt = reg.sample(1, seed)
     chains = lie_map(fields, [fields.n] * fields.q)
     rows_by_output = [list(range(j * fields.n, (j + 1) * fields.n)) for j in range(fields.q)]
-    J = chains.jacobian(sp.Matrix(fields.x))
-    vals = compile_matrix(J, (tuple(fields.x),), what="codistribution")(pt)[0]
+    scd = _ScaledCodistribution.build(chains.jacobian(sp.Matrix(fields.x)), fields.x, reg)
+    S, E = scd.scaled(pt, reg)
     s = [0] * fields.q
     active = [True] * fields.q
-    basis = np.zeros((0, fields.n))
+    chosen: list[int] = []
     for k in range(fields.n):
         for j in range(fields.q):
-            if not active[j] or basis.shape[0] == fields.n:
+            if not active[j] or len(chosen) == fields.n:
                 continue
-            cand = np.vstack([basis, vals[rows_by_output[j][k]]])
-            sv = np.linalg.svd(cand, compute_uv=False)
-            if np.sum(sv > RANK_RTOL * max(1.0, sv[0])) > basis.shape[0]:
-                basis, s[j] = cand, s[j] + 1
+            cand = chosen + [rows_by_output[j][k]]
+            if S is not None and _independent(S[cand], E[cand]):
+                chosen, s[j] = cand, s[j] + 1
             else:
                 active[j] = False
     return tuple(s)
+
+
+def _independent(S: Array, E: Array) -> bool:
+    """The rows of the scaled ``S`` are independent: ``σ_min > RANK_GAP_FACTOR · η`` (``E`` the error bounds)."""
+    sv = np.linalg.svd(S, compute_uv=False)
+    eta = float(np.linalg.norm(E)) + 4 * max(S.shape) * UNIT_ROUNDOFF * float(sv[0])
+    return bool(sv[-1] > RANK_GAP_FACTOR * eta)

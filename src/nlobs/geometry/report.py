@@ -16,11 +16,12 @@ import sympy as sp
 from nlobs.errors import ModelError
 from nlobs.geometry.checks import (
     Check,
+    RankEvidence,
     check_a1,
     check_drift_observability,
     check_involutive,
     default_multi_index,
-    observability_rank,
+    observability_rank_evidence,
 )
 from nlobs.geometry.observability import AffineFields, observation_relative_degree, reduced_observability_matrix
 from nlobs.geometry.pinv import pinv_gain_field, symbolic_pinv
@@ -39,8 +40,14 @@ class GeometryReport:
         Observation relative degree per output (``None``: not defined on the region).
     relative_degree_evidence : tuple of str
         Per output, the zero test that decided it.
-    observability_rank : int
-        Generic rank of ``span{dL_f^k h_j : k < n}``.
+    observability_rank : int or None
+        Generic rank of ``span{dL_f^k h_j : k < n}`` decided on the scaled matrix
+        (:func:`~nlobs.geometry.checks.observability_rank_evidence`); ``None``: undecided (the
+        numerics cannot separate a singular value from the rounding error), unless ``Φ_s`` is a
+        local diffeomorphism at a sampled point, which proves rank ``n`` (the rank and the
+        drift-observability verdict never contradict each other).
+    rank_evidence : RankEvidence
+        The scaled singular values, their error bound, the gap and the point.
     multi_index : tuple of int
         Default ``s`` (observability indices; ``Σ s_j`` is the generic rank).
     drift : Check or None
@@ -56,7 +63,7 @@ class GeometryReport:
     region: Box
     relative_degree: tuple[int | None, ...]
     relative_degree_evidence: tuple[str, ...]
-    observability_rank: int
+    observability_rank: int | None
     multi_index: tuple[int, ...]
     drift: Check | None
     a1: Check | None
@@ -65,6 +72,7 @@ class GeometryReport:
     outputs: tuple[str, ...]
     states: tuple[str, ...]
     notes: tuple[str, ...]
+    rank_evidence: RankEvidence | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON keys (stable, documented in the README)."""
@@ -73,6 +81,7 @@ class GeometryReport:
             "observation_relative_degree": list(self.relative_degree),
             "relative_degree_evidence": list(self.relative_degree_evidence),
             "observability_rank": self.observability_rank,
+            "observability_rank_evidence": None if self.rank_evidence is None else self.rank_evidence.to_dict(),
             "multi_index": list(self.multi_index),
             "drift_observable": None if self.drift is None else self.drift.passed,
             "drift_observability": None if self.drift is None else self.drift.to_dict(),
@@ -88,10 +97,18 @@ class GeometryReport:
         lines = [f"differential geometry on {self.region.describe()} (seeds 002, 003):"]
         for o, r, ev in zip(self.outputs, self.relative_degree, self.relative_degree_evidence):
             lines.append(f"  observation relative degree of {o}: {'undefined' if r is None else r}   ({ev})")
-        lines.append(f"  observability codistribution: generic rank {self.observability_rank} of n = {n}")
+        rank = "undecided" if self.observability_rank is None else f"generic rank {self.observability_rank} of n = {n}"
+        ev = "" if self.rank_evidence is None else f"   ({self.rank_evidence.describe()})"
+        if self.rank_evidence is not None and self.rank_evidence.rank != self.observability_rank:
+            ev = f"   (from Q_s nonsingular; the scaled singular values alone: {self.rank_evidence.describe()})"
+        lines.append(f"  observability codistribution: {rank}{ev}")
         lines.append(f"  default multi-index s = {list(self.multi_index)}")
         if self.drift is None:
-            lines.append("  drift-observable: no (the codistribution has rank < n, no Φ_s is a diffeomorphism)")
+            if self.observability_rank is not None and self.observability_rank < n:
+                lines.append("  drift-observable: no (the codistribution has rank < n, no Φ_s is a diffeomorphism)")
+            else:
+                lines.append(f"  drift-observable: not checked (the default multi-index has Σ s_j = {sum(self.multi_index)} "
+                             f"< n at its sample point)")
         else:
             lines.append(f"  drift-observable (Φ_s local diffeomorphism): {'yes' if self.drift.passed else 'NO'} — {self.drift.evidence}")
         for c in (self.a1, self.a5):
@@ -125,10 +142,19 @@ def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: in
             evidence.append(f"L_g L_f^k h = 0 for k < {rd.max_order} on the region")
         else:
             evidence.append(f"L_g L_f^{r - 1} h {last.describe() if last else ''}")
-    rank = observability_rank(fields, reg, seed=seed)
+    evidence_rank = observability_rank_evidence(fields, reg, seed=seed)
+    rank = evidence_rank.rank
     s = default_multi_index(fields, reg, seed=seed)
     notes: list[str] = []
     drift = check_drift_observability(fields, s, reg, seed=seed) if sum(s) == fields.n else None
+    if drift is not None and drift.passed and rank != fields.n:
+        # Q_s (rows of the codistribution) nonsingular at a point: the codistribution has rank n there
+        notes.append(f"Q_s is nonsingular on the region ({drift.evidence}), so the codistribution has rank "
+                     f"n = {fields.n}; its scaled singular values alone gave "
+                     + ("no decision" if rank is None else f"rank {rank}"))
+        rank = fields.n
+    elif rank is None:
+        notes.append(f"generic rank undecided: {evidence_rank.describe()}")
     a1 = a5 = None
     gain: tuple[Any, ...] | None = None
     if all(r is not None for r in rd.r):
@@ -147,4 +173,4 @@ def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: in
     else:
         notes.append("a relative degree is undefined on the region: Röbenack's gain Q⁺k is not available")
     return GeometryReport(reg, rd.r, tuple(evidence), rank, s, drift, a1, a5, gain, fields.outputs, fields.states,
-                          tuple(notes))
+                          tuple(notes), evidence_rank)

@@ -80,7 +80,8 @@ class NonlinearReport:
             },
             "linearization_error": self.linearization_error,
             **(self.geometry.to_dict() if self.geometry is not None else {
-                "observation_relative_degree": None, "observability_rank": None, "involutive": None,
+                "observation_relative_degree": None, "observability_rank": None,
+                "observability_rank_evidence": None, "involutive": None,
                 "pinv_gain": None}),
             "geometry_error": self.geometry_error,
         }

@@ -86,8 +86,9 @@ class PinvDesignReport:
     input_gains : tuple of str
         Per output, ``L_g L_f^{r_j−1} h_j`` (where it vanishes the relative degree
         is not uniform, but the observation relative degree still is ``r_j``).
-    observability_rank : int
-        Generic rank of the codistribution spanned by the ``dL_f^k h``.
+    observability_rank : int or None
+        Generic rank of the codistribution spanned by the ``dL_f^k h`` (``None``: undecided, see
+        :func:`nlobs.geometry.checks.observability_rank_evidence`).
     checks : tuple of Check
         A1 and A5.
     Q, pinv : tuple of tuple of str
@@ -113,7 +114,7 @@ class PinvDesignReport:
     outputs: tuple[str, ...]
     relative_degree: tuple[int, ...]
     input_gains: tuple[str, ...]
-    observability_rank: int
+    observability_rank: int | None
     checks: tuple[Check, ...]
     Q: tuple[tuple[str, ...], ...]
     pinv: tuple[tuple[str, ...], ...]
@@ -144,8 +145,13 @@ class PinvDesignReport:
         lines = [f"Moore–Penrose observer (Röbenack 2008, (7) with (17)) for {self.model}"]
         for o, rj, lg in zip(self.outputs, self.relative_degree, self.input_gains):
             lines.append(f"  output {o}: observation relative degree r = {rj}, L_g L_f^{rj - 1} h = {lg}")
-        lines.append(f"  generic rank of the observability codistribution: {self.observability_rank} "
-                     f"(n = {len(self.states)}; {len(self.states) - self.observability_rank} unobservable direction(s))")
+        if self.observability_rank is None:
+            lines.append("  generic rank of the observability codistribution: undecided (a scaled singular value "
+                         "lies within the rounding error; see nlobs analyze)")
+        else:
+            lines.append(f"  generic rank of the observability codistribution: {self.observability_rank} "
+                         f"(n = {len(self.states)}; {len(self.states) - self.observability_rank} unobservable "
+                         "direction(s))")
         for c in self.checks:
             lines.append(f"  {'ok  ' if c.passed else 'FAIL'} {c.name}: {c.evidence}")
         lines.append("  Q⁺(x) (columns τ_i, (18)):")
