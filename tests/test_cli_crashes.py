@@ -91,3 +91,98 @@ def test_long_sum_is_analyzed(tmp_path: Path) -> None:
     model = _model(tmp_path, ["+".join(["x2"] * 1000), "-x1"])
     res = runner.invoke(app, ["analyze", model, "--json"])
     assert res.exit_code == 0, res.output
+
+
+# ----------------------------------------------------------------------------- 3. --out
+def _no_design(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Fail the test if a design starts: a bad option must be refused before it."""
+    import nlobs.workflows.design_drift as dd
+    import nlobs.workflows.design_pinv as dp
+
+    def boom(*args: object, **kwargs: object) -> None:
+        raise AssertionError("the design ran before the bad option was refused")
+
+    monkeypatch.setattr(dd, "design_drift_report", boom)
+    monkeypatch.setattr(dp, "design_pinv_report", boom)
+
+
+SIM = ["--simulate", "--x0", "0.1,0", "--duration", "0.1"]
+
+
+@pytest.mark.parametrize("command", ["drift", "pinv"])
+def test_out_that_is_a_file_is_refused_before_the_design_and_kept(tmp_path: Path, command: str,
+                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
+    precious = tmp_path / "results"
+    precious.write_text("a previous good output\n", encoding="utf-8")
+    _no_design(monkeypatch)
+    for out in (precious, precious / "sub", Path("/dev/full")):
+        line = _one_line_error(runner.invoke(app, ["design", command, "pendulum", *SIM, "--out", str(out)]),
+                               f"--out {out}: cannot create the folder")
+        assert "Traceback" not in line
+    assert precious.read_text(encoding="utf-8") == "a previous good output\n"
+
+
+def test_out_keeps_previous_files_when_the_run_is_refused(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    out = tmp_path / "out"
+    res = runner.invoke(app, ["design", "pinv", "pendulum", *SIM, "--out", str(out)])
+    assert res.exit_code == 0, res.output
+    before = {p.name: p.read_bytes() for p in out.iterdir()}
+    assert set(before) == {"pinv.png", "pinv.npz"}
+    _no_design(monkeypatch)
+    _one_line_error(runner.invoke(app, ["design", "pinv", "pendulum", *SIM[:-1], "1e12", "--out", str(out)]),
+                    "--duration 1e+12")
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == before
+
+
+# ----------------------------------------------------------------------------- 4. sizes and numbers
+@pytest.mark.parametrize("command", ["drift", "pinv"])
+@pytest.mark.parametrize(("options", "needles"), [
+    (["--duration", "1e12"], ["--duration 1e+12 / --dt 0.001 is 1e+15 RK4 steps", "at most 1e+07"]),
+    (["--dt", "1e-12"], ["--duration 10 / --dt 1e-12 is 1e+13 RK4 steps"]),
+    (["--duration", "-1"], ["--duration: must be positive"]),
+    (["--duration", "0"], ["--duration: must be positive"]),
+    (["--dt", "0"], ["--dt: must be positive"]),
+    (["--dt", "nan"], ["--dt: must be finite"]),
+    (["--duration", "inf"], ["--duration: must be finite"]),
+])
+def test_bad_duration_and_dt_are_refused_at_once(command: str, options: list[str], needles: list[str],
+                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    _no_design(monkeypatch)
+    t0 = time.perf_counter()
+    res = runner.invoke(app, ["design", command, "pendulum", "--simulate", "--x0", "0.1,0", *options])
+    _one_line_error(res, *needles)
+    assert time.perf_counter() - t0 < 5.0
+
+
+def test_simulation_memory_estimate_is_refused_before_the_design(tmp_path: Path,
+                                                                 monkeypatch: pytest.MonkeyPatch) -> None:
+    # a chain of 14 integrators: 1e7 steps (within the step bound) of t, x, x̂ (14 each), y: about 2.24 GiB
+    n = 14
+    p = tmp_path / "chain.toml"
+    states = ", ".join(f'"x{i}"' for i in range(1, n + 1))
+    f = ", ".join(f'"x{i + 1}"' for i in range(1, n)) + ', "-x1"'
+    g = ", ".join('["0"]' for _ in range(n - 1)) + ', ["1"]'
+    p.write_text(f'name = "chain"\ntime = "continuous"\nstates = [{states}]\ninputs = ["u"]\noutputs = ["y"]\n'
+                 f'[dynamics]\nf = [{f}]\ng = [{g}]\nh = ["x1"]\n', encoding="utf-8")
+    _no_design(monkeypatch)
+    res = runner.invoke(app, ["design", "pinv", str(p), "--simulate", "--x0", ",".join(["0"] * n),
+                              "--duration", "1e7", "--dt", "1"])
+    _one_line_error(res, "--duration 1e+07 / --dt 1: 10000000 steps of model chain need about 2.24 GiB",
+                    "at most 2 GiB")
+
+
+@pytest.mark.parametrize(("options", "needle"), [
+    (["--mu", "1e308"], "--mu: 1e+308 is larger than 1e+100"),
+    (["--alpha", "1e308"], "--alpha: 1e+308 is larger than 1e+100"),
+    (["--gamma", "1e200"], "--gamma: 1e+200 is larger than 1e+100"),
+    (["--mu", "nan"], "--mu: must be finite"),
+    (["--alpha", "-1"], "--alpha: must be positive"),
+])
+def test_drift_constants_that_overflow_are_refused_before_the_design(options: list[str], needle: str,
+                                                                     monkeypatch: pytest.MonkeyPatch) -> None:
+    _no_design(monkeypatch)
+    _one_line_error(runner.invoke(app, ["design", "drift", "pendulum", *options]), needle)
+
+
+def test_drift_w_that_overflows_is_a_one_line_error() -> None:
+    _one_line_error(runner.invoke(app, ["design", "drift", "pendulum", "--w", "1e308"]), "w: 1e+308 is too large")
