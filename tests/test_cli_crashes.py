@@ -186,3 +186,61 @@ def test_drift_constants_that_overflow_are_refused_before_the_design(options: li
 
 def test_drift_w_that_overflows_is_a_one_line_error() -> None:
     _one_line_error(runner.invoke(app, ["design", "drift", "pendulum", "--w", "1e308"]), "w: 1e+308 is too large")
+
+
+def test_demo_out_that_is_a_file_is_one_line(tmp_path: Path) -> None:
+    precious = tmp_path / "results"
+    precious.write_text("a previous good output\n", encoding="utf-8")
+    for out in (precious, precious / "sub", Path("/dev/full")):
+        _one_line_error(runner.invoke(app, ["demo", "gnss-ins", "--duration", "1", "--out", str(out)]), f"--out {out}: ")
+    assert precious.read_text(encoding="utf-8") == "a previous good output\n"
+
+
+# ----------------------------------------------------------------------------- 5. LMI size
+_LMI = """
+import sys, time
+import numpy as np
+import nlobs.synthesis.observer_gain as og
+from nlobs.errors import InvalidArgumentError
+
+def no_solver(*args, **kwargs):
+    raise AssertionError("the solver was called")
+
+n = int(sys.argv[1])
+A = -np.eye(n) + np.diag(np.ones(n - 1), 1)
+C, Bd = np.eye(min(n, 10), n), np.eye(n, 1)
+if n > 50:
+    og.solve = no_solver
+t0 = time.perf_counter()
+try:
+    cert = og.design_observer_gain(A, C, Bd, gamma=10.0, gain_bound=og.GainBound(100.0))
+    print("verified", cert.verified)
+except InvalidArgumentError as exc:
+    print("refused", round(time.perf_counter() - t0, 3), exc)
+"""
+
+
+def _lmi(n: int) -> str:
+    import os
+    import subprocess
+    import sys
+
+    src = str(Path(__file__).resolve().parents[1] / "src")
+    res = subprocess.run([sys.executable, "-c", _LMI, str(n)], capture_output=True, text=True, timeout=120,
+                         env={**os.environ, "PYTHONPATH": src, "MPLBACKEND": "Agg"})
+    assert res.returncode == 0 and "Traceback" not in res.stderr, res.stderr
+    return res.stdout.strip()
+
+
+def test_lmi_synthesis_at_n_100_is_refused_before_it_is_built() -> None:
+    out = _lmi(100)
+    assert out.startswith("refused "), out
+    seconds = float(out.split()[1])
+    assert seconds < 2.0
+    assert "LMI problem too large: n = 100 states give 6053 scalar variables" in out
+    assert "semidefinite blocks of sizes 100, 101, 100, 110" in out and "at most 25000" in out
+    assert "\n" not in out
+
+
+def test_lmi_synthesis_at_small_n_still_works() -> None:
+    assert _lmi(4) == "verified True"
