@@ -262,3 +262,29 @@ def test_lmi_synthesis_at_n_100_is_refused_before_it_is_built() -> None:
 
 def test_lmi_synthesis_at_small_n_still_works() -> None:
     assert _lmi(4) == "verified True"
+
+
+# ----------------------------------------------------------------------------- 6. model-file lines
+_HEAD = 'name = "m"\ntime = "continuous"\nstates = ["x"]\noutputs = ["y"]\n'
+
+
+@pytest.mark.parametrize(("body", "line", "reason"), [
+    # a key written as a dotted key, a quoted key, or inside an inline table
+    (_HEAD + 'dynamics.rhs = ["-x", "1"]\ndynamics.h = ["x"]\n', 5, "[dynamics].rhs has 2 entries"),
+    (_HEAD + '[dynamics]\n"rhs" = ["-x", "1"]\nh = ["x"]\n', 6, "[dynamics].rhs has 2 entries"),
+    (_HEAD + 'dynamics = { rhs = ["-x", "1"], h = ["x"] }\n', 5, "[dynamics].rhs has 2 entries"),
+    # a parameter is found as a whole name (it was the first line holding the letter 'a')
+    (_HEAD + 'parameters = { a = nan }\n[dynamics]\nrhs = ["-x"]\nh = ["x"]\n', 5, "parameter 'a' must be a finite"),
+    # errors of the model constructors, on the key they name
+    ('name = "m"\ntime = "continuous"\nstates = []\noutputs = ["y"]\n[dynamics]\nrhs = []\nh = ["1"]\n', 3,
+     "a model needs at least one state"),
+    # TOML the reader refuses as a whole: the line of the offending text
+    (_HEAD + 'parameters = { a = ' + "9" * 5000 + ' }\n[dynamics]\nrhs = ["-x"]\nh = ["x"]\n', 5,
+     "invalid TOML (Exceeds the limit"),
+    (_HEAD + "z = " + "[" * 3000 + "]" * 3000 + '\n[dynamics]\nrhs = ["-x"]\nh = ["x"]\n', 5,
+     "invalid TOML (arrays or tables nested too deeply)"),
+])
+def test_model_file_errors_name_their_line(tmp_path: Path, body: str, line: int, reason: str) -> None:
+    p = tmp_path / "m.toml"
+    p.write_text(body, encoding="utf-8")
+    _one_line_error(runner.invoke(app, ["analyze", str(p)]), f"{p}:{line}: {reason}")
