@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from nlobs.errors import NonFiniteError
+from nlobs.errors import ModelError, NonFiniteError
 from nlobs.geometry.observability import (
     AffineFields,
     check_multi_index,
@@ -29,7 +29,7 @@ from nlobs.geometry.observability import (
     output_derivative_terms,
 )
 from nlobs.geometry.region import Box
-from nlobs.systems.codegen import compile_matrix
+from nlobs.systems.codegen import compile_matrix, has_jump
 
 __all__ = ["LipschitzEstimates", "lipschitz_estimates"]
 
@@ -88,6 +88,9 @@ def lipschitz_estimates(fields: AffineFields, s: Sequence[int], r: Sequence[int 
     ------
     NonFiniteError
         Not one sampled point gives finite values (the model is not defined on the region).
+    ModelError
+        ``Φ_s``, ``L_s`` or ``H_{s,r}`` jumps (it uses ``sign``, or ``abs`` inside a derivative):
+        a jump is not Lipschitz, and a Jacobian sampled away from it would hide that.
     """
     s_ = check_multi_index(s, fields.q, fields.n)
     Q = observability_jacobian(fields, s_)
@@ -96,7 +99,13 @@ def lipschitz_estimates(fields: AffineFields, s: Sequence[int], r: Sequence[int 
     H, _ = input_gain_structure(fields, s_, r)
     dH = sp.Matrix(list(H)).jacobian(X) if H.shape[0] * H.shape[1] else sp.zeros(0, fields.n)
     n = fields.n
-    fn = compile_matrix(sp.Matrix(list(Q) + list(dL) + list(dH)), (fields.x,), vector=True, what="Lipschitz estimates")
+    stacked = sp.Matrix(list(Q) + list(dL) + list(dH))
+    if has_jump(stacked):
+        raise ModelError(
+            f"{fields.name}: Φ_s, L_s or H_s,r (s = {list(s_)}) jumps where an argument of sign() (or of abs() "
+            "inside a derivative) crosses 0: the model is not Lipschitz there, so the constants γ of the drift "
+            "design do not exist (replace sign(x) by a smooth function, e.g. tanh(x/eps))")
+    fn = compile_matrix(stacked, (fields.x,), vector=True, what="Lipschitz estimates")
     pts = region.sample(samples, seed)
     with np.errstate(all="ignore"):
         v = fn(pts)

@@ -104,6 +104,9 @@ __all__ = [
 ]
 
 _EPS = float(np.finfo(float).eps)
+#: Largest ``α``, ``μ``, ``γ`` of (2.17): their squares and products with ``P`` stay finite doubles
+#: (a larger value is no design problem, only an overflow; (2.17) has no solution far below it).
+MAX_CONSTANT = 1e100
 #: ``c`` of the verification margin: a scaled check passes when it holds by more than ``c n ε``
 #: times the norm of the absolute values of its terms (see the module docstring).
 ROUNDING_FACTOR = 10.0
@@ -113,6 +116,21 @@ _FINAL_KAPPA_FACTOR = 1.1
 
 
 # --------------------------------------------------------------------------- data
+
+
+def riccati_constant(name: str, value: float, *, allow_zero: bool = False) -> float:
+    """``α``, ``μ`` or ``γ`` of (2.17): finite, positive (``allow_zero``: non-negative), at most :data:`MAX_CONSTANT`.
+
+    Raises
+    ------
+    NonFiniteError, InvalidArgumentError
+        Naming ``name``.
+    """
+    v = positive(name, value, allow_zero=allow_zero)
+    if v > MAX_CONSTANT:
+        raise InvalidArgumentError(f"{name}: {v:g} is larger than {MAX_CONSTANT:g}; (2.17) would overflow (no gain "
+                                   "satisfies it for such a constant)")
+    return v
 
 
 @dataclass(frozen=True)
@@ -148,9 +166,9 @@ class RiccatiConstants:
         F_.setflags(write=False)
         object.__setattr__(self, "s", s_)
         object.__setattr__(self, "F", F_)
-        object.__setattr__(self, "alpha", positive("alpha", alpha))
-        object.__setattr__(self, "mu", positive("mu", mu, allow_zero=True))
-        object.__setattr__(self, "gamma", positive("gamma", gamma, allow_zero=True))
+        object.__setattr__(self, "alpha", riccati_constant("alpha", alpha))
+        object.__setattr__(self, "mu", riccati_constant("mu", mu, allow_zero=True))
+        object.__setattr__(self, "gamma", riccati_constant("gamma", gamma, allow_zero=True))
 
     @property
     def n(self) -> int:
@@ -489,15 +507,19 @@ def vandermonde_gain(s: Sequence[int], w: float) -> VandermondeGain:
     P = np.zeros((n, n))
     lam_all = np.zeros(n)
     i = 0
-    for j, sj in enumerate(s_):
-        lam = -w * np.arange(1, sj + 1, dtype=float)
-        coef, P1 = _unit_block(sj)
-        K[i : i + sj, j] = np.array(coef) * w ** np.arange(1, sj + 1, dtype=float)
-        V[i : i + sj, i : i + sj] = np.vander(lam, sj)  # rows [λ^{s−1}, …, λ, 1]
-        tinv = w ** -np.arange(sj - 1, -1, -1, dtype=float)  # T_w⁻¹
-        P[i : i + sj, i : i + sj] = tinv[:, None] * np.array(P1) * tinv[None, :]
-        lam_all[i : i + sj] = lam
-        i += sj
+    with np.errstate(over="ignore", invalid="ignore"):  # an overflow is refused below, not warned
+        for j, sj in enumerate(s_):
+            lam = -w * np.arange(1, sj + 1, dtype=float)
+            coef, P1 = _unit_block(sj)
+            K[i : i + sj, j] = np.array(coef) * w ** np.arange(1, sj + 1, dtype=float)
+            V[i : i + sj, i : i + sj] = np.vander(lam, sj)  # rows [λ^{s−1}, …, λ, 1]
+            tinv = w ** -np.arange(sj - 1, -1, -1, dtype=float)  # T_w⁻¹
+            P[i : i + sj, i : i + sj] = tinv[:, None] * np.array(P1) * tinv[None, :]
+            lam_all[i : i + sj] = lam
+            i += sj
+    if not (np.all(np.isfinite(K)) and np.all(np.isfinite(V)) and np.all(np.isfinite(P))):
+        raise InvalidArgumentError(f"w: {w:g} is too large: K(w) ~ w^{max(s_)} or P(w) overflows a double "
+                                   f"(s = {s_}); use a smaller w")
     for a in (K, V, P, lam_all):
         a.setflags(write=False)
     return VandermondeGain(K, V, P, lam_all)

@@ -78,6 +78,11 @@ RegionArg = PoleRegion | Sequence[PoleRegion] | None
 _EPS = float(np.finfo(float).eps)
 _SLACK_TOL = 1e-9  # a stage is infeasible when its minimal slack exceeds this
 _UNBOUNDED_GROWTH = 10.0  # gain growth (per 100× change of ε) that flags a margin-driven optimum
+#: Largest LMI problem :func:`design_observer_gain` builds, as the number of scalar decision variables
+#: plus the entries ``k(k+1)/2`` of every semidefinite block of size ``k``. The interior-point solver's
+#: KKT system grows with the square of this size: on dense data ``n = 50`` (about 2·10⁴) took 272 s,
+#: ``n = 100`` (about 8·10⁴) grew past 12 GB and was killed.
+MAX_LMI_SIZE = 25_000
 
 
 # --------------------------------------------------------------------------- data
@@ -182,6 +187,30 @@ def _require_detectable(A: NDArray[np.float64], C: NDArray[np.float64]) -> None:
 
 
 # --------------------------------------------------------------------------- LMI blocks
+
+
+def lmi_size(d: _Data) -> tuple[int, tuple[int, ...]]:
+    """``(scalar decision variables, sizes of the semidefinite blocks)`` of the problem :func:`_formulate` builds.
+
+    Counted from the numeric blocks (:func:`_blocks` with zero ``P``, ``X``): ``P`` and ``X``, up to
+    three scalars (``γ²``, ``γn²``, ``μ``), ``P ⪰ εI``, LMIs (14)/(15), every region block and the gain bound.
+    """
+    n, p = d.n, d.C.shape[0]
+    blocks = [n] + [int(b.shape[0]) for _, b in _blocks(d, np.zeros((n, n)), np.zeros((n, p)), 1.0, 1.0)]
+    if d.gain_bound is not None:
+        blocks += [n, n + p]
+    return n * (n + 1) // 2 + n * p + 3, tuple(blocks)
+
+
+def _check_size(d: _Data) -> None:
+    """Refuse a problem above :data:`MAX_LMI_SIZE` before CVXPY builds it (it would exhaust memory)."""
+    nvar, blocks = lmi_size(d)
+    size = nvar + sum(k * (k + 1) // 2 for k in blocks)
+    if size > MAX_LMI_SIZE:
+        raise InvalidArgumentError(
+            f"LMI problem too large: n = {d.n} states give {nvar} scalar variables and semidefinite blocks of sizes "
+            f"{', '.join(map(str, blocks))} (size {size}); at most {MAX_LMI_SIZE} is solved (about n = 50): "
+            "the solver's memory grows with the square of the size")
 
 
 def _blocks(d: _Data, P: Any, X: Any, gamma2: Any, gamma_n2: Any, *, with14: bool = True,
@@ -664,7 +693,8 @@ def design_observer_gain(
     CertificateError
         The solver's answer failed the independent re-verification.
     DimensionError, NonFiniteError, InvalidArgumentError
-        Bad input.
+        Bad input; or a problem larger than :data:`MAX_LMI_SIZE` (refused before it is built,
+        the message gives the variables, the block sizes and the bound).
     NumericalError
         An entry of ``A, C, Bd`` or ``N`` exceeds
         :data:`~nlobs.linear.stability.MAGNITUDE_LIMIT` in magnitude.
@@ -687,6 +717,7 @@ def design_observer_gain(
             "gain_bound=GainBound(κ); with LMI (14) alone the analytic centre does not exist (gains can grow "
             "without bound)"
         )
+    _check_size(d)
     _require_detectable(d.A, d.C)
 
     sol = _solve_once(d, obj, g, gn, eps, slv, solver_options)

@@ -5,7 +5,16 @@ code. It uses :func:`sympy.lambdify` with ``cse=True`` on the flattened entries,
 takes flat arguments (one array per symbol, so a leading batch axis comes for
 free), broadcasts constant entries to the batch shape (lambdify alone would
 return a scalar ``0`` for them) and refuses expressions with free symbols that
-are not arguments.
+are not arguments. The generated code names its arguments by dummies, so a symbol may
+have any name, that of a function included (a state ``sin`` in ``sin(sin)``).
+
+``sign`` and ``abs`` are the only whitelisted functions that are not smooth. SymPy
+differentiates ``sign(x)`` (and ``abs(x)`` twice) to ``2*DiracDelta(x)``, a distribution with
+no value; its compiled form is the pointwise derivative of ``sign``: ``0`` where ``x ≠ 0`` and
+NaN at ``x = 0``, where the derivative does not exist (so a Jacobian there is reported as not
+finite, like ``log(x1)`` at ``x1 = 0``). A computation that needs a bound on a derivative over a
+region (a Lipschitz constant) must refuse such an expression instead
+(:func:`has_jump`), because a jump is not Lipschitz.
 """
 
 from __future__ import annotations
@@ -22,7 +31,18 @@ from nlobs.errors import DimensionError, ModelError
 from nlobs.systems.expressions import as_sympy_matrix, as_symbols
 
 
-_NUMPY_MODULES: list[Any] = [{"Abs": np.abs, "sign": np.sign}, "numpy"]
+def _dirac_delta(x: Any, *order: Any) -> Any:
+    """The pointwise value of SymPy's ``DiracDelta(x)`` (the derivative of a jump): 0 for ``x ≠ 0``, NaN at 0."""
+    x = np.asarray(x, dtype=float)
+    return np.where(x == 0.0, np.nan, 0.0)
+
+
+_NUMPY_MODULES: list[Any] = [{"Abs": np.abs, "sign": np.sign, "DiracDelta": _dirac_delta}, "numpy"]
+
+
+def has_jump(expr: sp.Basic | sp.MatrixBase) -> bool:
+    """Whether ``expr`` holds ``DiracDelta``: it is the derivative of a function that jumps (``sign``, ``abs′``)."""
+    return bool(expr.has(sp.DiracDelta))
 
 
 @dataclass(frozen=True)
@@ -97,7 +117,9 @@ def compile_matrix(
     if stray:
         raise ModelError(f"{what}: free symbols that are not arguments: {', '.join(stray)}")
     entries = list(mat)  # row-major
-    fn = sp.lambdify(args, entries, modules=_NUMPY_MODULES, cse=True)
+    # dummify: the generated code names its arguments _Dummy_…, never by the symbols' names, so a state
+    # called ``sin``, ``exp`` or ``numpy`` cannot shadow the function the code calls
+    fn = sp.lambdify(args, entries, modules=_NUMPY_MODULES, cse=True, dummify=True)
     return BatchedFunction(
         shape=(int(mat.shape[0]), int(mat.shape[1])),
         groups=tuple(len(g) for g in groups),

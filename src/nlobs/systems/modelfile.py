@@ -133,18 +133,36 @@ class _Source:
         self.lines = text.splitlines()
 
     def line_of_string(self, s: str) -> int | None:
-        for quoted in (f'"{s}"', f"'{s}'", s):
+        for quoted in (f'"{s}"', f"'{s}'"):
             for i, line in enumerate(self.lines, start=1):
                 if quoted in line:
                     return i
+        bare = re.compile(rf"(?<![A-Za-z0-9_]){re.escape(s)}(?![A-Za-z0-9_])")  # a whole name, not part of one
+        for i, line in enumerate(self.lines, start=1):
+            if bare.search(line):
+                return i
         return None
 
     def line_of_key(self, key: str) -> int | None:
-        pat = re.compile(rf"^\s*(\[\s*{re.escape(key)}\s*\]|{re.escape(key)}\s*=)")
-        for i, line in enumerate(self.lines, start=1):
-            if pat.search(line):
-                return i
+        """The line of ``[key]`` or ``key = …``, also written ``"key" =``, ``table.key =`` or inside an inline table."""
+        k = re.escape(key)
+        pats = (re.compile(rf"^\s*(\[\s*{k}\s*\]|{k}\s*=|([\"']){k}\2\s*=|[\w.\"'-]+\.\s*{k}\s*=)"),
+                re.compile(rf"[{{,]\s*([\"']?){k}\1\s*="))
+        for pat in pats:
+            for i, line in enumerate(self.lines, start=1):
+                if pat.search(line):
+                    return i
         return None
+
+    def line_of_pattern(self, pattern: str) -> int | None:
+        """The first line matching the regular expression ``pattern``."""
+        pat = re.compile(pattern)
+        return next((i for i, line in enumerate(self.lines, start=1) if pat.search(line)), None)
+
+    def deepest_line(self) -> int | None:
+        """The line with the most opening brackets (where a too deeply nested value starts)."""
+        counts = [line.count("[") + line.count("{") for line in self.lines]
+        return counts.index(max(counts)) + 1 if counts and max(counts) else None
 
     def line_in_table(self, table: str, key: str | None) -> int | None:
         """The line of ``key = ...`` inside ``[table]`` (the header's line when ``key`` is ``None`` or absent)."""
@@ -266,11 +284,22 @@ def parse_model(text: str, *, source: str = "<string>") -> Model:
         return _nonlinear(src, data, name, time)
     except ModelFileError:
         raise
-    except NlobsError as exc:  # a validation error from the model constructors
-        raise src.error(str(exc)) from None
+    except NlobsError as exc:  # a validation error from the model constructors: on the line of the key it names
+        raise src.error(str(exc), key=_key_named(str(exc))) from None
 
 
 # ---------------------------------------------------------------------- pieces
+_MATRIX_KEYS = ("A", "B", "C", "D", "f", "g", "h", "rhs")
+
+
+def _key_named(message: str) -> str | None:
+    """The key a constructor's message is about: ``"h: …"`` → ``h``; "state(s)" → ``states`` (also inputs, outputs)."""
+    head = re.match(r"([A-Za-z_]\w*):", message)
+    if head and head.group(1) in _MATRIX_KEYS:
+        return head.group(1)
+    return next((k for k in ("states", "inputs", "outputs") if re.search(rf"\b{k[:-1]}s?\b", message)), None)
+
+
 def _toml(src: _Source, text: str) -> dict[str, Any]:
     """``tomllib.loads`` with every failure a :class:`ModelFileError`, and the text checks of :func:`_check_values`."""
     try:
@@ -283,9 +312,10 @@ def _toml(src: _Source, text: str) -> dict[str, Any]:
         reason = re.sub(r" \(at .*\)$", "", msg)
         raise ModelFileError(src.path, line, offending, f"invalid TOML ({reason})") from None
     except ValueError as exc:  # an integer literal beyond Python's digit limit for int()
-        raise ModelFileError(src.path, None, "", f"invalid TOML ({str(exc).split(':')[0]})") from None
+        line = src.line_of_pattern(r"[0-9_]{4000,}")
+        raise ModelFileError(src.path, line, "", f"invalid TOML ({str(exc).split(':')[0]})") from None
     except (RecursionError, MemoryError):
-        raise ModelFileError(src.path, None, "", "invalid TOML (arrays or tables nested too deeply)") from None
+        raise ModelFileError(src.path, src.deepest_line(), "", "invalid TOML (arrays or tables nested too deeply)") from None
     _check_values(src, data)
     return data
 

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from nlobs._io import prepare_output_dir
 from nlobs.errors import OutputError
 from nlobs.simulate.result import SimulationResult
 
@@ -16,19 +17,22 @@ def _reason(exc: OSError) -> str:
 
 
 def prepare_out(out: Path | None) -> None:
-    """Create the output folder (and its parents) before anything is simulated.
+    """Create the output folder (and its parents) and check a file can be written in it, before any design.
 
     Raises
     ------
     OutputError
-        The folder cannot be created (a file of that name, no permission, a read-only file system).
+        The folder cannot be created or written (a file of that name, no permission, a read-only
+        file system, a full disk); nothing in it is touched.
     """
     if out is None:
         return
+    existed = out.is_dir()
     try:
-        out.mkdir(parents=True, exist_ok=True)
+        prepare_output_dir(out)
     except OSError as exc:
-        raise OutputError(f"{out}: cannot create the folder ({_reason(exc)})") from exc
+        what = "write in" if existed else "create"
+        raise OutputError(f"{out}: cannot {what} the folder ({_reason(exc)})") from exc
 
 
 def write_result(result: SimulationResult, out: Path | None, stem: str) -> tuple[Path, ...]:

@@ -49,6 +49,7 @@ from nlobs.synthesis.drift_gain import (
     RiccatiConstants,
     design_drift_gain,
     vandermonde_gain,
+    riccati_constant,
     verify_drift_gain,
 )
 from nlobs.systems.symbolic import SymbolicModel
@@ -513,6 +514,15 @@ def design_drift_observer(
     if method not in METHODS:
         raise InvalidArgumentError(f"method: expected 'vandermonde' or 'sdp', got {method!r}")
     region = None if box is None else as_region(box, m.n)
+    # α, μ, γ checked (and named as the options) before the Lipschitz sampling and the design
+    riccati_constant("--alpha", alpha)
+    riccati_constant("--mu", mu, allow_zero=True)
+    if gamma is not None:
+        riccati_constant("--gamma", gamma, allow_zero=True)
+    # the simulation's vectors, size and output folder are checked before the design (which can take long)
+    resolved = None if simulate is None else simulate.resolved(m.n, m.m, m.name, m.p)
+    if simulate is not None:
+        prepare_out(simulate.out)
     rep = design_drift_report(m, s, alpha=alpha, mu=mu, gamma=gamma, method=method, region=region, w=w)
     if not rep.usable:
         verdict = Verdict.NO_OBSERVER if not rep.drift_check.passed else Verdict.FAILED
@@ -520,8 +530,8 @@ def design_drift_observer(
                                    f"{label}: no usable observer: " + "; ".join(rep.reasons))
     if simulate is None:
         return DriftWorkflowReport(rep, None, None, (), Verdict.OK, "")
-    x0, x_hat0, u = simulate.resolved(m.n, m.m, m.name)
-    prepare_out(simulate.out)
+    assert resolved is not None
+    x0, x_hat0, u = resolved
     try:
         sim = simulate_drift(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, w=w, report=rep)
     except SimulationDiverged:

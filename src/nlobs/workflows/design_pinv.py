@@ -338,11 +338,15 @@ def design_pinv_observer(
     if placement not in PLACEMENTS:
         raise InvalidArgumentError(f"placement: expected 'powers' or 'multiple', got {placement!r}")
     region = None if box is None else as_region(box, m.n)
+    # the simulation's vectors, size and output folder are checked before the design (which can take long)
+    resolved = None if simulate is None else simulate.resolved(m.n, m.m, m.name, m.p)
+    if simulate is not None:
+        prepare_out(simulate.out)
     rep = design_pinv_report(m, None if k is None else [float(v) for v in k], theta, placement, region)
     if simulate is None:
         return PinvWorkflowReport(rep, None, None, ())
-    x0, x_hat0, u = simulate.resolved(m.n, m.m, m.name)
-    prepare_out(simulate.out)
+    assert resolved is not None
+    x0, x_hat0, u = resolved
     try:
         res = simulate_pinv(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, report=rep)
     except SimulationDiverged:

@@ -14,6 +14,7 @@ The command line imports this module when it starts: it loads no solver, observe
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,7 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nlobs._typing import Array
-from nlobs._validate import escape_unsafe, readonly
+from nlobs._validate import escape_unsafe, positive, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, NlobsError, NonFiniteError
 from nlobs.geometry.region import Box
 from nlobs.systems.linear import LinearSystem
@@ -33,6 +34,8 @@ from nlobs.systems.symbolic import SymbolicModel
 __all__ = [
     "Box",
     "BoxError",
+    "MAX_SIMULATION_BYTES",
+    "MAX_SIMULATION_STEPS",
     "SimulationRequest",
     "SymbolicModel",
     "as_region",
@@ -41,6 +44,12 @@ __all__ = [
     "model_label",
     "symbolic_model",
 ]
+
+
+#: Most RK4 steps one ``--simulate`` may take (``ceil(duration / dt)``); beyond it the loop would run for hours.
+MAX_SIMULATION_STEPS = 10_000_000
+#: Most bytes the trajectories of one ``--simulate`` may hold (time, state, estimate, output, sample flags).
+MAX_SIMULATION_BYTES = 2 * 1024**3
 
 
 class BoxError(InvalidArgumentError):
@@ -121,6 +130,14 @@ def _finite_vector(name: str, value: ArrayLike | None) -> Array | None:
     return readonly(v, owned=True)
 
 
+def _option(option: str, value: float) -> float:
+    """A positive, finite ``--duration`` / ``--dt`` (the message names the option)."""
+    try:
+        return positive(option, value)
+    except NlobsError as exc:
+        raise type(exc)(f"{exc} (a positive number of seconds)") from None
+
+
 @dataclass(frozen=True, eq=False)
 class SimulationRequest:
     """A simulation of a designed observer against its plant (what ``--simulate`` asks for).
@@ -134,9 +151,10 @@ class SimulationRequest:
     u : array_like, shape (m,), optional
         Constant input (default: zeros).
     duration : float
-        Simulated time [s] (checked by :func:`nlobs.simulate.simulate`).
+        Simulated time [s], positive and finite.
     dt : float
-        RK4 step [s]; it must resolve the gain's fastest pole.
+        RK4 step [s], positive and finite; it must resolve the gain's fastest pole. At most
+        :data:`MAX_SIMULATION_STEPS` steps ``ceil(duration / dt)``.
     out : path, optional
         Folder for the plot (``<stem>.png``) and the trajectories (``<stem>.npz``); created if
         missing. ``None``: nothing is written.
@@ -153,19 +171,42 @@ class SimulationRequest:
         object.__setattr__(self, "x0", _finite_vector("x0", self.x0))
         object.__setattr__(self, "x_hat0", _finite_vector("x_hat0", self.x_hat0))
         object.__setattr__(self, "u", _finite_vector("u", self.u))
-        object.__setattr__(self, "duration", float(self.duration))
-        object.__setattr__(self, "dt", float(self.dt))
+        object.__setattr__(self, "duration", _option("--duration", self.duration))
+        object.__setattr__(self, "dt", _option("--dt", self.dt))
+        steps = self.steps
+        if steps > MAX_SIMULATION_STEPS:
+            raise InvalidArgumentError(
+                f"--duration {self.duration:g} / --dt {self.dt:g} is {steps:.3g} RK4 steps; at most "
+                f"{MAX_SIMULATION_STEPS:.0e} are simulated (raise --dt or shorten --duration)")
         if self.out is not None:
             object.__setattr__(self, "out", Path(self.out))
 
-    def resolved(self, n: int, m: int, model: str) -> tuple[Array, Array, Array]:
+    @property
+    def steps(self) -> int:
+        """The RK4 steps of the simulation, ``ceil(duration / dt)`` (as :func:`nlobs.simulate.simulate` counts them)."""
+        ratio = self.duration / self.dt
+        return max(1, math.ceil(ratio - 1e-9)) if math.isfinite(ratio) else math.inf  # type: ignore[return-value]
+
+    def memory_bytes(self, n: int, p: int) -> int:
+        """Bytes of the saved trajectories: per step ``t``, ``x`` and ``x̂`` (``n`` each), ``y`` (``p``), float64, and ``p`` flags."""
+        return (self.steps + 1) * (8 * (1 + 2 * n + p) + p)
+
+    def resolved(self, n: int, m: int, model: str, p: int = 0) -> tuple[Array, Array, Array]:
         """``(x0, x_hat0, u)`` with the defaults filled in, checked against the model's ``n`` and ``m``.
 
         Raises
         ------
         DimensionError
             A vector of the wrong length (the message names it and the model).
+        InvalidArgumentError
+            The trajectories would hold more than :data:`MAX_SIMULATION_BYTES` (``p`` outputs).
         """
+        size = self.memory_bytes(n, p)
+        if size > MAX_SIMULATION_BYTES:
+            raise InvalidArgumentError(
+                f"--duration {self.duration:g} / --dt {self.dt:g}: {self.steps} steps of model {model} need about "
+                f"{size / 1024**3:.3g} GiB of trajectories; at most {MAX_SIMULATION_BYTES / 1024**3:g} GiB "
+                "(raise --dt or shorten --duration)")
         x_hat0 = np.zeros(n) if self.x_hat0 is None else self.x_hat0
         u = np.zeros(m) if self.u is None else self.u
         for name, v, size in (("x0", self.x0, n), ("x_hat0", x_hat0, n), ("u", u, m)):
