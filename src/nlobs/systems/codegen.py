@@ -5,8 +5,10 @@ code. It uses :func:`sympy.lambdify` with ``cse=True`` on the flattened entries,
 takes flat arguments (one array per symbol, so a leading batch axis comes for
 free), broadcasts constant entries to the batch shape (lambdify alone would
 return a scalar ``0`` for them) and refuses expressions with free symbols that
-are not arguments. The generated code names its arguments by dummies, so a symbol may
-have any name, that of a function included (a state ``sin`` in ``sin(sin)``).
+are not arguments. When a symbol is named like a name the generated code may call (a NumPy
+function, a builtin: a state ``sin`` in ``sin(sin)``), the code names its arguments by dummies,
+so it cannot shadow the function; other models keep their own names (and, with them, the
+same generated code, term order and floating-point results as before).
 
 ``sign`` and ``abs`` are the only whitelisted functions that are not smooth. SymPy
 differentiates ``sign(x)`` (and ``abs(x)`` twice) to ``2*DiracDelta(x)``, a distribution with
@@ -19,6 +21,7 @@ region (a Lipschitz constant) must refuse such an expression instead
 
 from __future__ import annotations
 
+import builtins
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Callable
@@ -38,6 +41,11 @@ def _dirac_delta(x: Any, *order: Any) -> Any:
 
 
 _NUMPY_MODULES: list[Any] = [{"Abs": np.abs, "sign": np.sign, "DiracDelta": _dirac_delta}, "numpy"]
+
+
+#: Names the generated code may call or refer to: an argument with one of these names is dummified.
+_RESERVED: frozenset[str] = frozenset(dir(np)) | frozenset(dir(builtins)) | frozenset(_NUMPY_MODULES[0]) | {
+    "numpy", "math", "mpmath", "sympy", "scipy"}
 
 
 def has_jump(expr: sp.Basic | sp.MatrixBase) -> bool:
@@ -117,9 +125,11 @@ def compile_matrix(
     if stray:
         raise ModelError(f"{what}: free symbols that are not arguments: {', '.join(stray)}")
     entries = list(mat)  # row-major
-    # dummify: the generated code names its arguments _Dummy_…, never by the symbols' names, so a state
-    # called ``sin``, ``exp`` or ``numpy`` cannot shadow the function the code calls
-    fn = sp.lambdify(args, entries, modules=_NUMPY_MODULES, cse=True, dummify=True)
+    # dummify only when needed: the generated code then names its arguments _Dummy_…, so a state called
+    # ``sin``, ``exp`` or ``numpy`` cannot shadow the function the code calls; dummies change the printed
+    # term order (and so the last bits of a result), which the other models keep as they were
+    dummify = any(s.name in _RESERVED for s in args)
+    fn = sp.lambdify(args, entries, modules=_NUMPY_MODULES, cse=True, dummify=dummify)
     return BatchedFunction(
         shape=(int(mat.shape[0]), int(mat.shape[1])),
         groups=tuple(len(g) for g in groups),
