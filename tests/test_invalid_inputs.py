@@ -387,3 +387,20 @@ def test_quadratic_constraint_refuses_a_complex_gamma():
     M = Lipschitz(0.33, 2).multiplier()[0]
     with pytest.raises(InvalidArgumentError, match=r"^gamma: .*complex"):  # before: γ = its real part
         QuadraticConstraint(M, np.complex128(-0.1 + 0.2j))
+
+
+def test_a_huge_finite_imu_period_is_refused_not_run_for_ever() -> None:
+    """RK4 with automatic substeps: dt = 1e300 would need ~1e302 substeps (it ran for ever); dt = 1e6 ~1e6."""
+    from nlobs.navigation.base import G0, ImuSample
+    from nlobs.navigation.gains import paper_gains
+    from nlobs.navigation.gnss_ins import MAX_AUTO_SUBSTEPS, GnssInsObserver
+    from nlobs.navigation.trajectory import M_N_DEFAULT
+
+    obs = GnssInsObserver(paper_gains(), np.eye(3), M_N_DEFAULT, np.array([0.0, 0.0, G0]), integrator="rk4")
+    z = obs.init(np.r_[np.zeros(6), np.eye(3).ravel()])
+    imu = ImuSample(np.zeros(3), np.array([0.0, 0.0, -G0]), np.asarray(M_N_DEFAULT, dtype=float))
+    z1 = obs.propagate(z, imu, 0.01)  # an ordinary IMU period runs
+    assert np.all(np.isfinite(obs.estimate(z1)))
+    for dt in (1e300, 1e6):  # before: OverflowError for 1e300; 1e6 ran ~1e6 substeps per call
+        with pytest.raises(InvalidArgumentError, match=f"more than {MAX_AUTO_SUBSTEPS:,}"):
+            obs.propagate(z, imu, dt)

@@ -88,6 +88,7 @@ with ``h ρ ≤ 2``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -123,6 +124,8 @@ __all__ = ["GnssInsObserver", "GnssInsState", "triad_J", "triad_matrix"]
 RK4_STABILITY = 2.785
 #: Largest ``h·ρ`` the automatic sub-stepping allows (inside the stability interval, with margin).
 RK4_AUTO = 2.0
+#: The most RK4 substeps the automatic rule takes in one IMU period (a longer period is refused, not run).
+MAX_AUTO_SUBSTEPS = 100_000
 
 
 def _cross(a: Array, b: Array) -> Array:
@@ -657,7 +660,12 @@ class GnssInsObserver:
         rho_att = self._gamma_max * float(np.max(c.mu))
         rho = max(self._rho, rho_att)
         if self.substeps is None:
-            n = max(1, int(np.ceil(dt * rho / RK4_AUTO)))
+            need = dt * rho / RK4_AUTO
+            if not need <= MAX_AUTO_SUBSTEPS:
+                raise InvalidArgumentError(
+                    f"dt: {dt:g} s needs {need:.3g} RK4 substeps at the stiffest rate {rho:.4g} 1/s, more than "
+                    f"{MAX_AUTO_SUBSTEPS:,}; shorten the IMU period (the observer runs at the IMU rate)")
+            n = max(1, math.ceil(need))
         else:
             n = self.substeps
             if dt / n * rho > RK4_STABILITY:
