@@ -276,3 +276,52 @@ def test_cli_analyzes_a_long_flat_sum(tmp_path: Path) -> None:
     p.write_text(MODEL.replace('"-x"', '"' + "+".join(["-x"] * 1000) + '"').replace("rhs", "f"))
     res = runner.invoke(app, ["analyze", str(p), "--json"])
     assert res.exit_code == 0, res.output
+
+
+def _nested_sin_model(tmp_path: Path, depth: int) -> Path:
+    h = "sin(" * depth + "x1" + ")" * depth
+    p = tmp_path / f"deep{depth}.toml"
+    p.write_text(f'name = "deep{depth}"\nstates = ["x1", "x2"]\ninputs = []\noutputs = ["y"]\n'
+                 f'[dynamics]\nf = ["x2", "-x1"]\nh = ["{h}"]\n')
+    return p
+
+
+def test_the_derivative_size_estimate_is_exact_for_a_chain_and_bounds_lie_derivatives() -> None:
+    from nlobs.errors import ExpressionTooLarge
+    from nlobs.geometry.lie import MAX_DERIVATIVE_NODES, derivative_size, lie_derivatives
+
+    x1, x2 = sp.symbols("x1 x2", real=True)
+    chain = x1
+    for _ in range(30):
+        chain = sp.sin(chain)
+    exact = sum(1 for _ in sp.preorder_traversal(sp.diff(chain, x1)))
+    assert derivative_size(chain) == exact == 31 * 32 // 2
+    assert derivative_size(sp.sin(sp.sin(x1))) == 6
+    # h itself passes (5 050); L_f h of the 99-deep chain would have a gradient of about 510 000 nodes
+    deep = x1
+    for _ in range(99):
+        deep = sp.sin(deep)
+    (h,) = lie_derivatives(deep, [x2, -x1], [x1, x2], 1, name="h of output 'y'")
+    assert h == deep
+    with pytest.raises(ExpressionTooLarge, match=f"L_f\\^1 h of output 'y'.*limit of {MAX_DERIVATIVE_NODES}"):
+        lie_derivatives(deep, [x2, -x1], [x1, x2], 2, name="h of output 'y'")
+
+
+@pytest.mark.parametrize("command", [["analyze"], ["design", "drift"]])
+def test_cli_refuses_a_99_deep_nested_output_with_one_line_instead_of_running_for_minutes(
+    command: list[str], tmp_path: Path
+) -> None:
+    p = _nested_sin_model(tmp_path, MAX_DEPTH - 1)
+    code = "import sys\nfrom nlobs.cli import app\napp(sys.argv[1:], prog_name='nlobs')\n"
+    env = {**os.environ, "PYTHONPATH": str(SRC), "MPLBACKEND": "Agg"}
+    try:  # a guard against the old minutes-long run, not a measurement of speed
+        res = subprocess.run([sys.executable, "-c", code, *command, str(p)], capture_output=True, text=True,
+                             timeout=100, env=env)
+    except subprocess.TimeoutExpired:
+        pytest.fail(f"nlobs {' '.join(command)} of a {MAX_DEPTH - 1}-deep sin( chain did not finish within 100 s")
+    assert res.returncode == 2, res.stdout + res.stderr
+    assert "Traceback" not in res.stderr
+    lines = res.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"nlobs: error: {p}: L_f^1 h of output 'y'"), res.stderr
+    assert "MAX_DERIVATIVE_NODES" in lines[0]
+

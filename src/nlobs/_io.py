@@ -22,19 +22,70 @@ def _mode_for(target: Path) -> int:
         return 0o666 & ~umask
 
 
+def _pid_alive(pid: int) -> bool:
+    """Whether a process ``pid`` exists (on this machine); ``True`` when that cannot be told."""
+    if pid <= 0:
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True  # it exists (another user's), or nothing can be told: keep its file
+    return True
+
+
+def remove_stale_temporaries(target: str | Path) -> list[Path]:
+    """Remove the temporary files of ``target`` that a dead earlier run left (returns them).
+
+    :func:`atomic_write` names its temporary file ``.{name}.{pid}.{random}.tmp``; a run killed
+    with SIGKILL (or a power cut) between creating and renaming it cannot remove it. A later
+    write of the same target removes every such file whose process no longer exists; a live
+    process's file (another run writing the same folder at the same time) is never touched.
+    Process ids are those of this machine: two machines writing one network folder at once
+    are not told apart.
+    """
+    folder, name = Path(target).parent, Path(target).name
+    prefix = f".{name}."
+    removed: list[Path] = []
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        rest = entry.name[len(prefix):]
+        if not (entry.name.startswith(prefix) and rest.endswith(".tmp")):
+            continue
+        parts = rest.split(".")  # pid, mkstemp's random letters (no dot), "tmp"
+        if len(parts) != 3 or not parts[0].isdigit() or _pid_alive(int(parts[0])):
+            continue
+        try:
+            if entry.is_file(follow_symlinks=False):
+                os.unlink(entry.path)
+                removed.append(Path(entry.path))
+        except OSError:
+            pass  # removed by another run meanwhile, or not ours to remove
+    return removed
+
+
 def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
     """Write ``path`` atomically.
 
-    ``write`` receives a binary file object opened on a temporary file in the
-    same directory; on success the temporary file replaces ``path`` with
-    :func:`os.replace` (atomic on POSIX and Windows). On any exception the
-    temporary file is removed and ``path`` is left as it was. The file gets the
+    ``write`` receives a binary file object opened on a temporary file
+    ``.{name}.{pid}.{random}.tmp`` in the same directory; on success the
+    temporary file replaces ``path`` with :func:`os.replace` (atomic on POSIX
+    and Windows), so a reader, or another run writing the same file at the same
+    time, only ever sees a complete file. On any exception (``KeyboardInterrupt``
+    and the CLI's SIGTERM included) the temporary file is removed and ``path`` is
+    left as it was. The temporary files of the same target that a killed earlier
+    run left behind are removed first (:func:`remove_stale_temporaries`). The file gets the
     permissions a plain ``open(path, "w")`` would give it (an existing file's
     mode, else ``0o666`` less the umask), not ``mkstemp``'s private ``0o600``.
     """
     target = Path(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    remove_stale_temporaries(target)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp", dir=target.parent)
     try:
         with os.fdopen(fd, "wb") as fh:
             write(fh)
@@ -60,8 +111,8 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
 def save_figure(fig: Any, path: str | Path, *, dpi: int = 110) -> Path:
     """Save a matplotlib figure atomically (:func:`atomic_write`); the format follows the suffix (PNG default).
 
-    A killed run leaves the previous figure intact and no stray temporary file beyond the
-    ``.name.*.tmp`` that :func:`atomic_write` removes on any exception.
+    A killed run leaves the previous figure intact; its temporary ``.name.{pid}.*.tmp`` is removed
+    on any exception, or, after a SIGKILL, by the next write of the same figure (:func:`atomic_write`).
     """
     target = Path(path)
     fmt = target.suffix.lstrip(".").lower() or "png"

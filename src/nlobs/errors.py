@@ -153,3 +153,13 @@ class NumericalError(NlobsError, ArithmeticError):
     residual is not small, data whose magnitude overflows the computation). The message names
     the quantity and the measured residual or magnitude.
     """
+
+
+class ExpressionTooLarge(NlobsError, ValueError):
+    """A symbolic computation would build an expression beyond nlobs's size budget.
+
+    Raised *before* SymPy differentiates, simplifies or compiles it (a short model text, such as
+    ``sin(sin(…sin(x)…))`` nested 99 deep, has Lie derivatives of millions of terms, whose
+    construction would run for minutes). The message names the quantity and the limit
+    (:data:`nlobs.geometry.lie.MAX_DERIVATIVE_NODES`).
+    """

@@ -2,12 +2,20 @@
 
 Exit statuses: 0 success; 1 a design/simulation failure reported by nlobs;
 2 bad input (a model file that does not parse or validate, an unknown name,
-a malformed option); 3 no observer of the requested structure exists.
+a malformed option); 3 no observer of the requested structure exists;
+130 interrupted by Ctrl-C (SIGINT), 143 terminated by SIGTERM (one line, no traceback;
+every output file is written atomically, so the files of an interrupted run are the
+previous complete ones or the new complete ones, never half-written, and no temporary is left).
 """
 
 from __future__ import annotations
 
 import json
+import signal
+import sys
+import threading
+from types import FrameType
+from typing import Any
 from pathlib import Path
 from typing import Annotated
 
@@ -27,7 +35,46 @@ from nlobs.cli.common import (
 from nlobs.errors import ModelFileError, NlobsError, OutputError
 from nlobs.systems.modelfile import shipped_models
 
-app = typer.Typer(
+class _Interrupted(BaseException):
+    """SIGINT or SIGTERM arrived: unwinds the command (atomic writes remove their temporary files)."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _interrupt(signum: int, frame: FrameType | None) -> None:
+    raise _Interrupted(signum)
+
+
+class _NlobsApp(typer.Typer):
+    """The typer app, run with SIGINT and SIGTERM turned into one line and exit ``128 + signal``.
+
+    Click turns ``KeyboardInterrupt`` into "Aborted!" and exit 1, and SIGTERM's default action
+    kills the process without running any cleanup; both signals raise :class:`_Interrupted`
+    instead, a ``BaseException`` that nothing in nlobs catches, so every ``finally`` and every
+    atomic write's cleanup runs before the exit. The previous handlers are restored afterwards.
+    """
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        previous: dict[int, Any] = {}
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                previous[sig] = signal.signal(sig, _interrupt)
+        try:
+            return super().__call__(*args, **kwargs)
+        except _Interrupted as exc:
+            name = signal.Signals(exc.signum).name
+            sys.stderr.write(f"nlobs: interrupted by {name}; the files already written are complete, "
+                             "none is half-written\n")
+            sys.stderr.flush()
+            raise SystemExit(128 + exc.signum) from None
+        finally:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
+
+
+app = _NlobsApp(
     name="nlobs",
     help="Design, certify and simulate nonlinear state observers.",
     no_args_is_help=True,

@@ -130,7 +130,7 @@ class AffineFields:
 
     def lie_chain(self, j: int, count: int) -> tuple[sp.Expr, ...]:
         """``(h_j, L_f h_j, …, L_f^{count−1} h_j)``."""
-        return lie_derivatives(self.h[j, 0], self.f, self.x, count)
+        return lie_derivatives(self.h[j, 0], self.f, self.x, count, name=f"h of output {self.outputs[j]!r}")
 
 
 def check_multi_index(s: Sequence[int], q: int, n: int | None = None, *, name: str = "s") -> tuple[int, ...]:
