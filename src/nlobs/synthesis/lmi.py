@@ -47,10 +47,14 @@ E = TypeVar("E", bound=Enum)
 
 #: Largest LMI problem a design of nlobs builds, as the number of scalar decision variables plus the
 #: entries ``k(k+1)/2`` of every semidefinite block of size ``k`` (:func:`lmi_problem_size`). The
-#: interior-point solver's KKT system grows with the square of this size. Measured (Clarabel, one core
-#: of a shared 2-core machine): ``design_observer_gain`` on dense data at ``n = 50`` (about 2·10⁴) took
-#: 272 s, ``n = 100`` (about 8·10⁴) grew past 12 GB and was killed; the per-design measurements just
-#: below the bound are in ``docs/synthesis.md`` ("Problem size").
+#: interior-point solver's KKT system grows with the square of this size. Measured with Clarabel on a
+#: shared 2-core, 24 GiB machine (load about 8, so wall ≫ CPU time): ``design_observer_gain`` on dense
+#: data at ``n = 50`` (about 2·10⁴) took 272 s, at ``n = 100`` (about 8·10⁴) grew past 12 GB and was
+#: killed; below the bound, size 7688 (drift SDP, ``n = 60``, one solve) 27 s CPU / 0.59 GB, 8714
+#: (``design_setvalued``, ``n = 30``) 54 s CPU / 0.73 GB, 9802 (discrete Lipschitz, ``n = 40``) 123 s
+#: CPU / 2.6 GB; just below it (sizes 2.1–2.5·10⁴) every design was still running when stopped after
+#: 400–900 s wall, at 2.2–7.7 GB (the discrete Lipschitz LMI at ``n = 64`` extrapolates to about
+#: 17 GB). Details: ``docs/synthesis.md`` ("Problem size").
 MAX_LMI_SIZE = 25_000
 
 
