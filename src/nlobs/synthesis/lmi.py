@@ -52,9 +52,10 @@ E = TypeVar("E", bound=Enum)
 #: data at ``n = 50`` (about 2·10⁴) took 272 s, at ``n = 100`` (about 8·10⁴) grew past 12 GB and was
 #: killed; below the bound, size 7688 (drift SDP, ``n = 60``, one solve) 27 s CPU / 0.59 GB, 8714
 #: (``design_setvalued``, ``n = 30``) 54 s CPU / 0.73 GB, 9802 (discrete Lipschitz, ``n = 40``) 123 s
-#: CPU / 2.6 GB; just below it (sizes 2.1–2.5·10⁴) every design was still running when stopped after
-#: 400–900 s wall, at 2.2–7.7 GB (the discrete Lipschitz LMI at ``n = 64`` extrapolates to about
-#: 17 GB). Details: ``docs/synthesis.md`` ("Problem size").
+#: CPU / 2.6 GB; just below it, one drift SDP solve at ``n = 100`` (20808, idle machine) 308 s CPU /
+#: 3.2 GB, and the others (sizes 2.3–2.5·10⁴) were still running when stopped after 400–420 s wall, at
+#: 2.2–7.7 GB (the discrete Lipschitz LMI at ``n = 64`` extrapolates to about 17 GB). Details:
+#: ``docs/synthesis.md`` ("Problem size").
 MAX_LMI_SIZE = 25_000
 
 
