@@ -59,7 +59,7 @@ from nlobs._validate import as_matrix, as_square, in_range, positive
 from nlobs.errors import CertificateError, DesignInfeasible
 from nlobs.checks import Check, CheckKind
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
-from nlobs.synthesis.lmi import Solver, as_solver, bmat, max_eig, solve, symmetrise
+from nlobs.synthesis.lmi import Solver, as_solver, bmat, max_eig, require_lmi_size, solve, symmetrise
 
 __all__ = ["DiscreteLipschitzCertificate", "design_discrete_lipschitz_gain", "verify_discrete_lipschitz_gain"]
 
@@ -199,6 +199,15 @@ def verify_discrete_lipschitz_gain(A: ArrayLike, C: ArrayLike, L: ArrayLike, P: 
     )
 
 
+def lmi_size(n: int, l: int, q: int) -> tuple[int, tuple[int, ...]]:  # noqa: E741
+    """``(scalar decision variables, sizes of the semidefinite blocks)`` of the design LMI (:class:`_Problem`).
+
+    ``P`` (symmetric ``n × n``), ``Y`` (``n × l``), ``t`` and ``ε``; ``I ⪯ P``, ``P ⪯ t I`` and ``S`` (``2n + q``,
+    ``q`` the columns of ``E``). The auxiliary problem (largest ``γ``) is smaller.
+    """
+    return n * (n + 1) // 2 + n * l + 2, (n, n, 2 * n + q)
+
+
 class _Problem:
     """The LMI ``S(ρ², γ²) ⪰ margin·I`` compiled once; ρ² and γ² are parameters.
 
@@ -301,6 +310,10 @@ def design_discrete_lipschitz_gain(
     eps = positive("margin", margin)
     s = as_solver(solver)
     E_, F_ = _structure(E, F, n)
+    nvar, blocks = lmi_size(n, C_.shape[0], E_.shape[1])
+    require_lmi_size("discrete Lipschitz LMI", f"n = {n} states, l = {C_.shape[0]} outputs, q = {E_.shape[1]} "
+                     "nonlinear channels", nvar, blocks, "reduce the model, or give the structure E, F of the "
+                     "nonlinearity (fewer columns of E)")
 
     # with γ = 0 any ε > λ_max(EᵀPE) (≤ t‖E‖²) certifies, so bounding it by a multiple of t loses nothing
     prob = _Problem(A_, C_, E_, F_, eps, max_gamma=False, bound_eps=gamma == 0.0)

@@ -84,7 +84,17 @@ from nlobs.checks import Check, CheckKind
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict, complex_pairs
 from nlobs.systems.brunovsky import brunovsky as brunovsky_triple
 from nlobs.systems.brunovsky import positive_multi_index
-from nlobs.synthesis.lmi import Solver, SolveStatus, as_enum, as_solver, bmat, max_eig, solve, symmetrise
+from nlobs.synthesis.lmi import (
+    Solver,
+    SolveStatus,
+    as_enum,
+    as_solver,
+    bmat,
+    max_eig,
+    require_lmi_size,
+    solve,
+    symmetrise,
+)
 
 
 __all__ = [
@@ -97,7 +107,9 @@ __all__ = [
     "brunovsky_triple",
     "design_drift_gain",
     "design_drift_gain_sdp",
+    "require_sdp_size",
     "riccati_lhs",
+    "sdp_size",
     "smallest_w",
     "vandermonde_gain",
     "verify_drift_gain",
@@ -674,6 +686,48 @@ def _scaling(s: tuple[int, ...], theta: float) -> tuple[Array, Array]:
     return T, np.array([theta ** (sj - 1) for sj in s], dtype=float)
 
 
+def sdp_size(c: RiccatiConstants, objective: DriftObjective | str = DriftObjective.MIN_GAIN,
+             gain_bound: float | None = None) -> tuple[int, tuple[int, ...]]:
+    """``(scalar decision variables, sizes of the semidefinite blocks)`` of the problem :func:`_build_sdp` builds.
+
+    ``S̃`` and ``Ŷ`` with ``σ`` and the slack ``t``; the LMI of (2.17) (``n + q + w`` with ``w`` the columns
+    of ``F``), ``S̃ ⪰ σ I``, and ``S̃ ⪯ κ σ I`` and/or the gain block ``n + q``.
+    """
+    return _sdp_size(c.s, c.F.shape[1], as_enum("objective", DriftObjective, objective), gain_bound)
+
+
+def _sdp_size(s: tuple[int, ...], f_columns: int, obj: DriftObjective,
+              gain_bound: float | None) -> tuple[int, tuple[int, ...]]:
+    n, q = sum(s), len(s)
+    blocks = [n + q + f_columns, n]
+    if obj is DriftObjective.MIN_CONDITION:
+        blocks.append(n)
+        if gain_bound is not None:
+            blocks.append(n + q)
+    else:
+        blocks.append(n + q)
+    return n * (n + 1) // 2 + n * q + 2, tuple(blocks)
+
+
+def require_sdp_size(s: Sequence[int], f_columns: int = 0, objective: DriftObjective | str = DriftObjective.MIN_GAIN,
+                     gain_bound: float | None = None) -> None:
+    """Refuse the SDP of :func:`design_drift_gain_sdp` above :data:`~nlobs.synthesis.lmi.MAX_LMI_SIZE`.
+
+    Counted from the multi-index ``s`` and the columns of ``F`` alone (``f_columns = 0`` gives a lower bound,
+    for a refusal before ``F`` is computed); raises :class:`~nlobs.errors.InvalidArgumentError`.
+    """
+    s_ = tuple(int(k) for k in s)
+    nvar, blocks = _sdp_size(s_, int(f_columns), as_enum("objective", DriftObjective, objective), gain_bound)
+    outputs = f"{len(s_)} output{'s' if len(s_) > 1 else ''}"
+    require_lmi_size("drift-observability SDP", f"n = {sum(s_)} states (s = {_short(s_)}) with {outputs}", nvar, blocks,
+                     "use the closed-form Vandermonde gain instead (method 'vandermonde', Remark 2.11), which has "
+                     "no size limit")
+
+
+def _short(s: tuple[int, ...]) -> str:
+    return str(s) if len(s) <= 6 else f"({', '.join(map(str, s[:3]))}, …, {s[-1]})"
+
+
 def _build_sdp(c: RiccatiConstants, objective: DriftObjective, margin: float, gain_bound: float | None,
                theta: float = 1.0) -> _Sdp:
     """The LMI in the scaled variables ``S = T S̃ T``, ``Y = T Ŷ Θ`` (the identity for ``θ = 1``).
@@ -864,6 +918,7 @@ def design_drift_gain_sdp(
     sol = as_solver(solver)
     margin = positive("margin", margin)
     gb = None if gain_bound is None else positive("gain_bound", gain_bound)
+    require_sdp_size(c.s, c.F.shape[1], obj, gb)
     found: list[DriftGainCertificate] = []
     errors: list[Exception] = []
     for theta in _thetas(c, scaling):

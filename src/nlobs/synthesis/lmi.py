@@ -37,10 +37,26 @@ __all__ = [
     "max_eig",
     "solve",
     "as_solver",
+    "MAX_LMI_SIZE",
+    "lmi_problem_size",
+    "require_lmi_size",
 ]
 
 
 E = TypeVar("E", bound=Enum)
+
+#: Largest LMI problem a design of nlobs builds, as the number of scalar decision variables plus the
+#: entries ``k(k+1)/2`` of every semidefinite block of size ``k`` (:func:`lmi_problem_size`). The
+#: interior-point solver's KKT system grows with the square of this size. Measured with Clarabel on a
+#: shared 2-core, 24 GiB machine (load about 8, so wall ≫ CPU time): ``design_observer_gain`` on dense
+#: data at ``n = 50`` (about 2·10⁴) took 272 s, at ``n = 100`` (about 8·10⁴) grew past 12 GB and was
+#: killed; below the bound, size 7688 (drift SDP, ``n = 60``, one solve) 27 s CPU / 0.59 GB, 8714
+#: (``design_setvalued``, ``n = 30``) 54 s CPU / 0.73 GB, 9802 (discrete Lipschitz, ``n = 40``) 123 s
+#: CPU / 2.6 GB; just below it, one drift SDP solve at ``n = 100`` (20808, idle machine) 308 s CPU /
+#: 3.2 GB, and the others (sizes 2.3–2.5·10⁴) were still running when stopped after 400–420 s wall, at
+#: 2.2–7.7 GB (the discrete Lipschitz LMI at ``n = 64`` extrapolates to about 17 GB). Details:
+#: ``docs/synthesis.md`` ("Problem size").
+MAX_LMI_SIZE = 25_000
 
 
 class Solver(str, Enum):
@@ -206,3 +222,37 @@ def solve(problem: cp.Problem, solver: Solver | str = Solver.CLARABEL, options: 
     value = problem.value if status.has_solution else None
     val = float(value) if value is not None and np.isfinite(value) else None
     return SolveResult(status, raw, s, val, seconds)
+
+
+def lmi_problem_size(n_variables: int, blocks: Sequence[int]) -> int:
+    """The size :data:`MAX_LMI_SIZE` bounds: ``n_variables + Σ k(k+1)/2`` over the semidefinite blocks."""
+    return int(n_variables) + sum(int(k) * (int(k) + 1) // 2 for k in blocks)
+
+
+def require_lmi_size(what: str, dims: str, n_variables: int, blocks: Sequence[int], advice: str) -> None:
+    """Refuse an LMI problem above :data:`MAX_LMI_SIZE` before CVXPY builds it (it would exhaust memory or run for hours).
+
+    Parameters
+    ----------
+    what : str
+        The problem, e.g. ``"LMI problem"`` or ``"drift-observability SDP"``.
+    dims : str
+        The dimensions it was counted from, e.g. ``"n = 100 states"``.
+    n_variables : int
+        Scalar decision variables.
+    blocks : sequence of int
+        Sizes of the semidefinite blocks.
+    advice : str
+        What to do instead (one sentence, no final period).
+
+    Raises
+    ------
+    InvalidArgumentError
+        Stating the variables, the block sizes, the size and the bound.
+    """
+    size = lmi_problem_size(n_variables, blocks)
+    if size > MAX_LMI_SIZE:
+        raise InvalidArgumentError(
+            f"{what} too large: {dims} give {int(n_variables)} scalar variables and semidefinite blocks of sizes "
+            f"{', '.join(str(int(k)) for k in blocks)} (size {size}); at most {MAX_LMI_SIZE} is solved: the "
+            f"solver's memory grows with the square of the size; {advice}")

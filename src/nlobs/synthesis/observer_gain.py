@@ -62,7 +62,19 @@ from nlobs.synthesis.certificate import (
     Objective,
     ObserverGainCertificate,
 )
-from nlobs.synthesis.lmi import Solver, as_enum, SolveResult, SolveStatus, as_solver, bmat, max_eig, solve, symmetrise
+from nlobs.synthesis.lmi import (
+    MAX_LMI_SIZE,  # noqa: F401  (re-exported: observer_gain.MAX_LMI_SIZE)
+    Solver,
+    SolveResult,
+    SolveStatus,
+    as_enum,
+    as_solver,
+    bmat,
+    max_eig,
+    require_lmi_size,
+    solve,
+    symmetrise,
+)
 from nlobs.synthesis.regions import PoleRegion, as_regions
 
 __all__ = [
@@ -78,11 +90,6 @@ RegionArg = PoleRegion | Sequence[PoleRegion] | None
 _EPS = float(np.finfo(float).eps)
 _SLACK_TOL = 1e-9  # a stage is infeasible when its minimal slack exceeds this
 _UNBOUNDED_GROWTH = 10.0  # gain growth (per 100× change of ε) that flags a margin-driven optimum
-#: Largest LMI problem :func:`design_observer_gain` builds, as the number of scalar decision variables
-#: plus the entries ``k(k+1)/2`` of every semidefinite block of size ``k``. The interior-point solver's
-#: KKT system grows with the square of this size: on dense data ``n = 50`` (about 2·10⁴) took 272 s,
-#: ``n = 100`` (about 8·10⁴) grew past 12 GB and was killed.
-MAX_LMI_SIZE = 25_000
 
 
 # --------------------------------------------------------------------------- data
@@ -202,15 +209,17 @@ def lmi_size(d: _Data) -> tuple[int, tuple[int, ...]]:
     return n * (n + 1) // 2 + n * p + 3, tuple(blocks)
 
 
-def _check_size(d: _Data) -> None:
-    """Refuse a problem above :data:`MAX_LMI_SIZE` before CVXPY builds it (it would exhaust memory)."""
+def _check_size(d: _Data, *, with_K: bool = False) -> None:
+    """Refuse a problem above :data:`~nlobs.synthesis.lmi.MAX_LMI_SIZE` before CVXPY builds it (it would exhaust memory).
+
+    ``with_K``: the verification of a given ``K`` (``P`` the only matrix variable, no gain bound).
+    """
     nvar, blocks = lmi_size(d)
-    size = nvar + sum(k * (k + 1) // 2 for k in blocks)
-    if size > MAX_LMI_SIZE:
-        raise InvalidArgumentError(
-            f"LMI problem too large: n = {d.n} states give {nvar} scalar variables and semidefinite blocks of sizes "
-            f"{', '.join(map(str, blocks))} (size {size}); at most {MAX_LMI_SIZE} is solved (about n = 50): "
-            "the solver's memory grows with the square of the size")
+    if with_K:
+        nvar = d.n * (d.n + 1) // 2
+        blocks = blocks[:-2] if d.gain_bound is not None else blocks
+    require_lmi_size("LMI problem", f"n = {d.n} states", nvar, blocks,
+                     "about n = 50 states is the most; reduce the model (e.g. design per decoupled axis)")
 
 
 def _blocks(d: _Data, P: Any, X: Any, gamma2: Any, gamma_n2: Any, *, with14: bool = True,
@@ -798,6 +807,7 @@ def verify_observer_gain(
         raise InvalidArgumentError("N: given without gamma_n; pass gamma_n (LMI (15))")
     d = _validate_data(A, C, Bd, N, gn is not None, region, gain_bound)
     K_ = as_matrix("K", K, (d.n, d.C.shape[0]))
+    _check_size(d, with_K=True)
 
     eig_max = float(np.max(np.linalg.eigvals(d.A - K_ @ d.C).real))
     P_val: NDArray[np.float64] | None = None

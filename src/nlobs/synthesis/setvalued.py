@@ -84,7 +84,7 @@ from nlobs.linear.transform_ui import (
 )
 from nlobs.checks import Check, CheckKind
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
-from nlobs.synthesis.lmi import Solver, as_enum, as_solver, max_eig, solve
+from nlobs.synthesis.lmi import Solver, as_enum, as_solver, max_eig, require_lmi_size, solve
 from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, FunctionClass, Lipschitz
 
 __all__ = [
@@ -388,6 +388,30 @@ def _scenarios(system: DiscreteUISystem, dyn: ErrorDynamics) -> list[tuple[Array
     return [(dyn.Xi0, dyn.Xic, Mh)]
 
 
+def lmi_size(system: DiscreteUISystem, transform: UITransform | None = None) -> tuple[int, tuple[int, ...]]:
+    """``(scalar decision variables, sizes of the semidefinite blocks)`` of the LMI (⋆) :func:`_build` builds.
+
+    ``P``, ``Y = P L̃`` (``n × (l − p_H)``), ``κ`` and the three weights ``Θ``; ``P ⪰ I`` (or ``⪰ εI``) and
+    one block ``n + 2n + 2l + n_w`` — per LPV vertex ``n + n + 2l + n_w`` (``π`` substituted) — of (⋆).
+    Counted from the dimensions and :func:`~nlobs.linear.transform_ui.ui_transform` only.
+    """
+    tr = ui_transform(system.G, system.C, system.H, system.D) if transform is None else transform
+    n, l, nw = system.n, system.l, system.n_w
+    qdim = tr.C2.shape[0]
+    fc = system.function_class
+    if isinstance(fc, LPV):
+        blocks = [n] + [2 * n + 2 * l + nw] * len(fc.constituents)
+    else:
+        blocks = [n, 3 * n + 2 * l + nw]
+    return n * (n + 1) // 2 + n * qdim + 4, tuple(blocks)
+
+
+def _check_size(system: DiscreteUISystem, tr: UITransform) -> None:
+    nvar, blocks = lmi_size(system, tr)
+    require_lmi_size("set-valued LMI (⋆)", f"n = {system.n} states, l = {system.l} outputs, n_w = {system.n_w} "
+                     "noise inputs", nvar, blocks, "reduce the model (fewer states, or for Class III fewer LPV vertices)")
+
+
 @dataclass
 class _Problem:
     prob: cp.Problem
@@ -627,6 +651,7 @@ def design_setvalued(
     if certified_for.function_class is not system.function_class:
         system = dataclasses.replace(system, function_class=certified_for.function_class)
     tr = ui_transform(system.G, system.C, system.H, system.D)
+    _check_size(system, tr)
     st = _structure(system, tr, structure)
     require_structure(st)
     dyn = error_dynamics(system, tr)

@@ -52,7 +52,7 @@ from nlobs.checks import Check, CheckKind
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.errors import CertificateError, DesignInfeasible, DimensionError, InvalidArgumentError
 from nlobs.linear.transform_ui import UITransform, structural_check, ui_transform
-from nlobs.synthesis.lmi import Solver, as_solver, solve
+from nlobs.synthesis.lmi import Solver, as_solver, require_lmi_size, solve
 from nlobs.systems.discrete_ui import DiscreteUISystem, qc_member_min_eig, qc_member_tolerance
 
 __all__ = [
@@ -192,6 +192,33 @@ class _Thm510:
     e2: cp.Parameter
     einv: cp.Parameter
     extra: dict[str, cp.Variable] = field(default_factory=dict)
+
+
+def thm510_size(system: DiscreteUISystem, tr: UITransform, branch: Prop516Branch | None = None,
+                relax: bool = False) -> tuple[int, tuple[int, ...]]:
+    """``(scalar decision variables, sizes of the semidefinite blocks)`` of the SDP :func:`_build_thm510` builds.
+
+    ``P, Γ̃, Q̄`` (symmetric ``n × n``), ``Z̄`` (``n × n``), ``Y`` (``n × q``), ``Γ`` (``q × q``), ``κ``, ``ρ²``
+    (and ``κ₁, κ₂`` / the shortfall); blocks ``P, Γ̃, Q̄`` (``n``), ``Γ`` (``q``), five of ``2n``, ``Π`` (``n + 2q``),
+    ``N`` (``N_w + 2n``, ``N_w = 2l + n_w``) and with a branch ``κ₁I ⪯ P ⪯ κ₂I`` (two of ``n``).
+    """
+    n, q = system.n, tr.C2.shape[0]
+    nw_cols = tr.T1.shape[1] + system.W.shape[1] + tr.T2.shape[1]
+    nvar = 3 * (n * (n + 1) // 2) + n * n + n * q + q * (q + 1) // 2 + 2
+    blocks = [n, n, n, q] + [2 * n] * 5 + [n + 2 * q, nw_cols + 2 * n]
+    if relax:
+        nvar += 1
+    if branch is not None:
+        nvar += 2
+        blocks += [n, n]
+    return nvar, tuple(blocks)
+
+
+def _check_thm510_size(system: DiscreteUISystem, tr: UITransform, branch: Prop516Branch | None, who: str) -> None:
+    nvar, blocks = thm510_size(system, tr, branch)
+    require_lmi_size(f"{who}: the SDP of Theorem 5.10", f"n = {system.n} states, q = {tr.C2.shape[0]} transformed "
+                     f"outputs", nvar, blocks, "reduce the model, or use the sound design design_setvalued "
+                     "(about twice the states fit)")
 
 
 def _build_thm510(system: DiscreteUISystem, M11: Array, M12: Array, M22: Array, tr: UITransform, margin: float,
@@ -481,6 +508,7 @@ def design_printed(system: DiscreteUISystem, M: ArrayLike, *, alphas: Sequence[f
     v33 = _n33_violation(M11, margin)
     if v33 is not None:  # no ε₂ can help: fail before the search
         raise _n33_error("Theorem 5.10 as printed: (18), (26) infeasible", v33, margin)
+    _check_thm510_size(system, tr, None, "design_printed")
     pb = _build_thm510(system, M11, M12, M22, tr, margin)
     slv = as_solver(solver)
     best, solves = _search(pb, slv, _alphas(alphas), eps_grid, refine)
@@ -683,6 +711,7 @@ def design_prop516(system: DiscreteUISystem, M: ArrayLike, *, gamma: float = 0.0
     v33 = _n33_violation(M11, margin)
     if v33 is not None:  # no ε₂ can help: fail before the search
         raise _n33_error(what, v33, margin)
+    _check_thm510_size(system, tr, Prop516Branch.A, "design_prop516")
     slv = as_solver(solver)
     outcomes: list[BranchOutcome] = []
     bests: list[tuple[_Best, Prop516Branch]] = []

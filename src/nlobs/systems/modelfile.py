@@ -489,6 +489,10 @@ def _nonlinear(src: _Source, data: Mapping[str, Any], name: str, time: TimeBase)
     states = _names(src, data, "states", required=True) or []
     inputs = _names(src, data, "inputs", required=False) or []
     outputs = _names(src, data, "outputs", required=True) or []
+    if not outputs:
+        raise src.error("'outputs' is empty: a model needs at least one output (an observer estimates the state "
+                        "from measurements); list the measured names, e.g. outputs = [\"y\"], with one entry of "
+                        "[dynamics].h each", key="outputs", text="outputs")
     params = _parameters(src, data)
     clash = sorted((set(states) & set(inputs)) | ((set(states) | set(inputs)) & set(params)))
     if clash:
@@ -568,6 +572,11 @@ def _linear(src: _Source, data: Mapping[str, Any], name: str, time: TimeBase) ->
     A = _matrix(src, lin, "A")
     n = A.shape[0]
     C = _matrix(src, lin, "C")
+    if C.size == 0:
+        raise src.error("[linear].C is empty: a model needs at least one output (a row of C)", key="C", text="C")
+    if data.get("outputs") == []:
+        raise src.error("'outputs' is empty: a model needs at least one output (one name per row of [linear].C)",
+                        key="outputs", text="outputs")
     inputs = _names(src, data, "inputs", required=False)
     m = len(inputs) if inputs is not None else (_matrix(src, lin, "B").shape[1] if "B" in lin else 0)
     B = _matrix(src, lin, "B") if "B" in lin else np.zeros((n, m))

@@ -48,6 +48,7 @@ from nlobs.synthesis.drift_gain import (
     DriftGainCertificate,
     RiccatiConstants,
     design_drift_gain,
+    require_sdp_size,
     vandermonde_gain,
     riccati_constant,
     verify_drift_gain,
@@ -258,6 +259,8 @@ def design_drift_report(
     fields = AffineFields.from_model(model, parameters)
     reg = region or Box.unit(fields.n)
     s_ = check_multi_index(default_multi_index(fields, reg) if s is None else s, fields.q, fields.n)
+    if str(method).lower() == "sdp":  # a lower bound (F not yet known), before the geometry; exact in the design
+        require_sdp_size(s_)
     rd = observation_relative_degree(fields, reg)
     checks = (check_drift_observability(fields, s_, reg, seed=seed), check_s_le_r(s_, rd.r))
     H, F = input_gain_structure(fields, s_, rd.r)

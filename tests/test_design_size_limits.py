@@ -1,0 +1,229 @@
+"""Every LMI/SDP design estimates its problem size and refuses one above ``MAX_LMI_SIZE`` before CVXPY builds it.
+
+A refused problem must never reach CVXPY: ``cvxpy.Problem`` is replaced by a stub that fails the test
+when it is constructed or solved. The estimates are compared with the problems the builders make at a
+small size, so a refusal is about the problem that would have been solved.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import cvxpy as cp
+import numpy as np
+import pytest
+from cvxpy.constraints import PSD
+
+from nlobs.errors import InvalidArgumentError, ModelFileError
+from nlobs.synthesis import discrete_lipschitz as dl
+from nlobs.synthesis import drift_gain as dg
+from nlobs.synthesis import setvalued as sv
+from nlobs.synthesis import setvalued_printed as sp
+from nlobs.synthesis.lmi import MAX_LMI_SIZE, lmi_problem_size
+from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, Lipschitz
+from nlobs.systems.modelfile import load_model
+from nlobs.systems.timebase import Discrete
+
+
+@pytest.fixture
+def no_cvxpy(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Fail when any CVXPY problem is built or solved; returns the list of attempts."""
+    calls: list[str] = []
+
+    def refuse(*_a: Any, **_k: Any) -> None:
+        calls.append("cvxpy")
+        raise AssertionError("a CVXPY problem was built or solved for a refused size")
+
+    monkeypatch.setattr(cp.Problem, "__init__", refuse)
+    monkeypatch.setattr(cp.Problem, "solve", refuse)
+    return calls
+
+
+def _count(prob: cp.Problem) -> tuple[int, tuple[int, ...]]:
+    """Scalar variables (a symmetric k×k variable counts k(k+1)/2) and sorted PSD block sizes of a built problem."""
+    nv = 0
+    for v in prob.variables():
+        k = v.shape[0] if v.ndim == 2 else 0
+        nv += k * (k + 1) // 2 if v.attributes.get("symmetric") else v.size
+    return nv, tuple(sorted(c.args[0].shape[0] for c in prob.constraints if isinstance(c, PSD)))
+
+
+def _sorted(size: tuple[int, tuple[int, ...]]) -> tuple[int, tuple[int, ...]]:
+    return size[0], tuple(sorted(size[1]))
+
+
+def _refusal(exc: pytest.ExceptionInfo[InvalidArgumentError], what: str) -> str:
+    msg = str(exc.value)
+    assert msg.startswith(f"{what} too large: "), msg
+    assert "scalar variables and semidefinite blocks of sizes" in msg and f"at most {MAX_LMI_SIZE}" in msg, msg
+    assert "\n" not in msg
+    return msg
+
+
+# --------------------------------------------------------------------------- the shared size
+
+
+def test_the_size_is_variables_plus_block_entries() -> None:
+    assert lmi_problem_size(3, (2, 4)) == 3 + 3 + 10
+
+
+# --------------------------------------------------------------------------- observer gain (verify)
+
+
+def test_verify_observer_gain_at_n_130_is_refused_before_cvxpy(no_cvxpy: list[str]) -> None:
+    from nlobs.synthesis.observer_gain import verify_observer_gain
+
+    n = 130  # K given: P is the only matrix variable, so n = 100 (size 20709) is still solved
+    A = -np.eye(n)
+    C = np.eye(2, n)
+    with pytest.raises(InvalidArgumentError) as exc:
+        verify_observer_gain(A, C, np.eye(n, 3), np.zeros((n, 2)), gamma=10.0, gamma_n=2.0)
+    msg = _refusal(exc, "LMI problem")
+    assert "n = 130 states give 8515 scalar variables" in msg and "blocks of sizes 130, 133, 132 (size 34719)" in msg
+    assert not no_cvxpy
+
+
+# --------------------------------------------------------------------------- drift SDP
+
+
+@pytest.mark.parametrize("objective, gain_bound", [("min_gain", None), ("min_condition", None), ("min_condition", 2.0)])
+def test_drift_sdp_size_matches_the_built_problem(objective: str, gain_bound: float | None) -> None:
+    c = dg.RiccatiConstants((2, 3), np.ones((5, 2)), 1.0, 1.0, 1.0)
+    obj = dg.DriftObjective(objective)
+    assert _count(dg._build_sdp(c, obj, 1e-6, gain_bound).problem) == _sorted(dg.sdp_size(c, obj, gain_bound))
+
+
+def test_drift_sdp_at_n_120_is_refused_before_cvxpy(no_cvxpy: list[str]) -> None:
+    c = dg.RiccatiConstants((60, 60), None, 1.0, 0.0, 1.0)
+    with pytest.raises(InvalidArgumentError) as exc:
+        dg.design_drift_gain_sdp(c)
+    msg = _refusal(exc, "drift-observability SDP")
+    assert "n = 120 states (s = (60, 60)) with 2 outputs give 7502 scalar variables" in msg
+    assert "blocks of sizes 122, 120, 122 (size 29768)" in msg and "method 'vandermonde'" in msg
+    with pytest.raises(InvalidArgumentError, match="drift-observability SDP too large"):
+        dg.design_drift_gain(c, "sdp")
+    assert not no_cvxpy
+
+
+CHAIN = "name = \"chain\"\nstates = [{states}]\noutputs = [\"y\"]\n[dynamics]\nf = [{f}]\nh = [\"x0\"]\n"
+
+
+def test_cli_design_drift_sdp_at_n_120_is_one_line_exit_2(tmp_path: Path, no_cvxpy: list[str]) -> None:
+    from typer.testing import CliRunner
+
+    from nlobs.cli import app
+
+    n = 120
+    names = [f"x{i}" for i in range(n)]
+    f = [f"x{i + 1}" for i in range(n - 1)] + ["-x0"]
+    path = tmp_path / "chain.toml"
+    path.write_text(CHAIN.format(states=", ".join(f'"{s}"' for s in names), f=", ".join(f'"{e}"' for e in f)))
+    res = CliRunner().invoke(app, ["design", "drift", str(path), "--method", "sdp", "--s", str(n)])
+    assert res.exit_code == 2, res.output
+    lines = res.output.strip().splitlines()
+    assert len(lines) == 1, res.output
+    assert "drift-observability SDP too large: n = 120 states (s = (120,)) with 1 output give" in lines[0]
+    assert "Traceback" not in res.output and not no_cvxpy
+
+
+# --------------------------------------------------------------------------- set-valued (sound design)
+
+
+def _ui(n: int, lpv: bool = False) -> DiscreteUISystem:
+    A = 0.5 * np.eye(n) + 0.1 * np.eye(n, k=1)
+    G = np.zeros((n, 1))
+    G[0, 0], G[-1, 0] = 1.0, 0.5
+    C = np.zeros((2, n))
+    C[0, 0], C[1, -1] = 1.0, 1.0
+    H = np.array([[0.0], [0.2]])
+    fc = LPV((0.1 * np.eye(n), -0.1 * np.eye(n))) if lpv else Lipschitz(0.01, n)
+    return DiscreteUISystem(A, G, C, H, function_class=fc, eta_w=0.05, eta_v=0.02, delta0=1.0, time=Discrete(1.0))
+
+
+@pytest.mark.parametrize("lpv", [False, True])
+@pytest.mark.parametrize("objective", ["radius", "hinf"])
+def test_setvalued_size_matches_the_built_problem(lpv: bool, objective: str) -> None:
+    s = _ui(3, lpv)
+    tr = sv.ui_transform(s.G, s.C, s.H, s.D)
+    pb = sv._build(s, sv.error_dynamics(s, tr), sv.SetValuedObjective(objective), 1e-7)
+    assert _count(pb.prob) == _sorted(sv.lmi_size(s, tr))
+
+
+def test_setvalued_at_n_80_is_refused_before_cvxpy(no_cvxpy: list[str]) -> None:
+    with pytest.raises(InvalidArgumentError) as exc:
+        sv.design_setvalued(_ui(80))
+    msg = _refusal(exc, "set-valued LMI (⋆)")
+    assert "n = 80 states, l = 2 outputs, n_w = 80 noise inputs give 3324 scalar variables" in msg
+    assert "blocks of sizes 80, 324" in msg
+    assert not no_cvxpy
+
+
+# --------------------------------------------------------------------------- set-valued (as printed)
+
+
+def _lipschitz_M(L: float, n: int) -> np.ndarray:
+    return np.block([[-np.eye(n), np.zeros((n, n))], [np.zeros((n, n)), L**2 * np.eye(n)]])
+
+
+@pytest.mark.parametrize("branch", [None, sp.Prop516Branch.A])
+@pytest.mark.parametrize("relax", [False, True])
+def test_printed_size_matches_the_built_problem(branch: sp.Prop516Branch | None, relax: bool) -> None:
+    s = _ui(3)
+    _, M11, M12, M22 = sp._split_M(_lipschitz_M(0.01, 3), 3)
+    tr = sp._transform_for_printed(s, "test")
+    pb = sp._build_thm510(s, M11, M12, M22, tr, 1e-7, branch, 1e-5, relax)
+    assert _count(pb.prob) == _sorted(sp.thm510_size(s, tr, branch, relax))
+
+
+@pytest.mark.parametrize("design, who", [(sp.design_printed, "design_printed"), (sp.design_prop516, "design_prop516")])
+def test_printed_at_n_60_is_refused_before_cvxpy(design: Any, who: str, no_cvxpy: list[str]) -> None:
+    with pytest.raises(InvalidArgumentError) as exc:
+        design(_ui(60), _lipschitz_M(0.01, 60))
+    msg = _refusal(exc, f"{who}: the SDP of Theorem 5.10")
+    assert "n = 60 states, q = 1 transformed outputs give" in msg and "design_setvalued" in msg
+    assert not no_cvxpy
+
+
+# --------------------------------------------------------------------------- discrete Lipschitz
+
+
+@pytest.mark.parametrize("max_gamma", [False, True])
+def test_discrete_lipschitz_size_matches_the_built_problem(max_gamma: bool) -> None:
+    A, C, E, F = np.diag([0.5, 0.6, 0.7]), np.ones((2, 3)), np.ones((3, 1)), np.ones((1, 3))
+    nv, blocks = _count(dl._Problem(A, C, E, F, 1e-7, max_gamma=max_gamma).problem)
+    want_nv, want_blocks = _sorted(dl.lmi_size(3, 2, 1))
+    if max_gamma:  # the auxiliary problem: γ² for (t, ε) and no P ⪯ tI, so never larger
+        assert nv <= want_nv and len(blocks) == len(want_blocks) - 1
+    else:
+        assert (nv, blocks) == (want_nv, want_blocks)
+
+
+def test_discrete_lipschitz_at_n_100_is_refused_before_cvxpy(no_cvxpy: list[str]) -> None:
+    n = 100
+    with pytest.raises(InvalidArgumentError) as exc:
+        dl.design_discrete_lipschitz_gain(0.5 * np.eye(n), np.eye(2, n), lipschitz=0.01)
+    msg = _refusal(exc, "discrete Lipschitz LMI")
+    assert "n = 100 states, l = 2 outputs, q = 100 nonlinear channels give 5252 scalar variables" in msg
+    assert "blocks of sizes 100, 100, 300 (size 60502)" in msg
+    assert not no_cvxpy
+
+
+# --------------------------------------------------------------------------- a model without outputs
+
+
+def test_model_file_without_outputs_says_so_with_the_line(tmp_path: Path) -> None:
+    p = tmp_path / "m.toml"
+    p.write_text('name = "m"\nstates = ["x"]\noutputs = []\n[dynamics]\nf = ["-x"]\nh = []\n')
+    with pytest.raises(ModelFileError) as exc:
+        load_model(p)
+    assert exc.value.line == 3
+    assert "a model needs at least one output" in str(exc.value) and "expected 0 entries" not in str(exc.value)
+
+
+def test_linear_model_file_without_outputs_says_so_with_the_line(tmp_path: Path) -> None:
+    p = tmp_path / "l.toml"
+    p.write_text('name = "l"\n[linear]\nA = [[-1.0]]\nC = []\n')
+    with pytest.raises(ModelFileError) as exc:
+        load_model(p)
+    assert exc.value.line == 4 and "a model needs at least one output" in str(exc.value)
