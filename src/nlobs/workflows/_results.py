@@ -2,14 +2,22 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
 from nlobs._io import prepare_output_dir
-from nlobs.errors import OutputError
+from nlobs._typing import Array
+from nlobs.errors import NlobsError, OutputError, SimulationDiverged, StudyFailed
 from nlobs.simulate.result import SimulationResult
+
+if TYPE_CHECKING:
+    from nlobs.systems.symbolic import SymbolicModel
+    from nlobs.workflows.inputs import SimulationRequest
+
+T = TypeVar("T")
 
 
 def _reason(exc: OSError) -> str:
@@ -33,6 +41,27 @@ def prepare_out(out: Path | None) -> None:
     except OSError as exc:
         what = "write in" if existed else "create"
         raise OutputError(f"{out}: cannot {what} the folder ({_reason(exc)})") from exc
+
+
+def checked_request(request: SimulationRequest | None, model: SymbolicModel) -> tuple[Array, Array, Array] | None:
+    """The simulation's ``(x0, x_hat0, u)`` checked against ``model`` and its output folder prepared,
+    before any design (which can take long); ``None`` without a request."""
+    if request is None:
+        return None
+    resolved = request.resolved(model.n, model.m, model.name, model.p)
+    prepare_out(request.out)
+    return resolved
+
+
+def run_study(run: Callable[[], T]) -> T:
+    """``run()``, a simulation of a designed observer: a divergence stays :class:`SimulationDiverged`,
+    any other typed error becomes :class:`StudyFailed` (the design was fine, its simulation was not)."""
+    try:
+        return run()
+    except SimulationDiverged:
+        raise
+    except NlobsError as exc:
+        raise StudyFailed(str(exc)) from exc
 
 
 def write_result(result: SimulationResult, out: Path | None, stem: str) -> tuple[Path, ...]:

@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike
 
 from nlobs._typing import Array
 from nlobs._validate import positive, readonly
-from nlobs.errors import InvalidArgumentError, NlobsError, SimulationDiverged, StudyFailed
+from nlobs.errors import InvalidArgumentError
 from nlobs.geometry.checks import Check, check_drift_observability, check_s_le_r, default_multi_index
 from nlobs.geometry.lipschitz import LipschitzEstimates, lipschitz_estimates
 from nlobs.geometry.observability import (
@@ -54,7 +54,7 @@ from nlobs.synthesis.drift_gain import (
     verify_drift_gain,
 )
 from nlobs.systems.symbolic import SymbolicModel
-from nlobs.workflows._results import error_line, error_summary, prepare_out, write_result
+from nlobs.workflows._results import checked_request, error_line, error_summary, run_study, write_result
 from nlobs.workflows.inputs import SimulationRequest, as_region, model_label, symbolic_model
 from nlobs.workflows.verdict import Verdict
 
@@ -523,9 +523,7 @@ def design_drift_observer(
     if gamma is not None:
         riccati_constant("--gamma", gamma, allow_zero=True)
     # the simulation's vectors, size and output folder are checked before the design (which can take long)
-    resolved = None if simulate is None else simulate.resolved(m.n, m.m, m.name, m.p)
-    if simulate is not None:
-        prepare_out(simulate.out)
+    resolved = checked_request(simulate, m)
     rep = design_drift_report(m, s, alpha=alpha, mu=mu, gamma=gamma, method=method, region=region, w=w)
     if not rep.usable:
         verdict = Verdict.NO_OBSERVER if not rep.drift_check.passed else Verdict.FAILED
@@ -535,11 +533,6 @@ def design_drift_observer(
         return DriftWorkflowReport(rep, None, None, (), Verdict.OK, "")
     assert resolved is not None
     x0, x_hat0, u = resolved
-    try:
-        sim = simulate_drift(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, w=w, report=rep)
-    except SimulationDiverged:
-        raise
-    except NlobsError as exc:
-        raise StudyFailed(str(exc)) from exc
+    sim = run_study(lambda: simulate_drift(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, w=w, report=rep))
     files = write_result(sim.result, simulate.out, "drift")
     return DriftWorkflowReport(rep, sim, simulate, files, Verdict.OK, "")

@@ -27,7 +27,7 @@ import sympy as sp
 from numpy.typing import ArrayLike
 
 from nlobs.checks import Check
-from nlobs.errors import InvalidArgumentError, NlobsError, SimulationDiverged, StudyFailed
+from nlobs.errors import InvalidArgumentError
 from nlobs.geometry.checks import observability_rank
 from nlobs.geometry.lie import lie_derivative
 from nlobs.geometry.region import Box
@@ -38,7 +38,7 @@ from nlobs.simulate.sampling import MeasurementGroup
 from nlobs.simulate.signals import InputLike
 from nlobs.synthesis.pinv_gain import DEFAULT_THETA, PLACEMENTS, HighGain, Placement
 from nlobs.systems.symbolic import SymbolicModel
-from nlobs.workflows._results import error_line, error_summary, prepare_out, write_result
+from nlobs.workflows._results import checked_request, error_line, error_summary, run_study, write_result
 from nlobs.workflows.inputs import SimulationRequest, as_region, symbolic_model
 from nlobs.workflows.verdict import Verdict
 
@@ -339,19 +339,12 @@ def design_pinv_observer(
         raise InvalidArgumentError(f"placement: expected 'powers' or 'multiple', got {placement!r}")
     region = None if box is None else as_region(box, m.n)
     # the simulation's vectors, size and output folder are checked before the design (which can take long)
-    resolved = None if simulate is None else simulate.resolved(m.n, m.m, m.name, m.p)
-    if simulate is not None:
-        prepare_out(simulate.out)
+    resolved = checked_request(simulate, m)
     rep = design_pinv_report(m, None if k is None else [float(v) for v in k], theta, placement, region)
     if simulate is None:
         return PinvWorkflowReport(rep, None, None, ())
     assert resolved is not None
     x0, x_hat0, u = resolved
-    try:
-        res = simulate_pinv(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, report=rep)
-    except SimulationDiverged:
-        raise
-    except NlobsError as exc:
-        raise StudyFailed(str(exc)) from exc
+    res = run_study(lambda: simulate_pinv(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, report=rep))
     files = write_result(res, simulate.out, "pinv")
     return PinvWorkflowReport(rep, res, simulate, files)
