@@ -42,6 +42,7 @@ import nlobs.observers
 from nlobs import (
     ByrnesIsidoriObserver,
     CascadeObserver,
+    ConstantGainObserver,
     Continuous,
     CorrectingObserver,
     Discrete,
@@ -241,6 +242,25 @@ def case_cascade() -> Any:
     return obs
 
 
+def case_constant_gain() -> Any:
+    """Constant-gain copy of a nonlinear plant: on a linear plant the error is exactly ``expm((A − LC) t) e0``;
+    on the pendulum with the gain of its linearisation, ‖e‖ drops by 10³ in 8 s from a 0.3 rad error."""
+    lin = LinearSystem(A2, B2, C2)
+    obs = ConstantGainObserver(lin, L2)
+    check_protocol(obs, [0.1, -0.2], [0.3], [0.5], time=Continuous, correcting=False)
+    x0 = np.array([[1.0, 0.0], [-0.5, 2.0]])
+    sim = simulate(lin, obs, x0, np.zeros(2), duration=4.0, dt=2e-3, u=_u_sine, save_every=10)
+    F = A2 - L2 @ C2
+    want = np.einsum("kij,bj->bki", sla.expm(sim.t[:, None, None] * F), -x0)
+    np.testing.assert_allclose(sim.error, want, rtol=0, atol=1e-9)
+    plant = load_model("pendulum").compile()
+    pend = ConstantGainObserver(plant, [[4.0], [4.0]])  # A − LC of the linearisation at 0: poles −2.1 ± 3.19j
+    sim = simulate(plant, pend, [[0.5, 0.0]], [0.2, 0.3], duration=8.0, dt=2e-3, u=_u_sine, save_every=10)
+    assert np.all(sim.error_norm[:, -1] < 1e-3 * sim.error_norm[:, 0])
+    check_replay(plant, pend, [[0.5, 0.0]], [0.2, 0.3], u=[0.3], dt=0.01, steps=100)
+    return pend
+
+
 def case_drift() -> Any:
     """Drift observer (3.1) on the Van der Pol model (Φ_s a global diffeomorphism): ‖e‖ drops by 10⁴ in 3 s."""
     model = load_model("vanderpol-lienard")
@@ -432,6 +452,7 @@ def case_navigation_ekf() -> Any:
 #: One constructed case per estimator class: builds it, checks the protocol, runs it through a loop.
 CASES: dict[type, Callable[[], Any]] = {
     LuenbergerObserver: case_luenberger,
+    ConstantGainObserver: case_constant_gain,
     CascadeObserver: case_cascade,
     DriftObserver: case_drift,
     PinvObserver: case_pinv,

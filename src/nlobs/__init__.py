@@ -60,6 +60,7 @@ if TYPE_CHECKING:
     from nlobs.observers import (
         ByrnesIsidoriObserver,
         CascadeObserver,
+        ConstantGainObserver,
         CorrectingObserver,
         DiscreteLipschitzObserver,
         DriftObserver,
@@ -108,8 +109,8 @@ _LAZY: dict[str, str] = {
                      "UnknownNameError"), "nlobs.errors"),
     "ExtendedKalmanFilter": "nlobs.navigation.ekf",
     "GnssInsObserver": "nlobs.navigation.gnss_ins",
-    **dict.fromkeys(("ByrnesIsidoriObserver", "CascadeObserver", "CorrectingObserver", "DiscreteLipschitzObserver",
-                     "DriftObserver", "LuenbergerObserver", "Observer", "PinvObserver", "SetValuedObserver",
+    **dict.fromkeys(("ByrnesIsidoriObserver", "CascadeObserver", "ConstantGainObserver", "CorrectingObserver",
+                     "DiscreteLipschitzObserver", "DriftObserver", "LuenbergerObserver", "Observer", "PinvObserver", "SetValuedObserver",
                      "UnknownInputEKF"), "nlobs.observers"),
     **dict.fromkeys(("SimulationResult", "run_observer"), "nlobs.simulate"),
     "simulate": "nlobs.simulate",

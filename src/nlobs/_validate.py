@@ -161,6 +161,31 @@ def as_symmetric(name: str, value: ArrayLike, n: int | None = None, rtol: float 
     return 0.5 * (arr + arr.T)
 
 
+def as_covariance(name: str, value: ArrayLike, n: int | None = None, *, definite: bool = False,
+                  rtol: float = 1e-9) -> NDArray[np.float64]:
+    """Return a finite, exactly symmetrised covariance matrix: symmetric and positive semidefinite
+    (positive definite with ``definite=True``).
+
+    Rounding is allowed for: an eigenvalue down to ``-rtol · max|M|`` counts as zero.
+
+    Raises
+    ------
+    DimensionError, NonFiniteError, NotSymmetricError
+        Not square (of size ``n``), not finite, not symmetric to ``rtol``.
+    InvalidArgumentError
+        Not positive semidefinite (definite), naming the smallest eigenvalue.
+    """
+    arr = as_symmetric(name, value, n, rtol=rtol)
+    if arr.size == 0:
+        return arr
+    low = float(np.linalg.eigvalsh(arr)[0])
+    scale = float(np.max(np.abs(arr)))
+    what = "positive definite" if definite else "positive semidefinite"
+    if (low <= 0.0 if definite else low < -rtol * scale):
+        raise InvalidArgumentError(f"{name}: not symmetric {what} (smallest eigenvalue {low:.6g})")
+    return arr
+
+
 def as_vector(name: str, value: ArrayLike, n: int | None = None) -> NDArray[np.float64]:
     """Return a finite 1-d float array (of length ``n`` when given)."""
     arr = as_finite_array(name, value)

@@ -4,7 +4,8 @@
 * :class:`DriftObserver` — Dalla Mora, Germani & Manes, (3.1) (``drift.py``);
 * :class:`PinvObserver`, :class:`ByrnesIsidoriObserver` — Röbenack, (7) with the gains (17) and (8)
   (``pinv.py``);
-* :class:`LuenbergerObserver`, :class:`DiscreteLipschitzObserver`, :class:`UnknownInputEKF` and the
+* :class:`LuenbergerObserver`, :class:`ConstantGainObserver` (a nonlinear copy with constant gain),
+  :class:`DiscreteLipschitzObserver`, :class:`UnknownInputEKF` and the
   set-valued observer of Khajenejad & Yong (``luenberger.py``, ``lipschitz.py``, ``kalman.py``,
   ``setvalued.py``).
 """
@@ -14,7 +15,7 @@ from nlobs.observers.cascade import CascadeObserver
 from nlobs.observers.drift import DriftObserver, SingularObservabilityError
 from nlobs.observers.kalman import GaussianState, UnknownInputEKF, joseph_update
 from nlobs.observers.lipschitz import DiscreteLipschitzObserver
-from nlobs.observers.luenberger import LuenbergerObserver
+from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
 from nlobs.observers.pinv import AssumptionWarning, ByrnesIsidoriObserver, PinvObserver
 from nlobs.observers.setvalued import (
     GivenGain,
@@ -31,6 +32,7 @@ __all__ = [
     "AssumptionWarning",
     "ByrnesIsidoriObserver",
     "CascadeObserver",
+    "ConstantGainObserver",
     "CorrectingObserver",
     "DeferredEstimate",
     "Diagnosing",

@@ -17,6 +17,7 @@ The observer converges iff ``A − L C`` is Hurwitz (continuous) or Schur
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -93,6 +94,70 @@ class LuenbergerObserver:
     def rhs(self, t: float, z: Array, u: Array, y: Array) -> Array:
         """``ż`` (continuous) or ``z⁺`` (discrete) for batches, shape ``(..., n)``."""
         return z @ self._FzT + u @ self._FuT + y @ self._LT  # type: ignore[attr-defined]
+
+    def estimate(self, z: Array) -> Array:
+        """The estimate is the observer state, ``x̂ = z``."""
+        return z
+
+
+@dataclass(frozen=True, eq=False)
+class ConstantGainObserver:
+    r"""A copy of a nonlinear plant with constant output injection (Thau, 1973):
+
+    .. math:: \dot z = f(z, u) + L\,(y - h(z, u)), \qquad \hat x = z
+
+    (``z⁺ = f(z, u) + L (y − h(z, u))`` for a discrete plant). With ``L`` designed for the
+    linearisation ``(A, C)`` at an operating point (``A − L C`` Hurwitz / Schur) the error
+    converges near that point; how far from it the gain still works is what a simulation shows
+    (a certificate of the linearisation does not cover the nonlinear plant).
+
+    Parameters
+    ----------
+    plant : PlantModel
+        The model the observer copies (a compiled symbolic model or a linear system); its time
+        base is the observer's.
+    L : array_like, shape (n, p)
+        Output-injection gain.
+    name : str
+        Label in results.
+    """
+
+    plant: Any
+    L: Array
+    name: str = "Luenberger (constant gain)"
+    time: TimeBase = field(init=False)
+    state_names: tuple[str, ...] = field(init=False)
+
+    def __post_init__(self) -> None:
+        for attr in ("rhs", "output", "states", "outputs", "time"):
+            if not hasattr(self.plant, attr):
+                raise InvalidArgumentError(f"plant: expected a PlantModel (time, states, outputs, rhs, output); "
+                                           f"{type(self.plant).__name__} has no {attr!r}")
+        n, p = len(self.plant.states), len(self.plant.outputs)
+        gain = as_matrix("L", self.L, (n, p))
+        gain.setflags(write=False)
+        object.__setattr__(self, "L", gain)
+        object.__setattr__(self, "time", self.plant.time)
+        object.__setattr__(self, "state_names", tuple(f"{s}_hat" for s in self.plant.states))
+        object.__setattr__(self, "_LT", np.ascontiguousarray(gain.T))
+
+    @property
+    def n_z(self) -> int:
+        """Observer state dimension (``n``)."""
+        return int(self.L.shape[0])
+
+    @property
+    def n_x(self) -> int:
+        """Estimate dimension (``n``)."""
+        return int(self.L.shape[0])
+
+    def init(self, x_hat0: ArrayLike) -> Array:
+        """Observer state from the initial estimate (``z0 = x̂0``), shape ``(..., n)``."""
+        return np.array(as_batch("x_hat0", x_hat0, self.n_x), dtype=float)
+
+    def rhs(self, t: float, z: Array, u: Array, y: Array) -> Array:
+        """``ż`` (continuous) or ``z⁺`` (discrete) for batches, shape ``(..., n)``."""
+        return self.plant.rhs(t, z, u) + (y - self.plant.output(t, z, u)) @ self._LT  # type: ignore[attr-defined]
 
     def estimate(self, z: Array) -> Array:
         """The estimate is the observer state, ``x̂ = z``."""

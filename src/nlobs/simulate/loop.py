@@ -24,7 +24,12 @@ Times are ``t_k = t0 + k dt`` for ``k = 0 .. N`` with ``N = ceil(duration / dt)`
      with the channels of input sensors replaced by their held readings;
    * discrete plant: ``x_{k+1} = f(t_k, x_k, u_k)``; continuous plant with a
      discrete observer: one RK4 step of the plant;
-   * discrete observer: ``z_{k+1} = g(t_k, z_k, u_obs(t_k), y_k)``.
+   * discrete observer: ``z_{k+1} = g(t_k, z_k, u_obs(t_k), y_k)``;
+   * with ``process_noise``, the plant's new state gets its noise increment
+     (``√dt · L ξ`` in continuous time, ``L ξ`` in discrete time).
+
+A measurement group in an outage window (``MeasurementGroup.outages``) takes no
+sample: its last reading stays held and no correction is made with it.
 
 After every step (and every correction) the plant and observer states are
 checked for non-finite entries; the first one seen stops the run with
@@ -35,18 +40,19 @@ because this check reports them.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time as _time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._progress import Progress
 from nlobs._typing import Array
-from nlobs._validate import as_batch, positive
+from nlobs._validate import as_batch, as_covariance, as_finite_array, positive
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError, SimulationDiverged
 from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
 from nlobs.simulate.integrators import RK4, Integrator, SolveIVP, rk4_step, solve_ivp_batch
@@ -62,6 +68,7 @@ from nlobs.simulate.sampling import (
 )
 from nlobs.simulate.signals import InputFunction, InputLike, SampledSignal, as_input_function
 from nlobs.systems.base import PlantModel
+from nlobs.systems.sensors import covariance_factor
 from nlobs.systems.timebase import Continuous, Discrete, TimeBase
 
 #: Relative tolerance when comparing the step sizes of discrete models and ``dt``.
@@ -126,6 +133,9 @@ class _Setup:
     array_state: bool  # z is an ndarray (else a tree of arrays: RK4 stages by tree_map)
     diagnose: bool  # the observer's diagnostics() are recorded as extras
     deferred: bool  # raw estimates recorded, finished once at the end (DeferredEstimate)
+    q_factor: Array | None = None  # L with L Lᵀ = Q: process noise added to the plant after each step
+    keep: bool = False  # divergence="keep": a non-finite observer state is recorded, not raised
+    clock: list[float] = dataclasses.field(default_factory=lambda: [0.0, math.nan])  # observer seconds, diverged at
 
     def t(self, k: int) -> float:
         return self.t0 + k * self.dt
@@ -240,6 +250,10 @@ def _first_bad(arr: Array, names: tuple[str, ...]) -> str:
 
 
 def _check_z(s: _Setup, t: float, z: Any) -> None:
+    if s.keep:  # divergence="keep": the first time is recorded, the run goes on
+        if math.isnan(s.clock[1]) and first_nonfinite(z, s.observer_names) is not None:
+            s.clock[1] = t
+        return
     if s.array_state:
         if not np.isfinite(z).all():
             raise SimulationDiverged(t, "observer", first_nonfinite(z, s.observer_names) or "z")
@@ -258,8 +272,8 @@ def _check_finite(s: _Setup, t: float, x: Array, z: Any) -> None:
 def _events(s: _Setup, st: _State, k: int, t: float, x: Array, z: Array) -> tuple[Array, NDArray[np.bool_]]:
     """Sampling and correction at step ``k``; returns the (corrected) ``z`` and the fresh mask."""
     fresh = st.fresh
-    due_y = [g for g in s.groups if k % g.stride == 0] if s.groups else []
-    due_u = [g for g in s.sensors if k % g.stride == 0]
+    due_y = [g for g in s.groups if g.due(k, t)] if s.groups else []
+    due_u = [g for g in s.sensors if g.due(k, t)]
     if due_y or due_u or (s.groups is None and s.correcting):
         u = s.u_fn(t)
         if due_y:
@@ -271,11 +285,15 @@ def _events(s: _Setup, st: _State, k: int, t: float, x: Array, z: Array) -> tupl
         for g in due_u:
             sample_into(st.u_held, u, g, s.rng)
         if s.correcting:
+            tic = _time.perf_counter()
             if s.groups is None:  # discrete observer with exact measurements: every step is a sample
-                z = s.observer.correct(t, z, st.u_obs(s, u), s.plant.output(t, x, u), st.all_fresh)
+                y_now = s.plant.output(t, x, u)
+                tic = _time.perf_counter()
+                z = s.observer.correct(t, z, st.u_obs(s, u), y_now, st.all_fresh)
                 fresh = st.all_fresh
             elif due_y:
                 z = s.observer.correct(t, z, st.u_obs(s, u), st.y_view, fresh)
+            s.clock[0] += _time.perf_counter() - tic
             _check_z(s, t, z)
     return z, fresh
 
@@ -293,11 +311,19 @@ def _run_fixed(s: _Setup, rec: _Recorder, progress: Progress) -> None:
 
     u_step = s.u_fn(s.t0)  # u(t_k), used at every stage for a piecewise-constant input
 
+    clock = s.clock
+    perf = _time.perf_counter
+
     def joint(t: float, xz: tuple[Any, ...]) -> tuple[Any, ...]:
         xs, zs = xz
         u = u_step if s.u_hold else s.u_fn(t)
         y = plant.output(t, xs, u) if exact_y else st.y_view
-        return plant.rhs(t, xs, u), obs.rhs(t, zs, st.u_obs(s, u), y)
+        dx = plant.rhs(t, xs, u)
+        uo = st.u_obs(s, u)
+        tic = perf()
+        dz = obs.rhs(t, zs, uo, y)
+        clock[0] += perf() - tic
+        return dx, dz
 
     def plant_only(t: float, xs: Array) -> Array:
         return plant.rhs(t, xs, u_step if s.u_hold else s.u_fn(t))
@@ -316,17 +342,29 @@ def _run_fixed(s: _Setup, rec: _Recorder, progress: Progress) -> None:
             u_step = s.u_fn(t)
         if s.observer_discrete or s.plant_discrete or s.self_step:
             u = s.u_fn(t)
+            uo, yo = st.u_obs(s, u), _measurement(s, st, t, x, u)
+            tic = perf()
             if s.observer_discrete:
-                z = obs.rhs(t, z, st.u_obs(s, u), _measurement(s, st, t, x, u))
+                z = obs.rhs(t, z, uo, yo)
             elif s.self_step:  # the observer's own discretisation, u and y held over the step
-                z = obs.step(t, z, st.u_obs(s, u), _measurement(s, st, t, x, u), s.dt)
+                z = obs.step(t, z, uo, yo, s.dt)
+            clock[0] += perf() - tic
             x = plant.rhs(t, x, u) if s.plant_discrete else rk4_step(plant_only, t, x, s.dt)
         elif s.has_observer:
             x, z = rk4_step(joint, t, (x, z), s.dt)
         else:
             x = rk4_step(plant_only, t, x, s.dt)
+        if s.q_factor is not None:
+            x = x + _process_noise(s, x.shape)
         _check_finite(s, s.t(k + 1), x, z)
         progress.update(k + 1)
+
+
+def _process_noise(s: _Setup, shape: tuple[int, ...]) -> Array:
+    """One step's process noise: ``√dt · L ξ`` (continuous plant, ``Q`` a spectral density), ``L ξ`` (discrete)."""
+    assert s.rng is not None and s.q_factor is not None  # guarded by simulate()
+    w = s.rng.standard_normal(shape) @ s.q_factor.T
+    return w if s.plant_discrete else math.sqrt(s.dt) * w
 
 
 def _run_ivp(s: _Setup, rec: _Recorder, progress: Progress, options: dict[str, Any]) -> None:
@@ -450,11 +488,13 @@ def simulate(
     u: InputLike = None,
     measurements: MeasurementGroup | Sequence[MeasurementGroup] | None = None,
     input_sensors: InputSensor | Sequence[InputSensor] | None = None,
+    process_noise: ArrayLike | None = None,
     seed: int | np.random.Generator | None = None,
     integrator: Integrator = RK4(),
     save_every: int = 1,
     t0: float = 0.0,
     progress: bool | None = None,
+    divergence: Literal["raise", "keep"] = "raise",
 ) -> SimulationResult:
     """Simulate a plant and an observer together, for one or many initial conditions.
 
@@ -488,9 +528,16 @@ def simulate(
     input_sensors : InputSensor or sequence of them, optional
         Inputs the observer receives sampled, held and noisy (the plant always
         gets the true ``u``).
+    process_noise : array_like, shape (n, n) or (n,), optional
+        Process noise of the plant: a covariance ``Q`` (symmetric positive semidefinite) or the
+        standard deviations of independent components (``Q = diag(std²)``). Continuous time:
+        ``ẋ = f(x, u) + w`` with white ``w`` of spectral density ``Q``; each RK4 step adds
+        ``√dt · L ξ`` (``L Lᵀ = Q``, ``ξ`` standard normal): the additive-noise Euler–Maruyama
+        increment, exact for the noise, RK4 for the drift. Discrete time: ``x⁺ = f(x, u) + w_k``,
+        ``w_k ~ N(0, Q)``. Drawn after the step's measurement noise. ``None``: none.
     seed : int or numpy.random.Generator, optional
-        Noise source; required when any sensor has non-zero noise. A Generator
-        is used (and advanced) as given.
+        Noise source; required when any sensor has non-zero noise or there is process noise.
+        A Generator is used (and advanced) as given.
     integrator : RK4 or SolveIVP
         ``RK4()`` (fixed step, default) or ``SolveIVP(...)`` (adaptive,
         continuous-time plants only; the batch is flattened into one ODE).
@@ -502,10 +549,20 @@ def simulate(
         ``True``: always show a progress bar (on stderr); ``False``: never;
         ``None`` (default): show one only when the run has already taken a
         couple of seconds and stderr is a terminal.
+    divergence : {"raise", "keep"}
+        ``"raise"`` (default): a non-finite plant or observer state stops the run with
+        :class:`~nlobs.errors.SimulationDiverged`. ``"keep"``: a non-finite *observer* state is
+        carried on (the batch members concerned have NaN or inf estimates from then on, the
+        others are unaffected) and ``info["diverged_at"]`` is the first such time (NaN if none);
+        a non-finite plant state still raises.
 
     Returns
     -------
     SimulationResult
+        ``info`` holds ``wall_s``, ``cost_per_step_us`` (the wall time spent inside the
+        observer's ``rhs``, ``correct`` and ``step``, divided by the number of grid instants and
+        of batch members: the cost of one step of one run, as :func:`run_observer` measures it)
+        and, with ``divergence="keep"``, ``diverged_at``.
 
     Raises
     ------
@@ -594,6 +651,13 @@ def simulate(
             "measurements: a correcting observer in continuous time needs measurement groups with explicit rates"
         )
     noisy = [g.label for g in (*(groups or ()), *sensors) if g.noisy]
+    q_factor = _process_factor(process_noise, n)
+    if q_factor is not None:
+        if isinstance(integrator, SolveIVP):
+            raise InvalidArgumentError("process_noise: the adaptive SolveIVP integrator takes no process noise; use RK4()")
+        noisy.append("process_noise")
+    if divergence not in ("raise", "keep"):
+        raise InvalidArgumentError(f"divergence: expected 'raise' or 'keep', got {divergence!r}")
     if isinstance(seed, np.random.Generator):
         rng: np.random.Generator | None = seed
     elif seed is None:
@@ -637,6 +701,8 @@ def simulate(
         array_state=isinstance(z0, np.ndarray),
         diagnose=has_observer and isinstance(obs, Diagnosing),
         deferred=has_observer and isinstance(obs, DeferredEstimate),
+        q_factor=q_factor,
+        keep=divergence == "keep",
     )
     if isinstance(integrator, SolveIVP) and has_observer and not observer_discrete and (
             setup.self_step or not setup.array_state):
@@ -665,8 +731,28 @@ def simulate(
         dt=step,
         method=method,
         observer=observer_label(observer) if has_observer else "",
-        info={"wall_s": _time.perf_counter() - wall},
+        info={"wall_s": _time.perf_counter() - wall,
+              "cost_per_step_us": 1e6 * setup.clock[0] / ((n_steps + 1) * max(1, math.prod(batch))),
+              **({"diverged_at": setup.clock[1]} if setup.keep else {})},
     )
+
+
+def _process_factor(process_noise: ArrayLike | None, n: int) -> Array | None:
+    """``L`` with ``L Lᵀ = Q`` for the ``process_noise`` argument (``None`` when absent or zero)."""
+    if process_noise is None:
+        return None
+    q = as_finite_array("process_noise", process_noise)
+    if q.ndim == 1:
+        if q.shape != (n,):
+            raise DimensionError(f"process_noise: expected {n} standard deviations or an ({n}, {n}) covariance, "
+                                 f"got shape {q.shape}")
+        if np.any(q < 0):
+            raise InvalidArgumentError(f"process_noise: standard deviations must be non-negative, got {q.tolist()}")
+        q = np.diag(q**2)
+    q = as_covariance("process_noise", q, n)
+    if not np.any(q):
+        return None
+    return covariance_factor(q)
 
 
 def observer_label(observer: Any) -> str:

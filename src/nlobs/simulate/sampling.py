@@ -10,116 +10,35 @@ at step ``k`` of the integration grid ``t_k = t0 + k dt`` when ``k`` is a
 multiple of its stride ``1 / (rate dt)``, which must be an integer: sample
 instants always fall on the grid, and rates are never defaulted.
 
-Noise is additive, Gaussian, zero-mean with the group's standard deviation,
+Noise is additive, Gaussian, zero-mean with the group's standard deviation
+(or its full covariance ``noise_cov``: the draw is ``L ξ`` with ``L Lᵀ`` the covariance),
 drawn from a seeded :class:`numpy.random.Generator` at each sample instant,
-groups in the order given (measurement groups first, then input sensors).
+groups in the order given (measurement groups first, then input sensors); a
+group's constant ``bias`` is added to every reading. In an outage window a
+group takes no sample (and draws no noise): the last reading stays held.
+
+The sensors themselves (:class:`MeasurementGroup`, :class:`InputSensor`) are
+descriptions in :mod:`nlobs.systems.sensors`, re-exported here.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._typing import Array
-from nlobs._validate import as_finite_array, positive
 from nlobs.errors import DimensionError, InvalidArgumentError, UnknownNameError
+from nlobs.systems.sensors import InputSensor, MeasurementGroup, covariance_factor
+
+__all__ = ["InputSensor", "MeasurementGroup", "ScheduledGroup", "sample_into", "sample_stride", "schedule_inputs",
+           "schedule_measurements"]
 
 
 #: Relative tolerance on ``1 / (rate dt)`` being an integer.
 STRIDE_RTOL = 1e-6
-
-
-def _check_std(owner: str, noise_std: float | Sequence[float] | ArrayLike, count: int) -> Array:
-    std = as_finite_array(f"{owner}: noise_std", noise_std)
-    if std.ndim == 0:
-        std = np.full(count, float(std))
-    if std.shape != (count,):
-        raise DimensionError(f"{owner}: noise_std must be a scalar or have one entry per channel ({count}), got shape {std.shape}")
-    if np.any(std < 0):
-        raise InvalidArgumentError(f"{owner}: noise_std must be non-negative, got {std.tolist()}")
-    std.setflags(write=False)
-    return std
-
-
-def _check_channels(owner: str, what: str, channels: Sequence[int | str]) -> tuple[int | str, ...]:
-    if isinstance(channels, (str, int)):
-        channels = (channels,)
-    out = tuple(channels)
-    if not out:
-        raise InvalidArgumentError(f"{owner}: at least one {what} is required")
-    for c in out:
-        if not isinstance(c, (str, int, np.integer)) or isinstance(c, bool):
-            raise InvalidArgumentError(f"{owner}: {what} {c!r} is neither an index nor a name")
-    if len(set(out)) != len(out):
-        raise InvalidArgumentError(f"{owner}: repeated {what} in {out}")
-    return out
-
-
-@dataclass(frozen=True)
-class MeasurementGroup:
-    """Plant outputs read together by one sensor at one rate.
-
-    Parameters
-    ----------
-    name : str
-        Label used in error messages (e.g. ``"gnss"``).
-    outputs : sequence of int or str
-        Output indices or output names of the plant.
-    rate : float
-        Sampling rate in Hz. Required: there is no default rate.
-    noise_std : float or sequence of float
-        Standard deviation of the additive Gaussian noise, one value for the
-        group or one per output; ``0`` (default) for exact readings.
-
-    Examples
-    --------
-    >>> imu = MeasurementGroup("imu", ["ax", "ay"], rate=100.0, noise_std=0.02)  # doctest: +SKIP
-    """
-
-    name: str
-    outputs: tuple[int | str, ...]
-    rate: float = field(kw_only=True)
-    noise_std: Array = field(kw_only=True, default=0.0)  # type: ignore[assignment]
-
-    def __post_init__(self) -> None:
-        owner = f"measurement group {self.name!r}"
-        object.__setattr__(self, "outputs", _check_channels(owner, "output", self.outputs))
-        object.__setattr__(self, "rate", positive(f"{owner}: rate (Hz)", self.rate))
-        object.__setattr__(self, "noise_std", _check_std(owner, self.noise_std, len(self.outputs)))
-
-
-@dataclass(frozen=True)
-class InputSensor:
-    """Plant inputs that the observer receives sampled, held and noisy.
-
-    The plant is always driven by the true input; inputs not covered by any
-    sensor reach the observer exactly, evaluated at every integration stage.
-
-    Parameters
-    ----------
-    name : str
-        Label used in error messages (e.g. ``"imu"``).
-    inputs : sequence of int or str
-        Input indices or input names of the plant.
-    rate : float
-        Sampling rate in Hz. Required: there is no default rate.
-    noise_std : float or sequence of float
-        Standard deviation of the additive Gaussian noise (scalar or per input).
-    """
-
-    name: str
-    inputs: tuple[int | str, ...]
-    rate: float = field(kw_only=True)
-    noise_std: Array = field(kw_only=True, default=0.0)  # type: ignore[assignment]
-
-    def __post_init__(self) -> None:
-        owner = f"input sensor {self.name!r}"
-        object.__setattr__(self, "inputs", _check_channels(owner, "input", self.inputs))
-        object.__setattr__(self, "rate", positive(f"{owner}: rate (Hz)", self.rate))
-        object.__setattr__(self, "noise_std", _check_std(owner, self.noise_std, len(self.inputs)))
 
 
 @dataclass(frozen=True)
@@ -136,21 +55,39 @@ class ScheduledGroup:
         Samples are taken at steps ``k`` with ``k % stride == 0``.
     noise_std : ndarray
         Noise standard deviation per channel.
+    factor : ndarray or None
+        ``L`` with ``L Lᵀ`` the noise covariance, for a group given by a full covariance
+        (``None``: independent channels, ``noise_std`` each).
+    bias : ndarray or None
+        Constant offset per channel (``None``: none).
+    outages : tuple of (start, end)
+        Windows ``[start, end)`` without samples.
     """
 
     label: str
     index: NDArray[np.intp]
     stride: int
     noise_std: Array
+    factor: Array | None = None
+    bias: Array | None = None
+    outages: tuple[tuple[float, float], ...] = ()
 
     @property
     def noisy(self) -> bool:
         """Whether any channel has non-zero noise."""
         return bool(np.any(self.noise_std > 0))
 
-    def due(self, k: int) -> bool:
-        """Whether the group samples at step ``k``."""
-        return k % self.stride == 0
+    def due(self, k: int, t: float | None = None) -> bool:
+        """Whether the group samples at step ``k`` (at time ``t``: not in an outage)."""
+        if k % self.stride:
+            return False
+        return t is None or not self.outages or not any(a <= t < b for a, b in self.outages)
+
+
+def _scheduled(label: str, idx: NDArray[np.intp], stride: int, sensor: MeasurementGroup | InputSensor) -> ScheduledGroup:
+    factor = None if sensor.noise_cov is None else covariance_factor(sensor.noise_cov)
+    bias = sensor.bias if np.any(sensor.bias != 0) else None
+    return ScheduledGroup(label, idx, stride, sensor.noise_std, factor, bias, sensor.outages)
 
 
 def sample_stride(label: str, rate: float, dt: float) -> int:
@@ -223,7 +160,7 @@ def schedule_measurements(
             if int(i) in owner:
                 raise InvalidArgumentError(f"output {outputs[i]!r} is in both {owner[int(i)]} and {label}")
             owner[int(i)] = label
-        out.append(ScheduledGroup(label, idx, sample_stride(label, g.rate, dt), g.noise_std))
+        out.append(_scheduled(label, idx, sample_stride(label, g.rate, dt), g))
     missing = [outputs[i] for i in range(len(outputs)) if i not in owner]
     if missing:
         raise InvalidArgumentError(
@@ -252,7 +189,7 @@ def schedule_inputs(sensors: Sequence[InputSensor], inputs: Sequence[str], dt: f
             if int(i) in owner:
                 raise InvalidArgumentError(f"input {inputs[i]!r} is read by both {owner[int(i)]} and {label}")
             owner[int(i)] = label
-        out.append(ScheduledGroup(label, idx, sample_stride(label, s.rate, dt), s.noise_std))
+        out.append(_scheduled(label, idx, sample_stride(label, s.rate, dt), s))
     return tuple(out)
 
 
@@ -273,8 +210,11 @@ def sample_into(
         Noise source; may be ``None`` only for a noise-free group.
     """
     value = exact[..., group.index]
+    if group.bias is not None:
+        value = value + group.bias
     if group.noisy:
         if rng is None:  # guarded by simulate(); kept as a typed error, not an assert
             raise InvalidArgumentError(f"{group.label}: noise requested but no random generator given")
-        value = value + rng.standard_normal(value.shape) * group.noise_std
+        xi = rng.standard_normal(value.shape)
+        value = value + (xi * group.noise_std if group.factor is None else xi @ group.factor.T)
     held[..., group.index] = value
