@@ -9,6 +9,7 @@ the shared helpers, and one module per command group registers its commands
 on ``design`` / ``simulate`` (:mod:`~nlobs.cli.design`).
 """
 
+from nlobs.cli import compare as _compare  # noqa: F401  (registers `simulate compare`, also `simulate MODEL`)
 from nlobs.cli import design as _design  # noqa: F401  (registers the `design` commands)
 from nlobs.cli import setvalued as _setvalued  # noqa: F401  (registers `design setvalued`, `simulate setvalued`)
 from nlobs.cli.app import app, main

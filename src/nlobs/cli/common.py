@@ -14,6 +14,7 @@ from typing import Any, NoReturn
 
 import typer
 from rich.console import Console
+from typer.core import TyperGroup
 from rich.text import Text
 
 from nlobs.workflows import escape_unsafe, jsonable
@@ -87,4 +88,16 @@ def emit_json(data: dict[str, Any]) -> None:
 
 
 design_app = typer.Typer(help="Design an observer for a model and print its verification.", no_args_is_help=True)
-simulate_app = typer.Typer(help="Simulate an observer on a model.", no_args_is_help=True)
+class _SimulateGroup(TyperGroup):
+    """``nlobs simulate``: its subcommands, and ``nlobs simulate MODEL ...`` as ``nlobs simulate compare MODEL ...``."""
+
+    def parse_args(self, ctx: Any, args: list[str]) -> list[str]:
+        if args and not args[0].startswith("-") and args[0] not in self.commands:
+            args = ["compare", *args]
+        return super().parse_args(ctx, args)
+
+
+simulate_app = typer.Typer(
+    cls=_SimulateGroup, no_args_is_help=True,
+    help="Simulate observers on a model: 'nlobs simulate MODEL' compares every applicable observer (and EKF/UKF) "
+         "on the same noisy Monte Carlo runs; 'nlobs simulate setvalued' runs the set-valued study.")

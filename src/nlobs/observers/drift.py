@@ -136,6 +136,10 @@ class DriftObserver:
         Tikhonov ``ε`` (0: exact solve, errors where ``Q_s`` is singular).
     cond_limit : float
         ``cond(Q_s)`` above which ``Q_s`` counts as singular (without regularisation).
+    on_singular : {"raise", "nan"}
+        Where ``Q_s(x̂)`` is singular: ``"raise"`` (default) :class:`SingularObservabilityError`;
+        ``"nan"``: that batch member's correction is NaN (its estimate is lost, the other Monte
+        Carlo runs go on; for ``simulate(..., divergence="keep")``).
     states : tuple of str
     state_names : tuple of str
         ``"<state>_hat"``.
@@ -151,6 +155,7 @@ class DriftObserver:
     _fn: BatchedFunction
     regularization: float = 0.0
     cond_limit: float = COND_LIMIT
+    on_singular: str = "raise"
     time: TimeBase = field(default=CONTINUOUS)
     state_names: tuple[str, ...] = field(init=False)
 
@@ -163,12 +168,14 @@ class DriftObserver:
         object.__setattr__(self, "K", K)
         object.__setattr__(self, "regularization", positive("regularization", self.regularization, allow_zero=True))
         object.__setattr__(self, "cond_limit", positive("cond_limit", self.cond_limit))
+        if self.on_singular not in ("raise", "nan"):
+            raise InvalidArgumentError(f"on_singular: expected 'raise' or 'nan', got {self.on_singular!r}")
         object.__setattr__(self, "state_names", tuple(f"{x}_hat" for x in self.states))
 
     # ------------------------------------------------------------------ constructors
     @classmethod
     def from_fields(cls, fields: AffineFields, s: Sequence[int], K: ArrayLike, *, regularization: float = 0.0,
-                    cond_limit: float = COND_LIMIT) -> DriftObserver:
+                    cond_limit: float = COND_LIMIT, on_singular: str = "raise") -> DriftObserver:
         """Compile ``f, g, h, Q_s`` of ``fields`` once and build the observer."""
         s_ = check_multi_index(s, fields.q, fields.n)
         Q = observability_jacobian(fields, s_)
@@ -177,7 +184,7 @@ class DriftObserver:
         fn = compile_matrix(sp.Matrix(entries) if entries else sp.zeros(0, 1), (fields.x,), vector=True,
                             what=f"{fields.name}: f, g, h, Q_s")
         return cls(fields.name, s_, np.asarray(K, dtype=float), fields.states, m, q, fn,
-                   regularization=regularization, cond_limit=cond_limit)
+                   regularization=regularization, cond_limit=cond_limit, on_singular=on_singular)
 
     @classmethod
     def from_model(cls, model: SymbolicModel, K: ArrayLike, s: Sequence[int] | None = None, *,
@@ -242,7 +249,7 @@ class DriftObserver:
         if self.regularization == 0.0:
             Q = self._parts(x)[3]
             cond = _condition(Q.reshape(-1, self.n_x, self.n_x))
-            if np.any(cond > self.cond_limit):
+            if np.any(cond > self.cond_limit) and self.on_singular == "raise":
                 raise self._singular(Q, x, None, cond)
         return x
 
@@ -257,13 +264,17 @@ class DriftObserver:
         try:
             c = np.linalg.solve(Q, b[..., None])[..., 0]
         except np.linalg.LinAlgError:
-            raise self._singular(Q, x_hat, t) from None
+            if self.on_singular == "raise":
+                raise self._singular(Q, x_hat, t) from None
+            c = _solve_each(Q, b)
         # cond(Q) ≥ ‖Q‖₂‖c‖/‖b‖ ≥ ‖Q‖_F ‖c‖ / (√n ‖b‖): a cheap lower bound, large only when the solve amplified
         nb = np.linalg.norm(b, axis=-1)
         lower = np.linalg.norm(Q, axis=(-2, -1)) * np.linalg.norm(c, axis=-1) / (math.sqrt(self.n_x) * np.maximum(nb, 1e-300))
         bad = ~np.isfinite(c).all(axis=-1) | ((lower > self.cond_limit) & (nb > 0))
         if np.any(bad):
-            raise self._singular(Q, x_hat, t)
+            if self.on_singular == "raise":
+                raise self._singular(Q, x_hat, t)
+            c = np.where(bad[..., None], np.nan, c)
         return c
 
     def rhs(self, t: float, z: Array, u: Array, y: Array) -> Array:
@@ -275,3 +286,16 @@ class DriftObserver:
     def estimate(self, z: Array) -> Array:
         """The estimate is the observer state, ``x̂ = z``."""
         return z
+
+
+def _solve_each(Q: Array, b: Array) -> Array:
+    """``Q⁻¹ b`` member by member, NaN where ``Q`` is singular (the rare path after a batched solve failed)."""
+    Qf = Q.reshape(-1, Q.shape[-2], Q.shape[-1])
+    bf = b.reshape(-1, b.shape[-1])
+    out = np.full(bf.shape, np.nan)
+    for i in range(Qf.shape[0]):
+        try:
+            out[i] = np.linalg.solve(Qf[i], bf[i])
+        except np.linalg.LinAlgError:
+            pass
+    return out.reshape(b.shape)

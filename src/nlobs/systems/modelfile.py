@@ -93,7 +93,7 @@ import sympy as sp
 from numpy.typing import NDArray
 
 from nlobs._validate import escape_unsafe, name_problem, unsafe_character
-from nlobs.errors import ModelError, ModelFileError, NlobsError
+from nlobs.errors import InvalidArgumentError, ModelError, ModelFileError, NlobsError
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.discrete_ui import (
     LPV,
@@ -106,14 +106,17 @@ from nlobs.systems.discrete_ui import (
 )
 from nlobs.systems.expressions import ExpressionError, parse_expression
 from nlobs.systems.linear import LinearSystem
+from nlobs.systems.scenario import RunDefaults, Scenario
+from nlobs.systems.sensors import MeasurementGroup
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.systems.timebase import CONTINUOUS, Discrete, TimeBase
 
 Model = SymbolicModel | LinearSystem
 
 _UI_TABLES = ("unknown_inputs", "noise", "initial", "function_class")
+_SCENARIO_TABLES = ("units", "sensors", "input_signals", "process_noise", "simulation")
 _TOP_KEYS = {"name", "description", "time", "dt", "states", "inputs", "outputs", "parameters", "dynamics", "linear",
-             *_UI_TABLES}
+             *_UI_TABLES, *_SCENARIO_TABLES}
 _DYN_KEYS = {"f", "g", "rhs", "h"}
 _LIN_KEYS = {"A", "B", "C", "D"}
 #: Largest model file read, in bytes (1 MiB).
@@ -923,3 +926,231 @@ class _Signal:
         tt = np.asarray(t, dtype=float).reshape(-1, 1)
         out = np.asarray(self.fn(tt), dtype=float)
         return np.broadcast_to(out, (tt.shape[0], self.p)).copy()
+
+
+
+# ------------------------------------------------------------- experiments: sensors, inputs, noise, units
+_SENSOR_KEYS = {"outputs", "rate", "noise_std", "noise_cov", "bias", "outages"}
+_PROCESS_KEYS = {"std", "covariance"}
+_SIMULATION_KEYS = {"x0", "initial_error_std", "duration", "dt", "settle", "runs", "box"}
+#: Longest unit string (``"m/s^2"``, ``"mmol/L"``).
+MAX_UNIT_LENGTH = 40
+
+
+def load_scenario(path: str | Path) -> Scenario:
+    """Read a model file with its sensors, input signals, process noise, units and run defaults.
+
+    The tables are described in :mod:`nlobs.systems.scenario`; a file without them gives a
+    :class:`~nlobs.systems.scenario.Scenario` with exact continuous measurement, zero input and
+    no process noise. A CSV input signal's path is relative to the model file's folder.
+
+    Raises
+    ------
+    ModelFileError
+        As :func:`load_model`, and for any invalid sensor (a rate that is not positive, a
+        covariance that is not symmetric positive semidefinite, an output in two groups or in
+        none), input signal, process noise, unit or run default; the message names the file,
+        the line and the offending text.
+    """
+    p = resolve_model(path)
+    return parse_scenario(_read_text(p), source=str(p), base_dir=p.parent)
+
+
+def parse_scenario(text: str, *, source: str = "<string>", base_dir: str | Path | None = None) -> Scenario:
+    """Parse model-file text into a :class:`~nlobs.systems.scenario.Scenario` (see :func:`load_scenario`)."""
+    model = parse_model(text, source=source)
+    src = _Source(source, text)
+    data = _toml(src, text)
+    params = _parameters(src, data) if isinstance(model, SymbolicModel) else {}
+    psyms = {k: sp.Symbol(k, real=True) for k in params}
+    for key in _SCENARIO_TABLES:
+        if key in data and not isinstance(data[key], dict):
+            raise src.error(f"'{key}' must be a table", key=key, text=key)
+    units = _units(src, data.get("units", {}), model)
+    sensors = _sensors(src, data.get("sensors", {}), model, params, psyms)
+    signals = _input_signals(src, data, model, params, base_dir)
+    q = _process_noise(src, data["process_noise"], model.n, params, psyms) if "process_noise" in data else None
+    defaults = _run_defaults(src, data.get("simulation", {}), model.n, params, psyms)
+    return Scenario(model, sensors, signals, q, units, defaults, source)
+
+
+def _units(src: _Source, table: Mapping[str, Any], model: Model) -> dict[str, str]:
+    names = {*model.states, *model.inputs, *model.outputs}
+    out = {}
+    for k, v in table.items():
+        if k not in names:
+            raise src.table_error("units", k, f"units: {k!r} is not a state, input or output of the model "
+                                  f"(known: {', '.join(sorted(names))})", k)
+        if not isinstance(v, str) or len(v) > MAX_UNIT_LENGTH or unsafe_character(v, one_line=True):
+            raise src.table_error("units", k, f"units.{k} must be one line of text of at most {MAX_UNIT_LENGTH} "
+                                  "characters", repr(v)[:80])
+        out[k] = v
+    return out
+
+
+def _number_or_list(src: _Source, table: str, key: str, v: Any, params: Mapping[str, float],
+                    psyms: Mapping[str, sp.Symbol]) -> np.ndarray:
+    if isinstance(v, list):
+        return np.array([_const(src, table, key, e, params, psyms) for e in v], dtype=float)
+    return np.array(_const(src, table, key, v, params, psyms), dtype=float)
+
+
+def _sensors(src: _Source, table: Mapping[str, Any], model: Model, params: Mapping[str, float],
+             psyms: Mapping[str, sp.Symbol]) -> tuple[MeasurementGroup, ...]:
+    groups = []
+    owner: dict[str, str] = {}
+    for gname, spec in table.items():
+        where = f"sensors.{gname}"
+        if not isinstance(spec, dict):
+            raise src.error(f"[{where}] must be a table (outputs, rate, noise_std, ...)", key=gname, text=gname)
+        unknown = sorted(set(spec) - _SENSOR_KEYS)
+        if unknown:
+            raise src.table_error(where, unknown[0], f"unknown key in [{where}] (allowed: "
+                                  f"{', '.join(sorted(_SENSOR_KEYS))})", unknown[0])
+        for need in ("outputs", "rate"):
+            if need not in spec:
+                raise src.table_error(where, None, f"[{where}] needs '{need}'", need)
+        outs = spec["outputs"]
+        if isinstance(outs, str):
+            outs = [outs]
+        if not isinstance(outs, list) or not outs or not all(isinstance(o, str) for o in outs):
+            raise src.table_error(where, "outputs", f"[{where}].outputs must be a list of output names",
+                                  repr(outs)[:80])
+        for o in outs:
+            if o not in model.outputs:
+                raise src.table_error(where, "outputs", f"[{where}]: {o!r} is not an output of the model (outputs: "
+                                      f"{', '.join(model.outputs)})", o)
+            if o in owner:
+                raise src.table_error(where, "outputs", f"output {o!r} is in both [{owner[o]}] and [{where}]", o)
+            owner[o] = where
+        kw: dict[str, Any] = {"rate": _const(src, where, "rate", spec["rate"], params, psyms)}
+        if "noise_std" in spec:
+            kw["noise_std"] = _number_or_list(src, where, "noise_std", spec["noise_std"], params, psyms)
+        if "noise_cov" in spec:
+            if "noise_std" in spec:
+                raise src.table_error(where, "noise_cov", f"[{where}]: give noise_std or noise_cov, not both",
+                                      "noise_cov")
+            kw["noise_cov"] = _const_matrix(src, where, "noise_cov", spec["noise_cov"], params, psyms,
+                                            rows=len(outs), cols=len(outs))
+        if "bias" in spec:
+            kw["bias"] = _number_or_list(src, where, "bias", spec["bias"], params, psyms)
+        if "outages" in spec:
+            kw["outages"] = _const_matrix(src, where, "outages", spec["outages"], params, psyms, cols=2)
+        try:
+            groups.append(MeasurementGroup(gname, tuple(outs), **kw))
+        except NlobsError as exc:
+            key = _sensor_key(str(exc))
+            raise src.table_error(where, key, str(exc).replace(f"measurement group {gname!r}: ", f"[{where}]."),
+                                  key or "") from None
+    if groups:
+        missing = [o for o in model.outputs if o not in owner]
+        if missing:
+            raise src.error(f"outputs {', '.join(missing)} belong to no [sensors.*] group: with sensors, every "
+                            "output needs one (its rate and noise)", key="sensors", text=missing[0])
+    return tuple(groups)
+
+
+def _sensor_key(message: str) -> str | None:
+    for key in ("rate", "noise_std", "noise_cov", "bias", "outages"):
+        if key in message:
+            return key
+    return None
+
+
+def _input_signals(src: _Source, data: Mapping[str, Any], model: Model, params: Mapping[str, float],
+                   base_dir: str | Path | None) -> Any:
+    table = data.get("input_signals")
+    if table is None:
+        return None
+    from nlobs.systems.signals import Constant, InputSignals, parse_signal_spec, signal_from_table
+
+    if not model.inputs:
+        raise src.error("[input_signals]: the model has no inputs", key="input_signals", text="input_signals")
+    for k in table:
+        if k not in model.inputs:
+            raise src.table_error("input_signals", k, f"[input_signals]: {k!r} is not an input of the model "
+                                  f"(inputs: {', '.join(model.inputs)})", k)
+    sigs = []
+    for name in model.inputs:
+        v = table.get(name, 0.0)
+        try:
+            if isinstance(v, dict):
+                sig = signal_from_table(v, parameters=params, base_dir=base_dir)
+            elif isinstance(v, bool) or not isinstance(v, (int, float, str)):
+                raise InvalidArgumentError("expected a number, an expression of t or a table with 'kind'")
+            elif isinstance(v, str):
+                sig = parse_signal_spec(f"expr:{v}", parameters=params, base_dir=base_dir)
+            else:
+                sig = Constant(float(v))
+        except ModelFileError as exc:  # a CSV file's own error names that file and its line
+            raise exc from None
+        except NlobsError as exc:
+            raise src.table_error("input_signals", name, f"[input_signals].{name}: {exc}", repr(v)[:80]) from None
+        sigs.append(sig)
+    return InputSignals(tuple(model.inputs), tuple(sigs))
+
+
+def _process_noise(src: _Source, table: Mapping[str, Any], n: int, params: Mapping[str, float],
+                   psyms: Mapping[str, sp.Symbol]) -> np.ndarray:
+    from nlobs._validate import as_covariance
+
+    unknown = sorted(set(table) - _PROCESS_KEYS)
+    if unknown:
+        raise src.table_error("process_noise", unknown[0], "unknown key in [process_noise] (allowed: covariance, std)",
+                              unknown[0])
+    if ("std" in table) == ("covariance" in table):
+        raise src.table_error("process_noise", None, "[process_noise] needs exactly one of 'std' (per state) or "
+                              "'covariance' (n x n)", "std")
+    if "std" in table:
+        std = _number_or_list(src, "process_noise", "std", table["std"], params, psyms)
+        if std.ndim == 0:
+            std = np.full(n, float(std))
+        if std.shape != (n,) or np.any(std < 0):
+            raise src.table_error("process_noise", "std", f"[process_noise].std must be {n} non-negative numbers "
+                                  "(one per state)", repr(table["std"])[:80])
+        return np.diag(std**2)
+    cov = _const_matrix(src, "process_noise", "covariance", table["covariance"], params, psyms, rows=n, cols=n)
+    try:
+        return as_covariance("[process_noise].covariance", cov, n)
+    except NlobsError as exc:
+        raise src.table_error("process_noise", "covariance", str(exc), "covariance") from None
+
+
+def _run_defaults(src: _Source, table: Mapping[str, Any], n: int, params: Mapping[str, float],
+                  psyms: Mapping[str, sp.Symbol]) -> RunDefaults:
+    unknown = sorted(set(table) - _SIMULATION_KEYS)
+    if unknown:
+        raise src.table_error("simulation", unknown[0], f"unknown key in [simulation] (allowed: "
+                              f"{', '.join(sorted(_SIMULATION_KEYS))})", unknown[0])
+    kw: dict[str, Any] = {}
+    if "x0" in table:
+        kw["x0"] = _const_vector(src, "simulation", "x0", table["x0"], params, psyms, n)
+    if "initial_error_std" in table:
+        std = _number_or_list(src, "simulation", "initial_error_std", table["initial_error_std"], params, psyms)
+        if std.ndim == 0:
+            std = np.full(n, float(std))
+        if std.shape != (n,) or np.any(std < 0):
+            raise src.table_error("simulation", "initial_error_std", f"[simulation].initial_error_std must be {n} "
+                                  "non-negative numbers (or one)", repr(table["initial_error_std"])[:80])
+        kw["initial_error_std"] = std
+    for key in ("duration", "dt", "settle"):
+        if key in table:
+            val = _const(src, "simulation", key, table[key], params, psyms)
+            if val < 0 or (val == 0 and key != "settle"):
+                raise src.table_error("simulation", key, f"[simulation].{key} must be "
+                                      f"{'non-negative' if key == 'settle' else 'positive'} (seconds)", repr(table[key]))
+            kw[key] = val
+    if "runs" in table:
+        r = table["runs"]
+        if isinstance(r, bool) or not isinstance(r, int) or r < 1:
+            raise src.table_error("simulation", "runs", "[simulation].runs must be a positive integer", repr(r))
+        kw["runs"] = r
+    if "box" in table:
+        b = table["box"]
+        if isinstance(b, list) and len(b) == 2 and not any(isinstance(e, list) for e in b):
+            b = [b] * n
+        arr = _const_matrix(src, "simulation", "box", b, params, psyms, rows=n, cols=2)
+        if np.any(arr[:, 1] <= arr[:, 0]):
+            raise src.table_error("simulation", "box", "[simulation].box: every row is [lo, hi] with lo < hi", "box")
+        kw["box"] = (arr[:, 0].copy(), arr[:, 1].copy())
+    return RunDefaults(**kw)

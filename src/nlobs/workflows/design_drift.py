@@ -156,10 +156,11 @@ class DriftDesignReport:
         """Drift-observable on the region, (2.17) verified, and ``γ`` covering the sampled estimate."""
         return not self.reasons
 
-    def observer(self, *, regularization: float = 0.0, cond_limit: float = COND_LIMIT) -> DriftObserver:
+    def observer(self, *, regularization: float = 0.0, cond_limit: float = COND_LIMIT,
+                 on_singular: str = "raise") -> DriftObserver:
         """The observer (3.1) with this report's ``s`` and ``K``."""
         return DriftObserver.from_fields(self.fields, self.s, self.certificate.gain, regularization=regularization,
-                                         cond_limit=cond_limit)
+                                         cond_limit=cond_limit, on_singular=on_singular)
 
     def summary(self) -> str:
         c = self.certificate.constants

@@ -1,0 +1,117 @@
+"""``nlobs simulate MODEL`` (also ``nlobs simulate compare MODEL``): every chosen observer on the same noisy,
+multi-rate Monte Carlo runs of a model, against EKF and UKF baselines.
+
+Parse, call :func:`nlobs.workflows.compare.compare_observers`, print its table (or ``--json``) and
+exit by its verdict: 0 when an observer ran, 3 when none applies, 1 when every run diverged; bad
+input (a model file, a sensor rate that is not positive or does not fit ``--dt``, a covariance that
+is not symmetric positive semidefinite, an input CSV with non-monotone time or NaN, an unknown
+observer name) is one line and exit 2.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from nlobs.cli.common import EXIT_FAILURE, box_numbers, console, emit_json, fail, finish, parse_floats, simulate_app
+from nlobs.errors import ModelFileError, NlobsError, OutputError, StudyFailed
+
+_KNOWN = "drift,pinv,luenberger,cascade,ekf,ukf"
+
+
+def _inputs(values: list[str] | None) -> dict[str, str] | None:
+    if not values:
+        return None
+    out: dict[str, str] = {}
+    for v in values:
+        name, sep, spec = v.partition("=")
+        if not sep or not name.strip() or not spec.strip():
+            fail(f"--input: expected NAME=SPEC (e.g. tau=sine:0.5,0.2 or tau=csv:u.csv:tau), got {v!r}")
+        if name.strip() in out:
+            fail(f"--input: {name.strip()!r} given twice")
+        out[name.strip()] = spec.strip()
+    return out
+
+
+def _one_or_many(option: str, text: str | None) -> list[float] | float | None:
+    vals = parse_floats(option, text)
+    if vals is None:
+        return None
+    return vals[0] if len(vals) == 1 else vals
+
+
+@simulate_app.command("compare")
+def compare_cmd(
+    model: Annotated[str, typer.Argument(help="A model file (.toml) with optional [sensors], [input_signals], "
+                                              "[process_noise], units and [simulation] tables, or a shipped model.")],
+    observer: Annotated[str, typer.Option("--observer", help=f"Comma-separated observers among {_KNOWN}.")] = _KNOWN,
+    runs: Annotated[int | None, typer.Option(help="Monte Carlo runs (default: [simulation].runs, else 20).")] = None,
+    duration: Annotated[float | None, typer.Option(help="Simulated time [s] (default: [simulation], else 10).")] = None,
+    dt: Annotated[float | None, typer.Option(help="RK4 step [s] (default: [simulation], else 1e-3).")] = None,
+    seed: Annotated[int, typer.Option(help="Seed of the initial errors and of all noise.")] = 0,
+    x0: Annotated[str | None, typer.Option("--x0", help="Initial plant state (default: [simulation].x0, else 0).")] = None,
+    xhat0: Annotated[str | None, typer.Option("--xhat0", help="One initial estimate for every run.")] = None,
+    initial_error_std: Annotated[str | None, typer.Option(
+        "--initial-error-std", help="Std of the initial estimation error, one or per state (x̂0 = x0 + N(0, std²)).")] = None,
+    box: Annotated[str | None, typer.Option("--box", help="Region of the designs: 'lo,hi' or 2n numbers.")] = None,
+    settle: Annotated[float | None, typer.Option(help="RMS errors after this time [s] (default: a quarter).")] = None,
+    rate: Annotated[float | None, typer.Option(help="One sensor for all outputs at this rate [Hz] (replaces [sensors]).")] = None,
+    noise_std: Annotated[str | None, typer.Option("--noise-std", help="Its noise std, one or per output.")] = None,
+    input_: Annotated[list[str] | None, typer.Option(
+        "--input", help="Known input NAME=SPEC, repeatable: constant:1, step:0,1,2, sine:A,f[,phase,offset], "
+                        "chirp:A,f0,f1,T, csv:FILE[:COLUMN], expr:0.5*sin(2*t).")] = None,
+    process_noise: Annotated[str | None, typer.Option(
+        "--process-noise", help="Process-noise std per state [unit/√s] (replaces [process_noise]).")] = None,
+    filter_q: Annotated[str | None, typer.Option(
+        "--filter-q", help="EKF/UKF process-noise std per state (default: the process noise).")] = None,
+    alpha: Annotated[float, typer.Option(help="Luenberger gain: poles left of −alpha.")] = 1.0,
+    as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
+    out: Annotated[Path | None, typer.Option("--out", help="Folder for compare.json, plots, .npz and .csv.")] = None,
+) -> None:
+    """Compare observers (drift, pinv, luenberger, cascade) with an EKF and a UKF on the same noisy runs."""
+    from nlobs.workflows.compare import compare_observers
+
+    names = [o.strip() for o in observer.split(",") if o.strip()]
+    if not names:
+        fail("--observer: give at least one of " + _KNOWN)
+    pn = parse_floats("--process-noise", process_noise)
+    fq = parse_floats("--filter-q", filter_q)
+    try:
+        report = compare_observers(
+            model, observers=names, runs=runs, duration=duration, dt=dt, seed=seed, x0=parse_floats("--x0", x0),
+            x_hat0=parse_floats("--xhat0", xhat0), initial_error_std=_one_or_many("--initial-error-std", initial_error_std),
+            box=box_numbers("--box", box), settle=settle, rate=rate, noise_std=_one_or_many("--noise-std", noise_std),
+            inputs=_inputs(input_), process_noise=pn, filter_q=fq, alpha=alpha, out=out, progress=None if not as_json else False,
+            name=model)
+    except ModelFileError as exc:
+        fail(str(exc))
+    except OutputError as exc:
+        fail(f"--out {exc}")
+    except StudyFailed as exc:
+        fail(f"{model}: {exc}", EXIT_FAILURE)
+    except NlobsError as exc:
+        fail(f"{model}: {exc}")
+    if as_json:
+        emit_json(report.to_dict())
+    else:
+        from rich.markup import escape
+        from rich.table import Table
+
+        title, heads, rows = report.table()
+        table = Table(title=title)
+        table.add_column(heads[0])
+        for h in heads[1:]:
+            table.add_column(h, justify="right")
+        for row in rows:
+            table.add_row(*(escape(c) for c in row))
+        con = console()
+        for k, v in report.setup.items():
+            con.print(f"{k}: {v}", markup=False)
+        con.print(table)
+        lines = report.summary().splitlines()
+        start = next((i for i, ln in enumerate(lines) if ln.startswith(f"  {next(iter(report.observers))}: ")), len(lines))
+        for ln in lines[start:]:
+            con.print(ln, markup=False)
+    finish(report, as_json)

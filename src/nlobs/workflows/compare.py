@@ -1,0 +1,783 @@
+r"""``nlobs simulate MODEL``: every applicable observer on the same noisy, multi-rate Monte Carlo runs.
+
+A user's own plant, measured by real sensors: this workflow designs each chosen observer with its
+method's defaults (or the options given), runs all of them on the same runs — the same truth, the
+same initial estimates, the same sensor and process noise — and reports, per observer, what an
+engineer compares: RMS error per state (after a settling time, and overall), final error,
+convergence time, runs that blew up (named), cost per step, and for a certified design whether the
+run stayed inside what its certificate covers.
+
+The observers (``OBSERVERS``):
+
+* ``drift`` — (3.1) of Dalla Mora, Germani & Manes with the gain of Remark 2.11 on the region
+  (:func:`nlobs.workflows.design_drift.design_drift_report`); skipped when drift-observability fails
+  on the region or the design is not usable;
+* ``pinv`` — Röbenack's Moore–Penrose observer (7), (17) with the high-gain placement of (10)
+  (:func:`nlobs.workflows.design_pinv.design_pinv_report`); skipped when A1 or A5 fails;
+* ``luenberger`` — a copy of the plant with constant output injection
+  (:class:`~nlobs.observers.luenberger.ConstantGainObserver`; for a linear model the Luenberger
+  observer) with the gain of LMIs (14), (15) of Grip, Saberi & Johansen for the linearisation at
+  ``x0``: poles left of ``−α``, the analytic centre at ``γ = γn =`` :data:`LUENBERGER_GAMMA`;
+* ``cascade`` — the observer (9)–(10) of Grip, Saberi & Johansen needs an interconnection of a
+  nonlinear Σ₁ and a linear Σ₂, which one model file does not describe: skipped with that reason;
+* ``ekf``, ``ukf`` — the continuous-discrete (discrete for discrete models) extended and unscented
+  Kalman filters (:class:`~nlobs.observers.EKF`, :class:`~nlobs.observers.UKF`), tuned from the
+  sensor and process noise tables: ``R`` from the sensors, ``Q`` the process noise (or
+  :data:`DEFAULT_FILTER_Q` per second without one), ``P0 = diag(initial_error_std²)``.
+
+How the runs are made: the truth starts at ``x0`` in every run; run ``i`` starts the observers at
+``x̂0 = x0 + e_i``, ``e_i ~ N(0, diag(initial_error_std²))`` (or at the given ``x_hat0``). Each
+observer is simulated with its plant by :func:`nlobs.simulate.simulate` (RK4, one batch of all
+runs, ``divergence="keep"``) with the same seed, so the truth and every noise sample are the same
+for every observer (the loop draws them from the plant alone).
+
+Metrics (over the runs that did not diverge): ``rms_error[i] = √mean(e_i²)`` over runs and saved
+times ``t ≥ settle``; ``rms_error_norm = √mean(‖e‖²)`` likewise; ``final_error_norm`` the RMS over
+runs of ``‖e(T)‖``; ``convergence_time`` the median over runs of the first time after which ``‖e‖``
+stays below ``max(5 % of ‖e(0)‖, 2 · rms_error_norm)``. A run *diverged* when its estimate became
+non-finite or its error exceeded :data:`BLOWUP` times ``1 + max‖x‖`` of its truth.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from nlobs._io import atomic_write_json, jsonable
+from nlobs._typing import Array
+from nlobs._validate import as_count, positive
+from nlobs.errors import (
+    AssumptionViolated,
+    DesignError,
+    DimensionError,
+    InvalidArgumentError,
+    ModelError,
+    NlobsError,
+    SimulationDiverged,
+    StudyFailed,
+    UnknownNameError,
+)
+from nlobs.simulate.loop import simulate
+from nlobs.simulate.result import SimulationResult
+from nlobs.systems.linear import LinearSystem
+from nlobs.systems.modelfile import load_scenario
+from nlobs.systems.scenario import Scenario
+from nlobs.systems.sensors import MeasurementGroup
+from nlobs.systems.symbolic import SymbolicModel
+from nlobs.workflows._results import prepare_out
+from nlobs.workflows.inputs import MAX_SIMULATION_STEPS, as_region, model_label
+from nlobs.workflows.verdict import Verdict
+
+__all__ = [
+    "BLOWUP",
+    "DEFAULT_FILTER_Q",
+    "OBSERVERS",
+    "ComparisonReport",
+    "DivergedRun",
+    "ObserverOutcome",
+    "compare_observers",
+]
+
+#: The observers ``nlobs simulate MODEL`` knows, in the order they are reported.
+OBSERVERS: tuple[str, ...] = ("drift", "pinv", "luenberger", "cascade", "ekf", "ukf")
+#: A run diverged when its error exceeds this many times ``1 + max‖x‖`` of its truth (or is not finite).
+BLOWUP = 1e6
+#: Process-noise spectral density a Kalman filter assumes per state when the model has no ``[process_noise]``.
+DEFAULT_FILTER_Q = 1e-6
+#: ``γ`` and ``γn`` of LMIs (14), (15) for the Luenberger gain (the analytic centre of the region's LMIs at these).
+LUENBERGER_GAMMA = 1e3
+#: Most values (runs × saved times × states, per array) one comparison keeps.
+MAX_SAVED_VALUES = 50_000_000
+#: Saved instants per run (the step grid is thinned to about this many).
+SAVED_POINTS = 2000
+
+
+@dataclass(frozen=True)
+class DivergedRun:
+    """A Monte Carlo run whose estimate blew up: its index, when, and how."""
+
+    run: int
+    time: float
+    reason: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"run": self.run, "time": self.time, "reason": self.reason}
+
+
+@dataclass(frozen=True, eq=False)
+class ObserverOutcome:
+    """One observer's part of a comparison (``skipped`` set, or the metrics of its runs).
+
+    Attributes
+    ----------
+    name : str
+        ``"drift"``, ``"pinv"``, ``"luenberger"``, ``"cascade"``, ``"ekf"`` or ``"ukf"``.
+    skipped : str or None
+        Why the observer was not run (an assumption that failed, a design that failed), else ``None``.
+    description : str
+        What was run: the method and its design (gain, tuning).
+    rms_error, rms_error_all : tuple of float
+        RMS error per state after the settling time / over the whole run (runs that did not diverge).
+    rms_error_norm, rms_error_norm_all, final_error_norm, convergence_time : float
+    diverged_runs : tuple of DivergedRun
+    cost_per_step_us : float
+        Wall time inside the observer per step and run (µs).
+    certificate : dict or None
+        ``{"verified", "covers_run", "reasons"}`` for a certified design, ``None`` for a method
+        without a certificate.
+    run_rms : ndarray, shape (runs,)
+        RMS of ``‖e‖`` after the settling time, per run (NaN for a diverged run): the box plot.
+    result : SimulationResult or None
+        The trajectories (not part of :meth:`to_dict`).
+    """
+
+    name: str
+    skipped: str | None
+    description: str = ""
+    rms_error: tuple[float, ...] = ()
+    rms_error_all: tuple[float, ...] = ()
+    rms_error_norm: float = math.nan
+    rms_error_norm_all: float = math.nan
+    final_error_norm: float = math.nan
+    convergence_time: float = math.nan
+    diverged_runs: tuple[DivergedRun, ...] = ()
+    cost_per_step_us: float = math.nan
+    certificate: Mapping[str, Any] | None = None
+    run_rms: Array = field(default_factory=lambda: np.zeros(0))
+    result: SimulationResult | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        if self.skipped is not None:
+            return {"skipped": self.skipped, "description": self.description}
+        return {
+            "skipped": None,
+            "description": self.description,
+            "rms_error": list(self.rms_error),
+            "rms_error_all": list(self.rms_error_all),
+            "rms_error_norm": self.rms_error_norm,
+            "rms_error_norm_all": self.rms_error_norm_all,
+            "final_error_norm": self.final_error_norm,
+            "convergence_time": self.convergence_time,
+            "diverged_runs": [d.to_dict() for d in self.diverged_runs],
+            "cost_per_step_us": self.cost_per_step_us,
+            "certificate": None if self.certificate is None else dict(self.certificate),
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class ComparisonReport:
+    """What ``nlobs simulate MODEL`` reports (``to_dict()`` is its ``--json``; keys in the README).
+
+    Attributes
+    ----------
+    model : str
+    states, units : tuple of str
+        State names and their units (``""`` where the file gives none).
+    runs, seed : int
+    duration, dt, settle : float
+    x0 : tuple of float
+    setup : dict
+        Sensors, inputs, process noise and initial errors, as described to the user.
+    observers : dict of str to ObserverOutcome
+    files : tuple of Path
+    verdict : Verdict
+        ``OK`` when at least one observer ran with at least one run that did not diverge;
+        ``NO_OBSERVER`` when every observer was skipped; ``FAILED`` when every run of every
+        observer that ran diverged.
+    message : str
+    """
+
+    model: str
+    states: tuple[str, ...]
+    units: tuple[str, ...]
+    runs: int
+    seed: int
+    duration: float
+    dt: float
+    settle: float
+    x0: tuple[float, ...]
+    setup: Mapping[str, Any]
+    observers: Mapping[str, ObserverOutcome]
+    files: tuple[Path, ...]
+    verdict: Verdict
+    message: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "model": self.model, "states": list(self.states), "units": list(self.units), "runs": self.runs,
+            "seed": self.seed, "duration": self.duration, "dt": self.dt, "settle": self.settle, "x0": list(self.x0),
+            "setup": dict(self.setup), "observers": {k: v.to_dict() for k, v in self.observers.items()},
+            "files": [str(f) for f in self.files],
+        }
+
+    def table(self) -> tuple[str, list[str], list[list[str]]]:
+        """Title, column heads and rows of the comparison table the CLI prints."""
+        heads = ["observer", *(f"RMS {s}" + (f" [{u}]" if u else "") for s, u in zip(self.states, self.units)),
+                 "RMS ‖e‖", "final ‖e‖", "t_conv [s]", "diverged", "µs/step", "certificate"]
+        rows = []
+        for name, o in self.observers.items():
+            if o.skipped is not None:
+                rows.append([name, *(["—"] * (len(self.states) + 5)), "skipped"])
+                continue
+            cert = "—" if o.certificate is None else (
+                "covers run" if o.certificate.get("covers_run") else
+                ("verified, not covering the run" if o.certificate.get("verified") else "failed"))
+            rows.append([name, *(_num(v) for v in o.rms_error), _num(o.rms_error_norm), _num(o.final_error_norm),
+                         _num(o.convergence_time), f"{len(o.diverged_runs)}/{self.runs}", _num(o.cost_per_step_us),
+                         cert])
+        title = (f"{self.model}: {self.runs} runs of {self.duration:g} s (dt = {self.dt:g} s, seed {self.seed}); "
+                 f"RMS after t = {self.settle:g} s")
+        return title, heads, rows
+
+    def summary(self) -> str:
+        """The setup, the table as text, why observers were skipped, diverged runs, files."""
+        title, heads, rows = self.table()
+        lines = [title]
+        for k, v in self.setup.items():
+            lines.append(f"  {k}: {v}")
+        widths = [max(len(h), *(len(r[i]) for r in rows)) for i, h in enumerate(heads)]
+        lines.append("  " + "  ".join(h.ljust(w) for h, w in zip(heads, widths)))
+        for r in rows:
+            lines.append("  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)))
+        for name, o in self.observers.items():
+            if o.skipped is not None:
+                lines.append(f"  {name}: skipped: {o.skipped}")
+                continue
+            lines.append(f"  {name}: {o.description}")
+            if o.diverged_runs:
+                shown = ", ".join(f"run {d.run} at t = {d.time:.4g} s ({d.reason})" for d in o.diverged_runs[:5])
+                more = f" and {len(o.diverged_runs) - 5} more" if len(o.diverged_runs) > 5 else ""
+                lines.append(f"    diverged: {shown}{more}")
+            if o.certificate is not None and o.certificate.get("reasons"):
+                lines.append("    certificate: " + "; ".join(o.certificate["reasons"]))
+        lines += [f"wrote {f}" for f in self.files]
+        return "\n".join(lines)
+
+
+def _num(v: float) -> str:
+    return "nan" if not math.isfinite(v) else f"{v:.4g}"
+
+
+# ----------------------------------------------------------------------------- set-up
+@dataclass(frozen=True, eq=False)
+class _Setup:
+    scenario: Scenario
+    label: str
+    plant: Any
+    x0: Array
+    x_hat0: Array  # (runs, n)
+    p0_std: Array  # (n,)
+    duration: float
+    dt: float
+    settle: float
+    runs: int
+    seed: int
+    u: Any
+    u0: Array
+    sensors: tuple[MeasurementGroup, ...]
+    process_noise: Array | None
+    box: Any
+    save_every: int
+    describe: dict[str, Any]
+
+
+def _vector(name: str, value: ArrayLike | None, n: int) -> Array | None:
+    if value is None:
+        return None
+    v = np.asarray(value, dtype=float).reshape(-1)
+    if v.size == 1 and n > 1 and name == "initial_error_std":
+        v = np.full(n, float(v[0]))
+    if v.shape != (n,):
+        raise DimensionError(f"{name}: expected {n} numbers (one per state), got {v.size}")
+    if not np.all(np.isfinite(v)):
+        raise InvalidArgumentError(f"{name}: values must be finite, got {v.tolist()}")
+    return v
+
+
+def _sensor_override(model: Any, rate: float | None, noise_std: float | Sequence[float] | None,
+                     current: tuple[MeasurementGroup, ...]) -> tuple[MeasurementGroup, ...]:
+    if rate is None and noise_std is None:
+        return current
+    if rate is None:
+        if not current or len({g.rate for g in current}) != 1:
+            raise InvalidArgumentError("--noise-std without --rate: the model's sensors do not have one common rate; "
+                                       "give --rate too")
+        rate = current[0].rate
+    return (MeasurementGroup("sensor", tuple(model.outputs), rate=rate,
+                             noise_std=0.0 if noise_std is None else noise_std),)
+
+
+def _setup(scenario: Scenario, label: str, *, runs: int | None, duration: float | None, dt: float | None,
+           seed: int, x0: ArrayLike | None, x_hat0: ArrayLike | None, initial_error_std: ArrayLike | float | None,
+           box: Any, settle: float | None, rate: float | None, noise_std: Any, inputs: Any,
+           process_noise: ArrayLike | None) -> _Setup:
+    model = scenario.model
+    d = scenario.defaults
+    n = model.n
+    runs_ = as_count("runs", runs if runs is not None else (d.runs or 20), minimum=1)
+    dur = positive("duration", duration if duration is not None else (d.duration or 10.0))
+    if model.time.is_discrete:
+        step = float(model.time.dt)  # type: ignore[attr-defined]
+        if dt is not None and abs(dt - step) > 1e-9 * step:
+            raise InvalidArgumentError(f"dt: the model is discrete with dt = {step:g} s; got --dt {dt:g}")
+    else:
+        step = positive("dt", dt if dt is not None else (d.dt or 1e-3))
+    steps = math.ceil(dur / step - 1e-9)
+    if steps > MAX_SIMULATION_STEPS:
+        raise InvalidArgumentError(f"--duration {dur:g} / --dt {step:g} is {steps:.3g} steps; at most "
+                                   f"{MAX_SIMULATION_STEPS:.0e} (raise --dt or shorten --duration)")
+    settle_ = settle if settle is not None else (d.settle if d.settle is not None else 0.25 * dur)
+    settle_ = positive("settle", settle_, allow_zero=True)
+    if settle_ >= dur:
+        raise InvalidArgumentError(f"settle: {settle_:g} s is not before the end of the run ({dur:g} s)")
+    x0_ = _vector("x0", x0, n)
+    if x0_ is None:
+        x0_ = d.x0 if d.x0 is not None else np.zeros(n)
+    std = _vector("initial_error_std", initial_error_std, n)
+    xh = _vector("x_hat0", x_hat0, n)
+    if std is None:
+        std = d.initial_error_std if d.initial_error_std is not None else None
+    if xh is not None and initial_error_std is not None:
+        raise InvalidArgumentError("give --xhat0 or --initial-error-std, not both")
+    if xh is not None:
+        x_hat = np.broadcast_to(xh, (runs_, n)).copy()
+        p0_std = np.maximum(np.abs(xh - x0_), 1e-3 * np.maximum(1.0, np.abs(x0_)))
+        init_text = f"x̂0 = {xh.tolist()} in every run"
+    else:
+        if std is None:
+            std = 0.1 * np.maximum(1.0, np.abs(x0_))
+        rng = np.random.default_rng([int(seed), 7])  # its own stream: the sensor noise uses `seed`
+        x_hat = x0_ + rng.standard_normal((runs_, n)) * std
+        p0_std = np.maximum(std, 1e-3 * np.maximum(1.0, np.abs(x0_)))
+        init_text = f"x̂0 = x0 + N(0, diag(std²)), std = {np.asarray(std).tolist()}"
+    sensors = _sensor_override(model, rate, noise_std, scenario.sensors)
+    q = scenario.process_noise if process_noise is None else np.asarray(process_noise, dtype=float)
+    if q is not None and q.ndim == 1:
+        q = np.diag(q**2)
+    u, u_text = _input(scenario, inputs)
+    u0 = np.asarray(u(0.0) if callable(u) else u, dtype=float).reshape(model.m) if model.m else np.zeros(0)
+    region = as_region(box, n) if box is not None else (
+        None if d.box is None else as_region([v for pair in zip(*d.box) for v in pair], n))
+    save_every = max(1, steps // SAVED_POINTS)
+    if runs_ * (steps // save_every + 1) * max(n, model.p) > MAX_SAVED_VALUES:
+        raise InvalidArgumentError(f"--runs {runs_}: {runs_} runs × {steps // save_every + 1} saved times × "
+                                   f"{max(n, model.p)} values exceed {MAX_SAVED_VALUES:.0e}; use fewer runs")
+    describe = {
+        "sensors": "; ".join(_describe_sensor(g) for g in sensors) if sensors else
+                   "exact, continuous measurement of every output (no [sensors] table)",
+        "inputs": u_text,
+        "process_noise": "none" if q is None or not np.any(q) else
+                         f"std {np.sqrt(np.clip(np.diag(q), 0, None)).tolist()} per √s"
+                         + (" (discrete: per step)" if model.time.is_discrete else ""),
+        "initial estimate": init_text,
+        "region": region.describe() if region is not None else "[-1, 1] per state (default)",
+    }
+    plant = model.compile() if isinstance(model, SymbolicModel) else model
+    return _Setup(scenario, label, plant, np.asarray(x0_, dtype=float), x_hat, np.asarray(p0_std, dtype=float), dur,
+                  step, float(settle_), runs_, int(seed), u, u0, sensors, q, region, save_every, describe)
+
+
+def _describe_sensor(g: MeasurementGroup) -> str:
+    noise = ("noise cov " + str(np.asarray(g.noise_cov).tolist())) if g.noise_cov is not None else \
+        f"noise std {np.asarray(g.noise_std).tolist()}"
+    extra = ""
+    if np.any(g.bias != 0):
+        extra += f", bias {np.asarray(g.bias).tolist()}"
+    if g.outages:
+        extra += ", outages " + ", ".join(f"[{a:g}, {b:g}) s" for a, b in g.outages)
+    return f"{g.name}: {', '.join(map(str, g.outputs))} at {g.rate:g} Hz, {noise}{extra}"
+
+
+def _input(scenario: Scenario, inputs: Any) -> tuple[Any, str]:
+    model = scenario.model
+    if model.m == 0:
+        return None, "none (the model has no inputs)"
+    sig = scenario.input_signals
+    if inputs:
+        from nlobs.systems.signals import Constant, InputSignals, parse_signal_spec
+
+        base = Path(scenario.path).parent if scenario.path else None
+        current = dict(zip(sig.names, sig.signals)) if sig is not None else {}
+        for name, spec in dict(inputs).items():
+            if name not in model.inputs:
+                raise UnknownNameError(f"--input {name}: not an input of the model (inputs: {', '.join(model.inputs)})")
+            current[name] = spec if not isinstance(spec, str) else parse_signal_spec(spec, base_dir=base)
+        sig = InputSignals(tuple(model.inputs), tuple(current.get(k, Constant(0.0)) for k in model.inputs))
+    if sig is None:
+        return np.zeros(model.m), "zero (no [input_signals] table)"
+    return sig, "; ".join(sig.describe().splitlines()) if hasattr(sig, "describe") else str(sig)
+
+
+# ----------------------------------------------------------------------------- designs
+class _Skip(Exception):
+    """An observer that does not apply: the reason."""
+
+
+def _design_drift(s: _Setup) -> tuple[Any, str, dict[str, Any] | None]:
+    from nlobs.workflows.design_drift import design_drift_report
+
+    model = s.scenario.model
+    if not isinstance(model, SymbolicModel):
+        raise _Skip("(3.1) of Dalla Mora, Germani & Manes is for nonlinear input-affine models; this one is linear")
+    try:
+        rep = design_drift_report(model, region=s.box)
+    except (ModelError, AssumptionViolated, DesignError) as exc:
+        raise _Skip(str(exc)) from None
+    if not rep.usable:
+        raise _Skip("; ".join(rep.reasons))
+    obs = rep.observer(on_singular="nan")
+    mu = rep.certificate.constants.mu
+    reasons = _noise_reasons(s, "Theorem 3.1 assumes exact measurement and an exact model")
+    if model.m:
+        reasons.append(f"the input bound μ = {mu:g} of (2.17) is checked against ‖u‖ along the run")
+    cert = {"verified": bool(rep.certificate.verified), "covers_run": None, "reasons": reasons,
+            "region": rep.region.describe(), "mu": mu}
+    desc = (f"(3.1), s = {list(rep.s)}, K of Remark 2.11 (w = {rep.certificate.w:.4g}), α = "
+            f"{rep.certificate.constants.alpha:g}, γ = {rep.gamma:.4g} on {rep.region.describe()}")
+    return obs, desc, cert
+
+
+def _design_pinv(s: _Setup) -> tuple[Any, str, dict[str, Any] | None]:
+    from nlobs.workflows.design_pinv import design_pinv_report
+
+    model = s.scenario.model
+    if not isinstance(model, SymbolicModel):
+        raise _Skip("Röbenack's observer (7) is for nonlinear input-affine models; this one is linear")
+    try:
+        rep = design_pinv_report(model, region=s.box)
+    except (ModelError, AssumptionViolated, DesignError) as exc:
+        raise _Skip(str(exc)) from None
+    if not rep.usable:
+        failed = [c for c in rep.checks if not c.passed]
+        raise _Skip("; ".join(f"{c.name} fails: {c.evidence}" for c in failed) or "A5 fails")
+    desc = f"(7) with l(x) = Q⁺(x) k (17), k = {[round(v, 6) for v in rep.k]} (θ = {rep.theta:g}, {rep.placement})"
+    return rep.observer, desc, None
+
+
+def _design_luenberger(s: _Setup, alpha: float) -> tuple[Any, str, dict[str, Any] | None]:
+    from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
+    from nlobs.synthesis.observer_gain import design_observer_gain
+    from nlobs.synthesis.regions import HalfPlane
+    from nlobs.systems.linearize import linearize
+
+    model = s.scenario.model
+    if model.time.is_discrete:
+        raise _Skip("the certified gain of LMIs (14), (15) is for continuous time; use ekf or ukf for a discrete model")
+    lin = model if isinstance(model, LinearSystem) else linearize(model, s.x0, s.u0)
+    try:
+        cert = design_observer_gain(lin.A, lin.C, np.eye(model.n), gamma=LUENBERGER_GAMMA, gamma_n=LUENBERGER_GAMMA,
+                                    region=HalfPlane(alpha))
+    except DesignError as exc:
+        raise _Skip(f"no gain for the linearisation at x0 = {s.x0.tolist()}: {exc}") from None
+    L = cert.gain
+    obs = LuenbergerObserver(lin, L) if isinstance(model, LinearSystem) else ConstantGainObserver(s.plant, L)
+    poles = np.linalg.eigvals(lin.A - L @ lin.C)
+    reasons = []
+    if not isinstance(model, LinearSystem):
+        reasons.append(f"the certificate is for the linearisation at x0 = {s.x0.tolist()}, u = {s.u0.tolist()}; "
+                       "the plant is nonlinear")
+    if s.sensors:
+        reasons.append("the measurement is sampled and held (the certificate assumes a continuous output)")
+    reasons += _noise_reasons(s, "the certificate bounds the decay of the error, not the noise floor") \
+        if isinstance(model, LinearSystem) else []
+    covers = bool(cert.verified) and not reasons
+    desc = (f"copy of the plant + L (y − h(x̂)), L of LMIs (14), (15) for the linearisation at x0 "
+            f"(Re λ < −{alpha:g}, analytic centre at γ = γn = {LUENBERGER_GAMMA:g}); poles of A − LC: "
+            + ", ".join(f"{complex(p).real:.3g}{complex(p).imag:+.3g}j" for p in poles))
+    return obs, desc, {"verified": bool(cert.verified), "covers_run": covers, "reasons": reasons}
+
+
+def _design_kalman(s: _Setup, kind: str, filter_q: ArrayLike | None) -> tuple[Any, str, dict[str, Any] | None]:
+    from nlobs.observers import EKF, UKF
+
+    model = s.scenario.model
+    if not s.sensors:
+        raise _Skip("a Kalman filter needs sampled, noisy measurements: add [sensors] to the model file, or give "
+                    "--rate and --noise-std")
+    R = _measurement_covariance(model, s.sensors)
+    if np.linalg.eigvalsh(R)[0] <= 0:
+        zero = [g.name for g in s.sensors if np.any(np.asarray(g.noise_std) == 0)]
+        raise _Skip(f"the measurement covariance R is singular (sensor {', '.join(zero) or '?'} has zero noise); "
+                    "a Kalman filter needs R positive definite")
+    if filter_q is not None:
+        Q = np.asarray(filter_q, dtype=float)
+        Q = np.diag(Q**2) if Q.ndim == 1 else Q
+        q_text = "given"
+    elif s.process_noise is not None and np.any(s.process_noise):
+        Q, q_text = s.process_noise, "the process noise"
+    else:
+        Q, q_text = DEFAULT_FILTER_Q * np.eye(model.n), f"{DEFAULT_FILTER_Q:g} I (no process noise given)"
+    P0 = np.diag(s.p0_std**2)
+    cls = EKF if kind == "ekf" else UKF
+    try:
+        obs = cls(s.plant, Q, R, P0, name=kind.upper())
+    except NlobsError as exc:
+        raise _Skip(str(exc)) from None
+    mode = "discrete" if model.time.is_discrete else "continuous-discrete"
+    desc = (f"{mode} {'extended' if kind == 'ekf' else 'unscented'} Kalman filter, Q = {q_text}, R from the sensors, "
+            f"P0 = diag({[float(f'{v:.4g}') for v in s.p0_std]}²)")
+    return obs, desc, None
+
+
+def _measurement_covariance(model: Any, sensors: Sequence[MeasurementGroup]) -> Array:
+    p = len(model.outputs)
+    R = np.zeros((p, p))
+    for g in sensors:
+        idx = [model.outputs.index(o) if isinstance(o, str) else int(o) for o in g.outputs]
+        R[np.ix_(idx, idx)] = g.covariance
+    return R
+
+
+def _noise_reasons(s: _Setup, why: str) -> list[str]:
+    noisy = any(np.any(np.asarray(g.noise_std) > 0) or np.any(g.bias != 0) for g in s.sensors)
+    q = s.process_noise is not None and bool(np.any(s.process_noise))
+    what = [w for w, on in (("measurement noise or bias", noisy), ("process noise", q)) if on]
+    return [f"{' and '.join(what)} ({why})"] if what else []
+
+
+# ----------------------------------------------------------------------------- metrics
+def _outcome(name: str, desc: str, res: SimulationResult, s: _Setup, cert: dict[str, Any] | None,
+             region: Any) -> ObserverOutcome:
+    x, xh, t = res.x, res.x_hat, res.t
+    assert x is not None
+    with np.errstate(all="ignore"):
+        e = xh - x  # (runs, K, n)
+        en = np.sqrt(np.sum(e * e, axis=-1))  # (runs, K)
+        scale = 1.0 + np.max(np.sqrt(np.sum(x * x, axis=-1)), axis=-1)  # (runs,)
+        bad_t = ~np.isfinite(en) | (en > BLOWUP * scale[:, None])
+    diverged = []
+    for i in np.flatnonzero(bad_t.any(axis=-1)):
+        k = int(np.argmax(bad_t[i]))
+        reason = "non-finite estimate" if not np.isfinite(en[i, k]) else f"‖e‖ > {BLOWUP:.0e} (1 + max‖x‖)"
+        diverged.append(DivergedRun(int(i), float(t[k]), reason))
+    ok = ~bad_t.any(axis=-1)
+    after = t >= s.settle - 1e-12
+    run_rms = np.full(s.runs, np.nan)
+    if ok.any():
+        eo, eno = e[ok], en[ok]
+        rms = tuple(float(v) for v in np.sqrt(np.mean(eo[:, after] ** 2, axis=(0, 1))))
+        rms_all = tuple(float(v) for v in np.sqrt(np.mean(eo**2, axis=(0, 1))))
+        rms_norm = float(np.sqrt(np.mean(eno[:, after] ** 2)))
+        rms_norm_all = float(np.sqrt(np.mean(eno**2)))
+        final = float(np.sqrt(np.mean(eno[:, -1] ** 2)))
+        run_rms[ok] = np.sqrt(np.mean(eno[:, after] ** 2, axis=-1))
+        tol = np.maximum(0.05 * eno[:, 0], 2.0 * rms_norm)
+        above = eno > tol[:, None]
+        last_above = np.where(above.any(axis=-1), above.shape[1] - 1 - np.argmax(above[:, ::-1], axis=-1), -1)
+        conv = np.where(last_above + 1 < t.size, t[np.minimum(last_above + 1, t.size - 1)], np.inf)
+        conv_time = float(np.median(conv))
+    else:
+        nan = (math.nan,) * x.shape[-1]
+        rms, rms_all, rms_norm, rms_norm_all, final, conv_time = nan, nan, math.nan, math.nan, math.nan, math.nan
+    if cert is not None:
+        cert = _coverage(cert, res, s, region, ok)
+    return ObserverOutcome(name, None, desc, rms, rms_all, rms_norm, rms_norm_all, final, conv_time, tuple(diverged),
+                           float(res.info.get("cost_per_step_us", math.nan)), cert, run_rms, res)
+
+
+def _coverage(cert: dict[str, Any], res: SimulationResult, s: _Setup, region: Any, ok: Array) -> dict[str, Any]:
+    """A drift design's premises along the runs: truth and estimate in the region, ‖u‖ ≤ μ; noise named already."""
+    reasons = list(cert["reasons"])
+    if region is not None and "region" in cert:
+        lo, hi = np.asarray(region.lower), np.asarray(region.upper)
+        x, xh = res.x, res.x_hat
+        assert x is not None
+        for what, arr in (("the state", x), ("the estimate", xh)):
+            with np.errstate(invalid="ignore"):
+                out = ~((arr >= lo) & (arr <= hi)).all(axis=-1)  # (runs, K)
+            if out.any():
+                runs = np.flatnonzero(out.any(axis=-1))
+                k = int(np.argmax(out[runs[0]]))
+                reasons.append(f"{what} leaves the region {region.describe()} in {runs.size} of {s.runs} runs "
+                               f"(first: run {int(runs[0])} at t = {res.t[k]:.4g} s)")
+        mu = cert.get("mu")
+        if mu is not None and s.u is not None and s.scenario.model.m:
+            um = max(float(np.linalg.norm(np.asarray(s.u(float(tk)) if callable(s.u) else s.u, dtype=float)))
+                     for tk in res.t[:: max(1, res.t.size // 400)])
+            if um > mu:
+                reasons.append(f"‖u‖ reaches {um:.4g} > μ = {mu:g} of (2.17)")
+        reasons = [r for r in reasons if not r.startswith("the input bound μ")]
+    out = {k: v for k, v in cert.items() if k not in ("mu",)}
+    out["reasons"] = reasons
+    out["covers_run"] = bool(cert["verified"]) and not reasons
+    return out
+
+
+# ----------------------------------------------------------------------------- the command
+def compare_observers(
+    model: str | Path | Scenario | SymbolicModel | LinearSystem,
+    *,
+    observers: Sequence[str] | None = None,
+    runs: int | None = None,
+    duration: float | None = None,
+    dt: float | None = None,
+    seed: int = 0,
+    x0: ArrayLike | None = None,
+    x_hat0: ArrayLike | None = None,
+    initial_error_std: ArrayLike | float | None = None,
+    box: Sequence[float] | None = None,
+    settle: float | None = None,
+    rate: float | None = None,
+    noise_std: float | Sequence[float] | None = None,
+    inputs: Mapping[str, Any] | None = None,
+    process_noise: ArrayLike | None = None,
+    filter_q: ArrayLike | None = None,
+    alpha: float = 1.0,
+    out: Path | None = None,
+    progress: bool | None = None,
+    name: str | None = None,
+) -> ComparisonReport:
+    """Run the chosen observers on the same noisy, multi-rate Monte Carlo runs of a model (module docstring).
+
+    Parameters
+    ----------
+    model : str, Path, Scenario, SymbolicModel or LinearSystem
+        A model file (with its ``[sensors]``, ``[input_signals]``, ``[process_noise]``, ``units`` and
+        ``[simulation]`` tables, :mod:`nlobs.systems.scenario`), a shipped model name, or a model.
+    observers : sequence of str, optional
+        Names from :data:`OBSERVERS` (default: all of them).
+    runs, duration, dt, seed : optional
+        Monte Carlo runs (default 20), simulated time (default 10 s), step (default 1e-3 s; a
+        discrete model's own ``dt``) and seed (default 0); the file's ``[simulation]`` values
+        come before the defaults.
+    x0, x_hat0, initial_error_std : optional
+        Initial plant state (default ``[simulation].x0``, else zeros); one initial estimate for
+        every run, or the standard deviation of the initial error per state (default
+        ``[simulation].initial_error_std``, else ``0.1 max(1, |x0|)``).
+    box : sequence of float, optional
+        The designs' region (``lo, hi`` or ``lo1, hi1, …``; default ``[simulation].box``, else
+        ``[−1, 1]ⁿ``).
+    settle : float, optional
+        RMS errors are reported for ``t ≥ settle`` (default ``[simulation].settle``, else a quarter
+        of the duration) and over the whole run.
+    rate, noise_std : optional
+        One sensor for all outputs at ``rate`` Hz with this noise, instead of the file's ``[sensors]``.
+    inputs : mapping of str to str or signal, optional
+        Known input signals by input name (the compact form of
+        :func:`nlobs.systems.signals.parse_signal_spec`, e.g. ``"sine:0.5,0.2"``), replacing the file's.
+    process_noise : array_like, optional
+        Per-state standard deviations or an ``(n, n)`` covariance, replacing ``[process_noise]``.
+    filter_q : array_like, optional
+        The Kalman filters' ``Q`` (std per state or covariance), instead of the process noise.
+    alpha : float
+        Decay rate of the Luenberger gain's region ``Re λ < −α``.
+    out : Path, optional
+        Folder for ``compare.json``, the plots and the trajectories (``.npz`` and ``.csv``).
+    progress : bool, optional
+        A progress bar over observers and steps (``None``: on a terminal, for long runs).
+    name : str, optional
+        How messages name the model.
+
+    Returns
+    -------
+    ComparisonReport
+
+    Raises
+    ------
+    ModelFileError
+        The model file (or a CSV input it names) is invalid.
+    UnknownNameError
+        An observer or input name that does not exist.
+    InvalidArgumentError, DimensionError, NonFiniteError
+        A bad option (runs, a vector of the wrong length, a rate that does not fit ``dt``...).
+    OutputError
+        ``out`` cannot be written.
+    StudyFailed
+        The plant itself diverged (the truth is not finite), or a simulation failed otherwise.
+    """
+    scenario = model if isinstance(model, Scenario) else (
+        load_scenario(model) if isinstance(model, (str, Path)) else Scenario(model))
+    label = name or model_label(model if not isinstance(model, Scenario) else scenario.model)
+    chosen = tuple(OBSERVERS if observers is None else observers)
+    for o in chosen:
+        if o not in OBSERVERS:
+            raise UnknownNameError(f"--observer: unknown observer {o!r} (known: {', '.join(OBSERVERS)})")
+    if len(set(chosen)) != len(chosen):
+        raise InvalidArgumentError(f"--observer: {', '.join(chosen)} names an observer twice")
+    alpha = positive("alpha", alpha)
+    s = _setup(scenario, label, runs=runs, duration=duration, dt=dt, seed=seed, x0=x0, x_hat0=x_hat0,
+               initial_error_std=initial_error_std, box=box, settle=settle, rate=rate, noise_std=noise_std,
+               inputs=inputs, process_noise=process_noise)
+    prepare_out(out)
+    outcomes: dict[str, ObserverOutcome] = {}
+    for name_ in chosen:
+        outcomes[name_] = _run_one(name_, s, alpha, filter_q, progress)
+    files: tuple[Path, ...] = ()
+    report = _report(s, outcomes, files)
+    if out is not None:
+        from nlobs.workflows.compare_output import write_comparison
+
+        files = write_comparison(report, s.scenario, out)
+        report = _report(s, outcomes, files)
+    return report
+
+
+def _run_one(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None, progress: bool | None) -> ObserverOutcome:
+    try:
+        if name == "cascade":
+            raise _Skip("the observer (9)–(10) of Grip, Saberi & Johansen needs a nonlinear subsystem Σ₁ whose "
+                        "unmeasured output drives a linear Σ₂ ((1a), (1b)); a model file describes one system: "
+                        "build the interconnection with nlobs.CascadeObserver")
+        if name == "drift":
+            obs, desc, cert = _design_drift(s)
+        elif name == "pinv":
+            obs, desc, cert = _design_pinv(s)
+        elif name == "luenberger":
+            obs, desc, cert = _design_luenberger(s, alpha)
+        else:
+            obs, desc, cert = _design_kalman(s, name, filter_q)
+    except _Skip as why:
+        return ObserverOutcome(name, str(why))
+    region = s.box
+    if cert is not None and "region" in cert and region is None:
+        from nlobs.geometry.region import Box
+
+        region = Box.unit(s.scenario.model.n)
+    x0 = np.broadcast_to(s.x0, (s.runs, s.scenario.model.n))
+    try:
+        res = simulate(s.plant, obs, x0, s.x_hat0, duration=s.duration, dt=s.dt, u=s.u,
+                       measurements=s.sensors or None, process_noise=s.process_noise, seed=s.seed,
+                       save_every=s.save_every, progress=progress, divergence="keep")
+    except SimulationDiverged as exc:
+        if exc.which == "plant":
+            raise StudyFailed(f"the plant itself diverged ({exc}): check x0, the inputs and the process noise") from exc
+        return _failed(name, desc, s, f"stopped: {exc}")
+    except NlobsError as exc:
+        if isinstance(exc, (InvalidArgumentError, DimensionError)) and "rate" in str(exc):
+            raise
+        return _failed(name, desc, s, f"stopped: {exc}")
+    return _outcome(name, desc, res, s, cert, region)
+
+
+def _failed(name: str, desc: str, s: _Setup, reason: str) -> ObserverOutcome:
+    """An observer whose batch stopped with an error: every run counts as diverged, the reason kept."""
+    return ObserverOutcome(name, None, desc, (math.nan,) * s.scenario.model.n, (math.nan,) * s.scenario.model.n,
+                           diverged_runs=tuple(DivergedRun(i, math.nan, reason) for i in range(s.runs)),
+                           run_rms=np.full(s.runs, np.nan))
+
+
+def _report(s: _Setup, outcomes: dict[str, ObserverOutcome], files: tuple[Path, ...]) -> ComparisonReport:
+    ran = [o for o in outcomes.values() if o.skipped is None]
+    if not ran:
+        verdict, msg = Verdict.NO_OBSERVER, f"{s.label}: none of the observers applies: " + "; ".join(
+            f"{o.name}: {o.skipped}" for o in outcomes.values())
+    elif all(len(o.diverged_runs) == s.runs for o in ran):
+        verdict, msg = Verdict.FAILED, f"{s.label}: every run of every observer diverged"
+    else:
+        verdict, msg = Verdict.OK, ""
+    model = s.scenario.model
+    return ComparisonReport(
+        model=model.name, states=tuple(model.states), units=tuple(s.scenario.unit(v) for v in model.states),
+        runs=s.runs, seed=s.seed, duration=s.duration, dt=s.dt, settle=s.settle, x0=tuple(float(v) for v in s.x0),
+        setup=s.describe, observers=outcomes, files=files, verdict=verdict, message=msg)
+
+
+def write_json(report: ComparisonReport, path: Path) -> Path:
+    """``report.to_dict()`` as JSON, atomically."""
+    return atomic_write_json(path, jsonable(report.to_dict()))
