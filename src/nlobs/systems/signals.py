@@ -66,7 +66,7 @@ def _shown(text: str) -> str:
 
 def _finite(name: str, value: Any) -> float:
     """``value`` as a finite real float, or a typed error naming ``name``."""
-    if isinstance(value, (bool, np.bool_)):
+    if isinstance(value, (bool, np.bool_, str, bytes)):  # text is read by parse_signal_spec, not float()
         raise InvalidArgumentError(f"{name}: expected a number, got {value!r}")
     try:
         v = float(real_scalar(name, value))
