@@ -325,12 +325,17 @@ class Piecewise(Signal):
 
     def __call__(self, t: Any) -> Any:
         times, values = self.times, self.values
-        if self.kind == "linear":
-            out = np.interp(t, times, values)
-            return out if isinstance(t, np.ndarray) else float(out)
-        k = np.searchsorted(times, t, side="right") - 1
-        out = values[np.maximum(k, 0)]
-        return out if isinstance(t, np.ndarray) else float(out)
+        if isinstance(t, np.ndarray):
+            if self.kind == "linear":
+                return np.interp(t, times, values)
+            return values[np.maximum(times.searchsorted(t, side="right") - 1, 0)]
+        k = int(times.searchsorted(t, side="right"))  # times[k - 1] <= t < times[k]
+        if k == 0:
+            return float(values[0])
+        if self.kind == "hold" or k == times.size or t == times[k - 1]:
+            return float(values[k - 1])
+        t0, v0 = float(times[k - 1]), float(values[k - 1])  # numpy.interp's formula, without its overhead
+        return (float(values[k]) - v0) / (float(times[k]) - t0) * (t - t0) + v0
 
     def describe(self) -> str:
         t, v = self.times, self.values
