@@ -474,6 +474,7 @@ def test_tables_from_toml() -> None:
     ({"kind": "expression", "expression": "y"}, "undeclared name"),
     ({"kind": "constant", "value": True}, "expected a number"),
     ({"kind": "constant", "value": [1]}, "expected a number"),
+    ({"kind": "constant", "value": "acos(2)"}, "expected a number, got 'acos\\(2\\)'"),
     ({"kind": "sine", "amplitude": 1, "frequency": -1}, "Sine.frequency: must be positive"),
     ({"kind": "piecewise", "times": [0, 0], "values": [1, 2]}, "strictly increasing"),
     ({"kind": "piecewise", "times": "0,1", "values": [1, 2]}, "expected a list of numbers"),
@@ -481,6 +482,19 @@ def test_tables_from_toml() -> None:
 def test_bad_tables_name_the_key(table: dict, message: str) -> None:  # type: ignore[type-arg]
     with pytest.raises(InvalidArgumentError, match=message):
         signal_from_table(table)
+
+
+def test_huge_and_infinite_numbers_are_not_finite() -> None:
+    for value in (10**400, 10**5000, "1e400", "-inf", 1e308 * 10):
+        with pytest.raises(NonFiniteError, match="value: must be finite"):
+            signal_from_table({"kind": "constant", "value": value})
+
+
+def test_describe_is_one_line() -> None:
+    for s in (Expression("sin(\n t)"), Sine(1, 2), Chirp(1, 0, 1, 2), Step(0, 1, 2), Constant(3),
+              Piecewise([0, 1], [2, 3], "linear")):
+        assert "\n" not in s.describe()
+    assert Expression("sin(\n t)").describe() == "expression sin( t)"
 
 
 def test_signal_text_is_never_evaluated(tmp_path: Path) -> None:

@@ -70,10 +70,12 @@ def _finite(name: str, value: Any) -> float:
         raise InvalidArgumentError(f"{name}: expected a number, got {value!r}")
     try:
         v = float(real_scalar(name, value))
+    except OverflowError:  # an integer beyond the range of a double
+        raise NonFiniteError(f"{name}: must be finite, got an integer beyond the range of a double") from None
     except (TypeError, ValueError) as exc:
         if isinstance(exc, InvalidArgumentError):
             raise
-        raise InvalidArgumentError(f"{name}: expected a number, got {value!r}") from None
+        raise InvalidArgumentError(f"{name}: expected a number, got {_shown(str(value))}") from None
     if not math.isfinite(v):
         raise NonFiniteError(f"{name}: must be finite, got {v!r}")
     return v
@@ -417,7 +419,7 @@ class Expression(Signal):
 
     def describe(self) -> str:
         params = ", ".join(f"{k} = {_fmt(v)}" for k, v in self.parameters.items())
-        return f"expression {self.text.strip()}" + (f" with {params}" if params else "")
+        return f"expression {' '.join(self.text.split())}" + (f" with {params}" if params else "")
 
     def to_dict(self) -> dict[str, Any]:
         return {"kind": "expression", "expression": self.text, "parameters": dict(self.parameters)}
@@ -655,7 +657,7 @@ def _number(name: str, value: Any, parameters: Mapping[str, float]) -> float:
         expr = expr.subs({psyms[k]: sp.Float(float(v)) for k, v in parameters.items()})
         if not expr.is_number:
             raise InvalidArgumentError(f"{name}: {_shown(s)} is not a number")
-        return _finite(name, float(expr))
+        return _finite(name, expr)  # e.g. acos(2) has no real value: refused
     return _finite(name, value)
 
 
