@@ -161,3 +161,68 @@ def prepare_output_dir(path: str | Path) -> Path:
     os.close(fd)
     os.unlink(probe)
     return folder
+
+
+def _size_text(n: int) -> str:
+    """``n`` bytes in words, e.g. ``"1 MiB"`` (exact multiples of KiB/MiB/GiB only; else ``"n bytes"``)."""
+    for unit, size in (("GiB", 1 << 30), ("MiB", 1 << 20), ("KiB", 1 << 10)):
+        if n >= size and n % size == 0:
+            return f"{n // size} {unit}"
+    return f"{n} bytes"
+
+
+def read_regular_text(path: str | Path, max_bytes: int, refuse: Callable[[str], Exception]) -> str:
+    """The UTF-8 text of the regular file ``path`` of at most ``max_bytes`` bytes, read without ever blocking.
+
+    ``os.stat`` first (a FIFO is never opened, a device such as ``/dev/zero`` never read), then the
+    file is opened with ``O_NONBLOCK`` and checked again with ``fstat`` (it may have been replaced in
+    between), and at most one byte more than the limit is read.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    max_bytes : int
+        The largest size accepted.
+    refuse : callable
+        ``refuse(reason)`` builds the exception raised (a typed error naming the file), e.g.
+        ``"not a regular file (a FIFO)"``, ``"file larger than 1048576 bytes (1 MiB)"``,
+        ``"file is not UTF-8 text (byte 17)"``, ``"cannot read file (No such file or directory)"``.
+    """
+    import stat
+
+    limit = f"file larger than {max_bytes} bytes ({_size_text(max_bytes)})"
+
+    def require_regular(st: os.stat_result) -> None:
+        mode = st.st_mode
+        if stat.S_ISREG(mode):
+            if st.st_size > max_bytes:
+                raise refuse(f"{limit}: {st.st_size} bytes")
+            return
+        kind = ("a directory" if stat.S_ISDIR(mode) else "a FIFO" if stat.S_ISFIFO(mode)
+                else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "a socket" if stat.S_ISSOCK(mode)
+                else "not a file")
+        raise refuse(f"not a regular file ({kind})")
+
+    try:
+        st = os.stat(path)
+    except (OSError, ValueError) as exc:
+        raise refuse(f"cannot read file ({getattr(exc, 'strerror', None) or exc})") from None
+    require_regular(st)
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
+                     | getattr(os, "O_BINARY", 0))
+    except OSError as exc:
+        raise refuse(f"cannot read file ({exc.strerror})") from None
+    try:
+        with os.fdopen(fd, "rb") as fh:
+            require_regular(os.fstat(fh.fileno()))
+            raw = fh.read(max_bytes + 1)
+    except OSError as exc:
+        raise refuse(f"cannot read file ({exc.strerror})") from None
+    if len(raw) > max_bytes:
+        raise refuse(limit)
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise refuse(f"file is not UTF-8 text (byte {exc.start})") from None

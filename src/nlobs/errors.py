@@ -60,6 +60,19 @@ class ModelFileError(ModelError):
         super().__init__(f"{where}: {reason}{shown}")
 
 
+class SignalFileError(ModelFileError):
+    """A file of sampled input signals (CSV) cannot be read or validated.
+
+    The message is one line, ``FILE:LINE: reason``, where the reason quotes the offending text
+    (e.g. ``u.csv:7: column 'tau': 'nan' is not a finite number``); the attributes are those of
+    :class:`ModelFileError`.
+    """
+
+    def __init__(self, path: str, line: int | None, text: str, reason: str) -> None:
+        super().__init__(path, line, "", reason)
+        self.text = text
+
+
 class DesignError(NlobsError):
     """Base class of gain-synthesis failures."""
 

@@ -5,6 +5,9 @@
 * :class:`SymbolicModel` (SymPy, compiled once), :class:`LinearSystem`, :class:`DiscreteUISystem`
   (the discrete-time model with unknown inputs of Khajenejad & Yong);
 * model files: :func:`load_model` (a ``.toml`` file or a shipped name), :func:`shipped_models`;
+* known input signals ``u(t)``: :class:`Constant`, :class:`Step`, :class:`Sine`, :class:`Chirp`,
+  :class:`Piecewise`, :class:`Expression`, stacked by :class:`InputSignals`; read from text by
+  :func:`parse_signal_spec`, :func:`signal_from_table` and :func:`read_signal_csv`;
 * the plant of Grip, Saberi & Johansen: :class:`NonlinearSubsystem` (Σ₁ / Σ₁*),
   :class:`LinearSubsystem` (Σ₂), :class:`InterconnectedPlant` (:func:`interconnected_plant`).
 
@@ -31,6 +34,19 @@ if TYPE_CHECKING:
     )
     from nlobs.systems.linear import LinearSystem
     from nlobs.systems.modelfile import load_model, resolve_model, shipped_models
+    from nlobs.systems.signals import (
+        Chirp,
+        Constant,
+        Expression,
+        InputSignals,
+        Piecewise,
+        Signal,
+        Sine,
+        Step,
+        parse_signal_spec,
+        read_signal_csv,
+        signal_from_table,
+    )
     from nlobs.systems.symbolic import CompiledModel, SymbolicModel
     from nlobs.systems.timebase import Continuous, Discrete, TimeBase
 
@@ -42,27 +58,40 @@ _LAZY: dict[str, str] = {
                      "interconnected_plant"), "nlobs.systems.interconnected"),
     "LinearSystem": "nlobs.systems.linear",
     **dict.fromkeys(("load_model", "resolve_model", "shipped_models"), "nlobs.systems.modelfile"),
+    **dict.fromkeys(("Chirp", "Constant", "Expression", "InputSignals", "Piecewise", "Signal", "Sine", "Step",
+                     "parse_signal_spec", "read_signal_csv", "signal_from_table"), "nlobs.systems.signals"),
     **dict.fromkeys(("CompiledModel", "SymbolicModel"), "nlobs.systems.symbolic"),
     **dict.fromkeys(("Continuous", "Discrete", "TimeBase"), "nlobs.systems.timebase"),
 }
 
 __all__ = [
+    "Chirp",
     "CompiledModel",
+    "Constant",
     "Continuous",
     "Discrete",
     "DiscreteUISystem",
+    "Expression",
+    "InputSignals",
     "InterconnectedPlant",
     "LinearSubsystem",
     "LinearSystem",
     "NonlinearSubsystem",
+    "Piecewise",
     "PlantModel",
+    "Signal",
+    "Sine",
+    "Step",
     "SymbolicModel",
     "TimeBase",
     "check_interconnection",
     "interconnected_plant",
     "load_model",
+    "parse_signal_spec",
+    "read_signal_csv",
     "resolve_model",
     "shipped_models",
+    "signal_from_table",
 ]
 
 

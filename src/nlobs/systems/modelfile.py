@@ -80,7 +80,6 @@ from __future__ import annotations
 
 import os
 import re
-import stat
 import tomllib
 from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
@@ -92,6 +91,7 @@ import numpy as np
 import sympy as sp
 from numpy.typing import NDArray
 
+from nlobs._io import read_regular_text
 from nlobs._validate import escape_unsafe, name_problem, unsafe_character
 from nlobs.errors import InvalidArgumentError, ModelError, ModelFileError, NlobsError
 from nlobs.systems.codegen import compile_matrix
@@ -373,45 +373,10 @@ def _read_text(p: Path) -> str:
 
     ``os.stat`` first (a FIFO is never opened, a device never read), then the
     file is opened with ``O_NONBLOCK`` and checked again with ``fstat`` (it may
-    have been replaced in between), and at most one byte more than the limit is read.
+    have been replaced in between), and at most one byte more than the limit is read
+    (:func:`nlobs._io.read_regular_text`).
     """
-    def refuse(reason: str) -> ModelFileError:
-        return ModelFileError(str(p), None, "", reason)
-
-    try:
-        st = os.stat(p)
-    except (OSError, ValueError) as exc:
-        raise refuse(f"cannot read file ({getattr(exc, 'strerror', None) or exc})") from None
-    _require_regular(st, refuse)
-    try:
-        fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
-                     | getattr(os, "O_BINARY", 0))
-    except OSError as exc:
-        raise refuse(f"cannot read file ({exc.strerror})") from None
-    try:
-        with os.fdopen(fd, "rb") as fh:
-            _require_regular(os.fstat(fh.fileno()), refuse)
-            raw = fh.read(MAX_FILE_BYTES + 1)
-    except OSError as exc:
-        raise refuse(f"cannot read file ({exc.strerror})") from None
-    if len(raw) > MAX_FILE_BYTES:
-        raise refuse(f"file larger than {MAX_FILE_BYTES} bytes (1 MiB)")
-    try:
-        return raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise refuse(f"file is not UTF-8 text (byte {exc.start})") from None
-
-
-def _require_regular(st: os.stat_result, refuse: Callable[[str], ModelFileError]) -> None:
-    mode = st.st_mode
-    if stat.S_ISREG(mode):
-        if st.st_size > MAX_FILE_BYTES:
-            raise refuse(f"file larger than {MAX_FILE_BYTES} bytes (1 MiB): {st.st_size} bytes")
-        return
-    kind = ("a directory" if stat.S_ISDIR(mode) else "a FIFO" if stat.S_ISFIFO(mode)
-            else "a device" if stat.S_ISCHR(mode) or stat.S_ISBLK(mode) else "a socket" if stat.S_ISSOCK(mode)
-            else "not a file")
-    raise refuse(f"not a regular file ({kind})")
+    return read_regular_text(p, MAX_FILE_BYTES, lambda reason: ModelFileError(str(p), None, "", reason))
 
 
 def _string(src: _Source, data: Mapping[str, Any], key: str, *, default: str) -> str:
