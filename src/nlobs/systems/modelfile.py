@@ -943,9 +943,9 @@ def _units(src: _Source, table: Mapping[str, Any], model: Model) -> dict[str, st
     names = {*model.states, *model.inputs, *model.outputs}
     out = {}
     for k, v in table.items():
-        if k not in names:
-            raise src.table_error("units", k, f"units: {k!r} is not a state, input or output of the model "
-                                  f"(known: {', '.join(sorted(names))})", k)
+        if k not in names and k != "t":
+            raise src.table_error("units", k, f"units: {k!r} is not a state, input or output of the model, nor t "
+                                  f"(time) (known: {', '.join(sorted(names))})", k)
         if not isinstance(v, str) or len(v) > MAX_UNIT_LENGTH or unsafe_character(v, one_line=True):
             raise src.table_error("units", k, f"units.{k} must be one line of text of at most {MAX_UNIT_LENGTH} "
                                   "characters", repr(v)[:80])

@@ -4,7 +4,7 @@ A model file may carry, besides the model, the tables that say how it is measure
 (all optional; a file without them behaves as before: exact, continuous measurement of every
 output, zero input, no process noise)::
 
-    units = { theta = "rad", omega = "rad/s", tau = "N m", y = "rad" }
+    units = { theta = "rad", omega = "rad/s", tau = "N m", y = "rad" }   # t = "h": time unit (default s)
 
     [sensors.encoder]            # one table per measurement group
     outputs = ["y"]              # every output in exactly one group
@@ -102,6 +102,11 @@ class Scenario:
     units: Mapping[str, str] = field(default_factory=dict)
     defaults: RunDefaults = field(default_factory=RunDefaults)
     path: str = ""
+
+    @property
+    def time_unit(self) -> str:
+        """The unit of time (``units.t``; ``"s"`` when not given). Rates are per this unit."""
+        return str(self.units.get("t", "s")) or "s"
 
     def unit(self, name: str) -> str:
         """The unit of a state, input or output (``""`` when the file gives none)."""

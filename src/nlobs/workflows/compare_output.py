@@ -88,7 +88,7 @@ def states_figure(report: ComparisonReport, scenario: Scenario) -> Any:
         ax.set_ylabel(scenario.label(name))
         ax.grid(True, alpha=0.3)
         ax.legend(loc="upper right", fontsize="small")
-    axes[-1].set_xlabel("time [s]")
+    axes[-1].set_xlabel(f"time [{report.time_unit}]")
     fig.suptitle(f"{report.model}: run 0 of {report.runs}, true (black) and estimated (dashed) states; "
                  "outputs with their samples", fontsize="medium")
     return fig
@@ -113,10 +113,11 @@ def error_figure(report: ComparisonReport) -> Any:
                     label=f"{o.name} (median of {int(ok.sum())} runs)")
         ax.fill_between(r.t, np.where(q10 > 0, q10, np.nan), np.where(q90 > 0, q90, np.nan), color=colors[o.name],
                         alpha=0.15, lw=0)
-    ax.axvline(report.settle, color="grey", ls=":", lw=1.0, label=f"settling time {report.settle:g} s")
+    ax.axvline(report.settle, color="grey", ls=":", lw=1.0,
+               label=f"settling time {report.settle:g} {report.time_unit}")
     units = {u for u in report.units if u}
     unit = f" [{units.pop()}]" if len(units) == 1 else ""
-    ax.set_xlabel("time [s]")
+    ax.set_xlabel(f"time [{report.time_unit}]")
     ax.set_ylabel(f"‖x̂ − x‖{unit}")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(loc="best", fontsize="small")
@@ -138,7 +139,7 @@ def boxplot_figure(report: ComparisonReport) -> Any:
             ax.set_yscale("log")
     units = {u for u in report.units if u}
     unit = f" [{units.pop()}]" if len(units) == 1 else ""
-    ax.set_ylabel(f"RMS ‖x̂ − x‖ after {report.settle:g} s{unit}")
+    ax.set_ylabel(f"RMS ‖x̂ − x‖ after {report.settle:g} {report.time_unit}{unit}")
     ax.grid(True, which="both", axis="y", alpha=0.3)
     ax.set_title(f"{report.model}: RMS error over {report.runs} Monte Carlo runs", fontsize="medium")
     return fig
