@@ -470,7 +470,10 @@ def _nonlinear(src: _Source, data: Mapping[str, Any], name: str, time: TimeBase)
         raise src.error("[dynamics] must be a table", key="dynamics")
     unknown = sorted(set(dyn) - _DYN_KEYS)
     if unknown:
-        raise src.error(f"unknown key in [dynamics] (allowed: {', '.join(sorted(_DYN_KEYS))})", key=unknown[0], text=unknown[0])
+        hint = (f"; '{unknown[0]}' belongs before the first [table] (TOML puts a key after [dynamics] inside it)"
+                if unknown[0] in _TOP_KEYS else "")
+        raise src.error(f"unknown key in [dynamics] (allowed: {', '.join(sorted(_DYN_KEYS))}){hint}", key=unknown[0],
+                        text=unknown[0])
     if ("f" in dyn) == ("rhs" in dyn):
         raise src.error("[dynamics] needs exactly one of 'f' (input-affine, with optional 'g') or 'rhs' (general)", key="dynamics")
     if "h" not in dyn:
@@ -944,11 +947,11 @@ def _units(src: _Source, table: Mapping[str, Any], model: Model) -> dict[str, st
     out = {}
     for k, v in table.items():
         if k not in names and k != "t":
-            raise src.table_error("units", k, f"units: {k!r} is not a state, input or output of the model, nor t "
-                                  f"(time) (known: {', '.join(sorted(names))})", k)
+            raise src.error(f"units: {k!r} is not a state, input or output of the model, nor t "
+                            f"(time) (known: {', '.join(sorted(names))})", key=k, text=k)
         if not isinstance(v, str) or len(v) > MAX_UNIT_LENGTH or unsafe_character(v, one_line=True):
-            raise src.table_error("units", k, f"units.{k} must be one line of text of at most {MAX_UNIT_LENGTH} "
-                                  "characters", repr(v)[:80])
+            raise src.error(f"units.{k} must be one line of text of at most {MAX_UNIT_LENGTH} characters", key=k,
+                            text=repr(v)[:80])
         out[k] = v
     return out
 

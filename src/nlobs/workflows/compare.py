@@ -52,7 +52,7 @@ from numpy.typing import ArrayLike
 
 from nlobs._io import atomic_write_json, jsonable
 from nlobs._typing import Array
-from nlobs._validate import as_count, positive
+from nlobs._validate import as_count, as_covariance, positive
 from nlobs.errors import (
     AssumptionViolated,
     DesignError,
@@ -365,9 +365,7 @@ def _setup(scenario: Scenario, label: str, *, runs: int | None, duration: float 
         p0_std = np.maximum(std, 1e-3 * np.maximum(1.0, np.abs(x0_)))
         init_text = f"x̂0 = x0 + N(0, diag(std²)), std = {np.asarray(std).tolist()}"
     sensors = _sensor_override(model, rate, noise_std, scenario.sensors)
-    q = scenario.process_noise if process_noise is None else np.asarray(process_noise, dtype=float)
-    if q is not None and q.ndim == 1:
-        q = np.diag(q**2)
+    q = scenario.process_noise if process_noise is None else _noise_matrix("process_noise", process_noise, n)
     u, u_text = _input(scenario, inputs)
     u0 = np.asarray(u(0.0) if callable(u) else u, dtype=float).reshape(model.m) if model.m else np.zeros(0)
     region = as_region(box, n) if box is not None else (
@@ -389,6 +387,17 @@ def _setup(scenario: Scenario, label: str, *, runs: int | None, duration: float 
     plant = model.compile() if isinstance(model, SymbolicModel) else model
     return _Setup(scenario, label, plant, np.asarray(x0_, dtype=float), x_hat, np.asarray(p0_std, dtype=float), dur,
                   step, float(settle_), runs_, int(seed), u, u0, sensors, q, region, save_every, describe)
+
+
+def _noise_matrix(name: str, value: ArrayLike, n: int) -> Array:
+    """A covariance from standard deviations per state (``diag(std²)``) or an ``(n, n)`` symmetric PSD matrix."""
+    q = np.asarray(value, dtype=float)
+    if q.ndim == 1:
+        if q.shape != (n,) or not np.all(np.isfinite(q)) or np.any(q < 0):
+            raise InvalidArgumentError(f"{name}: expected {n} finite, non-negative standard deviations (one per "
+                                       f"state), got {q.tolist()}")
+        return np.diag(q**2)
+    return as_covariance(name, q, n)
 
 
 def _describe_sensor(g: MeasurementGroup, time_unit: str = "s") -> str:
@@ -520,9 +529,7 @@ def _design_kalman(s: _Setup, kind: str, filter_q: ArrayLike | None) -> tuple[An
         raise _Skip(f"the measurement covariance R is singular (sensor {', '.join(zero) or '?'} has zero noise); "
                     "a Kalman filter needs R positive definite")
     if filter_q is not None:
-        Q = np.asarray(filter_q, dtype=float)
-        Q = np.diag(Q**2) if Q.ndim == 1 else Q
-        q_text = "given"
+        Q, q_text = _noise_matrix("filter_q", filter_q, model.n), "given"
     elif s.process_noise is not None and np.any(s.process_noise):
         Q, q_text = s.process_noise, "the process noise"
     else:
