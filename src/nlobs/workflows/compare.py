@@ -41,6 +41,7 @@ non-finite or its error exceeded :data:`BLOWUP` times ``1 + max‖x‖`` of its 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -136,6 +137,8 @@ class ObserverOutcome:
         RMS of ``‖e‖`` after the settling time, per run (NaN for a diverged run): the box plot.
     result : SimulationResult or None
         The trajectories (not part of :meth:`to_dict`).
+    observer : Observer or None
+        The observer that was run, with its gains (not part of :meth:`to_dict`).
     """
 
     name: str
@@ -152,6 +155,7 @@ class ObserverOutcome:
     certificate: Mapping[str, Any] | None = None
     run_rms: Array = field(default_factory=lambda: np.zeros(0))
     result: SimulationResult | None = None
+    observer: Any = None
 
     def to_dict(self) -> dict[str, Any]:
         if self.skipped is not None:
@@ -340,7 +344,8 @@ def _setup(scenario: Scenario, label: str, *, runs: int | None, duration: float 
     if steps > MAX_SIMULATION_STEPS:
         raise InvalidArgumentError(f"--duration {dur:g} / --dt {step:g} is {steps:.3g} steps; at most "
                                    f"{MAX_SIMULATION_STEPS:.0e} (raise --dt or shorten --duration)")
-    settle_ = settle if settle is not None else (d.settle if d.settle is not None else 0.25 * dur)
+    settle_ = settle if settle is not None else (
+        d.settle if d.settle is not None and d.settle < dur else 0.25 * dur)  # the file's, unless past a shorter run
     settle_ = positive("settle", settle_, allow_zero=True)
     if settle_ >= dur:
         raise InvalidArgumentError(f"settle: {settle_:g} s is not before the end of the run ({dur:g} s)")
@@ -517,8 +522,6 @@ def _design_luenberger(s: _Setup, alpha: float) -> tuple[Any, str, dict[str, Any
 
 
 def _design_kalman(s: _Setup, kind: str, filter_q: ArrayLike | None) -> tuple[Any, str, dict[str, Any] | None]:
-    from nlobs.observers import EKF, UKF
-
     model = s.scenario.model
     if not s.sensors:
         raise _Skip("a Kalman filter needs sampled, noisy measurements: add [sensors] to the model file, or give "
@@ -535,6 +538,8 @@ def _design_kalman(s: _Setup, kind: str, filter_q: ArrayLike | None) -> tuple[An
     else:
         Q, q_text = DEFAULT_FILTER_Q * np.eye(model.n), f"{DEFAULT_FILTER_Q:g} I (no process noise given)"
     P0 = np.diag(s.p0_std**2)
+    from nlobs.observers import EKF, UKF
+
     cls = EKF if kind == "ekf" else UKF
     try:
         obs = cls(s.plant, Q, R, P0, name=kind.upper())
@@ -776,7 +781,7 @@ def _run_one(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None, pro
         if isinstance(exc, (InvalidArgumentError, DimensionError)) and "rate" in str(exc):
             raise
         return _failed(name, desc, s, f"stopped: {exc}")
-    return _outcome(name, desc, res, s, cert, region)
+    return dataclasses.replace(_outcome(name, desc, res, s, cert, region), observer=obs)
 
 
 def _failed(name: str, desc: str, s: _Setup, reason: str) -> ObserverOutcome:
