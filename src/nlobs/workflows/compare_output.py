@@ -134,7 +134,12 @@ def boxplot_figure(report: ComparisonReport) -> Any:
     ran = [o for o in _ran(report) if np.isfinite(o.run_rms).any()]
     data = [o.run_rms[np.isfinite(o.run_rms)] for o in ran]
     if data:
-        ax.boxplot(data, tick_labels=[f"{o.name}\n({len(o.diverged_runs)} diverged)" for o in ran])
+        colors = _colors(report)
+        parts = ax.boxplot(data, tick_labels=[f"{o.name}\n({len(o.diverged_runs)} diverged)" for o in ran],
+                           patch_artist=True, medianprops={"color": "black"})
+        for box, o in zip(parts["boxes"], ran):
+            box.set_facecolor(colors[o.name])
+            box.set_alpha(0.6)
         if all(np.all(d > 0) for d in data):
             ax.set_yscale("log")
     units = {u for u in report.units if u}
