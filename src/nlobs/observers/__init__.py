@@ -6,12 +6,17 @@
   (``pinv.py``);
 * :class:`LuenbergerObserver`, :class:`DiscreteLipschitzObserver`, :class:`UnknownInputEKF` and the
   set-valued observer of Khajenejad & Yong (``luenberger.py``, ``lipschitz.py``, ``kalman.py``,
-  ``setvalued.py``).
+  ``setvalued.py``);
+* :class:`EKF` and :class:`UKF` — the extended (Jazwinski) and unscented (Särkkä; Julier & Uhlmann)
+  Kalman filters for any plant, continuous-discrete or discrete (``ekf.py``, ``ukf.py``, their shared
+  state and correction in ``gaussian.py``).
 """
 
 from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
 from nlobs.observers.cascade import CascadeObserver
 from nlobs.observers.drift import DriftObserver, SingularObservabilityError
+from nlobs.observers.ekf import EKF
+from nlobs.observers.gaussian import FilterState
 from nlobs.observers.kalman import GaussianState, UnknownInputEKF, joseph_update
 from nlobs.observers.lipschitz import DiscreteLipschitzObserver
 from nlobs.observers.luenberger import LuenbergerObserver
@@ -26,6 +31,7 @@ from nlobs.observers.setvalued import (
     printed_radii,
     sound_radii,
 )
+from nlobs.observers.ukf import UKF
 
 __all__ = [
     "AssumptionWarning",
@@ -36,6 +42,8 @@ __all__ = [
     "Diagnosing",
     "DiscreteLipschitzObserver",
     "DriftObserver",
+    "EKF",
+    "FilterState",
     "GaussianState",
     "GivenGain",
     "LuenbergerObserver",
@@ -47,6 +55,7 @@ __all__ = [
     "SetValuedObserver",
     "SetValuedState",
     "SingularObservabilityError",
+    "UKF",
     "UnknownInputEKF",
     "input_error_map",
     "joseph_update",

@@ -41,7 +41,7 @@ class GaussianState:
     P: Array
 
 
-def joseph_update(P: Array, H: Array, R: Array, innovation: Array) -> tuple[Array, Array]:
+def joseph_update(P: Array, H: Array, R: Array, innovation: Array, *, nis: bool = False) -> tuple[Array, ...]:
     """Kalman correction ``K ν`` and the Joseph-form covariance, batched (the one implementation in nlobs).
 
     Parameters
@@ -50,26 +50,45 @@ def joseph_update(P: Array, H: Array, R: Array, innovation: Array) -> tuple[Arra
         Prior covariance.
     H : ndarray, shape (q, n) or (..., q, n)
         Measurement matrix (may vary along the batch).
-    R : ndarray, shape (q, q)
-        Measurement covariance.
+    R : ndarray, shape (q, q) or (..., q, q)
+        Measurement covariance (may vary along the batch: the unscented filter's effective one).
     innovation : ndarray, shape (..., q)
+    nis : bool
+        Also return the normalised innovation squared ``νᵀ S⁻¹ ν`` (from the same solve with ``S``).
 
     Returns
     -------
     dx : ndarray, shape (..., n)
-        ``K ν`` with ``K = P Hᵀ (H P Hᵀ + R)⁻¹``.
+        ``K ν`` with ``K = P Hᵀ S⁻¹``, ``S = H P Hᵀ + R``.
     P_new : ndarray, shape (..., n, n)
         ``(I − KH) P (I − KH)ᵀ + K R Kᵀ``, symmetrised: positive semi-definite for any
         gain under rounding, unlike ``(I − KH) P``.
+    nis : ndarray, shape (...)
+        Only with ``nis=True``: ``νᵀ S⁻¹ ν``.
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        ``S`` is singular (the caller names the time).
     """
     PHt = P @ np.swapaxes(H, -1, -2)
     S = H @ PHt + R
-    # K = P Hᵀ S⁻¹  ⇔  Kᵀ = S⁻¹ H P (S, P symmetric)
-    K = np.swapaxes(np.linalg.solve(S, np.swapaxes(PHt, -1, -2)), -1, -2)
+    # K = P Hᵀ S⁻¹  ⇔  Kᵀ = S⁻¹ H P (S, P symmetric); with nis, ν is one more right-hand side of the same solve
+    HP = np.swapaxes(PHt, -1, -2)
+    if nis:
+        batch = np.broadcast_shapes(HP.shape[:-2], innovation.shape[:-1], S.shape[:-2])
+        rhs = np.concatenate([np.broadcast_to(HP, batch + HP.shape[-2:]),
+                              np.broadcast_to(innovation, batch + innovation.shape[-1:])[..., None]], axis=-1)
+        sol = np.linalg.solve(S, rhs)
+        K = np.swapaxes(sol[..., :-1], -1, -2)
+        value = np.einsum("...i,...i->...", innovation, sol[..., -1])
+    else:
+        K = np.swapaxes(np.linalg.solve(S, HP), -1, -2)
     IKH = np.eye(P.shape[-1]) - K @ H
     P_new = IKH @ P @ np.swapaxes(IKH, -1, -2) + K @ R @ np.swapaxes(K, -1, -2)
     P_new = 0.5 * (P_new + np.swapaxes(P_new, -1, -2))
-    return np.einsum("...ij,...j->...i", K, innovation), P_new
+    dx = np.einsum("...ij,...j->...i", K, innovation)
+    return (dx, P_new, value) if nis else (dx, P_new)
 
 
 @dataclass(frozen=True, eq=False)

@@ -99,3 +99,13 @@ class LinearSystem:
     def output(self, t: float, x: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
         """``C x + D u`` for batches, shape ``(..., p)``."""
         return x @ self.C.T + u @ self.D.T
+
+    def rhs_jacobian_x(self, t: float, x: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``∂(A x + B u)/∂x = A``, broadcast to the batch, shape ``(..., n, n)`` (read-only)."""
+        batch = x.shape[:-1] if np.ndim(u) <= 1 else np.broadcast_shapes(x.shape[:-1], np.shape(u)[:-1])
+        return np.broadcast_to(self.A, (*batch, *self.A.shape)) if batch else self.A
+
+    def output_jacobian_x(self, t: float, x: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``∂(C x + D u)/∂x = C``, broadcast to the batch, shape ``(..., p, n)`` (read-only)."""
+        batch = x.shape[:-1] if np.ndim(u) <= 1 else np.broadcast_shapes(x.shape[:-1], np.shape(u)[:-1])
+        return np.broadcast_to(self.C, (*batch, *self.C.shape)) if batch else self.C
