@@ -19,6 +19,7 @@ Noise conventions
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -96,6 +97,7 @@ class GaussianFilter:
     time: TimeBase = field(init=False)
     n: int = field(init=False)
     p: int = field(init=False)
+    discrete: bool = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
         plant = self.plant
@@ -108,6 +110,7 @@ class GaussianFilter:
         object.__setattr__(self, "time", plant.time)
         object.__setattr__(self, "n", n)
         object.__setattr__(self, "p", p)
+        object.__setattr__(self, "discrete", bool(plant.time.is_discrete))
         object.__setattr__(self, "Q", checked_covariance("Q", self.Q, n, definite=False))
         object.__setattr__(self, "R", checked_covariance("R", self.R, p, definite=True))
         object.__setattr__(self, "P0", checked_covariance("P0", self.P0, n, definite=False))
@@ -163,11 +166,12 @@ class GaussianFilter:
         SimulationDiverged
             The innovation covariance is singular or not finite.
         """
-        mask = np.asarray(fresh, dtype=bool)
+        mask = fresh if type(fresh) is np.ndarray and fresh.dtype == np.bool_ else np.asarray(fresh, dtype=bool)
         if mask.shape != (self.p,):
             raise DimensionError(f"fresh: expected shape ({self.p},), got {mask.shape}")
-        y = np.asarray(y, dtype=float)
-        if mask.all():
+        if type(y) is not np.ndarray or y.dtype != np.float64:
+            y = np.asarray(y, dtype=float)
+        if np.count_nonzero(mask) == self.p:
             rows: Array | None = None
             ys = y
         else:
@@ -175,15 +179,17 @@ class GaussianFilter:
             if rows.size == 0:
                 return z
             ys = y[..., rows]
-        ok = np.isfinite(ys)
+        # one run: Python's isfinite on the few values is cheaper than np.isfinite(...).all()
+        finite = all(map(math.isfinite, ys.tolist())) if ys.ndim == 1 else bool(np.isfinite(ys).all())
         try:
-            if ok.all():
+            if finite:
                 x, P, nis = self._update(t, z.x, z.P, u, ys, rows)
             else:
-                x, P, nis = self._update_missing(t, z, u, ys, ok, np.arange(self.p) if rows is None else rows)
+                x, P, nis = self._update_missing(t, z, u, ys, np.isfinite(ys),
+                                                 np.arange(self.p) if rows is None else rows)
         except np.linalg.LinAlgError as exc:
             raise self._diverged(t, "the innovation covariance is singular", exc) from None
-        if not np.isfinite(nis).all():
+        if not (math.isfinite(nis) if nis.ndim == 0 else np.isfinite(nis).all()):
             raise self._diverged(t, "the innovation covariance or the innovation is not finite")
         return FilterState(x=x, P=P, nis=nis)
 

@@ -165,11 +165,11 @@ class UKF(GaussianFilter):
         FX = self.plant.rhs(t, X, self._with_points(u, X))
         m = np.einsum("l,...ln->...n", self.wm, FX)
         dF = FX - m[..., None, :]
-        if self.time.is_discrete:
+        if self.discrete:
             P = np.swapaxes(dF * self.wc[:, None], -1, -2) @ dF + self.Q
             return FilterState(x=m, P=symmetrised(P), nis=z.nis)
         A = np.swapaxes((X - z.x[..., None, :]) * self.wc[:, None], -1, -2) @ dF  # Σ w_c (𝒳 − m)(f − f̄)ᵀ
-        return FilterState(x=m, P=A + np.swapaxes(A, -1, -2) + self.Q, nis=np.zeros_like(z.nis))
+        return FilterState(x=m, P=A + np.swapaxes(A, -1, -2) + self.Q, nis=np.zeros(np.shape(z.nis)))
 
     def _update(self, t: float, x: Array, P: Array, u: Array, y: Array, rows: Any) -> tuple[Array, Array, Array]:
         X = self.sigma_points(x, P)
