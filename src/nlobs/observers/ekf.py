@@ -25,7 +25,7 @@ import numpy as np
 
 from nlobs._typing import Array
 from nlobs.errors import InvalidArgumentError
-from nlobs.observers.gaussian import FilterState, GaussianFilter
+from nlobs.observers.gaussian import FilterState, GaussianFilterBase
 from nlobs.observers.kalman import joseph_update
 
 __all__ = ["EKF"]
@@ -34,7 +34,7 @@ _JACOBIANS = ("rhs_jacobian_x", "output_jacobian_x")
 
 
 @dataclass(frozen=True, eq=False)
-class EKF(GaussianFilter):
+class EKF(GaussianFilterBase):
     r"""Extended Kalman filter (continuous-discrete for a continuous plant, discrete otherwise).
 
     Parameters

@@ -1,8 +1,8 @@
 r"""What the EKF and the UKF of nlobs share: their state, their checked covariances and the masked correction.
 
 :class:`FilterState` is the state of both filters (mean, covariance and the last normalised innovation
-squared). :class:`GaussianFilter` holds what they have in common — the plant, ``Q``, ``R``, ``P0``,
-``init``/``estimate``/``diagnostics`` and :meth:`GaussianFilter.correct`, which selects the rows of
+squared). :class:`GaussianFilterBase` holds what they have in common — the plant, ``Q``, ``R``, ``P0``,
+``init``/``estimate``/``diagnostics`` and :meth:`GaussianFilterBase.correct`, which selects the rows of
 the fresh outputs, skips the missing samples of each batch member (a non-finite ``y`` at a fresh row)
 and hands each group of members with the same rows to the filter's own ``_update`` (the EKF's
 linearisation or the UKF's unscented transform, both ending in
@@ -32,7 +32,7 @@ from nlobs.errors import DimensionError, InvalidArgumentError, SimulationDiverge
 from nlobs.systems.base import PlantModel
 from nlobs.systems.timebase import Continuous, Discrete, TimeBase
 
-__all__ = ["FilterState", "GaussianFilter", "checked_covariance"]
+__all__ = ["FilterState", "GaussianFilterBase", "checked_covariance"]
 
 
 @dataclass(frozen=True)
@@ -85,7 +85,7 @@ def symmetrised(M: Array) -> Array:
 
 
 @dataclass(frozen=True, eq=False)
-class GaussianFilter:
+class GaussianFilterBase:
     """Common part of the EKF and the UKF (module docstring); not an observer by itself (no ``rhs``)."""
 
     plant: PlantModel

@@ -41,7 +41,7 @@ import numpy as np
 from nlobs._typing import Array
 from nlobs._validate import in_range, positive
 from nlobs.errors import InvalidArgumentError
-from nlobs.observers.gaussian import FilterState, GaussianFilter, symmetrised
+from nlobs.observers.gaussian import FilterState, GaussianFilterBase, symmetrised
 from nlobs.observers.kalman import joseph_update
 
 __all__ = ["UKF", "psd_sqrt", "sigma_weights"]
@@ -84,7 +84,7 @@ def psd_sqrt(P: Array) -> Array:
 
 
 @dataclass(frozen=True, eq=False)
-class UKF(GaussianFilter):
+class UKF(GaussianFilterBase):
     r"""Unscented Kalman filter (continuous-discrete of Särkkä (2007) for a continuous plant, discrete otherwise).
 
     Parameters
