@@ -73,13 +73,13 @@ class EKF(GaussianFilterBase):
     name: str = field(default="EKF", kw_only=True)
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         missing = [m for m in _JACOBIANS if not callable(getattr(self.plant, m, None))]
         if missing:
             raise InvalidArgumentError(
                 f"plant: the EKF needs the Jacobian{'s' if len(missing) > 1 else ''} "
                 f"{', '.join(f'{m}(t, x, u)' for m in missing)}, which {type(self.plant).__name__} lacks "
                 "(a compiled SymbolicModel and a LinearSystem have them; the UKF needs none)")
-        super().__post_init__()
 
     def rhs(self, t: float, z: FilterState, u: Array, y: Array) -> FilterState:
         """Time derivative of ``(x̂, P)`` (continuous plant) or the prediction (discrete plant)."""
