@@ -64,8 +64,8 @@ def test_discrete_linear_equals_filterpy(cls: type) -> None:
     filt = cls(LinearSystem(A, B, C, time=Discrete(0.1)), Q, R, P0, record_covariance=True)
     res = run_observer(filt, 0.1 * np.arange(K), x_hat0=x_hat0, u=us, y=ys)
     want_x, want_P = _filterpy(A, B, C, Q, R, P0, x_hat0, us, ys)
-    np.testing.assert_allclose(res.x_hat, want_x, rtol=0, atol=1e-10)
-    np.testing.assert_allclose(res.extras["P"], want_P, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(res.x_hat, want_x, rtol=0, atol=1e-10)  # measured 1.8e-15 (EKF), 2.7e-15 (UKF)
+    np.testing.assert_allclose(res.extras["P"], want_P, rtol=0, atol=1e-10)  # 6.9e-17, 1.4e-15
     np.testing.assert_allclose(res.extras["P_diag"], np.diagonal(want_P, axis1=1, axis2=2), rtol=0, atol=1e-10)
 
 
@@ -112,8 +112,8 @@ def _continuous_difference(cls: type, dt: float) -> float:
 def test_continuous_linear_converges_at_fourth_order_to_the_exact_discretisation(cls: type) -> None:
     d1, d2, d3 = (_continuous_difference(cls, dt) for dt in (1e-2, 5e-3, 1e-3))
     assert d1 / d2 > 10.0  # RK4: 2⁴ = 16 per halving (measured 15.5 for both filters)
-    assert d3 < 5e-10  # measured 1.4e-11 (EKF and UKF)
-    assert d1 < 5e-7  # measured 2.1e-7
+    assert d3 < 2e-10  # measured 1.9e-11 (EKF and UKF)
+    assert d1 < 5e-7  # measured 1.9e-7 (at dt = 5e-3: 1.2e-8)
 
 
 # ----------------------------------------------------------------------------- 3. NEES and NIS
@@ -164,8 +164,9 @@ def test_nees_and_nis_are_consistent_on_a_pendulum(cls: type) -> None:
 
     For a consistent filter each sample time is inside with probability 0.95 (the times are correlated,
     so the fraction scatters more than a binomial one would); 85 % leaves room for that scatter and for
-    the small linearisation error of a 50 ms step of a pendulum swinging ±0.6 rad. Measured: NEES 0.94
-    (EKF), 0.95 (UKF); NIS 0.96 (EKF), 0.96 (UKF).
+    the small linearisation error of a 50 ms step of a pendulum swinging ±0.6 rad. Measured: NEES 0.91,
+    NIS 0.98 (EKF and UKF alike); over 20 other noise draws the smallest fraction was 0.905 and the
+    mean 0.944 (NEES), 0.92 and 0.947 (NIS).
     """
     nees, nis = _monte_carlo(cls)
     assert _inside(nees, 200, 2) >= 0.85
