@@ -93,10 +93,10 @@ class EKF(GaussianFilterBase):
             P_new = FP @ F.mT if self.discrete else FP + FP.mT
         P_new += self.Q
         if self.discrete:
-            P_new = P_new + P_new.mT  # F P Fᵀ, unlike F P + (F P)ᵀ, is not symmetric to the last bit
+            P_new = P_new + P_new.mT.copy()  # F P Fᵀ, unlike F P + (F P)ᵀ, is not symmetric to the last bit
             P_new *= 0.5
-            return FilterState(x=self.plant.rhs(t, x, u), P=P_new, nis=z.nis)
-        return FilterState(x=self.plant.rhs(t, x, u), P=P_new, nis=np.zeros(np.shape(z.nis)))
+            return FilterState(self.plant.rhs(t, x, u), P_new, z.nis)
+        return FilterState(self.plant.rhs(t, x, u), P_new, np.zeros(np.shape(z.nis)))
 
     def _update(self, t: float, x: Array, P: Array, u: Array, y: Array, rows: Any) -> tuple[Array, Array, Array]:
         h = self.plant.output(t, x, u)

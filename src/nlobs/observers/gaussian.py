@@ -47,8 +47,8 @@ class FilterState:
         Covariance.
     nis : ndarray, shape (...)
         Normalised innovation squared ``νᵀ S⁻¹ ν`` of the last correction of each member (0 before the
-        first one; kept by a member that skipped a missing sample). Constant between samples (its
-        time derivative is zero).
+        first one; kept by a member that skipped a missing sample); a NumPy ``float64`` scalar for a
+        single run after a correction. Constant between samples (its time derivative is zero).
     """
 
     x: Array
@@ -171,7 +171,7 @@ class GaussianFilterBase:
             raise DimensionError(f"fresh: expected shape ({self.p},), got {mask.shape}")
         if type(y) is not np.ndarray or y.dtype != np.float64:
             y = np.asarray(y, dtype=float)
-        if np.count_nonzero(mask) == self.p:
+        if all(mask.tolist()):  # cheaper than mask.all() for the few outputs of a sensor set
             rows: Array | None = None
             ys = y
         else:
@@ -191,7 +191,7 @@ class GaussianFilterBase:
             raise self._diverged(t, "the innovation covariance is singular", exc) from None
         if not (math.isfinite(nis) if nis.ndim == 0 else np.isfinite(nis).all()):
             raise self._diverged(t, "the innovation covariance or the innovation is not finite")
-        return FilterState(x=x, P=P, nis=nis)
+        return FilterState(x, P, nis)
 
     def _update_missing(self, t: float, z: FilterState, u: Array, ys: Array, ok: BoolArray,
                         rows: Array) -> tuple[Array, Array, Array]:

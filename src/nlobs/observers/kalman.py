@@ -125,12 +125,12 @@ def _joseph_one(P: Array, H: Array, R: Array, innovation: Array, nis: bool) -> t
     K = PHt.dot(Sinv)
     IKH = _eye(P.shape[0]) - K.dot(H)
     P_new = IKH.dot(P).dot(IKH.T) + K.dot(R).dot(K.T)
-    P_new = P_new + P_new.T
+    P_new = P_new + P_new.T.copy()  # adding a contiguous copy is cheaper than adding the strided view
     P_new *= 0.5
     w = Sinv.dot(innovation)  # S⁻¹ ν: K ν = P Hᵀ S⁻¹ ν and the NIS νᵀ S⁻¹ ν
     dx = PHt.dot(w)
     if nis:
-        return dx, P_new, np.asarray(innovation.dot(w))
+        return dx, P_new, innovation.dot(w)  # a NumPy float64 scalar (0-d)
     return dx, P_new
 
 

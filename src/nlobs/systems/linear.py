@@ -106,10 +106,12 @@ class LinearSystem:
 
     def rhs_jacobian_x(self, t: float, x: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
         """``∂(A x + B u)/∂x = A``, broadcast to the batch, shape ``(..., n, n)`` (read-only)."""
-        batch = x.shape[:-1] if np.ndim(u) <= 1 else np.broadcast_shapes(x.shape[:-1], np.shape(u)[:-1])
-        return np.broadcast_to(self.A, (*batch, *self.A.shape)) if batch else self.A
+        if x.ndim == 1 and np.ndim(u) <= 1:
+            return self.A
+        return np.broadcast_to(self.A, (*np.broadcast_shapes(x.shape[:-1], np.shape(u)[:-1]), *self.A.shape))
 
     def output_jacobian_x(self, t: float, x: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
         """``∂(C x + D u)/∂x = C``, broadcast to the batch, shape ``(..., p, n)`` (read-only)."""
-        batch = x.shape[:-1] if np.ndim(u) <= 1 else np.broadcast_shapes(x.shape[:-1], np.shape(u)[:-1])
-        return np.broadcast_to(self.C, (*batch, *self.C.shape)) if batch else self.C
+        if x.ndim == 1 and np.ndim(u) <= 1:
+            return self.C
+        return np.broadcast_to(self.C, (*np.broadcast_shapes(x.shape[:-1], np.shape(u)[:-1]), *self.C.shape))
