@@ -359,3 +359,17 @@ def test_simulate_and_run_observer(cls: type) -> None:
     rep = run_observer(filt, res.t, x_hat0=x_hat0, u=np.zeros((res.t.size, 1)), y=res.y, sampled=res.sampled,
                        truth=res.x)
     np.testing.assert_allclose(rep.x_hat, res.x_hat, rtol=0, atol=1e-10)
+
+
+def test_ukf_with_a_singular_covariance_falls_back_to_the_eigen_square_root() -> None:
+    """``P0`` with a zero variance (Cholesky fails): the UKF still equals filterpy's Kalman filter."""
+    rng = np.random.default_rng(21)
+    A, B, C = _stable_system(rng)
+    Q, R, P0 = np.diag([0.0, 0.01, 0.02]), np.diag([0.1, 0.2]), np.diag([1.0, 0.0, 0.5])
+    us, ys = rng.standard_normal((60, 1)), rng.standard_normal((60, 2))
+    filt = UKF(LinearSystem(A, B, C, time=Discrete(0.1)), Q, R, P0, record_covariance=True)
+    res = run_observer(filt, 0.1 * np.arange(60), x_hat0=np.zeros((2, 3)), u=us, y=ys)
+    want_x, want_P = _filterpy(A, B, C, Q, R, P0, np.zeros(3), us, ys)
+    for b in range(2):  # both members (their Cholesky factorisation fails at the first steps)
+        np.testing.assert_allclose(res.x_hat[b], want_x, rtol=0, atol=1e-10)
+        np.testing.assert_allclose(res.extras["P"][b], want_P, rtol=0, atol=1e-10)
