@@ -76,7 +76,8 @@ def joseph_update(P: Array, H: Array, R: Array, innovation: Array, *, nis: bool 
         return _joseph_one(P, H, R, innovation, nis)
     PHt = P @ H.mT
     S = H @ PHt + R
-    # K = P Hᵀ S⁻¹  ⇔  Kᵀ = S⁻¹ H P (S, P symmetric); with nis, ν is one more right-hand side of the same solve
+    # K = P Hᵀ S⁻¹  ⇔  Kᵀ = S⁻¹ H P (S, P symmetric); with nis, ν is one more right-hand side
+    # of the same solve
     HP = PHt.mT
     if nis:
         batch = np.broadcast_shapes(HP.shape[:-2], innovation.shape[:-1], S.shape[:-2])

@@ -15,11 +15,12 @@ indefinite (Cholesky fails) it is ``V diag(√max(λᵢ, 0))`` from the eigen-de
 Continuous-time plant: ``rhs`` is the right-hand side of the moment ODEs of Särkkä (2007, "On unscented
 Kalman filtering for state estimation of continuous-time nonlinear systems", IEEE TAC 52(9)),
 
-.. math:: \dot m = f(\mathcal X) w_m,\qquad \dot P = \mathcal X W f(\mathcal X)^\top + f(\mathcal X) W \mathcal X^\top + Q,
+.. math:: \dot m = f(\mathcal X) w_m,\qquad
+          \dot P = \mathcal X W f(\mathcal X)^\top + f(\mathcal X) W \mathcal X^\top + Q,
 
 with the sigma points regenerated from ``(m, P)`` at every evaluation, ``W = (I − w_m 1ᵀ) diag(w_c)
-(I − w_m 1ᵀ)ᵀ``, i.e. ``Ṗ = Σᵢ w^c_i (𝒳ᵢ − m)(fᵢ − f̄)ᵀ + (…)ᵀ + Q``. Discrete-time plant: ``rhs`` is the
-unscented transform of ``f`` plus ``Q``.
+(I − w_m 1ᵀ)ᵀ``, i.e. ``Ṗ = Σᵢ w^c_i (𝒳ᵢ − m)(fᵢ − f̄)ᵀ + (…)ᵀ + Q``. Discrete-time plant: ``rhs``
+is the unscented transform of ``f`` plus ``Q``.
 
 Correction (sigma points of the prior): ``𝒴 = h(𝒳)``, ``ŷ = 𝒴 w_m``, ``P_yy``, ``P_xy``,
 ``S = P_yy + R``, ``K = P_xy S⁻¹``, ``m⁺ = m + K (y − ŷ)``. The covariance ``P − K S Kᵀ`` is written in
