@@ -2,7 +2,7 @@
 
 What this file guarantees
 -------------------------
-* Registry: every class whose name ends in ``Observer``, ``Filter`` or ``EKF`` (the protocol
+* Registry: every class whose name ends in ``Observer``, ``Filter``, ``EKF`` or ``UKF`` (the protocol
   classes ``Observer``, ``CorrectingObserver``, ``SelfStepping``, ``Diagnosing``,
   ``DeferredEstimate`` excepted) exported by :mod:`nlobs.observers` or one of its modules, by a
   module of :mod:`nlobs.navigation` or by the top level :mod:`nlobs` has a case in ``CASES``, and
@@ -48,6 +48,7 @@ from nlobs import (
     Discrete,
     DiscreteLipschitzObserver,
     DriftObserver,
+    EKF,
     ExtendedKalmanFilter,
     GnssInsObserver,
     LinearSystem,
@@ -55,6 +56,7 @@ from nlobs import (
     Observer,
     PinvObserver,
     SetValuedObserver,
+    UKF,
     UnknownInputEKF,
     design_discrete_lipschitz_gain,
     design_setvalued,
@@ -78,7 +80,7 @@ from nlobs.systems.interconnected import LinearSubsystem, NonlinearSubsystem, in
 #: Names of the protocol classes (not estimators).
 PROTOCOLS = frozenset({"Observer", "CorrectingObserver", "SelfStepping", "Diagnosing", "DeferredEstimate"})
 #: What counts as an estimator class by its name.
-ESTIMATOR_NAME = re.compile(r"(Observer|Filter|EKF)$")
+ESTIMATOR_NAME = re.compile(r"(Observer|Filter|EKF|UKF)$")
 CAPABILITIES = (SelfStepping, Diagnosing, DeferredEstimate)
 BATCHES: tuple[tuple[int, ...], ...] = ((), (2,), (2, 3))
 
@@ -384,6 +386,40 @@ def case_unknown_input_ekf() -> Any:
     return ekf
 
 
+def _check_gaussian_filter(cls: type) -> Any:
+    """EKF or UKF on an LTI plant: the Kalman filter (written out here), one step behind (posteriors vs priors).
+
+    The filter records the posterior ``x̂_{k|k}`` (correct, then record, then predict); :func:`_kalman`
+    returns the priors, ``x̂_{k+1|k} = A x̂_{k|k} + B u_k``.
+    """
+    Q, R, P0 = 0.01 * np.eye(3), np.diag([0.02, 0.03]), np.eye(3)
+    plant = LinearSystem(A3, B3, C3, D3, time=DT)
+    filt = cls(plant, Q, R, P0)
+    check_protocol(filt, [0.1, -0.2, 0.3], [0.3], [0.5, -0.5], time=Discrete, correcting=True,
+                   capabilities=(Diagnosing,))
+    x0 = np.array([[1.0, -2.0, 0.5], [0.0, 1.0, -1.0]])
+    x_hat0 = np.zeros(3)
+    sim = simulate(plant, filt, x0, x_hat0, duration=3.0, u=_u_sine)
+    check_result(sim, (2,), 31, 3)
+    us = _on_grid(_u_sine, sim.t)
+    for b in range(2):
+        want = _kalman(A3, B3, C3, D3, Q, R, np.zeros((3, 2)), x_hat0, P0, us[:-1], sim.y[b, :-1])
+        np.testing.assert_allclose(sim.x_hat[b, :-1] @ A3.T + us[:-1] @ B3.T, want[1:], rtol=1e-10, atol=1e-12)
+    assert np.all(sim.error_norm[:, -1] < 0.05 * sim.error_norm[:, 0])
+    check_replay(plant, filt, x0, x_hat0, u=us, dt=DT.dt, steps=30, sim=sim)
+    return filt
+
+
+def case_ekf() -> Any:
+    """The EKF of any plant on an LTI plant is the Kalman filter (see :func:`_check_gaussian_filter`)."""
+    return _check_gaussian_filter(EKF)
+
+
+def case_ukf() -> Any:
+    """The UKF on an LTI plant is the Kalman filter too (the unscented transform is exact for linear maps)."""
+    return _check_gaussian_filter(UKF)
+
+
 YAW_ERROR_DEG = 30.0
 P_OFFSET = np.array([3.0, -2.0, 1.0])
 
@@ -460,6 +496,8 @@ CASES: dict[type, Callable[[], Any]] = {
     SetValuedObserver: case_setvalued,
     DiscreteLipschitzObserver: case_discrete_lipschitz,
     UnknownInputEKF: case_unknown_input_ekf,
+    EKF: case_ekf,
+    UKF: case_ukf,
     GnssInsObserver: case_gnss_ins,
     ExtendedKalmanFilter: case_navigation_ekf,
 }

@@ -11,8 +11,8 @@ The observer protocol and the observers
     :class:`CascadeObserver` (Grip, Saberi & Johansen, (3)), :class:`DriftObserver` (Dalla Mora,
     Germani & Manes, (3.1)), :class:`PinvObserver` and :class:`ByrnesIsidoriObserver` (Röbenack,
     (7), (17)), :class:`SetValuedObserver` (Khajenejad & Yong, (10)–(15)),
-    :class:`DiscreteLipschitzObserver`, :class:`UnknownInputEKF`, :class:`GnssInsObserver`
-    (Grip, Saberi & Johansen, (22)/(24)) and the navigation :class:`ExtendedKalmanFilter`.
+    :class:`DiscreteLipschitzObserver`, :class:`UnknownInputEKF`, :class:`EKF` and :class:`UKF` (any plant),
+    :class:`GnssInsObserver` (Grip, Saberi & Johansen, (22)/(24)) and the navigation :class:`ExtendedKalmanFilter`.
 The loops and the result
     :func:`simulate` (plant and observer together: the simulation subpackage ``nlobs.simulate``,
     which called is its loop), :func:`run_observer` (an observer on recorded measurements),
@@ -64,10 +64,12 @@ if TYPE_CHECKING:
         CorrectingObserver,
         DiscreteLipschitzObserver,
         DriftObserver,
+        EKF,
         LuenbergerObserver,
         Observer,
         PinvObserver,
         SetValuedObserver,
+        UKF,
         UnknownInputEKF,
     )
     from nlobs import simulate
@@ -110,8 +112,8 @@ _LAZY: dict[str, str] = {
     "ExtendedKalmanFilter": "nlobs.navigation.ekf",
     "GnssInsObserver": "nlobs.navigation.gnss_ins",
     **dict.fromkeys(("ByrnesIsidoriObserver", "CascadeObserver", "ConstantGainObserver", "CorrectingObserver",
-                     "DiscreteLipschitzObserver", "DriftObserver", "LuenbergerObserver", "Observer", "PinvObserver", "SetValuedObserver",
-                     "UnknownInputEKF"), "nlobs.observers"),
+                     "DiscreteLipschitzObserver", "DriftObserver", "EKF", "LuenbergerObserver", "Observer",
+                     "PinvObserver", "SetValuedObserver", "UKF", "UnknownInputEKF"), "nlobs.observers"),
     **dict.fromkeys(("SimulationResult", "run_observer"), "nlobs.simulate"),
     "simulate": "nlobs.simulate",
     **dict.fromkeys(("Certificate", "design_cascade_gain", "design_discrete_lipschitz_gain", "design_drift_gain",

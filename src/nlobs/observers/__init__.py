@@ -7,12 +7,17 @@
 * :class:`LuenbergerObserver`, :class:`ConstantGainObserver` (a nonlinear copy with constant gain),
   :class:`DiscreteLipschitzObserver`, :class:`UnknownInputEKF` and the
   set-valued observer of Khajenejad & Yong (``luenberger.py``, ``lipschitz.py``, ``kalman.py``,
-  ``setvalued.py``).
+  ``setvalued.py``);
+* :class:`EKF` and :class:`UKF` — the extended (Jazwinski) and unscented (Särkkä; Julier & Uhlmann)
+  Kalman filters for any plant, continuous-discrete or discrete (``ekf.py``, ``ukf.py``, their shared
+  state and correction in ``gaussian.py``).
 """
 
 from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
 from nlobs.observers.cascade import CascadeObserver
 from nlobs.observers.drift import DriftObserver, SingularObservabilityError
+from nlobs.observers.ekf import EKF
+from nlobs.observers.gaussian import FilterState
 from nlobs.observers.kalman import GaussianState, UnknownInputEKF, joseph_update
 from nlobs.observers.lipschitz import DiscreteLipschitzObserver
 from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
@@ -27,6 +32,7 @@ from nlobs.observers.setvalued import (
     printed_radii,
     sound_radii,
 )
+from nlobs.observers.ukf import UKF
 
 __all__ = [
     "AssumptionWarning",
@@ -38,6 +44,8 @@ __all__ = [
     "Diagnosing",
     "DiscreteLipschitzObserver",
     "DriftObserver",
+    "EKF",
+    "FilterState",
     "GaussianState",
     "GivenGain",
     "LuenbergerObserver",
@@ -49,6 +57,7 @@ __all__ = [
     "SetValuedObserver",
     "SetValuedState",
     "SingularObservabilityError",
+    "UKF",
     "UnknownInputEKF",
     "input_error_map",
     "joseph_update",
