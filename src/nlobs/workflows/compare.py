@@ -35,7 +35,8 @@ Metrics (over the runs that did not diverge): ``rms_error[i] = √mean(e_i²)`` 
 times ``t ≥ settle``; ``rms_error_norm = √mean(‖e‖²)`` likewise; ``final_error_norm`` the RMS over
 runs of ``‖e(T)‖``; ``convergence_time`` the median over runs of the first time after which ``‖e‖``
 (averaged over a moving window of 1 % of the run) stays below ``max(5 % of ‖e(0)‖, 3 ×`` the run's RMS
-``‖e‖`` after the settling time``)`` (``inf`` for a run that never does). A run *diverged* when its estimate became
+``‖e‖`` after the settling time``)``; ``inf`` (JSON ``null``) for a run that never does, or whose
+threshold is not below half of ``‖e(0)‖`` (the error never fell well below where it started). A run *diverged* when its estimate became
 non-finite or its error exceeded :data:`BLOWUP` times ``1 + max‖x‖`` of its truth.
 """
 
@@ -600,6 +601,7 @@ def _outcome(name: str, desc: str, res: SimulationResult, s: _Setup, cert: dict[
         above = smooth > tol[:, None]
         last_above = np.where(above.any(axis=-1), above.shape[1] - 1 - np.argmax(above[:, ::-1], axis=-1), -1)
         conv = np.where(last_above + 1 < t.size, t[np.minimum(last_above + 1, t.size - 1)], np.inf)
+        conv = np.where(tol < 0.5 * eno[:, 0], conv, np.inf)  # an error floor above half the start: not converged
         conv_time = float(np.median(conv))
     else:
         nan = (math.nan,) * x.shape[-1]
