@@ -105,7 +105,7 @@ def test_skips_say_why() -> None:
 
 
 def test_rossler_drift_design_fails_with_the_reason() -> None:
-    rep = compare_observers("examples/rossler.toml", observers=["drift", "pinv"], runs=2, duration=1.0)
+    rep = compare_observers("rossler", observers=["drift", "pinv"], runs=2, duration=1.0)
     assert "(2.17)" in rep.observers["drift"].skipped
     assert "A1 fails" in rep.observers["pinv"].skipped
 

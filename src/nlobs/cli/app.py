@@ -30,6 +30,7 @@ from nlobs.cli.common import (
     fail,
     jsonable,
     parse_floats,
+    print_table,
     simulate_app,
 )
 from nlobs.errors import ModelFileError, NlobsError, OutputError
@@ -155,9 +156,6 @@ def demo_cmd(
     ekf: Annotated[bool, typer.Option(help="Also run the EKF baseline.")] = True,
 ) -> None:
     """Run a demo: gnss-ins simulates a flight and compares observer (24) with an EKF."""
-    from rich.markup import escape
-    from rich.table import Table
-
     from nlobs.workflows.demo import DemoConfig, gnss_ins_demo
 
     if name not in DEMOS:
@@ -176,15 +174,8 @@ def demo_cmd(
     if as_json:
         emit_json(report.to_dict())
         return
-    title, heads, rows = report.table()
-    table = Table(title=title)
-    table.add_column(heads[0])
-    for h in heads[1:]:
-        table.add_column(h, justify="right")
-    for row in rows:
-        table.add_row(escape(row[0]), *row[1:])
+    print_table(*report.table())
     con = console()
-    con.print(table)
     for f in report.files:
         con.print(f"wrote {f}", markup=False)
 

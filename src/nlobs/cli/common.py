@@ -82,6 +82,20 @@ def box_numbers(option: str, text: str | None) -> list[float] | None:
     return parse_floats(option, text) if text is not None else None
 
 
+def print_table(title: str, heads: list[str], rows: list[list[str]]) -> None:
+    """A report's table (first column left, the others right-aligned), its cells printed as text, not markup."""
+    from rich.markup import escape
+    from rich.table import Table
+
+    table = Table(title=escape(title))
+    table.add_column(escape(heads[0]))
+    for h in heads[1:]:
+        table.add_column(escape(h), justify="right")
+    for row in rows:
+        table.add_row(*(escape(c) for c in row))
+    console().print(table)
+
+
 def emit_json(data: dict[str, Any]) -> None:
     typer.echo(json.dumps(jsonable(data), indent=2, allow_nan=False))
 

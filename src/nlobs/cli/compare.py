@@ -15,7 +15,16 @@ from typing import Annotated
 
 import typer
 
-from nlobs.cli.common import EXIT_FAILURE, box_numbers, console, emit_json, fail, finish, parse_floats, simulate_app
+from nlobs.cli.common import (
+    EXIT_FAILURE,
+    box_numbers,
+    console,
+    emit_json,
+    fail,
+    finish,
+    parse_floats,
+    simulate_app,
+)
 from nlobs.errors import ModelFileError, NlobsError, OutputError, StudyFailed
 
 _KNOWN = "drift,pinv,luenberger,cascade,ekf,ukf"
@@ -96,22 +105,5 @@ def compare_cmd(
     if as_json:
         emit_json(report.to_dict())
     else:
-        from rich.markup import escape
-        from rich.table import Table
-
-        title, heads, rows = report.table()
-        table = Table(title=title)
-        table.add_column(heads[0])
-        for h in heads[1:]:
-            table.add_column(h, justify="right")
-        for row in rows:
-            table.add_row(*(escape(c) for c in row))
-        con = console()
-        for k, v in report.setup.items():
-            con.print(f"{k}: {v}", markup=False)
-        con.print(table)
-        lines = report.summary().splitlines()
-        start = next((i for i, ln in enumerate(lines) if ln.startswith(f"  {next(iter(report.observers))}: ")), len(lines))
-        for ln in lines[start:]:
-            con.print(ln, markup=False)
+        console().print(report.summary(), markup=False)  # plain text: a narrow terminal wraps it, never truncates
     finish(report, as_json)

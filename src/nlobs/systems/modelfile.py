@@ -1070,18 +1070,24 @@ def _process_noise(src: _Source, table: Mapping[str, Any], n: int, params: Mappi
         raise src.table_error("process_noise", None, "[process_noise] needs exactly one of 'std' (per state) or "
                               "'covariance' (n x n)", "std")
     if "std" in table:
-        std = _number_or_list(src, "process_noise", "std", table["std"], params, psyms)
-        if std.ndim == 0:
-            std = np.full(n, float(std))
-        if std.shape != (n,) or np.any(std < 0):
-            raise src.table_error("process_noise", "std", f"[process_noise].std must be {n} non-negative numbers "
-                                  "(one per state)", repr(table["std"])[:80])
-        return np.diag(std**2)
+        return np.diag(_per_state_std(src, "process_noise", "std", table["std"], n, params, psyms) ** 2)
     cov = _const_matrix(src, "process_noise", "covariance", table["covariance"], params, psyms, rows=n, cols=n)
     try:
         return as_covariance("[process_noise].covariance", cov, n)
     except NlobsError as exc:
         raise src.table_error("process_noise", "covariance", str(exc), "covariance") from None
+
+
+def _per_state_std(src: _Source, table: str, key: str, v: Any, n: int, params: Mapping[str, float],
+                   psyms: Mapping[str, sp.Symbol]) -> np.ndarray:
+    """Standard deviations: one number for every state, or ``n`` non-negative numbers."""
+    std = _number_or_list(src, table, key, v, params, psyms)
+    if std.ndim == 0:
+        std = np.full(n, float(std))
+    if std.shape != (n,) or np.any(std < 0):
+        raise src.table_error(table, key, f"[{table}].{key} must be {n} non-negative numbers (one per state) or one "
+                              "for all", repr(v)[:80])
+    return std
 
 
 def _run_defaults(src: _Source, table: Mapping[str, Any], n: int, params: Mapping[str, float],
@@ -1094,13 +1100,8 @@ def _run_defaults(src: _Source, table: Mapping[str, Any], n: int, params: Mappin
     if "x0" in table:
         kw["x0"] = _const_vector(src, "simulation", "x0", table["x0"], params, psyms, n)
     if "initial_error_std" in table:
-        std = _number_or_list(src, "simulation", "initial_error_std", table["initial_error_std"], params, psyms)
-        if std.ndim == 0:
-            std = np.full(n, float(std))
-        if std.shape != (n,) or np.any(std < 0):
-            raise src.table_error("simulation", "initial_error_std", f"[simulation].initial_error_std must be {n} "
-                                  "non-negative numbers (or one)", repr(table["initial_error_std"])[:80])
-        kw["initial_error_std"] = std
+        kw["initial_error_std"] = _per_state_std(src, "simulation", "initial_error_std", table["initial_error_std"], n,
+                                                 params, psyms)
     for key in ("duration", "dt", "settle"):
         if key in table:
             val = _const(src, "simulation", key, table[key], params, psyms)

@@ -274,7 +274,9 @@ class ComparisonReport:
 
 
 def _num(v: float) -> str:
-    return "nan" if not math.isfinite(v) else f"{v:.4g}"
+    if math.isnan(v):
+        return "—"
+    return "never" if math.isinf(v) else f"{v:.4g}"
 
 
 # ----------------------------------------------------------------------------- set-up
