@@ -69,6 +69,16 @@ def test_same_truth_and_noise_for_every_observer() -> None:
     np.testing.assert_array_equal(again.observers["luenberger"].result.x, results[0].x)
 
 
+def test_drift_design_takes_the_input_bound_of_the_run() -> None:
+    """μ of (2.17) is the largest ‖u(t)‖ of the run's input (0.5 for this sine), so ‖u‖ ≤ μ holds by construction."""
+    rep = compare_observers(parse_scenario(PEND), observers=["drift"], runs=2, seed=1)
+    cert = rep.observers["drift"].certificate
+    assert cert["mu"] == pytest.approx(0.5, rel=1e-6)
+    assert cert["verified"] is True and cert["covers_run"] is False  # noise: outside Theorem 3.1
+    assert not any("μ" in r for r in cert["reasons"])
+    assert any("measurement noise" in r for r in cert["reasons"])
+
+
 def test_metrics_on_a_linear_plant_equal_the_closed_form() -> None:
     """Exact measurement, Luenberger observer: e(t) = expm((A − LC) t) e0; the RMS and final errors follow."""
     rep = compare_observers(parse_scenario(LINEAR), observers=["luenberger"], runs=6, duration=3.0, dt=1e-3,
