@@ -145,6 +145,53 @@ h = ["x"]
     assert all(d.time > 0 for d in o.diverged_runs)
 
 
+DISCRETE = '''name = "dlin"
+time = "discrete"
+dt = 0.1
+states = ["p", "v"]
+inputs = ["a"]
+outputs = ["y1", "y2"]
+[linear]
+A = [[1.0, 0.1], [-0.2, 0.95]]
+B = [[0.005], [0.1]]
+C = [[1.0, 0.0], [0.5, 1.0]]
+[sensors.pos]
+outputs = ["y1", "y2"]
+rate = 10.0
+noise_cov = [[0.04, 0.01], [0.01, 0.09]]
+[input_signals]
+a = { kind = "sine", amplitude = 1.0, frequency = 0.1 }
+[process_noise]
+covariance = [[0.001, 0.0], [0.0, 0.004]]
+'''
+
+
+def test_the_filters_in_the_comparison_equal_filterpy_on_its_recorded_measurements() -> None:
+    """A discrete linear model: EKF and UKF of the comparison, fed with R, Q, P0 from the file, equal filterpy's
+    Kalman filter run here on the same recorded samples and inputs (a second implementation)."""
+    from filterpy.kalman import KalmanFilter
+
+    rep = compare_observers(parse_scenario(DISCRETE), observers=["ekf", "ukf"], runs=3, duration=6.0, x0=[1.0, 0.0],
+                            x_hat0=[0.0, 0.5], initial_error_std=[0.7, 0.4], seed=9)
+    A = np.array([[1.0, 0.1], [-0.2, 0.95]])
+    B = np.array([[0.005], [0.1]])
+    C = np.array([[1.0, 0.0], [0.5, 1.0]])
+    for name in ("ekf", "ukf"):
+        res = rep.observers[name].result
+        assert res.sampled.all()
+        for run in range(3):
+            kf = KalmanFilter(dim_x=2, dim_z=2, dim_u=1)
+            kf.F, kf.B, kf.H = A, B, C
+            kf.Q = np.diag([0.001, 0.004])
+            kf.R = np.array([[0.04, 0.01], [0.01, 0.09]])
+            kf.x = np.array([0.0, 0.5])
+            kf.P = np.diag([0.7**2, 0.4**2])
+            for k, t in enumerate(res.t):
+                kf.update(res.y[run, k])
+                np.testing.assert_allclose(res.x_hat[run, k], kf.x, atol=1e-10)
+                kf.predict(u=np.array([np.sin(2 * np.pi * 0.1 * t)]))
+
+
 JSON_KEYS = {"skipped", "rms_error", "rms_error_norm", "final_error_norm", "diverged_runs", "cost_per_step_us"}
 
 

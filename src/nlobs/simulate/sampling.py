@@ -27,7 +27,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from nlobs._typing import Array
 from nlobs.errors import DimensionError, InvalidArgumentError, UnknownNameError

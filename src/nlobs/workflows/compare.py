@@ -361,12 +361,12 @@ def _setup(scenario: Scenario, label: str, *, runs: int | None, duration: float 
     xh = _vector("x_hat0", x_hat0, n)
     if std is None:
         std = d.initial_error_std if d.initial_error_std is not None else None
-    if xh is not None and initial_error_std is not None:
-        raise InvalidArgumentError("give --xhat0 or --initial-error-std, not both")
     if xh is not None:
         x_hat = np.broadcast_to(xh, (runs_, n)).copy()
-        p0_std = np.maximum(np.abs(xh - x0_), 1e-3 * np.maximum(1.0, np.abs(x0_)))
-        init_text = f"x̂0 = {xh.tolist()} in every run"
+        given = _vector("initial_error_std", initial_error_std, n) if initial_error_std is not None else None
+        p0_std = given if given is not None else np.maximum(np.abs(xh - x0_), 1e-3 * np.maximum(1.0, np.abs(x0_)))
+        init_text = f"x̂0 = {xh.tolist()} in every run" + (
+            f" (filters' P0 = diag(std²), std = {given.tolist()})" if given is not None else "")
     else:
         if std is None:
             std = 0.1 * np.maximum(1.0, np.abs(x0_))
@@ -694,7 +694,9 @@ def compare_observers(
     x0, x_hat0, initial_error_std : optional
         Initial plant state (default ``[simulation].x0``, else zeros); one initial estimate for
         every run, or the standard deviation of the initial error per state (default
-        ``[simulation].initial_error_std``, else ``0.1 max(1, |x0|)``).
+        ``[simulation].initial_error_std``, else ``0.1 max(1, |x0|)``). The filters start with
+        ``P0 = diag(std²)``; with ``x_hat0`` and no ``initial_error_std``, ``std = |x̂0 − x0|``
+        (at least 10⁻³ max(1, |x0|)).
     box : sequence of float, optional
         The designs' region (``lo, hi`` or ``lo1, hi1, …``; default ``[simulation].box``, else
         ``[−1, 1]ⁿ``).
