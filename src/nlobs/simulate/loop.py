@@ -710,7 +710,9 @@ def simulate(
                                    "no step() of its own; use RK4() for this observer")
     rec = _Recorder(setup)
     wall = _time.perf_counter()
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"), Progress(n_steps, progress) as bar:
+    runs = math.prod(batch)
+    label = "simulating" + (f" {observer_label(observer)}" if has_observer else "") + (f", {runs} runs" if batch else "")
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"), Progress(n_steps, progress, label) as bar:
         if isinstance(integrator, SolveIVP):
             _run_ivp(setup, rec, bar, integrator.options())
         else:
