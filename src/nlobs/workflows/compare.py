@@ -68,6 +68,7 @@ from nlobs.errors import (
     StudyFailed,
     UnknownNameError,
 )
+from nlobs.simulate.coverage import InputBound, InRegion, Premise, monitor
 from nlobs.simulate.loop import simulate
 from nlobs.simulate.result import SimulationResult
 from nlobs.systems.linear import LinearSystem
@@ -134,8 +135,11 @@ class ObserverOutcome:
     cost_per_step_us : float
         Wall time inside the observer per step and run (µs).
     certificate : dict or None
-        ``{"verified", "covers_run", "reasons"}`` for a certified design, ``None`` for a method
-        without a certificate.
+        For a certified design, ``None`` for a method without a certificate: ``verified``,
+        ``covers_run`` (every run inside every hypothesis, :mod:`nlobs.simulate.coverage`),
+        ``covered_fraction``, ``violations`` (the first per run: ``run``, ``hypothesis``, ``time``,
+        ``detail``), ``reasons`` (why runs are not covered), ``hypotheses`` (what was checked), and for
+        ``drift`` the ``region`` and ``mu``.
     run_rms : ndarray, shape (runs,)
         RMS of ``‖e‖`` after the settling time, per run (NaN for a diverged run): the box plot.
     result : SimulationResult or None
@@ -447,7 +451,7 @@ class _Skip(Exception):
     """An observer that does not apply: the reason."""
 
 
-def _design_drift(s: _Setup) -> tuple[Any, str, dict[str, Any] | None]:
+def _design_drift(s: _Setup) -> tuple[Any, str, _Cert | None]:
     from nlobs.workflows.design_drift import design_drift_report
 
     model = s.scenario.model
@@ -461,11 +465,12 @@ def _design_drift(s: _Setup) -> tuple[Any, str, dict[str, Any] | None]:
         raise _Skip("; ".join(rep.reasons))
     obs = rep.observer(on_singular="nan")
     mu = rep.certificate.constants.mu
-    reasons = _noise_reasons(s, "Theorem 3.1 assumes exact measurement and an exact model")
+    box, where = rep.region, rep.region.describe()
+    hyps: list[Any] = [_exact(s, "Theorem 3.1 assumes an exact output and an exact model"),
+                       InRegion(box.lower, box.upper, "state", where), InRegion(box.lower, box.upper, "estimate", where)]
     if model.m:
-        reasons.append(f"the input bound μ = {mu:g} of (2.17) is checked against ‖u‖ along the run")
-    cert = {"verified": bool(rep.certificate.verified), "covers_run": None, "reasons": reasons,
-            "region": rep.region.describe(), "mu": mu}
+        hyps.append(InputBound(mu))
+    cert = _Cert(bool(rep.certificate.verified), tuple(hyps), {"region": where, "mu": mu})
     desc = (f"(3.1), s = {list(rep.s)}, K of Remark 2.11 (w = {rep.certificate.w:.4g}), α = "
             f"{rep.certificate.constants.alpha:g}, γ = {rep.gamma:.4g} on {rep.region.describe()}")
     return obs, desc, cert
@@ -481,7 +486,7 @@ def _input_bound(s: _Setup) -> float:
     return float(max(np.linalg.norm(np.asarray(s.u(float(t)), dtype=float)) for t in ts))
 
 
-def _design_pinv(s: _Setup) -> tuple[Any, str, dict[str, Any] | None]:
+def _design_pinv(s: _Setup) -> tuple[Any, str, _Cert | None]:
     from nlobs.workflows.design_pinv import design_pinv_report
 
     model = s.scenario.model
@@ -498,7 +503,7 @@ def _design_pinv(s: _Setup) -> tuple[Any, str, dict[str, Any] | None]:
     return rep.observer, desc, None
 
 
-def _design_luenberger(s: _Setup, alpha: float) -> tuple[Any, str, dict[str, Any] | None]:
+def _design_luenberger(s: _Setup, alpha: float) -> tuple[Any, str, _Cert | None]:
     from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
     from nlobs.synthesis.observer_gain import design_observer_gain
     from nlobs.synthesis.regions import HalfPlane
@@ -521,22 +526,20 @@ def _design_luenberger(s: _Setup, alpha: float) -> tuple[Any, str, dict[str, Any
     L = cert.gain
     obs = LuenbergerObserver(lin, L) if isinstance(model, LinearSystem) else ConstantGainObserver(s.plant, L)
     poles = np.linalg.eigvals(lin.A - L @ lin.C)
-    reasons = []
-    if not isinstance(model, LinearSystem):
-        reasons.append(f"the certificate is for the linearisation at x0 = {s.x0.tolist()}, u = {s.u0.tolist()}; "
-                       "the plant is nonlinear")
-    if s.sensors:
-        reasons.append("the measurement is sampled and held (the certificate assumes a continuous output)")
-    reasons += _noise_reasons(s, "the certificate bounds the decay of the error, not the noise floor") \
-        if isinstance(model, LinearSystem) else []
-    covers = bool(cert.verified) and not reasons
+    linear = isinstance(model, LinearSystem)
+    hyps = [Premise("the plant is the linear model the certificate is for", linear,
+                    f"the certificate is for the linearisation at x0 = {s.x0.tolist()}, u = {s.u0.tolist()}; the "
+                    "plant is nonlinear"),
+            Premise("continuous measurement", not s.sensors,
+                    "the output is sampled and held (the certificate assumes a continuous output)"),
+            _exact(s, "the certificate bounds the decay of the error, not its noise floor")]
     desc = (f"copy of the plant + L (y − h(x̂)), L of LMIs (14), (15) for the linearisation at x0 "
             f"(Re λ < −{alpha:g}, analytic centre at γ = γn = {LUENBERGER_GAMMA:g}); poles of A − LC: "
             + ", ".join(f"{complex(p).real:.3g}{complex(p).imag:+.3g}j" for p in poles))
-    return obs, desc, {"verified": bool(cert.verified), "covers_run": covers, "reasons": reasons}
+    return obs, desc, _Cert(bool(cert.verified), tuple(hyps), {})
 
 
-def _design_kalman(s: _Setup, kind: str, filter_q: ArrayLike | None) -> tuple[Any, str, dict[str, Any] | None]:
+def _design_kalman(s: _Setup, kind: str, filter_q: ArrayLike | None) -> tuple[Any, str, _Cert | None]:
     model = s.scenario.model
     if not s.sensors:
         raise _Skip("a Kalman filter needs sampled, noisy measurements: add [sensors] to the model file, or give "
@@ -575,16 +578,25 @@ def _measurement_covariance(model: Any, sensors: Sequence[MeasurementGroup]) -> 
     return R
 
 
-def _noise_reasons(s: _Setup, why: str) -> list[str]:
+@dataclass(frozen=True)
+class _Cert:
+    """A certified design's verdict and the hypotheses a run must stay inside to be covered."""
+
+    verified: bool
+    hypotheses: tuple[Any, ...]
+    extras: Mapping[str, Any]
+
+
+def _exact(s: _Setup, why: str) -> Premise:
+    """The premise of an exact model and output: fails with measurement noise, bias or process noise."""
     noisy = any(np.any(np.asarray(g.noise_std) > 0) or np.any(g.bias != 0) for g in s.sensors)
     q = s.process_noise is not None and bool(np.any(s.process_noise))
     what = [w for w, on in (("measurement noise or bias", noisy), ("process noise", q)) if on]
-    return [f"{' and '.join(what)} ({why})"] if what else []
+    return Premise("exact measurement and model", not what, f"{' and '.join(what)} ({why})")
 
 
 # ----------------------------------------------------------------------------- metrics
-def _outcome(name: str, desc: str, res: SimulationResult, s: _Setup, cert: dict[str, Any] | None,
-             region: Any) -> ObserverOutcome:
+def _outcome(name: str, desc: str, res: SimulationResult, s: _Setup, cert: _Cert | None) -> ObserverOutcome:
     x, xh, t = res.x, res.x_hat, res.t
     assert x is not None
     with np.errstate(all="ignore"):
@@ -620,38 +632,16 @@ def _outcome(name: str, desc: str, res: SimulationResult, s: _Setup, cert: dict[
     else:
         nan = (math.nan,) * x.shape[-1]
         rms, rms_all, rms_norm, rms_norm_all, final, conv_time = nan, nan, math.nan, math.nan, math.nan, math.nan
+    certificate = None
     if cert is not None:
-        cert = _coverage(cert, res, s, region, ok)
+        cov = monitor(res, cert.hypotheses, u=s.u if callable(s.u) or s.u is None else np.asarray(s.u),
+                      verified=cert.verified)
+        certificate = {"verified": cert.verified, "covers_run": cov.covers_run,
+                       "covered_fraction": cov.covered_fraction, "reasons": list(cov.reasons),
+                       "violations": [v.to_dict() for v in cov.violations],
+                       "hypotheses": list(cov.hypotheses), **cert.extras}
     return ObserverOutcome(name, None, desc, rms, rms_all, rms_norm, rms_norm_all, final, conv_time, tuple(diverged),
-                           float(res.info.get("cost_per_step_us", math.nan)), cert, run_rms, res)
-
-
-def _coverage(cert: dict[str, Any], res: SimulationResult, s: _Setup, region: Any, ok: Array) -> dict[str, Any]:
-    """A drift design's premises along the runs: truth and estimate in the region, ‖u‖ ≤ μ; noise named already."""
-    reasons = list(cert["reasons"])
-    if region is not None and "region" in cert:
-        lo, hi = np.asarray(region.lower), np.asarray(region.upper)
-        x, xh = res.x, res.x_hat
-        assert x is not None
-        for what, arr in (("the state", x), ("the estimate", xh)):
-            with np.errstate(invalid="ignore"):
-                out = ~((arr >= lo) & (arr <= hi)).all(axis=-1)  # (runs, K)
-            if out.any():
-                runs = np.flatnonzero(out.any(axis=-1))
-                k = int(np.argmax(out[runs[0]]))
-                reasons.append(f"{what} leaves the region {region.describe()} in {runs.size} of {s.runs} runs "
-                               f"(first: run {int(runs[0])} at t = {res.t[k]:.4g} s)")
-        mu = cert.get("mu")
-        if mu is not None and s.u is not None and s.scenario.model.m:
-            um = max(float(np.linalg.norm(np.asarray(s.u(float(tk)) if callable(s.u) else s.u, dtype=float)))
-                     for tk in res.t[:: max(1, res.t.size // 400)])
-            if um > mu:
-                reasons.append(f"‖u‖ reaches {um:.4g} > μ = {mu:g} of (2.17)")
-        reasons = [r for r in reasons if not r.startswith("the input bound μ")]
-    out = dict(cert)
-    out["reasons"] = reasons
-    out["covers_run"] = bool(cert["verified"]) and not reasons
-    return out
+                           float(res.info.get("cost_per_step_us", math.nan)), certificate, run_rms, res)
 
 
 # ----------------------------------------------------------------------------- the command
@@ -781,11 +771,6 @@ def _run_one(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None, pro
             obs, desc, cert = _design_kalman(s, name, filter_q)
     except _Skip as why:
         return ObserverOutcome(name, str(why))
-    region = s.box
-    if cert is not None and "region" in cert and region is None:
-        from nlobs.geometry.region import Box
-
-        region = Box.unit(s.scenario.model.n)
     x0 = np.broadcast_to(s.x0, (s.runs, s.scenario.model.n))
     try:
         res = simulate(s.plant, obs, x0, s.x_hat0, duration=s.duration, dt=s.dt, u=s.u,
@@ -799,7 +784,7 @@ def _run_one(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None, pro
         if isinstance(exc, (InvalidArgumentError, DimensionError)) and "rate" in str(exc):
             raise
         return _failed(name, desc, s, f"stopped: {exc}")
-    return dataclasses.replace(_outcome(name, desc, res, s, cert, region), observer=obs)
+    return dataclasses.replace(_outcome(name, desc, res, s, cert), observer=obs)
 
 
 def _failed(name: str, desc: str, s: _Setup, reason: str) -> ObserverOutcome:

@@ -1,0 +1,233 @@
+"""Does a certificate cover a run? The hypotheses it rests on, checked along every run of a simulation.
+
+A certificate (a verified gain, a bound) is a statement *under hypotheses*: the state and its estimate
+stay in the region the design was verified on, the input stays within its bound, the output is
+measured exactly and continuously, the model is exact. A run that leaves any of them is not covered,
+however well it went. :func:`monitor` checks a list of hypotheses along the saved trajectory of every
+run and returns a :class:`Coverage`: per run the first violated hypothesis and its time, the fraction
+of covered runs, and the hypotheses the whole set-up violates (noise, sampling), which no run escapes.
+
+The hypotheses:
+
+* :class:`InRegion` — the state (``which="state"``) or the estimate (``"estimate"``) inside a box;
+* :class:`InputBound` — ``‖u(t)‖ ≤ μ``;
+* :class:`Premise` — a hypothesis the set-up as a whole satisfies or not (``holds=False`` with the
+  reason: measurement noise, process noise, sampled instead of continuous measurement, a certificate
+  of the linearisation used on a nonlinear plant).
+
+A run is checked at the saved instants of the result (a state that leaves the region and returns
+between two of them is not seen: save every step for a strict check).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from nlobs._typing import Array
+from nlobs.errors import InvalidArgumentError
+from nlobs.simulate.result import SimulationResult
+
+__all__ = ["Coverage", "InRegion", "InputBound", "Premise", "Violation", "monitor"]
+
+
+@dataclass(frozen=True)
+class Violation:
+    """The first hypothesis a run violates: which, when, and how."""
+
+    run: int
+    hypothesis: str
+    time: float
+    detail: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"run": self.run, "hypothesis": self.hypothesis, "time": self.time, "detail": self.detail}
+
+    def describe(self, time_unit: str = "s") -> str:
+        return f"run {self.run}: {self.hypothesis} violated at t = {self.time:.4g} {time_unit} ({self.detail})"
+
+
+@dataclass(frozen=True)
+class InRegion:
+    """The state or the estimate stays in the box ``[lower, upper]`` (where the certificate was verified)."""
+
+    lower: Array
+    upper: Array
+    which: str = "state"
+    region: str = ""
+
+    @property
+    def name(self) -> str:
+        return f"{self.which} in the region {self.region}".rstrip()
+
+    def first(self, result: SimulationResult, u: Array | None) -> tuple[Array, list[str]]:
+        arr = result.x if self.which == "state" else result.x_hat
+        if arr is None:
+            raise InvalidArgumentError("InRegion: the result has no truth (x is None)")
+        lo, hi = np.asarray(self.lower, dtype=float), np.asarray(self.upper, dtype=float)
+        with np.errstate(invalid="ignore"):
+            out = ~((arr >= lo) & (arr <= hi)).all(axis=-1)  # (runs, K); NaN counts as outside
+        runs = out.reshape(-1, out.shape[-1])
+        flat = arr.reshape(-1, arr.shape[-2], arr.shape[-1])
+        times = np.full(runs.shape[0], math.nan)
+        details = [""] * runs.shape[0]
+        names = result.states if self.which == "state" else result.estimates
+        for i in np.flatnonzero(runs.any(axis=-1)):
+            k = int(np.argmax(runs[i]))
+            times[i] = result.t[k]
+            v = flat[i, k]
+            with np.errstate(invalid="ignore"):
+                bad = np.flatnonzero(~((v >= lo) & (v <= hi)))
+            j = int(bad[0]) if bad.size else 0
+            details[i] = f"{names[j] if j < len(names) else j} = {v[j]:.4g} outside [{lo[j]:.4g}, {hi[j]:.4g}]"
+        return times, details
+
+
+@dataclass(frozen=True)
+class InputBound:
+    """``‖u(t)‖₂ ≤ mu`` (the input bound of a design, e.g. μ of (2.17))."""
+
+    mu: float
+    rtol: float = 1e-9
+
+    @property
+    def name(self) -> str:
+        return f"‖u‖ ≤ μ = {self.mu:g}"
+
+    def first(self, result: SimulationResult, u: Array | None) -> tuple[Array, list[str]]:
+        nruns = max(1, result.n_runs)
+        times = np.full(nruns, math.nan)
+        details = [""] * nruns
+        if u is None or u.size == 0:
+            return times, details
+        norm = np.linalg.norm(u, axis=-1)  # (K,) or (runs, K)
+        norm = np.broadcast_to(norm, (nruns, result.t.size)) if norm.ndim == 1 else norm.reshape(nruns, -1)
+        over = norm > self.mu * (1.0 + self.rtol)
+        for i in np.flatnonzero(over.any(axis=-1)):
+            k = int(np.argmax(over[i]))
+            times[i] = result.t[k]
+            details[i] = f"‖u‖ = {norm[i, k]:.4g} > {self.mu:g}"
+        return times, details
+
+
+@dataclass(frozen=True)
+class Premise:
+    """A hypothesis the whole set-up satisfies or not (``holds=False``: every run violates it, from t0)."""
+
+    name: str
+    holds: bool
+    reason: str = ""
+
+
+Hypothesis = InRegion | InputBound | Premise
+
+
+@dataclass(frozen=True, eq=False)
+class Coverage:
+    """Which runs a certificate covers (:func:`monitor`).
+
+    Attributes
+    ----------
+    hypotheses : tuple of str
+        Every hypothesis checked.
+    failed_premises : tuple of str
+        Hypotheses the set-up violates (with their reasons): then no run is covered.
+    violations : tuple of Violation
+        The first violation of each run that left a checked hypothesis (runs without one are covered
+        unless a premise failed).
+    runs : int
+    verified : bool
+        Whether the certificate itself was verified (a run is never covered by a failed certificate).
+    """
+
+    hypotheses: tuple[str, ...]
+    failed_premises: tuple[str, ...]
+    violations: tuple[Violation, ...]
+    runs: int
+    verified: bool = True
+
+    @property
+    def covered_runs(self) -> int:
+        """Runs that stayed inside every hypothesis (0 when a premise failed or the certificate did)."""
+        if self.failed_premises or not self.verified:
+            return 0
+        return self.runs - len(self.violations)
+
+    @property
+    def covered_fraction(self) -> float:
+        return self.covered_runs / self.runs if self.runs else 0.0
+
+    @property
+    def covers_run(self) -> bool:
+        """Every run covered: what "certified" means for a simulation."""
+        return self.runs > 0 and self.covered_runs == self.runs
+
+    @property
+    def reasons(self) -> tuple[str, ...]:
+        """Why runs are not covered: failed premises, then per violated hypothesis how many runs and the first."""
+        out = list(self.failed_premises)
+        if not self.verified:
+            out.insert(0, "the certificate was not verified")
+        by: dict[str, list[Violation]] = {}
+        for v in self.violations:
+            by.setdefault(v.hypothesis, []).append(v)
+        for h, vs in by.items():
+            first = min(vs, key=lambda v: v.time)
+            out.append(f"{h} violated in {len(vs)} of {self.runs} runs (first: run {first.run} at "
+                       f"t = {first.time:.4g}, {first.detail})")
+        return tuple(out)
+
+    def to_dict(self) -> dict[str, Any]:
+        """``certificate_covers_run``, ``certificate_covered_fraction``, ``certificate_violations`` (first per run),
+        ``certificate_failed_premises`` and ``certificate_hypotheses``."""
+        return {"certificate_covers_run": self.covers_run, "certificate_covered_fraction": self.covered_fraction,
+                "certificate_violations": [v.to_dict() for v in self.violations],
+                "certificate_failed_premises": list(self.failed_premises),
+                "certificate_hypotheses": list(self.hypotheses)}
+
+
+def monitor(result: SimulationResult, hypotheses: Sequence[Hypothesis], *,
+            u: Array | Callable[[float], Any] | None = None, verified: bool = True) -> Coverage:
+    """Check each hypothesis along every run of ``result`` (module docstring).
+
+    Parameters
+    ----------
+    result : SimulationResult
+        With the truth ``x`` (runs along the batch axis).
+    hypotheses : sequence of InRegion, InputBound, Premise
+    u : array or callable, optional
+        The known input on the saved grid, ``(K, m)`` or ``(runs, K, m)``, or a callable ``u(t)``
+        (evaluated on the saved grid); needed by :class:`InputBound`.
+    verified : bool
+        Whether the certificate was verified.
+
+    Returns
+    -------
+    Coverage
+    """
+    if callable(u):
+        u_arr: Array | None = np.stack([np.asarray(u(float(t)), dtype=float).reshape(-1) for t in result.t])
+    else:
+        u_arr = None if u is None else np.asarray(u, dtype=float)
+    runs = max(1, result.n_runs)
+    first_t = np.full(runs, math.inf)
+    first: list[Violation | None] = [None] * runs
+    failed = []
+    for h in hypotheses:
+        if isinstance(h, Premise):
+            if not h.holds:
+                failed.append(f"{h.name}: {h.reason}" if h.reason else h.name)
+            continue
+        if not isinstance(h, (InRegion, InputBound)):
+            raise InvalidArgumentError(f"hypotheses: expected InRegion, InputBound or Premise, got {type(h).__name__}")
+        times, details = h.first(result, u_arr)
+        for i in np.flatnonzero(np.isfinite(times)):
+            if times[i] < first_t[i]:
+                first_t[i] = times[i]
+                first[i] = Violation(int(i), h.name, float(times[i]), details[i])
+    return Coverage(tuple(h.name for h in hypotheses), tuple(failed), tuple(v for v in first if v is not None),
+                    runs, verified)

@@ -1,0 +1,84 @@
+"""The certificate monitor: hypotheses checked along every run; first violations against closed forms."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from nlobs import LinearSystem, LuenbergerObserver
+from nlobs.simulate import simulate
+from nlobs.simulate.coverage import InputBound, InRegion, Premise, monitor
+from nlobs.systems.modelfile import parse_scenario
+from nlobs.workflows.compare import compare_observers
+
+OSC = LinearSystem([[0.0, 1.0], [-1.0, 0.0]], [[0.0], [1.0]], [[1.0, 0.0]])
+
+
+def _runs() -> object:
+    obs = LuenbergerObserver(OSC, [[2.0], [1.0]])
+    x0 = np.array([[1.0, 0.0], [0.5, 0.0]])  # x1(t) = a cos t
+    return simulate(OSC, obs, x0, [0.0, 0.0], duration=7.0, dt=0.01, u=0.0)
+
+
+def test_first_leaving_of_the_region_is_the_closed_form_time() -> None:
+    res = _runs()
+    cov = monitor(res, [InRegion(np.array([-0.6, -2.0]), np.array([1.0, 2.0]), "state", "B")])
+    # run 0: cos t < −0.6 first at t = acos(−0.6) = 2.2143; run 1: 0.5 cos t ≥ −0.5 always inside
+    (v,) = cov.violations
+    assert v.run == 0 and v.hypothesis == "state in the region B"
+    assert v.time == pytest.approx(math.ceil(math.acos(-0.6) / 0.01) * 0.01, abs=1e-9)
+    assert "x1 = " in v.detail
+    assert cov.covered_runs == 1 and cov.covered_fraction == 0.5 and not cov.covers_run
+    d = cov.to_dict()
+    assert d["certificate_covers_run"] is False and d["certificate_covered_fraction"] == 0.5
+    assert d["certificate_violations"][0]["run"] == 0
+
+
+def test_input_bound_and_premises() -> None:
+    res = _runs()
+    cov = monitor(res, [InputBound(0.5)], u=lambda t: np.array([0.8 * math.sin(t)]))
+    # 0.8 |sin t| > 0.5 first at t = asin(0.625) = 0.6751
+    assert {v.run for v in cov.violations} == {0, 1}
+    assert cov.violations[0].time == pytest.approx(math.ceil(math.asin(0.625) / 0.01) * 0.01, abs=1e-9)
+    ok = monitor(res, [InputBound(0.81)], u=lambda t: np.array([0.8 * math.sin(t)]))
+    assert ok.covers_run and ok.covered_fraction == 1.0
+    bad = monitor(res, [Premise("exact measurement", False, "noise")])
+    assert bad.covered_runs == 0 and bad.reasons == ("exact measurement: noise",)
+    assert not monitor(res, [], verified=False).covers_run
+
+
+PEND = '''name = "pend"
+states = ["theta", "omega"]
+inputs = ["tau"]
+outputs = ["y"]
+[dynamics]
+f = ["omega", "-9.81*sin(theta) - 0.5*omega"]
+g = [["0"], ["1"]]
+h = ["theta"]
+[input_signals]
+tau = 0.2
+[simulation]
+x0 = [0.4, 0.0]
+initial_error_std = [0.05, 0.05]
+duration = 4.0
+dt = 0.002
+'''
+
+
+def test_the_comparison_reports_coverage_run_by_run() -> None:
+    """Noise-free drift design: covered where the region holds the runs (the high gain w ≈ 218 makes ω̂ peak to
+    about −11 in the first step, so ω needs room), not where it does not."""
+    wide = compare_observers(parse_scenario(PEND), observers=["drift"], runs=4, box=[-3, 3, -60, 60], seed=1)
+    cert = wide.observers["drift"].certificate
+    assert cert["verified"] and cert["covers_run"] and cert["covered_fraction"] == 1.0 and cert["violations"] == []
+    assert cert["mu"] == pytest.approx(0.2)
+    narrow = compare_observers(parse_scenario(PEND), observers=["drift"], runs=4, box=[-0.3, 0.3], seed=1)
+    cert = narrow.observers["drift"].certificate
+    res = narrow.observers["drift"].result
+    assert not cert["covers_run"] and cert["covered_fraction"] == 0.0
+    for v in cert["violations"]:  # the first saved time where the state or the estimate leaves [−0.3, 0.3]²
+        run = v["run"]
+        outside = ((np.abs(res.x[run]) > 0.3).any(axis=-1)) | ((np.abs(res.x_hat[run]) > 0.3).any(axis=-1))
+        assert v["time"] == pytest.approx(res.t[int(np.argmax(outside))])
