@@ -71,7 +71,10 @@ def test_drift_report_is_what_the_cli_prints(tmp_path: Path) -> None:
     assert mine == cli
     assert list(rep.to_dict()) == ["design", "simulation"]
     assert list(rep.to_dict()["simulation"]) == ["final_error_norm", "initial_error_norm", "max_error_norm", "files",
-                                                 "decay_rate", "bound_ratio", "certified"]
+                                                 "decay_rate", "bound_ratio", "certified", "gain_certified",
+                                                 "certificate_covers_run", "certificate_covered_fraction",
+                                                 "certificate_violations", "certificate_failed_premises",
+                                                 "certificate_hypotheses"]
     status, stdout, _ = _cli("design", "drift", *args)
     assert status == 0 and stdout == rep.summary() + "\n"
     assert rep.summary().splitlines()[-2:] == [f"wrote {out / 'drift.png'}", f"wrote {out / 'drift.npz'}"]

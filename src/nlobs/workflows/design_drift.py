@@ -40,6 +40,7 @@ from nlobs.geometry.observability import (
 )
 from nlobs.geometry.region import Box
 from nlobs.observers.drift import COND_LIMIT, DriftObserver
+from nlobs.simulate.coverage import Coverage, InputBound, InRegion, Premise, monitor
 from nlobs.simulate.loop import simulate
 from nlobs.simulate.result import SimulationResult
 from nlobs.simulate.sampling import MeasurementGroup
@@ -291,16 +292,21 @@ class DriftSimulation:
     result : SimulationResult
     bound : ndarray, shape (*batch, K)
         ``κ₁ e^{−αt} ‖e(0)‖`` (3.2) with ``b = 0`` (Lipschitz case, H1); NaN when the simulated
-        gain does not satisfy (2.17) for the report's constants.
+        gain is not certified (:attr:`gain_certified`).
     bound_ratio : float
-        ``max_t ‖e(t)‖ / bound(t)`` (``≤ 1`` where the bound holds; NaN when not certified).
+        ``max_t ‖e(t)‖ / bound(t)`` (``≤ 1`` where the bound holds; NaN when the gain is not certified).
+        Measured also for a run the certificate does not cover (then it is evidence, not a guarantee).
     decay_rate : float
         Fitted exponential rate of ``‖e‖`` (``floor`` 1e-9 relative, see
         :meth:`SimulationResult.decay_rate`), smallest over the batch.
-    certified : bool
-        Whether Theorem 3.1 covers the run as far as the report can check: the simulated gain
-        (with its ``P``) satisfies (2.17) for the report's constants, the model is drift-observable
-        on the region, and ``γ`` is not below the sampled estimate there (report's ``warnings``).
+    gain_certified : bool
+        The simulated gain (with its ``P``) satisfies (2.17) for the report's constants, the model is
+        drift-observable on the region, and ``γ`` is not below the sampled estimate there (report's
+        ``warnings``).
+    coverage : Coverage
+        The hypotheses of Theorem 3.1 checked along the run (:func:`nlobs.simulate.coverage.monitor`):
+        the state and the estimate in the region (where ``γ`` and the Lipschitz constants were
+        sampled), ``‖u(t)‖ ≤ μ``, an exact output.
     constants : ErrorBoundConstants
         ``κ₁``, ``κ₂`` of the simulated gain's ``P``.
     """
@@ -311,11 +317,18 @@ class DriftSimulation:
     bound: Array
     bound_ratio: float
     decay_rate: float
-    certified: bool
+    gain_certified: bool
     constants: ErrorBoundConstants
+    coverage: Coverage
+
+    @property
+    def certified(self) -> bool:
+        """Theorem 3.1 covers this run: the gain is certified and the run stayed inside every hypothesis."""
+        return self.gain_certified and self.coverage.covers_run
 
     def to_dict(self) -> dict[str, Any]:
         return {"design": self.report.to_dict(), "w": self.w, "certified": self.certified,
+                "gain_certified": self.gain_certified, **self.coverage.to_dict(),
                 "bound_constants": self.constants.to_dict(), "bound_ratio": self.bound_ratio,
                 "decay_rate": self.decay_rate, "final_error_norm": float(np.max(self.result.error_norm[..., -1]))}
 
@@ -346,8 +359,9 @@ def simulate_drift(
 
     ``w`` given: the gain ``K(w)`` of Remark 2.11 (checked against (2.17); if it fails,
     the report keeps the theory's smallest ``w`` and the simulation still uses ``w`` —
-    the paper's "tuning by simulation"). A run is marked ``certified`` (and gets the bound
-    (3.2)) only when the report's premises hold too (see :class:`DriftSimulation`). ``noise_std > 0`` samples every output at
+    the paper's "tuning by simulation"). The gain gets the bound (3.2) when the report's premises
+    hold too (``gain_certified``); the run is ``certified`` only when, besides, it stays inside
+    every hypothesis of Theorem 3.1 along the way (``coverage``, see :class:`DriftSimulation`). ``noise_std > 0`` samples every output at
     ``1/dt`` with that Gaussian noise (``seed`` required). ``report`` reuses a design.
     """
     rep = report or design_drift_report(model, s, alpha=alpha, mu=mu, gamma=gamma, method=method, region=region,
@@ -378,7 +392,17 @@ def simulate_drift(
     with np.errstate(divide="ignore", invalid="ignore"):
         ratio = float(np.nanmax(np.where(bnd > 0, e / bnd, np.nan))) if certified else math.nan
     rate = float(np.nanmin(res.decay_rate(floor=1e-9 * float(np.max(e[..., 0])))))
-    return DriftSimulation(rep, w_used, res, bnd, ratio, rate, certified, bound_consts)
+    box = rep.region
+    where = box.describe()
+    hyps: list[Any] = [InRegion(box.lower, box.upper, "state", where), InRegion(box.lower, box.upper, "estimate", where),
+                       Premise("exact measurement", noise_std == 0, f"measurement noise of std {noise_std:g} "
+                               "(Theorem 3.1 assumes an exact output)")]
+    u_fn: Any = None
+    if model.m:
+        hyps.append(InputBound(rep.certificate.constants.mu))
+        u_fn = u if callable(u) else (lambda t, c=np.zeros(model.m) if u is None else np.asarray(u, dtype=float): c)
+    coverage = monitor(res, hyps, u=u_fn, verified=certified)
+    return DriftSimulation(rep, w_used, res, bnd, ratio, rate, certified, bound_consts, coverage)
 
 
 # --------------------------------------------------------------------------- the command
@@ -418,7 +442,8 @@ class DriftWorkflowReport:
         sim = self.simulation
         assert sim is not None
         out = error_summary(sim.result, self.files)
-        out.update(decay_rate=sim.decay_rate, bound_ratio=sim.bound_ratio, certified=sim.certified)
+        out.update(decay_rate=sim.decay_rate, bound_ratio=sim.bound_ratio, certified=sim.certified,
+                   gain_certified=sim.gain_certified, **sim.coverage.to_dict())
         return out
 
     def to_dict(self) -> dict[str, Any]:
@@ -426,8 +451,11 @@ class DriftWorkflowReport:
 
         ``simulation`` (present only when one ran) has ``final_error_norm``,
         ``initial_error_norm``, ``max_error_norm`` (largest over a batch), ``files``,
-        ``decay_rate``, ``bound_ratio`` (``max ‖e‖ / bound (3.2)``; NaN when not certified) and
-        ``certified``.
+        ``decay_rate``, ``bound_ratio`` (``max ‖e‖ / bound (3.2)``; NaN when the gain is not certified),
+        ``certified`` (the gain is certified *and* the run stayed inside every hypothesis of Theorem 3.1),
+        ``gain_certified``, and the monitor's ``certificate_covers_run``, ``certificate_covered_fraction``,
+        ``certificate_violations`` (first per run: hypothesis, time, detail), ``certificate_failed_premises``,
+        ``certificate_hypotheses``.
         """
         data: dict[str, Any] = {"design": self.design.to_dict()}
         if self.simulation is not None:
@@ -442,7 +470,10 @@ class DriftWorkflowReport:
             alpha = self.design.certificate.constants.alpha
             lines.append(error_line(self._simulation_dict(), req.duration, req.dt)
                          + f", fitted decay rate {sim.decay_rate:.4g} (α = {alpha:g}), max ‖e‖/bound(3.2) = "
-                         f"{sim.bound_ratio:.3g}" + ("" if sim.certified else " (gain not certified)"))
+                         f"{sim.bound_ratio:.3g}" + ("" if sim.certified else " (gain not certified)"
+                                                     if not sim.gain_certified else
+                                                     " (the certificate does not cover this run: "
+                                                     + "; ".join(sim.coverage.reasons) + ")"))
             lines += [f"wrote {f}" for f in self.files]
         return "\n".join(lines)
 
