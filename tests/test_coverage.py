@@ -82,3 +82,15 @@ def test_the_comparison_reports_coverage_run_by_run() -> None:
         run = v["run"]
         outside = ((np.abs(res.x[run]) > 0.3).any(axis=-1)) | ((np.abs(res.x_hat[run]) > 0.3).any(axis=-1))
         assert v["time"] == pytest.approx(res.t[int(np.argmax(outside))])
+
+
+def test_a_failed_design_names_cli_options_and_w_max_is_one() -> None:
+    """The Vandermonde search's limit is the option --w-max, and the message says which options to change."""
+    from typer.testing import CliRunner
+
+    from nlobs.cli import app
+
+    res = CliRunner().invoke(app, ["design", "drift", "rossler", "--box", "-12,12,-12,12,0,25", "--w-max", "1000"])
+    assert res.exit_code == 1
+    err = res.stderr
+    assert "w ≤ 1000 " in err and "--w-max" in err and "--alpha, --mu, --gamma" in err and "Traceback" not in err

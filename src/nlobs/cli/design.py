@@ -122,6 +122,7 @@ def drift_cmd(
     gamma: Annotated[float | None, typer.Option(help="γ of (2.17) (default: estimated on the region).")] = None,
     method: Annotated[str, typer.Option(help="'vandermonde' (Remark 2.11) or 'sdp' (LMI in S = P⁻¹, Y = S K).")] = "vandermonde",
     w: Annotated[float | None, typer.Option(help="Check and use K(w) instead of searching the smallest w.")] = None,
+    w_max: Annotated[float, typer.Option("--w-max", help="Largest w the search for the smallest w tries.")] = 1e5,
     box: Box_ = None,
     as_json: Json_ = False,
     simulate: Simulate_ = False,
@@ -148,7 +149,7 @@ def drift_cmd(
     request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
     try:
         report = design_drift_observer(m, s=multi_index, alpha=alpha, mu=mu, gamma=gamma, method=method, w=w,
-                                       box=region, simulate=request, name=model)
+                                       box=region, simulate=request, name=model, w_max=w_max)
     except AssumptionViolated as exc:
         fail(f"{model}: {exc}", EXIT_NO_OBSERVER)
     except DesignError as exc:

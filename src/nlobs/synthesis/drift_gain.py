@@ -604,13 +604,15 @@ def smallest_w(c: RiccatiConstants, *, w_max: float = 1e5, rtol: float = 1e-3) -
         w_fail = w
         if w >= w_max:
             if c.F.size and not _s_le_r_F(c):
-                why = "s ≰ r: lower the input bound μ (Theorem 2.7) or use the SDP design"
+                why = "s ≰ r: lower the input bound μ (Theorem 2.7; CLI --mu) or use the SDP design (--method sdp)"
             elif best[0] < 0:
                 why = (f"it is negative but not below the rounding tolerance {best[2]:.3g} (or P(w) is not positive "
                        "definite above rounding): P(w) is too ill-conditioned to verify in double precision "
-                       "(cn(D P D) grows fast with the chain length s_j); use shorter chains or method='sdp'")
+                       "(cn(D P D) grows fast with the chain length s_j); use shorter chains or method='sdp' "
+                       "(--method sdp)")
             else:
-                why = "raise w_max, or lower α, μ or γ"
+                why = ("raise the search limit w_max (CLI --w-max), or lower α, μ or γ (--alpha, --mu, --gamma; "
+                       "γ also by a smaller region, --box)")
             raise DesignInfeasible(
                 f"(2.17) has no Vandermonde solution (K(w), P(w)) for w ≤ {w_max:g} with {c.describe()}: "
                 f"the smallest λ_max of its (scaled) left side is {best[0]:.4g} (at w = {best[1]:.4g}); " + why,

@@ -490,6 +490,7 @@ def design_drift_observer(
     box: Sequence[float] | Box | None = None,
     simulate: SimulationRequest | None = None,
     name: str | None = None,
+    w_max: float = 1e5,
 ) -> DriftWorkflowReport:
     """Design and verify observer (3.1) for a model, and simulate it if asked: ``nlobs design drift``.
 
@@ -518,6 +519,8 @@ def design_drift_observer(
     name : str, optional
         How :attr:`DriftWorkflowReport.message` names the model (default: ``model`` as given, or
         the model's name).
+    w_max : float
+        Largest ``w`` the search of Remark 2.11's smallest ``w`` tries (``--w-max``).
 
     Returns
     -------
@@ -556,7 +559,8 @@ def design_drift_observer(
         riccati_constant("--gamma", gamma, allow_zero=True)
     # the simulation's vectors, size and output folder are checked before the design (which can take long)
     resolved = checked_request(simulate, m)
-    rep = design_drift_report(m, s, alpha=alpha, mu=mu, gamma=gamma, method=method, region=region, w=w)
+    w_max = riccati_constant("--w-max", w_max)
+    rep = design_drift_report(m, s, alpha=alpha, mu=mu, gamma=gamma, method=method, region=region, w=w, w_max=w_max)
     if not rep.usable:
         verdict = Verdict.NO_OBSERVER if not rep.drift_check.passed else Verdict.FAILED
         return DriftWorkflowReport(rep, None, simulate, (), verdict,
