@@ -107,7 +107,9 @@ def test_pinv_refuses_a_model_violating_a1_with_status_3(tmp_path: Path) -> None
         (["design", "pinv", "pendulum", "--simulate"], 2, "--simulate needs --x0"),
         (["design", "pinv", "pendulum", "--simulate", "--x0", "1,2,3"], 2, "--x0: expected 2 numbers"),
         (["design", "pinv", "pendulum", "--placement", "odd"], 2, "--placement"),
-        (["design", "drift", "isidori-146"], 1, "has no Vandermonde solution"),
+        (["design", "drift", "isidori-146"], 3, "drift-observability fails"),  # det Q_s ≡ 0: the cause, exit 3
+        (["design", "drift", "rossler", "--box", "-12,12,-12,12,0,25"], 3, "det Q_s = (10*x - 59)/10 changes sign"),
+        (["design", "drift", "chemostat", "--box", "0.05,4,0.01,4"], 1, "has no Vandermonde solution"),
         (["design", "pinv", "no-such-model"], 2, "no such file"),
     ],
 )
@@ -161,3 +163,22 @@ def test_drift_model_undefined_on_the_region_is_a_one_line_error(tmp_path: Path)
     assert res.exit_code == 2, res.output
     assert "sqrtf: Q_s (s = [2])" in res.output and "not finite at any of the 2000 sampled points" in res.output
     assert "[-1, 1] × [-1, 1]" in res.output and res.output.count("\n") <= 2 and "Traceback" not in res.output
+
+
+LORENZ = """
+name = "lorenz"
+states = ["x1", "x2", "x3"]
+outputs = ["y"]
+parameters = { sigma = 10.0, rho = 28.0, beta = 2.6666666666666665 }
+[dynamics]
+f = ["sigma*(x2 - x1)", "x1*(rho - x3) - x2", "x1*x2 - beta*x3"]
+h = ["x1"]
+"""
+
+
+def test_lorenz_drift_names_the_singular_q_s_and_exits_3(tmp_path: Path) -> None:
+    """det Q_s = −100 x₁ vanishes on the region: no observer (3.1) there (exit 3), not "raise w_max" (exit 1)."""
+    res = runner.invoke(app, ["design", "drift", _write(tmp_path, LORENZ)])
+    assert res.exit_code == 3, res.output
+    err = res.stderr.strip()
+    assert "\n" not in err and "drift-observability fails" in err and "-100*x1" in err and "w_max" not in err

@@ -90,7 +90,7 @@ def test_a_failed_design_names_cli_options_and_w_max_is_one() -> None:
 
     from nlobs.cli import app
 
-    res = CliRunner().invoke(app, ["design", "drift", "rossler", "--box", "-12,12,-12,12,0,25", "--w-max", "1000"])
-    assert res.exit_code == 1
+    res = CliRunner().invoke(app, ["design", "drift", "vanderpol-lienard", "--alpha", "50", "--w-max", "10"])
+    assert res.exit_code == 1, res.output
     err = res.stderr
-    assert "w ≤ 1000 " in err and "--w-max" in err and "--alpha, --mu, --gamma" in err and "Traceback" not in err
+    assert "w ≤ 10 " in err and "--w-max" in err and "--alpha, --mu, --gamma" in err and "Traceback" not in err

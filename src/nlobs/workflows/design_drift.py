@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike
 
 from nlobs._typing import Array
 from nlobs._validate import positive, readonly
-from nlobs.errors import InvalidArgumentError
+from nlobs.errors import AssumptionViolated, DesignInfeasible, InvalidArgumentError
 from nlobs.geometry.checks import Check, check_drift_observability, check_s_le_r, default_multi_index
 from nlobs.geometry.lipschitz import LipschitzEstimates, lipschitz_estimates
 from nlobs.geometry.observability import (
@@ -257,6 +257,9 @@ def design_drift_report(
         The model is not finite at any sampled point of the region.
     DesignInfeasible
         No gain satisfies (2.17) (the message names the constraint and by how much).
+    AssumptionViolated
+        No gain satisfies (2.17) *and* drift-observability fails on the region: the failed check is the
+        cause (``Q_s`` singular there), named with its evidence.
     """
     fields = AffineFields.from_model(model, parameters)
     reg = region or Box.unit(fields.n)
@@ -270,7 +273,17 @@ def design_drift_report(
     g = lip.gamma if gamma is None else positive("gamma", gamma, allow_zero=True)
     c = RiccatiConstants(s_, F, alpha, mu, g)
     kw: dict[str, Any] = {"objective": objective} if str(method).lower() == "sdp" else {}
-    cert = design_drift_gain(c, method, w=w, w_max=w_max, **kw)
+    try:
+        cert = design_drift_gain(c, method, w=w, w_max=w_max, **kw)
+    except DesignInfeasible as exc:
+        drift = checks[0]
+        if not drift.passed:  # the real cause: Q_s is singular in the region, so no observer (3.1) exists there
+            raise AssumptionViolated(
+                f"drift-observability fails on {reg.describe()} ({drift.evidence}): there is no observer (3.1) "
+                f"there, and (2.17) has no solution either (γ = {g:.4g}, sampled where Q_s⁻¹ is large or "
+                "undefined); choose a region (--box) where Q_s is nonsingular, or another output",
+                item="drift-observability", evidence=drift.evidence) from exc
+        raise
     bound = error_bound_constants(cert, lip.gamma_phi, lip.gamma_phi_inv)
     return DriftDesignReport(fields, s_, rd.r, checks, readonly(F), str(H.tolist()), float(g),
                              "estimated" if gamma is None else "given", cert, lip, bound, reg)
