@@ -262,14 +262,29 @@ class ContainmentResult:
 ROUNDOFF_FRACTION = 0.01
 
 
+def known_input_grid(known_input: Callable[[float], Any] | None, t: Array, m: int, runs: int) -> Array:
+    """``u_k = u(t_k)`` on the grid, ``(runs, K + 1, m)`` (zeros without a known input), checked finite."""
+    if known_input is None or m == 0:
+        return np.zeros((runs, t.size, m))
+    u1 = np.stack([np.asarray(known_input(float(tk)), dtype=float).reshape(m) for tk in t])
+    bad = ~np.all(np.isfinite(u1), axis=-1)
+    if np.any(bad):
+        k = int(np.argmax(bad))
+        raise NonFiniteError(f"known input: u(t) is not finite at step {k} (t = {t[k]:g})")
+    return np.broadcast_to(u1[None], (runs, t.size, m)).copy()
+
+
 def simulate_batch(system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
                    unknown_input: Callable[[Array], Array], *, runs: int, steps: int, seed: int = 0,
-                   radii: Radii | None = None, at_bound: float = 0.5) -> SimulationResult:
+                   radii: Radii | None = None, at_bound: float = 0.5,
+                   known_input: Callable[[float], Any] | None = None) -> SimulationResult:
     """Simulate the plant (8) and run Algorithm 1 for ``runs`` seeded runs (vectorised).
 
     Initial states are drawn in the initial ball and the noises in theirs, a fraction
     ``at_bound`` of each exactly on the bound (:func:`ball_samples`); ``unknown_input``
-    maps ``t`` ``(K + 1,)`` to ``d`` ``(K + 1, p)``, the same in every run.
+    maps ``t`` ``(K + 1,)`` to ``d`` ``(K + 1, p)``, the same in every run; ``known_input``
+    ``t ↦ u(t)`` ``(m,)`` is the known input ``u_k = u(k dt)`` of ``B u`` and ``D u`` (zero when
+    omitted), the same in every run and given to the observer.
 
     Returns
     -------
@@ -293,10 +308,11 @@ def simulate_batch(system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
         raise NonFiniteError(f"unknown input: d(t) is not finite at step {k} (t = {t[k]:g}): the signal overflows "
                              "the floating-point range; shorten the horizon (--steps) or bound the signal")
     d = np.broadcast_to(d1[None], (R, K + 1, system.p))
+    u = known_input_grid(known_input, t, system.m, R)
     w = ball_samples(rng, (R, K), system.eta_w, system.n_w, at_bound)
     v = ball_samples(rng, (R, K + 1), system.eta_v, system.l, at_bound)
     with np.errstate(over="ignore", invalid="ignore"):
-        x, y = system.simulate(x0, d, w, v)
+        x, y = system.simulate(x0, d, w, v, u=u)
     bad_x = ~np.all(np.isfinite(x), axis=-1)  # (R, K + 1)
     if np.any(bad_x):
         k = int(np.argmax(bad_x.any(axis=0)))
@@ -306,8 +322,8 @@ def simulate_batch(system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
                     f"{int(bad_x[:, k].sum())} of {R} runs (the model's f or the unknown input drives it past the "
                     "floating-point range)",)
         raise exc
-    res = run_setvalued(system, gain, y, radii=radii, truth=x)
-    return dataclasses.replace(res, y=y, extras={**res.extras, "d": np.array(d)},
+    res = run_setvalued(system, gain, y, radii=radii, truth=x, u=u)
+    return dataclasses.replace(res, y=y, extras={**res.extras, "d": np.array(d), "u": np.array(u)},
                                info={**res.info, "seconds": time.perf_counter() - t0})
 
 

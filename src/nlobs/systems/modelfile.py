@@ -592,12 +592,15 @@ class DiscreteUIModel:
         ``(lo, hi)`` of ``[function_class].box``, where the class of ``φ`` is
         checked by sampling (``None`` when the file gives none).
     path : str
+    known_input : InputSignals or None
+        The known input ``u(t)`` of ``B u``, ``D u`` from ``[input_signals]`` (``None``: zero).
     """
 
     system: DiscreteUISystem
     signals: Mapping[str, Callable[[NDArray[np.float64]], NDArray[np.float64]]]
     box: tuple[NDArray[np.float64], NDArray[np.float64]] | None
     path: str
+    known_input: Any = None
 
 
 def load_discrete_ui(path: str | Path) -> DiscreteUISystem:
@@ -649,10 +652,10 @@ def load_discrete_ui_model(path: str | Path) -> DiscreteUIModel:
     """
     p = resolve_model(path)
     text = _read_text(p)
-    return parse_discrete_ui(text, source=str(p))
+    return parse_discrete_ui(text, source=str(p), base_dir=p.parent)
 
 
-def parse_discrete_ui(text: str, *, source: str = "<string>") -> DiscreteUIModel:
+def parse_discrete_ui(text: str, *, source: str = "<string>", base_dir: str | Path | None = None) -> DiscreteUIModel:
     """Parse the text of a model file with unknown inputs (see :func:`load_discrete_ui`)."""
     model = parse_model(text, source=source)
     src = _Source(source, text)
@@ -708,7 +711,8 @@ def parse_discrete_ui(text: str, *, source: str = "<string>") -> DiscreteUIModel
     except NlobsError as exc:
         raise src.table_error("unknown_inputs", None, str(exc)) from None
     signals = {kind: _signal(src, ui, kind, params, p) for kind in ("bounded", "growing")}
-    return DiscreteUIModel(system, signals, box, source)
+    known = _input_signals(src, data, model, params, base_dir)
+    return DiscreteUIModel(system, signals, box, source, known)
 
 
 @dataclass(frozen=True)

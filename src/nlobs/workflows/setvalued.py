@@ -176,7 +176,8 @@ def point_baselines(system: DiscreteUISystem, *, q_d: float, box: tuple[ArrayLik
     return PointBaselines(lip, note, ekf, P0, ekf_note)
 
 
-def run_baselines(baselines: PointBaselines, system: DiscreteUISystem, y: Array) -> tuple[Array | None, Array]:
+def run_baselines(baselines: PointBaselines, system: DiscreteUISystem, y: Array,
+                  u: Array | None = None) -> tuple[Array | None, Array]:
     """Run both point baselines on measurements ``y`` of shape ``(B, K + 1, l)``, from ``system.x0``.
 
     Parameters
@@ -184,6 +185,8 @@ def run_baselines(baselines: PointBaselines, system: DiscreteUISystem, y: Array)
     baselines : PointBaselines
     system : DiscreteUISystem
     y : ndarray, shape (B, K + 1, l)
+    u : ndarray, shape (B, K + 1, m), optional
+        The known input (zeros when omitted).
 
     Returns
     -------
@@ -201,12 +204,13 @@ def run_baselines(baselines: PointBaselines, system: DiscreteUISystem, y: Array)
     B, K1, _ = y.shape
     x0 = np.broadcast_to(system.x0, (B, system.n))
     t = np.arange(K1) * system.time.dt
+    uu = np.zeros((B, K1, system.m)) if u is None else u
     lip = None
     if baselines.lipschitz is not None:
-        lip = run_observer(baselines.lipschitz, t, x_hat0=x0, y=y, divergence="keep").x_hat
+        lip = run_observer(baselines.lipschitz, t, x_hat0=x0, u=uu, y=y, divergence="keep").x_hat
     if baselines.ekf is None:
         return lip, None
-    return lip, run_observer(baselines.ekf, t, x_hat0=x0, y=y, divergence="keep").x_hat
+    return lip, run_observer(baselines.ekf, t, x_hat0=x0, u=uu, y=y, divergence="keep").x_hat
 
 
 @dataclass(frozen=True)
@@ -246,7 +250,7 @@ class MonteCarloStudy:
 def monte_carlo(system: DiscreteUISystem, design: SetValuedDesign, unknown_input: Callable[[Array], Array], *,
                 runs: int, steps: int, seed: int = 0, baselines: bool | PointBaselines = True,
                 q_d: float | None = None, box: tuple[ArrayLike, ArrayLike] | None = None,
-                label: str = "sound") -> MonteCarloStudy:
+                label: str = "sound", known_input: Callable[[float], Any] | None = None) -> MonteCarloStudy:
     """Containment of Algorithm 1 and, on the same runs, the errors of the point baselines.
 
     Parameters
@@ -268,12 +272,16 @@ def monte_carlo(system: DiscreteUISystem, design: SetValuedDesign, unknown_input
         Where the class was checked: the baselines' structure is sampled there, and runs whose states leave
         it are counted (``ContainmentResult.left_box_runs``).
     label : str
+    known_input : callable, optional
+        ``t ↦ u(t)`` ``(m,)``: the known input of ``B u``, ``D u`` (zero when omitted), given to the
+        plant, Algorithm 1 and the baselines alike.
 
     Returns
     -------
     MonteCarloStudy
     """
-    batch = simulate_batch(system, design, unknown_input, runs=runs, steps=steps, seed=seed)
+    batch = simulate_batch(system, design, unknown_input, runs=runs, steps=steps, seed=seed, known_input=known_input)
+    u_grid = batch.extras["u"]
     res = containment_of(batch, label, system=system, gain=design, box=box)
     fe = float(res.errors[:, -1].max())
     if baselines is False:
@@ -284,10 +292,10 @@ def monte_carlo(system: DiscreteUISystem, design: SetValuedDesign, unknown_input
     failure = None if pb.ekf is not None else pb.ekf_note
     with np.errstate(over="ignore", invalid="ignore"):
         try:
-            lip, ekf = run_baselines(pb, system, batch.y)
+            lip, ekf = run_baselines(pb, system, batch.y, u_grid)
         except SimulationDiverged as exc:  # the EKF's covariance broke down: report it, keep the other results
             failure = str(exc)
-            lip, ekf = run_baselines(dataclasses.replace(pb, ekf=None), system, batch.y)
+            lip, ekf = run_baselines(dataclasses.replace(pb, ekf=None), system, batch.y, u_grid)
         el = None if lip is None else np.linalg.norm(batch.x - lip, axis=-1)
         ee = None if ekf is None else np.linalg.norm(batch.x - ekf, axis=-1)
     if ee is not None and not np.all(np.isfinite(ee[:, -1])) and failure is None:
@@ -626,7 +634,7 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
         # round-off it causes are measured (ContainmentResult.roundoff_runs) and reported below
         with np.errstate(over="ignore", invalid="ignore"):
             study = monte_carlo(s, d, m.signals[unknown_input], runs=runs, steps=steps, seed=seed,
-                                baselines=baselines, q_d=q_d, box=box)
+                                baselines=baselines, q_d=q_d, box=box, known_input=m.known_input)
     except NlobsError as exc:
         raise StudyFailed(str(exc)) from exc
     res = study.containment
