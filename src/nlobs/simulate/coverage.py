@@ -200,8 +200,9 @@ def monitor(result: SimulationResult, hypotheses: Sequence[Hypothesis], *,
         With the truth ``x`` (runs along the batch axis).
     hypotheses : sequence of InRegion, InputBound, Premise
     u : array or callable, optional
-        The known input on the saved grid, ``(K, m)`` or ``(runs, K, m)``, or a callable ``u(t)``
-        (evaluated on the saved grid); needed by :class:`InputBound`.
+        The known input: a constant ``(m,)``, its values on the saved grid ``(K, m)`` or
+        ``(runs, K, m)``, or a callable ``u(t)`` (evaluated on the saved grid); ``None``: zero.
+        Needed by :class:`InputBound`.
     verified : bool
         Whether the certificate was verified.
 
@@ -213,6 +214,8 @@ def monitor(result: SimulationResult, hypotheses: Sequence[Hypothesis], *,
         u_arr: Array | None = np.stack([np.asarray(u(float(t)), dtype=float).reshape(-1) for t in result.t])
     else:
         u_arr = None if u is None else np.asarray(u, dtype=float)
+        if u_arr is not None and u_arr.ndim == 1:  # a constant input
+            u_arr = np.broadcast_to(u_arr, (result.t.size, u_arr.size))
     runs = max(1, result.n_runs)
     first_t = np.full(runs, math.inf)
     first: list[Violation | None] = [None] * runs

@@ -285,14 +285,14 @@ def _events(s: _Setup, st: _State, k: int, t: float, x: Array, z: Array) -> tupl
         for g in due_u:
             sample_into(st.u_held, u, g, s.rng)
         if s.correcting:
+            exact = s.groups is None  # discrete observer with exact measurements: every step is a sample
+            y_obs = s.plant.output(t, x, u) if exact else st.y_view
             tic = _time.perf_counter()
-            if s.groups is None:  # discrete observer with exact measurements: every step is a sample
-                y_now = s.plant.output(t, x, u)
-                tic = _time.perf_counter()
-                z = s.observer.correct(t, z, st.u_obs(s, u), y_now, st.all_fresh)
+            if exact:
+                z = s.observer.correct(t, z, st.u_obs(s, u), y_obs, st.all_fresh)
                 fresh = st.all_fresh
             elif due_y:
-                z = s.observer.correct(t, z, st.u_obs(s, u), st.y_view, fresh)
+                z = s.observer.correct(t, z, st.u_obs(s, u), y_obs, fresh)
             s.clock[0] += _time.perf_counter() - tic
             _check_z(s, t, z)
     return z, fresh

@@ -125,10 +125,6 @@ class _Noisy:
             return np.array(self.noise_cov)
         return np.diag(np.asarray(self.noise_std) ** 2)
 
-    def in_outage(self, t: float) -> bool:
-        """Whether ``t`` falls in an outage window ``[start, end)`` (the sensor delivers nothing then)."""
-        return any(a <= t < b for a, b in self.outages)
-
 
 @dataclass(frozen=True)
 class MeasurementGroup(_Noisy):

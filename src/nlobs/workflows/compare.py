@@ -443,7 +443,7 @@ def _input(scenario: Scenario, inputs: Any) -> tuple[Any, str]:
         sig = InputSignals(tuple(model.inputs), tuple(current.get(k, Constant(0.0)) for k in model.inputs))
     if sig is None:
         return np.zeros(model.m), "zero (no [input_signals] table)"
-    return sig, "; ".join(sig.describe().splitlines()) if hasattr(sig, "describe") else str(sig)
+    return sig, "; ".join(sig.describe().splitlines())
 
 
 # ----------------------------------------------------------------------------- designs
@@ -634,8 +634,7 @@ def _outcome(name: str, desc: str, res: SimulationResult, s: _Setup, cert: _Cert
         rms, rms_all, rms_norm, rms_norm_all, final, conv_time = nan, nan, math.nan, math.nan, math.nan, math.nan
     certificate = None
     if cert is not None:
-        cov = monitor(res, cert.hypotheses, u=s.u if callable(s.u) or s.u is None else np.asarray(s.u),
-                      verified=cert.verified)
+        cov = monitor(res, cert.hypotheses, u=s.u, verified=cert.verified)
         certificate = {"verified": cert.verified, "covers_run": cov.covers_run,
                        "covered_fraction": cov.covered_fraction, "reasons": list(cov.reasons),
                        "violations": [v.to_dict() for v in cov.violations],
@@ -750,7 +749,7 @@ def compare_observers(
     if out is not None:
         from nlobs.workflows.compare_output import write_comparison
 
-        files = write_comparison(report, s.scenario, out)
+        files = write_comparison(report, s.scenario, out, plant=s.plant)
         report = _report(s, outcomes, files)
     return report
 

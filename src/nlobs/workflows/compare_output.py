@@ -46,8 +46,9 @@ def _colors(report: ComparisonReport) -> dict[str, str]:
     return {k: f"C{i % 10}" for i, k in enumerate(names)}
 
 
-def states_figure(report: ComparisonReport, scenario: Scenario) -> Any:
-    """Run 0: states (true and estimated) and outputs (true and sampled)."""
+def states_figure(report: ComparisonReport, scenario: Scenario, plant: Any = None) -> Any:
+    """Run 0: states (true and estimated) and outputs (true and sampled); ``plant`` the compiled model
+    (compiled here when not given)."""
     from matplotlib.figure import Figure
 
     ran = _ran(report)
@@ -73,7 +74,8 @@ def states_figure(report: ComparisonReport, scenario: Scenario) -> Any:
         ax.set_ylim(lo - pad, hi + pad)  # estimates that run away do not flatten the truth
         ax.grid(True, alpha=0.3)
     axes[0].legend(loc="upper right", fontsize="small", ncol=min(4, len(ran) + 1))
-    plant = model.compile() if hasattr(model, "compile") else model
+    if plant is None:
+        plant = model.compile() if hasattr(model, "compile") else model
     u = np.zeros((t.size, model.m))
     sig = scenario.input_signals
     if model.m and sig is not None:
@@ -171,8 +173,11 @@ def trajectories_csv(report: ComparisonReport, scenario: Scenario) -> str:
     return buf.getvalue()
 
 
-def write_comparison(report: ComparisonReport, scenario: Scenario, out: Path) -> tuple[Path, ...]:
+def write_comparison(report: ComparisonReport, scenario: Scenario, out: Path, *,
+                     plant: Any = None) -> tuple[Path, ...]:
     """Write the JSON, the figures, the ``.npz`` and the CSV into ``out`` (each atomically); their paths.
+
+    ``plant`` is the compiled model the runs used (the output panel evaluates ``h`` on the truth).
 
     Raises
     ------
@@ -187,7 +192,7 @@ def write_comparison(report: ComparisonReport, scenario: Scenario, out: Path) ->
         except OSError as exc:
             raise OutputError(f"{path}: {exc.strerror or exc}") from exc
 
-    put(out / "states.png", lambda p: save_figure(states_figure(report, scenario), p))
+    put(out / "states.png", lambda p: save_figure(states_figure(report, scenario, plant), p))
     put(out / "error_norms.png", lambda p: save_figure(error_figure(report), p))
     put(out / "rms_boxplot.png", lambda p: save_figure(boxplot_figure(report), p))
     for o in _ran(report):

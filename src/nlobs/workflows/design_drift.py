@@ -410,11 +410,9 @@ def simulate_drift(
     hyps: list[Any] = [InRegion(box.lower, box.upper, "state", where), InRegion(box.lower, box.upper, "estimate", where),
                        Premise("exact measurement", noise_std == 0, f"measurement noise of std {noise_std:g} "
                                "(Theorem 3.1 assumes an exact output)")]
-    u_fn: Any = None
     if model.m:
         hyps.append(InputBound(rep.certificate.constants.mu))
-        u_fn = u if callable(u) else (lambda t, c=np.zeros(model.m) if u is None else np.asarray(u, dtype=float): c)
-    coverage = monitor(res, hyps, u=u_fn, verified=certified)
+    coverage = monitor(res, hyps, u=u if callable(u) or u is None else np.asarray(u, dtype=float), verified=certified)
     return DriftSimulation(rep, w_used, res, bnd, ratio, rate, certified, bound_consts, coverage)
 
 
