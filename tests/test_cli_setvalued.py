@@ -212,6 +212,9 @@ def test_class_violated_along_trajectories_is_a_violated_guarantee(tmp_path: Pat
     assert d["containment_rate_state"] < 1 and d["guarantee_held"] is False
     assert d["class_violated_in_runs"] == 100 and d["class_worst_margin_in_runs"] < 0 and d["left_box_runs"] == 100
     assert d["roundoff_runs"] == 0
+    assert d["certificate_covers_run"] is False and d["certificate_covered_fraction"] == 0.0
+    assert len(d["certificate_violations"]) == 100
+    assert all(v["hypothesis"].startswith("function class") for v in d["certificate_violations"])
     assert any("violated along the trajectories" in c for c in d["likely_causes"])
     assert "GUARANTEE VIOLATED" in res.stderr
     res = runner.invoke(app, ["simulate", "setvalued", str(p), "--runs", "100", "--steps", "100", "--no-baselines"])
@@ -229,6 +232,8 @@ def test_guarantee_held_is_reported(tmp_path: Path) -> None:
     d = json.loads(res.stdout)
     assert d["guarantee_held"] is True and d["likely_causes"] == [] and d["warnings"] == []
     assert d["class_violated_in_runs"] == 0 and d["left_box_runs"] == 0 and d["roundoff_runs"] == 0
+    assert d["certificate_covers_run"] is True and d["certificate_covered_fraction"] == 1.0
+    assert d["certificate_violations"] == [] and len(d["certificate_hypotheses"]) == 2
 
 
 def test_roundoff_with_an_unbounded_input_is_flagged() -> None:

@@ -94,3 +94,19 @@ def test_a_failed_design_names_cli_options_and_w_max_is_one() -> None:
     assert res.exit_code == 1, res.output
     err = res.stderr
     assert "w ≤ 10 " in err and "--w-max" in err and "--alpha, --mu, --gamma" in err and "Traceback" not in err
+
+
+def test_condition_margins_first_negative_instant_and_shape_errors() -> None:
+    from nlobs.simulate.coverage import Condition
+
+    res = _runs()
+    t = res.t
+    m = np.stack([0.5 - np.sin(t), 2.0 - np.sin(t)])  # run 0 crosses at t = asin(0.5) = π/6, run 1 never
+    cov = monitor(res, [Condition("sin t ≤ 1/2", m[:, :-1], "1/2 − sin t")])
+    (v,) = cov.violations
+    assert v.run == 0 and v.time == pytest.approx(math.ceil(math.pi / 6 / 0.01) * 0.01, abs=1e-9)
+    assert v.detail.startswith("1/2 − sin t = -") and cov.covered_fraction == 0.5
+    nan = monitor(res, [Condition("finite", np.full(t.size, np.nan))])
+    assert nan.covered_runs == 0 and all(v.time == t[0] for v in nan.violations)
+    with pytest.raises(Exception, match="margin has"):
+        monitor(res, [Condition("too long", np.zeros(t.size + 1))])

@@ -129,6 +129,17 @@ def test_monte_carlo_evaluates_the_class_on_the_visited_pairs_and_the_box() -> N
     r = out.containment
     assert r.class_violated_in_runs == 40 and r.class_worst_margin < 0 and r.left_box_runs == 40
     assert not r.guarantee_held and "violated along the trajectories" in r.likely_causes()[0]
+    # one mechanism: the certificate monitor reports the same runs, each with its first violated pair
+    assert inside.containment.coverage.covers_run and inside.containment.coverage.covered_fraction == 1.0
+    cov = r.coverage
+    assert not cov.covers_run and cov.covered_runs == 0 and len(cov.violations) == 40
+    from nlobs.systems.discrete_ui import class_margins
+
+    b = out.batch
+    _, rel = class_margins(s.nonlinear, s.function_class, b.x_hat[:, :-1], b.x[:, :-1])
+    first_k = np.argmax(rel < 0, axis=1)  # an independent first-violation step per run
+    for v in cov.violations:
+        assert v.hypothesis.startswith("function class Class I") and v.time == pytest.approx(b.t[first_k[v.run]])
 
 
 def test_roundoff_is_flagged_only_when_it_reaches_the_radius() -> None:
@@ -142,6 +153,8 @@ def test_roundoff_is_flagged_only_when_it_reaches_the_radius() -> None:
     long = containment_study(ex, d, runs=5, steps=4000, unknown_input=grow)
     assert long.roundoff_runs == 5 and long.max_abs_input > 1e18 and not long.guarantee_held
     assert long.class_violated_in_runs == 0
+    assert short.coverage.covers_run and long.coverage.covered_runs == 0
+    assert {v.hypothesis for v in long.coverage.violations} == {"floating-point round-off within 0.01 × the radius δˣ_k"}
     assert long.likely_causes() == [c for c in long.likely_causes() if "round-off" in c] != []
 
 

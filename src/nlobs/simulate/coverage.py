@@ -11,6 +11,9 @@ The hypotheses:
 
 * :class:`InRegion` — the state (``which="state"``) or the estimate (``"estimate"``) inside a box;
 * :class:`InputBound` — ``‖u(t)‖ ≤ μ``;
+* :class:`Condition` — a condition evaluated at every saved instant of every run as a margin
+  (``≥ 0``: holds), e.g. the function class of a set-valued design on the pairs ``(x_k, x̂_k)`` the
+  runs visit (Khajenejad & Yong, Definition 2.6), or a floating-point round-off bound;
 * :class:`Premise` — a hypothesis the set-up as a whole satisfies or not (``holds=False`` with the
   reason: measurement noise, process noise, sampled instead of continuous measurement, a certificate
   of the linearisation used on a nonlinear plant).
@@ -32,7 +35,7 @@ from nlobs._typing import Array
 from nlobs.errors import InvalidArgumentError
 from nlobs.simulate.result import SimulationResult
 
-__all__ = ["Coverage", "InRegion", "InputBound", "Premise", "Violation", "monitor"]
+__all__ = ["Condition", "Coverage", "InRegion", "InputBound", "Premise", "Violation", "monitor"]
 
 
 @dataclass(frozen=True)
@@ -123,7 +126,44 @@ class Premise:
     reason: str = ""
 
 
-Hypothesis = InRegion | InputBound | Premise
+@dataclass(frozen=True, eq=False)
+class Condition:
+    """A condition along every run, given by its margin at the saved instants (``margin ≥ 0``: it holds).
+
+    Parameters
+    ----------
+    name : str
+        What the condition is (``"function class (M, γ)-QC on the visited pairs"``).
+    margin : array, shape (runs, K') or (K',)
+        The margin at the first ``K' ≤ K`` saved instants (a condition on the step from ``t_k`` to
+        ``t_{k+1}`` has ``K' = K − 1``); NaN counts as violated.
+    quantity : str
+        How the margin is shown in a violation's detail.
+    """
+
+    name: str
+    margin: Array
+    quantity: str = "margin"
+
+    def first(self, result: SimulationResult, u: Array | None) -> tuple[Array, list[str]]:
+        nruns = max(1, result.n_runs)
+        m = np.asarray(self.margin, dtype=float)
+        m = np.broadcast_to(m, (nruns, m.shape[-1])) if m.ndim == 1 else m.reshape(nruns, -1)
+        if m.shape[-1] > result.t.size:
+            raise InvalidArgumentError(f"Condition {self.name!r}: margin has {m.shape[-1]} instants, the result "
+                                       f"{result.t.size}")
+        with np.errstate(invalid="ignore"):
+            bad = ~(m >= 0.0)
+        times = np.full(nruns, math.nan)
+        details = [""] * nruns
+        for i in np.flatnonzero(bad.any(axis=-1)):
+            k = int(np.argmax(bad[i]))
+            times[i] = result.t[k]
+            details[i] = f"{self.quantity} = {m[i, k]:.4g} < 0"
+        return times, details
+
+
+Hypothesis = InRegion | InputBound | Condition | Premise
 
 
 @dataclass(frozen=True, eq=False)
@@ -198,7 +238,7 @@ def monitor(result: SimulationResult, hypotheses: Sequence[Hypothesis], *,
     ----------
     result : SimulationResult
         With the truth ``x`` (runs along the batch axis).
-    hypotheses : sequence of InRegion, InputBound, Premise
+    hypotheses : sequence of InRegion, InputBound, Condition, Premise
     u : array or callable, optional
         The known input: a constant ``(m,)``, its values on the saved grid ``(K, m)`` or
         ``(runs, K, m)``, or a callable ``u(t)`` (evaluated on the saved grid); ``None``: zero.
@@ -225,8 +265,9 @@ def monitor(result: SimulationResult, hypotheses: Sequence[Hypothesis], *,
             if not h.holds:
                 failed.append(f"{h.name}: {h.reason}" if h.reason else h.name)
             continue
-        if not isinstance(h, (InRegion, InputBound)):
-            raise InvalidArgumentError(f"hypotheses: expected InRegion, InputBound or Premise, got {type(h).__name__}")
+        if not isinstance(h, (InRegion, InputBound, Condition)):
+            raise InvalidArgumentError(
+                f"hypotheses: expected InRegion, InputBound, Condition or Premise, got {type(h).__name__}")
         times, details = h.first(result, u_arr)
         for i in np.flatnonzero(np.isfinite(times)):
             if times[i] < first_t[i]:

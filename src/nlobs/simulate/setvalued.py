@@ -25,6 +25,7 @@ from nlobs._typing import Array, BoolArray
 from nlobs._validate import as_finite_array, as_vector
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError, SimulationDiverged
 from nlobs.observers.setvalued import GivenGain, Radii, SetValuedObserver
+from nlobs.simulate.coverage import Condition, Coverage, Hypothesis, Premise, monitor
 from nlobs.simulate.replay import run_observer
 from nlobs.simulate.result import SimulationResult
 from nlobs.synthesis.setvalued import SetValuedDesign
@@ -216,6 +217,10 @@ class ContainmentResult:
         The largest ratio of that estimate to the radius.
     max_abs_input : float or None
         ``max |d|`` over the runs.
+    coverage : Coverage or None
+        The certificate monitor on these runs (:func:`nlobs.simulate.coverage.monitor`): the function
+        class on the visited pairs and the round-off bound, the hypotheses above as one mechanism, with
+        the first violation per run (``None`` when not evaluated).
     """
 
     runs: int
@@ -236,6 +241,7 @@ class ContainmentResult:
     roundoff_runs: int | None = None
     roundoff_ratio: float | None = None
     max_abs_input: float | None = None
+    coverage: Coverage | None = field(default=None, repr=False)
 
     @property
     def guarantee_held(self) -> bool:
@@ -372,11 +378,14 @@ def _trajectory_conditions(batch: SimulationResult, system: DiscreteUISystem, ga
     x, xh = batch.x, batch.x_hat
     d = batch.extras["d"]
     out: dict[str, Any] = {}
+    hypotheses: list[Hypothesis] = []
     fc = gain.function_class if isinstance(gain, SetValuedDesign) else system.function_class
     if not isinstance(fc, LPV):  # a vertex design is run with the plant's weights: π is in the polytope by construction
         margin, rel = class_margins(system.nonlinear, fc, xh[:, :-1], x[:, :-1])
         out["class_violated_in_runs"] = int(np.sum((rel < 0).any(axis=1)))
         out["class_worst_margin"] = float(np.min(margin)) if margin.size else None
+        hypotheses.append(Condition(f"function class {fc.label} on the visited pairs (x_k, x̂_k)", rel,
+                                    "QC − γ (tolerance-adjusted)"))
     if box is not None:
         lo, hi = np.asarray(box[0], dtype=float), np.asarray(box[1], dtype=float)
         with np.errstate(invalid="ignore"):
@@ -400,6 +409,13 @@ def _trajectory_conditions(batch: SimulationResult, system: DiscreteUISystem, ga
     out["roundoff_runs"] = int(np.sum((rr > ROUNDOFF_FRACTION).any(axis=1)))
     out["roundoff_ratio"] = float(np.max(rr))
     out["max_abs_input"] = float(np.max(np.abs(d))) if d.size else 0.0
+    with np.errstate(invalid="ignore"):
+        hypotheses.append(Condition(f"floating-point round-off within {ROUNDOFF_FRACTION:g} × the radius δˣ_k",
+                                    ROUNDOFF_FRACTION - rr, f"{ROUNDOFF_FRACTION:g} − round-off estimate / δˣ_k"))
+    verified = bool(gain.verified) if isinstance(gain, SetValuedDesign) else False
+    premises = [] if isinstance(gain, SetValuedDesign) else [
+        Premise("a certificate for the gain", False, "a given gain (not designed by nlobs) has none")]
+    out["coverage"] = monitor(batch, [*hypotheses, *premises], verified=verified)
     return out
 
 

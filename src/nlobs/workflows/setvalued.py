@@ -557,6 +557,10 @@ class SetValuedStudyReport:
         if study.baselines is not None:
             lines.append(f"    Lipschitz: {study.baselines.lipschitz_note}; EKF: "
                          f"{study.baseline_ekf_failure or study.baselines.ekf_note}")
+        cov = res.coverage
+        if cov is not None:
+            lines.append(f"  certificate covers {cov.covered_runs} of {cov.runs} runs (hypotheses checked along "
+                         "every run: " + "; ".join(cov.hypotheses) + ")")
         lines += [f"wrote {f}" for f in self.figures]
         lines += [f"warning: {w}" for w in self.warnings]
         if self.violated:
@@ -683,6 +687,7 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
         "roundoff_over_radius": res.roundoff_ratio,
         "max_abs_unknown_input": res.max_abs_input,
         "warnings": warnings,
+        **(res.coverage.to_dict() if res.coverage is not None else {}),
         "seconds": res.seconds, "design": data["design"], "structure": data["structure"],
         "class_check": data["class_check"],
     }
