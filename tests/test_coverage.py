@@ -110,3 +110,22 @@ def test_condition_margins_first_negative_instant_and_shape_errors() -> None:
     assert nan.covered_runs == 0 and all(v.time == t[0] for v in nan.violations)
     with pytest.raises(Exception, match="margin has"):
         monitor(res, [Condition("too long", np.zeros(t.size + 1))])
+
+
+def test_chemostat_drift_run_with_an_input_200_times_mu_is_not_certified() -> None:
+    """The user's run: ``--u 0.2`` against a design bound μ = 0.001 was reported "certified": true."""
+    import json
+
+    from typer.testing import CliRunner
+
+    from nlobs.cli import app
+
+    res = CliRunner().invoke(app, ["design", "drift", "chemostat", "--box", "0.5,8,0.3,9", "--mu", "0.001", "--method",
+                                   "sdp", "--alpha", "0.5", "--simulate", "--x0", "4,1.5", "--xhat0", "2,1", "--u",
+                                   "0.2", "--duration", "2", "--json"])
+    assert res.exit_code in (0, 1), res.output
+    sim = json.loads(res.stdout)["simulation"]
+    assert sim["gain_certified"] is True  # (2.17) holds with the region's premises ...
+    assert sim["certified"] is False and sim["certificate_covers_run"] is False  # ... but the run is not covered
+    (v,) = sim["certificate_violations"]
+    assert v["hypothesis"] == "‖u‖ ≤ μ = 0.001" and v["time"] == 0.0 and v["detail"] == "‖u‖ = 0.2 > 0.001"
