@@ -202,6 +202,9 @@ def version_cmd() -> None:
     typer.echo(version("nlobs"))
 
 
+from nlobs.cli.advise import advise_cmd  # noqa: E402 - registered after the app exists
+
+app.command("advise")(advise_cmd)
 app.add_typer(design_app, name="design")
 app.add_typer(simulate_app, name="simulate")
 

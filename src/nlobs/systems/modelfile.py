@@ -115,8 +115,10 @@ Model = SymbolicModel | LinearSystem
 
 _UI_TABLES = ("unknown_inputs", "noise", "initial", "function_class")
 _SCENARIO_TABLES = ("units", "sensors", "input_signals", "process_noise", "simulation")
+#: Tables read by their own commands and passed over by the model reader (``[cascade]``: ``nlobs design cascade``).
+_COMMAND_TABLES = ("cascade",)
 _TOP_KEYS = {"name", "description", "time", "dt", "states", "inputs", "outputs", "parameters", "dynamics", "linear",
-             *_UI_TABLES, *_SCENARIO_TABLES}
+             *_UI_TABLES, *_SCENARIO_TABLES, *_COMMAND_TABLES}
 _DYN_KEYS = {"f", "g", "rhs", "h"}
 _LIN_KEYS = {"A", "B", "C", "D"}
 #: Largest model file read, in bytes (1 MiB).
@@ -260,6 +262,22 @@ def load_model(path: str | Path) -> Model:
     """
     p = resolve_model(path)
     return parse_model(_read_text(p), source=str(p))
+
+
+def model_file_tables(path: str | Path) -> frozenset[str]:
+    """The top-level keys and tables of a model file (or a shipped model), read as TOML and not interpreted.
+
+    What ``nlobs advise`` asks before choosing a method: whether the file has a ``[cascade]`` table
+    or the unknown-input tables of Khajenejad & Yong; their contents are not parsed here.
+
+    Raises
+    ------
+    ModelFileError
+        The file cannot be found or read, or is not valid TOML.
+    """
+    p = resolve_model(path)
+    text = _read_text(p)
+    return frozenset(_toml(_Source(str(p), text), text))
 
 
 def parse_model(text: str, *, source: str = "<string>") -> Model:

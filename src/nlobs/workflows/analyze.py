@@ -182,16 +182,21 @@ class AnalysisReport:
     report: LinearReport | NonlinearReport
     verdict: Verdict = Verdict.OK
     message: str = ""
+    advice: Any = None
 
     def to_dict(self) -> dict[str, Any]:
-        """The JSON report (``kind`` is ``"linear"`` or ``"nonlinear"``)."""
+        """The JSON report (``kind`` is ``"linear"`` or ``"nonlinear"``; ``advice`` the advisor's report or ``null``)."""
         data = self.report.to_dict()
         data.setdefault("kind", "linear")
+        data["advice"] = None if self.advice is None else self.advice.to_dict()
         return data
 
     def summary(self) -> str:
-        """The text report."""
-        return self.report.summary()
+        """The text report, ending with the advisor's short summary (``nlobs advise`` for the evidence)."""
+        text = self.report.summary()
+        if self.advice is not None:
+            text += "\n" + self.advice.summary(short=True) + "\n  (evidence and parameters: nlobs advise)"
+        return text
 
 
 def analyze_model(model: str | Path | Model, *, x0: Sequence[float] | None = None,
@@ -217,11 +222,16 @@ def analyze_model(model: str | Path | Model, *, x0: Sequence[float] | None = Non
     NlobsError
         Anything else the analysis refuses (a typed error naming the quantity).
     """
+    from nlobs.workflows.advise import advise_model
+
     m = model if isinstance(model, (SymbolicModel, LinearSystem)) else load_model(model)
     region = box_from_numbers(box, m.n) if box is not None else None
     if region is not None and isinstance(m, SymbolicModel):
         _require_evaluable(m, region)
-    return AnalysisReport(analyze(m, x0=x0, u0=u0, region=region))
+    report = analyze(m, x0=x0, u0=u0, region=region)
+    geo = getattr(report, "geometry", None)
+    advice = advise_model(model if isinstance(model, (str, Path)) else m, box=region, geometry=geo)
+    return AnalysisReport(report, advice=advice)
 
 
 def _require_evaluable(model: SymbolicModel, region: Box, samples: int = 32, seed: int = 0) -> None:

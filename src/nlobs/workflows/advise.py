@@ -1,0 +1,750 @@
+r"""``nlobs advise``: which of nlobs's observers applies to a model, with the evidence and the first command.
+
+:func:`advise_model` reads a model file (or a shipped name, or a model), chooses the region of its
+analyses, and returns one :class:`MethodAdvice` per method of nlobs in an :class:`AdviceReport`:
+
+* ``drift`` — the observer (3.1) of Dalla Mora, Germani & Manes: drift-observability on the region
+  (Def. 2.3, ``det Q_s ≠ 0``; the smallest ``|det Q_s|`` over sampled points and where it vanishes),
+  the observation relative degree ``r`` (Def. 2.5) and ``s ≤ r`` (Theorems 2.9, 3.4; otherwise
+  Theorem 2.7 needs a small input bound ``μ`` of (2.17)); ``μ`` is the largest ``‖u(t)‖`` of the
+  file's ``[input_signals]``. A sign change of ``det Q_s`` that depends on one state gives a *local*
+  verdict: the largest part of the region on one side of its zeros;
+* ``pinv`` — Röbenack's Moore–Penrose observer (7), (17): ``Σ r_j < n``, A1 and A5;
+* ``luenberger`` — a Luenberger gain of LMIs (14), (15) of Grip, Saberi & Johansen for the
+  linearisation at the file's ``x0`` (local: detectability of the linearisation);
+* ``ekf-ukf`` — extended and unscented Kalman filters (any model): the generic rank of the
+  observability codistribution (or observability of the linearisation);
+* ``cascade`` — the observer (9)–(10) of Grip, Saberi & Johansen: a ``[cascade]`` table in the file
+  (its contents are read by ``nlobs design cascade``), or else the *structure* (1a)–(1b) found in
+  the equations: states ``w`` whose right-hand sides are affine in ``w`` with constant coefficients,
+  driven by the other states, with every output linear in ``w`` (:func:`cascade_structure`);
+* ``setvalued`` — the set-valued observer of Khajenejad & Yong for a discrete-time model with
+  unknown inputs (the file's ``[unknown_inputs]``): strong detectability of ``(A, G, C, H)``
+  (Def. 2.1).
+
+The region: the given box, else the file's ``[simulation] box``, else ``[−1, 1]ⁿ``. Before any
+analysis the region is searched for the singularities of ``f``, ``g`` and ``h``
+(:func:`singularities`): denominators that vanish (a Monod pole ``K_s + S = 0``), arguments of
+square roots and logarithms that are negative, and non-finite values of ``f`` at sampled points.
+A region that contains one is replaced by a *suggested* box that avoids those of one state (cut at
+the zeros, with a margin of 5 % of the remaining interval), and the analyses run on that box.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from itertools import combinations
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from nlobs.errors import ModelError, ModelFileError, NlobsError
+from nlobs.geometry.checks import SYMBOLIC_DET_MAX_N
+from nlobs.geometry.lie import tidy
+from nlobs.geometry.observability import AffineFields, observability_jacobian
+from nlobs.geometry.region import Box, format_point
+from nlobs.geometry.report import GeometryReport, geometry_report
+from nlobs.linear import analyze_linear
+from nlobs.systems.codegen import compile_matrix
+from nlobs.systems.linear import LinearSystem
+from nlobs.systems.linearize import linearize
+from nlobs.systems.modelfile import Model, load_discrete_ui_model, load_model, load_scenario, model_file_tables
+from nlobs.systems.symbolic import SymbolicModel
+from nlobs.workflows.inputs import as_region, model_label
+from nlobs.workflows.verdict import Verdict
+
+__all__ = ["METHODS", "AdviceReport", "CascadeStructure", "MethodAdvice", "Singularity", "advise_model",
+           "cascade_structure", "singularities"]
+
+#: The methods the advisor reports on, in the order it prefers an applicable one.
+METHODS: tuple[str, ...] = ("cascade", "setvalued", "drift", "pinv", "ekf-ukf", "luenberger")
+#: Sampled points of the region (plus its corners up to n = 10).
+SAMPLES = 512
+#: Fraction of the remaining interval kept away from a singular value of one state.
+MARGIN = 0.05
+#: Largest ``n`` whose subsets are searched for a cascade structure (2ⁿ subsets).
+CASCADE_MAX_N = 12
+#: Default decay rate α of (2.17) and of the Luenberger poles (``nlobs design drift --alpha``).
+DEFAULT_ALPHA = 1.0
+
+
+@dataclass(frozen=True)
+class Singularity:
+    """A place in the region where ``f``, ``g`` or ``h`` is not defined or not finite.
+
+    Attributes
+    ----------
+    kind : str
+        ``"pole"`` (a denominator vanishes), ``"domain"`` (a square-root or logarithm argument is
+        negative there) or ``"non-finite"`` (a sampled value of ``f`` is not finite).
+    expression : str
+        The denominator or argument (parameters substituted), or the equation.
+    state : str or None
+        The one state it depends on (``None``: several, or a sampled value).
+    values : tuple of float
+        Its zeros in that state inside the region (empty when not located).
+    point : tuple of float or None
+        A point of the region where it happens.
+    """
+
+    kind: str
+    expression: str
+    state: str | None
+    values: tuple[float, ...] = ()
+    point: tuple[float, ...] | None = None
+
+    def describe(self) -> str:
+        what = {"pole": f"the denominator {self.expression} vanishes",
+                "domain": f"the argument {self.expression} is negative",
+                "non-finite": f"{self.expression} is not finite"}[self.kind]
+        if self.state is not None and self.values:
+            where = ", ".join(f"{self.state} = {v:.4g}" for v in self.values)
+            return f"{what} at {where} inside the region"
+        return f"{what} at x = {format_point(np.asarray(self.point))}" if self.point is not None else what
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "expression": self.expression, "state": self.state, "values": list(self.values),
+                "point": None if self.point is None else list(self.point), "description": self.describe()}
+
+
+@dataclass(frozen=True)
+class CascadeStructure:
+    """States ``w`` with ``ẇ = A w + z(x, u)`` (``A`` constant), ``y = C w``, ``z`` depending on the other states.
+
+    The form (1a)–(1b) of Grip, Saberi & Johansen: a linear measured subsystem Σ₂ (the states
+    :attr:`linear_states`) driven by the nonlinear Σ₁ (:attr:`nonlinear_states`) through ``z``.
+    """
+
+    linear_states: tuple[str, ...]
+    nonlinear_states: tuple[str, ...]
+    drive: tuple[str, ...]
+
+    def describe(self) -> str:
+        return (f"linear measured states {', '.join(self.linear_states)} driven through z = ({', '.join(self.drive)}) "
+                f"by {', '.join(self.nonlinear_states)}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"linear_states": list(self.linear_states), "nonlinear_states": list(self.nonlinear_states),
+                "drive": list(self.drive)}
+
+
+@dataclass(frozen=True)
+class MethodAdvice:
+    """The advisor's verdict on one method.
+
+    Attributes
+    ----------
+    method : str
+        One of :data:`METHODS`.
+    title : str
+    applicable : str
+        ``"yes"``, ``"no"`` or ``"local"`` (on :attr:`region` only).
+    reason : str
+        One line: why.
+    evidence : tuple of str
+        The numbers behind the verdict.
+    parameters : dict
+        What to start from (box, α, μ, θ, ...).
+    command : str or None
+        The first ``nlobs`` command to run (``None`` when the method does not apply).
+    region : str or None
+        Where a local verdict holds.
+    """
+
+    method: str
+    title: str
+    applicable: str
+    reason: str
+    evidence: tuple[str, ...] = ()
+    parameters: dict[str, Any] = field(default_factory=dict)
+    command: str | None = None
+    region: str | None = None
+    rank: int = 0  # lower is preferred among applicable methods (not printed)
+
+    @property
+    def usable(self) -> bool:
+        return self.applicable in ("yes", "local") and self.command is not None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"method": self.method, "title": self.title, "applicable": self.applicable, "reason": self.reason,
+                "region": self.region, "evidence": list(self.evidence), "parameters": dict(self.parameters),
+                "command": self.command}
+
+
+@dataclass(frozen=True)
+class AdviceReport:
+    """What ``nlobs advise`` prints: one :class:`MethodAdvice` per method and the recommendation.
+
+    Attributes
+    ----------
+    model : str
+        The model's name.
+    target : str
+        How commands name the model (the path or shipped name given).
+    box : Box or None
+        The region asked for (given, or from the file), ``None`` for a linear model.
+    box_source : str
+        ``"given"``, ``"file [simulation] box"`` or ``"default [-1, 1]^n"``.
+    region : Box or None
+        The region of the analyses (:attr:`box`, or the suggested box avoiding :attr:`singular`).
+    singular : tuple of Singularity
+        Singularities of the model found in :attr:`box`.
+    methods : tuple of MethodAdvice
+    recommended : str or None
+        The preferred applicable method.
+    compare_command : str or None
+        The comparison of the recommended observer with an EKF and a UKF under the file's sensors.
+    verdict : Verdict
+        ``OK`` when a method applies, ``NO_OBSERVER`` otherwise.
+    message : str
+    """
+
+    model: str
+    target: str
+    box: Box | None
+    box_source: str
+    region: Box | None
+    singular: tuple[Singularity, ...]
+    methods: tuple[MethodAdvice, ...]
+    recommended: str | None
+    compare_command: str | None
+    verdict: Verdict = Verdict.OK
+    message: str = ""
+
+    def method(self, name: str) -> MethodAdvice:
+        """The advice on one method (``KeyError`` for an unknown name)."""
+        for m in self.methods:
+            if m.method == name:
+                return m
+        raise KeyError(name)
+
+    @property
+    def command(self) -> str | None:
+        """The first command to run (the recommended method's)."""
+        return None if self.recommended is None else self.method(self.recommended).command
+
+    def to_dict(self) -> dict[str, Any]:
+        def box(b: Box | None) -> Any:
+            return None if b is None else {"lower": b.lower.tolist(), "upper": b.upper.tolist()}
+
+        return {"model": self.model, "box": box(self.box), "box_source": self.box_source, "region": box(self.region),
+                "singularities": [s.to_dict() for s in self.singular],
+                "methods": {m.method: m.to_dict() for m in self.methods}, "recommended": self.recommended,
+                "command": self.command, "compare_command": self.compare_command, "verdict": self.verdict.value,
+                "message": self.message}
+
+    def summary(self, *, short: bool = False) -> str:
+        """The text report (``short``: the recommendation and one line per method, as ``nlobs analyze`` ends)."""
+        lines = [f"observer advice for {self.model}"]
+        if self.box is not None:
+            lines.append(f"  box {self.box.describe()} ({self.box_source})")
+        for s in self.singular:
+            lines.append(f"  singular: {s.describe()}")
+        if self.region is not None and self.box is not None and not _same(self.region, self.box):
+            lines.append(f"  suggested box (avoids the singularities): {self.region.describe()}")
+        for m in self.methods:
+            where = f" on {m.region}" if m.region else ""
+            lines.append(f"  [{m.applicable:5s}] {m.title}{where}: {m.reason}")
+            if not short:
+                lines.extend(f"          {e}" for e in m.evidence)
+                if m.parameters:
+                    lines.append("          start from: " + ", ".join(f"{k} = {_fmt_param(v)}"
+                                                                      for k, v in m.parameters.items()))
+                if m.command:
+                    lines.append(f"          $ {m.command}")
+        if self.recommended is None:
+            lines.append(f"  recommended: none — {self.message}")
+        else:
+            lines.append(f"  recommended: {self.method(self.recommended).title}")
+            lines.append(f"    $ {self.command}")
+            if self.compare_command:
+                lines.append(f"    then compare with EKF/UKF under the file's sensors: $ {self.compare_command}")
+        return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- helpers
+def _same(a: Box, b: Box) -> bool:
+    return bool(np.array_equal(a.lower, b.lower) and np.array_equal(a.upper, b.upper))
+
+
+def _fmt_param(v: Any) -> str:
+    if isinstance(v, float):
+        return f"{v:g}"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_fmt_param(x) for x in v) + "]"
+    return str(v)
+
+
+def _num(v: float) -> str:
+    return f"{float(v):.6g}"
+
+
+def box_option(box: Box) -> str:
+    """``--box=lo1,hi1,...`` as the commands read it (the ``=`` keeps a leading minus an option value)."""
+    lo, hi = box.lower, box.upper
+    if np.all(lo == lo[0]) and np.all(hi == hi[0]):
+        return f"--box={_num(lo[0])},{_num(hi[0])}"
+    return "--box=" + ",".join(f"{_num(a)},{_num(b)}" for a, b in zip(lo, hi))
+
+
+def _sample(box: Box, count: int = SAMPLES, seed: int = 0) -> np.ndarray:
+    pts = [box.sample(count, seed), box.lower[None, :], box.upper[None, :], ((box.lower + box.upper) / 2)[None, :]]
+    if box.n <= 10:
+        corners = np.array(np.meshgrid(*[(a, b) for a, b in zip(box.lower, box.upper)], indexing="ij"))
+        pts.append(corners.reshape(box.n, -1).T)
+    return np.vstack(pts)
+
+
+def _atoms(e: sp.Expr) -> list[tuple[str, sp.Expr]]:
+    """Denominators (``"pole"``) and square-root / logarithm arguments (``"domain"``) of an expression."""
+    out: list[tuple[str, sp.Expr]] = []
+    for a in sp.preorder_traversal(e):
+        if isinstance(a, sp.Pow) and a.exp.is_number:
+            if a.exp.is_negative:
+                out.append(("pole", a.base))
+            if a.exp.is_Rational and not a.exp.is_Integer and int(a.exp.q) % 2 == 0:
+                out.append(("domain", a.base))
+        elif isinstance(a, sp.log):
+            out.append(("domain", a.args[0]))
+    return out
+
+
+def _real_roots(e: sp.Expr, x: sp.Symbol, lo: float, hi: float) -> tuple[float, ...] | None:
+    """The real zeros of ``e`` in ``[lo, hi]`` when it is a polynomial in ``x`` of degree ≤ 8 (else ``None``)."""
+    num = sp.numer(sp.together(e))
+    try:
+        poly = sp.Poly(num, x)
+    except sp.PolynomialError:
+        return None
+    if poly.degree() > 8 or poly.degree() < 1:
+        return None
+    coeffs = [float(c) for c in poly.all_coeffs()]
+    roots = np.roots(coeffs)
+    real = sorted({float(r.real) for r in roots if abs(r.imag) <= 1e-9 * (1 + abs(r.real)) and lo <= r.real <= hi})
+    return tuple(real)
+
+
+def singularities(model: SymbolicModel, box: Box) -> tuple[Singularity, ...]:
+    """Where ``f``, ``g`` or ``h`` is not defined in the box: vanishing denominators, negative roots' arguments.
+
+    Each denominator and each argument of an even root or a logarithm (parameters substituted) is
+    evaluated at :data:`SAMPLES` seeded points and the corners; one of a single state that is a
+    polynomial in it is solved for its zeros inside the box. Then ``f`` itself is evaluated at the
+    points (zero input) and a non-finite value is reported with its point.
+    """
+    subs = model.substituted()
+    exprs = [e.subs(subs) for e in (*model.rhs, *model.h)]
+    xs = tuple(model.x)
+    states = set(xs)
+    pts = _sample(box)
+    found: list[Singularity] = []
+    seen: set[tuple[str, str]] = set()
+    for e in exprs:
+        for kind, atom in _atoms(e):
+            if not atom.free_symbols or not atom.free_symbols <= states or (kind, str(atom)) in seen:
+                continue
+            seen.add((kind, str(atom)))
+            fn = compile_matrix(sp.Matrix([atom]), (xs,), vector=True, what=f"the {kind} {atom}")
+            with np.errstate(all="ignore"):
+                v = np.asarray(fn(pts), dtype=float)[:, 0]
+            ok = np.isfinite(v)
+            if kind == "domain":
+                bad = bool(np.any(v[ok] < 0))
+            else:
+                bad = bool(np.any(v[ok] == 0) or (np.any(v[ok] > 0) and np.any(v[ok] < 0)))
+            if not bad:
+                continue
+            free = sorted(atom.free_symbols, key=xs.index)
+            state, values = None, ()
+            if len(free) == 1:
+                i = xs.index(free[0])
+                roots = _real_roots(atom, free[0], float(box.lower[i]), float(box.upper[i]))
+                if roots is not None:
+                    state, values = model.states[i], roots
+            k = int(np.argmin(np.abs(np.where(ok, v, 0.0)))) if kind == "pole" else int(np.argmax(v <= 0))
+            found.append(Singularity(kind, str(atom), state, values, tuple(float(c) for c in pts[k])))
+    if not found:
+        f = compile_matrix(sp.Matrix([e.subs({u: 0 for u in model.u}) for e in exprs[: model.n]]), (xs,), vector=True,
+                           what="f")
+        with np.errstate(all="ignore"):
+            fv = np.asarray(f(pts), dtype=float)
+        nonfinite = ~np.all(np.isfinite(fv), axis=-1)
+        if np.any(nonfinite):
+            k = int(np.argmax(nonfinite))
+            found.append(Singularity("non-finite", "f(x)", None, (), tuple(float(c) for c in pts[k])))
+    return tuple(found)
+
+
+def _cut_box(box: Box, cuts: dict[int, list[float]], keep: dict[int, Any], x0: np.ndarray | None) -> Box:
+    """The box cut at the given values of its states: per state the piece holding ``x0`` (else the widest).
+
+    ``keep[i](value) -> bool`` says whether a piece is admissible (a root's argument positive there).
+    Each cut end moves :data:`MARGIN` of the piece's width away from the cut.
+    """
+    lo, hi = box.lower.copy(), box.upper.copy()
+    for i, vals in cuts.items():
+        edges = [float(lo[i]), *sorted(v for v in vals if lo[i] < v < hi[i]), float(hi[i])]
+        pieces = [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a and keep.get(i, lambda _v: True)((a + b) / 2)]
+        if not pieces:
+            continue
+        inside = [p for p in pieces if x0 is not None and p[0] <= x0[i] <= p[1]]
+        a, b = inside[0] if inside else max(pieces, key=lambda p: p[1] - p[0])
+        width = b - a
+        lo[i] = a + (MARGIN * width if a != box.lower[i] or a in vals else 0.0)
+        hi[i] = b - (MARGIN * width if b != box.upper[i] or b in vals else 0.0)
+    return Box(lo, hi)
+
+
+def _suggested_box(model: SymbolicModel, box: Box, sing: Sequence[Singularity], x0: np.ndarray | None) -> Box:
+    cuts: dict[int, list[float]] = {}
+    keep: dict[int, Any] = {}
+    for s in sing:
+        if s.state is None or not s.values:
+            continue
+        i = model.states.index(s.state)
+        cuts.setdefault(i, []).extend(s.values)
+        if s.kind == "domain":
+            atom_fn = _univariate(model, s.expression, i)
+            prev = keep.get(i, lambda _v: True)
+            keep[i] = (lambda f, p: (lambda v: p(v) and f(v) > 0))(atom_fn, prev)
+    return _cut_box(box, cuts, keep, x0) if cuts else box
+
+
+def _univariate(model: SymbolicModel, text: str, i: int) -> Any:
+    """The singular expression ``text`` (found among the model's atoms) as a function of state ``i``."""
+    subs = model.substituted()
+    for e in (*model.rhs, *model.h):
+        for _kind, atom in _atoms(e.subs(subs)):
+            if str(atom) == text:
+                fn = compile_matrix(sp.Matrix([atom]), ((model.x[i],),), vector=True, what=text)
+                return lambda v: float(np.asarray(fn(np.array([[v]])), dtype=float)[0, 0])
+    return lambda _v: True
+
+
+def cascade_structure(model: SymbolicModel) -> CascadeStructure | None:
+    """The largest set of states ``w`` in the form (1a)–(1b) of Grip, Saberi & Johansen, or ``None``.
+
+    ``w`` qualifies when, for every ``i`` in ``w``, ``∂ẋ_i/∂w_j`` is a constant for every ``j`` in
+    ``w`` (``ẇ = A w + z(x, u)``), every output is ``C w`` (constant ``∂h/∂w``, no other state),
+    some ``z_i`` depends on a state outside ``w`` (the linear part is driven by the nonlinear one),
+    and ``w`` is neither empty nor all the states. Subsets are searched largest first, for
+    ``n ≤`` :data:`CASCADE_MAX_N` (the Jacobian is built once; each test is a table look-up).
+    """
+    n = model.n
+    if n < 2 or n > CASCADE_MAX_N or model.time.is_discrete:
+        return None
+    subs = model.substituted()
+    xs = tuple(model.x)
+    var = set(xs) | set(model.u)
+    rhs = [e.subs(subs) for e in model.rhs]
+    h = [e.subs(subs) for e in model.h]
+    const = [[not (sp.diff(rhs[i], xs[j]).free_symbols & var) for j in range(n)] for i in range(n)]
+    dep = [[bool(sp.diff(rhs[i], xs[j]) != 0) for j in range(n)] for i in range(n)]
+    hconst = [[not (sp.diff(e, xs[j]).free_symbols & var) for j in range(n)] for e in h]
+    hdep = [[bool(sp.diff(e, xs[j]) != 0) for j in range(n)] for e in h]
+    for size in range(n - 1, 0, -1):
+        for w in combinations(range(n), size):
+            v = [j for j in range(n) if j not in w]
+            if not all(const[i][j] for i in w for j in w):
+                continue
+            if not all(hconst[k][j] for k in range(len(h)) for j in w) or any(hdep[k][j] for k in range(len(h))
+                                                                              for j in v):
+                continue
+            if not any(hdep[k][j] for k in range(len(h)) for j in w):
+                continue
+            drive = [i for i in w if any(dep[i][j] for j in v)]
+            if not drive:
+                continue
+            z = []
+            for i in drive:
+                zi = sp.expand(rhs[i] - sum(sp.diff(rhs[i], xs[j]) * xs[j] for j in w))
+                z.append(f"{model.states[i]}: {zi}")
+            return CascadeStructure(tuple(model.states[i] for i in w), tuple(model.states[j] for j in v), tuple(z))
+    return None
+
+
+def _input_bound(scenario: Any, duration: float | None) -> tuple[float, str]:
+    """``μ``: the largest ``‖u(t)‖`` of the file's input signals over the run (``0`` without inputs)."""
+    sig = getattr(scenario, "input_signals", None)
+    if sig is None:
+        return 0.0, "no [input_signals] in the file (μ = 0: give --mu for your inputs)"
+    t = np.linspace(0.0, float(duration or 10.0), 4001)
+    u = np.stack([np.broadcast_to(np.asarray(s(t), dtype=float), t.shape) for s in sig.signals], axis=-1)
+    mu = float(np.max(np.linalg.norm(u, axis=-1)))
+    return mu, f"max ‖u(t)‖ of [input_signals] over [0, {t[-1]:g}] = {mu:.4g}"
+
+
+def _det_evidence(fields: AffineFields, s: tuple[int, ...], region: Box) -> tuple[str | None, Any]:
+    """``det Q_s`` (``n ≤ 4``) and the smallest ``|det Q_s|`` over sampled points of the region."""
+    if fields.n > SYMBOLIC_DET_MAX_N or sum(s) != fields.n:
+        return None, None
+    det = sp.factor(tidy(observability_jacobian(fields, s).det(method="berkowitz")))
+    if det.is_number:
+        return f"det Q_s = {det} (constant)", det
+    fn = compile_matrix(sp.Matrix([det]), (tuple(fields.x),), vector=True, what="det Q_s")
+    pts = _sample(region)
+    with np.errstate(all="ignore"):
+        v = np.abs(np.asarray(fn(pts), dtype=float)[:, 0])
+    v = np.where(np.isfinite(v), v, 0.0)
+    k = int(np.argmin(v))
+    return f"det Q_s = {det}; min |det Q_s| over {len(pts)} sampled points = {v[k]:.4g} at x = {format_point(pts[k])}", det
+
+
+def _local_drift_box(fields: AffineFields, det: Any, region: Box, x0: np.ndarray | None) -> Box | None:
+    """The part of the region on one side of the zeros of ``det Q_s`` when it depends on one state."""
+    if det is None or getattr(det, "is_number", True):
+        return None
+    free = sorted(det.free_symbols & set(fields.x), key=fields.x.index)
+    if len(free) != 1:
+        return None
+    i = fields.x.index(free[0])
+    roots = _real_roots(det, free[0], float(region.lower[i]), float(region.upper[i]))
+    if not roots:
+        return None
+    return _cut_box(region, {i: list(roots)}, {}, x0)
+
+
+# ----------------------------------------------------------------------------- the methods
+def _drift(target: str, geo: GeometryReport | None, geo_err: str | None, fields: AffineFields | None, region: Box,
+           mu: float, mu_src: str, x0: np.ndarray | None) -> MethodAdvice:
+    title = "drift observer (Dalla Mora, Germani & Manes (3.1))"
+    if geo is None or fields is None:
+        return MethodAdvice("drift", title, "no", f"needs a continuous-time input-affine model ({geo_err})")
+    r = geo.relative_degree
+    r_txt = ", ".join("undefined" if v is None else str(v) for v in r)
+    ev = [f"observation relative degree r = ({r_txt}); multi-index s = {tuple(geo.multi_index)}"]
+    r_txt = r_txt.replace("undefined", "∞")
+    if geo.drift is None:
+        return MethodAdvice("drift", title, "no", "the observability codistribution has rank < n: no Φ_s is a "
+                            "diffeomorphism", tuple(ev))
+    det_txt, det = _det_evidence(fields, tuple(geo.multi_index), region)
+    if det_txt:
+        ev.append(det_txt)
+    ev.append(f"drift-observability on {region.describe()}: {'yes' if geo.drift.passed else 'NO'} — {geo.drift.evidence}")
+    s_le_r = all(v is None or si <= v for si, v in zip(geo.multi_index, r))  # undefined r: r = ∞
+    ev.append(f"s ≤ r: {'yes' if s_le_r else 'no'} (Theorems 2.9, 3.4" + ("" if s_le_r else
+              "; otherwise Theorem 2.7: (2.17) needs a small input bound μ") + ")")
+    ev.append(f"μ: {mu_src}")
+    params: dict[str, Any] = {"box": _box_list(region), "alpha": DEFAULT_ALPHA, "mu": mu, "w_max": 1e5}
+    if geo.drift.passed:
+        cmd = f"nlobs design drift {target} {box_option(region)} --alpha {DEFAULT_ALPHA:g} --mu {mu:.4g}"
+        if s_le_r or mu == 0.0:
+            return MethodAdvice("drift", title, "yes", "drift-observable on the region" + (", s ≤ r" if s_le_r else
+                                ", no input"), tuple(ev), params, cmd, rank=2)
+        return MethodAdvice("drift", title, "yes", f"drift-observable on the region, but s ≰ r: (2.17) holds only for "
+                            f"a small input bound, here μ = {mu:.4g} (lower --mu, or try --method sdp)", tuple(ev),
+                            params, cmd, rank=5)
+    local = _local_drift_box(fields, det, region, x0)
+    if local is not None:
+        params["box"] = _box_list(local)
+        cmd = f"nlobs design drift {target} {box_option(local)} --alpha {DEFAULT_ALPHA:g} --mu {mu:.4g}"
+        return MethodAdvice("drift", title, "local", "det Q_s vanishes inside the box; Q_s is nonsingular on one side "
+                            "(a trajectory that crosses the singular set leaves what the observer covers)",
+                            tuple(ev), params, cmd, region=local.describe(), rank=8)
+    return MethodAdvice("drift", title, "no", "Q_s is singular inside the region", tuple(ev), params)
+
+
+def _box_list(b: Box) -> list[list[float]]:
+    return [[float(a), float(c)] for a, c in zip(b.lower, b.upper)]
+
+
+def _pinv(target: str, geo: GeometryReport | None, geo_err: str | None, region: Box) -> MethodAdvice:
+    from nlobs.synthesis.pinv_gain import DEFAULT_THETA
+
+    title = "Moore–Penrose observer (Röbenack (7), (17))"
+    if geo is None:
+        return MethodAdvice("pinv", title, "no", f"needs a continuous-time input-affine model ({geo_err})")
+    r = geo.relative_degree
+    n = len(geo.states)
+    ev = ["observation relative degree r = (" + ", ".join("undefined" if v is None else str(v) for v in r) + ")"]
+    if any(v is None for v in r):
+        return MethodAdvice("pinv", title, "no", "the observation relative degree is not defined on the region "
+                            "(L_g L_f^k h ≡ 0 for k < n, or no input)", tuple(ev))
+    total = sum(v for v in r if v is not None)
+    ev.append(f"Σ r_j = {total}, n = {n}")
+    for c in (geo.a1, geo.a5):
+        if c is not None:
+            ev.append(c.summary())
+    if total >= n:
+        return MethodAdvice("pinv", title, "no", f"Σ r_j = {total} is not < n = {n}: Q is square, Q⁺ = Q⁻¹ (the drift "
+                            "observer with s = r is that case)", tuple(ev))
+    if geo.a1 is None or not geo.a1.passed:
+        return MethodAdvice("pinv", title, "no", "A1 fails on the region", tuple(ev))
+    if geo.a5 is None or not geo.a5.passed:
+        return MethodAdvice("pinv", title, "no", "A5 (involutivity) fails on the region", tuple(ev))
+    cmd = f"nlobs design pinv {target} {box_option(region)} --theta {DEFAULT_THETA:g}"
+    return MethodAdvice("pinv", title, "yes", f"Σ r_j = {total} < n, A1 and A5 hold (A2–A4, A6 are the user's to check)",
+                        tuple(ev), {"box": _box_list(region), "theta": DEFAULT_THETA}, cmd, rank=3)
+
+
+def _linear_part(target: str, model: Model, x0: np.ndarray, geo: GeometryReport | None,
+                 err: str | None) -> tuple[MethodAdvice, MethodAdvice]:
+    """Luenberger on the linearisation at ``x0``, and the EKF/UKF."""
+    lt = "Luenberger / LMI (14), (15) of Grip, Saberi & Johansen"
+    kt = "EKF / UKF"
+    obs_rank = None if geo is None else geo.observability_rank
+    ev: list[str] = []
+    observable = detectable = None
+    try:
+        if isinstance(model, LinearSystem):
+            rep = analyze_linear(model)
+        else:
+            rep = analyze_linear(linearize(model, tuple(x0), tuple(np.zeros(model.m))))
+        observable, detectable = bool(rep.observable), bool(rep.detectable)
+        where = "" if isinstance(model, LinearSystem) else f" of the linearisation at x0 = {format_point(x0)}"
+        ev.append(f"observable{where}: {'yes' if observable else 'no'}; detectable: {'yes' if detectable else 'no'}")
+    except NlobsError as exc:
+        ev.append(f"linearisation at x0 = {format_point(x0)} not available: {exc}")
+    cmp = f"nlobs simulate {target} --observer luenberger,ekf,ukf"
+    if detectable:
+        kind = "yes" if isinstance(model, LinearSystem) else "local"
+        luen = MethodAdvice("luenberger", lt, kind, "detectable" + ("" if kind == "yes" else " linearisation: a local "
+                            "guarantee near x0"), tuple(ev), {"alpha": DEFAULT_ALPHA, "x0": [float(v) for v in x0]},
+                            cmp, region=None if kind == "yes" else f"near x0 = {format_point(x0)}",
+                            rank=1 if kind == "yes" else 9)
+    else:
+        luen = MethodAdvice("luenberger", lt, "no", "the linearisation is not detectable" if detectable is False
+                            else "no linearisation", tuple(ev))
+    kev = list(ev)
+    if obs_rank is not None:
+        kev.insert(0, f"generic rank of the observability codistribution: {obs_rank} of n = {model.n}")
+    ok = (obs_rank == model.n) if obs_rank is not None else bool(observable or detectable)
+    kcmd = f"nlobs simulate {target} --observer ekf,ukf"
+    if ok:
+        kal = MethodAdvice("ekf-ukf", kt, "yes", "observable (no convergence certificate: a tuned filter)", tuple(kev),
+                           {"Q": "the file's [process_noise]", "R": "the file's [sensors]"}, kcmd, rank=6)
+    else:
+        kal = MethodAdvice("ekf-ukf", kt, "no", "the model is not observable from its outputs", tuple(kev))
+    return luen, kal
+
+
+def _cascade(target: str, model: Model, tables: frozenset[str]) -> MethodAdvice:
+    title = "cascade/feedback observer (Grip, Saberi & Johansen (9)–(10))"
+    if "cascade" in tables:
+        return MethodAdvice("cascade", title, "yes", "the file has a [cascade] table", ("[cascade] table present",),
+                            {}, f"nlobs design cascade {target}", rank=0)
+    if not isinstance(model, SymbolicModel):
+        return MethodAdvice("cascade", title, "no", "a linear model: the Luenberger observer applies directly")
+    cs = cascade_structure(model)
+    if cs is None:
+        return MethodAdvice("cascade", title, "no", "no subset of states is linear, measured and driven by the others "
+                            "((1a)–(1b))")
+    return MethodAdvice("cascade", title, "no",
+                        f"cascade structure found: states {', '.join(cs.linear_states)}; describe it in a [cascade] "
+                        "table to use the Grip–Saberi–Johansen observer", (cs.describe(),), cs.to_dict())
+
+
+def _setvalued(target: str, tables: frozenset[str], model: Model) -> MethodAdvice:
+    from nlobs.linear.zeros import is_strongly_detectable
+
+    title = "set-valued observer (Khajenejad & Yong)"
+    if "unknown_inputs" not in tables:
+        why = ("needs a discrete-time model with unknown inputs ([unknown_inputs], [noise], [initial], "
+               "[function_class])")
+        return MethodAdvice("setvalued", title, "no", why if model.time.is_discrete else "a continuous-time model; "
+                            + why)
+    ui = load_discrete_ui_model(target)
+    s = ui.system
+    sd = bool(is_strongly_detectable(s.A, s.G, s.C, s.H, discrete=True))
+    ev = (f"strong detectability of (A, G, C, H) (Def. 2.1): {'yes' if sd else 'no'}",
+          f"function class: {s.function_class.label}")
+    if not sd:
+        return MethodAdvice("setvalued", title, "no", "not strongly detectable", ev)
+    return MethodAdvice("setvalued", title, "yes", "strongly detectable", ev, {}, f"nlobs design setvalued {target}",
+                        rank=1)
+
+
+# ----------------------------------------------------------------------------- the workflow
+def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = None, *,
+                 geometry: GeometryReport | None = None) -> AdviceReport:
+    """Which of nlobs's observers applies to ``model``, with the evidence and the first command (module docstring).
+
+    Parameters
+    ----------
+    model : str, Path, SymbolicModel or LinearSystem
+        A model file, a shipped model name, or a model (then no file tables, sensors or inputs).
+    box : sequence of float or Box, optional
+        The region: ``lo, hi`` for every state or ``lo1, hi1, ...``; default the file's
+        ``[simulation] box``, else ``[−1, 1]ⁿ``.
+    geometry : GeometryReport, optional
+        The symbolic analyses on the region, when already computed (``nlobs analyze``); used only
+        when its region is the advisor's.
+
+    Raises
+    ------
+    ModelFileError
+        The file cannot be read or is invalid.
+    BoxError
+        A malformed box.
+    """
+    is_file = isinstance(model, (str, Path))
+    target = str(model) if is_file else model_label(model)
+    m = load_model(model) if is_file else model
+    if not isinstance(m, (SymbolicModel, LinearSystem)):
+        raise ModelError(f"model: expected a model file, a shipped model name or a model, got {type(m).__name__}")
+    tables = model_file_tables(model) if is_file else frozenset()
+    scenario = None
+    if is_file:
+        try:
+            scenario = load_scenario(model)
+        except ModelFileError:
+            if "unknown_inputs" not in tables:
+                raise
+    defaults = getattr(scenario, "defaults", None)
+    given = as_region(box, m.n)
+    if given is not None:
+        reg0, src = given, "given"
+    elif defaults is not None and defaults.box is not None:
+        reg0, src = Box(*defaults.box), "file [simulation] box"
+    else:
+        reg0, src = Box.unit(m.n), "default [-1, 1]^n"
+    x0 = None if defaults is None or defaults.x0 is None else np.asarray(defaults.x0, dtype=float)
+    sing: tuple[Singularity, ...] = ()
+    region = reg0
+    if isinstance(m, SymbolicModel):
+        sing = singularities(m, reg0)
+        region = _suggested_box(m, reg0, sing, x0)
+    x_lin = x0 if x0 is not None else (np.zeros(m.n) if isinstance(m, LinearSystem) else (region.lower + region.upper) / 2)
+    geo, geo_err, fields = None, None, None
+    if isinstance(m, SymbolicModel):
+        try:
+            fields = AffineFields.from_model(m)
+            geo = geometry if geometry is not None and _same(geometry.region, region) else geometry_report(m, region)
+        except ModelError as exc:
+            geo_err, fields = str(exc), None
+    else:
+        geo_err = "a linear model"
+    mu, mu_src = _input_bound(scenario, None if defaults is None else defaults.duration)
+    luen, kal = _linear_part(target, m, x_lin, geo, geo_err)
+    methods = (
+        _cascade(target, m, tables),
+        _setvalued(target, tables, m),
+        _drift(target, geo, geo_err, fields, region, mu, mu_src, x0),
+        _pinv(target, geo, geo_err, region),
+        kal,
+        luen,
+    )
+    usable = sorted((mm for mm in methods if mm.usable), key=lambda mm: mm.rank)
+    best = usable[0] if usable else None
+    if best is None:
+        verdict, msg = Verdict.NO_OBSERVER, f"{m.name}: no method of nlobs applies: " + "; ".join(
+            f"{mm.method}: {mm.reason}" for mm in methods)
+        cmp = None
+    else:
+        verdict, msg = Verdict.OK, ""
+        sim = {"drift": "drift", "pinv": "pinv", "luenberger": "luenberger"}.get(best.method)
+        cmp = f"nlobs simulate {target} --observer {sim},ekf,ukf" if sim and is_file else None
+        if cmp and not _same(best_region(best, region), reg0):
+            cmp += f" {box_option(best_region(best, region))}"
+    return AdviceReport(m.name, target, reg0 if isinstance(m, SymbolicModel) else None, src,
+                        region if isinstance(m, SymbolicModel) else None, sing, methods,
+                        None if best is None else best.method, cmp, verdict, msg)
+
+
+def best_region(advice: MethodAdvice, region: Box) -> Box:
+    """The box a method's command uses (its ``parameters["box"]``, else ``region``)."""
+    b = advice.parameters.get("box")
+    return region if b is None else Box(np.array([v[0] for v in b]), np.array([v[1] for v in b]))

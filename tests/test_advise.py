@@ -1,0 +1,159 @@
+"""``nlobs advise``: the recommendation for the four worked plants, its evidence against independent numbers,
+bad input, the JSON keys, a ``[cascade]`` table, and a model no method of nlobs applies to."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import tomllib
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from nlobs.cli import app
+from nlobs.systems.modelfile import shipped_models
+from nlobs.workflows.advise import advise_model, cascade_structure
+from nlobs.workflows.inputs import BoxError, symbolic_model
+from nlobs.workflows.verdict import Verdict
+
+runner = CliRunner()
+
+
+def _params(name: str) -> dict[str, float]:
+    return tomllib.loads(shipped_models()[name].read_text())["parameters"]
+
+
+def _min_det(report, method: str = "drift") -> float:
+    ev = " ".join(report.method(method).evidence)
+    m = re.search(r"min \|det Q_s\| over \d+ sampled points = ([-+0-9.eE]+)", ev)
+    assert m, ev
+    return float(m.group(1))
+
+
+def test_chemostat_pinv_with_det_qs_and_mu_from_the_file() -> None:
+    rep = advise_model("chemostat")
+    assert rep.verdict is Verdict.OK and rep.recommended == "pinv"
+    assert rep.box_source == "file [simulation] box" and rep.singular == ()
+    assert rep.command == "nlobs design pinv chemostat --box=0.05,4,0.01,4 --theta 2"
+    # det Q_s by hand: h = S, L_f h = −μmax S X / ((K_s + S) Yxs) → det Q_s = μmax S / ((K_s + S) Yxs),
+    # smallest on the box at its corner S = 0.01
+    p = _params("chemostat")
+    s = 0.01
+    assert _min_det(rep) == pytest.approx(p["mu_max"] * s / ((p["K_s"] + s) * p["Yxs"]), rel=1e-3)
+    drift = rep.method("drift")
+    assert drift.applicable == "yes" and "s ≰ r" in drift.reason
+    assert drift.parameters["mu"] == pytest.approx(0.3)  # the step 0.3 → 0.2 of [input_signals]
+    assert rep.method("pinv").applicable == "yes"
+    assert rep.compare_command == "nlobs simulate chemostat --observer pinv,ekf,ukf"
+
+
+def test_chemostat_default_box_contains_the_monod_pole() -> None:
+    rep = advise_model("chemostat", box=[-1, 1])
+    k_s = _params("chemostat")["K_s"]
+    poles = [s for s in rep.singular if s.kind == "pole"]
+    assert len(poles) == 1 and poles[0].state == "S"
+    assert poles[0].values == pytest.approx((-k_s,))
+    # the piece of [−1, 1] holding x0's S = 0.5 is [−K_s, 1]; 5 % of its width is kept away from the pole
+    assert rep.region.lower[1] == pytest.approx(-k_s + 0.05 * (1 + k_s))
+    assert rep.region.upper[1] == 1.0 and rep.region.lower[0] == -1.0
+    assert "--box=-1,1,-0.14,1" in rep.command
+
+
+def test_two_tank_drift_with_det_qs() -> None:
+    rep = advise_model("two-tank")
+    assert rep.recommended == "drift"
+    assert rep.command == "nlobs design drift two-tank --box=1,12 --alpha 1 --mu 6"
+    p = _params("two-tank")
+    # det Q_s = −a1 √(2 g0) / (2 A2 √h1), smallest in modulus at h1 = 12
+    want = p["a1"] * math.sqrt(2 * p["g0"]) / (2 * p["A2"] * math.sqrt(12.0))
+    assert _min_det(rep) == pytest.approx(want, rel=1e-3)
+    pinv = rep.method("pinv")
+    assert pinv.applicable == "no" and "Σ r_j = 2" in pinv.reason
+    assert rep.method("cascade").applicable == "no" and "no subset" in rep.method("cascade").reason
+
+
+def test_two_tank_box_through_the_square_roots() -> None:
+    rep = advise_model("two-tank", box=[-1, 1])
+    kinds = {(s.kind, s.state) for s in rep.singular}
+    assert kinds == {("domain", "h1"), ("domain", "h2")}
+    assert rep.region.lower.tolist() == pytest.approx([0.05, 0.05]) and rep.region.upper.tolist() == [1.0, 1.0]
+
+
+def test_cartpole_drift_constant_det_and_cascade_structure() -> None:
+    rep = advise_model("cartpole")
+    assert rep.recommended == "drift"
+    assert "det Q_s = 1 (constant)" in rep.method("drift").evidence
+    assert rep.method("drift").parameters["mu"] == pytest.approx(1.0)  # sine amplitude 1 N
+    cs = cascade_structure(symbolic_model("cartpole"))
+    assert cs is not None and cs.linear_states == ("x", "th") and cs.nonlinear_states == ("v", "w")
+    assert "cascade structure found: states x, th" in rep.method("cascade").reason
+
+
+def test_rossler_ekf_local_drift_and_cascade_structure() -> None:
+    rep = advise_model("rossler")
+    assert rep.recommended == "ekf-ukf" and rep.command == "nlobs simulate rossler --observer ekf,ukf"
+    drift = rep.method("drift")
+    assert drift.applicable == "local"
+    # det Q_s = x − c (c = 5.7 + a); the piece x < 5.9 holds x0 = 1; 5 % of its width is kept from x = 5.9
+    p = _params("rossler")
+    root = p["c"] + p["a"]
+    assert drift.parameters["box"][0] == pytest.approx([-12.0, root - 0.05 * (root + 12.0)])
+    assert rep.method("pinv").applicable == "no"
+    assert "cascade structure found: states x, y" in rep.method("cascade").reason
+
+
+def test_cascade_table_is_recommended(tmp_path: Path) -> None:
+    text = shipped_models()["rossler"].read_text() + '\n[cascade]\nlinear_states = ["x", "y"]\n'
+    f = tmp_path / "ross-cascade.toml"
+    f.write_text(text)
+    rep = advise_model(str(f))
+    assert rep.recommended == "cascade" and rep.command == f"nlobs design cascade {f}"
+    res = runner.invoke(app, ["advise", str(f), "--json"])
+    assert res.exit_code == 0
+    assert json.loads(res.stdout)["command"] == f"nlobs design cascade {f}"
+
+
+def test_no_method_applies(tmp_path: Path) -> None:
+    f = tmp_path / "hidden.toml"
+    f.write_text('name = "hidden"\nstates = ["x1", "x2"]\noutputs = ["y"]\n'
+                 '[dynamics]\nf = ["-x1", "x2"]\nh = ["x1"]\n')
+    rep = advise_model(str(f))
+    assert rep.verdict is Verdict.NO_OBSERVER and rep.recommended is None
+    res = runner.invoke(app, ["advise", str(f)])
+    assert res.exit_code == 3
+
+
+@pytest.mark.parametrize("args", [["advise", "no-such-model"], ["advise", "chemostat", "--box", "1,2,3"],
+                                  ["advise", "chemostat", "--box=2,1"], ["advise", "chemostat", "--box", "a,b"]])
+def test_bad_input_is_one_line_exit_2(args: list[str]) -> None:
+    res = runner.invoke(app, args)
+    assert res.exit_code == 2
+    assert "Traceback" not in res.output
+    err = res.stderr.strip()
+    assert err.startswith("nlobs: error:") and "\n" not in err
+
+
+def test_bad_box_in_the_workflow() -> None:
+    with pytest.raises(BoxError):
+        advise_model("chemostat", box=[0.0, 1.0, 2.0])
+
+
+def test_json_keys_and_analyze_keeps_its_keys() -> None:
+    res = runner.invoke(app, ["advise", "two-tank", "--json"])
+    assert res.exit_code == 0
+    data = json.loads(res.stdout)
+    assert set(data) == {"model", "box", "box_source", "region", "singularities", "methods", "recommended", "command",
+                         "compare_command", "verdict", "message"}
+    assert set(data["methods"]) == {"cascade", "setvalued", "drift", "pinv", "ekf-ukf", "luenberger"}
+    assert set(data["methods"]["drift"]) == {"method", "title", "applicable", "reason", "region", "evidence",
+                                             "parameters", "command"}
+    assert data["region"] == {"lower": [1.0, 1.0], "upper": [12.0, 12.0]}
+    res = runner.invoke(app, ["analyze", "two-tank", "--json"])
+    assert res.exit_code == 0
+    an = json.loads(res.stdout)
+    assert {"kind", "linearization", "observation_relative_degree", "drift_observable", "a1", "advice"} <= set(an)
+    assert an["advice"]["recommended"] == "drift"
+    text = runner.invoke(app, ["analyze", "two-tank"]).stdout
+    assert "recommended: drift observer" in text and "$ nlobs design drift two-tank" in text
