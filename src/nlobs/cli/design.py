@@ -200,9 +200,11 @@ def pinv_cmd(
 @design_app.command("cascade")
 def cascade_cmd(
     model: Annotated[str, typer.Argument(help="A model file (.toml) with a [cascade] table, or a shipped model name.")],
-    gamma: Annotated[float | None, typer.Option(help="‖H‖∞ < γ asked of the gain (LMI (14); default 1).")] = None,
-    method: Annotated[str, typer.Option(help="'lmi' (LMI (14), analytic centre) or 'placement' (poles scaled "
-                                             "until ‖H‖∞ < γ, for Theorem 1's small γ).")] = "lmi",
+    gamma: Annotated[float | None, typer.Option(help="‖H‖∞ < γ asked of the gain (default: the file's "
+                                                     "[cascade].gamma, else 1).")] = None,
+    method: Annotated[str | None, typer.Option(help="'lmi' (LMI (14), analytic centre) or 'placement' (poles "
+                                                    "scaled until ‖H‖∞ < γ, for Theorem 1's small γ); default: "
+                                                    "the file's [cascade].method, else 'lmi'.")] = None,
     gain_bound: Annotated[float | None, typer.Option("--gain-bound", help="‖K‖ bound of the LMI design "
                                                                           "(default 1e4).")] = None,
     as_json: Json_ = False,
@@ -222,7 +224,7 @@ def cascade_cmd(
     from nlobs.workflows.design_cascade import METHODS, design_cascade_observer
 
     m = _symbolic(model)
-    if method not in METHODS:
+    if method is not None and method not in METHODS:
         fail(f"--method: expected 'lmi' or 'placement', got {method!r}")
     request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
     try:

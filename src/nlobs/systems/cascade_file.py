@@ -19,6 +19,8 @@ Johansen, (1a)/(1b)), or the feedback interconnection Σ₁* ⇄ Σ₂ (2), toge
     h = ["X"]                           # z = h(u, x)       /  h(u, w, x)
     g = ["l1*(z - X)", "l2*(z - X)"]    # x̂̇ = f(u, x̂) + g(u, x̂, z) (3): in g the states mean x̂,
                                         # the z names ẑ and (feedback) the linear states ŵ
+    method = "placement"                # optional: how the gain is designed by default, "lmi" (LMI (14),
+    gamma = 1.0                         # the default) or "placement", and its γ (‖H‖∞ < γ; default 1)
 
     [cascade.linear]                    # Σ2 (1b): ẇ = A w + B_u u + B_z z, y = C w + D_u u + D_z z
     states = ["w"]
@@ -67,7 +69,7 @@ __all__ = ["FORMS", "CascadeModel", "LyapunovData", "has_cascade", "load_cascade
 
 #: The interconnections a ``[cascade]`` table describes: (1a)+(1b) and (2)+(1b).
 FORMS: tuple[str, ...] = ("cascade", "feedback")
-_KEYS = {"form", "states", "outputs", "f", "h", "g", "linear", "lyapunov"}
+_KEYS = {"form", "states", "outputs", "f", "h", "g", "linear", "lyapunov", "method", "gamma"}
 _LIN_KEYS = {"states", "A", "B_u", "B_z", "C", "D_u", "D_z"}
 _LYAP_KEYS = {"alpha3", "alpha4", "L1", "L2"}
 _T, _TL, _TY = "cascade", "cascade.linear", "cascade.lyapunov"
@@ -107,6 +109,10 @@ class CascadeModel:
         The interconnected plant ``[x, w]`` (what :func:`nlobs.systems.modelfile.load_model` returns).
     lyapunov : LyapunovData or None
         ``[cascade.lyapunov]``, when given.
+    method : str or None
+        The file's default gain design (``"lmi"`` or ``"placement"``), ``None`` when not given.
+    gamma : float or None
+        The file's default ``γ`` (``‖H‖∞ < γ``), ``None`` when not given.
     parameters : mapping of str to float
     path : str
     """
@@ -119,6 +125,8 @@ class CascadeModel:
     lyapunov: LyapunovData | None
     parameters: Mapping[str, float]
     path: str = ""
+    method: str | None = None
+    gamma: float | None = None
 
     @property
     def feedback(self) -> bool:
@@ -258,8 +266,15 @@ def build_cascade(src: Any, data: Mapping[str, Any], name: str, time: TimeBase) 
     except NlobsError as exc:
         raise src.table_error(_T, None, f"[cascade]: {exc}") from None
     lyap = _lyapunov(src, tab, params, psyms) if "lyapunov" in tab else None
+    method = tab.get("method")
+    if method is not None and method not in ("lmi", "placement"):
+        raise src.table_error(_T, "method", "[cascade].method must be \"lmi\" (LMI (14)) or \"placement\"",
+                              repr(method))
+    gamma = mf._const(src, _T, "gamma", tab["gamma"], params, psyms) if "gamma" in tab else None
+    if gamma is not None and gamma <= 0:
+        raise src.table_error(_T, "gamma", "[cascade].gamma must be positive (‖H‖∞ < γ)", repr(tab["gamma"]))
     plant = _plant(x_names, w_names, inputs, y_names, f, h, A, Bu, Bz, C, Du, Dz, params, time, name)
-    return CascadeModel(name, str(form), sigma1, sigma2, plant, lyap, dict(params), src.path)
+    return CascadeModel(name, str(form), sigma1, sigma2, plant, lyap, dict(params), src.path, method, gamma)
 
 
 def _names(src: Any, table: str, tab: Mapping[str, Any], key: str) -> list[str]:

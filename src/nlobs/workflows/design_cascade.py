@@ -224,7 +224,7 @@ def _theorem1(cm: CascadeModel, hinf_H: float, hurwitz: bool) -> Theorem1Check:
     return Theorem1Check(name, float(bound), float(as_given), hinf_H, holds, reason)
 
 
-def design_cascade(cascade: CascadeModel, *, gamma: float | None = None, method: str = "lmi",
+def design_cascade(cascade: CascadeModel, *, gamma: float | None = None, method: str | None = None,
                    gain_bound: float | None = None) -> CascadeDesign:
     """Assumption 4, the gain of LMI (14) (or pole placement), its re-verification and Theorem 1.
 
@@ -233,8 +233,9 @@ def design_cascade(cascade: CascadeModel, *, gamma: float | None = None, method:
     cascade : CascadeModel
         From :func:`nlobs.systems.cascade_file.load_cascade`.
     gamma : float, optional
-        ``‖H‖∞ < γ`` (default :data:`DEFAULT_GAMMA`).
-    method : {"lmi", "placement"}
+        ``‖H‖∞ < γ`` (default: the file's ``[cascade].gamma``, else :data:`DEFAULT_GAMMA`).
+    method : {"lmi", "placement"}, optional
+        Default: the file's ``[cascade].method``, else ``"lmi"``.
     gain_bound : float, optional
         ``‖K‖`` bound of the central LMI design (default :data:`DEFAULT_GAIN_BOUND`).
 
@@ -244,8 +245,10 @@ def design_cascade(cascade: CascadeModel, *, gamma: float | None = None, method:
         Also when Assumption 4 fails or the design is infeasible (then ``certificate`` is ``None``
         and ``failure`` names the assumption item or the LMI and the option to change).
     """
+    method = method or cascade.method or "lmi"
     if method not in METHODS:
         raise InvalidArgumentError(f"method: expected 'lmi' or 'placement', got {method!r}")
+    gamma = gamma if gamma is not None else cascade.gamma
     g = positive("--gamma", DEFAULT_GAMMA if gamma is None else gamma)
     gb = positive("--gain-bound", DEFAULT_GAIN_BOUND if gain_bound is None else gain_bound)
     s2 = cascade.sigma2
@@ -394,7 +397,7 @@ def design_cascade_observer(
     model: str | Path | CascadeModel,
     *,
     gamma: float | None = None,
-    method: str = "lmi",
+    method: str | None = None,
     gain_bound: float | None = None,
     simulate: SimulationRequest | None = None,
     name: str | None = None,
