@@ -60,7 +60,7 @@ import sympy as sp
 from nlobs._typing import Array
 from nlobs._validate import name_problem
 from nlobs.errors import ModelFileError, NlobsError
-from nlobs.systems.expressions import ExpressionError, parse_expression
+from nlobs.systems.expressions import ExpressionError, as_sympy_matrix, parse_expression
 from nlobs.systems.interconnected import LinearSubsystem, NonlinearSubsystem, check_interconnection
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.systems.timebase import TimeBase
@@ -343,7 +343,10 @@ def _plant(x: Sequence[str], w: Sequence[str], u: Sequence[str], y: Sequence[str
     """The plant (1) or (2)+(1b) with state ``[x, w]`` as one symbolic model."""
     W = sp.Matrix([sp.Symbol(s, real=True) for s in w])
     U = sp.Matrix([sp.Symbol(s, real=True) for s in u]) if u else sp.zeros(0, 1)
-    Z = sp.Matrix(list(h))
+    known = {str(v): v for e in h for v in e.free_symbols}
+    Z = as_sympy_matrix("h", list(h), known)
+    if Z.shape != (len(h), 1):
+        Z = Z.T
 
     def mat(M: Array) -> sp.Matrix:
         return sp.Matrix(M.shape[0], M.shape[1], [sp.Float(float(v)) if v != int(v) else sp.Integer(int(v))

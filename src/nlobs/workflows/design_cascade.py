@@ -167,7 +167,7 @@ class CascadeDesign:
             lines.append(f"  no gain: {self.failure}")
             return "\n".join(lines)
         cert = self.certificate
-        how = (f"LMI (14), analytic centre with ‖K‖ ≤ gain bound" if self.method == "lmi"
+        how = ("LMI (14), analytic centre with ‖K‖ ≤ gain bound" if self.method == "lmi"
                else f"pole placement ({cert.solver_status})")
         lines.append(f"  gain K = [K_w; K_z] by {how}, γ = {self.gamma:g}:")
         lines.append("    K = " + np.array2string(cert.gain, precision=5, separator=", ").replace("\n", "\n        "))
