@@ -484,7 +484,7 @@ def _design_cascade(s: _Setup) -> tuple[Any, str, _Cert | None]:
     from nlobs.workflows.design_cascade import design_cascade
 
     path = s.scenario.path
-    if not path or not has_cascade(path):
+    if not path or not Path(path).is_file() or not has_cascade(Path(path)):  # a parsed text has no file to read
         raise _Skip("the observer (9)–(10) of Grip, Saberi & Johansen needs a nonlinear subsystem Σ₁ whose "
                     "unmeasured output drives a linear Σ₂ ((1a), (1b)); this model file has no [cascade] table "
                     "describing one: add it, or build the interconnection with nlobs.CascadeObserver")
