@@ -1,10 +1,13 @@
-"""``nlobs design drift`` and ``nlobs design pinv``: the differential-geometric observers.
+"""``nlobs design drift``, ``nlobs design pinv`` and ``nlobs design cascade``.
 
 * ``drift`` — observer (3.1) of Dalla Mora, Germani & Manes: the gain of Remark 2.11 (smallest
   ``w`` solving (2.17)) or the SDP design, verified by the eigenvalues of the left side of (2.17),
   with the bound constants of (3.17).
 * ``pinv`` — observer (7) with Röbenack's Moore–Penrose gain ``l(x) = Q⁺(x) k`` (17), after
   checking A1 and A5.
+* ``cascade`` — the cascade/feedback observer (9)–(10) / (17)–(18) of Grip, Saberi & Johansen for a
+  model file with a ``[cascade]`` table: Assumption 4 item by item, the gain of LMI (14) (or pole
+  placement) re-verified, Theorem 1's γ when the file gives the constants of Assumptions 1–3.
 
 Both can simulate the design from given initial conditions (``--simulate``) and write a plot and
 the trajectories (``--out``). Each command parses its options, calls one workflow
@@ -189,6 +192,46 @@ def pinv_cmd(
                                       simulate=request)
     except AssumptionViolated as exc:
         fail(f"{model}: {exc}", EXIT_NO_OBSERVER)
+    except NlobsError as exc:
+        _errors(model, exc)
+    _print(report, as_json)
+
+
+@design_app.command("cascade")
+def cascade_cmd(
+    model: Annotated[str, typer.Argument(help="A model file (.toml) with a [cascade] table, or a shipped model name.")],
+    gamma: Annotated[float | None, typer.Option(help="‖H‖∞ < γ asked of the gain (default: the file's "
+                                                     "[cascade].gamma, else 1).")] = None,
+    method: Annotated[str | None, typer.Option(help="'lmi' (LMI (14), analytic centre) or 'placement' (poles "
+                                                    "scaled until ‖H‖∞ < γ, for Theorem 1's small γ); default: "
+                                                    "the file's [cascade].method, else 'lmi'.")] = None,
+    gain_bound: Annotated[float | None, typer.Option("--gain-bound", help="‖K‖ bound of the LMI design "
+                                                                          "(default 1e4).")] = None,
+    as_json: Json_ = False,
+    simulate: Simulate_ = False,
+    x0: Annotated[str | None, typer.Option("--x0", help="Initial plant state [x, w] for --simulate.")] = None,
+    xhat0: Annotated[str | None, typer.Option("--xhat0", help="Initial estimate [x̂, ŵ] (default: zeros).")] = None,
+    u: U_ = None,
+    duration: Duration_ = 10.0,
+    dt: Dt_ = 1e-3,
+    out: Out_ = None,
+) -> None:
+    """Design (and verify) the cascade/feedback observer of Grip, Saberi & Johansen from a [cascade] table.
+
+    After the report, exit status 3 when Assumption 4 fails (no gain can exist), 1 when the design is
+    infeasible for the options given (the message names the option to change).
+    """
+    from nlobs.workflows.design_cascade import METHODS, design_cascade_observer
+
+    m = _symbolic(model)
+    if method is not None and method not in METHODS:
+        fail(f"--method: expected 'lmi' or 'placement', got {method!r}")
+    request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
+    try:
+        report = design_cascade_observer(model, gamma=gamma, method=method, gain_bound=gain_bound, simulate=request,
+                                         name=model)
+    except ModelFileError as exc:
+        fail(str(exc))
     except NlobsError as exc:
         _errors(model, exc)
     _print(report, as_json)

@@ -14,6 +14,10 @@ A nonlinear model::
     # rhs = ["...", ...]                # alternative: general F(x, u)
     h = ["x4"]
 
+An interconnection of a nonlinear Σ1 with unmeasured output ``z`` and a linear Σ2 (Grip, Saberi &
+Johansen, (1) or (2)) replaces ``[dynamics]`` by a ``[cascade]`` table (:mod:`nlobs.systems.cascade_file`);
+the model is then the plant ``[x, w]``.
+
 A linear model replaces ``[dynamics]`` by ``[linear]`` with numeric ``A``,
 ``B``, ``C`` and optional ``D`` (names are then optional).
 
@@ -297,6 +301,15 @@ def parse_model(text: str, *, source: str = "<string>") -> Model:
         raise src.error(f"the table [{ui[0]}] describes a discrete-time model with unknown inputs: it needs "
                         "time = \"discrete\"", key=ui[0], text=ui[0])
     has_dyn, has_lin = "dynamics" in data, "linear" in data
+    if "cascade" in data:  # the interconnection of Grip, Saberi & Johansen: the plant [x, w] of (1) / (2)+(1b)
+        from nlobs.systems.cascade_file import build_cascade
+
+        try:
+            return build_cascade(src, data, name, time).plant
+        except ModelFileError:
+            raise
+        except NlobsError as exc:
+            raise src.error(f"[cascade]: {exc}", key="cascade") from None
     if has_dyn == has_lin:
         raise src.error("a model needs exactly one of the tables [dynamics] or [linear]", key="dynamics" if has_dyn else None)
     try:

@@ -19,8 +19,11 @@ The observers (``OBSERVERS``):
   (:class:`~nlobs.observers.luenberger.ConstantGainObserver`; for a linear model the Luenberger
   observer) with the gain of LMIs (14), (15) of Grip, Saberi & Johansen for the linearisation at
   ``x0``: poles left of ``−α``, the analytic centre at ``γ = γn =`` :data:`LUENBERGER_GAMMA`;
-* ``cascade`` — the observer (9)–(10) of Grip, Saberi & Johansen needs an interconnection of a
-  nonlinear Σ₁ and a linear Σ₂, which one model file does not describe: skipped with that reason;
+* ``cascade`` — the observer (9)–(10) (or (17)–(18)) of Grip, Saberi & Johansen, for a model file with a
+  ``[cascade]`` table (a nonlinear Σ₁ whose unmeasured output drives a linear Σ₂,
+  :mod:`nlobs.systems.cascade_file`), with the gain of
+  :func:`nlobs.workflows.design_cascade.design_cascade` (the file's ``method`` and ``gamma``);
+  skipped with the reason for a model without one;
 * ``ekf``, ``ukf`` — the continuous-discrete (discrete for discrete models) extended and unscented
   Kalman filters (:class:`~nlobs.observers.EKF`, :class:`~nlobs.observers.UKF`), tuned from the
   sensor and process noise tables: ``R`` from the sensors, ``Q`` the process noise (or
@@ -476,6 +479,37 @@ def _design_drift(s: _Setup) -> tuple[Any, str, _Cert | None]:
     return obs, desc, cert
 
 
+def _design_cascade(s: _Setup) -> tuple[Any, str, _Cert | None]:
+    from nlobs.systems.cascade_file import has_cascade, load_cascade
+    from nlobs.workflows.design_cascade import design_cascade
+
+    path = s.scenario.path
+    if not path or not Path(path).is_file() or not has_cascade(Path(path)):  # a parsed text has no file to read
+        raise _Skip("the observer (9)–(10) of Grip, Saberi & Johansen needs a nonlinear subsystem Σ₁ whose "
+                    "unmeasured output drives a linear Σ₂ ((1a), (1b)); this model file has no [cascade] table "
+                    "describing one: add it, or build the interconnection with nlobs.CascadeObserver")
+    cm = load_cascade(path)
+    design = design_cascade(cm)
+    if not design.verified:
+        raise _Skip(design.failure or "the gain fails its re-verification: "
+                    + "; ".join(k.summary() for k in design.checks if not k.passed))
+    t1 = design.theorem1
+    assert t1 is not None and design.certificate is not None
+    hyps = [Premise(f"{t1.theorem}: ‖H‖∞ below its γ", t1.holds,
+                    "no [cascade.lyapunov] constants" if t1.bound is None else
+                    f"‖H‖∞ = {t1.hinf_H:.4g} ≥ γ = {t1.bound:.4g}"),
+            Premise("continuous measurement", not s.sensors,
+                    "the output is sampled and held (Theorem 1 assumes a continuous output)"),
+            _exact(s, "Theorem 1 is for an exact output and model")]
+    K = design.certificate.gain
+    how = "LMI (14)" if design.method == "lmi" else "pole placement"
+    desc = (f"{'(17)–(18)' if cm.feedback else '(9)–(10)'} with Σ1's injection g of the file, K = "
+            f"{[round(float(v), 5) for v in K.ravel()]} by {how} (‖H‖∞ = {t1.hinf_H:.4g} < γ = {design.gamma:g}); "
+            f"{design.status}")
+    return design.observer(), desc, _Cert(design.verified, tuple(hyps),
+                                          {"hinf_H": t1.hinf_H, "theorem1_gamma": t1.bound})
+
+
 def _input_bound(s: _Setup) -> float:
     """``μ`` of (2.17): the largest ``‖u(t)‖`` of the run's known input (sampled at 2001 instants; 0 without inputs)."""
     if not s.scenario.model.m or s.u is None:
@@ -757,10 +791,8 @@ def compare_observers(
 def _run_one(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None, progress: bool | None) -> ObserverOutcome:
     try:
         if name == "cascade":
-            raise _Skip("the observer (9)–(10) of Grip, Saberi & Johansen needs a nonlinear subsystem Σ₁ whose "
-                        "unmeasured output drives a linear Σ₂ ((1a), (1b)); a model file describes one system: "
-                        "build the interconnection with nlobs.CascadeObserver")
-        if name == "drift":
+            obs, desc, cert = _design_cascade(s)
+        elif name == "drift":
             obs, desc, cert = _design_drift(s)
         elif name == "pinv":
             obs, desc, cert = _design_pinv(s)
