@@ -119,7 +119,8 @@ Model = SymbolicModel | LinearSystem
 
 _UI_TABLES = ("unknown_inputs", "noise", "initial", "function_class")
 _SCENARIO_TABLES = ("units", "sensors", "input_signals", "process_noise", "simulation")
-#: Tables read by their own commands and passed over by the model reader (``[cascade]``: ``nlobs design cascade``).
+#: Tables of a command besides the model (``[cascade]``: the interconnection of ``nlobs design cascade``, from
+#: which the reader also builds the plant [x, w]).
 _COMMAND_TABLES = ("cascade",)
 _TOP_KEYS = {"name", "description", "time", "dt", "states", "inputs", "outputs", "parameters", "dynamics", "linear",
              *_UI_TABLES, *_SCENARIO_TABLES, *_COMMAND_TABLES}

@@ -246,7 +246,7 @@ class AdviceReport:
         if self.region is not None and self.box is not None and not _same(self.region, self.box):
             lines.append(f"  suggested box (avoids the singularities): {self.region.describe()}")
         for m in self.methods:
-            where = f" on {m.region}" if m.region else ""
+            where = "" if not m.region else (f" {m.region}" if m.region.startswith("near") else f" on {m.region}")
             lines.append(f"  [{m.applicable:5s}] {m.title}{where}: {m.reason}")
             if not short:
                 lines.extend(f"          {e}" for e in m.evidence)
