@@ -105,14 +105,16 @@ def test_rossler_ekf_local_drift_and_cascade_structure() -> None:
 
 
 def test_cascade_table_is_recommended(tmp_path: Path) -> None:
-    text = shipped_models()["rossler"].read_text() + '\n[cascade]\nlinear_states = ["x", "y"]\n'
-    f = tmp_path / "ross-cascade.toml"
-    f.write_text(text)
-    rep = advise_model(str(f))
-    assert rep.recommended == "cascade" and rep.command == f"nlobs design cascade {f}"
-    res = runner.invoke(app, ["advise", str(f), "--json"])
+    rep = advise_model("chemostat-analyser")  # the shipped [cascade] file: Σ1 (chemostat) → Σ2 (analyser lag)
+    assert rep.recommended == "cascade" and rep.command == "nlobs design cascade chemostat-analyser"
+    res = runner.invoke(app, ["advise", "chemostat-analyser", "--json"])
     assert res.exit_code == 0
-    assert json.loads(res.stdout)["command"] == f"nlobs design cascade {f}"
+    assert json.loads(res.stdout)["command"] == "nlobs design cascade chemostat-analyser"
+    # a [cascade] table next to [dynamics] describes the plant twice: one line, exit 2
+    f = tmp_path / "ross-cascade.toml"
+    f.write_text(shipped_models()["rossler"].read_text() + '\n[cascade]\nform = "cascade"\n')
+    res = runner.invoke(app, ["advise", str(f)])
+    assert res.exit_code == 2 and "[cascade]" in res.stderr and "\n" not in res.stderr.strip()
 
 
 def test_no_method_applies(tmp_path: Path) -> None:
