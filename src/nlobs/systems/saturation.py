@@ -32,11 +32,6 @@ derivative in ``[0, 1]`` (so ``sat*`` is 1-Lipschitz) and the derivative is
 Lipschitz with constant ``max |sat*''| = 1.5/δ``.
 
 All functions are vectorised over a leading batch axis: ``x`` of shape ``(..., n)``.
-
-:func:`tangent_projection` is the companion of a hard saturation for a state that is *integrated*
-(an observer's estimate): the velocity with its components that point out of the box, at or beyond
-a face, set to zero (the projection of ``v`` onto the tangent cone of the box at ``sat(x)``), so that
-an estimate integrated from inside the box does not leave it by more than one integration step.
 """
 
 from __future__ import annotations
@@ -51,7 +46,7 @@ from nlobs._validate import as_batch, as_vector, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError
 
 
-__all__ = ["Saturation", "SmoothSaturation", "tangent_projection"]
+__all__ = ["Saturation", "SmoothSaturation"]
 
 
 def _box(lower: ArrayLike, upper: ArrayLike) -> tuple[Array, Array]:
@@ -205,23 +200,3 @@ class SmoothSaturation:
         x_ = as_batch("x", x, self.n)
         return np.all((x_ >= self.lower) & (x_ <= self.upper), axis=-1)
 
-
-def tangent_projection(x: Array, v: Array, lower: Array, upper: Array) -> Array:
-    """``v`` with every component that points out of the box ``[lower, upper]`` at or beyond a face set to 0.
-
-    Component ``i`` of the result is ``0`` where ``x_i ≥ upper_i`` and ``v_i > 0``, or
-    ``x_i ≤ lower_i`` and ``v_i < 0``, and ``v_i`` elsewhere: in the interior of the box it is
-    ``v`` itself; on a face it is the projection of ``v`` onto the tangent cone of the box.
-
-    Parameters
-    ----------
-    x, v : ndarray, shape (..., n)
-        Points and velocities (broadcast together; not validated: the run-time path of the observers).
-    lower, upper : ndarray, shape (n,)
-
-    Returns
-    -------
-    ndarray, shape (..., n)
-    """
-    out = ((x >= upper) & (v > 0)) | ((x <= lower) & (v < 0))
-    return np.where(out, 0.0, v)
