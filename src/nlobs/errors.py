@@ -118,13 +118,17 @@ class SimulationDiverged(NlobsError, ArithmeticError):
         ``"plant"`` or ``"observer"``.
     state : str
         Name of the first non-finite state component.
+    detail : str
+        What is known about the cause (e.g. the RK4 stability of the step for the gain, peaking).
     """
 
-    def __init__(self, time: float, which: str, state: str) -> None:
+    def __init__(self, time: float, which: str, state: str, detail: str = "") -> None:
         self.time = time
         self.which = which
         self.state = state
-        super().__init__(f"simulation diverged at t={time:g}: {which} state {state!r} is not finite")
+        self.detail = detail
+        super().__init__(f"simulation diverged at t={time:g}: {which} state {state!r} is not finite"
+                         + (f"; {detail}" if detail else ""))
 
 
 class AssumptionViolated(DesignError):

@@ -55,6 +55,15 @@ U_ = Annotated[str | None, typer.Option("--u", help="Constant input for --simula
 Duration_ = Annotated[float, typer.Option("--duration", help="Simulated time [s].")]
 Dt_ = Annotated[float, typer.Option("--dt", help="RK4 step [s]; it must resolve the gain's fastest pole.")]
 Out_ = Annotated[Path | None, typer.Option("--out", help="Folder for the plot (.png) and trajectories (.npz).")]
+Saturation_ = Annotated[str, typer.Option(
+    "--saturation", help="'on' (default): the simulated observer is saturated outside the region (peaking remedy; "
+    "the same observer while the estimate is in the region); 'off': as printed in the paper.")]
+
+
+def _on_off(option: str, text: str) -> bool:
+    if text not in ("on", "off"):
+        fail(f"{option}: expected 'on' or 'off', got {text!r}")
+    return text == "on"
 
 
 def _symbolic(model: str) -> SymbolicModel:
@@ -108,7 +117,7 @@ def _errors(model: str, exc: NlobsError) -> NoReturn:
     if isinstance(exc, BoxError):
         fail(f"--box: {exc}")
     if isinstance(exc, SimulationDiverged):
-        fail(f"{model}: simulation diverged: {exc} (try a smaller --dt)", EXIT_FAILURE)
+        fail(f"{model}: {exc}", EXIT_FAILURE)  # the workflow says what is known (RK4 step, peaking)
     if isinstance(exc, StudyFailed):
         fail(f"{model}: {exc}", EXIT_FAILURE)
     if isinstance(exc, OutputError):
@@ -127,6 +136,7 @@ def drift_cmd(
     w: Annotated[float | None, typer.Option(help="Check and use K(w) instead of searching the smallest w.")] = None,
     w_max: Annotated[float, typer.Option("--w-max", help="Largest w the search for the smallest w tries.")] = 1e5,
     box: Box_ = None,
+    saturation: Saturation_ = "on",
     as_json: Json_ = False,
     simulate: Simulate_ = False,
     x0: X0_ = None,
@@ -148,11 +158,13 @@ def drift_cmd(
     if method not in METHODS:
         fail(f"--method: expected 'vandermonde' or 'sdp', got {method!r}")
     region = box_numbers("--box", box)
+    sat = _on_off("--saturation", saturation)
     multi_index = _ints("--s", s)
     request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
     try:
         report = design_drift_observer(m, s=multi_index, alpha=alpha, mu=mu, gamma=gamma, method=method, w=w,
-                                       box=region, simulate=request, name=model, w_max=w_max)
+                                       box=region, simulate=request, name=model, w_max=w_max,
+                                       saturation=sat)
     except AssumptionViolated as exc:
         fail(f"{model}: {exc}", EXIT_NO_OBSERVER)
     except DesignError as exc:

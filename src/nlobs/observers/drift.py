@@ -36,6 +36,40 @@ Implementation
   stays bounded by ``1/(2ε)`` where it is singular; the convergence theorems do
   not cover it there).
 
+Saturation: the peaking remedy
+------------------------------
+A high-gain observer peaks: from an initial error of order 1 the estimate of (3.1) overshoots by
+up to ``κ₁ ‖e(0)‖`` (``κ₁`` of (3.17) grows with the gain) and leaves the region ``B`` the design was
+verified on; there ``f`` may grow fast enough for a finite escape and ``Q_s`` may be singular
+(Rössler: ``det Q_s = x − 5.9``). In ``z = Φ_s(x̂)`` coordinates (3.1) is ``ż = A_s z + B_s L_s(x̂) +
+F H(x̂) u + K (y − C_s z)`` (3.4), with ``A_s z + B_s L_s = Q_s f`` and ``F H = Q_s g`` (2.13). Khalil's
+remedy for high-gain observers saturates the *nonlinear* terms outside the region where the plant
+lives and keeps the linear part: with ``saturation = B`` and ``σ = sat(x̂)`` (the component-wise
+projection onto ``B``, the hard saturation of Grip, Saberi & Johansen, App. A,
+:class:`~nlobs.systems.saturation.Saturation`)
+
+.. math:: Q_s(\hat x)\,\dot{\hat x} = A_s\big(Φ_s(\hat x) − Φ_s(σ)\big) + Q_s(σ)\big(f(σ) + g(σ) u\big)
+          + K\big(y − h(\hat x)\big),
+
+i.e. ``ż = A_s z + B_s L_s(σ) + F H(σ) u + K (y − C_s z)``.
+
+Why it keeps the certificate. For ``x̂ ∈ B``, ``σ = x̂`` and the right-hand side is (3.1) — the
+implementation evaluates (3.1) itself there, so it is the same to the last bit. The certificate of
+(2.17) (``γ``, ``γ_Φ``, ``γ_{Φ⁻¹}`` sampled on ``B``) covers a run only while the state and the estimate
+stay in ``B`` (the hypotheses the coverage monitor checks): on every run, or start of a run, that it
+covers, the two observers coincide. Outside ``B`` (where the certificate says nothing) Khalil's argument
+applies: with the state ``x ∈ B`` the error ``e = Φ_s(x) − z`` obeys ``ė = (A_s − K C_s) e +
+B_s (L_s(x) − L_s(σ)) + F (H(x) − H(σ)) u``, a Hurwitz linear system driven by a perturbation that is
+bounded on all of ℝⁿ (``x, σ ∈ B``, compact) and, ``σ`` and ``x`` both in ``B``, bounded by the constants
+sampled there — the nonlinearity can no longer feed the peak, so ``e`` stays bounded and decays at the
+rate of ``A_s − K C_s`` until ``x̂`` re-enters ``B``. What it does not remove is the peak of the linear
+part itself, nor a crossing of the set where ``Q_s(x̂)`` is singular during the transient (reported as
+for (3.1)); its effect is measured, not proved: ``benchmarks/peaking.py``, ``docs/drift.md``.
+:meth:`DriftObserver.saturated_estimate` gives ``sat(x̂)`` (in ``B``); the estimate stays ``x̂`` so that
+the coverage monitor sees it leave ``B``. The workflows (:mod:`nlobs.workflows.design_drift`,
+``nlobs design drift --saturation on``) switch it on by default; the observer itself has it off
+(``saturation=None``, the paper's (3.1)).
+
 Where the rest lives
 --------------------
 * the gain ``(K, P)`` of (2.17): :mod:`nlobs.synthesis.drift_gain`; the constants ``κ₁``, ``κ₂``
@@ -59,9 +93,10 @@ from nlobs._typing import Array
 from nlobs._validate import as_batch, as_matrix, positive
 from nlobs.errors import InvalidArgumentError, NlobsError
 from nlobs.geometry.checks import default_multi_index
-from nlobs.geometry.observability import AffineFields, check_multi_index, observability_jacobian
+from nlobs.geometry.observability import AffineFields, check_multi_index, observability_jacobian, observability_map
 from nlobs.geometry.region import Box
 from nlobs.systems.codegen import BatchedFunction, compile_matrix
+from nlobs.systems.brunovsky import brunovsky
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
 
@@ -140,6 +175,10 @@ class DriftObserver:
         Where ``Q_s(x̂)`` is singular: ``"raise"`` (default) :class:`SingularObservabilityError`;
         ``"nan"``: that batch member's correction is NaN (its estimate is lost, the other Monte
         Carlo runs go on; for ``simulate(..., divergence="keep")``).
+    saturation : Box or None
+        ``None`` (default): (3.1) as printed. A box ``B`` (the region of the design): the nonlinear
+        terms of (3.4) evaluated at ``sat(x̂)`` (module docstring: identical to (3.1) while ``x̂`` is
+        inside ``B``).
     states : tuple of str
     state_names : tuple of str
         ``"<state>_hat"``.
@@ -156,6 +195,8 @@ class DriftObserver:
     regularization: float = 0.0
     cond_limit: float = COND_LIMIT
     on_singular: str = "raise"
+    saturation: Box | None = None
+    _phi: BatchedFunction | None = field(default=None, repr=False)
     time: TimeBase = field(default=CONTINUOUS)
     state_names: tuple[str, ...] = field(init=False)
 
@@ -170,26 +211,39 @@ class DriftObserver:
         object.__setattr__(self, "cond_limit", positive("cond_limit", self.cond_limit))
         if self.on_singular not in ("raise", "nan"):
             raise InvalidArgumentError(f"on_singular: expected 'raise' or 'nan', got {self.on_singular!r}")
+        if self.saturation is not None:
+            if not isinstance(self.saturation, Box):
+                raise InvalidArgumentError(f"saturation: expected a Box or None, got {type(self.saturation).__name__}")
+            if self.saturation.n != n:
+                raise InvalidArgumentError(f"saturation: the box has dimension {self.saturation.n}, the model has n = {n}")
+            if self._phi is None:
+                raise InvalidArgumentError("saturation: needs Φ_s compiled; build the observer with from_fields or from_model")
+        object.__setattr__(self, "_A", brunovsky(self.s)[0])
         object.__setattr__(self, "state_names", tuple(f"{x}_hat" for x in self.states))
 
     # ------------------------------------------------------------------ constructors
     @classmethod
     def from_fields(cls, fields: AffineFields, s: Sequence[int], K: ArrayLike, *, regularization: float = 0.0,
-                    cond_limit: float = COND_LIMIT, on_singular: str = "raise") -> DriftObserver:
-        """Compile ``f, g, h, Q_s`` of ``fields`` once and build the observer."""
+                    cond_limit: float = COND_LIMIT, on_singular: str = "raise",
+                    saturation: Box | None = None) -> DriftObserver:
+        """Compile ``f, g, h, Q_s`` of ``fields`` once and build the observer (``saturation``: see the class)."""
         s_ = check_multi_index(s, fields.q, fields.n)
         Q = observability_jacobian(fields, s_)
         m, q = fields.m, fields.q
         entries = list(fields.f) + list(fields.g) + list(fields.h) + list(Q)
         fn = compile_matrix(sp.Matrix(entries) if entries else sp.zeros(0, 1), (fields.x,), vector=True,
                             what=f"{fields.name}: f, g, h, Q_s")
+        phi = None if saturation is None else compile_matrix(
+            sp.Matrix(observability_map(fields, s_)), (fields.x,), vector=True, what=f"{fields.name}: Φ_s")
         return cls(fields.name, s_, np.asarray(K, dtype=float), fields.states, m, q, fn,
-                   regularization=regularization, cond_limit=cond_limit, on_singular=on_singular)
+                   regularization=regularization, cond_limit=cond_limit, on_singular=on_singular,
+                   saturation=saturation, _phi=phi)
 
     @classmethod
     def from_model(cls, model: SymbolicModel, K: ArrayLike, s: Sequence[int] | None = None, *,
                    parameters: Mapping[str, float] | None = None, regularization: float = 0.0,
-                   cond_limit: float = COND_LIMIT, region: Box | None = None) -> DriftObserver:
+                   cond_limit: float = COND_LIMIT, region: Box | None = None,
+                   saturation: Box | None = None) -> DriftObserver:
         """Observer (3.1) for an input-affine :class:`SymbolicModel` (``s`` defaults to the observability indices).
 
         Raises
@@ -201,7 +255,8 @@ class DriftObserver:
         """
         fields = AffineFields.from_model(model, parameters)
         s_ = default_multi_index(fields, region) if s is None else s
-        return cls.from_fields(fields, s_, K, regularization=regularization, cond_limit=cond_limit)
+        return cls.from_fields(fields, s_, K, regularization=regularization, cond_limit=cond_limit,
+                               saturation=saturation)
 
     # ------------------------------------------------------------------ protocol
     @property
@@ -253,6 +308,11 @@ class DriftObserver:
                 raise self._singular(Q, x, None, cond)
         return x
 
+    def _sat(self, x: Array) -> Array:
+        """``sat(x)`` onto :attr:`saturation` (``x`` itself without one)."""
+        B = self.saturation
+        return x if B is None else np.clip(x, B.lower, B.upper)
+
     def correction(self, t: float, x_hat: Array, innovation: Array, Q: Array) -> Array:
         """``Q_s(x̂)⁻¹ K ỹ`` (or its Tikhonov-regularised form) by a batched linear solve."""
         b = innovation @ self.K.T  # (..., n)
@@ -278,14 +338,48 @@ class DriftObserver:
         return c
 
     def rhs(self, t: float, z: Array, u: Array, y: Array) -> Array:
-        """``x̂' = f(x̂) + g(x̂) u + Q_s(x̂)⁻¹ K (y − h(x̂))`` (3.1) for batches ``(..., n)``."""
+        """``x̂' = f(x̂) + g(x̂) u + Q_s(x̂)⁻¹ K (y − h(x̂))`` (3.1) for batches ``(..., n)``.
+
+        With :attr:`saturation`, where ``x̂`` is outside the box the nonlinear terms are evaluated at
+        ``sat(x̂)`` (Khalil's form, module docstring); inside it the result is (3.1)'s, bit for bit.
+        """
         f, g, h, Q = self._parts(z)
-        drift = f if self.n_inputs == 0 else f + np.einsum("...ij,...j->...i", g, np.asarray(u, dtype=float))
-        return drift + self.correction(t, z, np.asarray(y, dtype=float) - h, Q)
+        uu = np.asarray(u, dtype=float)
+        drift = f if self.n_inputs == 0 else f + np.einsum("...ij,...j->...i", g, uu)
+        B = self.saturation
+        if B is None:
+            return drift + self.correction(t, z, np.asarray(y, dtype=float) - h, Q)
+        sig = self._sat(z)
+        outside = np.any(sig != z, axis=-1)
+        if not np.any(outside):
+            return drift + self.correction(t, z, np.asarray(y, dtype=float) - h, Q)
+        fs, gs, _, Qs = self._parts(sig)
+        drift_s = fs if self.n_inputs == 0 else fs + np.einsum("...ij,...j->...i", gs, uu)
+        assert self._phi is not None
+        lin = (self._phi(z) - self._phi(sig)) @ self._A.T  # type: ignore[attr-defined]
+        # Q_s(x̂) x̂' = A_s (Φ(x̂) − Φ(σ)) + Q_s(σ)(f(σ) + g(σ)u) + K ỹ; the K ỹ term goes through correction()
+        rest = np.einsum("...ij,...j->...i", Qs, drift_s) + lin
+        corr = self.correction(t, z, np.asarray(y, dtype=float) - h, Q)
+        return np.where(outside[..., None], self._solve(t, z, Q, rest) + corr, drift + corr)
+
+    def _solve(self, t: float, x_hat: Array, Q: Array, b: Array) -> Array:
+        """``Q⁻¹ b`` (NaN or :class:`SingularObservabilityError` by :attr:`on_singular` where it fails)."""
+        with np.errstate(all="ignore"):
+            try:
+                c = np.linalg.solve(Q, b[..., None])[..., 0]
+            except np.linalg.LinAlgError:
+                if self.on_singular == "raise":
+                    raise self._singular(Q, x_hat, t) from None
+                c = _solve_each(Q, b)
+        return c
 
     def estimate(self, z: Array) -> Array:
-        """The estimate is the observer state, ``x̂ = z``."""
+        """The estimate is the observer state, ``x̂ = z`` (also with :attr:`saturation`)."""
         return z
+
+    def saturated_estimate(self, x_hat: ArrayLike) -> Array:
+        """``sat(x̂)`` onto :attr:`saturation` (``x̂`` itself without one): the estimate to hand on, in the box."""
+        return self._sat(np.asarray(x_hat, dtype=float))
 
 
 def _solve_each(Q: Array, b: Array) -> Array:

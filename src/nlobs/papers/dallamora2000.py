@@ -158,13 +158,15 @@ def run_siso(*, duration: float = 8.0, simulate_theory: bool = True) -> DriftExa
     theory = None
     if simulate_theory:
         dt = min(1e-3, 0.5 / (2.0 * wstar))  # RK4: |λ_max dt| ≤ 1 with λ_max = −2w
-        theory = simulate_drift(model, SISO_X0, SISO_XHAT0, min(duration, 0.5), dt=dt, u=_u_siso, report=rep)
+        theory = simulate_drift(model, SISO_X0, SISO_XHAT0, min(duration, 0.5), dt=dt, u=_u_siso, report=rep,
+                               saturation=False)  # the paper's (3.1)
     rep_sdp, sdp = _sdp_design(model, SISO_MU, SISO_REGION)
     sdp_run = None
     if rep_sdp is not None:
         sdp_run = simulate_drift(model, SISO_X0, SISO_XHAT0, duration, dt=_dt_for(rep_sdp.certificate), u=_u_siso,
-                                 report=rep_sdp)
-    tuned = simulate_drift(model, SISO_X0, SISO_XHAT0, duration, dt=1e-3, u=_u_siso, report=rep, w=SISO_W_TUNED)
+                                 report=rep_sdp, saturation=False)
+    tuned = simulate_drift(model, SISO_X0, SISO_XHAT0, duration, dt=1e-3, u=_u_siso, report=rep, w=SISO_W_TUNED,
+                           saturation=False)
     return DriftExample("vanderpol-lienard", rep, theory, sdp, sdp_run, tuned)
 
 
@@ -181,8 +183,9 @@ def run_mimo(*, duration: float = 12.0) -> DriftExample:
     sdp_run = None
     if rep_sdp is not None:
         sdp_run = simulate_drift(model, MIMO_X0, MIMO_XHAT0, duration, dt=_dt_for(rep_sdp.certificate), u=_u_mimo,
-                                 report=rep_sdp)
-    tuned = simulate_drift(model, MIMO_X0, MIMO_XHAT0, duration, dt=1e-3, u=_u_mimo, report=rep, w=MIMO_W_TUNED)
+                                 report=rep_sdp, saturation=False)
+    tuned = simulate_drift(model, MIMO_X0, MIMO_XHAT0, duration, dt=1e-3, u=_u_mimo, report=rep, w=MIMO_W_TUNED,
+                           saturation=False)
     return DriftExample("duffing-actuator", rep, None, sdp, sdp_run, tuned)
 
 

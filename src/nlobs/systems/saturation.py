@@ -199,3 +199,4 @@ class SmoothSaturation:
         """Whether ``x`` lies in the identity box, shape ``(...)``."""
         x_ = as_batch("x", x, self.n)
         return np.all((x_ >= self.lower) & (x_ <= self.upper), axis=-1)
+

@@ -64,6 +64,34 @@ def run_study(run: Callable[[], T]) -> T:
         raise StudyFailed(str(exc)) from exc
 
 
+#: RK4 is stable for ``h λ`` on the negative real axis down to ``−2.785`` (the root of ``1 + z + z²/2 + z³/6 + z⁴/24 = ±1``).
+RK4_REAL_LIMIT = 2.785
+
+
+def explain_divergence(exc: SimulationDiverged | StudyFailed, fastest: float, dt: float,
+                       saturation: bool) -> SimulationDiverged | StudyFailed:
+    """``exc`` with what is known about its cause: whether ``dt`` resolves the gain's fastest pole, and peaking.
+
+    ``fastest`` is ``max |λ|`` over the observer's error dynamics (``A_s − K C_s`` of (3.5), ``A − k cᵀ``
+    of (9a)). A smaller step is advised only where ``dt |λ|`` exceeds the RK4 stability limit (then it
+    is known to be needed); otherwise the message says that the step resolves the gain and the cause is
+    the high-gain transient (peaking) taking the estimate out of the region, and names
+    ``--saturation on`` when the run had it off.
+    """
+    ratio = dt * fastest
+    if ratio > RK4_REAL_LIMIT:
+        detail = (f"dt·|λ|max = {ratio:.3g} > {RK4_REAL_LIMIT} for the gain's fastest pole |λ| = {fastest:.4g}: RK4 is "
+                  f"unstable at this step, use --dt below {RK4_REAL_LIMIT / fastest:.3g}")
+    else:
+        detail = (f"the step resolves the gain (dt·|λ|max = {ratio:.3g} ≤ {RK4_REAL_LIMIT}), so a smaller --dt is not "
+                  "known to help; the high-gain transient (peaking) took the estimate out of the region where the "
+                  "design was checked" + ("" if saturation else " (--saturation is off; --saturation on saturates "
+                                                                "the observer outside the region)"))
+    if isinstance(exc, SimulationDiverged):
+        return SimulationDiverged(exc.time, exc.which, exc.state, detail)
+    return StudyFailed(f"{exc}; {detail}")
+
+
 def write_result(result: SimulationResult, out: Path | None, stem: str) -> tuple[Path, ...]:
     """Write ``<stem>.png`` (the plot) and ``<stem>.npz`` (the trajectories) to ``out``, each atomically.
 

@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike
 
 from nlobs._typing import Array
 from nlobs._validate import positive, readonly
-from nlobs.errors import AssumptionViolated, DesignInfeasible, InvalidArgumentError
+from nlobs.errors import AssumptionViolated, DesignInfeasible, InvalidArgumentError, SimulationDiverged, StudyFailed
 from nlobs.geometry.checks import Check, check_drift_observability, check_s_le_r, default_multi_index
 from nlobs.geometry.lipschitz import LipschitzEstimates, lipschitz_estimates
 from nlobs.geometry.observability import (
@@ -54,8 +54,16 @@ from nlobs.synthesis.drift_gain import (
     riccati_constant,
     verify_drift_gain,
 )
+from nlobs.systems.brunovsky import brunovsky
 from nlobs.systems.symbolic import SymbolicModel
-from nlobs.workflows._results import checked_request, error_line, error_summary, run_study, write_result
+from nlobs.workflows._results import (
+    checked_request,
+    error_line,
+    error_summary,
+    explain_divergence,
+    run_study,
+    write_result,
+)
 from nlobs.workflows.inputs import SimulationRequest, as_region, model_label, symbolic_model
 from nlobs.workflows.verdict import Verdict
 
@@ -158,10 +166,12 @@ class DriftDesignReport:
         return not self.reasons
 
     def observer(self, *, regularization: float = 0.0, cond_limit: float = COND_LIMIT,
-                 on_singular: str = "raise") -> DriftObserver:
-        """The observer (3.1) with this report's ``s`` and ``K``."""
+                 on_singular: str = "raise", saturation: bool = False) -> DriftObserver:
+        """The observer (3.1) with this report's ``s`` and ``K``; ``saturation=True``: saturated on the region
+        (Khalil's form, :mod:`nlobs.observers.drift`; the same as (3.1) while the estimate is in the region)."""
         return DriftObserver.from_fields(self.fields, self.s, self.certificate.gain, regularization=regularization,
-                                         cond_limit=cond_limit, on_singular=on_singular)
+                                         cond_limit=cond_limit, on_singular=on_singular,
+                                         saturation=self.region if saturation else None)
 
     def summary(self) -> str:
         c = self.certificate.constants
@@ -367,6 +377,7 @@ def simulate_drift(
     regularization: float = 0.0,
     save_every: int = 1,
     report: DriftDesignReport | None = None,
+    saturation: bool = True,
 ) -> DriftSimulation:
     """Design observer (3.1) with :func:`design_drift_report` (or take ``report``) and simulate it.
 
@@ -376,6 +387,10 @@ def simulate_drift(
     hold too (``gain_certified``); the run is ``certified`` only when, besides, it stays inside
     every hypothesis of Theorem 3.1 along the way (``coverage``, see :class:`DriftSimulation`). ``noise_std > 0`` samples every output at
     ``1/dt`` with that Gaussian noise (``seed`` required). ``report`` reuses a design.
+
+    ``saturation`` (default on): the observer's nonlinear terms are saturated on the design's region
+    outside it (Khalil's form, :mod:`nlobs.observers.drift`); while the estimate is in the region it is
+    (3.1) itself, so every run the certificate covers is unchanged. ``False``: (3.1) as printed.
     """
     rep = report or design_drift_report(model, s, alpha=alpha, mu=mu, gamma=gamma, method=method, region=region,
                                         parameters=parameters)
@@ -391,7 +406,8 @@ def simulate_drift(
         cw = verify_drift_gain(rep.certificate.constants, g.K, g.P, method="vandermonde", w=w_used)
         certified = premises and cw.verified
         bound_consts = error_bound_constants(cw, rep.lipschitz.gamma_phi, rep.lipschitz.gamma_phi_inv)
-    obs = DriftObserver.from_fields(rep.fields, rep.s, K, regularization=regularization)
+    obs = DriftObserver.from_fields(rep.fields, rep.s, K, regularization=regularization,
+                                    saturation=rep.region if saturation else None)
     plant = model.compile(parameters)
     meas = None
     if noise_std > 0:
@@ -502,6 +518,7 @@ def design_drift_observer(
     simulate: SimulationRequest | None = None,
     name: str | None = None,
     w_max: float = 1e5,
+    saturation: bool = True,
 ) -> DriftWorkflowReport:
     """Design and verify observer (3.1) for a model, and simulate it if asked: ``nlobs design drift``.
 
@@ -532,6 +549,9 @@ def design_drift_observer(
         the model's name).
     w_max : float
         Largest ``w`` the search of Remark 2.11's smallest ``w`` tries (``--w-max``).
+    saturation : bool
+        Simulate the observer saturated on the region (default, ``--saturation on``; the same as (3.1)
+        while the estimate is in the region) or (3.1) as printed (``--saturation off``).
 
     Returns
     -------
@@ -580,6 +600,12 @@ def design_drift_observer(
         return DriftWorkflowReport(rep, None, None, (), Verdict.OK, "")
     assert resolved is not None
     x0, x_hat0, u = resolved
-    sim = run_study(lambda: simulate_drift(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, w=w, report=rep))
+    try:
+        sim = run_study(lambda: simulate_drift(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, w=w, report=rep,
+                                               saturation=saturation))
+    except (SimulationDiverged, StudyFailed) as exc:
+        eig = rep.certificate.eigenvalues if w is None else np.linalg.eigvals(
+            brunovsky(rep.s)[0] - vandermonde_gain(rep.s, w).K @ brunovsky(rep.s)[2])
+        raise explain_divergence(exc, float(np.max(np.abs(eig))), simulate.dt, saturation) from exc
     files = write_result(sim.result, simulate.out, "drift")
     return DriftWorkflowReport(rep, sim, simulate, files, Verdict.OK, "")

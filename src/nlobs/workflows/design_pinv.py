@@ -32,6 +32,7 @@ from nlobs.geometry.checks import observability_rank
 from nlobs.geometry.lie import lie_derivative
 from nlobs.geometry.region import Box
 from nlobs.observers.pinv import AssumptionWarning, PinvObserver
+from nlobs.simulate.coverage import Coverage, InRegion, Premise, monitor
 from nlobs.simulate.loop import simulate
 from nlobs.simulate.result import SimulationResult
 from nlobs.simulate.sampling import MeasurementGroup
@@ -103,7 +104,11 @@ class PinvDesignReport:
     theta : float or None
     placement : str or None
     usable : bool
-        A1 and A5 hold (Corollary 4.1's structural conditions; A2–A4, A6 are not checked).
+        A1 and A5 hold on the region — a *local* verdict (:attr:`usable_scope`): Corollary 4.1 also
+        needs A3, A4 (global Lipschitz and output-to-state stability conditions in the coordinates (2))
+        and A6 (the ``τ_i`` complete), which are not checked (:attr:`hypotheses`).
+    region : str
+        The region A1 and A5 were checked on.
     observer : PinvObserver
         The observer this report describes (built once; :func:`simulate_pinv` with
         ``report=`` runs this very object). Not part of :meth:`to_dict` nor of equality.
@@ -125,7 +130,41 @@ class PinvDesignReport:
     theta: float | None
     placement: str | None
     usable: bool
-    observer: PinvObserver = field(repr=False, compare=False)
+    region: str = ""
+    observer: PinvObserver = field(default=None, repr=False, compare=False)  # type: ignore[assignment]
+
+    @property
+    def hypotheses(self) -> tuple[dict[str, str], ...]:
+        """Every hypothesis of Röbenack's Corollary 4.1 (A1, A3–A6; A2 through Theorem 4.1), each with its status.
+
+        ``status`` is ``"verified on the region"`` / ``"fails on the region"`` (A1, A5: sampled rank and
+        involutivity tests with their evidence) or ``"not checked"`` (the global conditions).
+        """
+        out = []
+        for c in self.checks:
+            key = "A1" if c.name.startswith("A1") else "A5" if c.name.startswith("A5") else c.name
+            out.append({"name": key, "status": "verified on the region" if c.passed else "fails on the region",
+                        "evidence": c.evidence})
+        out += [
+            {"name": "A2", "status": "not checked",
+             "evidence": "Φ (2) a global diffeomorphism: given by Theorem 4.1 only when A1, A5 and A6 hold globally"},
+            {"name": "A3", "status": "not checked",
+             "evidence": "α, β globally Lipschitz (11) in the coordinates (2) on all of Ω, not only the region"},
+            {"name": "A4", "status": "not checked",
+             "evidence": "an exponential-decay OSS Lyapunov function V₂ of the zero dynamics (12)"},
+            {"name": "A6", "status": "not checked", "evidence": "the vector fields τ_1, …, τ_r complete"},
+        ]
+        return tuple(out)
+
+    @property
+    def missing(self) -> tuple[str, ...]:
+        """The hypotheses of Corollary 4.1 that are not verified (failed or not checked)."""
+        return tuple(h["name"] for h in self.hypotheses if h["status"] != "verified on the region")
+
+    @property
+    def usable_scope(self) -> str:
+        """``"local, on the region …"`` when A1 and A5 hold there (the global A2–A4, A6 unchecked), else ``"none"``."""
+        return f"local, on the region {self.region}" if self.usable else "none"
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form (stable keys)."""
@@ -137,7 +176,8 @@ class PinvDesignReport:
             "Q": [list(r) for r in self.Q], "pinv": [list(r) for r in self.pinv],
             "pinv_gain": [list(r) for r in self.gain_field], "pinv_gain_numeric": [list(r) for r in self.gain_numeric],
             "k": list(self.k), "roots": list(self.roots), "theta": self.theta, "placement": self.placement,
-            "usable": self.usable,
+            "usable": self.usable, "usable_scope": self.usable_scope, "hypotheses": list(self.hypotheses),
+            "missing_hypotheses": list(self.missing),
         }
 
     def summary(self) -> str:
@@ -162,8 +202,13 @@ class PinvDesignReport:
         design = f" (θ = {self.theta:g}, placement {self.placement})" if self.theta is not None else ""
         lines.append(f"  k = [{', '.join(f'{v:.6g}' for v in self.k)}]{design}; roots of (10): "
                      f"[{', '.join(f'{v:.6g}' for v in self.roots)}]")
-        lines.append("  usable: " + ("yes (A1, A5 hold; A2–A4 and A6 are the user's to check)" if self.usable
-                                     else "no: A5 fails, Theorem 4.1 does not apply"))
+        for h in self.hypotheses[len(self.checks):]:
+            lines.append(f"  ?    {h['name']} {h['status']}: {h['evidence']}")
+        if self.usable:
+            lines.append(f"  usable: local only, on the region {self.region} (A1, A5 verified there by sampling); "
+                         f"Corollary 4.1's convergence also needs {', '.join(self.missing)}, not checked")
+        else:
+            lines.append("  usable: no: A5 fails, Theorem 4.1 does not apply")
         return "\n".join(lines)
 
 
@@ -199,7 +244,7 @@ def design_pinv_report(
         k=tuple(float(v) for v in obs.k_vector), roots=tuple(float(v) for v in roots),
         theta=None if obs.high_gain is None else obs.high_gain.theta,
         placement=None if obs.high_gain is None else obs.high_gain.placement,
-        usable=all(c.passed for c in obs.checks), observer=obs,
+        usable=all(c.passed for c in obs.checks), region=obs.region.describe(), observer=obs,
     )
 
 
@@ -251,6 +296,11 @@ class PinvWorkflowReport:
     request : SimulationRequest or None
     files : tuple of Path
         The plot (``pinv.png``) and trajectories (``pinv.npz``) written to ``request.out``.
+    coverage : Coverage or None
+        The hypotheses of Corollary 4.1 checked along the run (:func:`nlobs.simulate.coverage.monitor`):
+        the state and the estimate in the region where A1 and A5 were verified, and the premise that the
+        global A2–A4, A6 hold — not checked, so no run is covered (``certificate_covers_run`` false) and
+        ``certificate_violations`` says where a run left the region.
     verdict : Verdict
         ``OK`` whenever the observer was built (A1 failing raises instead): A5 failing
         (``design.usable`` false) loses the guarantee of Theorem 4.1 but not the observer, and is
@@ -265,23 +315,36 @@ class PinvWorkflowReport:
     files: tuple[Path, ...]
     verdict: Verdict = Verdict.OK
     message: str = ""
+    coverage: Coverage | None = None
+
+    def _simulation_dict(self) -> dict[str, Any]:
+        assert self.simulation is not None
+        out = error_summary(self.simulation, self.files)
+        if self.coverage is not None:
+            out.update(self.coverage.to_dict())
+        return out
 
     def to_dict(self) -> dict[str, Any]:
         """``{"design": …, "simulation": …}``: what ``nlobs design pinv --json`` prints.
 
         ``simulation`` (present only when one ran) has ``final_error_norm``,
-        ``initial_error_norm``, ``max_error_norm`` (largest over a batch) and ``files``.
+        ``initial_error_norm``, ``max_error_norm`` (largest over a batch), ``files`` and the monitor's
+        ``certificate_covers_run``, ``certificate_covered_fraction``, ``certificate_violations`` (first per run:
+        hypothesis, time, detail), ``certificate_failed_premises``, ``certificate_hypotheses``.
         """
         data: dict[str, Any] = {"design": self.design.to_dict()}
         if self.simulation is not None:
-            data["simulation"] = error_summary(self.simulation, self.files)
+            data["simulation"] = self._simulation_dict()
         return data
 
     def summary(self) -> str:
         """The design report, then the simulation line and a ``wrote <file>`` line per file."""
         lines = [self.design.summary()]
         if self.simulation is not None and self.request is not None:
-            lines.append(error_line(error_summary(self.simulation, self.files), self.request.duration, self.request.dt))
+            line = error_line(error_summary(self.simulation, self.files), self.request.duration, self.request.dt)
+            if self.coverage is not None:
+                line += " (no theorem covers this run: " + "; ".join(self.coverage.reasons) + ")"
+            lines.append(line)
             lines += [f"wrote {f}" for f in self.files]
         return "\n".join(lines)
 
@@ -347,4 +410,11 @@ def design_pinv_observer(
     x0, x_hat0, u = resolved
     res = run_study(lambda: simulate_pinv(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, report=rep))
     files = write_result(res, simulate.out, "pinv")
-    return PinvWorkflowReport(rep, res, simulate, files)
+    box = rep.observer.region
+    assert box is not None
+    where = box.describe()
+    missing = [h["name"] for h in rep.hypotheses if h["status"] == "not checked"]
+    hyps: list[Any] = [InRegion(box.lower, box.upper, "state", where), InRegion(box.lower, box.upper, "estimate", where),
+                       Premise(f"{', '.join(missing)} of Corollary 4.1", False, "not checked (global conditions)")]
+    coverage = monitor(res, hyps, u=np.asarray(u, dtype=float), verified=rep.usable)
+    return PinvWorkflowReport(rep, res, simulate, files, coverage=coverage)
