@@ -9,11 +9,12 @@ import re
 import tomllib
 from pathlib import Path
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
 from nlobs.cli import app
-from nlobs.systems.modelfile import shipped_models
+from nlobs.systems.modelfile import load_model, shipped_models
 from nlobs.workflows.advise import advise_model, cascade_structure
 from nlobs.workflows.inputs import BoxError, symbolic_model
 from nlobs.workflows.verdict import Verdict
@@ -159,3 +160,72 @@ def test_json_keys_and_analyze_keeps_its_keys() -> None:
     assert an["advice"]["recommended"] == "drift"
     text = runner.invoke(app, ["analyze", "two-tank"]).stdout
     assert "recommended: drift observer" in text and "$ nlobs design drift two-tank" in text
+
+
+PEND_SENSED = '''name = "pend"
+states = ["theta", "omega"]
+inputs = ["tau"]
+outputs = ["y"]
+[dynamics]
+f = ["omega", "-9.81*sin(theta) - 0.5*omega"]
+g = [["0"], ["1"]]
+h = ["theta"]
+[sensors.enc]
+outputs = ["y"]
+rate = RATE
+noise_std = 0.001
+[input_signals]
+tau = 0.2
+[simulation]
+x0 = [0.4, 0.0]
+initial_error_std = [0.05, 0.05]
+duration = 3.0
+dt = 0.002
+box = [[-3, 3], [-60, 60]]
+'''
+
+
+def test_check_ranks_a_high_gain_design_fed_slow_samples_below_the_kalman_filters(tmp_path: Path) -> None:
+    """The theorems' verdict recommends drift; under a 5 Hz encoder it never converges, and --check says why."""
+    import math
+
+    from nlobs.geometry import Box
+    from nlobs.systems.brunovsky import brunovsky
+    from nlobs.workflows.compare import compare_observers
+    from nlobs.workflows.design_drift import design_drift_report
+
+    f = tmp_path / "pend5.toml"
+    f.write_text(PEND_SENSED.replace("RATE", "5.0"))
+    plain = advise_model(str(f))
+    assert plain.recommended == "drift" and plain.check is None
+    rep = advise_model(str(f), check=True, runs=2, progress=False)
+    assert rep.recommended == "ekf-ukf" and "drift" in rep.check.demoted
+    out = rep.check.outcomes
+    assert out["drift"]["diverged"] == 0 and math.isinf(out["drift"]["convergence_time"])
+    assert math.isfinite(out["ekf"]["convergence_time"])
+    # the same runs compared directly: the check's numbers are the comparison's
+    cmp = compare_observers(str(f), observers=["drift", "luenberger", "ekf"], runs=2, seed=0, box=[-3, 3, -60, 60],
+                            progress=False)
+    assert out["drift"]["rms_error_norm"] == pytest.approx(cmp.observers["drift"].rms_error_norm, rel=1e-12)
+    assert out["ekf"]["rms_error_norm"] == pytest.approx(cmp.observers["ekf"].rms_error_norm, rel=1e-12)
+    # the fastest error pole of A_s − K C_s against the 0.2 s sampling interval
+    d = design_drift_report(load_model(str(f)), region=Box([-3, -60], [3, 60]), mu=0.2)
+    A, _, C = brunovsky(d.s)
+    lam = float(np.max(np.abs(np.linalg.eigvals(A - d.certificate.gain @ C))))
+    assert f"|λ|·Ts = {lam * 0.2:.2g}" in rep.check.demoted["drift"]
+    res = runner.invoke(app, ["advise", str(f), "--check", "--runs", "2", "--json"])
+    assert res.exit_code == 0, res.output
+    data = json.loads(res.stdout)
+    assert data["recommended"] == "ekf-ukf" and set(data["check"]["demoted"]) >= {"drift"}
+    assert runner.invoke(app, ["advise", str(f), "--check", "--runs", "0"]).exit_code == 2
+
+
+def test_check_keeps_an_observer_that_converges_with_a_note_on_noise(tmp_path: Path) -> None:
+    f = tmp_path / "pend500.toml"
+    f.write_text(PEND_SENSED.replace("RATE", "500.0"))
+    rep = advise_model(str(f), check=True, runs=2, progress=False)
+    luen = rep.check.outcomes["luenberger"]
+    assert "luenberger" not in rep.check.demoted and np.isfinite(luen["convergence_time"])
+    ratio = luen["rms_error_norm"] / rep.check.outcomes["ekf"]["rms_error_norm"]
+    assert ratio > 10 and f"{ratio:.3g} × the EKF's" in luen["note"]
+    assert any("amplifies the sensor noise" in e for e in rep.method("luenberger").evidence)

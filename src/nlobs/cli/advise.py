@@ -20,6 +20,11 @@ def advise_cmd(
     box: Annotated[str | None, typer.Option(
         help="Region of the analyses: 'lo,hi' for every state, or 2n numbers lo1,hi1,... "
              "(default: the file's [simulation] box, else -1,1).")] = None,
+    check: Annotated[bool, typer.Option(
+        "--check", help="Also run the applicable observers and an EKF on a few noisy runs under the file's sensors, "
+                        "and rank an observer that diverges or never converges below the Kalman filters "
+                        "(seconds to minutes).")] = False,
+    runs: Annotated[int, typer.Option(help="Monte Carlo runs of --check.")] = 3,
     as_json: Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON report.")] = False,
 ) -> None:
     """Say which observer applies to a model, with the evidence, the parameters to start from and the command."""
@@ -27,7 +32,8 @@ def advise_cmd(
     from nlobs.workflows.inputs import BoxError
 
     try:
-        report = advise_model(model, box=box_numbers("--box", box))
+        report = advise_model(model, box=box_numbers("--box", box), check=check, runs=runs,
+                              progress=None if not as_json else False)
     except ModelFileError as exc:
         fail(str(exc))
     except BoxError as exc:

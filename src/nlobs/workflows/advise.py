@@ -28,6 +28,16 @@ analysis the region is searched for the singularities of ``f``, ``g`` and ``h``
 square roots and logarithms that are negative, and non-finite values of ``f`` at sampled points.
 A region that contains one is replaced by a *suggested* box that avoids those of one state (cut at
 the zeros, with a margin of 5 % of the remaining interval), and the analyses run on that box.
+
+A verdict above is about the *theorems*: a high-gain observer whose hypotheses hold can still fail
+once its output is sampled and noisy (a continuous high-gain design fed held samples at a rate
+below its bandwidth diverges; a large gain amplifies the sensor noise). ``check=True``
+(``nlobs advise --check``) runs every applicable observer nlobs can simulate and an EKF on a few
+noisy Monte Carlo runs under the file's sensors (:func:`nlobs.workflows.compare.compare_observers`)
+and ranks an observer that diverged or never converged below the Kalman filters, with the measured
+numbers as its evidence (and, for the drift observer, its fastest error pole against the sampling
+interval); one that converges with an error more than :data:`CHECK_RMS_FACTOR` times the EKF's
+keeps its rank with a note on noise amplification.
 """
 
 from __future__ import annotations
@@ -41,7 +51,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from nlobs.errors import ModelError, ModelFileError, NlobsError
+from nlobs.errors import InvalidArgumentError, ModelError, ModelFileError, NlobsError
 from nlobs.geometry.checks import SYMBOLIC_DET_MAX_N
 from nlobs.geometry.lie import tidy
 from nlobs.geometry.observability import AffineFields, observability_jacobian
@@ -56,7 +66,12 @@ from nlobs.systems.symbolic import SymbolicModel
 from nlobs.workflows.inputs import as_region, model_label
 from nlobs.workflows.verdict import Verdict
 
-__all__ = ["METHODS", "AdviceReport", "CascadeStructure", "MethodAdvice", "Singularity", "advise_model",
+#: With ``check``: an observer whose RMS error exceeds this multiple of the EKF's gets a note on noise amplification.
+CHECK_RMS_FACTOR = 10.0
+#: Observers of :func:`nlobs.workflows.compare.compare_observers` for the methods of the advisor.
+_SIMULATED = {"drift": "drift", "pinv": "pinv", "luenberger": "luenberger", "cascade": "cascade"}
+
+__all__ = ["CHECK_RMS_FACTOR", "METHODS", "AdviceReport", "SensorCheck", "CascadeStructure", "MethodAdvice", "Singularity", "advise_model",
            "cascade_structure", "singularities"]
 
 #: The methods the advisor reports on, in the order it prefers an applicable one.
@@ -175,6 +190,111 @@ class MethodAdvice:
 
 
 @dataclass(frozen=True)
+class SensorCheck:
+    """The applicable observers and an EKF on the same noisy runs under the file's sensors (``check=True``).
+
+    Attributes
+    ----------
+    runs, seed : int
+    outcomes : dict
+        Per observer (``"drift"``, ..., ``"ekf"``): ``rms_error_norm`` (after the settling time, runs
+        that did not diverge), ``diverged`` (runs), ``convergence_time`` and ``skipped`` (why it was
+        not run, else ``None``).
+    demoted : dict
+        The observers ranked below the Kalman filters, with the measured reason.
+    time_unit : str
+    """
+
+    runs: int
+    seed: int
+    outcomes: dict[str, dict[str, Any]]
+    demoted: dict[str, str]
+    time_unit: str = "s"
+
+    def describe(self, name: str) -> str:
+        o = self.outcomes[name]
+        if o["skipped"]:
+            return f"under the file's sensors ({self.runs} runs): not run: {o['skipped']}"
+        conv = o["convergence_time"]
+        conv_txt = "never converged" if not np.isfinite(conv) else f"converged at {conv:.3g} {self.time_unit}"
+        note = f"; {o['note']}" if o.get("note") else ""
+        return (f"under the file's sensors ({self.runs} noisy runs, seed {self.seed}): RMS ‖e‖ = "
+                f"{o['rms_error_norm']:.4g}, diverged {o['diverged']}/{self.runs}, {conv_txt}{note}")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"runs": self.runs, "seed": self.seed, "outcomes": {k: dict(v) for k, v in self.outcomes.items()},
+                "demoted": dict(self.demoted), "time_unit": self.time_unit}
+
+
+def _sensor_check(model: str | Path, methods: Sequence[MethodAdvice], region: Box, runs: int,
+                  progress: bool | None) -> tuple[tuple[MethodAdvice, ...], SensorCheck]:
+    """Run the applicable observers and an EKF under the file's sensors; demote those that fail there."""
+    import dataclasses
+    import math
+
+    from nlobs.workflows.compare import compare_observers
+
+    names = [_SIMULATED[m.method] for m in methods if m.usable and m.method in _SIMULATED]
+    drift = next((m for m in methods if m.method == "drift" and m.usable), None)
+    box = best_region(drift, region) if drift is not None else region
+    flat = [float(v) for pair in zip(box.lower, box.upper) for v in pair]
+    rep = compare_observers(model, observers=[*names, "ekf"], runs=runs, seed=0, box=flat, progress=progress)
+    outcomes: dict[str, dict[str, Any]] = {}
+    for name, o in rep.observers.items():
+        outcomes[name] = {"rms_error_norm": o.rms_error_norm, "diverged": len(o.diverged_runs),
+                          "convergence_time": o.convergence_time, "skipped": o.skipped}
+    ekf = outcomes.get("ekf", {})
+    ref = ekf.get("rms_error_norm", math.nan) if not ekf.get("skipped") else math.nan
+    demoted: dict[str, str] = {}
+    for name in names:
+        o = outcomes[name]
+        if o["skipped"]:
+            demoted[name] = f"not run under the file's sensors: {o['skipped']}"
+        elif o["diverged"]:
+            demoted[name] = f"diverged in {o['diverged']} of {runs} noisy runs under the file's sensors"
+        elif not math.isfinite(o["rms_error_norm"]):
+            demoted[name] = "no finite error under the file's sensors"
+        elif not math.isfinite(o["convergence_time"]):
+            demoted[name] = ("its error never fell well below where it started under the file's sensors (RMS "
+                             f"{o['rms_error_norm']:.3g}, the EKF's {ref:.3g})")
+        elif math.isfinite(ref) and o["rms_error_norm"] > CHECK_RMS_FACTOR * ref:
+            o["note"] = (f"converges, but its RMS error is {o['rms_error_norm'] / ref:.3g} × the EKF's: the gain "
+                         "amplifies the sensor noise (the EKF is more accurate; it has no convergence certificate)")
+    if "drift" in demoted and not outcomes["drift"]["skipped"]:
+        demoted["drift"] += _sampling_note(rep.observers["drift"].observer, model, rep.time_unit)
+    check = SensorCheck(runs, 0, outcomes, demoted, rep.time_unit)
+    out = []
+    for m in methods:
+        sim = _SIMULATED.get(m.method, "ekf" if m.method == "ekf-ukf" else None)
+        if sim is None or sim not in outcomes or not m.usable:
+            out.append(m)
+            continue
+        ev = (*m.evidence, check.describe(sim))
+        if sim in demoted:
+            out.append(dataclasses.replace(m, evidence=ev, rank=m.rank + 100,
+                                           reason=f"{m.reason}; but {demoted[sim]}"))
+        else:
+            out.append(dataclasses.replace(m, evidence=ev))
+    return tuple(out), check
+
+
+def _sampling_note(observer: Any, model: str | Path, time_unit: str) -> str:
+    """The drift gain's fastest error pole against the sensors' sampling interval (why a run may diverge)."""
+    from nlobs.systems.brunovsky import brunovsky
+
+    sensors = load_scenario(model).sensors
+    K = getattr(observer, "K", None)
+    if not sensors or K is None:
+        return ""
+    A, _, C = brunovsky(observer.s)
+    lam = float(np.max(np.abs(np.linalg.eigvals(A - np.asarray(K) @ C))))
+    ts = 1.0 / min(g.rate for g in sensors)
+    return (f" (the gain's fastest error pole is {lam:.3g} per {time_unit} and the output is sampled every "
+            f"{ts:.3g} {time_unit}: |λ|·Ts = {lam * ts:.2g}; a continuous high-gain design fed held samples needs "
+            "|λ|·Ts well below 1: a faster sensor, or a smaller gain (--alpha, a smaller region))")
+
+
+@dataclass(frozen=True)
 class AdviceReport:
     """What ``nlobs advise`` prints: one :class:`MethodAdvice` per method and the recommendation.
 
@@ -200,6 +320,8 @@ class AdviceReport:
     verdict : Verdict
         ``OK`` when a method applies, ``NO_OBSERVER`` otherwise.
     message : str
+    check : SensorCheck or None
+        With ``check=True``: the applicable observers and an EKF under the file's sensors.
     """
 
     model: str
@@ -213,6 +335,7 @@ class AdviceReport:
     compare_command: str | None
     verdict: Verdict = Verdict.OK
     message: str = ""
+    check: SensorCheck | None = None
 
     def method(self, name: str) -> MethodAdvice:
         """The advice on one method (``KeyError`` for an unknown name)."""
@@ -234,7 +357,7 @@ class AdviceReport:
                 "singularities": [s.to_dict() for s in self.singular],
                 "methods": {m.method: m.to_dict() for m in self.methods}, "recommended": self.recommended,
                 "command": self.command, "compare_command": self.compare_command, "verdict": self.verdict.value,
-                "message": self.message}
+                "message": self.message, "check": None if self.check is None else self.check.to_dict()}
 
     def summary(self, *, short: bool = False) -> str:
         """The text report (``short``: the recommendation and one line per method, as ``nlobs analyze`` ends)."""
@@ -255,6 +378,12 @@ class AdviceReport:
                                                                       for k, v in m.parameters.items()))
                 if m.command:
                     lines.append(f"          $ {m.command}")
+        if self.check is not None:
+            for name, why in self.check.demoted.items():
+                lines.append(f"  checked: {name} ranked below the Kalman filters: {why}")
+        elif not short and self.recommended in _SIMULATED:
+            lines.append("  not checked under the file's sensors (a verdict of the theorems): nlobs advise --check "
+                         "runs the observers and an EKF on noisy runs first")
         if self.recommended is None:
             lines.append(f"  recommended: none — {self.message}")
         else:
@@ -659,7 +788,8 @@ def _setvalued(target: str, tables: frozenset[str], model: Model) -> MethodAdvic
 
 # ----------------------------------------------------------------------------- the workflow
 def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = None, *,
-                 geometry: GeometryReport | None = None) -> AdviceReport:
+                 geometry: GeometryReport | None = None, check: bool = False, runs: int = 3,
+                 progress: bool | None = None) -> AdviceReport:
     """Which of nlobs's observers applies to ``model``, with the evidence and the first command (module docstring).
 
     Parameters
@@ -672,6 +802,14 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
     geometry : GeometryReport, optional
         The symbolic analyses on the region, when already computed (``nlobs analyze``); used only
         when its region is the advisor's.
+    check : bool
+        Also run the applicable observers and an EKF on ``runs`` noisy Monte Carlo runs under the
+        file's sensors, and rank an observer that fails there below the Kalman filters (module
+        docstring). Needs a model file.
+    runs : int
+        Runs of the check.
+    progress : bool, optional
+        The check's progress bar (default: on a terminal).
 
     Raises
     ------
@@ -727,6 +865,13 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
         kal,
         luen,
     )
+    sensor_check = None
+    if check:
+        if not is_file:
+            raise InvalidArgumentError("check: needs a model file (its sensors and inputs)")
+        if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
+            raise InvalidArgumentError(f"--runs: expected a positive integer, got {runs!r}")
+        methods, sensor_check = _sensor_check(model, methods, region if region is not None else reg0, runs, progress)
     usable = sorted((mm for mm in methods if mm.usable), key=lambda mm: mm.rank)
     best = usable[0] if usable else None
     if best is None:
@@ -741,7 +886,7 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
             cmp += f" {box_option(best_region(best, region))}"
     return AdviceReport(m.name, target, reg0 if isinstance(m, SymbolicModel) else None, src,
                         region if isinstance(m, SymbolicModel) else None, sing, methods,
-                        None if best is None else best.method, cmp, verdict, msg)
+                        None if best is None else best.method, cmp, verdict, msg, sensor_check)
 
 
 def best_region(advice: MethodAdvice, region: Box) -> Box:
