@@ -44,9 +44,9 @@ def test_chemostat_pinv_with_det_qs_and_mu_from_the_file() -> None:
     s = 0.01
     assert _min_det(rep) == pytest.approx(p["mu_max"] * s / ((p["K_s"] + s) * p["Yxs"]), rel=1e-3)
     drift = rep.method("drift")
-    assert drift.applicable == "yes" and "s ≰ r" in drift.reason
+    assert drift.applicable == "local" and "s ≰ r" in drift.reason and drift.region == "[0.05, 4] × [0.01, 4]"
     assert drift.parameters["mu"] == pytest.approx(0.3)  # the step 0.3 → 0.2 of [input_signals]
-    assert rep.method("pinv").applicable == "yes"
+    assert rep.method("pinv").applicable == "local" and "not checked" in rep.method("pinv").reason
     assert rep.compare_command == "nlobs simulate chemostat --observer pinv,ekf,ukf"
 
 
@@ -148,7 +148,7 @@ def test_json_keys_and_analyze_keeps_its_keys() -> None:
     assert res.exit_code == 0
     data = json.loads(res.stdout)
     assert set(data) == {"model", "box", "box_source", "region", "singularities", "methods", "recommended", "command",
-                         "compare_command", "verdict", "message"}
+                         "compare_command", "verdict", "message", "check"}
     assert set(data["methods"]) == {"cascade", "setvalued", "drift", "pinv", "ekf-ukf", "luenberger"}
     assert set(data["methods"]["drift"]) == {"method", "title", "applicable", "reason", "region", "evidence",
                                              "parameters", "command"}

@@ -660,12 +660,14 @@ def _drift(target: str, geo: GeometryReport | None, geo_err: str | None, fields:
     params: dict[str, Any] = {"box": _box_list(region), "alpha": DEFAULT_ALPHA, "mu": mu, "w_max": 1e5}
     if geo.drift.passed:
         cmd = f"nlobs design drift {target} {box_option(region)} --alpha {DEFAULT_ALPHA:g} --mu {mu:.4g}"
+        where = region.describe()
         if s_le_r or mu == 0.0:
-            return MethodAdvice("drift", title, "yes", "drift-observable on the region" + (", s ≤ r" if s_le_r else
-                                ", no input"), tuple(ev), params, cmd, rank=2)
-        return MethodAdvice("drift", title, "yes", f"drift-observable on the region, but s ≰ r: (2.17) holds only for "
-                            f"a small input bound, here μ = {mu:.4g} (lower --mu, or try --method sdp)", tuple(ev),
-                            params, cmd, rank=5)
+            return MethodAdvice("drift", title, "local", "drift-observable on the region" + (", s ≤ r" if s_le_r else
+                                ", no input") + " (Theorem 3.1's Lipschitz premises are checked there only)",
+                                tuple(ev), params, cmd, region=where, rank=2)
+        return MethodAdvice("drift", title, "local", f"drift-observable on the region, but s ≰ r: (2.17) holds only "
+                            f"for a small input bound, here μ = {mu:.4g} (lower --mu, or try --method sdp)", tuple(ev),
+                            params, cmd, region=where, rank=5)
     local = _local_drift_box(fields, det, region, x0)
     if local is not None:
         params["box"] = _box_list(local)
@@ -705,8 +707,10 @@ def _pinv(target: str, geo: GeometryReport | None, geo_err: str | None, region: 
     if geo.a5 is None or not geo.a5.passed:
         return MethodAdvice("pinv", title, "no", "A5 (involutivity) fails on the region", tuple(ev))
     cmd = f"nlobs design pinv {target} {box_option(region)} --theta {DEFAULT_THETA:g}"
-    return MethodAdvice("pinv", title, "yes", f"Σ r_j = {total} < n, A1 and A5 hold (A2–A4, A6 are the user's to check)",
-                        tuple(ev), {"box": _box_list(region), "theta": DEFAULT_THETA}, cmd, rank=3)
+    return MethodAdvice("pinv", title, "local", f"Σ r_j = {total} < n, A1 and A5 hold on the region (A2–A4, A6 of "
+                        "Corollary 4.1, global conditions, are not checked)",
+                        tuple(ev), {"box": _box_list(region), "theta": DEFAULT_THETA}, cmd, region=region.describe(),
+                        rank=3)
 
 
 def _linear_part(target: str, model: Model, x0: np.ndarray, geo: GeometryReport | None,

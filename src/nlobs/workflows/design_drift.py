@@ -173,6 +173,12 @@ class DriftDesignReport:
                                          cond_limit=cond_limit, on_singular=on_singular,
                                          saturation=self.region if saturation else None)
 
+    @property
+    def usable_scope(self) -> str:
+        """``"local, on the region …"`` when usable: the premises of Theorem 3.1 (Lipschitz constants of Φ_s,
+        Φ_s⁻¹, L_s, H_{s,r}, asked on all of ℝⁿ) are estimated by sampling on the region only; else ``"none"``."""
+        return f"local, on the region {self.region.describe()}" if self.usable else "none"
+
     def summary(self) -> str:
         c = self.certificate.constants
         r_txt = ", ".join("∞" if v is None else str(v) for v in self.r)
@@ -191,7 +197,9 @@ class DriftDesignReport:
         lines.append("  K = " + np.array2string(self.certificate.gain, precision=5, separator=", ").replace("\n", "\n      "))
         lines.append("  " + self.bound.describe())
         lines += [f"  warning: {m}" for m in self.warnings]
-        lines.append("  usable: yes (drift-observable on the region, (2.17) verified, γ covers the sampled estimate)"
+        lines.append(f"  usable: {self.usable_scope} (drift-observable there, (2.17) verified, γ covers the Lipschitz "
+                     "constants sampled there; Theorem 3.1 asks them globally: it covers a run while its state and "
+                     "estimate stay in the region, which --simulate checks)"
                      if self.usable else "  usable: NO — " + "; ".join(self.reasons))
         return "\n".join(lines)
 
@@ -209,6 +217,7 @@ class DriftDesignReport:
             "lipschitz": self.lipschitz.to_dict(),
             "bound": self.bound.to_dict(),
             "usable": self.usable,
+            "usable_scope": self.usable_scope,
             "reasons": list(self.reasons),
             "warnings": list(self.warnings),
         }
