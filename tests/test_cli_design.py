@@ -176,6 +176,17 @@ h = ["x1"]
 """
 
 
+def test_default_region_is_the_files_box_and_a_pole_in_the_region_is_named() -> None:
+    """The chemostat on the default [−1, 1]² held its Monod pole (γ = 1e12, advice "lower μ"): a region with the
+    pole now says so (S = −K_s = −0.2), and the file's [simulation] box is the default region."""
+    res = runner.invoke(app, ["design", "drift", "chemostat", "--box", "-1,1"])
+    assert res.exit_code == 3, res.output
+    assert "the denominator S + 0.2 vanishes at S = -0.2 inside the region" in res.stderr
+    assert "nlobs advise suggests one" in res.stderr and res.stderr.strip().count("\n") == 0
+    res = runner.invoke(app, ["design", "drift", "two-tank"])  # file box [1, 12]²: usable, local on that region
+    assert res.exit_code == 0 and "usable: local, on the region [1, 12] × [1, 12]" in res.stdout
+
+
 def test_lorenz_drift_names_the_singular_q_s_and_exits_3(tmp_path: Path) -> None:
     """det Q_s = −100 x₁ vanishes on the region: no observer (3.1) there (exit 3), not "raise w_max" (exit 1)."""
     res = runner.invoke(app, ["design", "drift", _write(tmp_path, LORENZ)])

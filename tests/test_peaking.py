@@ -119,7 +119,8 @@ def test_cli_saturation_option():
 
 
 def test_cli_divergence_names_the_rk4_step_not_a_blind_dt_advice():
-    r = CliRunner().invoke(app, ["design", "drift", "rossler", "--simulate", "--x0", "1,0.5,0.5", "--xhat0", "0,0,0",
+    r = CliRunner().invoke(app, ["design", "drift", "rossler", "--box", "-1,1", "--simulate", "--x0", "1,0.5,0.5",
+                                 "--xhat0", "0,0,0",
                                  "--dt", "1e-3", "--duration", "0.1", "--saturation", "off"])
     assert r.exit_code == 1
     assert "RK4 is unstable at this step" in r.output and "0.00059" in r.output

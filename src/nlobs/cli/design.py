@@ -46,7 +46,8 @@ from nlobs.errors import (
 from nlobs.workflows.inputs import BoxError, SimulationRequest, SymbolicModel, symbolic_model
 
 # Options shared by both commands (one definition each).
-Box_ = Annotated[str | None, typer.Option("--box", help="Region: 'lo,hi' or 2n numbers (default -1,1).")]
+Box_ = Annotated[str | None, typer.Option(
+    "--box", help="Region: 'lo,hi' or 2n numbers (default: the model file's [simulation] box, else -1,1).")]
 Json_ = Annotated[bool, typer.Option("--json", help="Print JSON.")]
 Simulate_ = Annotated[bool, typer.Option("--simulate", help="Simulate the design.")]
 X0_ = Annotated[str | None, typer.Option("--x0", help="Initial plant state for --simulate, e.g. '1,0'.")]
@@ -64,6 +65,20 @@ def _on_off(option: str, text: str) -> bool:
     if text not in ("on", "off"):
         fail(f"{option}: expected 'on' or 'off', got {text!r}")
     return text == "on"
+
+
+def _region(model: str, box: str | None) -> list[float] | None:
+    """``--box``, else the model file's ``[simulation] box`` (the region the plant runs in), else ``None`` (-1, 1)."""
+    if box is not None:
+        return box_numbers("--box", box)
+    from nlobs.systems.modelfile import load_scenario
+
+    try:
+        defaults = load_scenario(model).defaults
+    except NlobsError:  # a model without a scenario (or read elsewhere with its own message)
+        return None
+    b = defaults.box
+    return None if b is None else [float(v) for lo, hi in zip(b[0], b[1]) for v in (lo, hi)]
 
 
 def _symbolic(model: str) -> SymbolicModel:
@@ -157,7 +172,7 @@ def drift_cmd(
     m = _symbolic(model)
     if method not in METHODS:
         fail(f"--method: expected 'vandermonde' or 'sdp', got {method!r}")
-    region = box_numbers("--box", box)
+    region = _region(model, box)
     sat = _on_off("--saturation", saturation)
     multi_index = _ints("--s", s)
     request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
@@ -196,7 +211,7 @@ def pinv_cmd(
     m = _symbolic(model)
     if placement not in PLACEMENTS:
         fail(f"--placement: expected 'powers' or 'multiple', got {placement!r}")
-    region = box_numbers("--box", box)
+    region = _region(model, box)
     kv = parse_floats("--k", k)
     request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
     try:

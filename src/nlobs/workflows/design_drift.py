@@ -29,7 +29,14 @@ from numpy.typing import ArrayLike
 
 from nlobs._typing import Array
 from nlobs._validate import positive, readonly
-from nlobs.errors import AssumptionViolated, DesignInfeasible, InvalidArgumentError, SimulationDiverged, StudyFailed
+from nlobs.errors import (
+    AssumptionViolated,
+    DesignInfeasible,
+    InvalidArgumentError,
+    NlobsError,
+    SimulationDiverged,
+    StudyFailed,
+)
 from nlobs.geometry.checks import Check, check_drift_observability, check_s_le_r, default_multi_index
 from nlobs.geometry.lipschitz import LipschitzEstimates, lipschitz_estimates
 from nlobs.geometry.observability import (
@@ -223,6 +230,19 @@ class DriftDesignReport:
         }
 
 
+def _singular_note(model: Any, region: Box) -> str:
+    """``"; the model is singular in the region: …"`` (a pole or a root's domain, :func:`singularities`), or ``""``."""
+    from nlobs.workflows.advise import singularities
+
+    if not isinstance(model, SymbolicModel):
+        return ""
+    try:
+        found = singularities(model, region)
+    except NlobsError:
+        return ""
+    return "; the model itself is singular in the region: " + "; ".join(f.describe() for f in found) if found else ""
+
+
 def design_drift_report(
     model: SymbolicModel,
     s: Sequence[int] | None = None,
@@ -298,9 +318,10 @@ def design_drift_report(
         drift = checks[0]
         if not drift.passed:  # the real cause: Q_s is singular in the region, so no observer (3.1) exists there
             raise AssumptionViolated(
-                f"drift-observability fails on {reg.describe()} ({drift.evidence}): there is no observer (3.1) "
-                f"there, and (2.17) has no solution either (γ = {g:.4g}, sampled where Q_s⁻¹ is large or "
-                "undefined); choose a region (--box) where Q_s is nonsingular, or another output",
+                f"drift-observability fails on {reg.describe()} ({drift.evidence}){_singular_note(model, reg)}: "
+                f"there is no observer (3.1) there, and (2.17) has no solution either (γ = {g:.4g}, sampled where "
+                "Q_s⁻¹ is large or undefined); choose a region (--box) where Q_s is nonsingular (nlobs advise "
+                "suggests one), or another output",
                 item="drift-observability", evidence=drift.evidence) from exc
         raise
     bound = error_bound_constants(cert, lip.gamma_phi, lip.gamma_phi_inv)
