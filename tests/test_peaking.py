@@ -204,3 +204,13 @@ def test_cli_pinv_saturation_option():
     r = CliRunner().invoke(app, ["design", "pinv", "isidori-146", "--saturation", "maybe"])
     assert r.exit_code == 2 and "--saturation" in r.output and "Traceback" not in r.output
     assert len(r.output.strip().splitlines()) == 1
+
+
+def test_pinv_saturation_defaults_on_only_with_a_box_because_the_state_must_stay_in_it():
+    req = SimulationRequest([0.5, 0, 0, 0.5], [0.3, 0.3, -0.3, 0], [0.0], duration=10.0, dt=1e-3)
+    off = design_pinv_observer("isidori-146", simulate=req)  # no box: off, the README's run
+    on = design_pinv_observer("isidori-146", simulate=req, saturation=True)  # saturated on [-1, 1]⁴
+    assert off.simulation.x_hat.shape == on.simulation.x_hat.shape
+    assert off.simulation.error_norm[-1] < 0.5                 # measured 0.31
+    assert on.simulation.error_norm[-1] > 5.0                  # measured 13.8: the state (x4) leaves the box
+    assert np.max(np.abs(on.simulation.x[..., 3])) > 1.0
