@@ -125,3 +125,93 @@ def test_cli_divergence_names_the_rk4_step_not_a_blind_dt_advice():
     assert r.exit_code == 1
     assert "RK4 is unstable at this step" in r.output and "0.00059" in r.output
     assert "try a smaller --dt" not in r.output
+
+
+# ----------------------------------------------------------------------------- the Moore–Penrose observer saturated
+K_ISIDORI = 2.0  # isidori-146's parameter k
+
+
+@pytest.fixture(scope="module")
+def pinv146():
+    import warnings
+
+    from nlobs.observers.pinv import PinvObserver
+    from nlobs.synthesis.pinv_gain import HighGain
+
+    bench = _bench()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        plain = PinvObserver.from_model(load_model("isidori-146"), k=HighGain(bench.PINV_THETA), region=bench.PINV_BOX,
+                                        require_a5=False)
+    return bench, plain, plain.with_saturation(bench.PINV_BOX)
+
+
+def _isidori(x, u):
+    """f + g u, h, Φ_r = (h, L_f h) and Q of isidori-146 by hand (h = x4, r = 2)."""
+    x1, x2, x3, x4 = (x[..., i] for i in range(4))
+    F = np.stack([x1 * x2 - x1**3, x1 + (K_ISIDORI + 2 * x3) * u, -x3 + u, x1**2 + x2], -1)
+    phi = np.stack([x4, x1**2 + x2], -1)
+    z, o = np.zeros_like(x1), np.ones_like(x1)
+    Q = np.stack([np.stack([z, z, z, o], -1), np.stack([2 * x1, o, z, z], -1)], -2)
+    return F, x4[..., None], phi, Q
+
+
+def test_pinv_saturated_equals_unsaturated_inside_the_box(pinv146):
+    bench, plain, sat = pinv146
+    rng = np.random.default_rng(5)
+    x = bench.PINV_BOX.sample(300, seed=4)
+    u, y = rng.normal(size=(300, 1)), rng.normal(size=(300, 1))
+    assert np.array_equal(plain.rhs(0.0, x, u, y), sat.rhs(0.0, x, u, y))
+    # and (7) is f + g u + Q⁺ K (y − h) there (Q⁺ by NumPy's SVD, not the observer's closed form)
+    F, h, _, Q = _isidori(x, u[:, 0])
+    expect = F + np.einsum("kij,kj->ki", np.linalg.pinv(Q) @ plain._K, y - h)
+    np.testing.assert_allclose(plain.rhs(0.0, x, u, y), expect, rtol=1e-10, atol=1e-8)
+
+
+def test_pinv_saturated_is_khalils_form_in_the_coordinates_of_phi_r_outside(pinv146):
+    bench, plain, sat = pinv146
+    box = bench.PINV_BOX
+    rng = np.random.default_rng(6)
+    x = box.sample(200, seed=7) + np.array([3.0, -2.5, 0.0, 4.0])  # x1, x2, x4 outside [-2, 2]
+    u, y = rng.normal(size=(200, 1)), rng.normal(size=(200, 1))
+    v = sat.rhs(0.0, x, u, y)
+    sig = np.clip(x, box.lower, box.upper)
+    F, h, phi, Q = _isidori(x, u[:, 0])
+    Fs, _, phis, Qs = _isidori(sig, u[:, 0])
+    K = np.array(plain._K)
+    shift = np.array([[0.0, 1.0], [0.0, 0.0]])
+    xi_dot = (phi - phis) @ shift.T + np.einsum("kij,kj->ki", Qs, Fs) + (y - h) @ K.T
+    # ξ = Φ_r(x̂) moves by Khalil's form: Q(x̂) x̂' = A_r (Φ_r(x̂) − Φ_r(σ)) + Q(σ) F(σ) + K (y − h(x̂))
+    np.testing.assert_allclose(np.einsum("kij,kj->ki", Q, v), xi_dot, rtol=1e-9, atol=1e-9 * np.abs(xi_dot).max())
+    # and along ker Q(x̂) it follows F(σ): (I − Q⁺Q) x̂' = (I − Q⁺Q) F(σ)
+    P = np.eye(4) - np.linalg.pinv(Q) @ Q
+    np.testing.assert_allclose(np.einsum("kij,kj->ki", P, v), np.einsum("kij,kj->ki", P, Fs), rtol=1e-9, atol=1e-8)
+    assert np.max(np.abs(v - plain.rhs(0.0, x, u, y))) > 1.0  # the nonlinear terms differ there
+    assert np.all(sat.saturated_estimate(x) == sig)
+
+
+def test_pinv_saturation_option_checks_the_box(pinv146):
+    from nlobs.errors import DimensionError, InvalidArgumentError
+
+    _, plain, _ = pinv146
+    with pytest.raises(DimensionError, match="saturation"):
+        plain.with_saturation(Box([-1.0] * 3, [1.0] * 3))
+    with pytest.raises(InvalidArgumentError, match="saturation"):
+        plain.with_saturation([-1.0, 1.0])
+    assert plain.saturation is None and plain.with_saturation(None).saturation is None
+
+
+def test_cli_pinv_saturation_option():
+    r = CliRunner().invoke(app, ["design", "pinv", "isidori-146", "--saturation", "maybe"])
+    assert r.exit_code == 2 and "--saturation" in r.output and "Traceback" not in r.output
+    assert len(r.output.strip().splitlines()) == 1
+
+
+def test_pinv_saturation_defaults_on_only_with_a_box_because_the_state_must_stay_in_it():
+    req = SimulationRequest([0.5, 0, 0, 0.5], [0.3, 0.3, -0.3, 0], [0.0], duration=10.0, dt=1e-3)
+    off = design_pinv_observer("isidori-146", simulate=req)  # no box: off, the README's run
+    on = design_pinv_observer("isidori-146", simulate=req, saturation=True)  # saturated on [-1, 1]⁴
+    assert off.simulation.x_hat.shape == on.simulation.x_hat.shape
+    assert off.simulation.error_norm[-1] < 0.5                 # measured 0.31
+    assert on.simulation.error_norm[-1] > 5.0                  # measured 13.8: the state (x4) leaves the box
+    assert np.max(np.abs(on.simulation.x[..., 3])) > 1.0

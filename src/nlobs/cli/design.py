@@ -196,6 +196,11 @@ def pinv_cmd(
     placement: Annotated[str, typer.Option(help="'powers' (roots −θ^i) or 'multiple' (root −θ, multiplicity r).")] = "powers",
     k: Annotated[str | None, typer.Option("--k", help="Gain vector k (Σ r_j numbers), instead of θ.")] = None,
     box: Box_ = None,
+    saturation: Annotated[str | None, typer.Option(
+        "--saturation", help="'on': the simulated observer is saturated outside the region (peaking remedy; the "
+        "same observer while the estimate is in the region); 'off': as printed in the paper. Default: on with "
+        "a region (--box, or the model file's [simulation] box), off without (the default region -1,1 need not "
+        "hold the state).")] = None,
     as_json: Json_ = False,
     simulate: Simulate_ = False,
     x0: X0_ = None,
@@ -212,11 +217,12 @@ def pinv_cmd(
     if placement not in PLACEMENTS:
         fail(f"--placement: expected 'powers' or 'multiple', got {placement!r}")
     region = _region(model, box)
+    sat = None if saturation is None else _on_off("--saturation", saturation)
     kv = parse_floats("--k", k)
     request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
     try:
         report = design_pinv_observer(m, k=kv, theta=theta, placement=placement, box=region,  # type: ignore[arg-type]
-                                      simulate=request)
+                                      simulate=request, saturation=sat)
     except AssumptionViolated as exc:
         fail(f"{model}: {exc}", EXIT_NO_OBSERVER)
     except NlobsError as exc:

@@ -1,4 +1,4 @@
-"""Röbenack's observer (7) with a Moore–Penrose gain field (17), and the Byrnes–Isidori gain (8).
+r"""Röbenack's observer (7) with a Moore–Penrose gain field (17), and the Byrnes–Isidori gain (8).
 
 For an input-affine model ``ẋ = f(x) + g(x) u``, ``y = h(x)`` with observation
 relative degree ``r`` (A1), both observers have the form (7)::
@@ -25,6 +25,43 @@ and differ in the gain vector field ``l``:
 block of ``r_j`` entries per output) and the gain is ``Q⁺ K`` with
 ``K = blockdiag(k¹, …, k^q)``.
 
+Saturation: the peaking remedy
+------------------------------
+A high-gain ``k`` makes the estimate peak (the error of ``ξ = Φ_r(x̂) = (h, …, L_f^{r−1} h)`` grows by
+a factor of order ``θ^{r−1}`` before it decays) and can take ``x̂`` out of the region ``B`` where A1 and
+A5 were checked. :class:`PinvObserver` with ``saturation = B`` applies Khalil's remedy (as
+:mod:`nlobs.observers.drift` does for Dalla Mora, Germani & Manes (3.1)): keep the linear high-gain part
+of the error dynamics in the coordinates ``ξ`` of the first ``r`` outputs' observability map and
+evaluate only the nonlinear terms at ``σ = sat(x̂)`` (the component-wise projection onto ``B``, the hard
+saturation of Grip, Saberi & Johansen, App. A). Along (7), ``ξ̇ = Q(x̂) x̂̇ = A_r ξ + B_r L_f^r h(x̂) +
+Q(x̂) g(x̂) u + K (y − C_r ξ)`` (``Q Q⁺ = I``, ``Q f = A_r ξ + B_r L_f^r h``, ``A_r, B_r, C_r`` the
+Brunovsky blocks of ``r``). The saturated observer is
+
+.. math:: \dot{\hat x} = \big(I − Q^+(\hat x) Q(\hat x)\big) F(σ)
+          + Q^+(\hat x)\big[A_r (Φ_r(\hat x) − Φ_r(σ)) + Q(σ) F(σ) + K (y − h(\hat x))\big],
+          \qquad F = f + g u,
+
+so that ``ξ̇ = A_r ξ + B_r L_f^r h(σ) + Q(σ) g(σ) u + K (y − C_r ξ)`` (Khalil's form), and the
+directions along ``ker Q(x̂)`` (the coordinates ``φ_{r+1}, …, φ_n`` of Theorem 4.1, orthogonal to
+``Q`` (16), never formed) follow ``F(σ)``. With ``Σ r_j = n`` (``Q`` square) the first term vanishes and
+it is the drift observer's saturated form with ``s = r``.
+
+Why it keeps what the analysis gives inside the region. For ``x̂ ∈ B``, ``σ = x̂``: the bracket is
+``Q(x̂) F(x̂) + K ỹ`` and the right-hand side is ``(I − Q⁺Q) F + Q⁺ Q F + Q⁺ K ỹ = F + Q⁺ K ỹ`` — (7)
+itself; the implementation evaluates (7) there, so it is the same to the last bit (tested at sampled
+points of ``B``). A1 and A5 are verified on ``B`` only, and the run's coverage (the state and the
+estimate in ``B``) is what the workflow monitors: every run, or stretch of a run, inside ``B`` is the
+paper's observer unchanged. Outside ``B`` (where nothing was checked), with the state ``x ∈ B`` the
+error ``e_ξ = Φ_r(x) − ξ`` obeys ``ė_ξ = (A_r − K C_r) e_ξ + B_r (L_f^r h(x) − L_f^r h(σ)) +
+(Q(x) g(x) − Q(σ) g(σ)) u``: a Hurwitz linear system driven by a perturbation bounded by constants of
+``B`` (``x, σ ∈ B``, compact) — the nonlinearity no longer feeds the peak. The zero-dynamics part is
+driven by ``F(σ)``, bounded, but its decay is A4's (not checked), as for (7). What it does not remove
+is the peak of the linear part itself; its effect is measured, not proved (``benchmarks/peaking.py``,
+``docs/pinv.md``). :meth:`PinvObserver.saturated_estimate` gives ``sat(x̂)``; the estimate stays
+``x̂``, so the coverage monitor sees it leave ``B``. ``nlobs design pinv --saturation on`` (the default
+of the workflow, :mod:`nlobs.workflows.design_pinv`) switches it on; the observer has it off
+(``saturation=None``, the paper's (7)).
+
 Everything symbolic happens at construction (SymPy); the run-time right-hand side
 is one NumPy function compiled with :func:`nlobs.systems.codegen.compile_matrix`.
 The report behind ``nlobs design pinv`` is :mod:`nlobs.workflows.design_pinv`. See
@@ -33,6 +70,7 @@ The report behind ``nlobs design pinv`` is :mod:`nlobs.workflows.design_pinv`. S
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import warnings
 from collections.abc import Mapping, Sequence
@@ -53,11 +91,13 @@ from nlobs.geometry.observability import (
     AffineFields,
     RelativeDegree,
     observation_relative_degree,
+    lie_map,
     reduced_observability_matrix,
 )
 from nlobs.geometry.pinv import block_gain, gain_symbols, pinv_gain_field, symbolic_pinv
 from nlobs.geometry.region import Box
 from nlobs.synthesis.pinv_gain import HighGain, companion_error_matrix, resolve_gain
+from nlobs.systems.brunovsky import brunovsky
 from nlobs.systems.codegen import BatchedFunction, compile_matrix
 from nlobs.systems.expressions import as_sympy_expr, as_sympy_matrix, as_symbols
 from nlobs.systems.symbolic import SymbolicModel
@@ -178,6 +218,10 @@ class PinvObserver(_InjectionObserver):
         Refuse (default) or warn when A5 fails.
     samples, seed : int
         Sampling of the region for the checks.
+    saturation : Box, optional
+        ``None`` (default): (7) as printed. A box ``B`` (the design's region): outside it the nonlinear
+        terms in the coordinates ``Φ_r`` are evaluated at ``sat(x̂)`` (Khalil's form, module docstring;
+        inside ``B`` the observer is (7), bit for bit).
 
     Attributes
     ----------
@@ -206,6 +250,7 @@ class PinvObserver(_InjectionObserver):
     require_a5: bool = True
     samples: int = 256
     seed: int = 0
+    saturation: Box | None = None
     r: tuple[int, ...] = field(init=False)
     relative_degree: RelativeDegree = field(init=False, repr=False)
     Q: sp.ImmutableMatrix = field(init=False, repr=False)
@@ -259,6 +304,31 @@ class PinvObserver(_InjectionObserver):
             object.__setattr__(self, "_Q", compile_matrix(Q, (F.x,), what=f"{F.name}: Q (13)"))
             object.__setattr__(self, "_rhs", self._numeric_rhs)
             object.__setattr__(self, "_gain_fn", self._numeric_gain)
+        self._compile_saturation()
+
+    def _compile_saturation(self) -> None:
+        """Check :attr:`saturation` and compile what its form needs (nothing without one)."""
+        F, B = self.fields, self.saturation
+        if B is None:
+            return
+        if not isinstance(B, Box):
+            raise InvalidArgumentError(f"saturation: expected a Box or None, got {type(B).__name__}")
+        if B.n != F.n:
+            raise DimensionError(f"saturation: the box has dimension {B.n}, the model {F.name!r} has n = {F.n}")
+        # f, g, h, Φ_r (the first r rows of the observability map), Q (13) and, symbolic, Q⁺ (25): one function
+        entries = list(F.f) + list(F.g) + list(F.h) + list(lie_map(F, self.r)) + list(self.Q)
+        if self.pinv == "symbolic":
+            entries += list(self.Qp)
+        object.__setattr__(self, "_sat_fn", compile_matrix(sp.Matrix(entries), (F.x,), vector=True,
+                                                           what=f"{F.name}: f, g, h, Φ_r, Q, Q⁺"))
+        object.__setattr__(self, "_A", brunovsky(self.r)[0])
+
+    def with_saturation(self, saturation: Box | None) -> PinvObserver:
+        """The same observer (same checks, gain and compiled (7)) with :attr:`saturation` set; no re-design."""
+        new = copy.copy(self)
+        object.__setattr__(new, "saturation", saturation)
+        new._compile_saturation()
+        return new
 
     @classmethod
     def from_model(
@@ -274,6 +344,55 @@ class PinvObserver(_InjectionObserver):
     def _numeric_rhs(self, x: Array, u: Array, y: Array) -> Array:
         innov = y - self._h(x)  # type: ignore[attr-defined]
         return self._drift(x, u) + (self._numeric_gain(x) @ innov[..., None])[..., 0]  # type: ignore[attr-defined, no-any-return]
+
+    def _sat_parts(self, x: Array) -> tuple[Array, Array, Array, Array, Array, Array]:
+        """``f, g, h, Φ_r, Q, Q⁺`` at a batch ``(..., n)`` (for the saturated form)."""
+        F = self.fields
+        n, m, q, nr = F.n, F.m, F.q, sum(self.r)
+        v = self._sat_fn(x)  # type: ignore[attr-defined]
+        sizes = (n, n * m, q, nr, nr * n)
+        parts, i = [], 0
+        for sz in sizes:
+            parts.append(v[..., i : i + sz])
+            i += sz
+        f, g, h, phi, Q = parts
+        g = g.reshape(*v.shape[:-1], n, m)
+        Q = Q.reshape(*v.shape[:-1], nr, n)
+        Qp = v[..., i : i + n * nr].reshape(*v.shape[:-1], n, nr) if self.pinv == "symbolic" else np.linalg.pinv(Q)
+        return f, g, h, phi, Q, Qp
+
+    def rhs(self, t: float, z: Array, u: Array, y: Array) -> Array:
+        """``x̂̇`` of (7) for batches; with :attr:`saturation`, Khalil's form outside the box (module docstring).
+
+        Inside the box (every component of ``x̂`` within its bounds) the result is (7)'s, bit for bit.
+        """
+        base = self._rhs(z, u, y)  # type: ignore[attr-defined]
+        B = self.saturation
+        if B is None:
+            return base  # type: ignore[no-any-return]
+        sig = np.clip(z, B.lower, B.upper)
+        outside = np.any(sig != z, axis=-1)
+        if not np.any(outside):
+            return base  # type: ignore[no-any-return]
+        uu = np.asarray(u, dtype=float)
+        with np.errstate(all="ignore"):
+            _, _, h, phi, Q, Qp = self._sat_parts(z)
+            fs, gs, _, phis, Qs, _ = self._sat_parts(sig)
+            drift_s = fs if self.fields.m == 0 else fs + np.einsum("...ij,...j->...i", gs, uu)
+            innov = np.asarray(y, dtype=float) - h
+            # ξ̇ = A_r ξ + B_r L_f^r h(σ) + Q(σ) g(σ) u + K (y − h(x̂)) in ξ = Φ_r(x̂), lifted by Q⁺(x̂);
+            # along ker Q(x̂) (the zero dynamics) the estimate follows f(σ) + g(σ) u
+            xi_dot = ((phi - phis) @ self._A.T + np.einsum("...ij,...j->...i", Qs, drift_s)  # type: ignore[attr-defined]
+                      + innov @ self._K.T)  # type: ignore[attr-defined]
+            along = drift_s - np.einsum("...ij,...j->...i", Qp, np.einsum("...ij,...j->...i", Q, drift_s))
+            sat = along + np.einsum("...ij,...j->...i", Qp, xi_dot)
+        return np.where(outside[..., None], sat, base)  # type: ignore[no-any-return]
+
+    def saturated_estimate(self, x_hat: ArrayLike) -> Array:
+        """``sat(x̂)`` onto :attr:`saturation` (``x̂`` itself without one): the estimate to hand on, in the box."""
+        x = np.asarray(x_hat, dtype=float)
+        B = self.saturation
+        return x if B is None else np.clip(x, B.lower, B.upper)
 
     def gain_at(self, x: ArrayLike) -> Array:
         """``l(x) = Q⁺(x) K`` at a batch of points, shape ``(..., n, q)``."""

@@ -266,6 +266,7 @@ def simulate_pinv(
     measurements: MeasurementGroup | Sequence[MeasurementGroup] | None = None,
     seed: int | None = None,
     report: PinvDesignReport | None = None,
+    saturation: bool = False,
 ) -> SimulationResult:
     """Simulate ``model`` with its Moore–Penrose observer (7)/(17).
 
@@ -274,10 +275,15 @@ def simulate_pinv(
     Without it the observer is built as :func:`design_pinv_report` builds it (``k`` overrides
     ``(theta, placement)``; A5 failing only warns). The plant is ``model.compile(parameters)``;
     ``u``, ``measurements``, ``seed`` are passed to :func:`nlobs.simulate.simulate`
-    (``u=None``: zero input).
+    (``u=None``: zero input). ``saturation``: the observer saturated on its region outside it
+    (:meth:`~nlobs.observers.pinv.PinvObserver.with_saturation`, Khalil's form of
+    :mod:`nlobs.observers.pinv`; the same as (7) while the estimate is in the region); ``False``
+    (default here): (7) as printed.
     """
     obs = report.observer if report is not None else _build_observer(model, k, theta, placement, region, parameters,
                                                                       pinv)
+    if saturation:
+        obs = obs.with_saturation(obs.region)
     return simulate(model.compile(parameters), obs, x0, x_hat0, duration=duration, dt=dt, u=u,
                     measurements=measurements, seed=seed)
 
@@ -357,6 +363,7 @@ def design_pinv_observer(
     placement: Placement = "powers",
     box: Sequence[float] | Box | None = None,
     simulate: SimulationRequest | None = None,
+    saturation: bool | None = None,
 ) -> PinvWorkflowReport:
     """Design the Moore–Penrose observer (7), (17), check A1 and A5, and simulate it if asked: ``nlobs design pinv``.
 
@@ -375,6 +382,13 @@ def design_pinv_observer(
     simulate : SimulationRequest, optional
         Simulate the observer the design built (the same object, :attr:`PinvDesignReport.observer`)
         and write the plot and trajectories to ``simulate.out``.
+    saturation : bool, optional
+        Simulate the observer saturated on the region (``--saturation on``; the same as (7) while the
+        estimate is in the region) or (7) as printed (``--saturation off``). Default: on when ``box`` is
+        given, off on the default ``[−1, 1]ⁿ`` — the saturated form is right only while the *state* is in
+        the region (Khalil's argument, :mod:`nlobs.observers.pinv`), which a region nobody chose need not
+        hold: the README's ``isidori-146`` run leaves ``[−1, 1]⁴`` (``x4``) and ends with ‖e‖ = 13.8
+        saturated against 0.31 as printed.
 
     Returns
     -------
@@ -408,7 +422,8 @@ def design_pinv_observer(
         return PinvWorkflowReport(rep, None, None, ())
     assert resolved is not None
     x0, x_hat0, u = resolved
-    res = run_study(lambda: simulate_pinv(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, report=rep))
+    res = run_study(lambda: simulate_pinv(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, report=rep,
+                                          saturation=box is not None if saturation is None else saturation))
     files = write_result(res, simulate.out, "pinv")
     box = rep.observer.region
     assert box is not None
