@@ -83,7 +83,7 @@ class NonlinearReport:
             **(self.geometry.to_dict() if self.geometry is not None else {
                 "observation_relative_degree": None, "observability_rank": None,
                 "observability_rank_evidence": None, "involutive": None,
-                "pinv_gain": None}),
+                "pinv_gain": None, "pinv_gain_numeric": None, "numeric_parts": []}),
             "geometry_error": self.geometry_error,
         }
 
