@@ -93,6 +93,10 @@ def analyze_cmd(
     box: Annotated[str | None, typer.Option(
         help="Region of the symbolic analyses of a nonlinear model: 'lo,hi' for every state, or 2n numbers "
              "lo1,hi1,lo2,hi2,... (default -1,1).")] = None,
+    symbolic_budget: Annotated[float, typer.Option(
+        "--symbolic-budget", min=0.0,
+        help="Seconds for the optional symbolic parts (the gain field Q⁺(x)k); a part that does not finish is "
+             "evaluated numerically and named in the report.")] = 5.0,
 ) -> None:
     """Report a model's dimensions, structural properties and norms."""
     from nlobs.workflows.analyze import analyze_model
@@ -100,7 +104,7 @@ def analyze_cmd(
 
     try:
         report = analyze_model(model, x0=parse_floats("--x0", x0), u0=parse_floats("--u0", u0),
-                               box=box_numbers("--box", box))
+                               box=box_numbers("--box", box), symbolic_budget=symbolic_budget)
     except ModelFileError as exc:
         fail(str(exc))
     except BoxError as exc:

@@ -31,11 +31,10 @@ from scipy.optimize import minimize
 from nlobs._typing import Array
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import ModelError
-from nlobs.geometry.lie import SIMPLIFY_OPS_LIMIT, lie_bracket, tidy
+from nlobs.geometry.lie import FAST_EVAL_TERMS, SIMPLIFY_OPS_LIMIT, PolynomialMatrixFunction, lie_bracket, tidy
 from nlobs.geometry.observability import (
     AffineFields,
     check_multi_index,
-    lie_map,
     observability_jacobian,
     reduced_observability_matrix,
 )
@@ -80,8 +79,9 @@ def _refine(fn: object, pts: Array, sv: Array, region: Box, starts: int = 4) -> 
     return best_pt, best
 
 
-def check_full_rank(name: str, what: str, M: sp.MatrixBase, fields: AffineFields, reg: Box, samples: int = 256,
-                    seed: int = 0, *, det: sp.Expr | None = None, phrase: str | None = None) -> Check:
+def check_full_rank(name: str, what: str, M: sp.MatrixBase | None, fields: AffineFields, reg: Box, samples: int = 256,
+                    seed: int = 0, *, det: sp.Expr | None = None, phrase: str | None = None,
+                    rows: Sequence[int] | None = None) -> Check:
     """Full row rank of ``M(x)`` on the region, with the worst point.
 
     A sign change of ``det`` (square case) between two sampled points proves a singular point on the
@@ -115,13 +115,20 @@ def check_full_rank(name: str, what: str, M: sp.MatrixBase, fields: AffineFields
             return Check.verdict(name, False, f"det {what} = {det_txt} changes sign on the region: {what} is singular "
                                  f"at x ≈ {format_point(pt)}", kind=CheckKind.RANK, method="intermediate value",
                                  worst_point=tuple(map(float, pt)), value=0.0, symbolic=det_txt)
-    M = as_sympy_matrix("M", M)
-    fn = compile_matrix(M, (tuple(fields.x),), what=what)
+    if rows is not None:
+        # M is the codistribution of the multi-index `rows`: compiled (or evaluated from its monomials) once
+        scd = _ScaledCodistribution.for_fields(fields, rows, reg)
+        fn = scd.J
+    else:
+        M = as_sympy_matrix("M", M)
+        fn = compile_matrix(M, (tuple(fields.x),), what=what)
+        scd = None
     sv = _sigma_min(fn, pts)
     pt, worst = _refine(fn, pts, sv, reg)
     # the decision is taken on the scaled matrix (columns × state scales, rows by their size), as the
     # observability rank is, so that units and the growth of L_f^k h cannot decide it
-    scd = _ScaledCodistribution.build(M, fields.x, reg)
+    if scd is None:
+        scd = _ScaledCodistribution.build(M, fields.x, reg)
     spts, S, E = scd._scale(np.vstack([pts, pt[None, :]]))
     holds, ssv = False, 0.0
     if len(spts):
@@ -157,9 +164,9 @@ def check_drift_observability(
     """
     s_ = check_multi_index(s, fields.q, fields.n)
     reg = region or Box.unit(fields.n)
-    Q = observability_jacobian(fields, s_)
     det = None
     if fields.n <= SYMBOLIC_DET_MAX_N:
+        Q = observability_jacobian(fields, s_)
         det = sp.factor(tidy(Q.det(method="berkowitz")))
         if det.is_number:
             holds = bool(det != 0)
@@ -167,21 +174,22 @@ def check_drift_observability(
                                  f"det Q_s = {det} (constant): " + ("Q_s is nonsingular everywhere" if holds
                                                                     else "Q_s is singular everywhere"),
                                  kind=CheckKind.RANK, method="symbolic", value=float(abs(det)), symbolic=str(det))
-    return check_full_rank("drift-observability", "Q_s", Q, fields, reg, samples, seed, det=det)
+    return check_full_rank("drift-observability", "Q_s", None, fields, reg, samples, seed, det=det, rows=s_)
 
 
 def check_a1(fields: AffineFields, r: Sequence[int], region: Box | None = None, *, samples: int = 256, seed: int = 0) -> Check:
     """Röbenack A1 (second part): the rows ``dh, …, dL_f^{r−1} h`` of ``Q`` are linearly independent."""
     r_ = check_multi_index(r, fields.q)
     reg = region or Box.unit(fields.n)
-    Q = reduced_observability_matrix(fields, r_)
-    if Q.shape[0] > fields.n:
+    if sum(r_) > fields.n:
         return Check.verdict("A1 (independent dL_f^k h)", False,
-                             f"Σ r_j = {Q.shape[0]} covectors dL_f^k h in ℝ^{fields.n} cannot be independent",
+                             f"Σ r_j = {sum(r_)} covectors dL_f^k h in ℝ^{fields.n} cannot be independent",
                              kind=CheckKind.RANK, method="structural")
-    det = sp.factor(tidy(Q.det(method="berkowitz"))) if Q.shape[0] == Q.shape[1] <= SYMBOLIC_DET_MAX_N else None
-    return check_full_rank("A1 (independent dL_f^k h)", "Q", Q, fields, reg, samples, seed, det=det,
-                           phrase="dh, …, dL_f^(r−1) h are dependent")
+    det = None
+    if sum(r_) == fields.n <= SYMBOLIC_DET_MAX_N:
+        det = sp.factor(tidy(reduced_observability_matrix(fields, r_).det(method="berkowitz")))
+    return check_full_rank("A1 (independent dL_f^k h)", "Q", None, fields, reg, samples, seed, det=det,
+                           phrase="dh, …, dL_f^(r−1) h are dependent", rows=r_)
 
 
 def check_involutive(
@@ -351,6 +359,20 @@ class _ScaledCodistribution:
         return cls(compile_matrix(M, (tuple(x),), what="observability codistribution"),
                    compile_matrix(A, (tuple(x),), what="codistribution term magnitudes"), gamma, scales)
 
+    @classmethod
+    def for_fields(cls, fields: AffineFields, s: Sequence[int], region: Box, *, tidied: bool = True) -> _ScaledCodistribution:
+        """:meth:`build` for the rows ``d L_f^k h_j`` of the multi-index ``s``; a big polynomial matrix
+        (more than ``FAST_EVAL_TERMS`` terms) is evaluated from its monomials, without generated code."""
+        rows = fields.ring_codistribution(s)
+        if rows is None or sum(len(p) for p in rows) <= FAST_EVAL_TERMS:
+            return cls.build(fields.codistribution(s, tidied=tidied), fields.x, region)
+        shape = (len(rows) // fields.n, fields.n)
+        J = PolynomialMatrixFunction(rows, shape, fields.n)
+        A = PolynomialMatrixFunction(rows, shape, fields.n, absolute=True)
+        ops = J.ops + 2
+        gamma = ops * UNIT_ROUNDOFF / (1 - ops * UNIT_ROUNDOFF)
+        return cls(J, A, gamma, np.maximum(np.abs(region.lower), np.abs(region.upper)))
+
     def row_factors(self, pts: Array) -> Array:
         """The diagonal of ``R`` (see :meth:`_scale`) over ``pts``."""
         return self._scale(pts, factors=True)[1]
@@ -403,6 +425,16 @@ class _ScaledCodistribution:
         return pts, sv, eta
 
 
+def codistribution_function(fields: AffineFields, s: Sequence[int]) -> Any:
+    """The rows ``d L_f^k h_j`` of the multi-index ``s`` (not simplified) as a function of points ``(N, n)``
+    (generated code, or for a big polynomial matrix its monomial tables)."""
+    rows = fields.ring_codistribution(s)
+    if rows is not None and sum(len(p) for p in rows) > FAST_EVAL_TERMS:
+        return PolynomialMatrixFunction(rows, (len(rows) // fields.n, fields.n), fields.n)
+    return compile_matrix(fields.codistribution(s, tidied=False), (tuple(fields.x),),
+                          what="observability codistribution")
+
+
 def observability_rank_evidence(
     fields: AffineFields, region: Box | None = None, *, samples: int = 32, seed: int = 0, max_order: int | None = None
 ) -> RankEvidence:
@@ -434,8 +466,8 @@ def observability_rank_evidence(
     if reg.n != fields.n:
         raise ModelError(f"{fields.name}: region has dimension {reg.n}, the model {fields.n}")
     kmax = fields.n if max_order is None else int(max_order)
-    M = lie_map(fields, [kmax] * fields.q).jacobian(sp.Matrix(fields.x))
-    scd = _ScaledCodistribution.build(M, fields.x, reg)
+    scd = _ScaledCodistribution.for_fields(fields, [kmax] * fields.q, reg, tidied=False)
+    shape = (kmax * fields.q, fields.n)
     pts, sv, eta = scd.svd(reg.sample(samples, seed))
     scales = tuple(map(float, scd.scales))
     if len(pts) == 0:
@@ -449,9 +481,10 @@ def observability_rank_evidence(
     method = "double precision"
     hp_sv: tuple[float, ...] | None = None
     hp_eta: float | None = None
-    if rank is None or rank < min(M.shape):
+    if rank is None or rank < min(shape):
         # a deficiency (or no decision) in double precision: the singular values at or near the rounding
         # error are recomputed from the exact rational point at HIGH_PRECISION_DIGITS digits
+        M = fields.codistribution([kmax] * fields.q, tidied=False)
         hp = _high_precision_singular_values(M, fields.x, pt, scd.scales, scd.row_factors(pts))
         if hp is None:
             method = "double precision (the high-precision evaluation is not finite)"
@@ -530,9 +563,8 @@ def default_multi_index(fields: AffineFields, region: Box | None = None, *, seed
         return (fields.n,)
     reg = region or Box.unit(fields.n)
     pt = reg.sample(1, seed)
-    chains = lie_map(fields, [fields.n] * fields.q)
     rows_by_output = [list(range(j * fields.n, (j + 1) * fields.n)) for j in range(fields.q)]
-    scd = _ScaledCodistribution.build(chains.jacobian(sp.Matrix(fields.x)), fields.x, reg)
+    scd = _ScaledCodistribution.for_fields(fields, [fields.n] * fields.q, reg, tidied=False)
     S, E = scd.scaled(pt, reg)
     s = [0] * fields.q
     active = [True] * fields.q

@@ -26,14 +26,15 @@ For an input-affine model ``ẋ = f(x) + g(x) u``, ``y = h(x)`` with ``q`` outpu
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import sympy as sp
 
 from nlobs._typing import Array
 from nlobs.errors import DimensionError, InvalidArgumentError, ModelError
-from nlobs.geometry.lie import lie_derivative_along_columns, lie_derivatives, tidy
+from nlobs.geometry.lie import PolynomialFields, lie_derivative_along_columns, lie_derivatives, tidy
 from nlobs.geometry.region import Box, ZeroTest, vanishes_on
 from nlobs.systems.brunovsky import brunovsky
 from nlobs.systems.expressions import as_sympy_matrix, as_symbols
@@ -51,6 +52,11 @@ __all__ = [
 def _exact(value: float) -> sp.Rational:
     """A parameter value as an exact rational (``9.81 → 981/100``), so symbolic zero tests are exact."""
     return sp.Rational(repr(float(value)))
+
+
+#: The last few fields built by :meth:`AffineFields.from_model` (their Lie derivatives are cached on them).
+_RECENT_FIELDS: dict[Any, AffineFields] = {}
+_RECENT_FIELDS_MAX = 4
 
 
 @dataclass(frozen=True)
@@ -78,6 +84,7 @@ class AffineFields:
     h: sp.ImmutableMatrix
     states: tuple[str, ...]
     outputs: tuple[str, ...]
+    _memo: dict[Any, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         # built directly (not by from_model), the fields may hold anything: no string may reach SymPy
@@ -106,7 +113,7 @@ class AffineFields:
             raise ModelError(f"{model.name}: the output h must not depend on inputs {sorted(map(str, uses_u))}")
         subs = {s: _exact(v) for s, v in model.substituted(parameters).items()}
         assert model.drift is not None and model.input_matrix is not None
-        return cls(
+        out = cls(
             name=model.name,
             x=model.x,
             f=sp.ImmutableMatrix(model.drift.xreplace(subs)),
@@ -115,6 +122,15 @@ class AffineFields:
             states=model.states,
             outputs=model.outputs,
         )
+        # the same fields (analyze, then the advisor) share one instance and so its Lie derivatives
+        key = (out.name, out.x, out.f, out.g, out.h, out.states, out.outputs)
+        hit = _RECENT_FIELDS.get(key)
+        if hit is not None:
+            return hit
+        _RECENT_FIELDS[key] = out
+        while len(_RECENT_FIELDS) > _RECENT_FIELDS_MAX:
+            _RECENT_FIELDS.pop(next(iter(_RECENT_FIELDS)))
+        return out
 
     @property
     def n(self) -> int:
@@ -128,9 +144,88 @@ class AffineFields:
     def q(self) -> int:
         return int(self.h.shape[0])
 
+    def _polynomial(self) -> PolynomialFields | None:
+        if "poly" not in self._memo:
+            self._memo["poly"] = PolynomialFields.build(self.x, self.f, self.g, self.h)
+        return self._memo["poly"]
+
+    def _ring_chain(self, j: int, count: int) -> list[Any]:
+        """``h_j, …, L_f^{count−1} h_j`` in the polynomial ring (cached, extended on demand), each checked
+        against :data:`~nlobs.geometry.lie.MAX_DERIVATIVE_NODES` as :func:`lie_derivatives` does."""
+        P = self._polynomial()
+        assert P is not None
+        chain = self._memo.setdefault(("ring", j), [])
+        name = f"h of output {self.outputs[j]!r}"
+        while len(chain) < count:
+            k = len(chain)
+            p = P.h[j] if k == 0 else P.lie(chain[-1])
+            P.require_terms(p, f"L_f^{k} {name}" if k else name)
+            chain.append(p)
+        return chain[:count]
+
+    def _chain_expr(self, j: int, k: int) -> sp.Expr:
+        exprs = self._memo.setdefault(("expr", j), {})
+        if k not in exprs:
+            exprs[k] = self._polynomial().expr(self._ring_chain(j, k + 1)[k])  # type: ignore[union-attr]
+        return exprs[k]
+
     def lie_chain(self, j: int, count: int) -> tuple[sp.Expr, ...]:
-        """``(h_j, L_f h_j, …, L_f^{count−1} h_j)``."""
-        return lie_derivatives(self.h[j, 0], self.f, self.x, count, name=f"h of output {self.outputs[j]!r}")
+        """``(h_j, L_f h_j, …, L_f^{count−1} h_j)`` (computed once per model and output)."""
+        if self._polynomial() is not None:
+            self._ring_chain(j, count)
+            return tuple(self._chain_expr(j, k) for k in range(count))
+        key = ("chain", j)
+        have = self._memo.get(key, ())
+        if len(have) < count:
+            have = lie_derivatives(self.h[j, 0], self.f, self.x, count, name=f"h of output {self.outputs[j]!r}")
+            self._memo[key] = have
+        return tuple(have[:count])
+
+    def chain_gradient(self, j: int, k: int, *, tidied: bool = True) -> tuple[sp.Expr, ...]:
+        """``d L_f^k h_j`` (``n`` entries; ``tidied``: each entry :func:`tidy`-ed), computed once."""
+        key = ("grad", j, k, tidied or self._polynomial() is not None)
+        if key not in self._memo:
+            P = self._polynomial()
+            if P is not None:
+                n = self.n
+                row = self.ring_codistribution([k + 1 if i == j else 0 for i in range(self.q)])[k * n:(k + 1) * n]  # type: ignore[index]
+                self._memo[key] = tuple(P.expr(d) for d in row)
+            else:
+                phi = self.lie_chain(j, k + 1)[k]
+                row = [sp.diff(phi, xi) for xi in self.x]
+                self._memo[key] = tuple(tidy(e) for e in row) if tidied else tuple(row)
+        return self._memo[key]
+
+    def chain_along_g(self, j: int, k: int) -> sp.Matrix:
+        """``L_g L_f^k h_j`` (1 × m), as :func:`~nlobs.geometry.lie.lie_derivative_along_columns`."""
+        P = self._polynomial()
+        if P is None or self.m == 0:
+            return lie_derivative_along_columns(self.lie_chain(j, k + 1)[k], self.g, self.x)
+        p = self._ring_chain(j, k + 1)[k]
+        return sp.Matrix([[P.expr(v) for v in P.along_g(p)]])
+
+    def ring_codistribution(self, s: Sequence[int]) -> list[Any] | None:
+        """The rows ``d L_f^k h_j`` of :meth:`codistribution` as sparse polynomials (row-major), ``None``
+        for a model that is not polynomial."""
+        P = self._polynomial()
+        if P is None:
+            return None
+        s_ = check_multi_index(s, self.q)
+        out: list[Any] = []
+        for j, sj in enumerate(s_):
+            chain = self._ring_chain(j, sj)
+            for k in range(sj):
+                key = ("ringgrad", j, k)
+                if key not in self._memo:
+                    self._memo[key] = P.grad(chain[k])
+                out.extend(self._memo[key])
+        return out
+
+    def codistribution(self, s: Sequence[int], *, tidied: bool = True) -> sp.ImmutableMatrix:
+        """The Jacobian of the stacked ``[h_j, …, L_f^{s_j−1} h_j]`` (rows ``d L_f^k h_j``), computed once per row."""
+        s_ = check_multi_index(s, self.q)
+        rows = [self.chain_gradient(j, k, tidied=tidied) for j, sj in enumerate(s_) for k in range(sj)]
+        return sp.ImmutableMatrix(rows) if rows else sp.ImmutableMatrix(sp.zeros(0, self.n))
 
 
 def check_multi_index(s: Sequence[int], q: int, n: int | None = None, *, name: str = "s") -> tuple[int, ...]:
@@ -166,12 +261,12 @@ def observability_map(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMat
 
 def observability_jacobian(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
     """``Q_s(x) = ∂Φ_s/∂x`` of Dalla Mora, Germani & Manes (2.5); ``s`` must sum to ``n``."""
-    return sp.ImmutableMatrix(observability_map(fields, s).jacobian(sp.Matrix(fields.x)).applyfunc(tidy))
+    return fields.codistribution(check_multi_index(s, fields.q, fields.n))
 
 
 def reduced_observability_matrix(fields: AffineFields, r: Sequence[int]) -> sp.ImmutableMatrix:
     """``Q(x) = [dh; dL_f h; …; dL_f^{r−1} h]`` of Röbenack (13), stacked over outputs."""
-    return sp.ImmutableMatrix(lie_map(fields, r).jacobian(sp.Matrix(fields.x)).applyfunc(tidy))
+    return fields.codistribution(r)
 
 
 def output_derivative_terms(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
@@ -234,8 +329,8 @@ def observation_relative_degree(
         chain = fields.lie_chain(j, kmax)
         tests: list[ZeroTest] = []
         rj: int | None = None
-        for k, phi in enumerate(chain):
-            row = lie_derivative_along_columns(phi, fields.g, fields.x) if fields.m else sp.zeros(1, 0)
+        for k in range(len(chain)):
+            row = fields.chain_along_g(j, k) if fields.m else sp.zeros(1, 0)
             per_input = [vanishes_on(e, fields.x, reg, samples=samples, seed=seed + 7919 * k + j) for e in row]
             nonzero = [t for t in per_input if not t.zero]
             if nonzero:

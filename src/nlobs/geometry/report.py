@@ -11,8 +11,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import sympy as sp
-
 from nlobs.errors import ModelError
 from nlobs.geometry.checks import (
     Check,
@@ -24,8 +22,11 @@ from nlobs.geometry.checks import (
     observability_rank_evidence,
 )
 from nlobs.geometry.observability import AffineFields, observation_relative_degree, reduced_observability_matrix
-from nlobs.geometry.pinv import pinv_gain_field, symbolic_pinv
-from nlobs.geometry.region import Box
+from nlobs.geometry.budget import DEFAULT_SYMBOLIC_BUDGET, SymbolicBudget, run_bounded
+from nlobs.geometry.checks import _ScaledCodistribution
+from nlobs.geometry.lie import derivative_size
+from nlobs.geometry.pinv import NumericGain, numeric_gain
+from nlobs.geometry.region import Box, format_point
 from nlobs.systems.symbolic import SymbolicModel
 
 
@@ -58,6 +59,14 @@ class GeometryReport:
         ``Q⁺(x) k`` with ``k = (k1, k2, …)``: one string per state (one output), or one
         row of ``q`` strings per state (several outputs, ``K = blockdiag``).
     notes : tuple of str
+    numeric_gain : NumericGain or None
+        ``Q⁺(x)`` at points of the region (``numpy.linalg.pinv``) when the symbolic gain field did not
+        finish within the symbolic budget (``pinv_gain`` is then ``None``).
+    numeric_parts : tuple of str
+        The optional symbolic parts replaced by a numeric evaluation or left out (``"pinv_gain"``,
+        ``"a5"``), each with a note saying why.
+    symbolic_budget : float or None
+        Seconds allowed for the optional symbolic parts (``None``: unlimited).
     """
 
     region: Box
@@ -73,6 +82,9 @@ class GeometryReport:
     states: tuple[str, ...]
     notes: tuple[str, ...]
     rank_evidence: RankEvidence | None = None
+    numeric_gain: NumericGain | None = None
+    numeric_parts: tuple[str, ...] = ()
+    symbolic_budget: float | None = DEFAULT_SYMBOLIC_BUDGET
 
     def to_dict(self) -> dict[str, Any]:
         """JSON keys (stable, documented in the README)."""
@@ -89,6 +101,9 @@ class GeometryReport:
             "involutive": None if self.a5 is None else self.a5.passed,
             "a5": None if self.a5 is None else self.a5.to_dict(),
             "pinv_gain": None if self.pinv_gain is None else [list(v) if isinstance(v, tuple) else v for v in self.pinv_gain],
+            "pinv_gain_numeric": None if self.numeric_gain is None else self.numeric_gain.to_dict(),
+            "numeric_parts": list(self.numeric_parts),
+            "symbolic_budget": self.symbolic_budget,
             "notes": list(self.notes),
         }
 
@@ -118,12 +133,28 @@ class GeometryReport:
             lines.append("  Moore–Penrose gain l(x) = Q⁺(x) k (Röbenack (17)):")
             for s, e in zip(self.states, self.pinv_gain):
                 lines.append(f"    l_{s} = {e if not isinstance(e, tuple) else ', '.join(e)}")
+        if self.numeric_gain is not None:
+            g = self.numeric_gain
+            lines.append(f"  Moore–Penrose gain l(x) = Q⁺(x) k (Röbenack (17)): evaluated numerically (numpy.linalg.pinv) "
+                         f"at {g.samples} points, max ‖Q⁺(x)‖₂ = {g.max_norm:.4g} at x = {format_point(g.points[-1])}")
         lines.extend(f"  note: {t}" for t in self.notes)
         return "\n".join(lines)
 
 
-def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: int = 0) -> GeometryReport:
-    """Run the symbolic analyses of seeds 002/003 on a continuous-time input-affine model.
+#: A gain field whose ``Q`` is at most this big (the sum of :func:`~nlobs.geometry.lie.derivative_size` of its
+#: entries) is computed in this process; a bigger one in a child process killed at the symbolic budget.
+IN_PROCESS_GAIN_SIZE = 400
+
+
+def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: int = 0,
+                    symbolic_budget: float | None = DEFAULT_SYMBOLIC_BUDGET) -> GeometryReport:
+    """Run the symbolic analyses of Dalla Mora–Germani–Manes and Röbenack on a continuous-time input-affine model.
+
+    ``symbolic_budget`` bounds, in seconds, the optional symbolic parts (``None``: unlimited): the gain
+    field ``Q⁺(x) k`` (17) and, with it, the symbolic ``Q⁺`` of the involutivity check A5. A part that
+    does not finish in time is replaced by a numeric evaluation (``Q⁺(x)`` by ``numpy.linalg.pinv`` at
+    sampled points; A5 is then not checked when ``Q`` is not square) and named in ``numeric_parts``
+    with a note; every symbolic result that is reported is exact.
 
     Raises
     ------
@@ -157,20 +188,35 @@ def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: in
         notes.append(f"generic rank undecided: {evidence_rank.describe()}")
     a1 = a5 = None
     gain: tuple[Any, ...] | None = None
+    numeric: NumericGain | None = None
+    parts: list[str] = []
     if all(r is not None for r in rd.r):
         r_ = rd.require(fields.outputs)
         a1 = check_a1(fields, r_, reg, seed=seed)
         if sum(r_) > fields.n:
             notes.append(f"Σ r_j = {sum(r_)} > n: Röbenack's decomposition needs Σ r_j ≤ n")
         elif a1.passed:
-            Qp = symbolic_pinv(reduced_observability_matrix(fields, r_))
-            a5 = check_involutive(fields, r_, reg, Qp=Qp, seed=seed)
-            field_ = pinv_gain_field(Qp, r_)
-            if fields.q == 1:
-                gain = tuple(str(sp.factor(e)) if e.is_rational_function() else str(e) for e in field_[:, 0])
+            budget = SymbolicBudget(symbolic_budget)
+            Q = reduced_observability_matrix(fields, r_)
+            small = sum(derivative_size(e) for e in Q) <= IN_PROCESS_GAIN_SIZE
+            done, value = run_bounded("nlobs.geometry.pinv", "gain_job", (Q, r_, fields.q), budget, in_process=small)
+            square = sum(r_) == fields.n
+            if done:
+                gain, Qp = value
+                a5 = check_involutive(fields, r_, reg, Qp=Qp, seed=seed)
             else:
-                gain = tuple(tuple(str(e) for e in field_.row(i)) for i in range(fields.n))
+                scd = _ScaledCodistribution.for_fields(fields, r_, reg)
+                numeric = numeric_gain(scd.J, reg, f"the symbolic Q⁺(x) k {value}", seed=seed)
+                parts.append("pinv_gain")
+                notes.append(f"the gain field Q⁺(x) k (Röbenack (17)) was not computed symbolically: {value}; "
+                             f"Q⁺(x) is evaluated numerically (numpy.linalg.pinv) at {numeric.samples} points of the "
+                             "region instead (--symbolic-budget to allow more time)")
+                if square or sum(r_) <= 1:
+                    a5 = check_involutive(fields, r_, reg, seed=seed)  # structural: Δ has rank 1 or n
+                else:
+                    parts.append("a5")
+                    notes.append("A5 (involutivity of span{τ}) was not checked: it needs the symbolic Q⁺")
     else:
         notes.append("a relative degree is undefined on the region: Röbenack's gain Q⁺k is not available")
     return GeometryReport(reg, rd.r, tuple(evidence), rank, s, drift, a1, a5, gain, fields.outputs, fields.states,
-                          tuple(notes), evidence_rank)
+                          tuple(notes), evidence_rank, numeric, tuple(parts), symbolic_budget)

@@ -52,6 +52,7 @@ import numpy as np
 import sympy as sp
 
 from nlobs.errors import InvalidArgumentError, ModelError, ModelFileError, NlobsError
+from nlobs.geometry.budget import DEFAULT_SYMBOLIC_BUDGET
 from nlobs.geometry.checks import SYMBOLIC_DET_MAX_N
 from nlobs.geometry.lie import tidy
 from nlobs.geometry.observability import AffineFields, observability_jacobian
@@ -704,7 +705,10 @@ def _pinv(target: str, geo: GeometryReport | None, geo_err: str | None, region: 
                             "observer with s = r is that case)", tuple(ev))
     if geo.a1 is None or not geo.a1.passed:
         return MethodAdvice("pinv", title, "no", "A1 fails on the region", tuple(ev))
-    if geo.a5 is None or not geo.a5.passed:
+    if geo.a5 is None:
+        return MethodAdvice("pinv", title, "no", "A5 (involutivity) was not checked (the symbolic Q⁺ did not finish "
+                            "within the symbolic budget)", tuple(ev))
+    if not geo.a5.passed:
         return MethodAdvice("pinv", title, "no", "A5 (involutivity) fails on the region", tuple(ev))
     cmd = f"nlobs design pinv {target} {box_option(region)} --theta {DEFAULT_THETA:g}"
     return MethodAdvice("pinv", title, "local", f"Σ r_j = {total} < n, A1 and A5 hold on the region (A2–A4, A6 of "
@@ -793,7 +797,8 @@ def _setvalued(target: str, tables: frozenset[str], model: Model) -> MethodAdvic
 # ----------------------------------------------------------------------------- the workflow
 def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = None, *,
                  geometry: GeometryReport | None = None, check: bool = False, runs: int = 3,
-                 progress: bool | None = None) -> AdviceReport:
+                 progress: bool | None = None,
+                 symbolic_budget: float | None = DEFAULT_SYMBOLIC_BUDGET) -> AdviceReport:
     """Which of nlobs's observers applies to ``model``, with the evidence and the first command (module docstring).
 
     Parameters
@@ -814,6 +819,9 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
         Runs of the check.
     progress : bool, optional
         The check's progress bar (default: on a terminal).
+    symbolic_budget : float or None
+        Seconds for the optional symbolic parts of the geometric analysis
+        (:func:`~nlobs.geometry.report.geometry_report`).
 
     Raises
     ------
@@ -854,7 +862,8 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
     if isinstance(m, SymbolicModel):
         try:
             fields = AffineFields.from_model(m)
-            geo = geometry if geometry is not None and _same(geometry.region, region) else geometry_report(m, region)
+            geo = geometry if geometry is not None and _same(geometry.region, region) else geometry_report(
+                m, region, symbolic_budget=symbolic_budget)
         except ModelError as exc:
             geo_err, fields = str(exc), None
     else:

@@ -21,7 +21,9 @@ import numpy as np
 
 from nlobs._validate import as_vector
 from nlobs.errors import DimensionError, ModelError, NonFiniteError, NumericalError
-from nlobs.geometry.observability import AffineFields, lie_map
+from nlobs.geometry.budget import DEFAULT_SYMBOLIC_BUDGET
+from nlobs.geometry.checks import codistribution_function
+from nlobs.geometry.observability import AffineFields
 from nlobs.geometry.region import Box, format_point
 from nlobs.geometry.report import GeometryReport, geometry_report
 from nlobs.linear import LinearReport, analyze_linear
@@ -29,7 +31,6 @@ from nlobs.systems.linear import LinearSystem
 from nlobs.systems.linearize import linearize
 from nlobs.systems.modelfile import Model, load_model
 from nlobs.systems.symbolic import SymbolicModel
-from nlobs.systems.codegen import compile_matrix
 from nlobs.workflows.inputs import BoxError, box_from_numbers
 from nlobs.workflows.verdict import Verdict
 
@@ -82,7 +83,7 @@ class NonlinearReport:
             **(self.geometry.to_dict() if self.geometry is not None else {
                 "observation_relative_degree": None, "observability_rank": None,
                 "observability_rank_evidence": None, "involutive": None,
-                "pinv_gain": None}),
+                "pinv_gain": None, "pinv_gain_numeric": None, "numeric_parts": []}),
             "geometry_error": self.geometry_error,
         }
 
@@ -119,6 +120,7 @@ def analyze(
     x0: Sequence[float] | None = None,
     u0: Sequence[float] | None = None,
     region: Box | None = None,
+    symbolic_budget: float | None = DEFAULT_SYMBOLIC_BUDGET,
 ) -> LinearReport | NonlinearReport:
     """Analyse a model as ``nlobs analyze`` does.
 
@@ -129,6 +131,8 @@ def analyze(
         Operating point of the linearisation of a nonlinear model (default: origin).
     region : Box, optional
         Region of the symbolic analyses of a nonlinear model (default ``[−1, 1]ⁿ``).
+    symbolic_budget : float or None
+        Seconds for the optional symbolic parts (:func:`~nlobs.geometry.report.geometry_report`).
     """
     if isinstance(model, LinearSystem):
         if x0 is not None or u0 is not None or region is not None:
@@ -145,7 +149,7 @@ def analyze(
     geo: GeometryReport | None = None
     geo_err: str | None = None
     try:
-        geo = geometry_report(model, region)
+        geo = geometry_report(model, region, symbolic_budget=symbolic_budget)
     except ModelError as exc:
         geo_err = str(exc)
     return NonlinearReport(
@@ -200,7 +204,8 @@ class AnalysisReport:
 
 
 def analyze_model(model: str | Path | Model, *, x0: Sequence[float] | None = None,
-                  u0: Sequence[float] | None = None, box: Sequence[float] | None = None) -> AnalysisReport:
+                  u0: Sequence[float] | None = None, box: Sequence[float] | None = None,
+                  symbolic_budget: float | None = DEFAULT_SYMBOLIC_BUDGET) -> AnalysisReport:
     """The workflow of ``nlobs analyze``: load the model and :func:`analyze` it.
 
     Parameters
@@ -212,6 +217,9 @@ def analyze_model(model: str | Path | Model, *, x0: Sequence[float] | None = Non
     box : sequence of float, optional
         Region of the symbolic analyses: ``lo, hi`` for every state or ``lo1, hi1, lo2, hi2, ...``
         (:func:`~nlobs.workflows.inputs.box_from_numbers`).
+    symbolic_budget : float or None
+        Seconds for the optional symbolic parts (``--symbolic-budget``; ``None``: unlimited). A part
+        that does not finish is evaluated numerically and named in the report's ``numeric_parts``.
 
     Raises
     ------
@@ -228,9 +236,10 @@ def analyze_model(model: str | Path | Model, *, x0: Sequence[float] | None = Non
     region = box_from_numbers(box, m.n) if box is not None else None
     if region is not None and isinstance(m, SymbolicModel):
         _require_evaluable(m, region)
-    report = analyze(m, x0=x0, u0=u0, region=region)
+    report = analyze(m, x0=x0, u0=u0, region=region, symbolic_budget=symbolic_budget)
     geo = getattr(report, "geometry", None)
-    advice = advise_model(model if isinstance(model, (str, Path)) else m, box=region, geometry=geo)
+    advice = advise_model(model if isinstance(model, (str, Path)) else m, box=region, geometry=geo,
+                          symbolic_budget=symbolic_budget)
     return AnalysisReport(report, advice=advice)
 
 
@@ -255,8 +264,7 @@ def _require_evaluable(model: SymbolicModel, region: Box, samples: int = 32, see
         return  # no symbolic analyses for this model (reported by geometry_error)
     if fields.n > 12:
         return  # the codistribution of a large model is not built twice
-    M = lie_map(fields, [fields.n] * fields.q).jacobian(list(fields.x))
-    fn = compile_matrix(M, (tuple(fields.x),), what="observability codistribution")
+    fn = codistribution_function(fields, [fields.n] * fields.q)
     pts = np.vstack([region.sample(samples, seed), region.lower, region.upper])
     with np.errstate(all="ignore"):
         vals = np.asarray(fn(pts), dtype=float)
