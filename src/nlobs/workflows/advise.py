@@ -60,6 +60,7 @@ from nlobs.geometry.region import Box, format_point
 from nlobs.geometry.report import GeometryReport, geometry_report
 from nlobs.linear import analyze_linear
 from nlobs.systems.codegen import compile_matrix
+from nlobs.systems.expressions import as_sympy_expr, as_symbols
 from nlobs.systems.linear import LinearSystem
 from nlobs.systems.linearize import linearize
 from nlobs.systems.modelfile import Model, load_discrete_ui_model, load_model, load_scenario, model_file_tables
@@ -430,6 +431,7 @@ def _sample(box: Box, count: int = SAMPLES, seed: int = 0) -> np.ndarray:
 
 def _atoms(e: sp.Expr) -> list[tuple[str, sp.Expr]]:
     """Denominators (``"pole"``) and square-root / logarithm arguments (``"domain"``) of an expression."""
+    e = as_sympy_expr("e", e)
     out: list[tuple[str, sp.Expr]] = []
     for a in sp.preorder_traversal(e):
         if isinstance(a, sp.Pow) and a.exp.is_number:
@@ -444,6 +446,8 @@ def _atoms(e: sp.Expr) -> list[tuple[str, sp.Expr]]:
 
 def _real_roots(e: sp.Expr, x: sp.Symbol, lo: float, hi: float) -> tuple[float, ...] | None:
     """The real zeros of ``e`` in ``[lo, hi]`` when it is a polynomial in ``x`` of degree ≤ 8 (else ``None``)."""
+    e = as_sympy_expr("e", e)
+    (x,) = as_symbols("x", [x])
     num = sp.numer(sp.together(e))
     try:
         poly = sp.Poly(num, x)
