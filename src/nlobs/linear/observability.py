@@ -31,6 +31,7 @@ autonomous systems", Indag. Math. 31 (1969) 443–448.
 
 from __future__ import annotations
 
+import math
 
 import numpy as np
 import scipy.linalg
@@ -38,6 +39,7 @@ import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, as_square, in_range
+from nlobs.errors import InvalidArgumentError
 from nlobs.linear.norms import _balance
 from nlobs.linear.stability import BOUNDARY_TOL, strictly_inside
 
@@ -48,6 +50,15 @@ _EPS = float(np.finfo(float).eps)
 DEFAULT_RTOL = 1e-10
 """Default relative rank tolerance of the unobservable-subspace recursion (times ``‖[A; C]‖_F`` of the
 scaled and balanced realisation, see :func:`unobservable_modes`)."""
+
+
+_METHODS = ("auto", "pbh")
+
+
+def _method(method: object) -> str:
+    if method not in _METHODS:
+        raise InvalidArgumentError(f"method: expected one of {', '.join(map(repr, _METHODS))}, got {method!r}")
+    return str(method)
 
 
 def _check_ac(A: ArrayLike, C: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -136,44 +147,50 @@ def _clusters(lam: NDArray, ctol: float) -> list[list[int]]:
     return list(groups.values())
 
 
-def _unobservable_eigs(A: NDArray, C: NDArray, rtol: float) -> NDArray:
-    """Unobservable modes with multiplicity, computed cluster by cluster.
+def _unobservable_eigs(A: NDArray, C: NDArray, rtol: float, method: str = "auto") -> NDArray:
+    """Unobservable modes with multiplicity.
 
-    For each cluster of (numerically) coinciding eigenvalues of ``A`` an
-    orthonormal basis ``X`` of its invariant subspace is obtained from an
-    ordered complex Schur form, ``A X = X T``; the unobservable modes in that
-    cluster are those of the small pair ``(T, C X)`` (the unobservable
-    subspace is ``A``-invariant, hence the direct sum of its intersections
-    with the spectral subspaces). Working per cluster keeps the rank
-    decisions local: a recursion over the whole state space accumulates
-    errors along long observability chains (≈ ``‖A‖/σ`` per step), while
-    the per-mode (PBH-like) test does not.
+    ``method="pbh"`` (the reference): for each cluster of (numerically) coinciding eigenvalues of
+    ``A`` an orthonormal basis ``X`` of its invariant subspace is obtained from an ordered
+    complex Schur form, ``A X = X T``; the unobservable modes in that cluster are those of the
+    small pair ``(T, C X)`` (the unobservable subspace is ``A``-invariant, hence the direct sum
+    of its intersections with the spectral subspaces). Working per cluster keeps the rank
+    decisions local: a recursion over the whole state space accumulates errors along long
+    observability chains (≈ ``‖A‖/σ`` per step), while the per-mode (PBH-like) test does not.
+    Its cost is one Schur form per cluster, ``O(n⁴)``.
+
+    ``method="auto"``: the observability staircase (:func:`_staircase`, ``O(n³)``) first. When
+    it finds every coordinate observable, that is the answer (a staircase never misses an
+    unobservable part: the blocks it keeps have singular values above the tolerance). When it
+    leaves an unobservable block, its eigenvalues are only candidates — a long chain can end
+    with a small, still observable, step, which is where staircases misjudge — and the PBH
+    test above decides, on the clusters of eigenvalues of ``A`` near the candidates only.
     """
     n = A.shape[0]
     if n == 0:
         return np.zeros(0, dtype=complex)
-    # Scale-aware rank decisions. The unobservable subspace does not change when C is scaled,
-    # when A is scaled (the modes scale with it) or under a diagonal state similarity, so
-    # (i) A and C are each scaled by a power of 2 to a largest entry in [0.5, 1) and (ii) an
-    # exact power-of-2 diagonal similarity balances [A; C] (Parlett–Reinsch). The rank
-    # decisions below are relative to ‖[A; C]‖ of that realisation. Without (i) and (ii) an
-    # observable chain with couplings 1e−6 … 1e6 (residuals ~1e−6 against ‖A‖ ~ 1e6) was
-    # called unobservable in every mode, and so was [[a, a], [−a, a]], C = [1, 0] for a = 1e100.
-    kA = _exponent(A)
-    A = np.ldexp(A, -kA)
-    C = np.ldexp(C, -_exponent(C))
-    A, _, C = _balance(A, np.zeros((n, 0)), C)
-    scale = float(np.linalg.norm(np.vstack([A, C])))
-    tol = max(rtol * scale, n * _EPS * scale)
+    fast = method != "pbh"
+    A, C, kA, tol, scale = _prepare(A, C, rtol, fast=fast)
     if C.shape[0] == 0 or scale == 0.0:
         lam0 = np.asarray(scipy.linalg.eigvals(A), dtype=complex)
         return np.ldexp(lam0.real, kA) + 1j * np.ldexp(lam0.imag, kA)
+    cand = None
+    if fast:
+        if _observable_through_one_output(A, C, tol):
+            return np.zeros(0, dtype=complex)
+        Auo = _staircase(A, C, tol)
+        if Auo.shape[0] == 0:
+            return np.zeros(0, dtype=complex)
+        cand = np.asarray(scipy.linalg.eigvals(Auo), dtype=complex)
     T0, _ = scipy.linalg.schur(A, output="complex")
     lam = np.diag(T0).copy()
-    ctol = 1e-4 * float(np.linalg.norm(A)) + _EPS * scale
+    normA = float(np.linalg.norm(A))
+    ctol = 1e-4 * normA + _EPS * scale
     out: list[NDArray] = []
     for members in _clusters(lam, ctol):
         pts = lam[members]
+        if cand is not None and not np.any(_near(pts, cand, max(ctol, 1e-2 * normA + _EPS * scale))):
+            continue
 
         def select(x: complex, pts: NDArray = pts) -> bool:
             return bool(np.min(np.abs(pts - x)) <= 0.5 * ctol)
@@ -186,6 +203,142 @@ def _unobservable_eigs(A: NDArray, C: NDArray, rtol: float) -> NDArray:
     z = np.concatenate(out) if out else np.zeros(0, dtype=complex)
     z = _conjugate_symmetric(z, 1e3 * _EPS * scale)
     return np.ldexp(z.real, kA) + 1j * np.ldexp(z.imag, kA)
+
+
+def _prepare(A: NDArray, C: NDArray, rtol: float, *, fast: bool) -> tuple[NDArray, NDArray, int, float, float]:
+    """The scaled, balanced realisation the rank decisions are made on, with its tolerance.
+
+    ``A`` and ``C`` are each scaled by a power of 2 to a largest entry in ``[0.5, 1)`` and the
+    states balanced by an exact power-of-2 diagonal similarity; none of this changes the
+    unobservable subspace. ``fast`` balances with LAPACK ``xGEBAL`` on ``[[A, 0], [C, 0]]`` (the
+    output coordinates, with zero columns, are left alone), the reference with the
+    Osborne iteration of :func:`nlobs.linear.norms._balance`.
+    Returns ``(A, C, kA, tol, scale)``: the modes of the original ``A`` are ``2^kA`` times those
+    of the returned one.
+    """
+    n = A.shape[0]
+    kA = _exponent(A)
+    A = np.ldexp(A, -kA)
+    C = np.ldexp(C, -_exponent(C))
+    if fast:
+        p = C.shape[0]
+        M = np.zeros((n + p, n + p))
+        M[:n, :n] = A
+        M[n:, :n] = C
+        _, _, _, sc, info = scipy.linalg.lapack.dgebal(M, scale=1, permute=0)  # LAPACK xGEBAL, job "S"
+        d = np.asarray(sc[:n], dtype=float) if info == 0 else np.ones(n)
+        A = (A / d[:, None]) * d[None, :]
+        C = C * d[None, :]
+    else:
+        A, _, C = _balance(A, np.zeros((n, 0)), C)
+    scale = float(np.linalg.norm(A)) ** 2 + float(np.linalg.norm(C)) ** 2
+    scale = math.sqrt(scale)
+    tol = max(rtol * scale, n * _EPS * scale)
+    return A, C, kA, tol, scale
+
+
+def _staircase(A: NDArray, C: NDArray, tol: float) -> NDArray:
+    """Unobservable part of ``(A, C)`` by the observability staircase; returns its ``A`` block.
+
+    Van Dooren's (1981) staircase, in the dual form of SLICOT ``AB01ND`` / ``TB01PD``: the
+    controllability staircase of ``(F, G) = (Aᵀ, Cᵀ)``. At step ``k`` the current block
+    ``F[o:, o − c:o]`` (``G`` at the start) is compressed by a Householder QR (LAPACK
+    ``xGEQRF``, applied with ``xORMQR``) followed by an SVD of its small triangular factor; its
+    numerical rank ``r`` (singular values above ``tol``) is the size of the next block of
+    observable coordinates, and the rest of the block is the part set to zero, a perturbation
+    below ``tol``. The staircase stops when ``r = 0`` (the trailing block ``F[o:, o:]`` is then
+    the unobservable part, its eigenvalues the candidate unobservable modes) or when every
+    coordinate is reached (observable). Orthogonal transformations only, ``O(n³)`` in all.
+    """
+    n = A.shape[0]
+    F = np.array(A.T, order="C")
+    geqrf, ormqr = scipy.linalg.lapack.dgeqrf, scipy.linalg.lapack.dormqr
+    lw = 64 * max(1, n)
+    blk = np.array(C.T, order="F")
+    o = 0
+    while o < n:
+        rows, c = blk.shape
+        if c == 0:
+            break
+        qr, tau, _, _ = geqrf(blk)
+        k = min(rows, c)
+        R = qr[:k, :].copy()
+        for i in range(1, k):
+            R[i, :i] = 0.0
+        r = sum(1 for v in _small_singular_values(R) if v > tol)
+        if r == 0:
+            break
+        V = np.asfortranarray(qr[:, :k])
+        # F[o:, :] ← Hᵀ F[o:, :] as (F[o:, :]ᵀ H)ᵀ: the transpose of a C-ordered row block is
+        # Fortran-contiguous, so xORMQR updates F in place.
+        ormqr("R", "N", V, tau, F[o:, :].T, lw, overwrite_c=1)
+        sub = np.array(F[:, o:], order="F")
+        sub, _, _ = ormqr("R", "N", V, tau, sub, lw, overwrite_c=1)
+        F[:, o:] = sub
+        if r < k:  # rotate the rank-r part of the block to the front (small SVD of R)
+            U = np.linalg.svd(R)[0]
+            F[o:o + k, :] = U.T @ F[o:o + k, :]
+            F[:, o:o + k] = F[:, o:o + k] @ U
+        o += r
+        blk = np.array(F[o:, o - r:o], order="F")
+    return F[o:, o:].T.copy()
+
+
+def _observable_through_one_output(A: NDArray, C: NDArray, tol: float) -> bool:
+    """Whether one fixed combination ``y_w = wᵀ y`` of the outputs already makes ``A`` observable.
+
+    The single-output staircase is a Hessenberg reduction: a Householder reflection ``H₀`` maps
+    ``g = Cᵀ w`` to ``‖g‖ e₁``, and LAPACK ``xGEHRD`` reduces ``H₀ Aᵀ H₀`` to Hessenberg form
+    with transformations that fix ``e₁``; the subdiagonal entries are the staircase's steps.
+    When ``‖g‖`` and every subdiagonal entry exceed ``tol`` the staircase of ``(A, C)`` cannot
+    split anything off either (an output combination observing everything), so the pair is
+    observable; otherwise nothing is concluded. One blocked LAPACK call instead of a staircase
+    loop: the usual case, a generic pair, costs little more than a Hessenberg reduction.
+    ``w`` weights the normalised rows of ``C`` by fixed, unequal weights, so that symmetric
+    structures (two chains, each seen by one output) do not cancel.
+    """
+    n, p = A.shape[0], C.shape[0]
+    rn = np.linalg.norm(C, axis=1)
+    keep = rn > 0.0
+    if not np.any(keep):
+        return False
+    wts = 1.0 + np.mod(np.arange(1, p + 1) * 0.6180339887498949, 1.0)
+    g = (C[keep] / rn[keep, None]).T @ wts[keep]
+    beta = float(np.linalg.norm(g))
+    if not beta > tol:
+        return False
+    v = g.copy()
+    v[0] += math.copysign(beta, g[0])
+    v /= float(np.linalg.norm(v))
+    F = A.T.copy()
+    F -= 2.0 * np.outer(v, v @ F)
+    F -= 2.0 * np.outer(F @ v, v)
+    if n <= 2:
+        sub = F[1:, 0] if n == 2 else np.zeros(0)
+        return bool(np.all(np.abs(sub) > tol))
+    gehrd = scipy.linalg.lapack.dgehrd
+    Hs, _, info = gehrd(np.asfortranarray(F), lo=0, hi=n - 1, lwork=64 * n, overwrite_a=1)
+    return info == 0 and bool(np.min(np.abs(np.diagonal(Hs, -1))) > tol)
+
+
+def _small_singular_values(R: NDArray) -> list[float]:
+    """Singular values of a small matrix (closed form for one row or column and for 2 × 2)."""
+    if R.shape[0] == 1 or R.shape[1] == 1:
+        return [float(np.linalg.norm(R))]
+    if R.shape == (2, 2):
+        a, b, c, d = (float(v) for v in R.ravel())
+        f2 = a * a + b * b + c * c + d * d
+        det = abs(a * d - b * c)
+        smax = math.sqrt(0.5 * (f2 + math.sqrt(max(f2 * f2 - 4.0 * det * det, 0.0))))
+        return [smax, det / smax if smax > 0.0 else 0.0]
+    return list(np.linalg.svd(R, compute_uv=False))
+
+
+def _near(lam: NDArray, cand: NDArray, dist: float) -> NDArray:
+    """Mask of the ``lam`` within ``dist`` of some candidate."""
+    if cand.size == 0:
+        return np.zeros(lam.size, dtype=bool)
+    return np.min(np.abs(lam[:, None] - cand[None, :]), axis=1) <= dist
 
 
 def _exponent(M: NDArray) -> int:
@@ -218,7 +371,7 @@ def _conjugate_symmetric(z: NDArray, atol: float) -> NDArray:
 
 
 def unobservable_modes(
-    A: ArrayLike, C: ArrayLike, *, discrete: bool = False, rtol: float = DEFAULT_RTOL
+    A: ArrayLike, C: ArrayLike, *, discrete: bool = False, rtol: float = DEFAULT_RTOL, method: str = "auto"
 ) -> NDArray[np.complex128]:
     """Unobservable modes of ``(A, C)``: eigenvalues ``λ`` with ``rank [λI − A; C] < n``.
 
@@ -240,6 +393,11 @@ def unobservable_modes(
         power-of-2 diagonal similarity — none of which changes the
         unobservable subspace — so the verdict does not depend on units (an
         observable chain with couplings ``1e−6 … 1e6`` is observable).
+    method : {"auto", "pbh"}
+        ``"pbh"``: the per-cluster PBH test on every eigenvalue (the reference, ``O(n⁴)``).
+        ``"auto"`` (default): the observability staircase (Van Dooren 1981), ``O(n³)``, with
+        the PBH test run only on the eigenvalues near the unobservable block it leaves, so
+        the two agree (see the Notes).
 
     Returns
     -------
@@ -253,14 +411,21 @@ def unobservable_modes(
     basis of the unobservable subspace (see the module docstring); this
     evaluates the PBH (Hautus) rank test at every eigenvalue at once, with the
     correct multiplicities, using orthogonal transformations only.
+
+    With ``method="auto"`` the staircase decides first. It cannot call an unobservable pair
+    observable (it keeps only blocks whose singular values exceed the tolerance, so a hidden
+    part is split off), but it can leave a trailing block that is in fact observable through a
+    long chain of small steps (the misjudgement seen with SLICOT's staircase on random
+    50-state systems); so its block's eigenvalues are candidates, and the verdict on them is
+    the PBH test's. Where the staircase finds the pair observable nothing else is computed.
     """
     A_, C_ = _check_ac(A, C)
     r = in_range("rtol", rtol, 0.0, 1.0)
-    lam = _unobservable_eigs(A_, C_, r)
+    lam = _unobservable_eigs(A_, C_, r, _method(method))
     return lam[np.lexsort((lam.imag, lam.real))]
 
 
-def is_observable(A: ArrayLike, C: ArrayLike, *, rtol: float = DEFAULT_RTOL) -> bool:
+def is_observable(A: ArrayLike, C: ArrayLike, *, rtol: float = DEFAULT_RTOL, method: str = "auto") -> bool:
     """Whether ``(A, C)`` is observable (no unobservable mode).
 
     Parameters
@@ -269,6 +434,8 @@ def is_observable(A: ArrayLike, C: ArrayLike, *, rtol: float = DEFAULT_RTOL) -> 
     C : array_like, shape (p, n)
     rtol : float
         Relative rank tolerance, see :func:`unobservable_modes`.
+    method : {"auto", "pbh"}
+        Algorithm, see :func:`unobservable_modes`.
 
     Returns
     -------
@@ -277,7 +444,7 @@ def is_observable(A: ArrayLike, C: ArrayLike, *, rtol: float = DEFAULT_RTOL) -> 
         rank for every ``λ``; equivalently rank of the Kalman matrix is ``n``).
     """
     A_, C_ = _check_ac(A, C)
-    return bool(_unobservable_eigs(A_, C_, in_range("rtol", rtol, 0.0, 1.0)).size == 0)
+    return bool(_unobservable_eigs(A_, C_, in_range("rtol", rtol, 0.0, 1.0), _method(method)).size == 0)
 
 
 def is_detectable(
@@ -287,6 +454,7 @@ def is_detectable(
     discrete: bool = False,
     rtol: float = DEFAULT_RTOL,
     tol: float = BOUNDARY_TOL,
+    method: str = "auto",
 ) -> bool:
     """Whether ``(A, C)`` is detectable: every unobservable mode is strictly stable.
 
@@ -302,6 +470,8 @@ def is_detectable(
         Stability margin for the computed modes, see
         :func:`~nlobs.linear.stability.strictly_inside` (a hidden mode on the
         boundary, e.g. an unobserved integrator, makes the pair undetectable).
+    method : {"auto", "pbh"}
+        Algorithm, see :func:`unobservable_modes`.
 
     Returns
     -------
@@ -309,5 +479,5 @@ def is_detectable(
         Detectability is necessary and sufficient for the existence of an
         observer gain ``L`` making ``A − L C`` stable.
     """
-    lam = unobservable_modes(A, C, discrete=discrete, rtol=rtol)
+    lam = unobservable_modes(A, C, discrete=discrete, rtol=rtol, method=method)
     return bool(np.all(strictly_inside(lam, discrete=discrete, tol=tol)))
