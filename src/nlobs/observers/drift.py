@@ -135,8 +135,8 @@ class SingularObservabilityError(NlobsError, ValueError):
         super().__init__(
             f"{model}: {quantity} is singular {when}, x̂ = ({pt}) (cond = {self.condition:.3g}); "
             "the drift-observability observer (3.1) needs Q_s(x̂) invertible: start the estimate where "
-            "Φ_s is a local diffeomorphism, choose another multi-index s, or switch on "
-            "regularization=ε (Tikhonov, documented in nlobs.observers.drift)"
+            "Φ_s is a local diffeomorphism (--xhat0), choose another multi-index (--s), or a region where Q_s is "
+            "nonsingular (--box; a Tikhonov-regularised observer is in nlobs.observers.drift)"
         )
 
 
