@@ -349,6 +349,10 @@ def unobservable_modes(
     With ``method="auto"`` the eigenvectors of all isolated eigenvalues come from one
     eigendecomposition and only clusters of nearby eigenvalues get an ordered Schur form of
     their own; the verdicts are those of the reference (``method="pbh"``).
+
+    A known limit of both: a defective unobservable eigenvalue (a Jordan block of size ≥ 3) that the
+    observable part shares is perturbed by rounding by about ``ε^(1/3)`` and can be missed; the
+    multiplicities of semisimple shared eigenvalues (``A = −I``) are exact.
     """
     A_, C_ = _check_ac(A, C)
     r = in_range("rtol", rtol, 0.0, 1.0)
