@@ -34,7 +34,6 @@ from nlobs.cli.common import (
     simulate_app,
 )
 from nlobs.errors import ModelFileError, NlobsError, OutputError
-from nlobs.systems.modelfile import shipped_models
 
 class _Interrupted(BaseException):
     """SIGINT or SIGTERM arrived: unwinds the command (atomic writes remove their temporary files)."""
@@ -189,6 +188,8 @@ def models_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list.")] = False,
 ) -> None:
     """List the model files shipped with nlobs."""
+    from nlobs.systems.modelfile import shipped_models
+
     shipped = shipped_models()
     if as_json:
         typer.echo(json.dumps([{"name": k, "path": str(v)} for k, v in sorted(shipped.items())], indent=2))

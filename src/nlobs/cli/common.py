@@ -3,7 +3,8 @@ JSON output. Every command module imports these; none defines its own.
 
 From the library this module imports only :mod:`nlobs.workflows`: the escaping of terminal text and the JSON conversion come from
 :mod:`nlobs.workflows`, and a ``--box`` goes to the workflows as numbers (:func:`box_numbers`),
-which build the region.
+which build the region. Both are imported on first use (they load NumPy), so that ``nlobs --help``
+and ``nlobs version`` start without the numeric stack.
 """
 
 from __future__ import annotations
@@ -17,7 +18,6 @@ from rich.console import Console
 from typer.core import TyperGroup
 from rich.text import Text
 
-from nlobs.workflows import escape_unsafe, jsonable
 
 EXIT_FAILURE = 1
 EXIT_BAD_INPUT = 2
@@ -30,6 +30,8 @@ def safe_text(text: object, *, one_line: bool = False) -> str:
     Whatever a model file or an argument holds, the result cannot send an
     escape sequence to the terminal. ``one_line`` escapes tab and newline too.
     """
+    from nlobs.workflows import escape_unsafe
+
     return escape_unsafe(str(text), one_line=one_line)
 
 
@@ -94,6 +96,13 @@ def print_table(title: str, heads: list[str], rows: list[list[str]]) -> None:
     for row in rows:
         table.add_row(*(escape(c) for c in row))
     console().print(table)
+
+
+def jsonable(data: Any) -> Any:
+    """:func:`nlobs.workflows.jsonable`: NumPy scalars and arrays as Python values, non-finite floats as ``None``."""
+    from nlobs.workflows import jsonable as _jsonable
+
+    return _jsonable(data)
 
 
 def emit_json(data: dict[str, Any]) -> None:

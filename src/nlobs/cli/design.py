@@ -19,7 +19,7 @@ its ``to_dict()`` as JSON, and exits by the report's verdict.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any, NoReturn
+from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 
 import typer
 
@@ -43,7 +43,9 @@ from nlobs.errors import (
     SimulationDiverged,
     StudyFailed,
 )
-from nlobs.workflows.inputs import BoxError, SimulationRequest, SymbolicModel, symbolic_model
+
+if TYPE_CHECKING:  # the workflows' inputs load SymPy and SciPy: imported inside the commands
+    from nlobs.workflows.inputs import SimulationRequest, SymbolicModel
 
 # Options shared by both commands (one definition each).
 Box_ = Annotated[str | None, typer.Option(
@@ -82,6 +84,8 @@ def _region(model: str, box: str | None) -> list[float] | None:
 
 
 def _symbolic(model: str) -> SymbolicModel:
+    from nlobs.workflows.inputs import symbolic_model
+
     try:
         return symbolic_model(model)
     except ModelFileError as exc:
@@ -104,6 +108,8 @@ def _request(m: SymbolicModel, simulate: bool, x0: str | None, xhat0: str | None
     """The simulation asked for by ``--simulate`` (``None`` without it), its vectors checked against the model."""
     if not simulate:
         return None
+    from nlobs.workflows.inputs import SimulationRequest
+
     if x0 is None:
         fail("--simulate needs --x0 (the initial plant state)")
     x0v = parse_floats("--x0", x0)
@@ -129,6 +135,8 @@ def _print(report: Any, as_json: bool) -> None:
 
 def _errors(model: str, exc: NlobsError) -> NoReturn:
     """The one-line error and exit status of a workflow's typed error (the design's are mapped by the caller)."""
+    from nlobs.workflows.inputs import BoxError
+
     if isinstance(exc, BoxError):
         fail(f"--box: {exc}")
     if isinstance(exc, SimulationDiverged):
