@@ -9,14 +9,16 @@ and ``nlobs version`` start without the numeric stack.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import typer
-from rich.console import Console
 from typer.core import TyperGroup
-from rich.text import Text
+
+if TYPE_CHECKING:  # rich is imported on first output (``nlobs version`` needs none of it)
+    from rich.console import Console
 
 
 EXIT_FAILURE = 1
@@ -35,19 +37,28 @@ def safe_text(text: object, *, one_line: bool = False) -> str:
     return escape_unsafe(str(text), one_line=one_line)
 
 
-class _SafeConsole(Console):
-    """A rich console that passes every string it renders (prints, table cells, titles) through :func:`safe_text`."""
+@functools.cache
+def _safe_console_class() -> type[Console]:
+    from rich.console import Console
+    from rich.text import Text
 
-    def render_str(self, text: str, **kwargs: Any) -> Text:
-        return super().render_str(safe_text(text), **kwargs)
+    class _SafeConsole(Console):
+        """A rich console that passes every string it renders (prints, table cells, titles) through :func:`safe_text`."""
+
+        def render_str(self, text: str, **kwargs: Any) -> Text:
+            return super().render_str(safe_text(text), **kwargs)
+
+    return _SafeConsole
 
 
 def console() -> Console:
-    return _SafeConsole(highlight=False, soft_wrap=True)
+    return _safe_console_class()(highlight=False, soft_wrap=True)
 
 
 def fail(message: str, status: int = EXIT_BAD_INPUT) -> NoReturn:
     """Print a one-line error to stderr (control characters escaped) and exit."""
+    from rich.console import Console
+
     Console(stderr=True, highlight=False, soft_wrap=True).print(f"nlobs: error: {safe_text(message, one_line=True)}",
                                                                 markup=False)
     raise typer.Exit(status)
