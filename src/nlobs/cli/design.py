@@ -16,7 +16,8 @@ the trajectories (``--out``). Each command parses its options, calls one workflo
 its ``to_dict()`` as JSON, and exits by the report's verdict.
 """
 
-from __future__ import annotations
+# No ``from __future__ import annotations``: typer reads the annotations of every command's parameters when the
+# app starts, and evaluated ones spare it compiling and evaluating each string again (twice per command).
 
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, NoReturn
@@ -83,7 +84,7 @@ def _region(model: str, box: str | None) -> list[float] | None:
     return None if b is None else [float(v) for lo, hi in zip(b[0], b[1]) for v in (lo, hi)]
 
 
-def _symbolic(model: str) -> SymbolicModel:
+def _symbolic(model: str) -> "SymbolicModel":
     from nlobs.workflows.inputs import symbolic_model
 
     try:
@@ -103,8 +104,8 @@ def _ints(option: str, text: str | None) -> list[int] | None:
     return [int(v) for v in vals]
 
 
-def _request(m: SymbolicModel, simulate: bool, x0: str | None, xhat0: str | None, u: str | None, duration: float,
-             dt: float, out: Path | None) -> SimulationRequest | None:
+def _request(m: "SymbolicModel", simulate: bool, x0: str | None, xhat0: str | None, u: str | None, duration: float,
+             dt: float, out: Path | None) -> "SimulationRequest | None":
     """The simulation asked for by ``--simulate`` (``None`` without it), its vectors checked against the model."""
     if not simulate:
         return None
