@@ -10,7 +10,8 @@ prints a line) is the floor no typer command line goes below.
 
 The command line imports NumPy, SciPy, SymPy, Matplotlib and CVXPY only inside the command that needs
 them (``tests/test_cli_startup.py`` checks that none is loaded by these two commands); what is left
-is the interpreter, typer, rich and ``importlib.metadata``.
+is typer (which builds every command's parameters and, to run one, imports pydantic) and rich (which
+renders the help).
 
 Run: ``PYTHONPATH=src python benchmarks/cli_startup.py`` (15–30 s).
 """
