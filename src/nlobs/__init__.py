@@ -30,17 +30,12 @@ Errors
 
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from nlobs._lazy import lazy_exports
 
-try:
-    __version__: str = version("nlobs")
-except PackageNotFoundError:  # pragma: no cover - a source tree that was never installed
-    __version__ = "0+unknown"
-
 if TYPE_CHECKING:
+    __version__: str
     from nlobs.checks import Check
     from nlobs.errors import (
         AssumptionViolated,
@@ -128,4 +123,26 @@ _LAZY: dict[str, str] = {
 __all__ = sorted([*_LAZY, "__version__"])
 
 
-__getattr__, __dir__ = lazy_exports(__name__, _LAZY)
+_lazy_getattr, _lazy_dir = lazy_exports(__name__, _LAZY)
+
+
+def _version() -> str:
+    """The installed distribution's version (``importlib.metadata`` is imported on first use: ``nlobs --help``
+    needs none of it)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("nlobs")
+    except PackageNotFoundError:  # pragma: no cover - a source tree that was never installed
+        return "0+unknown"
+
+
+def __getattr__(name: str) -> Any:
+    if name == "__version__":
+        globals()["__version__"] = value = _version()
+        return value
+    return _lazy_getattr(name)
+
+
+def __dir__() -> list[str]:
+    return sorted({*_lazy_dir(), "__version__"})

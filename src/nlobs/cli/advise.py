@@ -5,7 +5,8 @@ Parses the options, calls :func:`nlobs.workflows.advise.advise_model`, prints th
 3 none does; bad input 2, one line).
 """
 
-from __future__ import annotations
+# No ``from __future__ import annotations``: typer reads the annotations of every command's parameters when the
+# app starts, and evaluated ones spare it compiling and evaluating each string again (twice per command).
 
 from typing import Annotated
 

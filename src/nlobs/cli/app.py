@@ -8,7 +8,8 @@ every output file is written atomically, so the files of an interrupted run are 
 previous complete ones or the new complete ones, never half-written, and no temporary is left).
 """
 
-from __future__ import annotations
+# No ``from __future__ import annotations``: typer reads the annotations of every command's parameters when the
+# app starts, and evaluated ones spare it compiling and evaluating each string again (twice per command).
 
 import json
 import signal
@@ -34,7 +35,6 @@ from nlobs.cli.common import (
     simulate_app,
 )
 from nlobs.errors import ModelFileError, NlobsError, OutputError
-from nlobs.systems.modelfile import shipped_models
 
 class _Interrupted(BaseException):
     """SIGINT or SIGTERM arrived: unwinds the command (atomic writes remove their temporary files)."""
@@ -189,6 +189,8 @@ def models_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list.")] = False,
 ) -> None:
     """List the model files shipped with nlobs."""
+    from nlobs.systems.modelfile import shipped_models
+
     shipped = shipped_models()
     if as_json:
         typer.echo(json.dumps([{"name": k, "path": str(v)} for k, v in sorted(shipped.items())], indent=2))

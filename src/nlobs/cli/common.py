@@ -3,21 +3,23 @@ JSON output. Every command module imports these; none defines its own.
 
 From the library this module imports only :mod:`nlobs.workflows`: the escaping of terminal text and the JSON conversion come from
 :mod:`nlobs.workflows`, and a ``--box`` goes to the workflows as numbers (:func:`box_numbers`),
-which build the region.
+which build the region. Both are imported on first use (they load NumPy), so that ``nlobs --help``
+and ``nlobs version`` start without the numeric stack.
 """
 
 from __future__ import annotations
 
+import functools
 import json
 import math
-from typing import Any, NoReturn
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import typer
-from rich.console import Console
 from typer.core import TyperGroup
-from rich.text import Text
 
-from nlobs.workflows import escape_unsafe, jsonable
+if TYPE_CHECKING:  # rich is imported on first output (``nlobs version`` needs none of it)
+    from rich.console import Console
+
 
 EXIT_FAILURE = 1
 EXIT_BAD_INPUT = 2
@@ -30,22 +32,33 @@ def safe_text(text: object, *, one_line: bool = False) -> str:
     Whatever a model file or an argument holds, the result cannot send an
     escape sequence to the terminal. ``one_line`` escapes tab and newline too.
     """
+    from nlobs.workflows import escape_unsafe
+
     return escape_unsafe(str(text), one_line=one_line)
 
 
-class _SafeConsole(Console):
-    """A rich console that passes every string it renders (prints, table cells, titles) through :func:`safe_text`."""
+@functools.cache
+def _safe_console_class() -> type[Console]:
+    from rich.console import Console
+    from rich.text import Text
 
-    def render_str(self, text: str, **kwargs: Any) -> Text:
-        return super().render_str(safe_text(text), **kwargs)
+    class _SafeConsole(Console):
+        """A rich console that passes every string it renders (prints, table cells, titles) through :func:`safe_text`."""
+
+        def render_str(self, text: str, **kwargs: Any) -> Text:
+            return super().render_str(safe_text(text), **kwargs)
+
+    return _SafeConsole
 
 
 def console() -> Console:
-    return _SafeConsole(highlight=False, soft_wrap=True)
+    return _safe_console_class()(highlight=False, soft_wrap=True)
 
 
 def fail(message: str, status: int = EXIT_BAD_INPUT) -> NoReturn:
     """Print a one-line error to stderr (control characters escaped) and exit."""
+    from rich.console import Console
+
     Console(stderr=True, highlight=False, soft_wrap=True).print(f"nlobs: error: {safe_text(message, one_line=True)}",
                                                                 markup=False)
     raise typer.Exit(status)
@@ -94,6 +107,13 @@ def print_table(title: str, heads: list[str], rows: list[list[str]]) -> None:
     for row in rows:
         table.add_row(*(escape(c) for c in row))
     console().print(table)
+
+
+def jsonable(data: Any) -> Any:
+    """:func:`nlobs.workflows.jsonable`: NumPy scalars and arrays as Python values, non-finite floats as ``None``."""
+    from nlobs.workflows import jsonable as _jsonable
+
+    return _jsonable(data)
 
 
 def emit_json(data: dict[str, Any]) -> None:

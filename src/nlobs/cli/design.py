@@ -16,10 +16,11 @@ the trajectories (``--out``). Each command parses its options, calls one workflo
 its ``to_dict()`` as JSON, and exits by the report's verdict.
 """
 
-from __future__ import annotations
+# No ``from __future__ import annotations``: typer reads the annotations of every command's parameters when the
+# app starts, and evaluated ones spare it compiling and evaluating each string again (twice per command).
 
 from pathlib import Path
-from typing import Annotated, Any, NoReturn
+from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 
 import typer
 
@@ -43,7 +44,9 @@ from nlobs.errors import (
     SimulationDiverged,
     StudyFailed,
 )
-from nlobs.workflows.inputs import BoxError, SimulationRequest, SymbolicModel, symbolic_model
+
+if TYPE_CHECKING:  # the workflows' inputs load SymPy and SciPy: imported inside the commands
+    from nlobs.workflows.inputs import SimulationRequest, SymbolicModel
 
 # Options shared by both commands (one definition each).
 Box_ = Annotated[str | None, typer.Option(
@@ -81,7 +84,9 @@ def _region(model: str, box: str | None) -> list[float] | None:
     return None if b is None else [float(v) for lo, hi in zip(b[0], b[1]) for v in (lo, hi)]
 
 
-def _symbolic(model: str) -> SymbolicModel:
+def _symbolic(model: str) -> "SymbolicModel":
+    from nlobs.workflows.inputs import symbolic_model
+
     try:
         return symbolic_model(model)
     except ModelFileError as exc:
@@ -99,11 +104,13 @@ def _ints(option: str, text: str | None) -> list[int] | None:
     return [int(v) for v in vals]
 
 
-def _request(m: SymbolicModel, simulate: bool, x0: str | None, xhat0: str | None, u: str | None, duration: float,
-             dt: float, out: Path | None) -> SimulationRequest | None:
+def _request(m: "SymbolicModel", simulate: bool, x0: str | None, xhat0: str | None, u: str | None, duration: float,
+             dt: float, out: Path | None) -> "SimulationRequest | None":
     """The simulation asked for by ``--simulate`` (``None`` without it), its vectors checked against the model."""
     if not simulate:
         return None
+    from nlobs.workflows.inputs import SimulationRequest
+
     if x0 is None:
         fail("--simulate needs --x0 (the initial plant state)")
     x0v = parse_floats("--x0", x0)
@@ -129,6 +136,8 @@ def _print(report: Any, as_json: bool) -> None:
 
 def _errors(model: str, exc: NlobsError) -> NoReturn:
     """The one-line error and exit status of a workflow's typed error (the design's are mapped by the caller)."""
+    from nlobs.workflows.inputs import BoxError
+
     if isinstance(exc, BoxError):
         fail(f"--box: {exc}")
     if isinstance(exc, SimulationDiverged):

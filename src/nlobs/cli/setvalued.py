@@ -5,7 +5,8 @@ the report's verdict (3 when no stable observer of the structure (10)-(15) exist
 balls missed the truth) or the error (:mod:`nlobs.cli.common`).
 """
 
-from __future__ import annotations
+# No ``from __future__ import annotations``: typer reads the annotations of every command's parameters when the
+# app starts, and evaluated ones spare it compiling and evaluating each string again (twice per command).
 
 from enum import Enum
 from pathlib import Path
