@@ -928,7 +928,9 @@ def design_observer_gain(
         _require_detectable(d.A, d.C)
         out = _riccati_design(d, g, gn, eps)
         if not isinstance(out, str):
-            return _riccati_certificate(d, out, g, gn, obj, eps, t0)
+            if meth is SynthesisMethod.RICCATI or all(c.passed for c in out[1][0]) or not sdp_estimate(d, obj).fits:
+                return _riccati_certificate(d, out, g, gn, obj, eps, t0)  # raises CertificateError if unverified
+            out = f"its answer failed the re-verification: {_failure_text(out[1][0])}"
         if meth is SynthesisMethod.RICCATI:
             _riccati_infeasible(d, g, gn, eps, out, "The exact LMIs may still hold: try method='sdp'.")
         est = sdp_estimate(d, obj)
@@ -937,7 +939,7 @@ def design_observer_gain(
                 d, g, gn, eps, out,
                 f"The exact LMIs (an SDP) may still hold, but that SDP is too large here ({est.describe()}; the "
                 f"limit is {est.limit_bytes / 2**30:.2g} GiB): raise γ or γn, or reduce the model.")
-        why_sdp = f"the Riccati equation has no stabilising solution ({out})"
+        why_sdp = f"the Riccati path gave no verified gain ({out})"
     _require_sdp_fits(d, obj, why_sdp or "method='sdp' was asked")
     _check_size(d)
     _require_detectable(d.A, d.C)
