@@ -102,8 +102,7 @@ def sdp_estimate_mb(n: int, src: str) -> float | None:
     if not hasattr(og, "sdp_estimate"):
         return None
     A, C, Bd = system(n)
-    d = og._validate_data(A, C, Bd, None, True, None, None)
-    return og.sdp_estimate(d, Objective.CENTRAL).memory_bytes / 1e6
+    return og.sdp_estimate(A, C, Bd, gamma_n=GAMMA, objective=Objective.CENTRAL).memory_bytes / 1e6
 
 
 def main() -> None:

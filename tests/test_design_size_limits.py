@@ -250,7 +250,8 @@ def test_observer_gain_sdp_estimate_matches_the_compiled_problem(objective: str,
 
     d = _og_data(5, 2, 1, region=HalfPlane(0.1) if region else None, gain_bound=gain_bound)
     obj = Objective(objective)
-    est = og.sdp_estimate(d, obj)
+    est = og.sdp_estimate(d.A, d.C, d.Bd, gamma_n=None if obj is Objective.MIN_GAMMA_N else 10.0, region=d.regions,
+                          gain_bound=d.gain_bound, objective=obj)
     g2 = cp.Variable(nonneg=True) if obj is Objective.MIN_GAMMA_N else None
     f = og._formulate(d, margin=1e-6, gamma2=100.0, gamma_n2=g2 if g2 is not None else 100.0, with15=True,
                       regions=d.regions, gain_bound=d.gain_bound)

@@ -294,8 +294,21 @@ class SdpEstimate:
                 f"~{self.seconds:.2g} s for the interior-point solver")
 
 
-def sdp_estimate(d: _Data, objective: Objective) -> SdpEstimate:
-    """Estimate the SDP of :func:`design_observer_gain` for the validated data ``d`` (nothing is built)."""
+def sdp_estimate(A: ArrayLike, C: ArrayLike, Bd: ArrayLike, *, N: ArrayLike | None = None,
+                 gamma_n: float | None = None, region: RegionArg = None, gain_bound: GainBound | float | None = None,
+                 objective: Objective | str = Objective.CENTRAL) -> SdpEstimate:
+    """Estimate the SDP :func:`design_observer_gain` would solve with these arguments (nothing is built).
+
+    ``gamma_n`` (or ``N``, or objective ``MIN_GAMMA_N``) adds LMI (15); the other arguments as in
+    :func:`design_observer_gain`. The estimate's ``fits`` is what ``method="sdp"`` checks first.
+    """
+    obj = _as_objective(objective)
+    need_noise = gamma_n is not None or N is not None or obj is Objective.MIN_GAMMA_N
+    return _sdp_estimate(_validate_data(A, C, Bd, N, need_noise, region, gain_bound), obj)
+
+
+def _sdp_estimate(d: _Data, objective: Objective) -> SdpEstimate:
+    """:func:`sdp_estimate` for validated data."""
     nvar, blocks = lmi_size(d)
     cones = list(blocks)
     n_exp = 0
@@ -318,7 +331,7 @@ def sdp_estimate(d: _Data, objective: Objective) -> SdpEstimate:
 
 def _require_sdp_fits(d: _Data, objective: Objective, why_sdp: str) -> SdpEstimate:
     """Refuse (:class:`ProblemTooLarge`) an SDP whose estimated memory exceeds :data:`MAX_SDP_MEMORY`."""
-    est = sdp_estimate(d, objective)
+    est = _sdp_estimate(d, objective)
     if not est.fits:
         raise ProblemTooLarge(
             f"observer-gain SDP too large: n = {d.n} states, {d.C.shape[0]} outputs give {est.describe()}; "
@@ -928,12 +941,12 @@ def design_observer_gain(
         _require_detectable(d.A, d.C)
         out = _riccati_design(d, g, gn, eps)
         if not isinstance(out, str):
-            if meth is SynthesisMethod.RICCATI or all(c.passed for c in out[1][0]) or not sdp_estimate(d, obj).fits:
+            if meth is SynthesisMethod.RICCATI or all(c.passed for c in out[1][0]) or not _sdp_estimate(d, obj).fits:
                 return _riccati_certificate(d, out, g, gn, obj, eps, t0)  # raises CertificateError if unverified
             out = f"its answer failed the re-verification: {_failure_text(out[1][0])}"
         if meth is SynthesisMethod.RICCATI:
             _riccati_infeasible(d, g, gn, eps, out, "The exact LMIs may still hold: try method='sdp'.")
-        est = sdp_estimate(d, obj)
+        est = _sdp_estimate(d, obj)
         if not est.fits:
             _riccati_infeasible(
                 d, g, gn, eps, out,
