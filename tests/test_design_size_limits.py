@@ -307,3 +307,16 @@ def test_observer_gain_riccati_failure_with_an_sdp_too_large_is_one_typed_error(
     msg = str(exc.value)
     assert exc.value.constraint == "Riccati equation" and "that SDP is too large here" in msg and "GiB" in msg
     assert not no_cvxpy
+
+
+def test_verify_observer_gain_at_n_100_is_refused_by_its_memory_estimate(no_cvxpy: list[str]) -> None:
+    from nlobs.errors import ProblemTooLarge
+    from nlobs.synthesis.observer_gain import verify_observer_gain
+
+    n = 100  # within MAX_LMI_SIZE (size 20709), but the log-det cones of the analytic centre need ≈ 40 GiB
+    with pytest.raises(ProblemTooLarge) as exc:
+        verify_observer_gain(-np.eye(n), np.eye(2, n), np.eye(n, 3), np.zeros((n, 2)), gamma=10.0, gamma_n=2.0)
+    msg = str(exc.value)
+    assert msg.startswith("observer-gain verification SDP too large: n = 100 states, 2 outputs give "), msg
+    assert "semidefinite cones of sizes 100, 103, 102, 200, 206, 204" in msg and "hinf_norm" in msg
+    assert not no_cvxpy

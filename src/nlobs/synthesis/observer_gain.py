@@ -307,9 +307,13 @@ def sdp_estimate(A: ArrayLike, C: ArrayLike, Bd: ArrayLike, *, N: ArrayLike | No
     return _sdp_estimate(_validate_data(A, C, Bd, N, need_noise, region, gain_bound), obj)
 
 
-def _sdp_estimate(d: _Data, objective: Objective) -> SdpEstimate:
-    """:func:`sdp_estimate` for validated data."""
+def _sdp_estimate(d: _Data, objective: Objective, *, with_K: bool = False) -> SdpEstimate:
+    """:func:`sdp_estimate` for validated data; ``with_K``: the SDP of :func:`verify_observer_gain` (``P`` only)."""
     nvar, blocks = lmi_size(d)
+    if with_K:  # K given: P is the only matrix variable, no gain-bound blocks
+        nvar = d.n * (d.n + 1) // 2
+        blocks = blocks[:-2] if d.gain_bound is not None else blocks
+        d = _Data(d.A, d.C, d.Bd, d.N, d.regions, None)
     cones = list(blocks)
     n_exp = 0
     if objective is Objective.CENTRAL:
@@ -1036,6 +1040,11 @@ def verify_observer_gain(
         with ``False`` return a certificate with status
         :attr:`~CertificateStatus.FAILED` and the failed checks.
 
+    Raises
+    ------
+    ProblemTooLarge
+        The SDP in ``P`` would exceed :data:`MAX_SDP_MEMORY` (estimated before it is built).
+
     Returns
     -------
     ObserverGainCertificate
@@ -1059,6 +1068,13 @@ def verify_observer_gain(
     raw = "not run (A − K C is not Hurwitz: no P ≻ 0 can exist)"
     extra: list[Check] = []
     if eig_max < 0:
+        est = _sdp_estimate(d, Objective.CENTRAL, with_K=True)
+        if not est.fits:
+            raise ProblemTooLarge(
+                f"observer-gain verification SDP too large: n = {d.n} states, {d.C.shape[0]} outputs give "
+                f"{est.describe()}; the limit is {est.limit_bytes / 2**30:.2g} GiB "
+                "(nlobs.synthesis.observer_gain.MAX_SDP_MEMORY). The norms alone need no SDP "
+                "(nlobs.linear.hinf_norm of A − K C); or reduce the model (e.g. verify per decoupled axis)")
         gn2 = gn**2 if gn is not None else None
         f = _formulate(d, margin=eps, gamma2=g**2, gamma_n2=gn2, with15=gn is not None, regions=d.regions,
                        gain_bound=None, K=K_)
