@@ -313,7 +313,7 @@ def test_verify_observer_gain_at_n_100_is_refused_by_its_memory_estimate(no_cvxp
     from nlobs.errors import ProblemTooLarge
     from nlobs.synthesis.observer_gain import verify_observer_gain
 
-    n = 100  # within MAX_LMI_SIZE (size 20709), but the log-det cones of the analytic centre need ≈ 40 GiB
+    n = 100  # within MAX_LMI_SIZE (size 20709), but the log-det cones of the analytic centre need ≈ 34 GiB
     with pytest.raises(ProblemTooLarge) as exc:
         verify_observer_gain(-np.eye(n), np.eye(2, n), np.eye(n, 3), np.zeros((n, 2)), gamma=10.0, gamma_n=2.0)
     msg = str(exc.value)
