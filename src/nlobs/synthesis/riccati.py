@@ -8,7 +8,8 @@ is the bounded-real lemma of the stacked error channel ``[H/γ, G/γn]`` (input 
 error): it says ``‖[H/γ  G/γn]‖∞ < 1``, and it implies both (14) and (15) with the common ``P`` (each
 block drops one positive semidefinite term of the sum). Completing the square in ``K`` gives the
 minimiser ``K = γn² Q Cᵀ W⁻¹`` and leaves the H∞ filter Riccati inequality of Doyle, Glover,
-Khargonekar & Francis (1989, the filter equation of Theorem 3 / (J∞)):
+Khargonekar & Francis (1989; their ``Y∞`` equation ``AY + YAᵀ + Y(γ⁻²C₁ᵀC₁ − C₂ᵀC₂)Y + B₁B₁ᵀ = 0`` with
+their level 1 after scaling: the error as output, ``C₁ = I``, ``C₂ = γn W^{-1/2} C``, ``B₁ = B_d/γ``):
 
 .. math:: A Y + Y Aᵀ + Y ((1 + σ) I − γ_n^2 Cᵀ W^{-1} C) Y + γ^{-2} B_d B_dᵀ + δ I = 0,
 
