@@ -263,19 +263,19 @@ def test_observer_gain_sdp_estimate_matches_the_compiled_problem(objective: str,
     assert est.kkt_dense == sum((k * (k + 1) // 2) ** 2 for k in est.cones)
 
 
-def test_observer_gain_sdp_at_n_100_with_a_region_is_refused_before_cvxpy(no_cvxpy: list[str]) -> None:
+def test_observer_gain_sdp_at_n_60_with_a_region_is_refused_by_its_memory_estimate(no_cvxpy: list[str]) -> None:
     from nlobs.errors import ProblemTooLarge
     from nlobs.synthesis.observer_gain import MAX_SDP_MEMORY, design_observer_gain
     from nlobs.synthesis.regions import HalfPlane
 
-    n = 100
+    n = 60  # within MAX_LMI_SIZE (size 12418), but the log-det cones need ≈ 10 GB
     A = -np.eye(n) + np.eye(n, k=1)
     C = np.eye(20, n)
     with pytest.raises(ProblemTooLarge) as exc:
         design_observer_gain(A, C, np.eye(n, 10), gamma=40.0, gamma_n=40.0, region=HalfPlane(0.1))
     msg = str(exc.value)
-    assert msg.startswith("observer-gain SDP too large: n = 100 states, 20 outputs give ") and "\n" not in msg
-    assert "semidefinite cones of sizes 100, 110, 120, 100, 200, 220, 240, 200" in msg
+    assert msg.startswith("observer-gain SDP too large: n = 60 states, 20 outputs give ") and "\n" not in msg
+    assert "semidefinite cones of sizes 60, 70, 80, 60, 120, 140, 160, 120" in msg
     assert f"the limit is {MAX_SDP_MEMORY / 2**30:.2g} GiB" in msg and "GiB and ~" in msg
     assert "because a pole region is asked" in msg and "method='riccati'" in msg
     assert isinstance(exc.value, InvalidArgumentError)  # the CLI's one line, exit 2
@@ -319,4 +319,16 @@ def test_verify_observer_gain_at_n_100_is_refused_by_its_memory_estimate(no_cvxp
     msg = str(exc.value)
     assert msg.startswith("observer-gain verification SDP too large: n = 100 states, 2 outputs give "), msg
     assert "semidefinite cones of sizes 100, 103, 102, 200, 206, 204" in msg and "hinf_norm" in msg
+    assert not no_cvxpy
+
+
+def test_observer_gain_sdp_above_max_lmi_size_names_the_riccati_path(no_cvxpy: list[str]) -> None:
+    from nlobs.synthesis.observer_gain import design_observer_gain
+    from nlobs.synthesis.regions import HalfPlane
+
+    n = 100
+    with pytest.raises(InvalidArgumentError) as exc:
+        design_observer_gain(-np.eye(n), np.eye(20, n), np.eye(n, 10), gamma=40.0, gamma_n=40.0, region=HalfPlane(0.1))
+    msg = _refusal(exc, "LMI problem")
+    assert "the Riccati path (method='riccati'" in msg
     assert not no_cvxpy

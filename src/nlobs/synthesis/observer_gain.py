@@ -225,8 +225,11 @@ def _check_size(d: _Data, *, with_K: bool = False) -> None:
     if with_K:
         nvar = d.n * (d.n + 1) // 2
         blocks = blocks[:-2] if d.gain_bound is not None else blocks
-    require_lmi_size("LMI problem", f"n = {d.n} states", nvar, blocks,
-                     "about n = 50 states is the most; reduce the model (e.g. design per decoupled axis)")
+    advice = ("about n = 50 states is the most; reduce the model (e.g. verify per decoupled axis)" if with_K else
+              "about n = 50 states is the most on the SDP path; the Riccati path (method='riccati': objective "
+              "'central' with gamma and gamma_n, no region, no gain bound) has no such limit, or reduce the model "
+              "(e.g. design per decoupled axis)")
+    require_lmi_size("LMI problem", f"n = {d.n} states", nvar, blocks, advice)
 
 
 #: Largest estimated peak memory (bytes) of the interior-point solve of :func:`design_observer_gain`'s
@@ -957,8 +960,8 @@ def design_observer_gain(
                 f"The exact LMIs (an SDP) may still hold, but that SDP is too large here ({est.describe()}; the "
                 f"limit is {est.limit_bytes / 2**30:.2g} GiB): raise γ or γn, or reduce the model.")
         why_sdp = f"the Riccati path gave no verified gain ({out})"
-    _require_sdp_fits(d, obj, why_sdp or "method='sdp' was asked")
     _check_size(d)
+    _require_sdp_fits(d, obj, why_sdp or "method='sdp' was asked")
     _require_detectable(d.A, d.C)
 
     sol = _solve_once(d, obj, g, gn, eps, slv, solver_options)
