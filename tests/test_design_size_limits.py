@@ -227,3 +227,108 @@ def test_linear_model_file_without_outputs_says_so_with_the_line(tmp_path: Path)
     with pytest.raises(ModelFileError) as exc:
         load_model(p)
     assert exc.value.line == 4 and "a model needs at least one output" in str(exc.value)
+
+
+# --------------------------------------------------------------------------- observer gain (design): the SDP estimate
+
+
+def _og_data(n: int, p: int, m: int, **kw: Any) -> Any:
+    from nlobs.synthesis import observer_gain as og
+
+    rng = np.random.default_rng(n)
+    return og._validate_data(rng.standard_normal((n, n)), rng.standard_normal((p, n)), rng.standard_normal((n, m)),
+                             kw.get("N"), kw.get("need_noise", True), kw.get("region"), kw.get("gain_bound"))
+
+
+@pytest.mark.parametrize("objective, region, gain_bound", [
+    ("central", None, None), ("central", "half", None), ("central", None, 50.0), ("min_gamma_n", None, None)])
+def test_observer_gain_sdp_estimate_matches_the_compiled_problem(objective: str, region: str | None,
+                                                                  gain_bound: float | None) -> None:
+    from nlobs.synthesis import observer_gain as og
+    from nlobs.synthesis.certificate import Objective
+    from nlobs.synthesis.regions import HalfPlane
+
+    d = _og_data(5, 2, 1, region=HalfPlane(0.1) if region else None, gain_bound=gain_bound)
+    obj = Objective(objective)
+    est = og.sdp_estimate(d.A, d.C, d.Bd, gamma_n=None if obj is Objective.MIN_GAMMA_N else 10.0, region=d.regions,
+                          gain_bound=d.gain_bound, objective=obj)
+    g2 = cp.Variable(nonneg=True) if obj is Objective.MIN_GAMMA_N else None
+    f = og._formulate(d, margin=1e-6, gamma2=100.0, gamma_n2=g2 if g2 is not None else 100.0, with15=True,
+                      regions=d.regions, gain_bound=d.gain_bound)
+    prob = cp.Problem(og._central_objective(f) if g2 is None else cp.Minimize(g2), f.constraints)
+    data, _, _ = prob.get_problem_data(solver="CLARABEL")
+    dims = data["dims"]
+    assert sorted(dims.psd) == sorted(est.cones)
+    assert data["A"].shape[0] == est.rows + dims.nonneg  # the nonnegativity of γn², μ is not counted in rows
+    assert est.kkt_dense == sum((k * (k + 1) // 2) ** 2 for k in est.cones)
+
+
+def test_observer_gain_sdp_at_n_60_with_a_region_is_refused_by_its_memory_estimate(no_cvxpy: list[str]) -> None:
+    from nlobs.errors import ProblemTooLarge
+    from nlobs.synthesis.observer_gain import MAX_SDP_MEMORY, design_observer_gain
+    from nlobs.synthesis.regions import HalfPlane
+
+    n = 60  # within MAX_LMI_SIZE (size 12418), but the log-det cones need ≈ 10 GB
+    A = -np.eye(n) + np.eye(n, k=1)
+    C = np.eye(20, n)
+    with pytest.raises(ProblemTooLarge) as exc:
+        design_observer_gain(A, C, np.eye(n, 10), gamma=40.0, gamma_n=40.0, region=HalfPlane(0.1))
+    msg = str(exc.value)
+    assert msg.startswith("observer-gain SDP too large: n = 60 states, 20 outputs give ") and "\n" not in msg
+    assert "semidefinite cones of sizes 60, 70, 80, 60, 120, 140, 160, 120" in msg
+    assert f"the limit is {MAX_SDP_MEMORY / 2**30:.2g} GiB" in msg and "GiB and ~" in msg
+    assert "because a pole region is asked" in msg and "method='riccati'" in msg
+    assert isinstance(exc.value, InvalidArgumentError)  # the CLI's one line, exit 2
+    assert not no_cvxpy
+
+
+def test_observer_gain_central_design_takes_the_riccati_path_without_cvxpy(no_cvxpy: list[str]) -> None:
+    from nlobs.synthesis import SynthesisMethod
+    from nlobs.synthesis.observer_gain import design_observer_gain
+
+    n = 30  # the central design with γ, γn needs no SDP: nothing is built (n = 100 runs in the benchmark)
+    rng = np.random.default_rng(0)
+    A = rng.standard_normal((n, n)) / np.sqrt(n)
+    C = 2.0 * rng.standard_normal((6, n)) / np.sqrt(n)
+    cert = design_observer_gain(A, C, rng.standard_normal((n, 3)) / np.sqrt(3), gamma=40.0, gamma_n=40.0)
+    assert cert.verified and cert.method is SynthesisMethod.RICCATI
+    assert not no_cvxpy
+
+
+def test_observer_gain_riccati_failure_with_an_sdp_too_large_is_one_typed_error(no_cvxpy: list[str]) -> None:
+    from nlobs.errors import DesignInfeasible
+    from nlobs.synthesis.observer_gain import design_observer_gain
+
+    n = 70  # unstable, one output with γn tiny: no stabilising solution, and the SDP does not fit
+    A = 0.5 * np.eye(n) + np.eye(n, k=1)
+    C = np.eye(1, n)
+    with pytest.raises(DesignInfeasible) as exc:
+        design_observer_gain(A, C, np.eye(n, 1), gamma=1.0, gamma_n=0.01)
+    msg = str(exc.value)
+    assert exc.value.constraint == "Riccati equation" and "that SDP is too large here" in msg and "GiB" in msg
+    assert not no_cvxpy
+
+
+def test_verify_observer_gain_at_n_100_is_refused_by_its_memory_estimate(no_cvxpy: list[str]) -> None:
+    from nlobs.errors import ProblemTooLarge
+    from nlobs.synthesis.observer_gain import verify_observer_gain
+
+    n = 100  # within MAX_LMI_SIZE (size 20709), but the log-det cones of the analytic centre need ≈ 34 GiB
+    with pytest.raises(ProblemTooLarge) as exc:
+        verify_observer_gain(-np.eye(n), np.eye(2, n), np.eye(n, 3), np.zeros((n, 2)), gamma=10.0, gamma_n=2.0)
+    msg = str(exc.value)
+    assert msg.startswith("observer-gain verification SDP too large: n = 100 states, 2 outputs give "), msg
+    assert "semidefinite cones of sizes 100, 103, 102, 200, 206, 204" in msg and "hinf_norm" in msg
+    assert not no_cvxpy
+
+
+def test_observer_gain_sdp_above_max_lmi_size_names_the_riccati_path(no_cvxpy: list[str]) -> None:
+    from nlobs.synthesis.observer_gain import design_observer_gain
+    from nlobs.synthesis.regions import HalfPlane
+
+    n = 100
+    with pytest.raises(InvalidArgumentError) as exc:
+        design_observer_gain(-np.eye(n), np.eye(20, n), np.eye(n, 10), gamma=40.0, gamma_n=40.0, region=HalfPlane(0.1))
+    msg = _refusal(exc, "LMI problem")
+    assert "the Riccati path (method='riccati'" in msg
+    assert not no_cvxpy

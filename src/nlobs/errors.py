@@ -180,3 +180,13 @@ class ExpressionTooLarge(NlobsError, ValueError):
     construction would run for minutes). The message names the quantity and the limit
     (:data:`nlobs.geometry.lie.MAX_DERIVATIVE_NODES`).
     """
+
+
+class ProblemTooLarge(InvalidArgumentError):
+    """A numerical problem (an SDP) would exceed nlobs's memory budget; refused *before* it is built.
+
+    The message names the problem's size (variables, semidefinite cones, the estimated memory of the
+    interior-point solver), the limit, and what to change (e.g. drop a pole region or gain bound so
+    that the Riccati path applies, or reduce the model). A subclass of
+    :class:`InvalidArgumentError`, so the command line reports it in one line with exit 2.
+    """

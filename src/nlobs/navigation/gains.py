@@ -192,6 +192,7 @@ def design_gains(
     margin: float = 1e-6,
     per_axis: bool = True,
     solver_options: Mapping[str, Any] | None = None,
+    method: str = "sdp",
 ) -> tuple[Array, ObserverGainCertificate]:
     """Design a certified gain ``K`` of (24) with :func:`nlobs.synthesis.design_observer_gain`.
 
@@ -215,6 +216,11 @@ def design_gains(
         Design the 3-state axis problem and return ``kron(K3, I3)`` (default), or
         the 9-state problem directly (same answer, slower; ``N`` then is
         ``kron(N, I3)``).
+    method : str
+        ``"sdp"`` (default: the analytic centre of (14)–(15), the gain compared with the paper's in
+        ``nlobs reproduce grip2013``), ``"riccati"`` or ``"auto"`` (see
+        :func:`~nlobs.synthesis.design_observer_gain`; the Riccati gain at ``γn = 1.0019`` is a
+        different, smaller point of the feasible set).
 
     Returns
     -------
@@ -239,7 +245,8 @@ def design_gains(
     p = 1 if position_only else 2
     N3 = None if N is None else as_matrix("N", N, (p, None))
     kw: dict[str, Any] = {"gamma": g, "gamma_n": gamma_n, "region": region, "gain_bound": gain_bound,
-                              "objective": obj, "solver": solver, "margin": margin, "solver_options": solver_options}
+                              "objective": obj, "solver": solver, "margin": margin, "solver_options": solver_options,
+                          "method": method}
     if per_axis:
         A, Bd, C = axis_system(position_only)
         cert = design_observer_gain(A, C, Bd, N=N3, **kw)

@@ -56,7 +56,7 @@ def _assumption4(position_only: bool) -> tuple[bool, str]:
 def reproduce() -> list[ReproRow]:
     """Rows for Grip, Saberi & Johansen: Sec. 5 gains and norms, Lemma 2 / Sec. 5.2 structure, Example 1, Theorem 2."""
     rows: list[ReproRow] = []
-    K9, cert = design_gains(PAPER_GAMMA_HINF, DEFAULT_GAMMA_N)
+    K9, cert = design_gains(PAPER_GAMMA_HINF, DEFAULT_GAMMA_N, method="sdp")  # the SDP's analytic centre, as printed
     K3 = K9[0::3, 0::3]  # one axis: rows p_x, v_x, z_x; columns p_x, v_x measured
     rows.append(ReproRow("γ in LMI (14) (Sec. 5.2)", PAPER_GAMMA_HINF, cert.gamma, "nlobs designs with the paper's γ"))
     for name, i, j in _BLOCKS:
@@ -79,7 +79,8 @@ def reproduce() -> list[ReproRow]:
                          f"certified: ‖H‖∞ < {PAPER_GAMMA_HINF:g}, ‖G‖∞ ≤ {DEFAULT_GAMMA_N}"))
     rows.append(ReproRow("closed-loop poles per axis, nlobs's gain", None, _poles(cert.eigenvalues), ""))
     try:
-        design_observer_gain(A, C, Bd, gamma=PAPER_GAMMA_HINF, N=np.eye(2), objective=Objective.MIN_GAMMA_N)
+        design_observer_gain(A, C, Bd, gamma=PAPER_GAMMA_HINF, N=np.eye(2), objective=Objective.MIN_GAMMA_N,
+                             method="sdp")
         inf_note, inf_value = "minimisation returned (unexpected)", "attained"
     except DesignUnbounded as exc:
         inf_value = "1 (not attained)"
@@ -89,7 +90,7 @@ def reproduce() -> list[ReproRow]:
     rows.append(ReproRow("Σ2 satisfies Assumption 4 and is minimum phase (Lemma 2)", True, ok, ev))
     ok_p, ev_p = _assumption4(True)
     rows.append(ReproRow("position-only C = [I 0]: Assumption 4, minimum phase (Sec. 5.2)", True, ok_p, ev_p))
-    K9p, cert_p = design_gains(PAPER_GAMMA_HINF, DEFAULT_GAMMA_N_POSITION_ONLY, position_only=True)
+    K9p, cert_p = design_gains(PAPER_GAMMA_HINF, DEFAULT_GAMMA_N_POSITION_ONLY, position_only=True, method="sdp")
     rows.append(ReproRow("position-only gain per axis [K_p, K_v, K_z] (Sec. 5.2)", None,
                          [_round(float(v)) for v in K9p[0::3, 0]],
                          f"not printed in the paper; nlobs central design at γ = 50, γn = "
@@ -114,7 +115,7 @@ def reproduce() -> list[ReproRow]:
     Ae, Bde, Ce = (np.block([[Aw, Bw], [np.zeros((1, 3))]]), np.array([[0.0], [0.0], [1.0]]),
                    np.hstack([Cw, np.zeros((1, 1))]))
     try:
-        design_observer_gain(Ae, Ce, Bde, objective=Objective.MIN_GAMMA)
+        design_observer_gain(Ae, Ce, Bde, objective=Objective.MIN_GAMMA, method="sdp")
         g_note, g_value = "minimisation returned (unexpected)", "attained"
     except DesignUnbounded as exc:
         g_value = "0 (infimum, not attained)"

@@ -33,6 +33,7 @@ from nlobs.synthesis.certificate import (
     CheckKind,
     Objective,
     ObserverGainCertificate,
+    SynthesisMethod,
 )
 from nlobs.synthesis.discrete_lipschitz import (
     DiscreteLipschitzCertificate,
@@ -113,6 +114,7 @@ __all__ = [
     "SolveResult",
     "SolveStatus",
     "Solver",
+    "SynthesisMethod",
     "affine_abstraction",
     "brunovsky_triple",
     "companion_error_matrix",

@@ -55,6 +55,7 @@ def design_cascade_gain(
     solver: Solver | str = Solver.CLARABEL,
     margin: float = 1e-6,
     check_assumptions: bool = True,
+    method: str = "auto",
 ) -> ObserverGainCertificate:
     r"""Design ``K = [K_w; K_z]`` for the extended system (8c) from LMIs (14)–(15), certified.
 
@@ -66,8 +67,9 @@ def design_cascade_gain(
     sigma2 : LinearSubsystem or tuple (A, B_z, C[, D_z])
     gamma : float
         ``‖H‖∞ < γ`` (Theorem 1; see :func:`~nlobs.synthesis.cascade_bounds.theorem1_gamma_bound`).
-    N, gamma_n, region, gain_bound, objective, solver, margin
-        As in :func:`nlobs.synthesis.design_observer_gain`. The default
+    N, gamma_n, region, gain_bound, objective, solver, margin, method
+        As in :func:`nlobs.synthesis.design_observer_gain` (``method="auto"``: the Riccati path for
+        the central design with ``gamma_n`` and neither region nor gain bound, else the SDP). The default
         ``Objective.CENTRAL`` needs ``gamma_n`` or ``gain_bound`` (a well-posed
         problem, see ``docs/synthesis.md``).
     check_assumptions : bool
@@ -92,7 +94,7 @@ def design_cascade_gain(
     ext = extended_system(s2.A, s2.B_z, s2.C, s2.D_z)
     return design_observer_gain(
         ext.A, ext.C, ext.Bd, gamma=gamma, N=N, gamma_n=gamma_n, region=region, gain_bound=gain_bound,
-        objective=objective, solver=solver, margin=margin,
+        objective=objective, solver=solver, margin=margin, method=method,
     )
 
 

@@ -48,6 +48,7 @@ __all__ = [
     "Check",
     "Objective",
     "ObserverGainCertificate",
+    "SynthesisMethod",
     "failed_of",
     "verified_of",
 ]
@@ -151,6 +152,18 @@ class Objective(Enum):
     """Minimise ``γ²`` subject to (14) (and the other constraints) — same detection."""
 
 
+class SynthesisMethod(Enum):
+    """How :func:`~nlobs.synthesis.design_observer_gain` computes the gain (``docs/synthesis.md``, "Riccati path")."""
+
+    AUTO = "auto"
+    """Choose: :attr:`RICCATI` when the problem has a Riccati form (objective ``CENTRAL`` with ``γ`` and
+    ``γn``, no pole region, no gain bound, ``N Nᵀ ≻ 0``), else :attr:`SDP`. Never the method of a certificate."""
+    RICCATI = "riccati"
+    """The stabilising solution of the H∞ filter Riccati equation (:mod:`nlobs.synthesis.riccati`)."""
+    SDP = "sdp"
+    """The LMIs solved by an interior-point SDP solver (Clarabel or SCS)."""
+
+
 class CertificateStatus(Enum):
     """Outcome of the independent re-verification."""
 
@@ -191,13 +204,17 @@ class ObserverGainCertificate(CertificateMixin):
     objective : Objective or None
         The design objective (``None`` for a verified given gain).
     solver : Solver or None
-        The solver that produced ``P`` (and ``K``).
+        The SDP solver that produced ``P`` (and ``K``); ``None`` on the Riccati path.
     solver_status : str
         The solver's own status string (not trusted on its own).
     margin : float
         Strictness margin ``ε`` used in the LMIs (``F ⪯ −ε I``, ``P ⪰ ε I``).
     seconds : float
         Wall-clock time of the whole design/verification.
+    method : SynthesisMethod
+        The path that produced ``K`` and ``P``: :attr:`~SynthesisMethod.SDP` (the LMIs solved by
+        ``solver``) or :attr:`~SynthesisMethod.RICCATI` (the H∞ filter Riccati equation). The checks are
+        the same either way.
     """
 
     gain: NDArray[np.float64]
@@ -213,6 +230,7 @@ class ObserverGainCertificate(CertificateMixin):
     solver_status: str
     margin: float
     seconds: float = 0.0
+    method: SynthesisMethod = SynthesisMethod.SDP
 
     @property
     def status(self) -> CertificateStatus:
@@ -250,7 +268,7 @@ class ObserverGainCertificate(CertificateMixin):
         """A multi-line human-readable report."""
         lines = [
             f"observer gain certificate: {self.status.value}",
-            f"  objective={self.objective.value if self.objective else 'given gain'}, "
+            f"  objective={self.objective.value if self.objective else 'given gain'}, method={self.method.value}, "
             f"solver={self.solver.value if self.solver else '-'} ({self.solver_status}), margin={self.margin:g}",
             f"  ‖K‖₂={self.gain_norm:.6g}, ‖H‖∞={self.hinf_H:.6g} (γ={self.gamma:g})"
             + (f", ‖G‖∞={self.hinf_G:.6g} (γn={self.gamma_n:g})" if self.hinf_G is not None else ""),
@@ -279,4 +297,5 @@ class ObserverGainCertificate(CertificateMixin):
             "solver_status": self.solver_status,
             "margin": self.margin,
             "seconds": self.seconds,
+            "method": self.method.value,
         }

@@ -51,6 +51,7 @@ from nlobs.errors import (
     DesignUnbounded,
     DimensionError,
     InvalidArgumentError,
+    ProblemTooLarge,
 )
 from nlobs.linear.assumption4 import ExtendedSystem, extended_system
 from nlobs.linear.norms import hinf_norm
@@ -61,6 +62,7 @@ from nlobs.synthesis.certificate import (
     CheckKind,
     Objective,
     ObserverGainCertificate,
+    SynthesisMethod,
 )
 from nlobs.synthesis.lmi import (
     MAX_LMI_SIZE,  # noqa: F401  (re-exported: observer_gain.MAX_LMI_SIZE)
@@ -76,10 +78,15 @@ from nlobs.synthesis.lmi import (
     symmetrise,
 )
 from nlobs.synthesis.regions import PoleRegion, as_regions
+from nlobs.synthesis.riccati import FilterRiccati, filter_riccati, riccati_delta, smallest_riccati_scale
 
 __all__ = [
     "ExtendedSystem",
     "GainBound",
+    "MAX_SDP_MEMORY",
+    "SdpEstimate",
+    "SynthesisMethod",
+    "sdp_estimate",
     "extended_system",
     "design_observer_gain",
     "verify_observer_gain",
@@ -218,8 +225,128 @@ def _check_size(d: _Data, *, with_K: bool = False) -> None:
     if with_K:
         nvar = d.n * (d.n + 1) // 2
         blocks = blocks[:-2] if d.gain_bound is not None else blocks
-    require_lmi_size("LMI problem", f"n = {d.n} states", nvar, blocks,
-                     "about n = 50 states is the most; reduce the model (e.g. design per decoupled axis)")
+    advice = ("about n = 50 states is the most; reduce the model (e.g. verify per decoupled axis)" if with_K else
+              "about n = 50 states is the most on the SDP path; the Riccati path (method='riccati': objective "
+              "'central' with gamma and gamma_n, no region, no gain bound) has no such limit, or reduce the model "
+              "(e.g. design per decoupled axis)")
+    require_lmi_size("LMI problem", f"n = {d.n} states", nvar, blocks, advice)
+
+
+#: Largest estimated peak memory (bytes) of the interior-point solve of :func:`design_observer_gain`'s
+#: SDP (:func:`sdp_estimate`); a larger problem is refused with :class:`~nlobs.errors.ProblemTooLarge`
+#: before CVXPY builds it.
+MAX_SDP_MEMORY = 4 * 2**30
+
+# Calibration of the memory model (Clarabel through CVXPY, measured as the peak resident set of a
+# process running one design): a process baseline plus a factor times the dense PSD-cone blocks of
+# the KKT system, 8 bytes · Σ (k(k+1)/2)² over the cones. Least-squares fit on the central design of
+# dense random systems (p = n/5 outputs, n/10 disturbances) at n = 16, 20, 25, 30: 206, 270, 408,
+# 580 MB measured, 210, 258, 363, 567 MB estimated (``docs/synthesis.md``, "Problem size").
+_MEM_BASE = 190e6
+_MEM_FACTOR = 3.3
+# A rough time model for the message only (never a gate: the machine's speed varies): a power law in
+# f = Σ (k(k+1)/2)³ over the dense cone blocks, seconds ≈ 266 (f / 3.57e10)^0.85, from the same runs
+# on a shared 2-core machine (11, 30, 114, 266 s measured at n = 16 … 30).
+_SECONDS_AT_N30 = 266.0
+_FLOPS_AT_N30 = 3.57e10
+_TIME_EXPONENT = 0.85
+
+
+@dataclass(frozen=True)
+class SdpEstimate:
+    """The size of the SDP :func:`design_observer_gain` would hand to the interior-point solver.
+
+    Counted as CVXPY compiles it: each ``log det`` of a ``k × k`` block (objective ``CENTRAL``) adds a
+    semidefinite cone of size ``2k``, ``k(k+1)/2 + k`` variables and ``k`` exponential cones.
+
+    Attributes
+    ----------
+    variables : int
+        Scalar variables of the compiled problem.
+    cones : tuple of int
+        Sizes of its semidefinite cones.
+    rows : int
+        Rows of its constraint matrix (``Σ k(k+1)/2`` over the cones, 3 per exponential cone).
+    kkt_dense : int
+        ``Σ (k(k+1)/2)²``: the entries of the dense cone blocks of the solver's KKT matrix.
+    memory_bytes : float
+        Estimated peak memory of the process, ``base + factor · 8 · kkt_dense`` (calibrated).
+    seconds : float
+        A rough time estimate (machine-dependent; reported, never used to refuse).
+    limit_bytes : float
+        :data:`MAX_SDP_MEMORY` at the time of the estimate.
+    """
+
+    variables: int
+    cones: tuple[int, ...]
+    rows: int
+    kkt_dense: int
+    memory_bytes: float
+    seconds: float
+    limit_bytes: float
+
+    @property
+    def fits(self) -> bool:
+        """Whether the estimated memory is within the limit."""
+        return self.memory_bytes <= self.limit_bytes
+
+    def describe(self) -> str:
+        """One clause: variables, cones, rows, estimated memory and time."""
+        return (f"{self.variables} variables, semidefinite cones of sizes {', '.join(map(str, self.cones))}, "
+                f"{self.rows} constraint rows; estimated {self.memory_bytes / 2**30:.2g} GiB and "
+                f"~{self.seconds:.2g} s for the interior-point solver")
+
+
+def sdp_estimate(A: ArrayLike, C: ArrayLike, Bd: ArrayLike, *, N: ArrayLike | None = None,
+                 gamma_n: float | None = None, region: RegionArg = None, gain_bound: GainBound | float | None = None,
+                 objective: Objective | str = Objective.CENTRAL) -> SdpEstimate:
+    """Estimate the SDP :func:`design_observer_gain` would solve with these arguments (nothing is built).
+
+    ``gamma_n`` (or ``N``, or objective ``MIN_GAMMA_N``) adds LMI (15); the other arguments as in
+    :func:`design_observer_gain`. The estimate's ``fits`` is what ``method="sdp"`` checks first.
+    """
+    obj = _as_objective(objective)
+    need_noise = gamma_n is not None or N is not None or obj is Objective.MIN_GAMMA_N
+    return _sdp_estimate(_validate_data(A, C, Bd, N, need_noise, region, gain_bound), obj)
+
+
+def _sdp_estimate(d: _Data, objective: Objective, *, with_K: bool = False) -> SdpEstimate:
+    """:func:`sdp_estimate` for validated data; ``with_K``: the SDP of :func:`verify_observer_gain` (``P`` only)."""
+    nvar, blocks = lmi_size(d)
+    if with_K:  # K given: P is the only matrix variable, no gain-bound blocks
+        nvar = d.n * (d.n + 1) // 2
+        blocks = blocks[:-2] if d.gain_bound is not None else blocks
+        d = _Data(d.A, d.C, d.Bd, d.N, d.regions, None)
+    cones = list(blocks)
+    n_exp = 0
+    if objective is Objective.CENTRAL:
+        n, p = d.n, d.C.shape[0]
+        logdet = [n] + [int(b.shape[0]) for _, b in _blocks(d, np.zeros((n, n)), np.zeros((n, p)), 1.0, 1.0)]
+        if d.gain_bound is not None:
+            logdet.append(n + p)
+        for k in logdet:
+            cones.append(2 * k)
+            nvar += k * (k + 1) // 2 + k
+            n_exp += k
+    svec = [k * (k + 1) // 2 for k in cones]
+    dense = sum(v * v for v in svec)
+    mem = _MEM_BASE + _MEM_FACTOR * 8.0 * dense
+    secs = _SECONDS_AT_N30 * (float(sum(v**3 for v in svec)) / _FLOPS_AT_N30) ** _TIME_EXPONENT
+    return SdpEstimate(int(nvar), tuple(cones), int(sum(svec) + 3 * n_exp), int(dense), float(mem), secs,
+                       float(MAX_SDP_MEMORY))
+
+
+def _require_sdp_fits(d: _Data, objective: Objective, why_sdp: str) -> SdpEstimate:
+    """Refuse (:class:`ProblemTooLarge`) an SDP whose estimated memory exceeds :data:`MAX_SDP_MEMORY`."""
+    est = _sdp_estimate(d, objective)
+    if not est.fits:
+        raise ProblemTooLarge(
+            f"observer-gain SDP too large: n = {d.n} states, {d.C.shape[0]} outputs give {est.describe()}; "
+            f"the limit is {est.limit_bytes / 2**30:.2g} GiB (nlobs.synthesis.observer_gain.MAX_SDP_MEMORY). "
+            f"The SDP is used because {why_sdp}; the Riccati path (method='riccati', objective 'central' with "
+            "gamma and gamma_n, no region, no gain bound) needs no SDP, or reduce the model "
+            "(e.g. design per decoupled axis)")
+    return est
 
 
 def _blocks(d: _Data, P: Any, X: Any, gamma2: Any, gamma_n2: Any, *, with14: bool = True,
@@ -634,6 +761,78 @@ def _check_attained(d: _Data, objective: Objective, gamma: float | None, gamma_n
         )
 
 
+def _riccati_inapplicable(d: _Data, objective: Objective, gamma_n: float | None) -> str | None:
+    """Why the problem has no Riccati form (``None`` when it has one): the reason the SDP is needed."""
+    if objective is not Objective.CENTRAL:
+        return f"objective {objective.value!r} is a minimisation over the LMIs"
+    if gamma_n is None or d.N is None:
+        return "gamma_n is not given (the Riccati form bounds ‖H‖∞ and ‖G‖∞ together)"
+    if d.regions:
+        return "a pole region is asked (Chilali–Gahinet LMIs)"
+    if d.gain_bound is not None:
+        return "a gain bound is asked"
+    sv = np.linalg.svd(d.N, compute_uv=False)
+    if sv.size == 0 or sv[-1] <= 1e-8 * max(sv[0], 1e-300) or d.N.shape[1] < d.N.shape[0]:
+        return "N Nᵀ is singular (every measurement needs its own noise for the Riccati form)"
+    return None
+
+
+_RiccatiOut = tuple[FilterRiccati, tuple[list[Check], float, float | None, NDArray[np.complex128]]]
+
+
+#: Output weights ``1 + σ`` tried in turn on the Riccati path (the first whose LMI blocks verify is kept).
+_RICCATI_SIGMAS = (1e-6, 1e-5, 1e-4, 1e-3, 1e-2, 1e-1)
+
+
+def _blocks_verify(d: _Data, K: NDArray[np.float64], P: NDArray[np.float64], gamma: float, gamma_n: float) -> bool:
+    """Whether the LMI blocks pass the certificate's own test (cheap: no H∞ norm)."""
+    for _, blk in _blocks(d, P, P @ K, gamma**2, gamma_n**2):
+        if not max_eig(blk) < -100 * _EPS * max(1.0, float(np.linalg.norm(blk, 2))):
+            return False
+    return True
+
+
+def _riccati_design(d: _Data, gamma: float, gamma_n: float, margin: float) -> _RiccatiOut | str:
+    """The gain of the H∞ filter Riccati equation with its certificate checks, or why no solution exists.
+
+    The output weight ``1 + σ`` (the strictness) starts at ``σ = 10⁻⁶`` and grows tenfold while the
+    LMI blocks lose their sign to rounding (:data:`_RICCATI_SIGMAS`); ``δ`` is
+    :func:`~nlobs.synthesis.riccati.riccati_delta`. The first solution whose blocks verify is certified
+    in full; if none does, the last solution's checks are returned (they fail).
+    """
+    assert d.N is not None
+    W = d.N @ d.N.T
+    W = 0.5 * (W + W.T)
+    delta = riccati_delta(d.Bd, gamma, margin)
+    last: FilterRiccati | None = None
+    for sigma in _RICCATI_SIGMAS:
+        sol = filter_riccati(d.A, d.C, d.Bd, W, gamma, gamma_n, delta, sigma)
+        if isinstance(sol, str):
+            if last is None:
+                return sol
+            break
+        last = sol
+        if _blocks_verify(d, sol.K, sol.P, gamma, gamma_n):
+            break
+    assert last is not None
+    return last, _certify(d, last.K, last.P, gamma, gamma_n)
+
+
+def _riccati_infeasible(d: _Data, gamma: float, gamma_n: float, margin: float, reason: str, tail: str) -> NoReturn:
+    assert d.N is not None
+    W = d.N @ d.N.T
+    tau = smallest_riccati_scale(d.A, d.C, d.Bd, 0.5 * (W + W.T), gamma, gamma_n, margin)
+    shown = (f"it holds from about τ = {tau:.4g} (γ = {tau * gamma:.6g}, γn = {tau * gamma_n:.6g})" if tau is not None
+             else "no scaling τ ≤ 10⁶ of (γ, γn) makes it solvable")
+    raise DesignInfeasible(
+        f"the H∞ filter Riccati equation (the sufficient form of LMIs (14), (15): ‖[H/γ, G/γn]‖∞ < 1) has no "
+        f"stabilising solution at γ = {gamma:g}, γn = {gamma_n:g}: {reason}; scaling both bounds by τ, {shown}. "
+        f"{tail}",
+        constraint="Riccati equation",
+        violation=(tau - 1.0) if tau is not None else None,
+    )
+
+
 def design_observer_gain(
     A: ArrayLike,
     C: ArrayLike,
@@ -648,6 +847,7 @@ def design_observer_gain(
     solver: Solver | str = Solver.CLARABEL,
     margin: float = 1e-6,
     solver_options: Mapping[str, Any] | None = None,
+    method: SynthesisMethod | str = SynthesisMethod.AUTO,
 ) -> ObserverGainCertificate:
     r"""Design an observer gain ``K`` from LMIs (14), (15) of Grip, Saberi & Johansen and certify it.
 
@@ -681,6 +881,13 @@ def design_observer_gain(
         Strictness margin ``ε``: ``F ⪯ −ε I`` for each block, ``P ⪰ ε I``.
     solver_options : mapping, optional
         Extra solver options.
+    method : SynthesisMethod or str
+        ``"auto"`` (default): the Riccati path when the problem has a Riccati form — objective
+        ``CENTRAL`` with ``gamma`` and ``gamma_n``, no ``region``, no ``gain_bound``, ``N Nᵀ ≻ 0`` —
+        else the SDP; when the Riccati equation has no solution (it is only sufficient for the LMIs) the
+        SDP is tried if its estimated size fits. ``"riccati"`` forces the H∞ filter Riccati equation
+        (:mod:`nlobs.synthesis.riccati`; ``K = γn² Y Cᵀ (N Nᵀ)⁻¹``, ``P = Y⁻¹``), ``"sdp"`` the LMIs.
+        The certificate's ``method`` says which path produced it; its checks are the same.
 
     Returns
     -------
@@ -691,7 +898,9 @@ def design_observer_gain(
     ------
     DesignInfeasible
         ``(A, C)`` not detectable (``constraint='detectability'``), or the first
-        constraint that makes the problem infeasible — ``'LMI (14)'`` (message
+        constraint that makes the problem infeasible — ``'Riccati equation'`` (Riccati path: no
+        stabilising solution; the message gives the scaling of ``(γ, γn)`` from which one exists),
+        ``'LMI (14)'`` (message
         gives the smallest achievable ``γ``), ``'LMI (15)'`` (smallest ``γn``), a
         region (minimal slack of its block) or ``'gain bound'`` (smallest ``κ``,
         a bound for which the design was solved and re-verified, or "unknown" with
@@ -701,6 +910,9 @@ def design_observer_gain(
         shrinks 100×): the infimum is not attained.
     CertificateError
         The solver's answer failed the independent re-verification.
+    ProblemTooLarge
+        An SDP whose estimated solver memory (:func:`sdp_estimate`) exceeds :data:`MAX_SDP_MEMORY`,
+        refused before it is built (the message gives the size, the limit and what to change).
     DimensionError, NonFiniteError, InvalidArgumentError
         Bad input; or a problem larger than :data:`MAX_LMI_SIZE` (refused before it is built,
         the message gives the variables, the block sizes and the bound).
@@ -726,7 +938,30 @@ def design_observer_gain(
             "gain_bound=GainBound(κ); with LMI (14) alone the analytic centre does not exist (gains can grow "
             "without bound)"
         )
+    meth = as_enum("method", SynthesisMethod, method)
+    why_sdp = _riccati_inapplicable(d, obj, gn)
+    if meth is SynthesisMethod.RICCATI and why_sdp is not None:
+        raise InvalidArgumentError(f"method 'riccati': the problem has no Riccati form: {why_sdp}; use "
+                                   "method='sdp' or 'auto'")
+    if meth is not SynthesisMethod.SDP and why_sdp is None:
+        assert g is not None and gn is not None
+        _require_detectable(d.A, d.C)
+        out = _riccati_design(d, g, gn, eps)
+        if not isinstance(out, str):
+            if meth is SynthesisMethod.RICCATI or all(c.passed for c in out[1][0]) or not _sdp_estimate(d, obj).fits:
+                return _riccati_certificate(d, out, g, gn, obj, eps, t0)  # raises CertificateError if unverified
+            out = f"its answer failed the re-verification: {_failure_text(out[1][0])}"
+        if meth is SynthesisMethod.RICCATI:
+            _riccati_infeasible(d, g, gn, eps, out, "The exact LMIs may still hold: try method='sdp'.")
+        est = _sdp_estimate(d, obj)
+        if not est.fits:
+            _riccati_infeasible(
+                d, g, gn, eps, out,
+                f"The exact LMIs (an SDP) may still hold, but that SDP is too large here ({est.describe()}; the "
+                f"limit is {est.limit_bytes / 2**30:.2g} GiB): raise γ or γn, or reduce the model.")
+        why_sdp = f"the Riccati path gave no verified gain ({out})"
     _check_size(d)
+    _require_sdp_fits(d, obj, why_sdp or "method='sdp' was asked")
     _require_detectable(d.A, d.C)
 
     sol = _solve_once(d, obj, g, gn, eps, slv, solver_options)
@@ -751,6 +986,23 @@ def design_observer_gain(
             f"the {slv.value} answer ('{sol.result.raw_status}') failed the independent re-verification: "
             f"{_failure_text(checks)}"
         )
+    return cert
+
+
+def _riccati_certificate(d: _Data, out: _RiccatiOut, gamma: float, gamma_n: float, obj: Objective, eps: float,
+                         t0: float) -> ObserverGainCertificate:
+    sol, (checks, hH, hG, eigs) = out
+    status = (f"riccati: stabilising solution (σ = {sol.sigma:.3g}, δ = {sol.delta:.3g}, relative residual "
+              f"{sol.residual:.2g}, "
+              f"Hamiltonian axis gap {sol.axis_gap:.2g})")
+    cert = ObserverGainCertificate(
+        gain=readonly(sol.K, None), P=readonly(sol.P, None), gamma=gamma, gamma_n=gamma_n, hinf_H=hH, hinf_G=hG,
+        eigenvalues=readonly(eigs, None), checks=tuple(checks), objective=obj, solver=None, solver_status=status,
+        margin=eps, seconds=time.perf_counter() - t0, method=SynthesisMethod.RICCATI,
+    )
+    if not cert.verified:
+        raise CertificateError(
+            f"the Riccati answer ({status}) failed the independent re-verification: {_failure_text(checks)}")
     return cert
 
 
@@ -791,6 +1043,11 @@ def verify_observer_gain(
         with ``False`` return a certificate with status
         :attr:`~CertificateStatus.FAILED` and the failed checks.
 
+    Raises
+    ------
+    ProblemTooLarge
+        The SDP in ``P`` would exceed :data:`MAX_SDP_MEMORY` (estimated before it is built).
+
     Returns
     -------
     ObserverGainCertificate
@@ -814,6 +1071,13 @@ def verify_observer_gain(
     raw = "not run (A − K C is not Hurwitz: no P ≻ 0 can exist)"
     extra: list[Check] = []
     if eig_max < 0:
+        est = _sdp_estimate(d, Objective.CENTRAL, with_K=True)
+        if not est.fits:
+            raise ProblemTooLarge(
+                f"observer-gain verification SDP too large: n = {d.n} states, {d.C.shape[0]} outputs give "
+                f"{est.describe()}; the limit is {est.limit_bytes / 2**30:.2g} GiB "
+                "(nlobs.synthesis.observer_gain.MAX_SDP_MEMORY). The norms alone need no SDP "
+                "(nlobs.linear.hinf_norm of A − K C); or reduce the model (e.g. verify per decoupled axis)")
         gn2 = gn**2 if gn is not None else None
         f = _formulate(d, margin=eps, gamma2=g**2, gamma_n2=gn2, with15=gn is not None, regions=d.regions,
                        gain_bound=None, K=K_)
