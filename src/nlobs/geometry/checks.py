@@ -484,7 +484,10 @@ def observability_rank_evidence(
     if rank is None or rank < min(shape):
         # a deficiency (or no decision) in double precision: the singular values at or near the rounding
         # error are recomputed from the exact rational point at HIGH_PRECISION_DIGITS digits
-        M = fields.codistribution([kmax] * fields.q, tidied=False)
+        ring_rows = fields.ring_codistribution([kmax] * fields.q)
+        # a polynomial model's rows are evaluated exactly in the sparse ring (no expression is built)
+        M = (fields.codistribution([kmax] * fields.q, tidied=False) if ring_rows is None
+             else _RingRows(ring_rows, shape))
         hp = _high_precision_singular_values(M, fields.x, pt, scd.scales, scd.row_factors(pts))
         if hp is None:
             method = "double precision (the high-precision evaluation is not finite)"
@@ -511,7 +514,27 @@ def observability_rank_evidence(
 HIGH_PRECISION_DIGITS = 48
 
 
-def _high_precision_singular_values(M: sp.MatrixBase, x: Sequence[sp.Symbol], pt: Array, scales: Array,
+@dataclass(frozen=True)
+class _RingRows:
+    """A matrix of sparse polynomials over ℚ (row-major ``entries``) to evaluate exactly at rational points."""
+
+    entries: Sequence[Any]
+    shape: tuple[int, int]
+
+    def at(self, subs: dict[sp.Symbol, sp.Rational]) -> list[sp.Rational]:
+        """Every entry's exact value at the point ``subs`` (one value per state symbol)."""
+        if not self.entries:
+            return []
+        R = self.entries[0].ring
+        point = [(g, R.domain.convert(subs[s])) for g, s in zip(R.gens, R.symbols)]
+        out = []
+        for p in self.entries:
+            v = p.evaluate(point) if p else R.domain.zero
+            out.append(sp.Rational(int(v.numerator), int(v.denominator)))
+        return out
+
+
+def _high_precision_singular_values(M: sp.MatrixBase | _RingRows, x: Sequence[sp.Symbol], pt: Array, scales: Array,
                                     rows: Array) -> tuple[tuple[float, ...], float] | None:
     """Singular values of the scaled ``M`` (the same column and row factors as in double precision; a
     row that double precision dropped is scaled to unit norm) at ``pt`` (taken as exact binary
@@ -521,12 +544,14 @@ def _high_precision_singular_values(M: sp.MatrixBase, x: Sequence[sp.Symbol], pt
 
     subs = {xi: sp.Rational(float(v)) for xi, v in zip(x, pt)}
     digits = HIGH_PRECISION_DIGITS
+    exact = M.at(subs) if isinstance(M, _RingRows) else None
     with mpmath.workdps(digits + 10):
         out = []
         for i in range(M.shape[0]):
             row = []
             for j in range(M.shape[1]):
-                v = sp.N(M[i, j].xreplace(subs), digits + 10)
+                e = M[i, j].xreplace(subs) if exact is None else exact[i * M.shape[1] + j]
+                v = sp.N(e, digits + 10)
                 if not (v.is_real and v.is_finite):
                     return None
                 row.append(mpmath.mpf(v) * mpmath.mpf(float(scales[j])))

@@ -35,7 +35,7 @@ import sympy as sp
 from nlobs._typing import Array
 from nlobs.errors import DimensionError, InvalidArgumentError, ModelError
 from nlobs.geometry.lie import PolynomialFields, lie_derivative_along_columns, lie_derivatives, tidy
-from nlobs.geometry.region import Box, ZeroTest, vanishes_on
+from nlobs.geometry.region import Box, ZeroTest, polynomial_vanishes_on, vanishes_on
 from nlobs.systems.brunovsky import brunovsky
 from nlobs.systems.expressions import as_sympy_matrix, as_symbols
 from nlobs.systems.symbolic import SymbolicModel
@@ -196,13 +196,22 @@ class AffineFields:
                 self._memo[key] = tuple(tidy(e) for e in row) if tidied else tuple(row)
         return self._memo[key]
 
+    def ring_chain_along_g(self, j: int, k: int) -> list[Any] | None:
+        """``L_g L_f^k h_j`` (``m`` entries) as sparse polynomials, ``None`` for a model that is not polynomial."""
+        P = self._polynomial()
+        if P is None:
+            return None
+        key = ("ringg", j, k)
+        if key not in self._memo:
+            self._memo[key] = P.along_g(self._ring_chain(j, k + 1)[k])
+        return self._memo[key]
+
     def chain_along_g(self, j: int, k: int) -> sp.Matrix:
         """``L_g L_f^k h_j`` (1 × m), as :func:`~nlobs.geometry.lie.lie_derivative_along_columns`."""
         P = self._polynomial()
         if P is None or self.m == 0:
             return lie_derivative_along_columns(self.lie_chain(j, k + 1)[k], self.g, self.x)
-        p = self._ring_chain(j, k + 1)[k]
-        return sp.Matrix([[P.expr(v) for v in P.along_g(p)]])
+        return sp.Matrix([[P.expr(v) for v in self.ring_chain_along_g(j, k)]])  # type: ignore[union-attr]
 
     def ring_codistribution(self, s: Sequence[int]) -> list[Any] | None:
         """The rows ``d L_f^k h_j`` of :meth:`codistribution` as sparse polynomials (row-major), ``None``
@@ -325,13 +334,20 @@ def observation_relative_degree(
     kmax = fields.n if max_order is None else int(max_order)
     rs: list[int | None] = []
     all_tests: list[tuple[ZeroTest, ...]] = []
+    polynomial = fields._polynomial() is not None
     for j in range(fields.q):
-        chain = fields.lie_chain(j, kmax)
+        # a polynomial model is tested on its sparse polynomials (no expression is built)
+        chain = fields._ring_chain(j, kmax) if polynomial else fields.lie_chain(j, kmax)
         tests: list[ZeroTest] = []
         rj: int | None = None
         for k in range(len(chain)):
-            row = fields.chain_along_g(j, k) if fields.m else sp.zeros(1, 0)
-            per_input = [vanishes_on(e, fields.x, reg, samples=samples, seed=seed + 7919 * k + j) for e in row]
+            sd = seed + 7919 * k + j
+            if polynomial and fields.m:
+                per_input = [polynomial_vanishes_on(p, fields.n, reg, samples=samples, seed=sd)
+                             for p in fields.ring_chain_along_g(j, k)]  # type: ignore[union-attr]
+            else:
+                row = fields.chain_along_g(j, k) if fields.m else sp.zeros(1, 0)
+                per_input = [vanishes_on(e, fields.x, reg, samples=samples, seed=sd) for e in row]
             nonzero = [t for t in per_input if not t.zero]
             if nonzero:
                 tests.append(max(nonzero, key=lambda t: abs(t.value or 0.0)))

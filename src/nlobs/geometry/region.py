@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import sympy as sp
@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike
 from nlobs._typing import Array
 from nlobs._validate import as_vector
 from nlobs.errors import InvalidArgumentError, NonFiniteError
-from nlobs.geometry.lie import simplify_bounded
+from nlobs.geometry.lie import PolynomialMatrixFunction, simplify_bounded
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.expressions import as_sympy_expr, as_symbols
 
@@ -172,3 +172,32 @@ def vanishes_on(
     if not np.any(nonzero):
         return ZeroTest(True, "numeric", int(ok.sum()), None, None)
     return ZeroTest(False, "numeric", int(ok.sum()), tuple(float(v) for v in pts[i]), float(vals[i]))
+
+
+def polynomial_vanishes_on(p: Any, n: int, region: Box, *, samples: int = 64, seed: int = 0) -> ZeroTest:
+    """:func:`vanishes_on` for a sparse polynomial over ℚ (a ``PolyElement`` in ``n`` variables), without
+    building its expression.
+
+    Exact as for any rational function: it vanishes identically iff it has no terms, and a nonzero
+    polynomial cannot vanish on an open box; the witness is the sampled point (the same points as
+    :func:`vanishes_on`) where it is largest, its value evaluated from the monomials.
+
+    Raises
+    ------
+    NonFiniteError
+        If the polynomial overflows at every sampled point.
+    """
+    if region.n != n:
+        raise InvalidArgumentError(f"region has dimension {region.n}, the model {n}")
+    if not p:
+        return ZeroTest(True, "symbolic", 0, None, None)
+    pts = region.sample(samples, seed)
+    with np.errstate(all="ignore"):
+        vals = np.asarray(PolynomialMatrixFunction([p], (1, 1), n)(pts), dtype=float)[:, 0, 0]
+    ok = np.isfinite(vals)
+    if not np.any(ok):
+        raise NonFiniteError(f"{p.as_expr()} is not finite at any of {samples} sampled points of "
+                             f"{region.describe()}: the model is not defined on this region")
+    mag = np.where(ok, np.abs(vals), -1.0)
+    i = int(np.argmax(mag))
+    return ZeroTest(False, "symbolic", int(ok.sum()), tuple(float(v) for v in pts[i]), float(vals[i]))
