@@ -297,9 +297,15 @@ class PolynomialMatrixFunction:
             for k, v in col:
                 C[k, j] += v
         self.coeffs = C
+        # the coefficient table is sparse (each entry has only its own terms): multiplied as a sparse matrix
+        from scipy.sparse import csr_matrix
+
+        self._coeffs_t = csr_matrix(C.T)
         # floating operations of each entry: per term its multiplications and powers, plus the additions
         mono_ops = (self.exps > 0).sum(axis=1) + (self.exps > 1).sum(axis=1) + 1
         self.ops = np.array([float(sum(int(mono_ops[k]) for k, _ in col) + len(col)) for col in cols]).reshape(shape)
+        # per state, the monomials it appears in and their exponents (a factor x_i^0 = 1 is skipped: exact)
+        self._uses = [(np.flatnonzero(self.exps[:, i]), self.exps[self.exps[:, i] > 0, i]) for i in range(n)]
 
     def __call__(self, pts: object) -> object:
         import numpy as np
@@ -317,9 +323,8 @@ class PolynomialMatrixFunction:
                 xs = x[a:a + step]
                 powers = xs[:, :, None] ** np.arange(deg + 1)  # (N, n, deg + 1)
                 V = np.ones((xs.shape[0], len(self.exps)))
-                for i in range(self.n):
-                    e = self.exps[:, i]
-                    if np.any(e):
-                        V *= powers[:, i, e]
-                out[a:a + step] = V @ self.coeffs
+                for i, (idx, e) in enumerate(self._uses):
+                    if len(idx):
+                        V[:, idx] *= powers[:, i, e]
+                out[a:a + step] = (self._coeffs_t @ V.T).T
         return out.reshape(batch + self.shape)
