@@ -102,3 +102,24 @@ def test_cli_names_the_numeric_part(tmp_path: Path) -> None:
     assert res.exit_code == 0, res.output
     assert "evaluated numerically (numpy.linalg.pinv)" in res.stdout
     assert "not computed symbolically" in res.stdout
+
+
+def test_polynomial_zero_test_agrees_with_the_expression_one() -> None:
+    """The ring-element zero test decides as :func:`vanishes_on` does, with the same witness and value."""
+    import sympy as sp
+
+    from nlobs.geometry.region import Box, polynomial_vanishes_on, vanishes_on
+
+    x1, x2, x3 = sp.symbols("x1 x2 x3")
+    R, *gens = sp.ring("x1 x2 x3", sp.QQ)
+    box = Box([-1.0, -2.0, 0.5], [1.0, 3.0, 2.0])
+    for expr in (x1 * x2 - x3**2 / 3 + 7, (x1 + x2) ** 3 - x1**3 - 3 * x1**2 * x2 - 3 * x1 * x2**2 - x2**3,
+                 sp.Integer(0), x3**5 - 2 * x1 * x2 * x3):
+        p = R.from_expr(sp.expand(expr))
+        a, b = polynomial_vanishes_on(p, 3, box), vanishes_on(expr, (x1, x2, x3), box)
+        assert a.zero == b.zero == (sp.expand(expr) == 0)
+        if not a.zero:
+            assert a.witness == pytest.approx(b.witness) and a.value == pytest.approx(b.value, rel=1e-12)
+            # the witness is where |p| is largest among the sampled points: evaluate it independently
+            f = sp.lambdify((x1, x2, x3), expr)
+            assert abs(a.value) == pytest.approx(abs(f(*a.witness)), rel=1e-12)
