@@ -382,11 +382,12 @@ class _FrequencyResponse:
         s = 1j * np.asarray(omegas, dtype=float)
         K = s.size
         X = np.zeros((n, K, m), dtype=complex)
+        X2 = X.reshape(n, K * m)  # a view: row i holds x_i for every (frequency, input)
+        den = s[None, :, None] - np.diag(T)[:, None, None]
         with np.errstate(all="ignore"):
-            for i in range(n - 1, -1, -1):
-                rhs = Bt[i][None, :] + np.tensordot(T[i, i + 1:], X[i + 1:], axes=(0, 0)) if i < n - 1 \
-                    else np.broadcast_to(Bt[i], (K, m))
-                X[i] = rhs / (s - T[i, i])[:, None]
+            X[n - 1] = Bt[n - 1][None, :] / den[n - 1]
+            for i in range(n - 2, -1, -1):
+                X[i] = (Bt[i][None, :] + (T[i, i + 1:] @ X2[i + 1:]).reshape(K, m)) / den[i]
             G = self._D[None] + np.einsum("pn,nkm->kpm", self._C, X)
             out = self._smax(G) if G.size else np.zeros(K)
         return np.where(np.all(np.isfinite(G), axis=(1, 2)), out, math.inf)
