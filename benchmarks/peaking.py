@@ -128,24 +128,21 @@ def _table(rows) -> None:
 
 
 def main() -> None:
-    t = time.perf_counter()
-    rep, rows = run()
-    print(f"Rössler, drift observer (3.1), region {REGION.describe()}, w = {rep.certificate.w:.4g}, "
-          f"{RUNS} runs per row, {DURATION:g} s, dt = {DT:g}")
-    _table(rows)
-    print(f"({time.perf_counter() - t:.0f} s)")
-    t = time.perf_counter()
-    rep, rows = run_cartpole()
-    print(f"\nCart-pole, drift observer (3.1), region {CARTPOLE_BOX.describe()}, w = {rep.certificate.w:.4g}, "
-          f"{RUNS} runs per row, 0.5 s, dt = 0.001, every step kept")
-    _table(rows)
-    print(f"({time.perf_counter() - t:.0f} s)")
-    t = time.perf_counter()
-    obs, rows = run_pinv()
-    print(f"\nisidori-146, Moore–Penrose observer (7), (17), region {PINV_BOX.describe()}, θ = {PINV_THETA:g} "
-          f"(k = {[float(v) for v in obs.k_vector]}), {RUNS} runs per row, 1 s, dt = 0.001, every step kept")
-    _table(rows)
-    print(f"({time.perf_counter() - t:.0f} s)")
+    cases = (
+        (run, lambda rep: f"Rössler, drift observer (3.1), region {REGION.describe()}, w = {rep.certificate.w:.4g}, "
+                          f"{RUNS} runs per row, {DURATION:g} s, dt = {DT:g}"),
+        (run_cartpole, lambda rep: f"\nCart-pole, drift observer (3.1), region {CARTPOLE_BOX.describe()}, w = "
+                                   f"{rep.certificate.w:.4g}, {RUNS} runs per row, 0.5 s, dt = 0.001, every step kept"),
+        (run_pinv, lambda obs: f"\nisidori-146, Moore–Penrose observer (7), (17), region {PINV_BOX.describe()}, θ = "
+                               f"{PINV_THETA:g} (k = {[float(v) for v in obs.k_vector]}), {RUNS} runs per row, 1 s, "
+                               "dt = 0.001, every step kept"),
+    )
+    for case, title in cases:
+        t = time.perf_counter()
+        design, rows = case()
+        print(title(design))
+        _table(rows)
+        print(f"({time.perf_counter() - t:.0f} s)")
 
 
 if __name__ == "__main__":

@@ -321,12 +321,7 @@ class DriftObserver:
             Qt = np.swapaxes(Q, -1, -2)
             A = Qt @ Q + (eps * eps) * np.eye(self.n_x)
             return np.linalg.solve(A, (Qt @ b[..., None]))[..., 0]
-        try:
-            c = np.linalg.solve(Q, b[..., None])[..., 0]
-        except np.linalg.LinAlgError:
-            if self.on_singular == "raise":
-                raise self._singular(Q, x_hat, t) from None
-            c = _solve_each(Q, b)
+        c = self._solve(t, x_hat, Q, b)
         # cond(Q) ≥ ‖Q‖₂‖c‖/‖b‖ ≥ ‖Q‖_F ‖c‖ / (√n ‖b‖): a cheap lower bound, large only when the solve amplified
         nb = np.linalg.norm(b, axis=-1)
         lower = np.linalg.norm(Q, axis=(-2, -1)) * np.linalg.norm(c, axis=-1) / (math.sqrt(self.n_x) * np.maximum(nb, 1e-300))
@@ -360,18 +355,18 @@ class DriftObserver:
         # Q_s(x̂) x̂' = A_s (Φ(x̂) − Φ(σ)) + Q_s(σ)(f(σ) + g(σ)u) + K ỹ; the K ỹ term goes through correction()
         rest = np.einsum("...ij,...j->...i", Qs, drift_s) + lin
         corr = self.correction(t, z, np.asarray(y, dtype=float) - h, Q)
-        return np.where(outside[..., None], self._solve(t, z, Q, rest) + corr, drift + corr)
+        with np.errstate(all="ignore"):
+            out = self._solve(t, z, Q, rest)
+        return np.where(outside[..., None], out + corr, drift + corr)
 
     def _solve(self, t: float, x_hat: Array, Q: Array, b: Array) -> Array:
         """``Q⁻¹ b`` (NaN or :class:`SingularObservabilityError` by :attr:`on_singular` where it fails)."""
-        with np.errstate(all="ignore"):
-            try:
-                c = np.linalg.solve(Q, b[..., None])[..., 0]
-            except np.linalg.LinAlgError:
-                if self.on_singular == "raise":
-                    raise self._singular(Q, x_hat, t) from None
-                c = _solve_each(Q, b)
-        return c
+        try:
+            return np.linalg.solve(Q, b[..., None])[..., 0]
+        except np.linalg.LinAlgError:
+            if self.on_singular == "raise":
+                raise self._singular(Q, x_hat, t) from None
+            return _solve_each(Q, b)
 
     def estimate(self, z: Array) -> Array:
         """The estimate is the observer state, ``x̂ = z`` (also with :attr:`saturation`)."""

@@ -70,8 +70,8 @@ from nlobs.workflows.verdict import Verdict
 
 #: With ``check``: an observer whose RMS error exceeds this multiple of the EKF's gets a note on noise amplification.
 CHECK_RMS_FACTOR = 10.0
-#: Observers of :func:`nlobs.workflows.compare.compare_observers` for the methods of the advisor.
-_SIMULATED = {"drift": "drift", "pinv": "pinv", "luenberger": "luenberger", "cascade": "cascade"}
+#: The advisor's methods that :func:`nlobs.workflows.compare.compare_observers` runs (under the same names).
+_SIMULATED = ("drift", "pinv", "luenberger", "cascade")
 
 __all__ = ["CHECK_RMS_FACTOR", "METHODS", "AdviceReport", "SensorCheck", "CascadeStructure", "MethodAdvice", "Singularity", "advise_model",
            "cascade_structure", "singularities"]
@@ -236,7 +236,7 @@ def _sensor_check(model: str | Path, methods: Sequence[MethodAdvice], region: Bo
 
     from nlobs.workflows.compare import compare_observers
 
-    names = [_SIMULATED[m.method] for m in methods if m.usable and m.method in _SIMULATED]
+    names = [m.method for m in methods if m.usable and m.method in _SIMULATED]
     drift = next((m for m in methods if m.method == "drift" and m.usable), None)
     box = best_region(drift, region) if drift is not None else region
     flat = [float(v) for pair in zip(box.lower, box.upper) for v in pair]
@@ -267,7 +267,7 @@ def _sensor_check(model: str | Path, methods: Sequence[MethodAdvice], region: Bo
     check = SensorCheck(runs, 0, outcomes, demoted, rep.time_unit)
     out = []
     for m in methods:
-        sim = _SIMULATED.get(m.method, "ekf" if m.method == "ekf-ukf" else None)
+        sim = m.method if m.method in _SIMULATED else ("ekf" if m.method == "ekf-ukf" else None)
         if sim is None or sim not in outcomes or not m.usable:
             out.append(m)
             continue
@@ -897,7 +897,7 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
         cmp = None
     else:
         verdict, msg = Verdict.OK, ""
-        sim = {"drift": "drift", "pinv": "pinv", "luenberger": "luenberger"}.get(best.method)
+        sim = best.method if best.method in _SIMULATED and best.method != "cascade" else None
         cmp = f"nlobs simulate {target} --observer {sim},ekf,ukf" if sim and is_file else None
         if cmp and not _same(best_region(best, region), reg0):
             cmp += f" {box_option(best_region(best, region))}"
