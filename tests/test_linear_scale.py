@@ -1,6 +1,8 @@
 """The fast paths of linear analysis at scale agree with the reference algorithms and with SLICOT.
 
-* observability: the batched PBH test (``method="auto"``) against the per-cluster PBH reference
+* observability: the default (``method="auto"``: a one-output staircase whose verdict
+  "observable" is taken only when it is well conditioned, else the batched PBH test) against the
+  per-cluster PBH reference
   (``method="pbh"``) and against systems built with a known unobservable part (a Kalman
   decomposition hidden by a similarity, so the expected unobservable eigenvalues are known
   exactly): random, badly scaled (``diag(10^k)``, ``|k| ≤ 6``), clustered, repeated and
@@ -140,6 +142,65 @@ def test_generic_pairs_need_no_schur_form_per_cluster(monkeypatch) -> None:
         assert is_observable(A, C)
     with pytest.raises(AssertionError, match="per-cluster"):
         is_observable(*_random(10, 1, seed=10), method="pbh")
+
+
+def test_generic_pairs_are_decided_by_the_staircase(monkeypatch) -> None:
+    # a random pair is observable through one output combination with well-conditioned steps:
+    # two Hessenberg reductions decide it, no eigenvalue is computed
+    def boom(*_a, **_k):
+        raise AssertionError("eigenvalue-based test used")
+
+    monkeypatch.setattr(obs_mod, "_batched_pbh", boom)
+    for n, p in [(5, 2), (50, 2), (150, 3)]:
+        A, C = _random(n, p, seed=n + 1)
+        assert is_observable(A, C) and unobservable_modes(A, C).size == 0
+
+
+def _weak_chain(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A bidiagonal chain observed at its head: every staircase step is 0.3, yet the eigenvector of the
+    last eigenvalue decays along the chain (``‖C v‖ ≈ ∏ 0.3/|λₙ − λₖ|``)."""
+    A = np.diag(np.linspace(-1.0, 1.0, n)) + 0.3 * np.diag(np.ones(n - 1), 1)
+    C = np.zeros((1, n))
+    C[0, 0] = 1.0
+    return A, C
+
+
+@pytest.mark.parametrize("n", [10, 20, 40])
+def test_large_but_ill_conditioned_steps_are_not_trusted(n: int) -> None:
+    # n = 40: within 1e−10 of unobservable (PBH), though no step is below 0.06 ‖[A; C]‖: the
+    # staircase alone would call it observable; its condition estimate hands it to PBH
+    A, C = _weak_chain(n)
+    As, Cs, _, tol, scale = obs_mod._prepare(A, C, obs_mod.DEFAULT_RTOL, fast=True)
+    rtol = tol / scale
+    steps = obs_mod._steps(obs_mod._staircase_matrix(As, Cs))
+    assert float(np.min(steps)) > 0.05 * scale
+    ref = is_observable(A, C, method="pbh")
+    assert ref == (n < 40)
+    assert is_observable(A, C) == ref
+    if n >= 20:
+        assert not obs_mod._observable_by_staircase(As, Cs, rtol)
+
+
+@pytest.mark.parametrize("p, no, nu", [(2, 30, 10), (1, 60, 5), (3, 100, 20), (1, 120, 1)])
+def test_hidden_modes_behind_long_chains_are_not_called_observable(p: int, no: int, nu: int) -> None:
+    # the computed steps of an exactly unobservable pair are amplified rounding (up to 1e−2 of the
+    # data's norm measured): the condition estimate must refuse every one of them
+    rng = np.random.default_rng(no + nu + p)
+    Auo = rng.normal(size=(nu, nu)) / math.sqrt(nu)
+    A, C = _hidden(rng, no + nu, p, Auo)
+    As, Cs, _, tol, scale = obs_mod._prepare(A, C, obs_mod.DEFAULT_RTOL, fast=True)
+    rtol = tol / scale
+    assert not obs_mod._observable_by_staircase(As, Cs, rtol)
+    assert not is_observable(A, C)
+    assert _same_multiset(unobservable_modes(A, C), np.linalg.eigvals(Auo), 1e-8)
+
+
+def test_staircase_verdict_is_reproducible() -> None:
+    # the condition estimate's perturbation is seeded: the same pair gets the same answer every time
+    A, C = _random(40, 2, seed=3)
+    As, Cs, _, tol, scale = obs_mod._prepare(A, C, obs_mod.DEFAULT_RTOL, fast=True)
+    rtol = tol / scale
+    assert len({obs_mod._observable_by_staircase(As, Cs, rtol) for _ in range(5)}) == 1
 
 
 def test_staircase_against_slycot_on_hidden_parts() -> None:
