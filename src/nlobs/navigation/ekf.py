@@ -444,7 +444,7 @@ class ExtendedKalmanFilter:
         if Q is None:
             k = self._k
             Q = readonly(np.diag([0.0] * 3 + [k.var_a * dt**2] * 3 + [k.var_g * dt**2] * 3), owned=True)
-            if len(self._q_cache) > 16:
+            if len(self._q_cache) > 64:
                 self._q_cache.clear()
             self._q_cache[dt] = Q
         return Q
