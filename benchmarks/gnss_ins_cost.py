@@ -17,9 +17,9 @@ complexity than the EKF". This script measures it on the demo scenario (traffic-
 Both filters run on the same data in the same process; each measurement is
 repeated ``--repeat`` times and the best is kept (machines are shared). The
 target is a ratio EKF / observer ≥ 3. The EKF
-(:mod:`nlobs.navigation.ekf`) is the library's NumPy implementation, unchanged
-and vectorised over the batch like the observer; it has no fused scalar kernel,
-so for one flight it still pays NumPy's per-call overhead (see
+(:mod:`nlobs.navigation.ekf`) is the library's NumPy implementation, vectorised over
+the batch like the observer, with a fused single-flight path of its own (``kernel="auto"``;
+``benchmarks/ekf_cost.py`` compares it with plain NumPy and filterpy EKFs; see
 ``docs/navigation.md`` for what that means for the comparison).
 
 Run ``python benchmarks/gnss_ins_cost.py [--json] [--duration S] [--batch B]``.

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 from nlobs.navigation import metrics as M
 from nlobs.navigation.base import GnssSample, ImuSample, nav_vector
@@ -15,6 +15,7 @@ from nlobs.navigation.sensors import SensorNoise, drop_fixes, generate_sensors
 from nlobs.navigation.so3 import exp_so3, log_so3, rot_z
 from nlobs.observers.base import CorrectingObserver, DeferredEstimate, SelfStepping
 from nlobs.simulate.state import tree_map
+from nlobs.errors import InvalidArgumentError
 from nlobs.systems.timebase import Continuous
 
 NOISE = SensorNoise(gyro_std=0.002, accel_std=0.05, mag_std=0.01, gnss_p_std=1.5, gnss_v_std=0.1)
@@ -197,3 +198,167 @@ def test_rhs_is_the_continuous_model_that_step_discretises_to_first_order(flight
         ratios = e[:-1] / e[1:]
         assert np.all((ratios > 3.5) & (ratios < 4.5)), (e, ratios)  # local error O(h²): 4 per halving
     assert max(e_att) < 1e-13  # the nominal attitude step R exp(S(ω h)) is the exact flow of Ṙ = R S(ω)
+
+
+# ------------------------------------------------------------- the single-flight path
+def _S(a):  # type: ignore[no-untyped-def]
+    return np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+
+
+def _rodrigues(phi):  # type: ignore[no-untyped-def]
+    th = float(np.linalg.norm(phi))
+    if th < 1e-12:
+        return np.eye(3) + _S(phi)
+    K = _S(phi / th)
+    return np.eye(3) + np.sin(th) * K + (1.0 - np.cos(th)) * (K @ K)
+
+
+class _PlainEkf:
+    """The module docstring's equations, one flight, dense matrices (a second implementation)."""
+
+    def __init__(self, ekf: ExtendedKalmanFilter, p, v, R) -> None:  # type: ignore[no-untyped-def]
+        c = ekf.config
+        self.m_n, self.g_n = ekf.m_n, ekf.g_n
+        self.Qc = np.diag([c.accel_std**2] * 3 + [c.gyro_std**2] * 3)
+        self.Rmag = np.eye(3) * c.mag_std**2
+        self.Rg = np.diag([c.gnss_p_std**2] * 3 + [c.gnss_v_std**2] * 3)
+        self.p, self.v, self.R = np.array(p, float), np.array(v, float), np.array(R, float)
+        self.P = ekf.init_state(p, v, R).P.copy()
+
+    def _update(self, H, Rm, nu):  # type: ignore[no-untyped-def]
+        K = self.P @ H.T @ np.linalg.inv(H @ self.P @ H.T + Rm)
+        IKH = np.eye(9) - K @ H
+        P = IKH @ self.P @ IKH.T + K @ Rm @ K.T
+        self.P = 0.5 * (P + P.T)
+        dx = K @ nu
+        self.p, self.v, self.R = self.p + dx[:3], self.v + dx[3:6], self.R @ _rodrigues(dx[6:])
+
+    def step(self, u, dt):  # type: ignore[no-untyped-def]
+        w, a, m = u[:3], u[3:6], u[6:]
+        F = np.zeros((9, 9))
+        F[0:3, 3:6] = np.eye(3)
+        F[3:6, 6:9] = -self.R @ _S(a)
+        F[6:9, 6:9] = -_S(w)
+        G = np.zeros((9, 6))
+        G[3:6, 0:3], G[6:9, 3:6] = -self.R, -np.eye(3)
+        Phi = np.eye(9) + F * dt + 0.5 * (F * dt) @ (F * dt)
+        P = Phi @ self.P @ Phi.T + G @ self.Qc @ G.T * dt**2
+        self.P = 0.5 * (P + P.T)
+        acc = self.R @ a + self.g_n
+        self.p, self.v = self.p + self.v * dt + 0.5 * acc * dt**2, self.v + acc * dt
+        self.R = self.R @ _rodrigues(w * dt)
+        m_pred = self.R.T @ self.m_n
+        H = np.zeros((3, 9))
+        H[:, 6:9] = _S(m_pred)
+        self._update(H, self.Rmag, m - m_pred)
+
+    def correct(self, y):  # type: ignore[no-untyped-def]
+        self._update(np.eye(6, 9), self.Rg, y - np.r_[self.p, self.v])
+
+
+@dataclass(frozen=True)
+class EkfStateView:
+    """One member of a batched state."""
+
+    p: np.ndarray
+    v: np.ndarray
+    R: np.ndarray
+    P: np.ndarray
+
+
+def _close(a, b, what: str) -> None:  # type: ignore[no-untyped-def]
+    """p, v, P to 1e-12 of their magnitude, R to 1e-12 absolute."""
+    for name in ("p", "v", "R", "P"):
+        x, y = np.asarray(getattr(a, name)), np.asarray(getattr(b, name))
+        scale = 1.0 if name == "R" else max(1.0, float(np.max(np.abs(y))))
+        err = float(np.max(np.abs(x - y))) / scale
+        assert err < 1e-12, f"{what}: {name} differs by {err:.2e}"
+
+
+def _noisy_flight(make_traj, batch):  # type: ignore[no-untyped-def]
+    tr = make_traj(0, 8.0, 100.0)
+    d = generate_sensors(tr, imu_rate_hz=100.0, gnss_rate_hz=5.0, noise=NOISE, seed=7, batch=batch)
+    return tr, d
+
+
+def test_the_single_flight_path_equals_the_batched_path_and_a_plain_ekf(flight, make_traj) -> None:  # type: ignore[no-untyped-def]
+    """One flight (arrays (3,), (3, 3), (9, 9)): kernel='auto' (the fused path), kernel='batched' and a plain
+    dense EKF agree to 1e-12 at every step of a noisy flight from a 60° yaw error."""
+    tr, d = _noisy_flight(make_traj, None)
+    fast, slow = _ekf(flight), replace(_ekf(flight), kernel="batched")
+    assert fast.kernel == "auto" and slow.kernel == "batched"
+    R0 = rot_z(np.deg2rad(60.0)) @ tr.R[0]
+    za = fast.init_state(tr.p[0] + 2.0, tr.v[0], R0)
+    zb = slow.init_state(tr.p[0] + 2.0, tr.v[0], R0)
+    ref = _PlainEkf(fast, tr.p[0] + 2.0, tr.v[0], R0)
+    u, y = d.imu_input(), d.gnss_output()
+    gi = 0
+    for k in range(tr.t.size - 1):
+        if gi < d.t_gnss.size and abs(d.t_gnss[gi] - tr.t[k]) < 1e-9:
+            za = fast.correct(tr.t[k], za, u[k], y[gi], np.ones(6, bool))
+            zb = slow.correct(tr.t[k], zb, u[k], y[gi], np.ones(6, bool))
+            ref.correct(y[gi])
+            gi += 1
+        za = fast.step(tr.t[k], za, u[k], None, 0.01)
+        zb = slow.step(tr.t[k], zb, u[k], None, 0.01)
+        ref.step(u[k], 0.01)
+        if k % 50 == 0 or k == tr.t.size - 2:
+            _close(za, zb, f"fast vs batched at step {k}")
+            _close(za, ref, f"fast vs plain at step {k}")
+    assert gi >= 39  # 8 s of fixes at 5 Hz
+    assert za.P.shape == (9, 9) and za.R.shape == (3, 3) and za.p.shape == (3,)
+    np.testing.assert_allclose(za.P, za.P.T, rtol=0, atol=0)
+    assert np.linalg.eigvalsh(za.P).min() > 0
+    # and through the loop: the same estimates as the batched path
+    R0b = rot_z(np.deg2rad(60.0)) @ tr.R[0]
+    ra = run_navigation(fast, d, tr.p[0], tr.v[0], R0b)
+    rb = run_navigation(slow, d, tr.p[0], tr.v[0], R0b)
+    np.testing.assert_allclose(ra.x_hat, rb.x_hat, rtol=0, atol=1e-12 * max(1.0, np.abs(rb.x_hat).max()))
+
+
+def test_a_batch_of_three_equals_three_plain_ekfs(flight, make_traj) -> None:  # type: ignore[no-untyped-def]
+    """The batched path (a batch of 3, unchanged) against the plain dense EKF per member, to 1e-12."""
+    tr, d = _noisy_flight(make_traj, 3)
+    ekf = _ekf(flight)
+    R0 = rot_z(np.deg2rad([10.0, -30.0, 60.0])) @ tr.R[0]
+    z = ekf.init_state(np.broadcast_to(tr.p[0], (3, 3)), tr.v[0], R0)
+    refs = [_PlainEkf(ekf, tr.p[0], tr.v[0], R0[i]) for i in range(3)]
+    u, y = d.imu_input(), d.gnss_output()
+    gi = 0
+    for k in range(tr.t.size - 1):
+        if gi < d.t_gnss.size and abs(d.t_gnss[gi] - tr.t[k]) < 1e-9:
+            z = ekf.correct(tr.t[k], z, u[:, k], y[:, gi], np.ones(6, bool))
+            for i, r in enumerate(refs):
+                r.correct(y[i, gi])
+            gi += 1
+        z = ekf.step(tr.t[k], z, u[:, k], None, 0.01)
+        for i, r in enumerate(refs):
+            r.step(u[i, k], 0.01)
+        if k % 100 == 0 or k == tr.t.size - 2:
+            for i, r in enumerate(refs):
+                member = EkfStateView(z.p[i], z.v[i], z.R[i], z.P[i])
+                _close(member, r, f"member {i} at step {k}")
+    assert z.P.shape == (3, 9, 9)
+
+
+def test_the_single_flight_update_skips_invalid_fixes_and_handles_position_only(flight) -> None:  # type: ignore[no-untyped-def]
+    rng = np.random.default_rng(8)
+    for position_only in (False, True):
+        fast = replace(_ekf(flight), position_only=position_only)
+        slow = replace(fast, kernel="batched")
+        st = fast.init_state(rng.normal(size=3), rng.normal(size=3), rot_z(0.4))
+        imu = ImuSample(np.array([0.01, -0.02, 0.03]), np.array([0.5, 0.1, -9.8]), np.asarray(flight.m_n))
+        sa, sb = fast.propagate(st, imu, 0.5), slow.propagate(st, imu, 0.5)
+        _close(sa, sb, "propagate")
+        fix = GnssSample(rng.normal(size=3), None if position_only else rng.normal(size=3), True)
+        _close(fast.update(sa, fix), slow.update(sb, fix), f"update (position_only={position_only})")
+        y = np.r_[fix.p, rng.normal(size=3)]  # a 6-channel fix: a position-only filter uses p only
+        _close(fast.correct(0.0, sa, None, y, None), slow.correct(0.0, sb, None, y, None), "correct")
+        for bad in (GnssSample(np.array([np.nan, 0.0, 0.0]), np.zeros(3), True),
+                    GnssSample(np.zeros(3), np.zeros(3), False)):
+            na, nb = fast.update(sa, bad), slow.update(sb, bad)
+            for name in ("p", "v", "R", "P"):
+                np.testing.assert_array_equal(getattr(na, name), getattr(sa, name))
+            assert int(na.skipped) == int(nb.skipped) == 1
+    with pytest.raises(InvalidArgumentError, match="kernel"):
+        replace(_ekf(flight), kernel="scalar")  # type: ignore[arg-type]

@@ -44,18 +44,41 @@ The step agrees with the flow of ``rhs`` to first order in ``dt`` (the nominal v
 ``step`` only (a discrete update at every IMU sample); ``rhs`` leaves it out.
 
 Everything is vectorised over a leading batch axis: ``P`` has shape ``(..., 9, 9)``.
+
+Cost of one flight
+------------------
+For a single flight (``P`` of shape ``(9, 9)``) NumPy's fixed cost per call (about 1 µs)
+dominates the arithmetic of 9 × 9 matrices, so under ``kernel="auto"`` the step and the GNSS update
+evaluate the same equations with as few NumPy calls as the structure allows
+(:meth:`ExtendedKalmanFilter._step_one`): the nominal state, ``R̂ exp(S(ω dt))`` (Rodrigues' formula
+on floats, :func:`~nlobs.navigation.split_kernel.exp_so3_scalar`), the blocks of ``Φ`` and the
+magnetometer's ``H``, ``S⁻¹`` (3 × 3, by its adjugate) and the injection on Python floats; the
+products of the 9 × 9 covariance with ``ndarray.dot``. The structure used:
+
+* ``Φ = I + F dt + ½ (F dt)²`` is the identity except for ``Φ₀₁ = I dt`` and its last block column
+  ``[½ A dt²; A dt + ½ A W dt²; I + W dt + ½ W² dt²]`` with ``A = −R̂ S(a)``, ``W = −S(ω)``
+  (``F`` is nilpotent on the position/velocity blocks, ``F² = [[0, 0, A], [0, 0, AW], [0, 0, W²]]``);
+* ``Q = G diag(σ_a² I, σ_g² I) Gᵀ dt² = diag(0, σ_a² R̂R̂ᵀ, σ_g² I) dt²`` with ``R̂R̂ᵀ = I``
+  (``R̂`` is a rotation by construction: a product of Rodrigues exponentials, orthogonal to rounding),
+  a constant diagonal per ``dt``;
+* the magnetometer's ``K R Kᵀ = σ_m² K Kᵀ``.
+
+The covariance update stays in Joseph form and is symmetrised as above. The results equal the
+batched path's to rounding (``tests/test_ekf.py`` checks 1e-12 along a noisy flight);
+``kernel="batched"`` takes the batched path for one flight too.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from nlobs._typing import Array, BoolArray
-from nlobs._validate import as_batch, as_vector, positive
+from nlobs._validate import as_batch, as_vector, positive, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError
 from nlobs.navigation.base import (
     GNSS_P,
@@ -70,10 +93,18 @@ from nlobs.navigation.base import (
 )
 from nlobs.navigation.sensors import SensorNoise
 from nlobs.navigation.so3 import exp_so3, skew
+from nlobs.navigation.split_kernel import _mm, exp_so3_scalar
 from nlobs.observers.kalman import joseph_update  # the one implementation (re-exported here)
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
 
 _I3 = np.eye(3)
+
+
+def _check_dt(dt: float) -> float:
+    dt = float(dt)
+    if not 0.0 < dt < math.inf:
+        raise InvalidArgumentError(f"dt: must be positive and finite, got {dt!r}")
+    return dt
 
 
 @dataclass(frozen=True)
@@ -131,6 +162,36 @@ class EkfConfig:
 
 
 @dataclass(frozen=True)
+class _OneFlight:
+    """Constants of the single-flight path (:meth:`ExtendedKalmanFilter._step_one`), made once per filter.
+
+    ``m_n``, ``g_n`` as floats; the variances ``σ_a²``, ``σ_g²``, ``σ_m²``; the identity ``I9``; the
+    GNSS ``H`` and ``R`` for a fix of ``p`` (3 channels) and of ``p, v`` (6 channels).
+    """
+
+    m_n: tuple[float, float, float]
+    g_n: tuple[float, float, float]
+    var_a: float
+    var_g: float
+    var_m: float
+    I9: Array
+    gnss: dict[int, tuple[Array, Array]]
+
+    @classmethod
+    def build(cls, c: EkfConfig, m_n: Array, g_n: Array) -> _OneFlight:
+        gnss = {}
+        for q in (3, 6):
+            H = np.zeros((q, 9))
+            H[:, 0:q] = np.eye(q)
+            Rm = np.diag(np.r_[np.full(3, c.gnss_p_std**2), np.full(3, c.gnss_v_std**2)][:q])
+            gnss[q] = (readonly(H, owned=True), readonly(Rm, owned=True))
+        m0, m1, m2 = (float(x) for x in m_n)
+        g0, g1, g2 = (float(x) for x in g_n)
+        return cls(m_n=(m0, m1, m2), g_n=(g0, g1, g2), var_a=c.accel_std**2, var_g=c.gyro_std**2,
+                   var_m=c.mag_std**2, I9=readonly(np.eye(9), owned=True), gnss=gnss)
+
+
+@dataclass(frozen=True)
 class EkfState:
     """EKF state: nominal ``p``, ``v`` ``(..., 3)``, ``R`` ``(..., 3, 3)``, covariance ``P`` ``(..., 9, 9)``;
     ``skipped`` counts invalid GNSS fixes per batch member."""
@@ -158,6 +219,15 @@ class ExtendedKalmanFilter:
         GNSS position only (``GnssSample.v`` is None).
     use_magnetometer : bool
         Fuse the magnetometer at every IMU sample (default True, as the observer uses it).
+    kernel : {"auto", "batched"}
+        ``"auto"`` (default): a single flight (``P`` of shape ``(9, 9)``) takes the fused
+        single-flight path (module docstring, *Cost of one flight*), anything else the batched
+        NumPy path; ``"batched"``: always the batched path (the same results to rounding).
+
+    Raises
+    ------
+    InvalidArgumentError
+        Unknown ``kernel``.
     """
 
     config: EkfConfig
@@ -165,12 +235,19 @@ class ExtendedKalmanFilter:
     g_n: Array
     position_only: bool = False
     use_magnetometer: bool = True
+    kernel: Literal["auto", "batched"] = "auto"
     name: str = "ekf"
     time: TimeBase = field(default=CONTINUOUS, init=False)
+    _k: _OneFlight = field(init=False, repr=False, compare=False)
+    _q_cache: dict = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "m_n", as_vector("m_n", self.m_n, 3))
         object.__setattr__(self, "g_n", as_vector("g_n", self.g_n, 3))
+        if self.kernel not in ("auto", "batched"):
+            raise InvalidArgumentError(f"kernel: expected 'auto' or 'batched', got {self.kernel!r}")
+        object.__setattr__(self, "_k", _OneFlight.build(self.config, self.m_n, self.g_n))
+        object.__setattr__(self, "_q_cache", {})
 
     # ------------------------------------------------------------------ protocol
     @property
@@ -203,6 +280,8 @@ class ExtendedKalmanFilter:
     def step(self, t: float, z: EkfState, u: Array, y: Array, h: float) -> EkfState:
         """Predict over ``h`` with ``u = [ω^b, a^b, m^b]`` held, then fuse the magnetometer (:meth:`propagate`)."""
         u_ = np.asarray(u, dtype=float)
+        if u_.shape == (9,) and z.P.ndim == 2 and self.kernel == "auto":
+            return self._step_one(z, u_.tolist(), _check_dt(h))
         return self.propagate(z, ImuSample(u_[..., IMU_OMEGA], u_[..., IMU_ACCEL], u_[..., IMU_MAG]), h)
 
     def correct(self, t: float, z: EkfState, u: Array, y: Array, fresh: BoolArray) -> EkfState:
@@ -217,6 +296,9 @@ class ExtendedKalmanFilter:
         y_ = np.asarray(y, dtype=float)
         if y_.ndim == 0 or y_.shape[-1] not in (3, 6):
             raise DimensionError(f"y: expected a GNSS fix of shape (..., 6) or (..., 3), got {y_.shape}")
+        if y_.ndim == 1 and z.P.ndim == 2 and self.kernel == "auto":
+            yl = y_.tolist()
+            return self._update_one(z, yl, all(map(math.isfinite, yl)))
         valid = np.isfinite(y_).all(axis=-1)
         return self.update(z, GnssSample(y_[..., GNSS_P], y_[..., GNSS_V] if y_.shape[-1] == 6 else None, valid))
 
@@ -260,9 +342,12 @@ class ExtendedKalmanFilter:
         sample is not checked per step: the loops check the record once up front
         (:func:`~nlobs.navigation.run.run_navigation`, :func:`~nlobs.simulate.run_observer`).
         """
-        dt = float(dt)
-        if not 0.0 < dt < math.inf:
-            raise InvalidArgumentError(f"dt: must be positive and finite, got {dt!r}")
+        dt = _check_dt(dt)
+        if state.P.ndim == 2 and self.kernel == "auto" and np.shape(imu.omega_b) == (3,) \
+                and np.shape(imu.a_b) == (3,) and (not self.use_magnetometer or np.shape(imu.m_b) == (3,)):
+            m = np.asarray(imu.m_b, dtype=float).tolist() if self.use_magnetometer else [0.0, 0.0, 0.0]
+            return self._step_one(state, np.asarray(imu.omega_b, dtype=float).tolist()
+                                  + np.asarray(imu.a_b, dtype=float).tolist() + m, dt)
         c = self.config
         w, a = imu.omega_b, imu.a_b
         R = state.R
@@ -290,6 +375,12 @@ class ExtendedKalmanFilter:
         ``gnss.valid`` says otherwise: a missing fix for that flight, skipped and counted (it would
         otherwise be fused as a zero innovation and shrink the covariance).
         """
+        if state.P.ndim == 2 and self.kernel == "auto" and np.shape(gnss.p) == (3,) \
+                and (gnss.v is None or np.shape(gnss.v) == (3,)) and np.ndim(gnss.valid) == 0:
+            yl = np.asarray(gnss.p, dtype=float).tolist()
+            if not (self.position_only or gnss.v is None):
+                yl += np.asarray(gnss.v, dtype=float).tolist()
+            return self._update_one(state, yl, bool(gnss.valid) and all(map(math.isfinite, yl)))
         c = self.config
         finite = np.isfinite(gnss.p).all(axis=-1)
         if not (self.position_only or gnss.v is None):
@@ -345,3 +436,121 @@ class ExtendedKalmanFilter:
     def _inject(state: EkfState, dx: Array, P: Array) -> EkfState:
         return replace(state, p=state.p + dx[..., 0:3], v=state.v + dx[..., 3:6],
                        R=state.R @ exp_so3(dx[..., 6:9]), P=P)
+
+    # ------------------------------------------------------------ one flight (module docstring)
+    def _q_one(self, dt: float) -> Array:
+        """``Q = diag(0, σ_a² I, σ_g² I) dt²`` (``R̂R̂ᵀ = I``), ``(9, 9)``, cached by ``dt``."""
+        Q = self._q_cache.get(dt)
+        if Q is None:
+            k = self._k
+            Q = readonly(np.diag([0.0] * 3 + [k.var_a * dt**2] * 3 + [k.var_g * dt**2] * 3), owned=True)
+            if len(self._q_cache) > 64:
+                self._q_cache.clear()
+            self._q_cache[dt] = Q
+        return Q
+
+    def _step_one(self, state: EkfState, u: list[float], dt: float) -> EkfState:
+        """:meth:`propagate` of one flight: the same prediction and magnetometer update (module docstring,
+        *Cost of one flight*); ``u = [ω^b, a^b, m^b]`` as 9 floats, ``dt`` checked."""
+        w0, w1, w2, a0, a1, a2 = u[0:6]
+        p0, p1, p2 = state.p.tolist()
+        v0, v1, v2 = state.v.tolist()
+        R = state.R.ravel().tolist()
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = R
+        g0, g1, g2 = self._k.g_n
+        # nominal: acceleration R̂a + gⁿ, position, velocity, attitude R̂ exp(S(ω dt))
+        f0 = r0 * a0 + r1 * a1 + r2 * a2 + g0
+        f1 = r3 * a0 + r4 * a1 + r5 * a2 + g1
+        f2 = r6 * a0 + r7 * a1 + r8 * a2 + g2
+        h2 = 0.5 * dt * dt
+        p0, p1, p2 = p0 + v0 * dt + f0 * h2, p1 + v1 * dt + f1 * h2, p2 + v2 * dt + f2 * h2
+        v0, v1, v2 = v0 + f0 * dt, v1 + f1 * dt, v2 + f2 * dt
+        R_new = _mm(R, exp_so3_scalar(w0 * dt, w1 * dt, w2 * dt))
+        # Φ's last block column: A = −R̂ S(a) (row i: a × r_i), W = −S(ω), AW, W² = ωωᵀ − |ω|² I
+        A = (r2 * a1 - r1 * a2, r0 * a2 - r2 * a0, r1 * a0 - r0 * a1,
+             r5 * a1 - r4 * a2, r3 * a2 - r5 * a0, r4 * a0 - r3 * a1,
+             r8 * a1 - r7 * a2, r6 * a2 - r8 * a0, r7 * a0 - r6 * a1)
+        ww = w0 * w0 + w1 * w1 + w2 * w2
+        col = [h2 * x for x in A]
+        for i in range(0, 9, 3):
+            x0, x1, x2 = A[i], A[i + 1], A[i + 2]
+            col += (dt * x0 + h2 * (x2 * w1 - x1 * w2), dt * x1 + h2 * (x0 * w2 - x2 * w0),
+                    dt * x2 + h2 * (x1 * w0 - x0 * w1))
+        col += (1.0 + h2 * (w0 * w0 - ww), dt * w2 + h2 * w0 * w1, -dt * w1 + h2 * w0 * w2,
+                -dt * w2 + h2 * w1 * w0, 1.0 + h2 * (w1 * w1 - ww), dt * w0 + h2 * w1 * w2,
+                dt * w1 + h2 * w2 * w0, -dt * w0 + h2 * w2 * w1, 1.0 + h2 * (w2 * w2 - ww))
+        Phi = self._k.I9.copy()
+        Phi[0, 3] = Phi[1, 4] = Phi[2, 5] = dt
+        Phi[:, 6:9] = np.array(col).reshape(9, 3)
+        P = Phi.dot(state.P).dot(Phi.T)
+        P += self._q_one(dt)
+        P += P.T.copy()
+        P *= 0.5
+        if self.use_magnetometer:
+            return self._magnetometer_one(state, [p0, p1, p2, v0, v1, v2], R_new, P, u[6:9])
+        return EkfState(p=np.array([p0, p1, p2]), v=np.array([v0, v1, v2]), R=np.array(R_new).reshape(3, 3),
+                        P=P, skipped=state.skipped)
+
+    def _magnetometer_one(self, state: EkfState, pv: list[float], R: tuple[float, ...], P: Array,
+                          m_b: list[float]) -> EkfState:
+        """The magnetometer update of one flight, ``H = [0, 0, S(R̂ᵀmⁿ)]`` (Joseph form, ``S⁻¹`` by its adjugate)."""
+        n0, n1, n2 = self._k.m_n
+        r0, r1, r2, r3, r4, r5, r6, r7, r8 = R
+        q0 = r0 * n0 + r3 * n1 + r6 * n2  # R̂ᵀ mⁿ
+        q1 = r1 * n0 + r4 * n1 + r7 * n2
+        q2 = r2 * n0 + r5 * n1 + r8 * n2
+        H = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -q2, q1,
+                      0.0, 0.0, 0.0, 0.0, 0.0, 0.0, q2, 0.0, -q0,
+                      0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -q1, q0, 0.0]).reshape(3, 9)
+        var = self._k.var_m
+        PHt = P.dot(H.T)
+        Sinv = _inv3(H.dot(PHt).ravel().tolist(), var)
+        K = PHt.dot(Sinv)
+        return self._joseph_inject_one(state, pv, R, P, H, K, var, [m_b[0] - q0, m_b[1] - q1, m_b[2] - q2])
+
+    def _joseph_inject_one(self, state: EkfState, pv: list[float], R: tuple[float, ...] | list[float], P: Array,
+                           H: Array, K: Array, var: float | Array, nu: list[float]) -> EkfState:
+        """Joseph form ``(I − KH) P (I − KH)ᵀ + K R Kᵀ`` (``R = var·I`` for a float ``var``), symmetrised,
+        and the injection of ``δx = K ν``, for one flight."""
+        IKH = self._k.I9 - K.dot(H)
+        KRKt = K.dot(K.T) * var if isinstance(var, float) else K.dot(var).dot(K.T)
+        P_new = IKH.dot(P).dot(IKH.T)
+        P_new += KRKt
+        P_new += P_new.T.copy()
+        P_new *= 0.5
+        dx = K.dot(nu).tolist()
+        E = exp_so3_scalar(dx[6], dx[7], dx[8])
+        return EkfState(p=np.array([pv[0] + dx[0], pv[1] + dx[1], pv[2] + dx[2]]),
+                        v=np.array([pv[3] + dx[3], pv[4] + dx[4], pv[5] + dx[5]]),
+                        R=np.array(_mm(R, E)).reshape(3, 3), P=P_new, skipped=state.skipped)
+
+    def _update_one(self, state: EkfState, y: list[float], valid: bool) -> EkfState:
+        """:meth:`update` of one flight with the fix ``y = [p, (v)]`` as floats; an invalid fix is counted."""
+        if not valid:
+            return replace(state, skipped=state.skipped + 1)
+        pv = state.p.tolist() + state.v.tolist()
+        q = 3 if self.position_only or len(y) == 3 else 6
+        H, Rm = self._k.gnss[q]
+        P = state.P
+        PHt = P.dot(H.T)
+        S = H.dot(PHt)
+        S += Rm
+        K = PHt.dot(np.linalg.inv(S))
+        return self._joseph_inject_one(state, pv, state.R.ravel().tolist(), P, H, K, Rm,
+                                       [y[i] - pv[i] for i in range(q)])
+
+
+def _inv3(s: list[float], var: float) -> Array:
+    """``(S + var·I)⁻¹`` of a 3 × 3 ``S`` given row-major as 9 floats, by the adjugate."""
+    a, b, c, d, e, f, g, h, i = s
+    a += var
+    e += var
+    i += var
+    A, B, C = e * i - f * h, f * g - d * i, d * h - e * g
+    det = a * A + b * B + c * C
+    if det == 0.0 or not math.isfinite(det):
+        raise np.linalg.LinAlgError("Singular matrix")
+    r = 1.0 / det
+    return np.array([A * r, (c * h - b * i) * r, (b * f - c * e) * r,
+                     B * r, (a * i - c * g) * r, (c * d - a * f) * r,
+                     C * r, (b * g - a * h) * r, (a * e - b * d) * r]).reshape(3, 3)
