@@ -155,7 +155,10 @@ def demo_cmd(
     duration: Annotated[float | None, typer.Option(help="Flight length [s] (default: the whole pattern).")] = None,
     out: Annotated[Path, typer.Option(help="Folder for the figures and results.json.")] = Path("out/gnss-ins"),
     yaw_error: Annotated[float, typer.Option(help="Initial yaw error [deg].")] = 60.0,
-    gains: Annotated[str, typer.Option(help="'paper' (Sec. 5.2) or 'designed' (nlobs's LMI design).")] = "paper",
+    gains: Annotated[str, typer.Option(
+        help="'noise-optimal' (the certified gain with the smallest noise-to-error H2 norm under LMI (14), "
+             "the paper's gains beside it), 'paper' (Sec. 5.2) or 'designed' (nlobs's central LMI design).")
+    ] = "noise-optimal",
     position_only: Annotated[bool, typer.Option(help="GNSS position only (Sec. 5.2, C = [I 0]).")] = False,
     ekf: Annotated[bool, typer.Option(help="Also run the EKF baseline.")] = True,
 ) -> None:

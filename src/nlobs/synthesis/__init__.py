@@ -2,7 +2,8 @@
 
 * Grip, Saberi & Johansen: the LMIs (14) and (15) with Chilali–Gahinet pole regions, well-posed
   objectives and an independent re-verification of every answer (:mod:`~nlobs.synthesis.observer_gain`,
-  ``docs/synthesis.md``); the cascade gain on the extended system (8c) by those LMIs or by pole
+  ``docs/synthesis.md``); the noise-optimal gain, smallest noise-to-error H2 norm under LMI (14)
+  (:mod:`~nlobs.synthesis.mixed_h2`, ``docs/noise_optimal.md``); the cascade gain on the extended system (8c) by those LMIs or by pole
   placement (:mod:`~nlobs.synthesis.cascade_gain`); the bounds of Theorem 1 / 1' and the quadratic
   Lyapunov constants of Assumption 1 (:mod:`~nlobs.synthesis.cascade_bounds`).
 * Dalla Mora, Germani & Manes: the pair ``(K, P)`` of (2.17) (:mod:`~nlobs.synthesis.drift_gain`) and
@@ -52,6 +53,16 @@ from nlobs.synthesis.drift_gain import (
     verify_drift_gain,
 )
 from nlobs.synthesis.lmi import Solver, SolveResult, SolveStatus
+from nlobs.synthesis.mixed_h2 import (
+    MixedH2Certificate,
+    NoiseModel,
+    design_h2_gain,
+    error_covariance,
+    h2_error_norm,
+    kalman_bucy_gain,
+    sampled_intensity,
+    verify_h2_gain,
+)
 from nlobs.synthesis.observer_gain import (
     ExtendedSystem,
     GainBound,
@@ -98,7 +109,9 @@ __all__ = [
     "HalfPlane",
     "HighGain",
     "LmiRegion",
+    "MixedH2Certificate",
     "NecessaryConditionPrinted",
+    "NoiseModel",
     "Objective",
     "ObserverGainCertificate",
     "PoleRegion",
@@ -122,18 +135,23 @@ __all__ = [
     "design_discrete_lipschitz_gain",
     "design_drift_gain",
     "design_drift_gain_sdp",
+    "design_h2_gain",
     "design_observer_gain",
     "design_printed",
     "design_prop516",
     "design_setvalued",
     "error_bound_constants",
+    "error_covariance",
     "error_dynamics",
     "extended_system",
+    "h2_error_norm",
     "high_gain_coefficients",
     "high_gain_roots",
+    "kalman_bucy_gain",
     "necessary_condition_printed",
     "place_cascade_gain",
     "quadratic_lyapunov_constants",
+    "sampled_intensity",
     "smallest_w",
     "theorem1_gamma_bound",
     "theorem1_optimal_scaling",
@@ -141,6 +159,7 @@ __all__ = [
     "vandermonde_gain",
     "verify_discrete_lipschitz_gain",
     "verify_drift_gain",
+    "verify_h2_gain",
     "verify_observer_gain",
     "verify_setvalued",
 ]

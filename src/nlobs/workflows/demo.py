@@ -2,11 +2,12 @@
 
 Simulates a light-aircraft traffic-pattern flight with exact inertial signals,
 samples the IMU (+ magnetometer) at 100 Hz and GNSS position/velocity at 5 Hz
-with noise, runs the interconnected observer (24) with the paper's gains and
-Γ = diag(20, 0.2, 0.2) and the EKF baseline on the same data from the same
-wrong initial attitude (60° in yaw by default), and reports accuracy after
-convergence, convergence time and cost per step, with figures like the paper's
-Figs. 4–6.
+with noise, runs the interconnected observer (24) — by default with the noise-optimal gains
+(the certified K with the smallest noise-to-error H2 norm under LMI (14) at γ = 50, and
+Γ = 0.5 I) and beside it with the paper's gains and Γ = diag(20, 0.2, 0.2) — and the EKF
+baseline on the same data from the same wrong initial attitude (60° in yaw by default), and
+reports accuracy after convergence, convergence time and cost per step, with figures like the
+paper's Figs. 4–6.
 """
 
 from __future__ import annotations
@@ -19,9 +20,9 @@ import numpy as np
 
 from nlobs._io import atomic_write_json, prepare_output_dir
 from nlobs._validate import in_range, positive
-from nlobs.errors import InvalidArgumentError, OutputError
+from nlobs.errors import DesignInfeasible, InvalidArgumentError, OutputError
 from nlobs.navigation.ekf import EkfConfig, ExtendedKalmanFilter
-from nlobs.navigation.gains import PAPER_GAMMA, design_gains, paper_gains
+from nlobs.navigation.gains import NOISE_OPTIMAL_GAMMA, PAPER_GAMMA, design_gains, noise_optimal_gains, paper_gains
 from nlobs.navigation.gnss_ins import GnssInsObserver
 from nlobs.navigation.metrics import summary_dict
 from nlobs.navigation.plots import plot_navigation
@@ -31,6 +32,7 @@ from nlobs.navigation.so3 import rot_z
 from nlobs.navigation.trajectory import traffic_pattern
 from nlobs.workflows.verdict import Verdict
 from nlobs.simulate.result import SimulationResult
+from nlobs.synthesis.mixed_h2 import MixedH2Certificate
 
 #: Sensor noise of the demo: a consumer-grade IMU and a standalone GNSS receiver.
 DEMO_NOISE = SensorNoise(
@@ -41,6 +43,9 @@ DEMO_NOISE = SensorNoise(
     gnss_v_std=0.1,  # m/s
 )
 
+
+#: The demo's gain choices (``--gains``).
+GAINS = ("noise-optimal", "paper", "designed")
 
 #: The longest flight the demo simulates, in IMU samples (a flight is held in memory: ~1 kB per sample).
 MAX_IMU_SAMPLES = 2e6
@@ -63,7 +68,10 @@ class DemoConfig:
     converge_deg : float
         Attitude-error threshold that defines convergence.
     gains : str
-        ``"paper"`` (Sec. 5.2's K) or ``"designed"`` (nlobs's central LMI design).
+        ``"noise-optimal"`` (default: the certified gain with the smallest noise-to-error H2 norm
+        under LMI (14) at γ = 50 and Γ = 0.5 I, :func:`~nlobs.navigation.gains.noise_optimal_gains`;
+        the paper's gains run beside it for comparison), ``"paper"`` (Sec. 5.2's K and Γ) or
+        ``"designed"`` (nlobs's central LMI design with the paper's Γ).
     position_only : bool
         GNSS position only (Sec. 5.2, C = [I 0]); the gain is then designed by nlobs.
     ekf : bool
@@ -76,7 +84,7 @@ class DemoConfig:
     gnss_rate_hz: float = 5.0
     yaw_error_deg: float = 60.0
     converge_deg: float = 5.0
-    gains: str = "paper"
+    gains: str = "noise-optimal"
     position_only: bool = False
     ekf: bool = True
     noise: SensorNoise = field(default_factory=lambda: DEMO_NOISE)
@@ -94,8 +102,8 @@ class DemoConfig:
         positive("gnss_rate_hz", self.gnss_rate_hz)
         in_range("yaw_error_deg", self.yaw_error_deg, -180.0, 180.0, hi_open=False)
         positive("converge_deg", self.converge_deg)
-        if self.gains not in ("paper", "designed"):
-            raise InvalidArgumentError(f"gains: expected 'paper' or 'designed', got {self.gains!r}")
+        if self.gains not in GAINS:
+            raise InvalidArgumentError(f"gains: expected one of {', '.join(map(repr, GAINS))}, got {self.gains!r}")
 
 
 @dataclass(frozen=True)
@@ -110,10 +118,12 @@ class DemoResult:
     ekf: SimulationResult | None
     figures: dict[str, Path]
     flight_duration: float
+    observer_paper: SimulationResult | None = None
+    certificate: MixedH2Certificate | None = None
 
     def metrics(self, which: str) -> dict[str, Any]:
-        """The table row of ``"observer"`` or ``"ekf"`` (RMS after that filter's own convergence)."""
-        res = self.observer if which == "observer" else self.ekf
+        """The table row of ``"observer"``, ``"observer_paper"`` or ``"ekf"`` (RMS after that filter's own convergence)."""
+        res = {"observer": self.observer, "observer_paper": self.observer_paper, "ekf": self.ekf}.get(which)
         if res is None:
             raise InvalidArgumentError(f"no result for {which!r}")
         return summary_dict(res, threshold_deg=self.config.converge_deg)
@@ -133,9 +143,24 @@ class DemoResult:
                 "position_only": c.position_only,
             },
             "observer": self.metrics("observer"),
+            "observer_paper": None if self.observer_paper is None else self.metrics("observer_paper"),
             "ekf": None if self.ekf is None else self.metrics("ekf"),
+            "gain_certificate": None if self.certificate is None else _certificate_dict(self.certificate),
             "figures": {k: str(v) for k, v in self.figures.items()},
         }
+
+
+def _certificate_dict(c: MixedH2Certificate) -> dict[str, Any]:
+    """The JSON summary of the noise-optimal gain's certificate (per axis)."""
+    return {"verified": c.verified, "gamma": c.gamma, "hinf_H": c.hinf_H, "h2": c.h2, "h2_kalman": c.h2_kalman,
+            "gain_per_axis": np.asarray(c.gain).tolist(), "attitude_gain": np.diag(NOISE_OPTIMAL_GAMMA).tolist(),
+            "failed_checks": [ch.name for ch in c.failed_checks]}
+
+
+def _paper_observer(config: DemoConfig, flight: Any) -> GnssInsObserver:
+    """Observer (24) with the paper's gains (or, for a position-only receiver, the paper's recipe) and Γ."""
+    K = paper_gains() if not config.position_only else design_gains(position_only=True)[0]
+    return GnssInsObserver(K, PAPER_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
 
 
 def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = None, *,
@@ -145,15 +170,26 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
     traj = flight.sample(config.imu_rate_hz)
     data = generate_sensors(traj, imu_rate_hz=config.imu_rate_hz, gnss_rate_hz=config.gnss_rate_hz,
                             noise=config.noise, seed=config.seed, position_only=config.position_only)
-    if config.gains == "paper" and not config.position_only:
-        K = paper_gains()
+    cert: MixedH2Certificate | None = None
+    if config.gains == "noise-optimal":
+        K, cert = noise_optimal_gains(config.noise, imu_rate_hz=config.imu_rate_hz, gnss_rate_hz=config.gnss_rate_hz,
+                                      position_only=config.position_only)
+        if not cert.verified:  # never run an uncertified gain under this name
+            raise DesignInfeasible("the noise-optimal gain failed its certificate: "
+                                   + ", ".join(ch.name for ch in cert.failed_checks), constraint="certificate")
+        observer = GnssInsObserver(K, NOISE_OPTIMAL_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
+    elif config.gains == "paper":
+        observer = _paper_observer(config, flight)
     else:
         K, _ = design_gains(position_only=config.position_only)
-    observer = GnssInsObserver(K, PAPER_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
+        observer = GnssInsObserver(K, PAPER_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
     R0 = rot_z(np.deg2rad(config.yaw_error_deg)) @ traj.R[0]
     p0 = data.p_gnss[0] if np.all(np.isfinite(data.p_gnss[0])) else traj.p[0]
     v0 = data.v_gnss[0] if data.v_gnss is not None and np.all(np.isfinite(data.v_gnss[0])) else np.zeros(3)
     obs_res = run_navigation(observer, data, p0, v0, R0, progress=progress)
+    paper_res = None
+    if config.gains == "noise-optimal":
+        paper_res = run_navigation(_paper_observer(config, flight), data, p0, v0, R0, progress=progress)
     ekf_res = None
     if config.ekf:
         ekf = ExtendedKalmanFilter(EkfConfig.for_noise(config.noise, yaw_std_deg=max(30.0, abs(config.yaw_error_deg)),
@@ -163,8 +199,13 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
     figures: dict[str, Path] = {}
     if out_dir is not None:
         figures = plot_navigation(obs_res, Path(out_dir), compare=ekf_res, prefix="gnss_ins",
-                                  labels=("observer (24)", "EKF") if ekf_res is not None else None)
-    return DemoResult(config, obs_res, ekf_res, figures, float(traj.t[-1]))
+                                  labels=(_LABELS[config.gains], "EKF") if ekf_res is not None else None)
+    return DemoResult(config, obs_res, ekf_res, figures, float(traj.t[-1]), observer_paper=paper_res,
+                      certificate=cert)
+
+
+_LABELS = {"noise-optimal": "observer, noise-optimal gains", "paper": "observer, paper's gains",
+           "designed": "observer, central LMI gains"}
 
 
 def write_json(result: DemoResult, path: str | Path) -> Path:
@@ -206,10 +247,12 @@ class DemoReport:
     def table(self) -> tuple[str, tuple[str, ...], tuple[tuple[str, ...], ...]]:
         """``(title, column headers, rows)`` of the comparison table."""
         r, c = self.result, self.result.config
-        filters = ["observer"] + (["ekf"] if r.ekf is not None else [])
+        filters = (["observer"] + (["observer_paper"] if r.observer_paper is not None else [])
+                   + (["ekf"] if r.ekf is not None else []))
         title = (f"GNSS/INS, {r.flight_duration:.0f} s flight, {c.yaw_error_deg:g}° initial yaw error, IMU "
                  f"{c.imu_rate_hz:g} Hz, GNSS {c.gnss_rate_hz:g} Hz, seed {c.seed}")
-        heads = ("quantity", *("observer (24)" if f == "observer" else "EKF" for f in filters))
+        names = {"observer": _LABELS[c.gains], "observer_paper": _LABELS["paper"], "ekf": "EKF"}
+        heads = ("quantity", *(names[f] for f in filters))
         metrics = {f: r.metrics(f) for f in filters}
         rows = tuple((label.format(converge_deg=c.converge_deg), *(fmt.format(metrics[f][key]) for f in filters))
                      for label, key, fmt in TABLE_ROWS)
