@@ -435,7 +435,7 @@ class MixedH2Certificate(CertificateMixin):
 def _convex_design(d: Any, noise: NoiseModel, gamma: float, margin: float, solver: Solver,
                    options: Mapping[str, Any] | None) -> tuple[NDArray[np.float64], float, str]:
     """Stage 1: minimise ``trace Z`` over the common-``P`` LMIs (module docstring). Returns ``(K, √trace Z, status)``."""
-    n, p = d.n, d.C.shape[0]
+    n = d.n
     f = _formulate(d, margin=margin, gamma2=gamma**2, gamma_n2=1.0, with15=False, regions=d.regions,
                    gain_bound=d.gain_bound)
     P, X = f.P, f.X
