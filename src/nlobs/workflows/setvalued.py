@@ -126,7 +126,7 @@ def point_baselines(system: DiscreteUISystem, *, q_d: float, box: tuple[ArrayLik
     uniform distribution in the noise balls), ``Q_d = q_d I``, ``P₀ = δ₀²/(n + 2) I``, Jacobian of ``φ`` by
     central differences.
     """
-    from nlobs.errors import DesignInfeasible
+    from nlobs.errors import CertificateError, DesignInfeasible
     from nlobs.synthesis.discrete_lipschitz import design_discrete_lipschitz_gain
     from nlobs.systems.discrete_ui import LPV, QCStar
 
@@ -157,7 +157,7 @@ def point_baselines(system: DiscreteUISystem, *, q_d: float, box: tuple[ArrayLik
                                             B=system.B, D=system.D)
             note = (f"designed for γ = {L_b:.4g}" + ("" if E is None else f", φ = Eψ(Fx) with {E.shape[1]} rows "
                     f"and {F.shape[0]} states") + f": ρ = {cert.rho:.4g}, spectral radius {cert.spectral_radius:.4g}")
-        except DesignInfeasible as exc:
+        except (DesignInfeasible, CertificateError) as exc:  # a baseline that cannot be certified is left out
             note = f"not designed: {exc}"
     from nlobs.errors import NlobsError
 
