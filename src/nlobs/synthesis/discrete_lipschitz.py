@@ -365,37 +365,36 @@ def design_discrete_lipschitz_gain(
     n_solves += 1
     if not res.status.has_solution or prob.P.value is None or prob.Y.value is None:
         raise infeasible(rho_d)
-    final, margin_used, tried = prob, eps, [rho_d]
-    retries = [(rho_d, True)] + ([] if rho is not None else
-                                 [(min(1.0, rho_lo + b * (1.0 - rho_lo)), False) for b in (0.3, 0.6) if b > backoff])
-    while True:
-        P = 0.5 * (np.asarray(final.P.value) + np.asarray(final.P.value).T)
-        L = np.linalg.solve(P, np.asarray(final.Y.value))
-        eps_val = float(final.eps.value) if final.eps.value is not None else float("nan")
-        checks = verify_discrete_lipschitz_gain(A_, C_, L, P, lipschitz=gamma, rho=rho_d, epsilon=eps_val, E=E_,
-                                                F=F_)
-        failed = [c for c in checks if not c.passed]
-        if not failed:
+    def answer(pr: _Problem, r: float) -> tuple[Array, Array, float, tuple[Check, ...]]:
+        P_ = 0.5 * (np.asarray(pr.P.value) + np.asarray(pr.P.value).T)
+        L_ = np.linalg.solve(P_, np.asarray(pr.Y.value))
+        e_ = float(pr.eps.value) if pr.eps.value is not None else float("nan")
+        return P_, L_, e_, verify_discrete_lipschitz_gain(A_, C_, L_, P_, lipschitz=gamma, rho=r, epsilon=e_,
+                                                          E=E_, F=F_)
+
+    P, L, eps_val, checks = answer(prob, rho_d)
+    status, margin_used, tried = res.raw_status, eps, [rho_d]
+    # The margin is absolute while the blocks grow with P ⪯ t I, and a contraction close to ρ_min needs an
+    # ill-conditioned P: on a near-identity discrete plant (t ≈ 4e6, measured) the solver's relative accuracy is
+    # above the margin and the answer fails the check by a hair. Re-solve with the margin scaled to the design
+    # (1e−7 t) and, when ρ was not given, further inside the feasible set (ρ_min + 0.3 (1 − ρ_min), then 0.6),
+    # where P is better conditioned; the first verified answer is kept.
+    t_val = float(prob.t.value) if prob.t.value is not None else 1.0
+    retries = [(rho_d, max(eps, 1e-7 * max(t_val, 1.0)))]
+    if rho is None:
+        retries += [(min(1.0, rho_lo + b * (1.0 - rho_lo)), eps) for b in (0.3, 0.6) if b > backoff]
+    for r_try, m_try in retries:
+        if all(c.passed for c in checks):
             break
-        # The margin is absolute while the blocks grow with P ⪯ t I, and a contraction close to ρ_min needs an
-        # ill-conditioned P: on a near-identity discrete plant (t ≈ 4e6, measured) the solver's relative
-        # accuracy is above the margin and the answer fails the check by a hair. Re-solve with the margin
-        # scaled to the design (1e−7 t) and, when ρ was not given, further inside the feasible set
-        # (ρ_min + 0.3 (1 − ρ_min), then 0.6), where P is better conditioned; the first verified answer is kept.
-        while retries:
-            r_try, scale_margin = retries.pop(0)
-            t_val = float(final.t.value) if final.t.value is not None else 1.0
-            m_try = max(eps, 1e-7 * max(t_val, 1.0)) if scale_margin else eps
-            cand = _Problem(A_, C_, E_, F_, m_try, max_gamma=False, bound_eps=gamma == 0.0)
-            cand.gamma2.value, cand.rho2.value = gamma**2, r_try**2
-            res = solve(cand.problem, s)
-            n_solves += 1
-            if res.status.has_solution and cand.P.value is not None and cand.Y.value is not None:
-                final, margin_used, rho_d = cand, m_try, r_try
-                tried.append(r_try)
-                break
-        else:
-            break
+        cand = _Problem(A_, C_, E_, F_, m_try, max_gamma=False, bound_eps=gamma == 0.0)
+        cand.gamma2.value, cand.rho2.value = gamma**2, r_try**2
+        res_try = solve(cand.problem, s)
+        n_solves += 1
+        if res_try.status.has_solution and cand.P.value is not None and cand.Y.value is not None:
+            P, L, eps_val, checks = answer(cand, r_try)
+            status, margin_used, rho_d = res_try.raw_status, m_try, r_try
+            tried.append(r_try)
+    failed = [c for c in checks if not c.passed]
     if failed:
         raise CertificateError("discrete Lipschitz gain failed its re-verification: "
                                + "; ".join(c.summary() for c in failed)
@@ -407,6 +406,6 @@ def design_discrete_lipschitz_gain(
     return DiscreteLipschitzCertificate(
         gain=L, P=P, epsilon=eps_val, rho=float(rho_d), rho_min=float(rho_lo), lipschitz=gamma,
         transient=float(np.sqrt(ev[-1] / ev[0])), spectral_radius=float(checks[2].value), checks=checks,
-        solver=s, solver_status=res.raw_status, margin=eps, n_solves=n_solves,
+        solver=s, solver_status=status, margin=eps, n_solves=n_solves,
         seconds=time.perf_counter() - t0,
     )

@@ -55,7 +55,7 @@ import math
 import time
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import cvxpy as cp
@@ -64,7 +64,7 @@ import scipy.linalg
 import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._validate import as_matrix, as_symmetric, positive, readonly
+from nlobs._validate import as_matrix, as_square, as_symmetric, positive, readonly
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import DesignInfeasible, DimensionError, InvalidArgumentError, NumericalError
 from nlobs.linear.norms import h2_norm, hinf_norm
@@ -199,9 +199,9 @@ class NoiseModel:
 
 
 def _require_psd(name: str, M: NDArray[np.float64]) -> None:
-    if M.size and float(np.linalg.eigvalsh(M)[0]) < -1e-12 * max(1.0, float(np.max(np.abs(M)))):
-        raise InvalidArgumentError(f"{name}: an intensity must be positive semidefinite "
-                                   f"(smallest eigenvalue {float(np.linalg.eigvalsh(M)[0]):.3g})")
+    lam = float(np.linalg.eigvalsh(M)[0]) if M.size else 0.0
+    if lam < -1e-12 * max(1.0, float(np.max(np.abs(M)))):
+        raise InvalidArgumentError(f"{name}: an intensity must be positive semidefinite (smallest eigenvalue {lam:.3g})")
 
 
 def _sqrtm_psd(M: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -222,10 +222,8 @@ def h2_error_norm(A: ArrayLike, C: ArrayLike, K: ArrayLike, noise: NoiseModel) -
 
 
 def _acK(A: ArrayLike, C: ArrayLike, K: ArrayLike) -> tuple[NDArray, NDArray, NDArray]:
-    A_ = as_matrix("A", A, (None, None))
+    A_ = as_square("A", A)
     n = A_.shape[0]
-    if A_.shape != (n, n):
-        raise DimensionError(f"A: expected a square matrix, got {A_.shape}")
     C_ = as_matrix("C", C, (None, n))
     K_ = as_matrix("K", K, (n, C_.shape[0]))
     return A_, C_, K_
@@ -252,9 +250,13 @@ def error_covariance(A: ArrayLike, C: ArrayLike, K: ArrayLike, noise: NoiseModel
     if not float(np.max(np.linalg.eigvals(Acl).real)) < 0.0:
         raise DesignInfeasible("A − K C is not Hurwitz: the error has no steady-state covariance",
                                constraint="stability")
-    B = noise.inputs(K_)
+    return readonly(_covariance(Acl, noise.inputs(K_)))
+
+
+def _covariance(Acl: NDArray, B: NDArray) -> NDArray:
+    """The controllability Gramian ``Σ`` of ``(Acl, B)``, symmetrised (``Acl`` Hurwitz)."""
     S = scipy.linalg.solve_continuous_lyapunov(Acl, -B @ B.T)
-    return readonly(0.5 * (S + S.T))
+    return 0.5 * (S + S.T)
 
 
 def kalman_bucy_gain(A: ArrayLike, C: ArrayLike, noise: NoiseModel, *,
@@ -279,7 +281,7 @@ def kalman_bucy_gain(A: ArrayLike, C: ArrayLike, noise: NoiseModel, *,
         ``V`` is singular (the filter is not defined) or no stabilising solution exists even
         regularised.
     """
-    A_ = as_matrix("A", A, (None, None))
+    A_ = as_square("A", A)
     n = A_.shape[0]
     C_ = as_matrix("C", C, (None, n))
     noise.check_against(n, C_.shape[0])
@@ -374,7 +376,6 @@ class MixedH2Certificate(CertificateMixin):
     solver_status: str
     margin: float
     seconds: float = 0.0
-    extra: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def gain_norm(self) -> float:
@@ -593,8 +594,8 @@ def design_h2_gain(
     h2_convex = _h2(d.A, d.C, K_convex, noise)
     K, refined = K_convex, False
     if refine and n * p <= _REFINE_MAX_VARS:
-        K_ref = _refine(d, noise, K_convex, g)
-        if K_ref is not None and _h2(d.A, d.C, K_ref, noise) < h2_convex:
+        K_ref = _refine(d, noise, K_convex, g)  # returned only when it lowers the exact norm
+        if K_ref is not None:
             K, refined = K_ref, True
     return _certificate(d, noise, K, g, bound=bound, h2_convex=h2_convex, refined=refined, solver=slv,
                         status=status, margin=margin, seconds=time.perf_counter() - t0,
@@ -637,8 +638,7 @@ def _certificate(d: Any, noise: NoiseModel, K: NDArray[np.float64], gamma: float
         hk = float(hinf_norm(d.A - Kk @ d.C, d.Bd, np.eye(n), np.zeros((n, d.Bd.shape[1]))))
     except DesignInfeasible:
         h2k, hk, reg = math.nan, math.nan, False
-    S = scipy.linalg.solve_continuous_lyapunov(Acl, -B @ B.T)
-    std = np.sqrt(np.clip(np.diag(Lz @ (0.5 * (S + S.T)) @ Lz.T), 0.0, None))
+    std = np.sqrt(np.clip(np.diag(Lz @ _covariance(Acl, B) @ Lz.T), 0.0, None))
     return MixedH2Certificate(
         gain=readonly(np.array(K)), P=cert14.P, gamma=gamma, h2=h2c, h2_bound=bound, h2_convex=h2_convex,
         refined=refined, h2_kalman=h2k, hinf_kalman=hk, kalman_regularised=reg, hinf_H=cert14.hinf_H,

@@ -159,7 +159,7 @@ def _certificate_dict(c: MixedH2Certificate) -> dict[str, Any]:
 
 def _paper_observer(config: DemoConfig, flight: Any) -> GnssInsObserver:
     """Observer (24) with the paper's gains (or, for a position-only receiver, the paper's recipe) and Γ."""
-    K = paper_gains() if not config.position_only else design_gains(position_only=True)[0]
+    K = paper_gains(position_only=config.position_only)  # position-only: the paper's recipe, designed once and cached
     return GnssInsObserver(K, PAPER_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
 
 
