@@ -7,6 +7,8 @@ flights and the same sensor noise:
 * observer (24) with the paper's gains ``K`` and ``Γ = diag(20, 0.2, 0.2)``;
 * observer (24) with the noise-optimal gains (the smallest noise-to-error H2 norm under LMI (14)
   at ``γ = 50``, ``Γ = 0.5 I``; :func:`nlobs.navigation.gains.noise_optimal_gains`);
+* the same with the attitude gain scheduled from ``0.5 I`` down to the steady-state gain of the
+  gyro and magnetometer noise (:func:`nlobs.navigation.schedule.noise_scheduled_gain`, the demo's default);
 * the error-state EKF, told the truth about the initial errors (position std 100 m, attitude std
   90° about each axis).
 
@@ -39,6 +41,7 @@ from nlobs.navigation.ekf import EkfConfig, ExtendedKalmanFilter
 from nlobs.navigation.gains import NOISE_OPTIMAL_GAMMA, PAPER_GAMMA, noise_optimal_gains, paper_gains
 from nlobs.navigation.gnss_ins import GnssInsObserver
 from nlobs.navigation.run import run_navigation
+from nlobs.navigation.schedule import ScheduledGnssInsObserver, noise_scheduled_gain
 from nlobs.navigation.sensors import generate_sensors
 from nlobs.navigation.so3 import exp_so3
 from nlobs.navigation.trajectory import traffic_pattern
@@ -48,7 +51,7 @@ CONVERGE_DEG = 5.0
 WITHIN_S = 60.0
 TAIL_S = 30.0
 POSITION_ERROR_M = 100.0
-FILTERS = ("observer, paper's gains", "observer, noise-optimal gains", "EKF")
+FILTERS = ("observer, paper's gains", "observer, noise-optimal gains", "observer, noise-optimal, scheduled Γ", "EKF")
 
 
 def _filters(flight) -> dict[str, object]:
@@ -60,7 +63,9 @@ def _filters(flight) -> dict[str, object]:
     return {
         FILTERS[0]: GnssInsObserver(paper_gains(), PAPER_GAMMA, flight.m_n, flight.g_n),
         FILTERS[1]: GnssInsObserver(K_no, NOISE_OPTIMAL_GAMMA, flight.m_n, flight.g_n),
-        FILTERS[2]: ExtendedKalmanFilter(ekf_cfg, flight.m_n, flight.g_n),
+        FILTERS[2]: ScheduledGnssInsObserver(GnssInsObserver(K_no, NOISE_OPTIMAL_GAMMA, flight.m_n, flight.g_n),
+                                             noise_scheduled_gain(DEMO_NOISE, flight.m_n, flight.g_n)),
+        FILTERS[3]: ExtendedKalmanFilter(ekf_cfg, flight.m_n, flight.g_n),
     }
 
 
@@ -135,14 +140,14 @@ def main(argv: list[str] | None = None) -> int:
           f"errors up to {out['initial_attitude_error_deg_max']:.1f}° about random axes, position errors "
           f"{POSITION_ERROR_M:g} m; converged = attitude error below {CONVERGE_DEG:g}° for good within {WITHIN_S:g} s; "
           f"final = RMS over the last {TAIL_S:g} s (median over converged flights)")
-    head = (f"{'filter':<31} {'converged':>9} {'t_med [s]':>9} {'t_max [s]':>9} {'pos [m]':>8} {'vel [m/s]':>9} "
+    head = (f"{'filter':<38} {'converged':>9} {'t_med [s]':>9} {'t_max [s]':>9} {'pos [m]':>8} {'vel [m/s]':>9} "
             f"{'att [deg]':>9} {'run [s]':>8}")
     print(head)
     print("-" * len(head))
     for name, r in out["filters"].items():
         def f(x, fmt):
             return fmt.format(x) if x is not None else "—"
-        print(f"{name:<31} {100 * r['converged_fraction']:8.1f}% {f(r['converge_s_median'], '{:9.2f}')} "
+        print(f"{name:<38} {100 * r['converged_fraction']:8.1f}% {f(r['converge_s_median'], '{:9.2f}')} "
               f"{f(r['converge_s_max'], '{:9.2f}')} {f(r['final_position_rms_m'], '{:8.3f}')} "
               f"{f(r['final_velocity_rms_mps'], '{:9.3f}')} {f(r['final_attitude_rms_deg'], '{:9.3f}')} "
               f"{r['seconds']:8.1f}")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -40,18 +41,25 @@ def test_demo_bad_input() -> None:
     assert res.exit_code == 2 and "duration: must be positive" in res.stderr
     res = r.invoke(app, ["demo", "gnss-ins", "--gains", "magic"])
     assert res.exit_code == 2 and "gains: expected one of 'noise-optimal', 'paper', 'designed'" in res.stderr
+    res = r.invoke(app, ["demo", "gnss-ins", "--gains", "paper", "--attitude-gain", "scheduled"])
+    assert res.exit_code == 2 and "attitude_gain: applies to gains 'noise-optimal'" in res.stderr
+    res = r.invoke(app, ["demo", "gnss-ins", "--attitude-gain", "slow"])
+    assert res.exit_code == 2 and "attitude_gain: expected one of 'scheduled', 'constant'" in res.stderr
 
 
 def test_noise_optimal_gains_are_the_default_and_beat_the_papers(tmp_path: Path) -> None:
-    # the default demo (the whole 369 s flight) runs the certified noise-optimal gain and the paper's
-    # beside it, on the same data. Measured: position 0.347 / 2.53 / 0.285 m, velocity 0.072 / 0.339 /
-    # 0.046 m/s, attitude 0.477 / 0.906 / 0.196° (noise-optimal / paper / EKF). On a short flight the
-    # slow position loop's start-up transient dominates (120 s: 0.72 m).
+    # the default demo (the whole 369 s flight) runs the certified noise-optimal gain with the scheduled
+    # attitude gain and the paper's gains beside it, on the same data. Measured: position 0.350 / 2.53 /
+    # 0.285 m, velocity 0.058 / 0.339 / 0.046 m/s, attitude 0.284 / 0.906 / 0.196° (noise-optimal /
+    # paper / EKF). On a short flight the slow position loop's start-up transient dominates (120 s: 0.72 m).
     res = CliRunner().invoke(app, ["demo", "gnss-ins", "--json", "--out", str(tmp_path)])
     assert res.exit_code == 0, res.output
     d = json.loads(res.stdout)
-    assert d["scenario"]["gains"] == "noise-optimal"
+    assert d["scenario"]["gains"] == "noise-optimal" and d["scenario"]["attitude_gain"] == "scheduled"
     cert = d["gain_certificate"]
+    sched = cert["attitude_gain_schedule"]
+    assert cert["attitude_gain"] == [0.5, 0.5, 0.5] == list(np.diag(sched["gains"][0]))
+    assert len(sched["gains"]) == len(sched["times_s"]) + 1 and sched["times_s"][0] == 6.0
     assert cert["verified"] and cert["failed_checks"] == [] and cert["hinf_H"] < cert["gamma"] == 50.0
     assert cert["h2"] >= cert["h2_kalman"] > 0
     new, paper, ekf = d["observer"], d["observer_paper"], d["ekf"]
@@ -62,4 +70,5 @@ def test_noise_optimal_gains_are_the_default_and_beat_the_papers(tmp_path: Path)
     assert new["attitude_rms_deg"] < paper["attitude_rms_deg"]
     assert new["position_rms_m"] < 1.5 * ekf["position_rms_m"]
     assert new["velocity_rms_mps"] < 2.0 * ekf["velocity_rms_mps"]
+    assert new["attitude_rms_deg"] < 2.0 * ekf["attitude_rms_deg"]
     assert new["converge_s"] < 15.0

@@ -159,6 +159,10 @@ def demo_cmd(
         help="'noise-optimal' (the certified gain with the smallest noise-to-error H2 norm under LMI (14), "
              "the paper's gains beside it), 'paper' (Sec. 5.2) or 'designed' (nlobs's central LMI design).")
     ] = "noise-optimal",
+    attitude_gain: Annotated[str | None, typer.Option(
+        help="Attitude gain of the noise-optimal observer: 'scheduled' (its default: Γ(t) = γ(t) I from 0.5 I "
+             "down to the steady-state gain set by the gyro and magnetometer noise) or 'constant' (0.5 I).")
+    ] = None,
     position_only: Annotated[bool, typer.Option(help="GNSS position only (Sec. 5.2, C = [I 0]).")] = False,
     ekf: Annotated[bool, typer.Option(help="Also run the EKF baseline.")] = True,
 ) -> None:
@@ -169,7 +173,7 @@ def demo_cmd(
         fail(f"unknown demo {name!r} (known: {', '.join(DEMOS)})")
     try:
         config = DemoConfig(seed=seed, duration=duration, yaw_error_deg=yaw_error, gains=gains,
-                            position_only=position_only, ekf=ekf)
+                            attitude_gain=attitude_gain, position_only=position_only, ekf=ekf)
     except NlobsError as exc:
         fail(str(exc))
     try:

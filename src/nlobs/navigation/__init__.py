@@ -1,5 +1,5 @@
 """GNSS/INS navigation (Grip, Saberi & Johansen, Sec. 5): SO(3) utilities, flight and sensor generation,
-the interconnected observer (22)/(24) and the EKF baseline (both correcting observers of
+the interconnected observer (22)/(24) (with a constant or a scheduled attitude gain) and the EKF baseline (both correcting observers of
 :mod:`nlobs.observers.base`), ``run_navigation`` (a thin call of :func:`nlobs.simulate.run_observer`),
 the navigation metrics of its :class:`~nlobs.simulate.SimulationResult`, and plots.
 
@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from nlobs.navigation.metrics import summary_dict
     from nlobs.navigation.plots import plot_navigation
     from nlobs.navigation.run import run_navigation
+    from nlobs.navigation.schedule import AttitudeGainSchedule, ScheduledGnssInsObserver, noise_scheduled_gain
     from nlobs.navigation.sensors import SensorNoise, drop_fixes, generate_sensors
     from nlobs.navigation.trajectory import Flight, Trajectory, traffic_pattern
 
@@ -32,6 +33,8 @@ _LAZY: dict[str, str] = {
     "summary_dict": "nlobs.navigation.metrics",
     "plot_navigation": "nlobs.navigation.plots",
     "run_navigation": "nlobs.navigation.run",
+    **dict.fromkeys(("AttitudeGainSchedule", "ScheduledGnssInsObserver", "noise_scheduled_gain"),
+                    "nlobs.navigation.schedule"),
     **dict.fromkeys(("SensorNoise", "drop_fixes", "generate_sensors"), "nlobs.navigation.sensors"),
     **dict.fromkeys(("Flight", "Trajectory", "traffic_pattern"), "nlobs.navigation.trajectory"),
 }

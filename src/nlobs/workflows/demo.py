@@ -3,8 +3,9 @@
 Simulates a light-aircraft traffic-pattern flight with exact inertial signals,
 samples the IMU (+ magnetometer) at 100 Hz and GNSS position/velocity at 5 Hz
 with noise, runs the interconnected observer (24) — by default with the noise-optimal gains
-(the certified K with the smallest noise-to-error H2 norm under LMI (14) at γ = 50, and
-Γ = 0.5 I) and beside it with the paper's gains and Γ = diag(20, 0.2, 0.2) — and the EKF
+(the certified K with the smallest noise-to-error H2 norm under LMI (14) at γ = 50, and the
+attitude gain Γ(t) = γ(t) I scheduled from 0.5 I down to the steady-state gain set by the gyro and
+magnetometer noise, :func:`~nlobs.navigation.schedule.noise_scheduled_gain`) and beside it with the paper's gains and Γ = diag(20, 0.2, 0.2) — and the EKF
 baseline on the same data from the same wrong initial attitude (60° in yaw by default), and
 reports accuracy after convergence, convergence time and cost per step, with figures like the
 paper's Figs. 4–6.
@@ -27,6 +28,7 @@ from nlobs.navigation.gnss_ins import GnssInsObserver
 from nlobs.navigation.metrics import summary_dict
 from nlobs.navigation.plots import plot_navigation
 from nlobs.navigation.run import run_navigation
+from nlobs.navigation.schedule import AttitudeGainSchedule, ScheduledGnssInsObserver, noise_scheduled_gain
 from nlobs.navigation.sensors import SensorNoise, generate_sensors
 from nlobs.navigation.so3 import rot_z
 from nlobs.navigation.trajectory import traffic_pattern
@@ -46,6 +48,9 @@ DEMO_NOISE = SensorNoise(
 
 #: The demo's gain choices (``--gains``).
 GAINS = ("noise-optimal", "paper", "designed")
+
+#: The attitude-gain choices of the noise-optimal observer (``--attitude-gain``).
+ATTITUDE_GAINS = ("scheduled", "constant")
 
 #: The longest flight the demo simulates, in IMU samples (a flight is held in memory: ~1 kB per sample).
 MAX_IMU_SAMPLES = 2e6
@@ -72,6 +77,12 @@ class DemoConfig:
         under LMI (14) at γ = 50 and Γ = 0.5 I, :func:`~nlobs.navigation.gains.noise_optimal_gains`;
         the paper's gains run beside it for comparison), ``"paper"`` (Sec. 5.2's K and Γ) or
         ``"designed"`` (nlobs's central LMI design with the paper's Γ).
+    attitude_gain : str or None
+        The attitude gain of the noise-optimal observer: ``"scheduled"`` (its default: ``Γ(t)`` of
+        :func:`~nlobs.navigation.schedule.noise_scheduled_gain`) or ``"constant"``
+        (:data:`~nlobs.navigation.gains.NOISE_OPTIMAL_GAMMA` throughout). ``None``: the default of
+        ``gains``; the paper's and the designed gains use the paper's constant Γ, so only ``None`` is
+        accepted with them.
     position_only : bool
         GNSS position only (Sec. 5.2, C = [I 0]); the gain is then designed by nlobs.
     ekf : bool
@@ -85,6 +96,7 @@ class DemoConfig:
     yaw_error_deg: float = 60.0
     converge_deg: float = 5.0
     gains: str = "noise-optimal"
+    attitude_gain: str | None = None
     position_only: bool = False
     ekf: bool = True
     noise: SensorNoise = field(default_factory=lambda: DEMO_NOISE)
@@ -104,6 +116,18 @@ class DemoConfig:
         positive("converge_deg", self.converge_deg)
         if self.gains not in GAINS:
             raise InvalidArgumentError(f"gains: expected one of {', '.join(map(repr, GAINS))}, got {self.gains!r}")
+        if self.attitude_gain is not None:
+            if self.attitude_gain not in ATTITUDE_GAINS:
+                raise InvalidArgumentError(f"attitude_gain: expected one of {', '.join(map(repr, ATTITUDE_GAINS))}, "
+                                           f"got {self.attitude_gain!r}")
+            if self.gains != "noise-optimal":
+                raise InvalidArgumentError(
+                    f"attitude_gain: applies to gains 'noise-optimal' (the {self.gains!r} gains use the paper's Γ)")
+
+    @property
+    def scheduled(self) -> bool:
+        """Whether the observer's attitude gain is scheduled (the noise-optimal default)."""
+        return self.gains == "noise-optimal" and self.attitude_gain in (None, "scheduled")
 
 
 @dataclass(frozen=True)
@@ -120,6 +144,7 @@ class DemoResult:
     flight_duration: float
     observer_paper: SimulationResult | None = None
     certificate: MixedH2Certificate | None = None
+    schedule: AttitudeGainSchedule | None = None
 
     def metrics(self, which: str) -> dict[str, Any]:
         """The table row of ``"observer"``, ``"observer_paper"`` or ``"ekf"`` (RMS after that filter's own convergence)."""
@@ -140,20 +165,27 @@ class DemoResult:
                 "yaw_error_deg": c.yaw_error_deg,
                 "converge_deg": c.converge_deg,
                 "gains": c.gains,
+                "attitude_gain": "scheduled" if c.scheduled else "constant",
                 "position_only": c.position_only,
             },
             "observer": self.metrics("observer"),
             "observer_paper": None if self.observer_paper is None else self.metrics("observer_paper"),
             "ekf": None if self.ekf is None else self.metrics("ekf"),
-            "gain_certificate": None if self.certificate is None else _certificate_dict(self.certificate),
+            "gain_certificate": None if self.certificate is None else _certificate_dict(self.certificate, self.schedule),
             "figures": {k: str(v) for k, v in self.figures.items()},
         }
 
 
-def _certificate_dict(c: MixedH2Certificate) -> dict[str, Any]:
-    """The JSON summary of the noise-optimal gain's certificate (per axis)."""
+def _certificate_dict(c: MixedH2Certificate, schedule: AttitudeGainSchedule | None) -> dict[str, Any]:
+    """The JSON summary of the noise-optimal gain's certificate (per axis) and of its attitude gain.
+
+    ``attitude_gain`` is the diagonal of the (first) Γ; ``attitude_gain_schedule`` the whole
+    schedule (``None`` for a constant Γ).
+    """
+    G0 = NOISE_OPTIMAL_GAMMA if schedule is None else schedule.gains[0]
     return {"verified": c.verified, "gamma": c.gamma, "hinf_H": c.hinf_H, "h2": c.h2, "h2_kalman": c.h2_kalman,
-            "gain_per_axis": np.asarray(c.gain).tolist(), "attitude_gain": np.diag(NOISE_OPTIMAL_GAMMA).tolist(),
+            "gain_per_axis": np.asarray(c.gain).tolist(), "attitude_gain": np.diag(G0).tolist(),
+            "attitude_gain_schedule": None if schedule is None else schedule.to_dict(),
             "failed_checks": [ch.name for ch in c.failed_checks]}
 
 
@@ -171,6 +203,8 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
     data = generate_sensors(traj, imu_rate_hz=config.imu_rate_hz, gnss_rate_hz=config.gnss_rate_hz,
                             noise=config.noise, seed=config.seed, position_only=config.position_only)
     cert: MixedH2Certificate | None = None
+    schedule: AttitudeGainSchedule | None = None
+    observer: GnssInsObserver | ScheduledGnssInsObserver
     if config.gains == "noise-optimal":
         K, cert = noise_optimal_gains(config.noise, imu_rate_hz=config.imu_rate_hz, gnss_rate_hz=config.gnss_rate_hz,
                                       position_only=config.position_only)
@@ -178,6 +212,10 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
             raise DesignInfeasible("the noise-optimal gain failed its certificate: "
                                    + ", ".join(ch.name for ch in cert.failed_checks), constraint="certificate")
         observer = GnssInsObserver(K, NOISE_OPTIMAL_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
+        if config.scheduled:
+            schedule = noise_scheduled_gain(config.noise, flight.m_n, flight.g_n, initial=NOISE_OPTIMAL_GAMMA[0, 0],
+                                            start_s=float(traj.t[0]))
+            observer = ScheduledGnssInsObserver(observer, schedule)
     elif config.gains == "paper":
         observer = _paper_observer(config, flight)
     else:
@@ -199,13 +237,20 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
     figures: dict[str, Path] = {}
     if out_dir is not None:
         figures = plot_navigation(obs_res, Path(out_dir), compare=ekf_res, prefix="gnss_ins",
-                                  labels=(_LABELS[config.gains], "EKF") if ekf_res is not None else None)
+                                  labels=(_label(config), "EKF") if ekf_res is not None else None)
     return DemoResult(config, obs_res, ekf_res, figures, float(traj.t[-1]), observer_paper=paper_res,
-                      certificate=cert)
+                      certificate=cert, schedule=schedule)
 
 
 _LABELS = {"noise-optimal": "observer, noise-optimal gains", "paper": "observer, paper's gains",
            "designed": "observer, central LMI gains"}
+
+
+def _label(config: DemoConfig) -> str:
+    """The observer's label in the table and the figures."""
+    if config.gains == "noise-optimal" and not config.scheduled:
+        return "observer, noise-optimal gains, constant Γ"
+    return _LABELS[config.gains]
 
 
 def write_json(result: DemoResult, path: str | Path) -> Path:
@@ -251,7 +296,7 @@ class DemoReport:
                    + (["ekf"] if r.ekf is not None else []))
         title = (f"GNSS/INS, {r.flight_duration:.0f} s flight, {c.yaw_error_deg:g}° initial yaw error, IMU "
                  f"{c.imu_rate_hz:g} Hz, GNSS {c.gnss_rate_hz:g} Hz, seed {c.seed}")
-        names = {"observer": _LABELS[c.gains], "observer_paper": _LABELS["paper"], "ekf": "EKF"}
+        names = {"observer": _label(c), "observer_paper": _LABELS["paper"], "ekf": "EKF"}
         heads = ("quantity", *(names[f] for f in filters))
         metrics = {f: r.metrics(f) for f in filters}
         rows = tuple((label.format(converge_deg=c.converge_deg), *(fmt.format(metrics[f][key]) for f in filters))
