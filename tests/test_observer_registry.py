@@ -55,6 +55,7 @@ from nlobs import (
     LuenbergerObserver,
     Observer,
     PinvObserver,
+    ScheduledGnssInsObserver,
     SetValuedObserver,
     UKF,
     UnknownInputEKF,
@@ -475,6 +476,21 @@ def case_gnss_ins() -> Any:
     return obs
 
 
+def case_scheduled_gnss_ins() -> Any:
+    """Observer (24) with the paper's K and Γ switched from the paper's to 0.5 I at 5 s, then 0.1 I at 12 s:
+    the 30° yaw error falls below 0.3° in 20 s."""
+    from nlobs.navigation.gains import PAPER_GAMMA
+    from nlobs.navigation.schedule import AttitudeGainSchedule
+
+    traj0 = traffic_pattern(seed=0, duration=1.0)
+    obs = ScheduledGnssInsObserver(GnssInsObserver.paper(traj0.m_n, traj0.g_n),
+                                   AttitudeGainSchedule((PAPER_GAMMA, 0.5, 0.1), (5.0, 12.0)))
+    check_protocol(obs, _nav_x_hat0(), NAV_U, NAV_Y, time=Continuous, correcting=True,
+                   capabilities=(SelfStepping, Diagnosing, DeferredEstimate))
+    _check_navigation_converged(_flight_run(obs))
+    return obs
+
+
 def case_navigation_ekf() -> Any:
     """Error-state EKF baseline (tuned for a typical sensor set): the 30° yaw error falls below 0.3° in 20 s."""
     traj0 = traffic_pattern(seed=0, duration=1.0)
@@ -499,6 +515,7 @@ CASES: dict[type, Callable[[], Any]] = {
     EKF: case_ekf,
     UKF: case_ukf,
     GnssInsObserver: case_gnss_ins,
+    ScheduledGnssInsObserver: case_scheduled_gnss_ins,
     ExtendedKalmanFilter: case_navigation_ekf,
 }
 

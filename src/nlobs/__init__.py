@@ -12,7 +12,8 @@ The observer protocol and the observers
     Germani & Manes, (3.1)), :class:`PinvObserver` and :class:`ByrnesIsidoriObserver` (Röbenack,
     (7), (17)), :class:`SetValuedObserver` (Khajenejad & Yong, (10)–(15)),
     :class:`DiscreteLipschitzObserver`, :class:`UnknownInputEKF`, :class:`EKF` and :class:`UKF` (any plant),
-    :class:`GnssInsObserver` (Grip, Saberi & Johansen, (22)/(24)) and the navigation :class:`ExtendedKalmanFilter`.
+    :class:`GnssInsObserver` (Grip, Saberi & Johansen, (22)/(24)), :class:`ScheduledGnssInsObserver` (the same
+    with a scheduled attitude gain Γ(t)) and the navigation :class:`ExtendedKalmanFilter`.
 The loops and the result
     :func:`simulate` (plant and observer together: the simulation subpackage ``nlobs.simulate``,
     which called is its loop), :func:`run_observer` (an observer on recorded measurements),
@@ -52,6 +53,7 @@ if TYPE_CHECKING:
     )
     from nlobs.navigation.ekf import ExtendedKalmanFilter
     from nlobs.navigation.gnss_ins import GnssInsObserver
+    from nlobs.navigation.schedule import ScheduledGnssInsObserver
     from nlobs.observers import (
         ByrnesIsidoriObserver,
         CascadeObserver,
@@ -106,6 +108,7 @@ _LAZY: dict[str, str] = {
                      "UnknownNameError"), "nlobs.errors"),
     "ExtendedKalmanFilter": "nlobs.navigation.ekf",
     "GnssInsObserver": "nlobs.navigation.gnss_ins",
+    "ScheduledGnssInsObserver": "nlobs.navigation.schedule",
     **dict.fromkeys(("ByrnesIsidoriObserver", "CascadeObserver", "ConstantGainObserver", "CorrectingObserver",
                      "DiscreteLipschitzObserver", "DriftObserver", "EKF", "LuenbergerObserver", "Observer",
                      "PinvObserver", "SetValuedObserver", "UKF", "UnknownInputEKF"), "nlobs.observers"),

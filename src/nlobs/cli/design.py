@@ -244,10 +244,12 @@ def cascade_cmd(
     model: Annotated[str, typer.Argument(help="A model file (.toml) with a [cascade] table, or a shipped model name.")],
     gamma: Annotated[float | None, typer.Option(help="‖H‖∞ < γ asked of the gain (default: the file's "
                                                      "[cascade].gamma, else 1).")] = None,
-    method: Annotated[str | None, typer.Option(help="'lmi' (LMI (14), analytic centre) or 'placement' (poles "
-                                                    "scaled until ‖H‖∞ < γ, for Theorem 1's small γ); default: "
+    method: Annotated[str | None, typer.Option(help="'lmi' (LMI (14), analytic centre), 'placement' (poles "
+                                                    "scaled until ‖H‖∞ < γ, for Theorem 1's small γ) or 'h2' "
+                                                    "(the smallest noise-to-error H2 norm under LMI (14) for the "
+                                                    "file's [sensors.*] and [process_noise]); default: "
                                                     "the file's [cascade].method, else 'lmi'.")] = None,
-    gain_bound: Annotated[float | None, typer.Option("--gain-bound", help="‖K‖ bound of the LMI design "
+    gain_bound: Annotated[float | None, typer.Option("--gain-bound", help="‖K‖ bound of the LMI and H2 designs "
                                                                           "(default 1e4).")] = None,
     as_json: Json_ = False,
     simulate: Simulate_ = False,
@@ -267,7 +269,7 @@ def cascade_cmd(
 
     m = _symbolic(model)
     if method is not None and method not in METHODS:
-        fail(f"--method: expected 'lmi' or 'placement', got {method!r}")
+        fail(f"--method: expected 'lmi', 'placement' or 'h2', got {method!r}")
     request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
     try:
         report = design_cascade_observer(model, gamma=gamma, method=method, gain_bound=gain_bound, simulate=request,

@@ -20,7 +20,9 @@ Johansen, (1a)/(1b)), or the feedback interconnection Σ₁* ⇄ Σ₂ (2), toge
     g = ["l1*(z - X)", "l2*(z - X)"]    # x̂̇ = f(u, x̂) + g(u, x̂, z) (3): in g the states mean x̂,
                                         # the z names ẑ and (feedback) the linear states ŵ
     method = "placement"                # optional: how the gain is designed by default, "lmi" (LMI (14),
-    gamma = 1.0                         # the default) or "placement", and its γ (‖H‖∞ < γ; default 1)
+    gamma = 1.0                         # the default), "placement" or "h2" (the smallest noise-to-error
+                                        # H2 norm for the file's [sensors.*] and [process_noise]), and
+                                        # its γ (‖H‖∞ < γ; default 1)
 
     [cascade.linear]                    # Σ2 (1b): ẇ = A w + B_u u + B_z z, y = C w + D_u u + D_z z
     states = ["w"]
@@ -110,7 +112,7 @@ class CascadeModel:
     lyapunov : LyapunovData or None
         ``[cascade.lyapunov]``, when given.
     method : str or None
-        The file's default gain design (``"lmi"`` or ``"placement"``), ``None`` when not given.
+        The file's default gain design (``"lmi"``, ``"placement"`` or ``"h2"``), ``None`` when not given.
     gamma : float or None
         The file's default ``γ`` (``‖H‖∞ < γ``), ``None`` when not given.
     parameters : mapping of str to float
@@ -267,8 +269,8 @@ def build_cascade(src: Any, data: Mapping[str, Any], name: str, time: TimeBase) 
         raise src.table_error(_T, None, f"[cascade]: {exc}") from None
     lyap = _lyapunov(src, tab, params, psyms) if "lyapunov" in tab else None
     method = tab.get("method")
-    if method is not None and method not in ("lmi", "placement"):
-        raise src.table_error(_T, "method", "[cascade].method must be \"lmi\" (LMI (14)) or \"placement\"",
+    if method is not None and method not in ("lmi", "placement", "h2"):
+        raise src.table_error(_T, "method", "[cascade].method must be \"lmi\" (LMI (14)), \"placement\" or \"h2\"",
                               repr(method))
     gamma = mf._const(src, _T, "gamma", tab["gamma"], params, psyms) if "gamma" in tab else None
     if gamma is not None and gamma <= 0:

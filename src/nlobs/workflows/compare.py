@@ -481,7 +481,7 @@ def _design_drift(s: _Setup) -> tuple[Any, str, _Cert | None]:
 
 def _design_cascade(s: _Setup) -> tuple[Any, str, _Cert | None]:
     from nlobs.systems.cascade_file import has_cascade, load_cascade
-    from nlobs.workflows.design_cascade import design_cascade
+    from nlobs.workflows.design_cascade import cascade_noise_model, design_cascade
 
     path = s.scenario.path
     if not path or not Path(path).is_file() or not has_cascade(Path(path)):  # a parsed text has no file to read
@@ -489,7 +489,11 @@ def _design_cascade(s: _Setup) -> tuple[Any, str, _Cert | None]:
                     "unmeasured output drives a linear Σ₂ ((1a), (1b)); this model file has no [cascade] table "
                     "describing one: add it, or build the interconnection with nlobs.CascadeObserver")
     cm = load_cascade(path)
-    design = design_cascade(cm)
+    if cm.method == "h2":  # the gain for the file's own sensors and process noise
+        noise, notes = cascade_noise_model(cm, s.scenario)
+        design = design_cascade(cm, noise=noise, noise_notes=notes)
+    else:
+        design = design_cascade(cm)
     if not design.verified:
         raise _Skip(design.failure or "the gain fails its re-verification: "
                     + "; ".join(k.summary() for k in design.checks if not k.passed))
@@ -502,7 +506,8 @@ def _design_cascade(s: _Setup) -> tuple[Any, str, _Cert | None]:
                     "the output is sampled and held (Theorem 1 assumes a continuous output)"),
             _exact(s, "Theorem 1 is for an exact output and model")]
     K = design.certificate.gain
-    how = "LMI (14)" if design.method == "lmi" else "pole placement"
+    how = {"lmi": "LMI (14)", "h2": "the smallest noise-to-error H2 norm under LMI (14)"}.get(design.method,
+                                                                                              "pole placement")
     desc = (f"{'(17)–(18)' if cm.feedback else '(9)–(10)'} with Σ1's injection g of the file, K = "
             f"{[round(float(v), 5) for v in K.ravel()]} by {how} (‖H‖∞ = {t1.hinf_H:.4g} < γ = {design.gamma:g}); "
             f"{design.status}")

@@ -9,7 +9,9 @@ injection ``g`` of an observer for Σ₁ (3)/(16). This workflow
 2. designs ``K = [K_w; K_z]`` with LMI (14) (:func:`nlobs.synthesis.cascade_gain.design_cascade_gain`,
    ``‖H‖∞ < γ`` for ``H(s) = (sI − 𝔄 + Kℭ)⁻¹𝔅_d`` (13) of the extended system (8c)), or by pole
    placement (:func:`~nlobs.synthesis.cascade_gain.place_cascade_gain`) for the very small ``γ`` of
-   Theorem 1;
+   Theorem 1, or (``method="h2"``) as the gain with the smallest noise-to-error H2 norm under LMI (14)
+   (:func:`nlobs.synthesis.mixed_h2.design_h2_gain`) for the noise the file declares
+   (:func:`cascade_noise_model`: its ``[sensors.NAME]`` tables and ``[process_noise]``);
 3. re-verifies the gain independently of the design: the spectrum of ``𝔄 − Kℭ`` and ``‖H‖∞`` by
    :func:`nlobs.linear.hinf_norm` with the grid safeguard;
 4. with ``[cascade.lyapunov]`` (``α₃, α₄, L₁, L₂`` of Assumptions 1–3) compares ``‖H‖∞`` with
@@ -46,7 +48,9 @@ from nlobs.synthesis.cascade_bounds import (
 )
 from nlobs.synthesis.cascade_gain import design_cascade_gain, place_cascade_gain
 from nlobs.synthesis.certificate import ObserverGainCertificate
+from nlobs.synthesis.mixed_h2 import MixedH2Certificate, NoiseModel, design_h2_gain, sampled_intensity
 from nlobs.systems.cascade_file import CascadeModel, load_cascade
+from nlobs.systems.scenario import Scenario
 from nlobs.systems.interconnected import interconnected_plant
 from nlobs.workflows._results import checked_request, error_line, error_summary, run_study, write_result
 from nlobs.workflows.inputs import SimulationRequest, model_label
@@ -60,12 +64,14 @@ __all__ = [
     "CascadeSimulation",
     "CascadeWorkflowReport",
     "Theorem1Check",
+    "cascade_noise_model",
     "design_cascade",
     "design_cascade_observer",
 ]
 
-#: The gain designs: LMI (14) (analytic centre with a gain bound) and pole placement scaled until ‖H‖∞ < γ.
-METHODS: tuple[str, ...] = ("lmi", "placement")
+#: The gain designs: LMI (14) (analytic centre with a gain bound), pole placement scaled until ‖H‖∞ < γ, and
+#: the smallest noise-to-error H2 norm under LMI (14) for the file's declared noise.
+METHODS: tuple[str, ...] = ("lmi", "placement", "h2")
 #: ``γ`` of LMI (14) when none is given.
 DEFAULT_GAMMA = 1.0
 #: ``‖K‖`` bound of the central LMI design (``GainBound``) when none is given.
@@ -114,11 +120,12 @@ class CascadeDesign:
     ----------
     cascade : CascadeModel
     assumption4 : Assumption4Report
-    method : {"lmi", "placement"}
+    method : {"lmi", "placement", "h2"}
     gamma : float
         The ``γ`` of ``‖H‖∞ < γ`` asked of the design.
-    certificate : ObserverGainCertificate or None
-        ``None`` when Assumption 4 fails or the design is infeasible (:attr:`failure` says why).
+    certificate : ObserverGainCertificate or MixedH2Certificate or None
+        ``None`` when Assumption 4 fails or the design is infeasible (:attr:`failure` says why);
+        a :class:`~nlobs.synthesis.mixed_h2.MixedH2Certificate` for ``method="h2"``.
     checks : tuple of Check
         The independent re-verification: ``max Re λ(𝔄 − Kℭ) < 0`` and ``‖H‖∞ < γ``
         (:func:`nlobs.linear.hinf_norm` with ``grid=True``).
@@ -131,10 +138,11 @@ class CascadeDesign:
     assumption4: Assumption4Report
     method: str
     gamma: float
-    certificate: ObserverGainCertificate | None
+    certificate: ObserverGainCertificate | MixedH2Certificate | None
     checks: tuple[Check, ...]
     theorem1: Theorem1Check | None
     failure: str
+    noise_notes: tuple[str, ...] = ()
 
     @property
     def verified(self) -> bool:
@@ -167,10 +175,12 @@ class CascadeDesign:
             lines.append(f"  no gain: {self.failure}")
             return "\n".join(lines)
         cert = self.certificate
-        how = ("LMI (14), analytic centre with ‖K‖ ≤ gain bound" if self.method == "lmi"
-               else f"pole placement ({cert.solver_status})")
+        how = {"lmi": "LMI (14), analytic centre with ‖K‖ ≤ gain bound",
+               "h2": "the smallest noise-to-error H2 norm under LMI (14)"}.get(self.method,
+                                                                              f"pole placement ({cert.solver_status})")
         lines.append(f"  gain K = [K_w; K_z] by {how}, γ = {self.gamma:g}:")
         lines.append("    K = " + np.array2string(cert.gain, precision=5, separator=", ").replace("\n", "\n        "))
+        lines += [f"    noise model: {ln}" for ln in self.noise_notes]
         lines += [f"    certificate: {ln}" for ln in cert.summary().splitlines()]
         lines += [f"    re-verified: [{'ok' if k.passed else 'FAILS'}] {k.name}: {k.evidence}" for k in self.checks]
         t1 = self.theorem1
@@ -193,6 +203,7 @@ class CascadeDesign:
             "checks": [k.to_dict() for k in self.checks],
             "verified": self.verified,
             "theorem1": None if self.theorem1 is None else self.theorem1.to_dict(),
+            "noise_notes": list(self.noise_notes),
             "lyapunov": None if c.lyapunov is None else c.lyapunov.to_dict(),
             "status": self.status,
             "failure": self.failure,
@@ -224,9 +235,74 @@ def _theorem1(cm: CascadeModel, hinf_H: float, hurwitz: bool) -> Theorem1Check:
     return Theorem1Check(name, float(bound), float(as_given), hinf_H, holds, reason)
 
 
+def cascade_noise_model(cascade: CascadeModel, scenario: Scenario) -> tuple[NoiseModel, tuple[str, ...]]:
+    """The white-noise model of the error (12a) declared by a model file, for ``method="h2"``.
+
+    On the extended system (8c), states ``[w, z]``, outputs ``y``:
+
+    * **measurement** ``V``: each ``[sensors.NAME]`` group's noise covariance divided by its rate
+      (:func:`~nlobs.synthesis.mixed_h2.sampled_intensity`), block-diagonal in the order of the
+      outputs;
+    * **process noise** from ``[process_noise]`` (spectral density on the plant state ``[x, w]``):
+      its ``w`` block enters ``ẇ`` directly; its ``x`` block reaches ``ż = ∂h/∂x ẋ + …`` as
+      ``∂h/∂x Q_xx ∂h/∂xᵀ`` (``∂h/∂x`` at ``[simulation].x0``, or at the origin without one; a note
+      says when it is not constant);
+    * **error weight** the identity: the variance of the errors of ``ŵ`` and ``ẑ`` together.
+
+    Returns
+    -------
+    noise : NoiseModel
+    notes : tuple of str
+        How each part was obtained (printed with the design).
+
+    Raises
+    ------
+    InvalidArgumentError
+        The file declares no sensors (no measurement noise: the H2 design has nothing to trade).
+    """
+    s2, s1 = cascade.sigma2, cascade.sigma1
+    names = list(s2.outputs)
+    if not scenario.sensors:
+        raise InvalidArgumentError(
+            "--method h2 needs the measurement noise: give the outputs a [sensors.NAME] table with rate and "
+            "noise_std (or noise_cov)")
+    p, n_w, p_z, n_x = len(names), s2.n_w, s1.p_z, s1.n_x
+    V = np.zeros((p, p))
+    notes = []
+    for g in scenario.sensors:
+        idx = [o if isinstance(o, int) else names.index(o) for o in g.outputs]
+        V[np.ix_(idx, idx)] = sampled_intensity(1.0, g.rate) * g.covariance
+        notes.append(f"[sensors.{g.name}]: {', '.join(names[i] for i in idx)} at {g.rate:g} Hz → intensity "
+                     + ", ".join(f"{V[i, i]:.3g}" for i in idx))
+    Bw = W = None
+    Q = scenario.process_noise
+    if Q is not None and np.any(Q):
+        x0 = scenario.defaults.x0
+        xs = np.zeros(n_x) if x0 is None else np.asarray(x0, dtype=float)[:n_x]
+        ws = np.zeros(n_w) if x0 is None else np.asarray(x0, dtype=float)[n_x:]
+        u0 = np.zeros(s1.m)
+        Hx = s1.h_x(u0, ws, xs)
+        other = s1.h_x(u0, ws + 0.37, xs * 1.3 + 0.21)
+        Wz = Hx @ Q[:n_x, :n_x] @ Hx.T
+        Bw = np.vstack([np.eye(n_w + p_z)])
+        W = np.zeros((n_w + p_z, n_w + p_z))
+        W[:n_w, :n_w] = Q[n_x:, n_x:]
+        W[n_w:, n_w:] = Wz
+        where = "" if np.allclose(Hx, other, rtol=1e-12, atol=0.0) else (
+            " (∂h/∂x is not constant: taken at [simulation].x0" if x0 is not None else
+            " (∂h/∂x is not constant: taken at the origin; give [simulation].x0") + ")"
+        notes.append(f"[process_noise]: on w {np.diag(W)[:n_w].round(12).tolist()}, on z through ∂h/∂x "
+                     f"{np.diag(Wz).round(12).tolist()}{where}")
+    else:
+        notes.append("no [process_noise]: the design trades the measurement noise against LMI (14) alone")
+    notes.append("error weight: the identity on [w, z]")
+    return NoiseModel(V, Bw, W), tuple(notes)
+
+
 def design_cascade(cascade: CascadeModel, *, gamma: float | None = None, method: str | None = None,
-                   gain_bound: float | None = None) -> CascadeDesign:
-    """Assumption 4, the gain of LMI (14) (or pole placement), its re-verification and Theorem 1.
+                   gain_bound: float | None = None, noise: NoiseModel | None = None,
+                   noise_notes: tuple[str, ...] = ()) -> CascadeDesign:
+    """Assumption 4, the gain of LMI (14) (or pole placement, or the H2-optimal gain), its re-verification and Theorem 1.
 
     Parameters
     ----------
@@ -234,49 +310,67 @@ def design_cascade(cascade: CascadeModel, *, gamma: float | None = None, method:
         From :func:`nlobs.systems.cascade_file.load_cascade`.
     gamma : float, optional
         ``‖H‖∞ < γ`` (default: the file's ``[cascade].gamma``, else :data:`DEFAULT_GAMMA`).
-    method : {"lmi", "placement"}, optional
+    method : {"lmi", "placement", "h2"}, optional
         Default: the file's ``[cascade].method``, else ``"lmi"``.
     gain_bound : float, optional
-        ``‖K‖`` bound of the central LMI design (default :data:`DEFAULT_GAIN_BOUND`).
+        ``‖K‖`` bound of the LMI and H2 designs (default :data:`DEFAULT_GAIN_BOUND`).
+    noise : NoiseModel, optional
+        The noise of the extended system (8c) for ``method="h2"`` (required there;
+        :func:`cascade_noise_model` builds it from a model file).
+    noise_notes : tuple of str
+        How ``noise`` was obtained (shown with the design).
 
     Returns
     -------
     CascadeDesign
         Also when Assumption 4 fails or the design is infeasible (then ``certificate`` is ``None``
         and ``failure`` names the assumption item or the LMI and the option to change).
+
+    Raises
+    ------
+    InvalidArgumentError
+        An unknown method, or ``method="h2"`` without ``noise``.
     """
     method = method or cascade.method or "lmi"
     if method not in METHODS:
-        raise InvalidArgumentError(f"method: expected 'lmi' or 'placement', got {method!r}")
+        raise InvalidArgumentError(f"method: expected one of {', '.join(map(repr, METHODS))}, got {method!r}")
+    if method == "h2" and noise is None:
+        raise InvalidArgumentError("method 'h2': needs a noise model (cascade_noise_model builds it from the file)")
     gamma = gamma if gamma is not None else cascade.gamma
     g = positive("--gamma", DEFAULT_GAMMA if gamma is None else gamma)
     gb = positive("--gain-bound", DEFAULT_GAIN_BOUND if gain_bound is None else gain_bound)
     s2 = cascade.sigma2
     a4 = check_assumption4(s2.A, s2.B_z, s2.C, s2.D_z)
+    notes = tuple(noise_notes) if method == "h2" else ()
     if not a4.holds:
         why = "; ".join(f"{it.name} [{it.key}]: {it.evidence}" for it in a4.failed)
         return CascadeDesign(cascade, a4, method, g, None, (), None,
                              f"Assumption 4 (Grip–Saberi–Johansen) fails: {why}; no gain K makes 𝔄 − Kℭ Hurwitz with "
-                             "‖H‖∞ small (Theorem 2): change Σ2 or the measured outputs y")
+                             "‖H‖∞ small (Theorem 2): change Σ2 or the measured outputs y", notes)
+    ext = extended_system(s2.A, s2.B_z, s2.C, s2.D_z)
+    cert: ObserverGainCertificate | MixedH2Certificate
     try:
         if method == "lmi":
             cert = design_cascade_gain(s2, gamma=g, gain_bound=gb)
+        elif method == "h2":
+            assert noise is not None
+            cert = design_h2_gain(ext.A, ext.C, ext.Bd, gamma=g, noise=noise, gain_bound=gb)
         else:
             cert = place_cascade_gain(s2, gamma=g)
     except DesignError as exc:
-        hint = ("raise --gamma or --gain-bound, or use --method placement for a small γ" if method == "lmi"
-                else "raise --gamma, or use --method lmi")
-        what = "LMI (14) (‖H‖∞ < γ)" if method == "lmi" else "pole placement (‖H‖∞ < γ)"
+        hint = {"lmi": "raise --gamma or --gain-bound, or use --method placement for a small γ",
+                "h2": "raise --gamma or --gain-bound"}.get(method, "raise --gamma, or use --method lmi")
+        what = {"lmi": "LMI (14) (‖H‖∞ < γ)", "h2": "the H2 design under LMI (14) (‖H‖∞ < γ)"}.get(
+            method, "pole placement (‖H‖∞ < γ)")
         return CascadeDesign(cascade, a4, method, g, None, (), None,
-                             f"{what} has no solution for γ = {g:g}: {exc}; {hint}")
-    ext = extended_system(s2.A, s2.B_z, s2.C, s2.D_z)
+                             f"{what} has no solution for γ = {g:g}: {exc}; {hint}", notes)
     F = ext.A - cert.gain @ ext.C
     abscissa = float(np.max(np.linalg.eigvals(F).real))
     hH = float(hinf_norm(F, ext.Bd, np.eye(F.shape[0]), np.zeros((F.shape[0], ext.Bd.shape[1])), grid=True)) \
         if abscissa < 0 else math.inf
     checks = (Check.compare("max Re λ(𝔄 − Kℭ) < 0", abscissa, 0.0, kind=CheckKind.SPECTRUM),
               Check.compare("‖H‖∞ < γ (13), grid safeguard", hH, g, kind=CheckKind.NORM))
-    return CascadeDesign(cascade, a4, method, g, cert, checks, _theorem1(cascade, hH, abscissa < 0), "")
+    return CascadeDesign(cascade, a4, method, g, cert, checks, _theorem1(cascade, hH, abscissa < 0), "", notes)
 
 
 # --------------------------------------------------------------------------- simulate
@@ -401,6 +495,7 @@ def design_cascade_observer(
     gain_bound: float | None = None,
     simulate: SimulationRequest | None = None,
     name: str | None = None,
+    noise: NoiseModel | None = None,
 ) -> CascadeWorkflowReport:
     """Check Assumption 4, design and re-verify the gain, Theorem 1, and simulate: ``nlobs design cascade``.
 
@@ -415,6 +510,9 @@ def design_cascade_observer(
         input; only when a gain exists.
     name : str, optional
         How the message names the model.
+    noise : NoiseModel, optional
+        For ``method="h2"``: the noise of the extended system (8c); default: the file's
+        (:func:`cascade_noise_model`).
 
     Returns
     -------
@@ -434,7 +532,14 @@ def design_cascade_observer(
     cm = model if isinstance(model, CascadeModel) else load_cascade(model)
     label = (model_label(model) if not isinstance(model, CascadeModel) else cm.name) if name is None else str(name)
     resolved = checked_request(simulate, cm.plant)
-    design = design_cascade(cm, gamma=gamma, method=method, gain_bound=gain_bound)
+    notes: tuple[str, ...] = ()
+    if (method or cm.method) == "h2" and noise is None:
+        from nlobs.systems.modelfile import load_scenario
+
+        if not cm.path:
+            raise InvalidArgumentError("method 'h2': give the noise model (the cascade was not read from a file)")
+        noise, notes = cascade_noise_model(cm, load_scenario(cm.path))
+    design = design_cascade(cm, gamma=gamma, method=method, gain_bound=gain_bound, noise=noise, noise_notes=notes)
     if design.certificate is None:
         verdict = Verdict.NO_OBSERVER if not design.assumption4.holds else Verdict.FAILED
         return CascadeWorkflowReport(design, None, simulate, (), verdict, f"{label}: no gain: {design.failure}")
