@@ -124,3 +124,26 @@ def test_installed_console_script_runs() -> None:
     out = subprocess.run([str(exe), "analyze", "grip-example1-filter", "--json"], capture_output=True, text=True,
                          check=True, timeout=120)
     assert json.loads(out.stdout)["hinf_norm"] == pytest.approx(2 / math.sqrt(3), rel=1e-8)
+
+
+def test_reproduce_help_names_every_paper_and_version_flag() -> None:
+    from nlobs.papers.reproduce import PAPERS
+
+    r = CliRunner()
+    res = r.invoke(app, ["reproduce", "--help"])
+    assert res.exit_code == 0
+    for name in PAPERS:
+        assert name in res.output, name
+    # the plain help keeps units in brackets (rich markup would eat "[s]") and shows no type on flags
+    res = r.invoke(app, ["design", "cascade", "--help"], terminal_width=100)
+    assert "Simulated time [s]." in " ".join(res.output.split()) and "<bool>" not in res.output
+    from importlib.metadata import version
+
+    for args in (["--version"], ["version"]):
+        res = r.invoke(app, args)
+        assert res.exit_code == 0 and res.stdout.strip() == version("nlobs")
+
+
+def test_python_dash_m_nlobs_runs_the_cli() -> None:
+    res = subprocess.run([sys.executable, "-m", "nlobs", "--version"], capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0 and res.stdout.strip()

@@ -81,7 +81,28 @@ app = _NlobsApp(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    rich_markup_mode=None,  # plain help: units in brackets ("[s]") are text, not markup; the same on every typer
 )
+
+
+def _installed_version() -> str:
+    from importlib.metadata import version
+
+    return version("nlobs")
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        typer.echo(_installed_version())
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Annotated[bool, typer.Option("--version", callback=_print_version, is_eager=True,
+                                          help="Print the nlobs version and exit.")] = False,
+) -> None:
+    """Design, certify and simulate nonlinear state observers."""
 
 
 @app.command("analyze")
@@ -119,7 +140,10 @@ def analyze_cmd(
 
 @app.command("reproduce")
 def reproduce_cmd(
-    paper: Annotated[str, typer.Argument(help="Which paper: grip2013.")],
+    paper: Annotated[str, typer.Argument(help=(
+        "Which paper: grip2013 (Grip, Saberi & Johansen, cascade and GNSS/INS observers), dallamora2000 (Dalla "
+        "Mora, Germani & Manes, drift observability), robenack2008 (Röbenack, the Moore–Penrose gain), "
+        "khajenejad-yong (Khajenejad & Yong, set-valued input and state observers)."))],
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list of rows.")] = False,
 ) -> None:
     """Print each number a paper reports beside the value nlobs computes."""
@@ -209,10 +233,8 @@ def models_cmd(
 
 @app.command("version")
 def version_cmd() -> None:
-    """Print the nlobs version."""
-    from importlib.metadata import version
-
-    typer.echo(version("nlobs"))
+    """Print the nlobs version (the same as nlobs --version)."""
+    typer.echo(_installed_version())
 
 
 from nlobs.cli.advise import advise_cmd  # noqa: E402 - registered after the app exists

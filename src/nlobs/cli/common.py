@@ -121,7 +121,8 @@ def emit_json(data: dict[str, Any]) -> None:
 
 
 
-design_app = typer.Typer(help="Design an observer for a model and print its verification.", no_args_is_help=True)
+design_app = typer.Typer(help="Design an observer for a model and print its verification.", no_args_is_help=True,
+                         rich_markup_mode=None)
 class _SimulateGroup(TyperGroup):
     """``nlobs simulate``: its subcommands, and ``nlobs simulate MODEL ...`` as ``nlobs simulate compare MODEL ...``."""
 
@@ -132,6 +133,6 @@ class _SimulateGroup(TyperGroup):
 
 
 simulate_app = typer.Typer(
-    cls=_SimulateGroup, no_args_is_help=True,
+    cls=_SimulateGroup, no_args_is_help=True, rich_markup_mode=None,
     help="Simulate observers on a model: 'nlobs simulate MODEL' compares every applicable observer (and EKF/UKF) "
          "on the same noisy Monte Carlo runs; 'nlobs simulate setvalued' runs the set-valued study.")
