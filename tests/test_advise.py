@@ -147,7 +147,7 @@ def test_json_keys_and_analyze_keeps_its_keys() -> None:
     res = runner.invoke(app, ["advise", "two-tank", "--json"])
     assert res.exit_code == 0
     data = json.loads(res.stdout)
-    assert set(data) == {"model", "box", "box_source", "region", "singularities", "methods", "recommended", "command",
+    assert set(data) == {"schema_version", "model", "box", "box_source", "region", "singularities", "methods", "recommended", "command",
                          "compare_command", "verdict", "message", "check"}
     assert set(data["methods"]) == {"cascade", "setvalued", "drift", "pinv", "ekf-ukf", "luenberger"}
     assert set(data["methods"]["drift"]) == {"method", "title", "applicable", "reason", "region", "evidence",

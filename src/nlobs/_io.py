@@ -138,6 +138,22 @@ def jsonable(obj: Any) -> Any:
     return obj
 
 
+#: Version of the layout of every JSON report nlobs prints (``--json``) or writes (``results.json``,
+#: ``compare.json``): the ``schema_version`` key of each. It grows when a key changes meaning or is
+#: removed; new keys do not change it.
+SCHEMA_VERSION = 1
+
+
+def with_schema(data: Any) -> Any:
+    """A JSON report (a mapping) with ``schema_version`` first; anything else unchanged.
+
+    The two list outputs (``nlobs reproduce --json``, ``nlobs models --json``) stay lists.
+    """
+    if isinstance(data, dict):
+        return {"schema_version": SCHEMA_VERSION, **{k: v for k, v in data.items() if k != "schema_version"}}
+    return data
+
+
 def atomic_write_json(path: str | Path, data: Any) -> Path:
     """Write ``data`` as indented JSON (:func:`jsonable`) atomically."""
     import json

@@ -57,7 +57,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from nlobs._io import atomic_write_json, jsonable
+from nlobs._io import atomic_write_json, jsonable, with_schema
 from nlobs._typing import Array
 from nlobs._validate import as_count, as_covariance, positive
 from nlobs.errors import (
@@ -849,4 +849,4 @@ def _report(s: _Setup, outcomes: dict[str, ObserverOutcome], files: tuple[Path, 
 
 def write_json(report: ComparisonReport, path: Path) -> Path:
     """``report.to_dict()`` as JSON, atomically."""
-    return atomic_write_json(path, jsonable(report.to_dict()))
+    return atomic_write_json(path, with_schema(jsonable(report.to_dict())))

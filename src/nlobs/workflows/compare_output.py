@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from nlobs._io import atomic_write_json, atomic_write_text, jsonable, save_figure
+from nlobs._io import atomic_write_json, atomic_write_text, jsonable, save_figure, with_schema
 from nlobs.errors import OutputError
 from nlobs.systems.scenario import Scenario
 
@@ -200,5 +200,5 @@ def write_comparison(report: ComparisonReport, scenario: Scenario, out: Path, *,
     put(out / "trajectories.csv", lambda p: atomic_write_text(p, trajectories_csv(report, scenario)))
     data = report.to_dict()
     data["files"] = [str(f) for f in (*written, out / "compare.json")]
-    put(out / "compare.json", lambda p: atomic_write_json(p, jsonable(data)))
+    put(out / "compare.json", lambda p: atomic_write_json(p, with_schema(jsonable(data))))
     return tuple(written)

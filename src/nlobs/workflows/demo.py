@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from nlobs._io import atomic_write_json, prepare_output_dir
+from nlobs._io import atomic_write_json, prepare_output_dir, with_schema
 from nlobs._validate import in_range, positive
 from nlobs.errors import DesignInfeasible, InvalidArgumentError, OutputError
 from nlobs.navigation.ekf import EkfConfig, ExtendedKalmanFilter
@@ -255,7 +255,7 @@ def _label(config: DemoConfig) -> str:
 
 def write_json(result: DemoResult, path: str | Path) -> Path:
     """Write ``result.to_dict()`` as JSON (NaN metrics as ``null``), atomically."""
-    return atomic_write_json(path, result.to_dict())
+    return atomic_write_json(path, with_schema(result.to_dict()))
 
 
 #: The rows of the comparison table: label, key of :func:`~nlobs.navigation.metrics.summary_dict`, format.
