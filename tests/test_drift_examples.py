@@ -73,3 +73,24 @@ def test_the_example_figures_are_written_whole_and_replace_an_old_file(tmp_path)
         img = mpimg.imread(path)
         assert img.ndim == 3 and img.shape[0] > 100 and img.shape[1] > 100
     assert sorted(p.name for p in tmp_path.iterdir()) == ["siso.png", "sweep.png"]  # no temporary file left
+
+
+def test_paper_figures_leave_the_users_backend_and_pyplot_alone(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    # in a fresh interpreter whose user chose the svg backend and has a pyplot figure open
+    import subprocess
+    import sys
+
+    code = f"""
+import matplotlib
+matplotlib.use("svg")
+import matplotlib.pyplot as plt
+plt.figure()
+from nlobs.papers import dallamora2000 as dm, grip_example1 as ge
+dm.plot_w_sweep(dm.w_sweep((1.0, 4.0), duration=1.0, after=0.5, dt=1e-2), r"{tmp_path / 'sweep.png'}")
+ge.run_example1(duration=1.0, out_dir=r"{tmp_path / 'ex1'}", sweep=False)
+print(matplotlib.get_backend(), plt.get_fignums())
+"""
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert res.returncode == 0, res.stderr[-2000:]
+    assert res.stdout.strip().splitlines()[-1] == "svg [1]"
+    assert (tmp_path / "sweep.png").stat().st_size > 10_000 and list((tmp_path / "ex1").glob("*.png"))

@@ -244,14 +244,12 @@ def w_sweep(ws: Sequence[float] = (0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0, 64.0, 12
 def plot_example(ex: DriftExample, path: str | Path) -> Path:
     """Error norm with the bound (3.2) for the tuned ``w`` (and, zoomed on its short transient, the
     theory's ``w*``), and the states with their estimates; saved as PNG."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # the object API: the user's backend and pyplot state are left alone
 
     panels = [("tuned", ex.tuned)] + ([("theory", ex.theory)] if ex.theory is not None else []) \
         + ([("sdp", ex.sdp_run)] if ex.sdp_run is not None else [])
-    fig, axes = plt.subplots(1, len(panels) + 1, figsize=(5 * (len(panels) + 1), 4.2))
+    fig = Figure(figsize=(5 * (len(panels) + 1), 4.2), layout="tight")
+    axes = fig.subplots(1, len(panels) + 1)
     alpha = ex.report.certificate.constants.alpha
     for ax, (label, sim) in zip(axes, panels):
         res = sim.result
@@ -282,20 +280,16 @@ def plot_example(ex: DriftExample, path: str | Path) -> Path:
     ax.set_xlabel("t [s]")
     ax.set_title(f"states (solid) and estimates (dashed), w = {ex.tuned.w:.3g}", fontsize=9)
     ax.legend(fontsize=8)
-    fig.tight_layout()
     out = save_figure(fig, path, dpi=110)
-    plt.close(fig)
     return out
 
 
 def plot_w_sweep(sw: WSweep, path: str | Path) -> Path:
     """RMS error against ``w`` (log–log), with and without noise."""
-    import matplotlib
+    from matplotlib.figure import Figure  # the object API: the user's backend and pyplot state are left alone
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6, 4.2))
+    fig = Figure(figsize=(6, 4.2), layout="tight")
+    ax = fig.subplots()
     ax.loglog(sw.w, sw.rms, "o-", label=f"noise std {sw.noise_std:g} on y")
     ax.loglog(sw.w, np.maximum(sw.rms_noise_free, 1e-16), "s--", label="no noise")
     ax.axvline(sw.best_w, color="gray", ls=":", label=f"best w = {sw.best_w:g}")
@@ -303,9 +297,7 @@ def plot_w_sweep(sw: WSweep, path: str | Path) -> Path:
     ax.set_ylabel(f"RMS ‖x − x̂‖ over t ≥ {sw.after:g} s")
     ax.set_title("Van der Pol (Liénard): the high-gain trade-off")
     ax.legend(fontsize=8)
-    fig.tight_layout()
     out = save_figure(fig, path, dpi=110)
-    plt.close(fig)
     return out
 
 

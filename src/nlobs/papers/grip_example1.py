@@ -358,17 +358,15 @@ def run_example1(
 
 def _figures(out: Path, feedback: bool, res: SimulationResult, rate: float, pred: tuple[float, float],
              bound: float, g_design: float, sw: GammaSweep | None, sw_duration: float) -> tuple[Path, ...]:
-    import matplotlib
-
-    matplotlib.use("Agg", force=False)
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure  # the object API: the user's backend and pyplot state are left alone
 
     out.mkdir(parents=True, exist_ok=True)
     case = "feedback" if feedback else "cascade"
     paths = []
     t = res.t
     err = np.asarray(res.error)
-    fig, (ax0, ax1) = plt.subplots(1, 2, figsize=(9.0, 3.4))
+    fig = Figure(figsize=(9.0, 3.4), layout="tight")
+    (ax0, ax1) = fig.subplots(1, 2)
     ax0.plot(t, np.asarray(res.x)[:, 0], "k-", lw=1.2, label=r"$x_1$")
     ax0.plot(t, np.asarray(res.x_hat)[:, 0], "C0--", lw=1.2, label=r"$\hat x_1$")
     ax0.plot(t, np.asarray(res.x)[:, 2], "0.5", lw=1.2, label=r"$w_1 = y$")
@@ -399,14 +397,13 @@ def _figures(out: Path, feedback: bool, res: SimulationResult, rate: float, pred
     fig.suptitle(
         f"Grip–Saberi–Johansen, Example 1 ({case}): certified K at γ = {g_design:.2e} < Theorem 1{'′' if feedback else ''} "
         f"bound {bound:.2e}", fontsize=10)
-    fig.tight_layout()
     p = out / f"example1_{case}_error.png"
     save_figure(fig, p, dpi=90)
-    plt.close(fig)
     paths.append(p)
     if sw is not None:
         rows = [r for r in sw.rows if not math.isnan(r.final_error)]
-        fig, (a0, a1) = plt.subplots(1, 2, figsize=(9.0, 3.2))
+        fig = Figure(figsize=(9.0, 3.2), layout="tight")
+        (a0, a1) = fig.subplots(1, 2)
         g = np.array([r.gamma for r in rows])
         fe = np.array([r.final_error for r in rows])
         conv = np.array([r.decay_rate > 0 for r in rows])
@@ -425,9 +422,7 @@ def _figures(out: Path, feedback: bool, res: SimulationResult, rate: float, pred
         a1.grid(alpha=0.3, which="both")
         fig.suptitle(f"γ sweep ({case}, pole placement, {sw.rows[0].gamma:g} → {sw.rows[-1].gamma:.2e})",
                      fontsize=10)
-        fig.tight_layout()
         p = out / f"example1_{case}_sweep.png"
         save_figure(fig, p, dpi=90)
-        plt.close(fig)
         paths.append(p)
     return tuple(paths)
