@@ -148,3 +148,11 @@ def test_plot_writes_a_png(tmp_path: Path) -> None:
     assert [ax.get_ylabel() for ax in axes[:2]] == ["pos", "vel"]
     labels = axes[0].get_legend_handles_labels()[1]
     assert labels == ["true", "estimate"]
+    assert axes[-1].get_xlabel() == "time [s]"
+    # with the model file's units: every axis names its unit, the error axis the shared one
+    fig = res.plot(states=["pos", 1], units={"t": "h", "pos": "m", "vel": "m"})
+    axes = fig.get_axes()
+    assert [ax.get_ylabel() for ax in axes] == ["pos [m]", "vel [m]", "‖x̂ − x‖ [m]"]
+    assert axes[-1].get_xlabel() == "time [h]"
+    fig = res.plot(states=["pos", 1], units={"pos": "m", "vel": "m/s"})
+    assert fig.get_axes()[-1].get_ylabel() == "‖x̂ − x‖"  # no shared unit

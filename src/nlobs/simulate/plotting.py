@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -42,6 +42,7 @@ def plot_result(
     *,
     max_trajectories: int = 5,
     title: str | None = None,
+    units: Mapping[str, str] | None = None,
 ) -> Figure:
     """Plot each selected state (true: solid, estimate: dashed) and ``‖x̂ − x‖`` on a log axis.
 
@@ -57,6 +58,10 @@ def plot_result(
         For a batch, at most this many trajectories (the first ones) are drawn.
     title : str, optional
         Figure title (default: what is drawn, with the observer's label).
+    units : mapping of str to str, optional
+        Units by name, as in a model file's ``units`` table: ``units["t"]`` labels the time axis
+        (default ``"s"``), a state's unit its axis (``"X [g/L]"``), and the error axis when all
+        the shown states share one.
 
     Returns
     -------
@@ -65,6 +70,7 @@ def plot_result(
     """
     from matplotlib.figure import Figure
 
+    u = {str(k): str(v) for k, v in (units or {}).items()}
     if max_trajectories < 1:
         raise InvalidArgumentError(f"max_trajectories: must be at least 1, got {max_trajectories}")
     idx = _state_indices(result, states)
@@ -86,7 +92,7 @@ def plot_result(
             ax.plot(t, x[b, :, i], color=colors[b], lw=1.4, alpha=alpha, label="true" if b == 0 else None)
             if same:
                 ax.plot(t, xh[b, :, i], color=colors[b], lw=1.4, ls="--", alpha=alpha, label="estimate" if b == 0 else None)
-        ax.set_ylabel(result.states[i])
+        ax.set_ylabel(f"{result.states[i]} [{u[result.states[i]]}]" if u.get(result.states[i]) else result.states[i])
         ax.grid(True, alpha=0.3)
         if row == 0:
             ax.legend(loc="best", fontsize="small")
@@ -95,9 +101,10 @@ def plot_result(
         en = np.linalg.norm(xh - x, axis=-1)
         for b in range(ntraj):
             ax.semilogy(t, np.where(en[b] > 0, en[b], np.nan), color=colors[b], lw=1.2, alpha=alpha)
-        ax.set_ylabel("‖x̂ − x‖")
+        shared = {u.get(result.states[i], "") for i in idx}
+        ax.set_ylabel("‖x̂ − x‖" + (f" [{shared.pop()}]" if len(shared) == 1 and "" not in shared else ""))
         ax.grid(True, which="both", alpha=0.3)
-    axes[-1].set_xlabel("time [s]")
+    axes[-1].set_xlabel(f"time [{u.get('t') or 's'}]")
     shown = f" (first {ntraj} of {int(np.prod(result.batch_shape))} trajectories)" if result.batch_shape else ""
     head = title if title is not None else (
         f"{result.observer + ': ' if result.observer else ''}true (solid) vs estimated (dashed) states{shown}")

@@ -222,7 +222,7 @@ class SimulationResult:
     # -------------------------------------------------------------------- plot
     def plot(
         self, path: str | os.PathLike[str] | None = None, states: Sequence[int | str] | None = None, *,
-        max_trajectories: int = 5, title: str | None = None,
+        max_trajectories: int = 5, title: str | None = None, units: Mapping[str, str] | None = None,
     ) -> Figure:
         """Plot true vs estimated states and the error norm on a log axis (atomically saved to ``path``).
 
@@ -230,7 +230,8 @@ class SimulationResult:
         """
         from nlobs.simulate.plotting import plot_result
 
-        return plot_result(self, path=path, states=states, max_trajectories=max_trajectories, title=title)
+        return plot_result(self, path=path, states=states, max_trajectories=max_trajectories, title=title,
+                           units=units)
 
     # --------------------------------------------------------------- save/load
     def save(self, path: str | os.PathLike[str]) -> Path:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
@@ -92,8 +92,10 @@ def explain_divergence(exc: SimulationDiverged | StudyFailed, fastest: float, dt
     return StudyFailed(f"{exc}; {detail}")
 
 
-def write_result(result: SimulationResult, out: Path | None, stem: str) -> tuple[Path, ...]:
-    """Write ``<stem>.png`` (the plot) and ``<stem>.npz`` (the trajectories) to ``out``, each atomically.
+def write_result(result: SimulationResult, out: Path | None, stem: str,
+                 units: Mapping[str, str] | None = None) -> tuple[Path, ...]:
+    """Write ``<stem>.png`` (the plot, axes labelled with ``units``, a model file's ``units`` table) and
+    ``<stem>.npz`` (the trajectories) to ``out``, each atomically.
 
     Returns the paths written (empty when ``out`` is ``None``).
 
@@ -107,7 +109,7 @@ def write_result(result: SimulationResult, out: Path | None, stem: str) -> tuple
     prepare_out(out)
     png, npz = out / f"{stem}.png", out / f"{stem}.npz"
     try:
-        result.plot(png)
+        result.plot(png, units=units)
     except OSError as exc:
         raise OutputError(f"{png}: {_reason(exc)}") from exc
     try:

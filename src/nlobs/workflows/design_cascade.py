@@ -53,7 +53,7 @@ from nlobs.systems.cascade_file import CascadeModel, load_cascade
 from nlobs.systems.scenario import Scenario
 from nlobs.systems.interconnected import interconnected_plant
 from nlobs.workflows._results import checked_request, error_line, error_summary, run_study, write_result
-from nlobs.workflows.inputs import SimulationRequest, model_label
+from nlobs.workflows.inputs import SimulationRequest, model_label, model_units
 from nlobs.workflows.verdict import Verdict
 
 __all__ = [
@@ -552,5 +552,5 @@ def design_cascade_observer(
     assert resolved is not None
     x0, x_hat0, u = resolved
     sim = run_study(lambda: _simulate(design, simulate, x0, x_hat0, u))
-    files = write_result(sim.result, simulate.out, "cascade")
+    files = write_result(sim.result, simulate.out, "cascade", model_units(cm.path) if cm.path else None)
     return CascadeWorkflowReport(design, sim, simulate, files, Verdict.OK, "")

@@ -71,7 +71,7 @@ from nlobs.workflows._results import (
     run_study,
     write_result,
 )
-from nlobs.workflows.inputs import SimulationRequest, as_region, model_label, symbolic_model
+from nlobs.workflows.inputs import SimulationRequest, as_region, model_label, model_units, symbolic_model
 from nlobs.workflows.verdict import Verdict
 
 __all__ = [
@@ -637,5 +637,5 @@ def design_drift_observer(
         eig = rep.certificate.eigenvalues if w is None else np.linalg.eigvals(
             brunovsky(rep.s)[0] - vandermonde_gain(rep.s, w).K @ brunovsky(rep.s)[2])
         raise explain_divergence(exc, float(np.max(np.abs(eig))), simulate.dt, saturation) from exc
-    files = write_result(sim.result, simulate.out, "drift")
+    files = write_result(sim.result, simulate.out, "drift", model_units(model))
     return DriftWorkflowReport(rep, sim, simulate, files, Verdict.OK, "")

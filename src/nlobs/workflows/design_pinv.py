@@ -40,7 +40,7 @@ from nlobs.simulate.signals import InputLike
 from nlobs.synthesis.pinv_gain import DEFAULT_THETA, PLACEMENTS, HighGain, Placement
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.workflows._results import checked_request, error_line, error_summary, run_study, write_result
-from nlobs.workflows.inputs import SimulationRequest, as_region, symbolic_model
+from nlobs.workflows.inputs import SimulationRequest, as_region, model_units, symbolic_model
 from nlobs.workflows.verdict import Verdict
 
 __all__ = [
@@ -424,7 +424,7 @@ def design_pinv_observer(
     x0, x_hat0, u = resolved
     res = run_study(lambda: simulate_pinv(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, report=rep,
                                           saturation=box is not None if saturation is None else saturation))
-    files = write_result(res, simulate.out, "pinv")
+    files = write_result(res, simulate.out, "pinv", model_units(model))
     box = rep.observer.region
     assert box is not None
     where = box.describe()

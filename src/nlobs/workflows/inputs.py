@@ -112,6 +112,22 @@ def symbolic_model(model: str | Path | SymbolicModel) -> SymbolicModel:
     raise InvalidArgumentError(f"model: expected a model file, a shipped model name or a model, got {type(model).__name__}")
 
 
+def model_units(model: str | Path | Any) -> dict[str, str]:
+    """The ``units`` table of the model file behind ``model`` (``{}`` for a loaded model or a file without one).
+
+    For axis labels only: a file that does not parse as a scenario gives ``{}`` (its errors are
+    reported by whatever loads it as a model).
+    """
+    if not isinstance(model, (str, Path)):
+        return {}
+    from nlobs.systems.modelfile import load_scenario
+
+    try:
+        return dict(load_scenario(model).units)
+    except NlobsError:
+        return {}
+
+
 def model_label(model: str | Path | Any) -> str:
     """How messages name ``model``: a path or shipped name as given, else the model's ``name``."""
     if isinstance(model, (str, Path)):
