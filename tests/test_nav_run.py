@@ -318,8 +318,11 @@ def test_figures_like_the_papers_figs_4_to_6(tmp_path, data):
     assert [ax.get_ylabel() for ax in fig.axes[:3]] == ["North error [m/s]", "East error [m/s]", "Down error [m/s]"]
     np.testing.assert_allclose(err_line.get_ydata(), 0.0)
     np.testing.assert_allclose(fig.axes[1].get_lines()[0].get_ydata(), 2.0)
+    assert len(fig.axes) == 4 and fig.axes[3].get_ylabel() == "true [m/s]"  # the truth in its own panel, no twin axes
     fig = plot_euler_error(r, compare=r, labels=("observer", "copy"))
     np.testing.assert_allclose(fig.axes[2].get_lines()[0].get_ydata(), -att, atol=1e-9)
+    first, second = fig.axes[2].get_lines()[:2]  # the comparison is drawn above the main run, thinner
+    assert second.get_zorder() > first.get_zorder() and second.get_linewidth() < first.get_linewidth()
     with pytest.raises(InvalidArgumentError, match="labels"):
         plot_euler_error(r, compare=r, labels=("one",))
     # the three PNGs of a real run

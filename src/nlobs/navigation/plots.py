@@ -2,11 +2,15 @@
 
 * :func:`plot_ground_track` (Fig. 4): true position (markers) and estimate (solid)
   in local north–east coordinates, with the altitude ``−p_d`` against time;
-* :func:`plot_velocity_error` (Fig. 5): velocity estimation error ``v − v̂`` (solid,
-  left axis) and the true velocity (dashed, right axis) in N, E, D;
-* :func:`plot_euler_error` (Fig. 6): Euler-angle error ``true − estimate`` (solid,
-  left axis; yaw wrapped to ±180°) and the true Euler angles (dashed, right axis).
-  The estimate's angles come from the projected ``R̂`` by inverse trigonometry.
+* :func:`plot_velocity_error` (Fig. 5): velocity estimation error ``v − v̂`` in N, E, D (one
+  panel each) and the true velocity below;
+* :func:`plot_euler_error` (Fig. 6): Euler-angle error ``true − estimate`` (yaw wrapped to
+  ±180°; one panel each) and the true Euler angles below. The estimate's angles come from the
+  projected ``R̂`` by inverse trigonometry.
+
+The error panels are symmetric-logarithmic (linear within the steady-state band, shaded), so the
+initial transient and the steady-state error are both visible; the comparison run is drawn on top
+with a thinner line.
 
 Each takes the :class:`~nlobs.simulate.SimulationResult` of a navigation run
 (:func:`nlobs.navigation.run.run_navigation`; quantities read by :mod:`nlobs.navigation.metrics`)
@@ -36,6 +40,12 @@ if TYPE_CHECKING:
 __all__ = ["euler_error_deg", "plot_euler_error", "plot_ground_track", "plot_navigation", "plot_velocity_error"]
 
 _COLOURS = ("tab:blue", "tab:red")
+
+
+def _NO_TICKS():  # noqa: N802 - a locator class, imported lazily
+    from matplotlib.ticker import NullLocator
+
+    return NullLocator()
 _AXES = ("North", "East", "Down")
 _ANGLES = ("roll", "pitch", "yaw")
 
@@ -120,29 +130,46 @@ def _error_figure(result: SimulationResult, runs: list[SimulationResult], labels
                   names: tuple[str, ...],
                   unit_err: str, unit_true: str, title: str, ylim: tuple[float, float] | None,
                   path: str | os.PathLike[str] | None) -> Figure:
-    fig = _new((10.0, 8.0))
-    axes = fig.subplots(3, 1, sharex=True)
+    """One error panel per axis and, below, the true values in one panel (no twin axes).
+
+    The error axes are symmetric-logarithmic, linear within the steady-state band (the 99th
+    percentile of every run's ``|error|`` over the second half of the flight), so a large initial
+    transient and a small steady-state error are both readable. The comparison run is drawn on top
+    with a thinner line, so neither hides the other.
+    """
+    fig = _new((10.0, 9.0))
+    axes = fig.subplots(4, 1, sharex=True, gridspec_kw={"height_ratios": [1.0, 1.0, 1.0, 0.8]})
     t = result.t
-    for i, ax in enumerate(axes):
-        twin = ax.twinx()
-        twin.plot(t, truth[:, i], "--", color="0.45", lw=1.0, label="true")
-        twin.set_ylabel(f"true {names[i]} [{unit_true}]", color="0.35")
-        twin.tick_params(axis="y", colors="0.35")
+    half = t >= t[0] + 0.5 * (t[-1] - t[0])
+    band = max(float(np.nanpercentile(np.abs(e[half]), 99)) for e in err) if np.any(half) else 1.0
+    band = band if np.isfinite(band) and band > 0 else 1.0
+    styles = ({"lw": 1.4, "alpha": 0.9}, {"lw": 0.8, "alpha": 0.95})
+    for i, ax in enumerate(axes[:3]):
         for j, (nm, e, c) in enumerate(zip(labels, err, _COLOURS)):
-            ax.plot(t, e[:, i], "-", color=c, lw=1.1, label=f"{nm} error", zorder=3 - j)
+            ax.plot(t, e[:, i], "-", color=c, label=f"{nm}", zorder=2 + j, **styles[min(j, 1)])
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_ylabel(f"{names[i]} error [{unit_err}]")
         if ylim is not None:
             ax.set_ylim(*ylim)
-        ax.set_zorder(twin.get_zorder() + 1)
-        ax.patch.set_visible(False)
+        else:
+            ax.set_yscale("symlog", linthresh=band, linscale=1.5)
+            ax.axhspan(-band, band, color="0.92", zorder=0, lw=0)
+            top = max(float(np.nanmax(np.abs(e[:, i]))) for e in err)
+            ticks = [0.0, band] + [10.0 ** k for k in range(int(np.ceil(np.log10(band * 1.5))),
+                                                            int(np.floor(np.log10(max(top, band)))) + 1)]
+            ticks = sorted({x for x in ticks} | {-x for x in ticks})
+            ax.set_yticks(ticks, [f"{x:.2g}" for x in ticks])
+            ax.yaxis.set_minor_locator(_NO_TICKS())
         ax.grid(True, alpha=0.3)
-        if i == 0:
-            h1, l1 = ax.get_legend_handles_labels()
-            h2, l2 = twin.get_legend_handles_labels()
-            ax.legend(h1 + h2, l1 + l2, loc="upper right", fontsize=8, ncol=3)
-    axes[0].set_title(title)
-    axes[-1].set_xlabel("t [s]")
+    axes[0].legend(loc="upper right", fontsize=8, ncol=2)
+    axes[0].set_title(f"{title} (linear within ±{band:.2g} {unit_err}, shaded; logarithmic outside)", fontsize=10)
+    ax = axes[3]
+    for i, (nm, ls) in enumerate(zip(names, ("-", "--", ":"))):
+        ax.plot(t, truth[:, i], ls, color="0.3", lw=1.1, label=f"true {nm}")
+    ax.set_ylabel(f"true [{unit_true}]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best", fontsize=8, ncol=3)
+    ax.set_xlabel("t [s]")
     return _finish(fig, path)
 
 
@@ -154,7 +181,7 @@ def plot_velocity_error(result: SimulationResult, *, compare: SimulationResult |
     v = navm.v(result)
     err = [v - _pick(r, navm.v_hat(r), index, 1) for r in runs]
     return _error_figure(result, runs, _labels(runs, labels), err, v, _AXES, "m/s", "m/s",
-                         "Velocity estimation error (solid) and true velocity (dashed)", ylim, path)
+                         "Velocity estimation error v − v̂", ylim, path)
 
 
 def euler_error_deg(result: SimulationResult, index: int | tuple[int, ...] = 0) -> Array:
@@ -173,7 +200,7 @@ def plot_euler_error(result: SimulationResult, *, compare: SimulationResult | No
     true = np.degrees(euler_from_R(navm.R(result)))
     true[:, 2] = np.degrees(np.unwrap(np.radians(true[:, 2])))
     return _error_figure(result, runs, _labels(runs, labels), err, true, _ANGLES, "deg", "deg",
-                         "Euler angle error (solid) and true Euler angles (dashed)", ylim, path)
+                         "Euler angle error, true − estimate", ylim, path)
 
 
 def plot_navigation(result: SimulationResult, directory: str | os.PathLike[str], *,
