@@ -45,6 +45,8 @@ def layer_of(rel: Path) -> str:
     top = rel.parts[0].removesuffix(".py")
     if top == "__init__" and len(rel.parts) == 1:
         return "api"
+    if top == "__main__" and len(rel.parts) == 1:
+        return "cli"  # ``python -m nlobs``: the command line
     if top in CORE:
         return "core"
     return top

@@ -558,6 +558,7 @@ def test_every_estimator_has_a_case() -> None:
     assert not stale, f"cases whose class the registry does not find: {_names(stale)}"
     for cls in CASES:
         assert getattr(nlobs, cls.__name__) is cls, f"{cls.__name__} is not exported from the top level of nlobs"
+        assert callable(getattr(cls, "to_control", None)), f"{cls.__name__} has no to_control()"
         assert cls.__name__ in nlobs.__all__
 
 

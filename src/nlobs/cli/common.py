@@ -118,7 +118,7 @@ def jsonable(data: Any) -> Any:
 
 def emit_json(data: dict[str, Any]) -> None:
     """Print a JSON report (with ``schema_version``, :data:`nlobs._io.SCHEMA_VERSION`)."""
-    from nlobs._io import with_schema
+    from nlobs.workflows import with_schema
 
     typer.echo(json.dumps(jsonable(with_schema(data)), indent=2, allow_nan=False))
 

@@ -29,6 +29,7 @@ from __future__ import annotations
 import cmath
 import math
 import os
+from typing import Any
 
 import numpy as np
 import scipy.linalg
@@ -657,9 +658,21 @@ def hinf_grid_peak(
     return _grid_peak(A_, B_, C_, D_, int(points))
 
 
+def _system_or_matrices(A: Any, B: Any, C: Any, D: Any, discrete: bool) -> tuple[Any, Any, Any, Any, bool]:
+    """``(A, B, C, D, discrete)`` from four matrices, or from one system in ``A`` (its time base sets ``discrete``)."""
+    if B is None and C is None and D is None:
+        from nlobs.systems.linear import as_linear_system
+
+        sys = as_linear_system(A, "A")
+        return sys.A, sys.B, sys.C, sys.D, sys.is_discrete
+    if B is None or C is None or D is None:
+        raise InvalidArgumentError("give A, B, C and D, or one system (LinearSystem or python-control) as A")
+    return A, B, C, D, discrete
+
+
 def hinf_norm(
-    A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, *, discrete: bool = False, rtol: float = 1e-9,
-    grid: bool = False, method: str = "auto",
+    A: ArrayLike | Any, B: ArrayLike | None = None, C: ArrayLike | None = None, D: ArrayLike | None = None, *,
+    discrete: bool = False, rtol: float = 1e-9, grid: bool = False, method: str = "auto",
 ) -> float:
     r"""H∞ norm of ``G = C (sI − A)⁻¹ B + D`` (``z`` instead of ``s`` when discrete).
 
@@ -667,7 +680,9 @@ def hinf_norm(
     ----------
     A, B, C, D : array_like
         State-space matrices, shapes ``(n, n)``, ``(n, m)``, ``(p, n)``, ``(p, m)``.
-        ``m = 0`` or ``p = 0`` is allowed (the norm is then 0).
+        ``m = 0`` or ``p = 0`` is allowed (the norm is then 0). Or ``A`` alone: a
+        :class:`~nlobs.systems.linear.LinearSystem` or a python-control ``StateSpace`` /
+        ``TransferFunction`` (its time base then sets ``discrete``).
     discrete : bool
         Discrete time: the supremum is over the unit circle ``z = e^{jθ}``.
     rtol : float
@@ -731,6 +746,7 @@ def hinf_norm(
     ``B_c = √2 (I + A)⁻¹ B``, ``C_c = √2 C (I + A)⁻¹``,
     ``D_c = D − C (I + A)⁻¹ B`` — which preserves the H∞ norm exactly.
     """
+    A, B, C, D, discrete = _system_or_matrices(A, B, C, D, discrete)
     A_, B_, C_, D_ = _check_abcd(A, B, C, D)
     r = max(in_range("rtol", rtol, 0.0, 0.5, lo_open=True), 10 * _EPS)
     use_slycot = _hinf_method(method)
@@ -837,13 +853,16 @@ def _check_gramian(A: NDArray, R: NDArray, G: NDArray, val: float, discrete: boo
             f"trace {val:.3e}); the realisation is too badly conditioned for double precision")
 
 
-def h2_norm(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, *, discrete: bool = False) -> float:
+def h2_norm(A: ArrayLike | Any, B: ArrayLike | None = None, C: ArrayLike | None = None, D: ArrayLike | None = None,
+            *, discrete: bool = False) -> float:
     r"""H2 norm of ``G = C (sI − A)⁻¹ B + D`` (or ``G(z)``).
 
     Parameters
     ----------
     A, B, C, D : array_like
-        State-space matrices, shapes ``(n, n)``, ``(n, m)``, ``(p, n)``, ``(p, m)``.
+        State-space matrices, shapes ``(n, n)``, ``(n, m)``, ``(p, n)``, ``(p, m)``. Or ``A``
+        alone: a :class:`~nlobs.systems.linear.LinearSystem` or a python-control system (as
+        :func:`hinf_norm`).
     discrete : bool
         Discrete time.
 
@@ -872,6 +891,7 @@ def h2_norm(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, *, discrete:
         The Gramian fails that check (or has a negative trace): the realisation is
         too badly conditioned for the result to be trusted.
     """
+    A, B, C, D, discrete = _system_or_matrices(A, B, C, D, discrete)
     A_, B_, C_, D_ = _check_abcd(A, B, C, D)
     n, m, p = A_.shape[0], B_.shape[1], C_.shape[0]
     if m == 0 or p == 0:

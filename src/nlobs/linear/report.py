@@ -23,7 +23,7 @@ from nlobs.linear.norms import h2_norm, hinf_norm
 from nlobs.linear.observability import unobservable_modes
 from nlobs.linear.stability import eigenvalues, is_stable, require_magnitude, strictly_inside
 from nlobs.linear.zeros import invariant_zeros, minimum_phase
-from nlobs.systems.linear import LinearSystem
+from nlobs.systems.linear import LinearSystem, as_linear_system
 
 __all__ = ["LinearReport", "analyze_linear", "REPORT_KEYS"]
 
@@ -180,12 +180,12 @@ def _h2_text(r: LinearReport) -> str:
     return "n/a (unstable)" if not r.stable else "infinite (D != 0)"
 
 
-def analyze_linear(sys: LinearSystem) -> LinearReport:
+def analyze_linear(sys: LinearSystem | Any) -> LinearReport:
     """Structural analysis of a linear system.
 
     Parameters
     ----------
-    sys : LinearSystem
+    sys : LinearSystem or python-control StateSpace / TransferFunction
         The model; its time base selects continuous- or discrete-time tests.
 
     Returns
@@ -209,8 +209,7 @@ def analyze_linear(sys: LinearSystem) -> LinearReport:
     1982), :func:`~nlobs.linear.norms.hinf_norm` (Bruinsma & Steinbuch 1990)
     and :func:`~nlobs.linear.norms.h2_norm` (Gramians).
     """
-    if not isinstance(sys, LinearSystem):
-        raise InvalidArgumentError(f"sys: expected a LinearSystem, got {type(sys).__name__}")
+    sys = as_linear_system(sys)
     A, B, C, D = (np.asarray(M, dtype=float) for M in (sys.A, sys.B, sys.C, sys.D))
     for name, M in zip("ABCD", (A, B, C, D)):
         require_magnitude(name, M)

@@ -96,6 +96,7 @@ from nlobs.navigation.so3 import exp_so3, skew
 from nlobs.navigation.split_kernel import _mm, exp_so3_scalar
 from nlobs.observers.kalman import joseph_update  # the one implementation (re-exported here)
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
+from nlobs.observers.base import ToControl
 
 _I3 = np.eye(3)
 
@@ -204,7 +205,7 @@ class EkfState:
 
 
 @dataclass(frozen=True)
-class ExtendedKalmanFilter:
+class ExtendedKalmanFilter(ToControl):
     """Error-state EKF with multiplicative attitude (module docstring), a correcting observer.
 
     ``time = Continuous()``, ``n_x = 15`` (the estimate ``[p̂, v̂, R̂]``); ``step`` is the EKF

@@ -115,6 +115,7 @@ from nlobs.navigation.so3 import exp_so3, exp_so3_columns, project_so3, skew, sk
 from nlobs.simulate.integrators import rk4_step
 from nlobs.navigation.split_kernel import ScalarFlow, SplitConstants, split_step
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
+from nlobs.observers.base import ToControl
 
 _INF = float("inf")
 
@@ -201,7 +202,7 @@ class GnssInsState:
 
 
 @dataclass(frozen=True)
-class GnssInsObserver:
+class GnssInsObserver(ToControl):
     """The complete GNSS/INS observer (24) of Grip, Saberi & Johansen (Sec. 5), a correcting observer.
 
     ``time = Continuous()``, ``n_x = 15`` (the estimate ``[p̂, v̂, R̂]``, module docstring).

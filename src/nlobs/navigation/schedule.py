@@ -53,6 +53,7 @@ from nlobs.errors import InvalidArgumentError, NonFiniteError
 from nlobs.navigation.gnss_ins import GnssInsObserver, GnssInsState
 from nlobs.navigation.sensors import SensorNoise
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
+from nlobs.observers.base import ToControl
 
 __all__ = ["AttitudeGainSchedule", "ScheduledGnssInsObserver", "heading_rate_per_gain", "noise_scheduled_gain",
            "steady_attitude_gain"]
@@ -162,7 +163,7 @@ class AttitudeGainSchedule:
 
 
 @dataclass(frozen=True)
-class ScheduledGnssInsObserver:
+class ScheduledGnssInsObserver(ToControl):
     """Observer (24) with the attitude gain ``Γ(t)`` of an :class:`AttitudeGainSchedule` (module docstring).
 
     A correcting observer on the protocol of :mod:`nlobs.observers.base`, with the state of

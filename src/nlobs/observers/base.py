@@ -45,19 +45,45 @@ The loops look for these methods and use them when present (each is a small prot
   once per step).
 * ``state_names`` — names used in divergence reports (default ``z[i]``, or a dataclass field).
 * ``name`` — a short label (results and progress bars).
+
+Every observer class of nlobs also has :meth:`ToControl.to_control` (python-control interop).
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Protocol, TypeVar, runtime_checkable
+from typing import Any, Protocol, TypeVar, runtime_checkable
 
 from nlobs._typing import Array, BoolArray
 from nlobs.systems.timebase import TimeBase
 
 Z = TypeVar("Z")
 
-__all__ = ["CorrectingObserver", "DeferredEstimate", "Diagnosing", "Observer", "SelfStepping", "Z"]
+__all__ = ["CorrectingObserver", "DeferredEstimate", "Diagnosing", "Observer", "SelfStepping", "ToControl", "Z"]
+
+
+class ToControl:
+    """Gives an observer ``to_control()``: itself as a python-control input/output system.
+
+    A mix-in of every nlobs observer (no state, no fields); see :func:`nlobs.observers.control_io.to_control`.
+    """
+
+    __slots__ = ()
+
+    def to_control(self, *, inputs: Any = None, outputs: Any = None, name: str | None = None) -> Any:
+        """This observer as a ``control.NonlinearIOSystem``: inputs ``[u, y]``, state ``z``, outputs ``x̂``.
+
+        See :func:`nlobs.observers.control_io.to_control` (python-control is an optional extra).
+
+        Raises
+        ------
+        InvalidArgumentError
+            python-control is missing, or the observer is a correcting observer or has a
+            structured state (python-control cannot represent either).
+        """
+        from nlobs.observers.control_io import to_control
+
+        return to_control(self, inputs=inputs, outputs=outputs, name=name)
 
 
 @runtime_checkable

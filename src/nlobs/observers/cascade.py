@@ -51,12 +51,13 @@ from nlobs.linear.assumption4 import extended_system
 from nlobs.synthesis.certificate import ObserverGainCertificate
 from nlobs.systems.interconnected import LinearSubsystem, NonlinearSubsystem, check_interconnection
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
+from nlobs.observers.base import ToControl
 
 __all__ = ["CascadeObserver"]
 
 
 @dataclass(frozen=True, eq=False)
-class CascadeObserver:
+class CascadeObserver(ToControl):
     r"""The observer (9)–(10) (cascade) or (17)–(18) (feedback) of Grip, Saberi & Johansen.
 
     Observer state ``[x̂, ŵ, ξ]`` (``n_x + n_w + p_z``); :meth:`estimate` returns

@@ -99,6 +99,7 @@ from nlobs.systems.codegen import BatchedFunction, compile_matrix
 from nlobs.systems.brunovsky import brunovsky
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
+from nlobs.observers.base import ToControl
 
 __all__ = ["COND_LIMIT", "DriftObserver", "SingularObservabilityError"]
 
@@ -153,7 +154,7 @@ def _condition(Qf: Array) -> Array:
 
 
 @dataclass(frozen=True, eq=False)
-class DriftObserver:
+class DriftObserver(ToControl):
     """Observer (3.1) ``x̂' = f(x̂) + g(x̂) u + Q_s(x̂)⁻¹ K (y − h(x̂))``; satisfies :class:`~nlobs.observers.base.Observer`.
 
     Build with :meth:`from_model` (or :meth:`from_fields`). The observer holds no state.

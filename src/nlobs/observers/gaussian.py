@@ -30,6 +30,7 @@ from nlobs._typing import Array, BoolArray
 from nlobs._validate import as_batch, as_symmetric, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError, SimulationDiverged
 from nlobs.systems.base import PlantModel
+from nlobs.observers.base import ToControl
 from nlobs.systems.timebase import Continuous, Discrete, TimeBase
 
 __all__ = ["FilterState", "GaussianFilterBase", "checked_covariance"]
@@ -85,7 +86,7 @@ def symmetrised(M: Array) -> Array:
 
 
 @dataclass(frozen=True, eq=False)
-class GaussianFilterBase:
+class GaussianFilterBase(ToControl):
     """Common part of the EKF and the UKF (module docstring); not an observer by itself (no ``rhs``)."""
 
     plant: PlantModel

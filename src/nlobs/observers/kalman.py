@@ -25,6 +25,7 @@ from nlobs._validate import as_batch, as_matrix, as_square, as_symmetric, readon
 from nlobs.errors import DimensionError, InvalidArgumentError, SimulationDiverged
 from nlobs.observers.lipschitz import BatchedMap, _finite_batch, _optional, _phi_values
 from nlobs.systems.timebase import Discrete
+from nlobs.observers.base import ToControl
 
 __all__ = ["GaussianState", "UnknownInputEKF", "joseph_update"]
 
@@ -136,7 +137,7 @@ def _joseph_one(P: Array, H: Array, R: Array, innovation: Array, nis: bool) -> t
 
 
 @dataclass(frozen=True, eq=False)
-class UnknownInputEKF:
+class UnknownInputEKF(ToControl):
     r"""EKF that models the unknown input ``d`` as white noise of covariance ``Q_d``.
 
     Model: ``ω_k = G d_k + W w_k`` (covariance ``Q = W Q_w Wᵀ + G Q_d Gᵀ``),

@@ -27,6 +27,7 @@ from nlobs._typing import Array
 from nlobs._validate import as_batch, as_matrix, as_square, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError
 from nlobs.systems.timebase import Discrete
+from nlobs.observers.base import ToControl
 
 __all__ = ["BatchedMap", "DiscreteLipschitzObserver"]
 
@@ -64,7 +65,7 @@ def _phi_values(phi: BatchedMap | None, x: Array, n: int) -> Array:
 
 
 @dataclass(frozen=True, eq=False)
-class DiscreteLipschitzObserver:
+class DiscreteLipschitzObserver(ToControl):
     r"""Lipschitz point observer ``x̂⁺ = A x̂ + φ(x̂) + B u + L (y − C x̂ − D u)`` (ignores ``d``).
 
     Parameters

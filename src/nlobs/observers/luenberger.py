@@ -25,12 +25,13 @@ from numpy.typing import ArrayLike
 from nlobs._typing import Array
 from nlobs._validate import as_batch, as_matrix
 from nlobs.errors import InvalidArgumentError
-from nlobs.systems.linear import LinearSystem
+from nlobs.systems.linear import LinearSystem, as_linear_system
 from nlobs.systems.timebase import TimeBase
+from nlobs.observers.base import ToControl
 
 
 @dataclass(frozen=True, eq=False)
-class LuenbergerObserver:
+class LuenbergerObserver(ToControl):
     """Full-order Luenberger observer ``ż = A z + B u + L (y − C z − D u)`` (or ``z⁺ = …``).
 
     Parameters
@@ -59,8 +60,7 @@ class LuenbergerObserver:
     state_names: tuple[str, ...] = field(init=False)
 
     def __post_init__(self) -> None:
-        if not isinstance(self.system, LinearSystem):
-            raise InvalidArgumentError(f"system: expected a LinearSystem, got {type(self.system).__name__}")
+        object.__setattr__(self, "system", as_linear_system(self.system, "system"))  # python-control systems too
         gain = as_matrix("L", self.L, (self.system.n, self.system.p))
         gain.setflags(write=False)
         object.__setattr__(self, "L", gain)
@@ -101,7 +101,7 @@ class LuenbergerObserver:
 
 
 @dataclass(frozen=True, eq=False)
-class ConstantGainObserver:
+class ConstantGainObserver(ToControl):
     r"""A copy of a nonlinear plant with constant output injection (Thau, 1973):
 
     .. math:: \dot z = f(z, u) + L\,(y - h(z, u)), \qquad \hat x = z

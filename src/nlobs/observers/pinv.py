@@ -101,6 +101,7 @@ from nlobs.systems.brunovsky import brunovsky
 from nlobs.systems.codegen import BatchedFunction, compile_matrix
 from nlobs.systems.expressions import as_sympy_expr, as_sympy_matrix, as_symbols
 from nlobs.systems.symbolic import SymbolicModel
+from nlobs.observers.base import ToControl
 from nlobs.systems.timebase import Continuous, TimeBase
 
 __all__ = ["AssumptionWarning", "ByrnesIsidoriObserver", "PinvObserver"]
@@ -153,7 +154,7 @@ def _as_x_expr(fields: AffineFields, e: Any, what: str) -> sp.Expr:
     return expr.xreplace({s: by_name[str(s)] for s in expr.free_symbols})
 
 
-class _InjectionObserver:
+class _InjectionObserver(ToControl):
     """Shared run-time part of observer (7): ``x̂̇ = f(x̂) + g(x̂) u + l(x̂) (y − h(x̂))``; ``z = x̂``."""
 
     fields: AffineFields

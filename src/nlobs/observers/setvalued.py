@@ -45,6 +45,7 @@ from nlobs.linear.transform_ui import UITransform, ui_transform
 from nlobs.synthesis.setvalued import SetValuedDesign
 from nlobs.systems.discrete_ui import DiscreteUISystem
 from nlobs.systems.timebase import Discrete
+from nlobs.observers.base import ToControl
 
 __all__ = [
     "GivenGain",
@@ -320,7 +321,7 @@ class SetValuedState:
 
 
 @dataclass(frozen=True, eq=False)
-class SetValuedObserver:
+class SetValuedObserver(ToControl):
     r"""Algorithm 1 (Khajenejad & Yong) as a discrete-time correcting observer: centres and radii.
 
     One step of Algorithm 1 is ``rhs`` (the time update (13) from ``k`` to ``k + 1``, with the

@@ -7,14 +7,73 @@ read-only float arrays.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, as_square, default_names, readonly
-from nlobs.systems.timebase import CONTINUOUS, TimeBase
+from nlobs.errors import InvalidArgumentError
+from nlobs.systems.timebase import CONTINUOUS, Discrete, TimeBase
+
+_CONTROL_DEFAULT_LABEL = re.compile(r"[xuy]\[\d+\]")
+
+
+def is_control_system(obj: Any) -> bool:
+    """Whether ``obj`` is a python-control ``StateSpace`` or ``TransferFunction`` (python-control is not imported)."""
+    mod = type(obj).__module__ or ""
+    return (mod == "control" or mod.startswith("control.")) and hasattr(obj, "dt") and (
+        hasattr(obj, "A") or hasattr(obj, "num"))
+
+
+def _import_control() -> Any:
+    try:
+        import control
+    except ImportError:
+        raise InvalidArgumentError("python-control is not installed: pip install 'nlobs[control]'") from None
+    return control
+
+
+def _control_parts(sys: Any) -> dict[str, Any]:
+    """Matrices, time base and names of a python-control system (a transfer function is realised first)."""
+    if not hasattr(sys, "A"):
+        sys = _import_control().ss(sys)
+    dt = sys.dt
+    if dt is True:
+        raise InvalidArgumentError("sys: a discrete-time python-control system with an unspecified sample time "
+                                   "(dt=True); give its sample time")
+    time: TimeBase = CONTINUOUS if (dt is None or dt == 0) else Discrete(float(dt))
+
+    def names(labels: Any) -> list[str] | None:
+        labels = list(labels or [])
+        return None if not labels or all(_CONTROL_DEFAULT_LABEL.fullmatch(str(x)) for x in labels) \
+            else [str(x) for x in labels]
+
+    raw_name = str(getattr(sys, "name", "") or "")
+    return {"A": np.asarray(sys.A, dtype=float), "B": np.asarray(sys.B, dtype=float),
+            "C": np.asarray(sys.C, dtype=float), "D": np.asarray(sys.D, dtype=float), "time": time,
+            "states": names(getattr(sys, "state_labels", None)), "inputs": names(getattr(sys, "input_labels", None)),
+            "outputs": names(getattr(sys, "output_labels", None)),
+            "name": raw_name if raw_name and not raw_name.startswith("sys[") else "linear"}
+
+
+def as_linear_system(obj: Any, what: str = "sys") -> LinearSystem:
+    """``obj`` as a :class:`LinearSystem`: itself, or a python-control system converted.
+
+    Raises
+    ------
+    InvalidArgumentError
+        Neither.
+    """
+    if isinstance(obj, LinearSystem):
+        return obj
+    if is_control_system(obj):
+        return LinearSystem.from_control(obj)
+    raise InvalidArgumentError(f"{what}: expected a LinearSystem or a python-control StateSpace/TransferFunction, "
+                               f"got {type(obj).__name__}")
 
 
 @dataclass(frozen=True)
@@ -25,7 +84,9 @@ class LinearSystem:
     ----------
     A, B, C, D : array_like
         State-space matrices of shapes ``(n, n)``, ``(n, m)``, ``(p, n)``, ``(p, m)``.
-        ``B`` and ``D`` may have zero columns (``m = 0``).
+        ``B`` and ``D`` may have zero columns (``m = 0``). Or ``A`` alone, a python-control
+        ``StateSpace`` or ``TransferFunction`` (:meth:`from_control`: its matrices, time base and
+        signal names).
     time : Continuous or Discrete
         Time base; :data:`~nlobs.systems.timebase.CONTINUOUS` by default.
     states, inputs, outputs : sequence of str, optional
@@ -46,9 +107,9 @@ class LinearSystem:
 
     def __init__(
         self,
-        A: ArrayLike,
-        B: ArrayLike,
-        C: ArrayLike,
+        A: ArrayLike | Any,
+        B: ArrayLike | None = None,
+        C: ArrayLike | None = None,
         D: ArrayLike | None = None,
         *,
         time: TimeBase = CONTINUOUS,
@@ -57,6 +118,17 @@ class LinearSystem:
         outputs: Sequence[str] | None = None,
         name: str = "linear",
     ) -> None:
+        if B is None and C is None and D is None and is_control_system(A):
+            parts = _control_parts(A)
+            A, B, C, D = parts["A"], parts["B"], parts["C"], parts["D"]
+            time = parts["time"]
+            states = states if states is not None else parts["states"]
+            inputs = inputs if inputs is not None else parts["inputs"]
+            outputs = outputs if outputs is not None else parts["outputs"]
+            name = parts["name"] if name == "linear" else name
+        if B is None or C is None:
+            raise InvalidArgumentError("LinearSystem: give A, B, C (and D), or one python-control StateSpace or "
+                                       "TransferFunction")
         A_ = as_square("A", A)
         n = A_.shape[0]
         B_ = as_matrix("B", B, (n, None))
@@ -72,6 +144,35 @@ class LinearSystem:
         object.__setattr__(self, "inputs", default_names("input", "u", inputs, m))
         object.__setattr__(self, "outputs", default_names("output", "y", outputs, p))
         object.__setattr__(self, "name", str(name))
+
+    @classmethod
+    def from_control(cls, sys: Any, *, name: str | None = None) -> LinearSystem:
+        """The system of a python-control ``StateSpace`` or ``TransferFunction``.
+
+        A transfer function is realised by ``control.ss``. The time base is continuous for
+        ``dt = 0``, :class:`~nlobs.systems.timebase.Discrete` ``(dt)`` for ``dt > 0``. Signal names
+        are kept unless they are python-control's defaults (``x[0]``, ``u[0]``, ``y[0]``, ...),
+        which become nlobs's (``x1``, ``u1``, ``y1``, ...).
+
+        Raises
+        ------
+        InvalidArgumentError
+            ``sys`` is not a python-control linear system, or a discrete one with an unspecified
+            sample time (``dt = True``).
+        """
+        if not is_control_system(sys):
+            raise InvalidArgumentError(f"sys: expected a python-control StateSpace or TransferFunction, got "
+                                       f"{type(sys).__name__}")
+        p = _control_parts(sys)
+        return cls(p["A"], p["B"], p["C"], p["D"], time=p["time"], states=p["states"], inputs=p["inputs"],
+                   outputs=p["outputs"], name=p["name"] if name is None else name)
+
+    def to_control(self) -> Any:
+        """This system as a python-control ``StateSpace`` (names and sample time kept; needs python-control)."""
+        control = _import_control()
+        dt = self.time.dt if self.time.is_discrete else 0
+        return control.ss(self.A, self.B, self.C, self.D, dt, states=list(self.states), inputs=list(self.inputs),
+                          outputs=list(self.outputs), name=self.name)
 
     @property
     def n(self) -> int:

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import sympy as sp
@@ -277,7 +278,13 @@ class SymbolicModel:
             _rhs_u=compile_matrix(rhs.jacobian(U) if self.m else sp.zeros(self.n, 0), grp, what="drhs/du"),
             _h_x=compile_matrix(h.jacobian(X), grp, what=f"{self.name}.dh/dx"),
             _h_u=compile_matrix(h.jacobian(U) if self.m else sp.zeros(self.p, 0), grp, what="dh/du"),
+            _origin=(self, None if parameters is None else dict(parameters)),
         )
+
+
+def _recompile(model: SymbolicModel, parameters: Mapping[str, float] | None) -> CompiledModel:
+    """Unpickle a :class:`CompiledModel`: compile its symbolic model again."""
+    return model.compile(parameters)
 
 
 @dataclass(frozen=True)
@@ -286,6 +293,9 @@ class CompiledModel:
 
     Satisfies :class:`~nlobs.systems.base.PlantModel`. Every method accepts
     ``x`` of shape ``(..., n)`` and ``u`` of shape ``(..., m)``.
+
+    It pickles (process pools, Dask): the symbolic model it was compiled from travels instead of
+    the generated functions, and is compiled again on the other side.
     """
 
     time: TimeBase
@@ -299,6 +309,14 @@ class CompiledModel:
     _rhs_u: BatchedFunction
     _h_x: BatchedFunction
     _h_u: BatchedFunction
+    _origin: tuple[Any, Mapping[str, float] | None] | None = field(default=None, repr=False, compare=False)
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        if self._origin is None:
+            raise TypeError(f"CompiledModel {self.name!r}: built without its SymbolicModel, so it cannot be pickled; "
+                            "pickle the SymbolicModel and compile it where it is needed")
+        model, parameters = self._origin
+        return (_recompile, (model, parameters))
 
     @property
     def n(self) -> int:

@@ -18,7 +18,7 @@ scripts and notebooks. See :mod:`nlobs.workflows.verdict` for how a report says 
   simulate for decreasing ``γ`` (:mod:`nlobs.workflows.gamma_sweep`);
 * the inputs a caller hands over as plain values (:mod:`nlobs.workflows.inputs`):
   :class:`SimulationRequest`, :func:`box_from_numbers` (:class:`BoxError`), :func:`symbolic_model`,
-  :func:`escape_unsafe` for text that reaches a terminal, and :func:`jsonable` for what is printed
+  :func:`escape_unsafe` for text that reaches a terminal, and :func:`jsonable` (and :func:`with_schema`, the ``schema_version`` key) for what is printed
   as JSON.
 
 Importing this package is cheap (the command line imports it when it starts): every name is
@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING
 from nlobs._lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from nlobs._io import jsonable
+    from nlobs._io import jsonable, with_schema
     from nlobs._validate import escape_unsafe
     from nlobs.workflows.analyze import AnalysisReport, analyze_model
     from nlobs.workflows.demo import DemoConfig, DemoReport, gnss_ins_demo
@@ -81,6 +81,7 @@ _LAZY: dict[str, str] = {
     "escape_unsafe": "nlobs._validate",
     "Verdict": "nlobs.workflows.verdict",
     "jsonable": "nlobs._io",
+    "with_schema": "nlobs._io",
 }
 
 __all__ = [
@@ -111,6 +112,7 @@ __all__ = [
     "gamma_sweep",
     "gnss_ins_demo",
     "jsonable",
+    "with_schema",
     "monte_carlo",
     "simulate_drift",
     "simulate_pinv",
