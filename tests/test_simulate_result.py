@@ -156,3 +156,34 @@ def test_plot_writes_a_png(tmp_path: Path) -> None:
     assert axes[-1].get_xlabel() == "time [h]"
     fig = res.plot(states=["pos", 1], units={"pos": "m", "vel": "m/s"})
     assert fig.get_axes()[-1].get_ylabel() == "‖x̂ − x‖"  # no shared unit
+
+
+def test_export_to_dict_csv_and_xarray(tmp_path: Path) -> None:
+    import csv
+    import json
+
+    res = _small_run()  # 3 runs, multi-rate output (10 Hz on a 2 ms grid)
+    d = res.to_dict()
+    json.dumps(d, allow_nan=False)  # plain JSON
+    assert d["states"] == ["pos", "vel"] and np.array_equal(np.asarray(d["x_hat"]), res.x_hat)
+    assert len(d["t"]) == res.t.size and d["dt"] == res.dt
+    # CSV of run 1: t, the true states, the estimates, the output where it was sampled
+    path = res.to_csv(tmp_path / "run1.csv", run=1)
+    rows = list(csv.reader(path.open()))
+    assert rows[0] == ["t", "pos", "vel", "pos_hat", "vel_hat", "gps"]
+    body = np.array([[float(c) if c else np.nan for c in r] for r in rows[1:]])
+    np.testing.assert_array_equal(body[:, 0], res.t)
+    np.testing.assert_array_equal(body[:, 1:3], res.x[1])
+    np.testing.assert_array_equal(body[:, 3:5], res.x_hat[1])
+    sampled = res.sampled[1][:, 0] if res.sampled.ndim > 2 else res.sampled[:, 0]
+    assert np.isnan(body[~sampled, 5]).all() and np.isfinite(body[sampled, 5]).all()
+    with pytest.raises(InvalidArgumentError, match="out of range"):
+        res.to_csv(tmp_path / "bad.csv", run=7)
+    assert not (tmp_path / "bad.csv").exists()
+    xr = pytest.importorskip("xarray")
+    ds = res.to_xarray()
+    assert isinstance(ds, xr.Dataset) and ds.sizes["time"] == res.t.size and ds.sizes["run0"] == 3
+    np.testing.assert_array_equal(ds["x_hat"].sel(estimate="vel").values, res.x_hat[..., 1])
+    np.testing.assert_array_equal(ds["x"].sel(state="pos").isel(run0=2).values, res.x[2, :, 0])
+    np.testing.assert_array_equal(ds["time"].values, res.t)
+    assert ds.attrs["dt"] == res.dt

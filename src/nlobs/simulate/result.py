@@ -272,6 +272,109 @@ class SimulationResult:
             raise InvalidArgumentError(f"SimulationResult.save: info is not JSON-serialisable ({exc})") from None
         return atomic_write(path, lambda fh: np.savez(fh, **data))
 
+    # ------------------------------------------------------------- export
+    def to_dict(self) -> dict[str, Any]:
+        """Plain Python (lists, floats, strings; non-finite numbers as ``None``): every field, for JSON.
+
+        Keys: ``t``, ``x``, ``x_hat``, ``y``, ``sampled`` (arrays as nested lists, batch axes first;
+        ``None`` when absent), ``states``, ``outputs``, ``estimates``, ``dt``, ``method``,
+        ``observer``, ``extras`` and ``info``.
+        """
+        from nlobs._io import jsonable
+
+        return jsonable({
+            "t": self.t, "x": self.x, "x_hat": self.x_hat, "y": self.y, "sampled": self.sampled,
+            "states": list(self.states), "outputs": list(self.outputs), "estimates": list(self.estimates),
+            "dt": self.dt, "method": self.method, "observer": self.observer,
+            "extras": dict(self.extras), "info": dict(self.info),
+        })
+
+    def to_csv(self, path: str | os.PathLike[str], run: int | tuple[int, ...] = 0) -> Path:
+        """Write one run as CSV, atomically: ``t``, the true states, the estimates (``<name>_hat``), the outputs.
+
+        Outputs are empty where nothing was sampled (multi-rate sensors); non-finite values are
+        empty cells. ``run`` picks the run of a batch (default the first).
+
+        Raises
+        ------
+        InvalidArgumentError
+            ``run`` out of range for the batch.
+        """
+        import csv
+        import io
+
+        idx = run if isinstance(run, tuple) else ((run,) if self.batch_shape else ())
+        try:
+            xh = self.x_hat[idx] if idx else self.x_hat
+            x = None if self.x is None else (np.broadcast_to(self.x, self.x_hat.shape[:-1] + self.x.shape[-1:])[idx]
+                                             if idx else self.x)
+            y = None if self.y is None else (self.y[idx] if idx and self.y.ndim > 2 else self.y)
+            smp = None if self.sampled is None else (self.sampled[idx] if idx and self.sampled.ndim > 2 else
+                                                     self.sampled)
+        except IndexError:
+            raise InvalidArgumentError(f"run: {run} is out of range for the batch shape {self.batch_shape}") from None
+        head = ["t", *self.states[: 0 if x is None else len(self.states)], *(f"{e}_hat" for e in self.estimates),
+                *(self.outputs if y is not None else ())]
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(head)
+
+        def cell(v: float) -> str:
+            return repr(float(v)) if np.isfinite(v) else ""
+
+        for k in range(self.t.size):
+            row = [cell(self.t[k])]
+            if x is not None:
+                row += [cell(v) for v in x[k]]
+            row += [cell(v) for v in xh[k]]
+            if y is not None:
+                row += [cell(v) if smp is None or smp[k, j] else "" for j, v in enumerate(y[k])]
+            w.writerow(row)
+        from nlobs._io import atomic_write_text
+
+        return atomic_write_text(path, buf.getvalue())
+
+    def to_xarray(self) -> Any:
+        """The result as an ``xarray.Dataset`` (needs xarray).
+
+        Dimensions: the batch axes ``run0, run1, …``, ``time`` (its coordinate: ``t``), ``state``,
+        ``estimate`` and ``output`` (coordinates: the names). Variables ``x``, ``x_hat``, ``y``,
+        ``sampled`` and the extras (their trailing axes named ``<extra>_dim<i>``); attributes ``dt``,
+        ``method``, ``observer``.
+
+        Raises
+        ------
+        InvalidArgumentError
+            xarray is not installed.
+        """
+        try:
+            import xarray as xr
+        except ImportError:
+            raise InvalidArgumentError("to_xarray: xarray is not installed (pip install xarray)") from None
+        batch = [f"run{i}" for i in range(len(self.batch_shape))]
+        data: dict[str, Any] = {"x_hat": ([*batch, "time", "estimate"], np.asarray(self.x_hat))}
+        if self.x is not None:
+            xb = len(self.x.shape) - 2
+            data["x"] = ([*batch[len(batch) - xb:], "time", "state"], np.asarray(self.x))
+        if self.y is not None:
+            yb = len(self.y.shape) - 2
+            data["y"] = ([*batch[len(batch) - yb:], "time", "output"], np.asarray(self.y))
+        if self.sampled is not None:
+            data["sampled"] = ([*batch[len(batch) - (self.sampled.ndim - 2):], "time", "output"],
+                               np.asarray(self.sampled))
+        for k, v in self.extras.items():
+            v = np.asarray(v)
+            lead = batch + ["time"] if v.ndim >= len(batch) + 1 and v.shape[len(batch)] == self.t.size else batch
+            lead = lead[: min(len(lead), v.ndim)]
+            data[f"extra_{k}"] = ([*lead, *(f"{k}_dim{i}" for i in range(v.ndim - len(lead)))], v)
+        coords = {"time": np.asarray(self.t), "estimate": list(self.estimates)}
+        if self.x is not None:
+            coords["state"] = list(self.states)
+        if self.y is not None or self.sampled is not None:
+            coords["output"] = list(self.outputs)
+        return xr.Dataset(data, coords=coords, attrs={"dt": self.dt, "method": self.method,
+                                                      "observer": self.observer})
+
     @classmethod
     def load(cls, path: str | os.PathLike[str]) -> SimulationResult:
         """Read a result written by :meth:`save` (format 1 or 2).
