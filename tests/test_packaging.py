@@ -47,3 +47,20 @@ def test_wheel_metadata_matches_pyproject(wheel: Path) -> None:
     # the classifiers claim only the Python versions CI runs the tests on (3.11: the only one on its machines)
     claimed = [c.rsplit(" ", 1)[-1] for c in meta.get_all("Classifier") if c.startswith("Programming Language :: Python :: 3.")]
     assert claimed == ["3.11"] and meta["Requires-Python"] == ">=3.11"
+
+
+def test_docs_build_fails_on_a_broken_link(tmp_path: Path) -> None:
+    # the site's strictness: a page with a link to a missing page aborts the build (make docs)
+    pytest.importorskip("mkdocs")
+    import shutil
+
+    site = tmp_path / "tree"
+    shutil.copytree(ROOT / "docs", site / "docs")
+    for f in ("mkdocs.yml", "README.md", "CHANGELOG.md"):
+        shutil.copy(ROOT / f, site / f)
+    shutil.copytree(ROOT / "src", site / "src")
+    (site / "docs" / "drift.md").write_text((site / "docs" / "drift.md").read_text() + "\nSee [x](missing.md).\n")
+    env = {**__import__("os").environ, "NO_MKDOCS_2_WARNING": "1"}
+    res = subprocess.run([sys.executable, "-m", "mkdocs", "build", "--strict", "-f", str(site / "mkdocs.yml")],
+                         capture_output=True, text=True, timeout=600, env=env)
+    assert res.returncode != 0 and "missing.md" in res.stderr
