@@ -224,6 +224,8 @@ class ExtendedKalmanFilter(ToControl):
         ``"auto"`` (default): a single flight (``P`` of shape ``(9, 9)``) takes the fused
         single-flight path (module docstring, *Cost of one flight*), anything else the batched
         NumPy path; ``"batched"``: always the batched path (the same results to rounding).
+    name : str
+        Label of the results (default ``"ekf"``).
 
     Raises
     ------

@@ -104,15 +104,53 @@ class Observer(Protocol[Z]):
     def n_x(self) -> int: ...
 
     def init(self, x_hat0: Array) -> Z:
-        """Observer state from an initial estimate ``x̂0`` of shape ``(..., n_x)``."""
+        """Observer state from an initial estimate ``x̂0`` of shape ``(..., n_x)``.
+
+        Parameters
+        ----------
+        x_hat0 : ndarray, shape (..., n_x)
+            The initial estimate (leading axes: a batch of runs).
+
+        Returns
+        -------
+        Z
+            The observer state (an array, or a frozen dataclass of arrays).
+        """
         ...
 
     def rhs(self, t: float, z: Z, u: Array, y: Array) -> Z:
-        """``ż`` (continuous) or ``z⁺`` (discrete), given the input ``u`` and the (held) measurement ``y``."""
+        """``ż`` (continuous) or ``z⁺`` (discrete), given the input ``u`` and the (held) measurement ``y``.
+
+        Parameters
+        ----------
+        t : float
+            Time.
+        z : Z
+            The observer state.
+        u : ndarray, shape (..., m)
+            The plant's known input.
+        y : ndarray, shape (..., p)
+            The measurement (held since its last sample).
+
+        Returns
+        -------
+        Z
+            ``ż`` or ``z⁺``, of the type of ``z``.
+        """
         ...
 
     def estimate(self, z: Z) -> Array:
-        """The plant-state estimate ``x̂``, shape ``(..., n_x)``."""
+        """The plant-state estimate ``x̂``, shape ``(..., n_x)``.
+
+        Parameters
+        ----------
+        z : Z
+            The observer state.
+
+        Returns
+        -------
+        ndarray, shape (..., n_x)
+        """
         ...
 
 
@@ -121,7 +159,27 @@ class CorrectingObserver(Observer[Z], Protocol[Z]):
     """An observer that also makes a discrete correction when a sample arrives (module docstring)."""
 
     def correct(self, t: float, z: Z, u: Array, y: Array, fresh: BoolArray) -> Z:
-        """The corrected state; ``fresh[j]`` is True where output ``j`` was just sampled."""
+        """The corrected state; ``fresh[j]`` is True where output ``j`` was just sampled.
+
+        Parameters
+        ----------
+        t : float
+            The sample instant.
+        z : Z
+            The observer state before the correction.
+        u : ndarray, shape (..., m)
+            The known input.
+        y : ndarray, shape (..., p)
+            The measurement; a non-finite entry at a sampled output is a missing sample for that
+            batch member (skipped, or refused with a typed error where skipping would void a guarantee).
+        fresh : ndarray of bool, shape (p,)
+            Which outputs were sampled at ``t``.
+
+        Returns
+        -------
+        Z
+            The corrected state.
+        """
         ...
 
 

@@ -181,6 +181,8 @@ class DriftObserver(ToControl):
         terms of (3.4) evaluated at ``sat(x̂)`` (module docstring: identical to (3.1) while ``x̂`` is
         inside ``B``).
     states : tuple of str
+    n_inputs, n_outputs : int
+        Sizes of the plant's input ``u`` and output ``y``.
     state_names : tuple of str
         ``"<state>_hat"``.
     time : Continuous

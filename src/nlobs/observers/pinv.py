@@ -429,6 +429,8 @@ class ByrnesIsidoriObserver(_InjectionObserver):
     k : array_like or HighGain
     region : Box, optional
         Where A1 and ``det Φ' ≠ 0`` are checked (default ``[−1, 1]ⁿ``).
+    samples, seed : int
+        Sampling of the region for the checks.
 
     Attributes
     ----------

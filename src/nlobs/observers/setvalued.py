@@ -343,6 +343,8 @@ class SetValuedObserver(ToControl):
     lpv_weights : bool
         The input ``u`` carries the run-time LPV weights ``λ_k`` after the known inputs (Class III,
         Definition 2.4: (13) uses ``Σλᵢ Aᵢ``): required for a design certified at the vertices.
+    name : str
+        Label of the results.
 
     Notes
     -----

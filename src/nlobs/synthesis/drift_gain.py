@@ -447,6 +447,29 @@ def verify_drift_gain(c: RiccatiConstants, K: ArrayLike, P: ArrayLike, *, method
 
     Bad input is still refused: ``K``, ``P`` not finite, real and of the right shape, or ``w`` (the
     Remark 2.11 parameter the certificate records) not positive and finite.
+
+    Parameters
+    ----------
+    c : RiccatiConstants
+        The constants of (2.17).
+    K : array_like, shape (n, q)
+        The gain of observer (3.1) in scaled coordinates.
+    P : array_like, shape (n, n)
+        The Lyapunov matrix (symmetrised).
+    method : str
+        How the pair was found (recorded in the certificate).
+    w : float, optional
+        The Remark 2.11 parameter, when the pair is ``(K(w), P(w))``.
+
+    Returns
+    -------
+    DriftGainCertificate
+        ``verified`` is False with the failed checks named when (2.17) does not hold.
+
+    Raises
+    ------
+    InvalidArgumentError, NonFiniteError, DimensionError
+        Bad ``K``, ``P`` or ``w``.
     """
     w = None if w is None else positive("w", w)
     K_ = as_matrix("K", K, (c.n, c.q)).copy()
@@ -947,6 +970,28 @@ def design_drift_gain(
     **sdp_options: Any,
 ) -> DriftGainCertificate:
     """One entry point: ``"vandermonde"`` (smallest ``w``, or the given ``w`` verified) or ``"sdp"``.
+
+    Dalla Mora, Germani & Manes: a gain ``K`` and ``P ≻ 0`` solving the Riccati-like inequality (2.17)
+    in scaled coordinates (Def. 2.6), by the Vandermonde construction ``K(w), P(w)`` of Remark 2.11 or
+    by an SDP in ``S = P⁻¹``, ``Y = S K``.
+
+    Parameters
+    ----------
+    c : RiccatiConstants
+        The constants of (2.17): the multi-index ``s``, ``α``, ``μ``, ``γ`` and the sizes.
+    method : {"vandermonde", "sdp"}
+        The construction.
+    w : float, optional
+        ``"vandermonde"``: verify ``K(w)`` at this ``w`` instead of searching the smallest one.
+    w_max : float
+        ``"vandermonde"``: the largest ``w`` the search tries.
+    **sdp_options
+        ``"sdp"`` only: options of the SDP design (solver, margins).
+
+    Returns
+    -------
+    DriftGainCertificate
+        The gain, ``P`` and every check of (2.17), re-verified without the solver.
 
     Raises
     ------

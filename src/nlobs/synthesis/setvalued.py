@@ -782,6 +782,30 @@ def verify_setvalued(system: DiscreteUISystem, L_tilde: Any, P: Any, *, kappa: f
     ``Θ = (θ₁, θ_w, θ₂) ⪰ 0``, and ``λ ∈ (0, 1)`` — or ``λ = 1`` with ``q > 0`` (the ``hinf`` form,
     whose contraction is ``λ_eff = λ − q/λ_max(P) < 1``); ``rho`` positive when given.
 
+    Parameters
+    ----------
+    system : DiscreteUISystem
+        The discrete-time system with unknown inputs (Khajenejad & Yong, (1)).
+    L_tilde : array_like
+        The observer gain ``L̃`` of the transformed error dynamics (App. A.1).
+    P : array_like, shape (n, n)
+        The Lyapunov matrix.
+    kappa, lam : float
+        ``κ ≥ 0`` and ``λ`` of condition (⋆).
+    theta : tuple of three floats
+        ``Θ = (θ₁, θ_w, θ₂) ⪰ 0`` of (⋆).
+    q : float
+        ``q ≥ 0`` of the ``hinf`` form.
+    rho : float, optional
+        An H∞ level to check as well.
+    strict : bool
+        Raise when a check fails (else return the checks).
+
+    Returns
+    -------
+    tuple of Check
+        Every condition with its value and margin.
+
     Raises
     ------
     InvalidArgumentError, NonFiniteError, DimensionError

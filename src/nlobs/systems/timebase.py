@@ -25,7 +25,13 @@ class Continuous:
 
 @dataclass(frozen=True)
 class Discrete:
-    """Discrete time with sampling period ``dt`` (seconds), ``x⁺ = f(x, u)``."""
+    """Discrete time with sampling period ``dt`` (seconds), ``x⁺ = f(x, u)``.
+
+    Parameters
+    ----------
+    dt : float
+        The sampling period, positive and finite.
+    """
 
     dt: float
 

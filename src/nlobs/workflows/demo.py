@@ -317,6 +317,20 @@ def gnss_ins_demo(config: DemoConfig = DemoConfig(), out: str | Path | None = Pa
                   progress: bool | None = None) -> DemoReport:
     """The workflow of ``nlobs demo gnss-ins``: :func:`run_demo`, then the figures and ``results.json`` in ``out``.
 
+    Parameters
+    ----------
+    config : DemoConfig
+        The flight, sensors, gains and options.
+    out : str or Path, optional
+        Folder for the figures and ``results.json`` (``None``: none written).
+    progress : bool, optional
+        Progress bars on stderr.
+
+    Returns
+    -------
+    DemoReport
+        The comparison table and the files written.
+
     Raises
     ------
     OutputError
