@@ -84,6 +84,25 @@ def lipschitz_estimates(fields: AffineFields, s: Sequence[int], r: Sequence[int 
 
     Points where any of the sampled quantities is not finite are left out (``samples`` counts the rest).
 
+    Parameters
+    ----------
+    fields : AffineFields
+        The input-affine model's ``f``, ``g``, ``h``.
+    s : sequence of int
+        Multi-index of ``Φ_s`` (one entry per output, summing to ``n``).
+    r : sequence of int or None
+        Observation relative degrees (``None`` where undefined), for ``H_{s,r}``.
+    region : Box
+        Region the points are sampled from.
+    samples : int, default 2000
+        Number of sampled points.
+    seed : int, default 0
+        Seed of the random number generator that draws the points.
+
+    Returns
+    -------
+    LipschitzEstimates
+
     Raises
     ------
     NonFiniteError

@@ -238,7 +238,30 @@ class AffineFields:
 
 
 def check_multi_index(s: Sequence[int], q: int, n: int | None = None, *, name: str = "s") -> tuple[int, ...]:
-    """Validate a multi-index: ``q`` non-negative integers, summing to ``n`` when given."""
+    """Validate a multi-index: ``q`` non-negative integers, summing to ``n`` when given.
+
+    Parameters
+    ----------
+    s : sequence of int
+        The multi-index to check.
+    q : int
+        Number of entries required (one per output).
+    n : int, optional
+        Required sum of the entries; not checked when ``None``.
+    name : str, default "s"
+        Name used in error messages.
+
+    Returns
+    -------
+    tuple of int
+
+    Raises
+    ------
+    InvalidArgumentError
+        An entry is not an integer or is negative, or the entries do not sum to ``n``.
+    DimensionError
+        ``s`` does not have ``q`` entries.
+    """
     try:
         out = tuple(int(v) for v in s)
     except (TypeError, ValueError):
@@ -255,7 +278,19 @@ def check_multi_index(s: Sequence[int], q: int, n: int | None = None, *, name: s
 
 
 def lie_map(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
-    """Stacked ``[h_j, …, L_f^{s_j−1} h_j]`` over the outputs (no constraint on ``Σ s_j``)."""
+    """Stacked ``[h_j, …, L_f^{s_j−1} h_j]`` over the outputs (no constraint on ``Σ s_j``).
+
+    Parameters
+    ----------
+    fields : AffineFields
+        The input-affine model's ``f``, ``g``, ``h``.
+    s : sequence of int
+        Number of Lie derivatives ``s_j`` per output (non-negative).
+
+    Returns
+    -------
+    sympy.ImmutableMatrix, (Σ s_j, 1)
+    """
     s_ = check_multi_index(s, fields.q)
     rows: list[sp.Expr] = []
     for j, sj in enumerate(s_):
@@ -264,22 +299,70 @@ def lie_map(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
 
 
 def observability_map(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
-    """``Φ_s(x)`` of Dalla Mora, Germani & Manes (2.2)–(2.3); ``s`` must sum to ``n``."""
+    """``Φ_s(x)`` of Dalla Mora, Germani & Manes (2.2)–(2.3); ``s`` must sum to ``n``.
+
+    Parameters
+    ----------
+    fields : AffineFields
+        The input-affine model's ``f``, ``g``, ``h``.
+    s : sequence of int
+        Multi-index, one entry per output, summing to ``n``.
+
+    Returns
+    -------
+    sympy.ImmutableMatrix, (n, 1)
+    """
     return lie_map(fields, check_multi_index(s, fields.q, fields.n))
 
 
 def observability_jacobian(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
-    """``Q_s(x) = ∂Φ_s/∂x`` of Dalla Mora, Germani & Manes (2.5); ``s`` must sum to ``n``."""
+    """``Q_s(x) = ∂Φ_s/∂x`` of Dalla Mora, Germani & Manes (2.5); ``s`` must sum to ``n``.
+
+    Parameters
+    ----------
+    fields : AffineFields
+        The input-affine model's ``f``, ``g``, ``h``.
+    s : sequence of int
+        Multi-index, one entry per output, summing to ``n``.
+
+    Returns
+    -------
+    sympy.ImmutableMatrix, (n, n)
+    """
     return fields.codistribution(check_multi_index(s, fields.q, fields.n))
 
 
 def reduced_observability_matrix(fields: AffineFields, r: Sequence[int]) -> sp.ImmutableMatrix:
-    """``Q(x) = [dh; dL_f h; …; dL_f^{r−1} h]`` of Röbenack (13), stacked over outputs."""
+    """``Q(x) = [dh; dL_f h; …; dL_f^{r−1} h]`` of Röbenack (13), stacked over outputs.
+
+    Parameters
+    ----------
+    fields : AffineFields
+        The input-affine model's ``f``, ``g``, ``h``.
+    r : sequence of int
+        Observation relative degrees, one per output (no constraint on their sum).
+
+    Returns
+    -------
+    sympy.ImmutableMatrix, (Σ r_j, n)
+    """
     return fields.codistribution(r)
 
 
 def output_derivative_terms(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMatrix:
-    """``L_s(x) = [L_f^{s_1} h_1, …, L_f^{s_q} h_q]ᵀ`` (Dalla Mora, Germani & Manes, before (2.14))."""
+    """``L_s(x) = [L_f^{s_1} h_1, …, L_f^{s_q} h_q]ᵀ`` (Dalla Mora, Germani & Manes, before (2.14)).
+
+    Parameters
+    ----------
+    fields : AffineFields
+        The input-affine model's ``f``, ``g``, ``h``.
+    s : sequence of int
+        Multi-index, one entry per output.
+
+    Returns
+    -------
+    sympy.ImmutableMatrix, (q, 1)
+    """
     s_ = check_multi_index(s, fields.q)
     return sp.ImmutableMatrix([fields.lie_chain(j, sj + 1)[-1] for j, sj in enumerate(s_)])
 
@@ -329,6 +412,23 @@ def observation_relative_degree(
     ``r_j`` is the smallest integer with ``L_g L_f^{r_j−1} h_j ≢ 0`` on the region
     (Dalla Mora, Germani & Manes (2.8)). Each zero test is symbolic where SymPy proves it and numeric
     (``samples`` seeded random points) otherwise; see :func:`vanishes_on`.
+
+    Parameters
+    ----------
+    fields : AffineFields
+        The input-affine model's ``f``, ``g``, ``h``.
+    region : Box, optional
+        Region of the zero tests; ``[−1, 1]ⁿ`` when ``None``.
+    max_order : int, optional
+        ``L_g L_f^k h_j`` is tested for ``k < max_order``; ``n`` when ``None``.
+    samples : int, default 64
+        Number of random points of each numeric zero test.
+    seed : int, default 0
+        Base seed of the random points of the numeric zero tests.
+
+    Returns
+    -------
+    RelativeDegree
     """
     reg = region or Box.unit(fields.n)
     kmax = fields.n if max_order is None else int(max_order)
@@ -366,6 +466,27 @@ def input_gain_structure(
 
     ``r_j = None`` (undefined relative degree) counts as ``s_j < r_j``: the output
     contributes no rows to ``H`` and zero rows to ``F``.
+
+    Parameters
+    ----------
+    fields : AffineFields
+        The input-affine model's ``f``, ``g``, ``h``.
+    s : sequence of int
+        Multi-index, one entry per output, summing to ``n``.
+    r : sequence of int or None
+        Observation relative degrees, one per output (``None`` where undefined).
+
+    Returns
+    -------
+    H : sympy.ImmutableMatrix, (d, m)
+        ``H_{s,r}(x)``, with ``d = Σ d_j`` over the outputs with ``s_j ≥ r_j``.
+    F : ndarray, (n, d)
+        The 0/1 matrix ``F_{s,r}``.
+
+    Raises
+    ------
+    DimensionError
+        ``r`` does not have ``q`` entries.
     """
     s_ = check_multi_index(s, fields.q, fields.n)
     if len(r) != fields.q:

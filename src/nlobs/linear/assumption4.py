@@ -49,7 +49,17 @@ ASSUMPTION4_ITEMS: tuple[str, ...] = (
 
 
 class ExtendedSystem(NamedTuple):
-    """Extended system (8c) of Grip, Saberi & Johansen: state ``w_e = [w; z]``."""
+    """Extended system (8c) of Grip, Saberi & Johansen: state ``w_e = [w; z]``.
+
+    Attributes
+    ----------
+    A : ndarray, shape (n_w + p_z, n_w + p_z)
+        ``𝔄 = [[A, B_z], [0, 0]]``.
+    Bd : ndarray, shape (n_w + p_z, p_z)
+        ``𝔅_d = [[0], [I]]``.
+    C : ndarray, shape (p_y, n_w + p_z)
+        ``ℭ = [C, D_z]``.
+    """
 
     A: NDArray[np.float64]
     """``𝔄 = [[A, B_z], [0, 0]]``."""
@@ -313,6 +323,22 @@ def require_assumption4(
     A: ArrayLike, B_z: ArrayLike, C: ArrayLike, D_z: ArrayLike | None = None, *, tol: float = BOUNDARY_TOL
 ) -> Assumption4Report:
     """Like :func:`check_assumption4`, but raise if a required item fails.
+
+    Parameters
+    ----------
+    A : array_like, shape (n_w, n_w)
+    B_z : array_like, shape (n_w, p_z)
+    C : array_like, shape (p_y, n_w)
+    D_z : array_like, shape (p_y, p_z), optional
+        Zero when omitted.
+    tol : float, default 1e-9
+        Distance from the imaginary axis (and from the origin, for zeros) below
+        which a mode or zero counts as on it.
+
+    Returns
+    -------
+    Assumption4Report
+        The report of :func:`check_assumption4`, when every required item holds.
 
     Raises
     ------

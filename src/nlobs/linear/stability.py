@@ -118,6 +118,15 @@ def spectral_abscissa(A: ArrayLike) -> float:
     """Largest real part of the eigenvalues of ``A`` (``-inf`` when ``n = 0``).
 
     ``ẋ = A x`` is asymptotically stable iff the spectral abscissa is negative.
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        Finite square matrix.
+
+    Returns
+    -------
+    float
     """
     lam = _eigs(as_square("A", A))
     return float(np.max(lam.real, initial=-np.inf))
@@ -127,6 +136,15 @@ def spectral_radius(A: ArrayLike) -> float:
     """Largest modulus of the eigenvalues of ``A`` (``0`` when ``n = 0``).
 
     ``x⁺ = A x`` is asymptotically stable iff the spectral radius is below one.
+
+    Parameters
+    ----------
+    A : array_like, shape (n, n)
+        Finite square matrix.
+
+    Returns
+    -------
+    float
     """
     lam = _eigs(as_square("A", A))
     return float(np.max(np.abs(lam), initial=0.0))

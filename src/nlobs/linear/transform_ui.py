@@ -308,7 +308,19 @@ def structure_inputs(A: ArrayLike, G: ArrayLike, C: ArrayLike, H: ArrayLike, mem
 
 
 def require_structure(check: StructuralReport) -> None:
-    """Raise :class:`~nlobs.errors.AssumptionViolated` (``item="no_stable_observer"``) when ``check.exists`` is false."""
+    """Raise :class:`~nlobs.errors.AssumptionViolated` (``item="no_stable_observer"``) when ``check.exists`` is false.
+
+    Parameters
+    ----------
+    check : StructuralReport
+        Result of :func:`structural_check`.
+
+    Raises
+    ------
+    AssumptionViolated
+        Some checked linear member of the class is not strongly detectable or leaves an
+        undetectable error mode; the message lists :meth:`StructuralReport.summary`.
+    """
     if not check.exists:
         raise AssumptionViolated(
             "no stable observer of the structure (10)-(15) exists: a linear member of the nonlinearity class is not "

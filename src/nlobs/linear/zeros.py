@@ -243,6 +243,16 @@ def is_left_invertible(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | 
 
     Equivalently, the transfer matrix ``G(s)`` has full column rank ``m`` (the
     input can be reconstructed from the output, given the initial state).
+
+    Parameters
+    ----------
+    A, B, C, D : array_like
+        State-space matrices, shapes ``(n, n)``, ``(n, m)``, ``(p, n)``,
+        ``(p, m)``; ``D = None`` means zero.
+
+    Returns
+    -------
+    bool
     """
     return invariant_zeros(A, B, C, D).left_invertible
 
@@ -259,6 +269,16 @@ def minimum_phase(
     """Minimum-phase test with the reason of a negative answer.
 
     See :func:`is_minimum_phase`.
+
+    Parameters
+    ----------
+    A, B, C, D : array_like
+        State-space matrices (``D = None`` means zero).
+    discrete : bool
+        Stable region ``|z| < 1`` instead of ``Re z < 0``.
+    tol : float, default 1e-9
+        Margin from the stability boundary for the computed zeros, see
+        :func:`~nlobs.linear.stability.strictly_inside`.
 
     Returns
     -------

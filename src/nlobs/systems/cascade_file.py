@@ -84,6 +84,17 @@ class LyapunovData:
     ``α₃`` (6), ``α₄`` (7) of a Lyapunov function of Σ₁'s observer error, ``L₁`` (Assumption 2,
     the Lipschitz constant of ``g`` in ``z``) and ``L₂`` (Assumption 3, of ``d``); Theorem 1 then
     gives ``γ = 4α₃/(4L₂² + α₄²L₁²)``.
+
+    Attributes
+    ----------
+    alpha3 : float
+        ``α₃`` of (6) (positive).
+    alpha4 : float
+        ``α₄`` of (7) (positive).
+    L1 : float
+        ``L₁`` of Assumption 2, the Lipschitz constant of ``g`` in ``z`` (positive).
+    L2 : float
+        ``L₂`` of Assumption 3, the Lipschitz constant of ``d`` (positive).
     """
 
     alpha3: float
@@ -136,7 +147,22 @@ class CascadeModel:
 
 
 def has_cascade(path: str | Path) -> bool:
-    """Whether the model file (or shipped model) has a top-level ``[cascade]`` table (it is parsed)."""
+    """Whether the model file (or shipped model) has a top-level ``[cascade]`` table (it is parsed).
+
+    Parameters
+    ----------
+    path : str or Path
+        A model file, or the name of a shipped model.
+
+    Returns
+    -------
+    bool
+
+    Raises
+    ------
+    ModelFileError
+        No such file or shipped model, the file cannot be read, or it is not valid TOML.
+    """
     from nlobs.systems import modelfile as mf
 
     p = mf.resolve_model(path)
@@ -147,6 +173,15 @@ def has_cascade(path: str | Path) -> bool:
 
 def load_cascade(path: str | Path) -> CascadeModel:
     """Read the ``[cascade]`` table of a model file, or of a shipped model by name.
+
+    Parameters
+    ----------
+    path : str or Path
+        A model file, or the name of a shipped model.
+
+    Returns
+    -------
+    CascadeModel
 
     Raises
     ------
@@ -161,7 +196,24 @@ def load_cascade(path: str | Path) -> CascadeModel:
 
 
 def parse_cascade(text: str, *, source: str = "<string>") -> CascadeModel:
-    """Parse model-file text with a ``[cascade]`` table (see :func:`load_cascade`)."""
+    """Parse model-file text with a ``[cascade]`` table (see :func:`load_cascade`).
+
+    Parameters
+    ----------
+    text : str
+        The model file's TOML text.
+    source : str, default "<string>"
+        Where the text comes from, named in error messages; its stem names the model when the text gives no ``name``.
+
+    Returns
+    -------
+    CascadeModel
+
+    Raises
+    ------
+    ModelFileError
+        The text has no ``[cascade]`` table, or any of its entries is invalid.
+    """
     from nlobs.systems import modelfile as mf
 
     src = mf._Source(source, text)

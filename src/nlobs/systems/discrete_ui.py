@@ -154,7 +154,19 @@ class QuadraticConstraint:
 
 
 def qc_member_min_eig(M: ArrayLike, K: ArrayLike) -> float:
-    """``λ_min([K; I]ᵀ M [K; I])``: ``φ(x) = K x`` satisfies (2) with ``γ = 0`` iff it is ``≥ 0`` (``Δφ`` block first)."""
+    """``λ_min([K; I]ᵀ M [K; I])``: ``φ(x) = K x`` satisfies (2) with ``γ = 0`` iff it is ``≥ 0`` (``Δφ`` block first).
+
+    Parameters
+    ----------
+    M : array_like, shape (2n, 2n)
+        Multiplier of (2), ``Δφ`` block first.
+    K : array_like, shape (n, n)
+        The linear map ``φ(x) = K x``.
+
+    Returns
+    -------
+    float
+    """
     M_ = np.asarray(M, dtype=float)
     K_ = np.asarray(K, dtype=float)
     n = K_.shape[0]
@@ -164,7 +176,19 @@ def qc_member_min_eig(M: ArrayLike, K: ArrayLike) -> float:
 
 
 def qc_member_tolerance(M: ArrayLike, K: ArrayLike) -> float:
-    """Round-off allowance of :func:`qc_member_min_eig`: ``1e-9 max(1, max|M|) max(1, ‖K‖²)``."""
+    """Round-off allowance of :func:`qc_member_min_eig`: ``1e-9 max(1, max|M|) max(1, ‖K‖²)``.
+
+    Parameters
+    ----------
+    M : array_like, shape (2n, 2n)
+        Multiplier of (2), ``Δφ`` block first.
+    K : array_like, shape (n, n)
+        The linear map ``φ(x) = K x``.
+
+    Returns
+    -------
+    float
+    """
     scale = max(1.0, float(np.max(np.abs(np.asarray(M, dtype=float)))))
     return 1e-9 * scale * max(1.0, float(np.linalg.norm(np.asarray(K, dtype=float), 2)) ** 2)
 
@@ -175,6 +199,18 @@ def qc_linear_members(M: ArrayLike, candidates: tuple[ArrayLike, ...] = ()) -> t
     A candidate is accepted when ``[K; I]ᵀ M [K; I] ⪰ −tol`` (:func:`qc_member_min_eig`,
     :func:`qc_member_tolerance`); duplicates are dropped. Shared by :class:`QuadraticConstraint` and the
     printed formulations (:mod:`nlobs.synthesis.setvalued_printed`).
+
+    Parameters
+    ----------
+    M : array_like, shape (2n, 2n)
+        Multiplier of (2), ``Δφ`` block first.
+    candidates : tuple of array_like, each (n, n)
+        Further linear maps to test, before ``0`` and ``K*``.
+
+    Returns
+    -------
+    tuple of ndarray, each (n, n)
+        The accepted members, in the order tested.
     """
     M_ = np.asarray(M, dtype=float)
     n = M_.shape[0] // 2
@@ -394,6 +430,18 @@ def qcstar_from_bounded_split(A_aux: ArrayLike, r: float) -> QCStar:
     """Lemma 2.14: ``φ(x) = 𝒜 x + h + g(x)`` with ``‖g(x)‖ ≤ r`` is ``(𝒜, −(2r)²)``-QC*.
 
     (The paper uses ``γ = 0`` in Example 6.1, which would make ``φ`` affine.)
+
+    Parameters
+    ----------
+    A_aux : array_like, shape (n, n)
+        The linear part ``𝒜``.
+    r : float
+        Bound ``r ≥ 0`` on ``‖g(x)‖``.
+
+    Returns
+    -------
+    QCStar
+        With ``γ = −(2r)²``.
     """
     rr = positive("r", r, allow_zero=True)
     return QCStar(as_square("A_aux", A_aux), -((2.0 * rr) ** 2))
@@ -742,6 +790,21 @@ def check_function_class(phi: NonlinearPart, function_class: FunctionClass, lo: 
     member of the class (which implies the Lipschitz bound ``σ̃ = maxᵢ ‖Aᵢ‖`` of Proposition 2.16).
     A non-finite ``φ`` value is a violation (margin ``-inf``).
 
+    Parameters
+    ----------
+    phi : callable
+        Batched map ``(..., n) → (..., n)``, the nonlinear part ``φ``.
+    function_class : FunctionClass
+        The claimed class (:class:`QuadraticConstraint`, :class:`Lipschitz`, :class:`QCStar` or :class:`LPV`).
+    lo, hi : array_like, shape (n,)
+        The box the pairs are sampled in.
+    n_pairs : int, default 20000
+        Number of sampled pairs: half uniform in the box, half close pairs.
+    seed : int, default 0
+        Seed of the random generator.
+    rtol : float, default 1e-9
+        Relative tolerance of the violation test.
+
     Returns
     -------
     Check
@@ -775,6 +838,24 @@ def class_margins(phi: NonlinearPart, function_class: FunctionClass, x1: ArrayLi
     ``−inf`` where ``φ`` is not finite); a pair violates the class when the adjusted margin
     ``margin + rtol (‖Δφ‖² + ‖Δx‖² + 1)`` is negative. Shared by :func:`check_function_class` (sampled pairs)
     and the Monte Carlo runners (the pairs ``(x_k, x̂_k)`` the runs visit).
+
+    Parameters
+    ----------
+    phi : callable
+        Batched map ``(..., n) → (..., n)``, the nonlinear part ``φ``.
+    function_class : FunctionClass
+        The class whose condition is evaluated.
+    x1, x2 : array_like, shape (..., n)
+        The pairs (``Δx = x2 − x1``, ``Δφ = φ(x2) − φ(x1)``).
+    rtol : float, default 1e-9
+        Relative tolerance of the adjusted margin.
+
+    Returns
+    -------
+    margin : ndarray, shape (...)
+        The margins of the class condition.
+    adjusted : ndarray, shape (...)
+        ``margin + rtol (‖Δφ‖² + ‖Δx‖² + 1)``; negative where the pair violates the class.
     """
     x1_ = np.asarray(x1, dtype=float)
     x2_ = np.asarray(x2, dtype=float)

@@ -437,6 +437,15 @@ class LinearSubsystem:
 def as_linear_subsystem(sigma2: LinearSubsystem | Sequence[ArrayLike]) -> LinearSubsystem:
     """``sigma2`` itself, or a :class:`LinearSubsystem` built from a tuple ``(A, B_z, C[, D_z])``.
 
+    Parameters
+    ----------
+    sigma2 : LinearSubsystem or sequence of array_like
+        Σ₂, or its matrices ``(A, B_z, C)`` or ``(A, B_z, C, D_z)`` as a tuple or list.
+
+    Returns
+    -------
+    LinearSubsystem
+
     Raises
     ------
     InvalidArgumentError
@@ -455,6 +464,13 @@ def as_linear_subsystem(sigma2: LinearSubsystem | Sequence[ArrayLike]) -> Linear
 
 def check_interconnection(sigma1: NonlinearSubsystem, sigma2: LinearSubsystem) -> None:
     """Check that Σ₁ and Σ₂ fit together (``p_z``, ``n_w``, ``m``).
+
+    Parameters
+    ----------
+    sigma1 : NonlinearSubsystem
+        Σ₁ (1a) or Σ₁* (2).
+    sigma2 : LinearSubsystem
+        Σ₂ (1b).
 
     Raises
     ------
@@ -490,6 +506,13 @@ class InterconnectedPlant:
 
     State ``[x, w]``, input ``u``, output ``y`` (1b); satisfies
     :class:`~nlobs.systems.base.PlantModel`. Build with :func:`interconnected_plant`.
+
+    Parameters
+    ----------
+    sigma1 : NonlinearSubsystem
+        Σ₁ (1a) or Σ₁* (2).
+    sigma2 : LinearSubsystem
+        Σ₂ (1b).
     """
 
     sigma1: NonlinearSubsystem
@@ -551,6 +574,17 @@ class InterconnectedPlant:
 
 def interconnected_plant(sigma1: NonlinearSubsystem, sigma2: LinearSubsystem) -> InterconnectedPlant:
     """The plant (1) (cascade) or (2)+(1b) (feedback) for :func:`nlobs.simulate.simulate`.
+
+    Parameters
+    ----------
+    sigma1 : NonlinearSubsystem
+        Σ₁ (1a) or Σ₁* (2).
+    sigma2 : LinearSubsystem
+        Σ₂ (1b).
+
+    Returns
+    -------
+    InterconnectedPlant
 
     Raises
     ------

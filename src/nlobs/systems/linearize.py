@@ -16,6 +16,20 @@ __all__ = ["linearize"]
 def linearize(model: SymbolicModel, x0: ArrayLike | None = None, u0: ArrayLike | None = None) -> LinearSystem:
     """Jacobian linearisation ``(∂F/∂x, ∂F/∂u, ∂h/∂x, ∂h/∂u)`` at ``(x0, u0)`` (default: the origin).
 
+    Parameters
+    ----------
+    model : SymbolicModel
+        The model to linearise.
+    x0 : array_like, shape (n,), optional
+        Operating state; zero when omitted.
+    u0 : array_like, shape (m,), optional
+        Operating input; zero when omitted.
+
+    Returns
+    -------
+    LinearSystem
+        ``(A, B, C, D)`` with the model's time base and state, input and output names.
+
     Raises
     ------
     NonFiniteError

@@ -85,6 +85,16 @@ def covariance_factor(cov: Array) -> Array:
 
     Cholesky when ``cov`` is positive definite; otherwise from the eigen-decomposition
     (``V √max(λ, 0)``), so a singular covariance (perfectly correlated channels) is allowed.
+
+    Parameters
+    ----------
+    cov : ndarray, shape (k, k)
+        Symmetric positive semidefinite covariance matrix.
+
+    Returns
+    -------
+    ndarray, shape (k, k)
+        The factor ``L`` (lower triangular when from Cholesky).
     """
     c = np.asarray(cov, dtype=float)
     if c.size == 0:
