@@ -112,6 +112,11 @@ def nav_vector(p: ArrayLike, v: ArrayLike, R: ArrayLike) -> Array:
 def split_nav(x: ArrayLike) -> tuple[Array, Array, Array]:
     """``(p, v, R)`` of navigation vectors ``x`` of shape ``(..., 15)`` (views where possible).
 
+    Parameters
+    ----------
+    x : array_like, shape (..., 15)
+        Navigation vectors ``[p, v, R]`` (:func:`nav_vector`, ``R`` row-major).
+
     Returns
     -------
     p, v : ndarray, shape (..., 3)
@@ -151,7 +156,17 @@ def _side_by_side(parts: tuple[object, ...]) -> Array | None:
 @dataclass(frozen=True)
 class ImuSample:
     """One IMU (+ magnetometer) sample, each of shape ``(..., 3)``: body rate [rad/s],
-    specific force [m/s²], magnetic field in body axes [normalised units]."""
+    specific force [m/s²], magnetic field in body axes [normalised units].
+
+    Attributes
+    ----------
+    omega_b : ndarray, shape (..., 3)
+        Body angular rate ``ω^b`` [rad/s].
+    a_b : ndarray, shape (..., 3)
+        Specific force ``a^b`` [m/s²].
+    m_b : ndarray, shape (..., 3)
+        Magnetic field in body axes ``m^b`` [normalised units].
+    """
 
     omega_b: Array
     a_b: Array
@@ -165,6 +180,15 @@ class GnssSample:
     ``valid`` (shape ``(...)``, bool) is False where the fix is missing or has a
     non-finite entry; filters must skip invalid fixes (per batch member).
     ``v`` is ``None`` for a position-only receiver (Grip, Saberi & Johansen, Sec. 5.2, C = [I 0]).
+
+    Attributes
+    ----------
+    p : ndarray, shape (..., 3)
+        Measured position [m] in NED.
+    v : ndarray, shape (..., 3), or None
+        Measured velocity [m/s] in NED; ``None`` for a position-only receiver.
+    valid : ndarray of bool, shape (...)
+        True where the fix is present and finite.
     """
 
     p: Array
@@ -178,6 +202,13 @@ class NavEstimate:
 
     ``R`` is the filter's attitude estimate projected onto SO(3) (the ``R̂`` of observer (24)
     of Grip, Saberi & Johansen is not a rotation matrix in general; see their Sec. 5.2).
+
+    Attributes
+    ----------
+    p, v : ndarray, shape (..., 3)
+        Estimated position [m] and velocity [m/s] in NED.
+    R : ndarray, shape (..., 3, 3)
+        Estimated attitude (body → NED), projected onto SO(3).
     """
 
     p: Array
@@ -191,14 +222,24 @@ class SensorData:
 
     Attributes
     ----------
-    t_imu : (K,) IMU sample times [s] (uniform, ``imu_rate_hz``).
-    omega_b, a_b, m_b : (..., K, 3) measured body rate, specific force, magnetic field.
-    t_gnss : (G,) GNSS fix times [s]; each is (to rounding) one of ``t_imu``.
-    p_gnss : (..., G, 3) measured position; may contain NaN for a missing fix.
-    v_gnss : (..., G, 3) measured velocity, or None for a position-only receiver.
-    m_n, g_n : (3,) Earth magnetic field and gravity in NED.
-    p, v : (K, 3) true position and velocity at ``t_imu``; R : (K, 3, 3) true attitude.
-    imu_rate_hz, gnss_rate_hz : the rates (required, never defaulted).
+    t_imu : ndarray, shape (K,)
+        IMU sample times [s] (uniform, ``imu_rate_hz``).
+    omega_b, a_b, m_b : ndarray, shape (..., K, 3)
+        Measured body rate [rad/s], specific force [m/s²], magnetic field.
+    t_gnss : ndarray, shape (G,)
+        GNSS fix times [s]; each is (to rounding) one of ``t_imu``.
+    p_gnss : ndarray, shape (..., G, 3)
+        Measured position [m]; may contain NaN for a missing fix.
+    v_gnss : ndarray, shape (..., G, 3), or None
+        Measured velocity [m/s], or None for a position-only receiver.
+    m_n, g_n : ndarray, shape (3,)
+        Earth magnetic field and gravity in NED.
+    p, v : ndarray, shape (K, 3)
+        True position [m] and velocity [m/s] at ``t_imu``.
+    R : ndarray, shape (K, 3, 3)
+        True attitude.
+    imu_rate_hz, gnss_rate_hz : float
+        The rates [Hz] (required, never defaulted).
 
     :meth:`imu_input`, :meth:`gnss_output` and :meth:`truth` give the arrays
     :func:`nlobs.simulate.run_observer` takes (channel layouts of the module docstring).

@@ -116,6 +116,16 @@ def axis_system(position_only: bool = False) -> ExtendedSystem:
     States ``p, v, z`` of one NED axis, ``𝔄 = [[0,1,0],[0,0,1],[0,0,0]]``,
     ``𝔅_d = [0,0,1]ᵀ``, ``ℭ = [[1,0,0],[0,1,0]]`` (or ``[[1,0,0]]`` when
     ``position_only``).
+
+    Parameters
+    ----------
+    position_only : bool, optional
+        Only ``p`` measured (``C = [I 0]``, Sec. 5.2); default False: ``p`` and ``v``.
+
+    Returns
+    -------
+    ExtendedSystem
+        ``(𝔄, 𝔅_d, ℭ)`` of the 3-state axis problem.
     """
     C = np.array([[1.0, 0.0]]) if position_only else np.eye(2)
     return extended_system([[0.0, 1.0], [0.0, 0.0]], [[0.0], [1.0]], C, np.zeros((C.shape[0], 1)))
@@ -125,6 +135,16 @@ def full_system(position_only: bool = False) -> ExtendedSystem:
     """The 9-state extended system (8c) with ``A = [[0, I],[0, 0]]``, ``B_z = [0; I]``, ``C`` as in Sec. 5.
 
     State ordering ``[p(3), v(3), z(3)]``; equal to ``kron`` of :func:`axis_system` with ``I3``.
+
+    Parameters
+    ----------
+    position_only : bool, optional
+        ``C = [I 0]`` (3 outputs) instead of ``C = I6`` (default False).
+
+    Returns
+    -------
+    ExtendedSystem
+        ``(𝔄, 𝔅_d, ℭ)`` of the 9-state problem.
     """
     I3, Z3 = np.eye(3), np.zeros((3, 3))
     A = np.block([[Z3, I3], [Z3, Z3]])
@@ -134,7 +154,22 @@ def full_system(position_only: bool = False) -> ExtendedSystem:
 
 
 def kron_gain(K3: ArrayLike) -> Array:
-    """The 9-state gain ``kron(K3, I3)`` of a per-axis gain ``K3`` (3×2 or 3×1)."""
+    """The 9-state gain ``kron(K3, I3)`` of a per-axis gain ``K3`` (3×2 or 3×1).
+
+    Parameters
+    ----------
+    K3 : array_like, shape (3, 2) or (3, 1)
+        Per-axis gain, rows ``p, v, z``, columns the measured ``p, v`` (or ``p``).
+
+    Returns
+    -------
+    ndarray, shape (9, 6) or (9, 3)
+
+    Raises
+    ------
+    DimensionError
+        ``K3`` is not 3×2 or 3×1.
+    """
     K = as_matrix("K3", K3)
     if K.shape not in ((3, 2), (3, 1)):
         raise DimensionError(f"K3: expected shape (3, 2) or (3, 1), got {K.shape}")
@@ -143,6 +178,18 @@ def kron_gain(K3: ArrayLike) -> Array:
 
 def axis_gain(K9: ArrayLike, *, rtol: float = 1e-9) -> Array:
     """The per-axis gain ``K3`` of a 9-state gain of the form ``kron(K3, I3)``.
+
+    Parameters
+    ----------
+    K9 : array_like, shape (9, 6) or (9, 3)
+        9-state gain, state order ``[p, v, z]``, measurement order ``[p, v]`` (or ``[p]``).
+    rtol : float, optional
+        Tolerance of the ``kron(K3, I3)`` check, relative to ``max(1, max |K9|)`` (default 1e-9).
+
+    Returns
+    -------
+    ndarray, shape (3, 2) or (3, 1)
+        ``K9[::3, ::3]``.
 
     Raises
     ------
@@ -193,6 +240,20 @@ def verify_paper_gains(*, gamma: float = PAPER_GAMMA_HINF, gamma_n: float | None
     ≈ −130.9, −0.257, −0.129. The paper's gain has ``‖G‖∞ > 1.0019``, so the
     default ``γn`` is 1.01. The certificate holds for the 9-state ``kron(K3, I3)``
     as well (same transfer functions, each axis decoupled).
+
+    Parameters
+    ----------
+    gamma : float, optional
+        ``γ`` of LMI (14) (``‖H‖∞ < γ``); default the paper's 50.
+    gamma_n : float or None, optional
+        ``γn`` of LMI (15) (``‖G‖∞ ≤ γn``), default 1.01; ``None`` leaves LMI (15) out.
+    N : array_like, shape (2, 2), optional
+        Per-axis noise matrix of LMI (15) (``I`` when not given; needs ``gamma_n``).
+
+    Returns
+    -------
+    ObserverGainCertificate
+        The certificate of the per-axis problem.
 
     Raises
     ------
@@ -297,6 +358,27 @@ def axis_noise_model(noise: SensorNoise, *, imu_rate_hz: float, gnss_rate_hz: fl
 
     Standard deviations below ``floor`` are raised to it (a noise-free sensor would make the problem
     degenerate).
+
+    Parameters
+    ----------
+    noise : SensorNoise
+        The sensors' error model (``gnss_p_std``, ``gnss_v_std`` and ``accel_std`` are used).
+    imu_rate_hz, gnss_rate_hz : float
+        IMU and GNSS sample rates [Hz] (positive).
+    position_only : bool, optional
+        Position-only receiver (``C = [I 0]``): measurement noise of ``p`` only, ``L_z = diag(1, 0, 0)``.
+    floor : float, optional
+        Smallest standard deviation used (default 1e-4).
+
+    Returns
+    -------
+    NoiseModel
+        Measurement intensity ``V`` (2×2 or 1×1), ``B_w``, process intensity and ``L_z``.
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``noise`` is not a :class:`SensorNoise`, or a rate or ``floor`` is not positive.
     """
     if not isinstance(noise, SensorNoise):
         raise InvalidArgumentError(f"noise: expected a SensorNoise, got {type(noise).__name__}")

@@ -141,6 +141,15 @@ def triad_matrix(m: ArrayLike, a: ArrayLike) -> Array:
 
     The columns are mutually orthogonal, so ``A Aᵀ`` has eigenvalues
     ``|m|², |m × a|², |m|² |m × a|²``.
+
+    Parameters
+    ----------
+    m, a : array_like, shape (..., 3)
+        Magnetic field and acceleration in one frame (``m^b, a^b`` or ``mⁿ, aⁿ``); batch shapes broadcast.
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
     """
     m_ = np.asarray(m, dtype=float)
     a_ = np.asarray(a, dtype=float)
@@ -154,6 +163,23 @@ def triad_J(m_b: ArrayLike, m_n: ArrayLike, a_b: ArrayLike, a_n: ArrayLike, R_ha
 
     ``J = (R − R̂) A_b A_bᵀ`` when ``m_n = R m_b`` and ``a_n = R a_b``: it vanishes
     at the true attitude.
+
+    Parameters
+    ----------
+    m_b : array_like, shape (..., 3)
+        Measured magnetic field in body axes.
+    m_n : array_like, shape (..., 3)
+        Earth magnetic field in NED.
+    a_b : array_like, shape (..., 3)
+        Measured specific force [m/s²] in body axes.
+    a_n : array_like, shape (..., 3)
+        Acceleration ``aⁿ`` [m/s²] in NED (observer (24) uses its estimate ``ẑ``).
+    R_hat : array_like, shape (..., 3, 3)
+        Attitude estimate ``R̂`` (body → NED).
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
     """
     Ab = triad_matrix(m_b, a_b)
     An = triad_matrix(m_n, a_n)

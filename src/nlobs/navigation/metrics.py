@@ -62,58 +62,154 @@ def _matrix(a: Array) -> Array:
 
 # ------------------------------------------------------------------ accessors
 def p_hat(res: SimulationResult) -> Array:
-    """Estimated position ``p̂`` [m] (NED), shape ``(..., K, 3)``."""
+    """Estimated position ``p̂`` [m] (NED), shape ``(..., K, 3)``.
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run.
+    """
     return _est(res)[..., NAV_P]
 
 
 def v_hat(res: SimulationResult) -> Array:
-    """Estimated velocity ``v̂`` [m/s] (NED), shape ``(..., K, 3)``."""
+    """Estimated velocity ``v̂`` [m/s] (NED), shape ``(..., K, 3)``.
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run.
+    """
     return _est(res)[..., NAV_V]
 
 
 def R_hat(res: SimulationResult) -> Array:
-    """Estimated attitude (body → NED), shape ``(..., K, 3, 3)``: a rotation (observer (24): ``R̂`` projected)."""
+    """Estimated attitude (body → NED), shape ``(..., K, 3, 3)``: a rotation (observer (24): ``R̂`` projected).
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run.
+    """
     return _matrix(_est(res))
 
 
 def p(res: SimulationResult) -> Array:
-    """True position [m], shape ``(K, 3)`` (or with the truth's batch shape)."""
+    """True position [m], shape ``(K, 3)`` (or with the truth's batch shape).
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run.
+
+    Raises
+    ------
+    InvalidArgumentError
+        The result has no truth (``res.x`` is None).
+    """
     return _truth(res)[..., NAV_P]
 
 
 def v(res: SimulationResult) -> Array:
-    """True velocity [m/s], shape ``(K, 3)`` (or with the truth's batch shape)."""
+    """True velocity [m/s], shape ``(K, 3)`` (or with the truth's batch shape).
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run.
+
+    Raises
+    ------
+    InvalidArgumentError
+        The result has no truth (``res.x`` is None).
+    """
     return _truth(res)[..., NAV_V]
 
 
 def R(res: SimulationResult) -> Array:
-    """True attitude, shape ``(K, 3, 3)`` (or with the truth's batch shape)."""
+    """True attitude, shape ``(K, 3, 3)`` (or with the truth's batch shape).
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run.
+
+    Raises
+    ------
+    InvalidArgumentError
+        The result has no truth (``res.x`` is None).
+    """
     return _matrix(_truth(res))
 
 
 def R_raw(res: SimulationResult) -> Array | None:
-    """The raw ``R̂`` of observer (24d) (not a rotation in general), ``(..., K, 3, 3)``; ``None`` if not recorded."""
+    """The raw ``R̂`` of observer (24d) (not a rotation in general), ``(..., K, 3, 3)``; ``None`` if not recorded.
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run.
+    """
     return res.extras.get("R_raw")
 
 
 def z_hat(res: SimulationResult) -> Array | None:
-    """Observer (24)'s ``ẑ = R̂ a^b + ξ`` (estimate of ``aⁿ``) [m/s²], ``(..., K, 3)``; ``None`` if not recorded."""
+    """Observer (24)'s ``ẑ = R̂ a^b + ξ`` (estimate of ``aⁿ``) [m/s²], ``(..., K, 3)``; ``None`` if not recorded.
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run.
+    """
     return res.extras.get("z_hat")
 
 
 # --------------------------------------------------------------------- errors
 def position_error_m(res: SimulationResult) -> Array:
-    """``‖p̂ − p‖`` [m], shape ``(..., K)``."""
+    """``‖p̂ − p‖`` [m], shape ``(..., K)``.
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run.
+
+    Raises
+    ------
+    InvalidArgumentError
+        The result has no truth (``res.x`` is None).
+    """
     return np.linalg.norm(p_hat(res) - p(res), axis=-1)
 
 
 def velocity_error_mps(res: SimulationResult) -> Array:
-    """``‖v̂ − v‖`` [m/s], shape ``(..., K)``."""
+    """``‖v̂ − v‖`` [m/s], shape ``(..., K)``.
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run.
+
+    Raises
+    ------
+    InvalidArgumentError
+        The result has no truth (``res.x`` is None).
+    """
     return np.linalg.norm(v_hat(res) - v(res), axis=-1)
 
 
 def attitude_error_deg(res: SimulationResult) -> Array:
-    """Geodesic angle between ``R̂`` (projected) and ``R`` [deg], shape ``(..., K)``."""
+    """Geodesic angle between ``R̂`` (projected) and ``R`` [deg], shape ``(..., K)``.
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run.
+
+    Raises
+    ------
+    InvalidArgumentError
+        The result has no truth (``res.x`` is None).
+    """
     return np.degrees(angle_between(R_hat(res), R(res)))
 
 
@@ -123,6 +219,13 @@ def converge_s(res: SimulationResult, threshold_deg: float = DEFAULT_CONVERGE_DE
     ``t[k*]`` with ``k*`` the smallest index such that the error is ``< threshold_deg`` at every
     ``t[k] ≥ t[k*]``; ``t[0]`` if it always is, NaN if it is not below at the last sample.
     Shape ``(...)``.
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run (with its truth).
+    threshold_deg : float, optional
+        Attitude-error threshold [deg] (default :data:`DEFAULT_CONVERGE_DEG`, 2°).
 
     Raises
     ------
@@ -158,19 +261,48 @@ def position_rms_m(res: SimulationResult, after: float | None = None,
     """RMS of ``‖p̂ − p‖`` [m] over ``t ≥ after`` (default: ``t ≥ converge_s(res, threshold_deg)``), shape ``(...)``.
 
     NaN when the window is empty (never converged).
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run (with its truth).
+    after : float or None, optional
+        Start of the window [s] on the run's clock; ``None``: each flight's :func:`converge_s`.
+    threshold_deg : float, optional
+        Attitude-error threshold [deg] of :func:`converge_s` when ``after`` is None.
     """
     return _rms(position_error_m(res), _window(res, after, threshold_deg))
 
 
 def velocity_rms_mps(res: SimulationResult, after: float | None = None,
                      threshold_deg: float = DEFAULT_CONVERGE_DEG) -> Array:
-    """RMS of ``‖v̂ − v‖`` [m/s] over the same window as :func:`position_rms_m`."""
+    """RMS of ``‖v̂ − v‖`` [m/s] over the same window as :func:`position_rms_m`.
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run (with its truth).
+    after : float or None, optional
+        Start of the window [s] on the run's clock; ``None``: each flight's :func:`converge_s`.
+    threshold_deg : float, optional
+        Attitude-error threshold [deg] of :func:`converge_s` when ``after`` is None.
+    """
     return _rms(velocity_error_mps(res), _window(res, after, threshold_deg))
 
 
 def attitude_rms_deg(res: SimulationResult, after: float | None = None,
                      threshold_deg: float = DEFAULT_CONVERGE_DEG) -> Array:
-    """RMS of the geodesic attitude error [deg] over the same window as :func:`position_rms_m`."""
+    """RMS of the geodesic attitude error [deg] over the same window as :func:`position_rms_m`.
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run (with its truth).
+    after : float or None, optional
+        Start of the window [s] on the run's clock; ``None``: each flight's :func:`converge_s`.
+    threshold_deg : float, optional
+        Attitude-error threshold [deg] of :func:`converge_s` when ``after`` is None.
+    """
     return _rms(attitude_error_deg(res), _window(res, after, threshold_deg))
 
 
@@ -182,6 +314,20 @@ def summary_dict(res: SimulationResult, after: float | None = None,
     Per-flight metrics are floats for a single flight and (nested) lists for a batch. ``filter``
     is the observer's name; ``cost_per_step_us``, ``skipped_fixes`` and ``n_fixes`` come from
     ``res.info`` (:func:`~nlobs.navigation.run.run_navigation` puts them there).
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run (with its truth).
+    after : float or None, optional
+        Start of the window [s] on the run's clock; ``None``: each flight's :func:`converge_s`.
+    threshold_deg : float, optional
+        Attitude-error threshold [deg] of :func:`converge_s` (and of the window when ``after`` is None).
+
+    Returns
+    -------
+    dict
+        The metrics by name (the demo's JSON row).
 
     Raises
     ------

@@ -96,7 +96,32 @@ def _new(figsize: tuple[float, float]) -> Figure:
 def plot_ground_track(result: SimulationResult, *, compare: SimulationResult | None = None, index: int | tuple[int, ...] = 0,
                       marker_every_s: float = 5.0, labels: tuple[str, ...] | None = None,
                       path: str | os.PathLike[str] | None = None) -> Figure:
-    """Fig. 4: true position (markers every ``marker_every_s``) and estimated position (solid)."""
+    """Fig. 4: true position (markers every ``marker_every_s``) and estimated position (solid).
+
+    Parameters
+    ----------
+    result : SimulationResult
+        The navigation run (its truth is drawn).
+    compare : SimulationResult, optional
+        A second run on the same time grid (e.g. the EKF on the same data), drawn in another colour.
+    index : int or tuple of int, optional
+        The flight of a batch to draw (default 0; ignored for a single flight).
+    marker_every_s : float, optional
+        Time between the true-position markers [s] (default 5).
+    labels : tuple of str, optional
+        Legend names, one per run (default: each run's observer name).
+    path : str or path-like, optional
+        Save the figure there as a PNG (dpi 100; parent folders are created).
+
+    Returns
+    -------
+    Figure
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``compare`` is on another time grid, ``index`` is out of range, or ``labels`` has the wrong length.
+    """
     runs = _runs(result, compare)
     names = _labels(runs, labels)
     fig = _new((11.0, 5.0))
@@ -176,7 +201,32 @@ def _error_figure(result: SimulationResult, runs: list[SimulationResult], labels
 def plot_velocity_error(result: SimulationResult, *, compare: SimulationResult | None = None, index: int | tuple[int, ...] = 0,
                         ylim: tuple[float, float] | None = None, labels: tuple[str, ...] | None = None,
                         path: str | os.PathLike[str] | None = None) -> Figure:
-    """Fig. 5: velocity estimation error ``v − v̂`` (solid) and true velocity (dashed), N/E/D."""
+    """Fig. 5: velocity estimation error ``v − v̂`` (solid) and true velocity (dashed), N/E/D.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        The navigation run (its truth is drawn).
+    compare : SimulationResult, optional
+        A second run on the same time grid (e.g. the EKF on the same data), drawn in another colour.
+    index : int or tuple of int, optional
+        The flight of a batch to draw (default 0; ignored for a single flight).
+    ylim : (float, float), optional
+        Limits of the error panels [m/s]; default: symmetric-logarithmic, linear within the steady-state band.
+    labels : tuple of str, optional
+        Legend names, one per run (default: each run's observer name).
+    path : str or path-like, optional
+        Save the figure there as a PNG (dpi 100; parent folders are created).
+
+    Returns
+    -------
+    Figure
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``compare`` is on another time grid, ``index`` is out of range, or ``labels`` has the wrong length.
+    """
     runs = _runs(result, compare)
     v = navm.v(result)
     err = [v - _pick(r, navm.v_hat(r), index, 1) for r in runs]
@@ -185,7 +235,20 @@ def plot_velocity_error(result: SimulationResult, *, compare: SimulationResult |
 
 
 def euler_error_deg(result: SimulationResult, index: int | tuple[int, ...] = 0) -> Array:
-    """``true − estimated`` ZYX Euler angles [deg] of flight ``index``, yaw wrapped to ±180°, shape (K, 3)."""
+    """``true − estimated`` ZYX Euler angles [deg] of flight ``index``, yaw wrapped to ±180°, shape (K, 3).
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A navigation run (with its truth).
+    index : int or tuple of int, optional
+        The flight of a batch (default 0; ignored for a single flight).
+
+    Returns
+    -------
+    ndarray, shape (K, 3)
+        ``[roll, pitch, yaw]`` errors [deg].
+    """
     est = np.degrees(euler_from_R(_pick(result, navm.R_hat(result), index, 2)))
     true = np.degrees(euler_from_R(navm.R(result)))
     return (true - est + 180.0) % 360.0 - 180.0
@@ -194,7 +257,32 @@ def euler_error_deg(result: SimulationResult, index: int | tuple[int, ...] = 0) 
 def plot_euler_error(result: SimulationResult, *, compare: SimulationResult | None = None, index: int | tuple[int, ...] = 0,
                      ylim: tuple[float, float] | None = None, labels: tuple[str, ...] | None = None,
                      path: str | os.PathLike[str] | None = None) -> Figure:
-    """Fig. 6: Euler-angle error ``true − estimate`` (solid) and true Euler angles (dashed), degrees."""
+    """Fig. 6: Euler-angle error ``true − estimate`` (solid) and true Euler angles (dashed), degrees.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        The navigation run (its truth is drawn).
+    compare : SimulationResult, optional
+        A second run on the same time grid (e.g. the EKF on the same data), drawn in another colour.
+    index : int or tuple of int, optional
+        The flight of a batch to draw (default 0; ignored for a single flight).
+    ylim : (float, float), optional
+        Limits of the error panels [deg]; default: symmetric-logarithmic, linear within the steady-state band.
+    labels : tuple of str, optional
+        Legend names, one per run (default: each run's observer name).
+    path : str or path-like, optional
+        Save the figure there as a PNG (dpi 100; parent folders are created).
+
+    Returns
+    -------
+    Figure
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``compare`` is on another time grid, ``index`` is out of range, or ``labels`` has the wrong length.
+    """
     runs = _runs(result, compare)
     err = [euler_error_deg(r, index) for r in runs]
     true = np.degrees(euler_from_R(navm.R(result)))
@@ -209,7 +297,30 @@ def plot_navigation(result: SimulationResult, directory: str | os.PathLike[str],
                     velocity_ylim: tuple[float, float] | None = None,
                     euler_ylim: tuple[float, float] | None = None,
                     labels: tuple[str, ...] | None = None) -> dict[str, Path]:
-    """Save the three figures as ``{prefix}_ground_track.png``, ``_velocity_error.png``, ``_euler_error.png``."""
+    """Save the three figures as ``{prefix}_ground_track.png``, ``_velocity_error.png``, ``_euler_error.png``.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        The navigation run (its truth is drawn).
+    directory : str or path-like
+        Folder of the PNG files (created if needed).
+    compare : SimulationResult, optional
+        A second run on the same time grid, drawn in another colour.
+    index : int or tuple of int, optional
+        The flight of a batch to draw (default 0; ignored for a single flight).
+    prefix : str, optional
+        File-name prefix (default ``"nav"``).
+    velocity_ylim, euler_ylim : (float, float), optional
+        The ``ylim`` of :func:`plot_velocity_error` [m/s] and :func:`plot_euler_error` [deg].
+    labels : tuple of str, optional
+        Legend names, one per run (default: each run's observer name).
+
+    Returns
+    -------
+    dict of str to Path
+        The files written, by key ``"ground_track"``, ``"velocity_error"``, ``"euler_error"``.
+    """
     out = Path(directory)
     paths = {
         "ground_track": out / f"{prefix}_ground_track.png",

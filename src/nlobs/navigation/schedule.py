@@ -275,6 +275,16 @@ def heading_rate_per_gain(m_n: ArrayLike, g_n: ArrayLike) -> float:
     ``dδ/dt = −(γ/2) (tr(M) I − M) δ`` in navigation axes, ``M = A_n A_nᵀ``; about the down axis
     ``d = gⁿ/|gⁿ|`` the rate is ``λ_d = ½ (tr M − dᵀ M d)`` (10.65 s⁻¹ for the demo's field and gravity).
 
+    Parameters
+    ----------
+    m_n, g_n : array_like, shape (3,)
+        Earth magnetic field and gravity (NED).
+
+    Returns
+    -------
+    float
+        ``λ_d`` [1/s].
+
     Raises
     ------
     InvalidArgumentError
@@ -302,6 +312,18 @@ def steady_attitude_gain(noise: SensorNoise, m_n: ArrayLike, g_n: ArrayLike) -> 
     IMU rate cancels), is matched by the observer's heading rate ``γ λ_d``
     (:func:`heading_rate_per_gain`): ``γ∞ = k∞ / λ_d``. Demo sensors: ``k∞ = 0.068 s⁻¹``,
     ``γ∞ = 0.0064``.
+
+    Parameters
+    ----------
+    noise : SensorNoise
+        The sensors (``gyro_std`` [rad/s] and ``mag_std`` are used).
+    m_n, g_n : array_like, shape (3,)
+        Earth magnetic field and gravity (NED).
+
+    Returns
+    -------
+    float
+        ``γ∞``.
 
     Raises
     ------

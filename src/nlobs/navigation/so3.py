@@ -159,7 +159,17 @@ def _rodrigues_coefficients(th2: Array) -> tuple[Array, Array]:
 
 
 def skew_columns(x: Array) -> Array:
-    """:func:`skew` with the batch axis last: ``x`` of shape ``(3, n)`` → ``S(x)`` of shape ``(3, 3, n)`` (exact)."""
+    """:func:`skew` with the batch axis last: ``x`` of shape ``(3, n)`` → ``S(x)`` of shape ``(3, 3, n)`` (exact).
+
+    Parameters
+    ----------
+    x : ndarray, shape (3, n)
+        Vectors, one per column.
+
+    Returns
+    -------
+    ndarray, shape (3, 3, n)
+    """
     return (_S9 @ x).reshape(3, 3, -1)
 
 
@@ -170,6 +180,15 @@ def exp_so3_columns(phi: Array) -> Array:
     The same coefficients ``A = sin θ/θ``, ``B = (1 − cos θ)/θ²`` (Taylor series below ``θ = 1e-3``),
     with ``S(φ)² = φφᵀ − θ² I`` written out: ``exp(S(φ)) = (1 − Bθ²) I + A S(φ) + B φφᵀ``. Equal to
     ``exp_so3(φ.T).transpose(1, 2, 0)`` to rounding (tested). No shape checks (an inner-loop helper).
+
+    Parameters
+    ----------
+    phi : ndarray, shape (3, n)
+        Rotation vectors [rad] (axis times angle), one per column.
+
+    Returns
+    -------
+    ndarray, shape (3, 3, n)
     """
     th2 = np.einsum("in,in->n", phi, phi)
     A, B = _rodrigues_coefficients(th2)
@@ -257,7 +276,17 @@ def project_so3(M: ArrayLike) -> Array:
 
 
 def rot_x(angle: ArrayLike) -> Array:
-    """Rotation about the x axis by ``angle`` [rad]: ``[[1,0,0],[0,c,-s],[0,s,c]]``; shape ``(...) → (..., 3, 3)``."""
+    """Rotation about the x axis by ``angle`` [rad]: ``[[1,0,0],[0,c,-s],[0,s,c]]``; shape ``(...) → (..., 3, 3)``.
+
+    Parameters
+    ----------
+    angle : array_like, shape (...)
+        Rotation angle [rad].
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+    """
     a = np.asarray(angle, dtype=float)
     c, s = np.cos(a), np.sin(a)
     o, z = np.ones_like(a), np.zeros_like(a)
@@ -265,7 +294,17 @@ def rot_x(angle: ArrayLike) -> Array:
 
 
 def rot_y(angle: ArrayLike) -> Array:
-    """Rotation about the y axis by ``angle`` [rad]: ``[[c,0,s],[0,1,0],[-s,0,c]]``; shape ``(...) → (..., 3, 3)``."""
+    """Rotation about the y axis by ``angle`` [rad]: ``[[c,0,s],[0,1,0],[-s,0,c]]``; shape ``(...) → (..., 3, 3)``.
+
+    Parameters
+    ----------
+    angle : array_like, shape (...)
+        Rotation angle [rad].
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+    """
     a = np.asarray(angle, dtype=float)
     c, s = np.cos(a), np.sin(a)
     o, z = np.ones_like(a), np.zeros_like(a)
@@ -273,7 +312,17 @@ def rot_y(angle: ArrayLike) -> Array:
 
 
 def rot_z(angle: ArrayLike) -> Array:
-    """Rotation about the z axis by ``angle`` [rad]: ``[[c,-s,0],[s,c,0],[0,0,1]]``; shape ``(...) → (..., 3, 3)``."""
+    """Rotation about the z axis by ``angle`` [rad]: ``[[c,-s,0],[s,c,0],[0,0,1]]``; shape ``(...) → (..., 3, 3)``.
+
+    Parameters
+    ----------
+    angle : array_like, shape (...)
+        Rotation angle [rad].
+
+    Returns
+    -------
+    ndarray, shape (..., 3, 3)
+    """
     a = np.asarray(angle, dtype=float)
     c, s = np.cos(a), np.sin(a)
     o, z = np.ones_like(a), np.zeros_like(a)

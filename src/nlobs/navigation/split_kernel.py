@@ -84,6 +84,16 @@ def exp_so3_scalar(p0: float, p1: float, p2: float) -> Mat3:
     map, with ``(1 − cos θ)/θ² = 2 sin²(θ/2)/θ²`` (no cancellation) and ``θ + 1e-300`` instead of a
     Taylor series near 0 (``sin(1e-300)/1e-300 = 1``: exact at ``θ = 0``). The two agree to rounding
     (tested to 1e-15 for angles from 0 to π).
+
+    Parameters
+    ----------
+    p0, p1, p2 : float
+        Components of the rotation vector ``φ`` [rad].
+
+    Returns
+    -------
+    tuple of 9 float
+        ``exp(S(φ))``, row-major.
     """
     th = math.sqrt(p0 * p0 + p1 * p1 + p2 * p2) + 1e-300
     A = math.sin(th) / th

@@ -537,5 +537,14 @@ def triad_margin(traj: Trajectory) -> Array:
 
     The attitude observer (22) needs ``‖m^b × a^b‖ ≥ c_obs > 0``; ``min`` of this
     array is the ``c_obs`` of the flight [m/s², with a unit ``m``].
+
+    Parameters
+    ----------
+    traj : Trajectory
+        The flight (its ``m_b`` and ``a_b`` are used).
+
+    Returns
+    -------
+    ndarray, shape (K,)
     """
     return np.linalg.norm(np.cross(traj.m_b, traj.a_b), axis=-1)
