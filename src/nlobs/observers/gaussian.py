@@ -60,6 +60,22 @@ class FilterState:
 def checked_covariance(name: str, value: ArrayLike, n: int, *, definite: bool) -> Array:
     """``value`` as a read-only symmetric ``(n, n)`` matrix, positive (semi-)definite.
 
+    Parameters
+    ----------
+    name : str
+        Name of the argument, used in error messages.
+    value : array_like, shape (n, n)
+        The candidate covariance.
+    n : int
+        Expected dimension.
+    definite : bool
+        Require positive definite (True) or only positive semi-definite (False).
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        ``value`` as a read-only float array.
+
     Raises
     ------
     DimensionError, NonFiniteError
@@ -87,7 +103,32 @@ def symmetrised(M: Array) -> Array:
 
 @dataclass(frozen=True, eq=False)
 class GaussianFilterBase(ToControl):
-    """Common part of the EKF and the UKF (module docstring); not an observer by itself (no ``rhs``)."""
+    """Common part of the EKF and the UKF (module docstring); not an observer by itself (no ``rhs``).
+
+    Parameters
+    ----------
+    plant : PlantModel
+        The model, with a :class:`~nlobs.systems.timebase.Continuous` or
+        :class:`~nlobs.systems.timebase.Discrete` time base.
+    Q : array_like, shape (n, n)
+        Symmetric positive semi-definite process noise (spectral density or covariance, module docstring).
+    R : array_like, shape (p, p)
+        Symmetric positive definite covariance of the noise on all outputs.
+    P0 : array_like, shape (n, n)
+        Symmetric positive semi-definite initial covariance (:meth:`init`).
+    name : str
+        Label in results.
+    record_covariance : bool
+        Also record the full ``P`` among the diagnostics.
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``plant`` is not a :class:`~nlobs.systems.base.PlantModel` with a continuous or discrete time base,
+        a covariance is not positive (semi-)definite, or ``name`` is not a string.
+    DimensionError, NonFiniteError, NotSymmetricError
+        For ``Q``, ``R``, ``P0`` of the wrong shape, with a non-finite entry, not symmetric.
+    """
 
     plant: PlantModel
     Q: Array

@@ -37,6 +37,13 @@ class GaussianState:
     After :meth:`UnknownInputEKF.init` or :meth:`UnknownInputEKF.rhs` these are the
     prior ``x̂_{k|k−1}``, ``P_{k|k−1}``; after :meth:`UnknownInputEKF.update` the
     posterior ``x̂_{k|k}``, ``P_{k|k}``.
+
+    Attributes
+    ----------
+    x : ndarray, shape (..., n)
+        Mean (the estimate).
+    P : ndarray, shape (..., n, n)
+        Covariance.
     """
 
     x: Array

@@ -117,6 +117,22 @@ def input_error_map(system: DiscreteUISystem, design: SetValuedDesign) -> tuple[
     ``F_ω = [(V₂M₂C₂G₁ − V₁)M₁T₁, −V₂M₂C₂W, −V₂M₂T₂]``.
 
     Raises :class:`~nlobs.errors.InvalidArgumentError` when ``design`` was certified for another system.
+
+    Parameters
+    ----------
+    system : DiscreteUISystem
+        The plant (8).
+    design : SetValuedDesign
+        A design certified for ``system``.
+
+    Returns
+    -------
+    F_zeta : ndarray, shape (p, n)
+        ``F_ζ``.
+    F_pi : ndarray, shape (p, n)
+        ``F_π``, the map of the nonlinearity's increment ``π``.
+    F_omega : tuple of ndarray
+        ``(F_{v,k−1}, F_w, F_{v,k})``, the maps of the noise ``v_{k−1}``, ``w`` and ``v_k``.
     """
     design.certified_for.require(system)
     tr = design.transform
@@ -133,6 +149,27 @@ class RadiusRecursion:
 
     ``advance(δˣ_{k−1}, V̄_{k−1})`` returns ``(δᵈ_{k−1}, δˣ_k, V̄_k)``; :func:`sound_radii` iterates it.
     Build it with :meth:`of`.
+
+    Attributes
+    ----------
+    th, r : float
+        Triangle bound ``‖𝒜ζ + ℬπ‖ ≤ θ‖ζ‖ + r`` of the closed loop (from the function class).
+    eta : float
+        Bound ``η ≥ ‖ℰω‖`` on the noise term of the error dynamics.
+    thd, rd : float
+        The same bound ``‖F_ζζ + F_ππ‖ ≤ θ_d‖ζ‖ + r_d`` for the input error (:func:`input_error_map`).
+    alpha : float
+        Bound ``α ≥ ‖F_ωω‖`` on the noise term of the input error.
+    nA, nFz : float
+        ``‖𝒜 P^{-1/2}‖`` and ``‖F_ζ P^{-1/2}‖``: the ellipsoidal bounds of the ``ζ`` parts from ``√V̄``.
+    thp, rp : float
+        Class bound of the ``ℬπ`` part alone (used with ``nA``).
+    thdp, rdp : float
+        Class bound of the ``F_ππ`` part alone (used with ``nFz``).
+    lam_eff, c : float
+        Contraction and offset of the Lyapunov bound ``V̄_k = λ_eff V̄_{k−1} + c`` (the design's).
+    lmin, lmax : float
+        Smallest and largest eigenvalues of the design's ``P``.
     """
 
     th: float
@@ -202,6 +239,22 @@ def sound_radii(system: DiscreteUISystem, design: SetValuedDesign, steps: int, *
 
     Raises :class:`~nlobs.errors.InvalidArgumentError` when ``design`` was certified for another system
     (other matrices, class or constants, or larger noise bounds: :class:`~nlobs.synthesis.setvalued.CertifiedFor`).
+
+    Parameters
+    ----------
+    system : DiscreteUISystem
+        The plant (8).
+    design : SetValuedDesign
+        A design certified for ``system``.
+    steps : int
+        Number of steps ``K`` (``>= 0``).
+    delta0 : float, optional
+        Initial state radius ``δ₀ >= 0``; default ``system.delta0``.
+
+    Returns
+    -------
+    Radii
+        ``K + 1`` state radii, ``K`` input radii and their limits, labelled ``"sound"``.
     """
     rec = RadiusRecursion.of(system, design)
     K = int(steps)
@@ -230,6 +283,35 @@ def printed_radii(system: DiscreteUISystem, L_tilde: ArrayLike, P: ArrayLike, rh
 
     Exactly one of ``L_f`` (Class I) and ``A_aux`` (Class II) must be given; as
     in the paper they describe the whole ``f``.
+
+    Parameters
+    ----------
+    system : DiscreteUISystem
+        The plant (8).
+    L_tilde : array_like
+        The gain ``L̃``, reshaped to ``(n, l − p_H)``.
+    P : array_like, shape (n, n)
+        The symmetric positive definite matrix ``P`` of (31), (32) (symmetrised).
+    rho : float
+        ``ρ`` of (31).
+    steps : int
+        Number of steps ``K``.
+    L_f : float, optional
+        Lipschitz constant of ``f`` (Class I, (34)).
+    A_aux : array_like, optional
+        The matrix ``𝒜`` of Class II (35).
+    delta0 : float, optional
+        Initial state radius ``δ₀``; default ``system.delta0``.
+
+    Returns
+    -------
+    Radii
+        ``K + 1`` state radii, ``K`` input radii and their limits, labelled ``"printed"``.
+
+    Raises
+    ------
+    InvalidArgumentError
+        Neither or both of ``L_f`` and ``A_aux`` are given.
     """
     if (L_f is None) == (A_aux is None):
         raise InvalidArgumentError("printed_radii: give exactly one of L_f (Class I) and A_aux (Class II)")
@@ -271,6 +353,13 @@ class GivenGain:
     """A gain ``L̃`` (``gain``) that was not designed by nlobs (e.g. a published one), with its transformation.
 
     Runs Algorithm 1's centres without a certificate; radii must then be supplied.
+
+    Parameters
+    ----------
+    gain : ndarray, shape (n, l − p_H)
+        The gain ``L̃`` of (15).
+    transform : UITransform
+        The transformation of the system (:meth:`for_system` builds both).
     """
 
     gain: Array

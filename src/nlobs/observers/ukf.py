@@ -52,6 +52,20 @@ def sigma_weights(n: int, alpha: float, beta: float, kappa: float) -> tuple[Arra
     """Mean and covariance weights ``(w_m, w_c)`` of the ``2n + 1`` scaled sigma points, and ``n + λ``.
 
     ``λ = α²(n + κ) − n`` (Wan & van der Merwe 2000); the order is ``[0, +1 .. +n, −1 .. −n]``.
+
+    Parameters
+    ----------
+    n : int
+        State dimension.
+    alpha, beta, kappa : float
+        Sigma-point parameters: spread ``α``, prior knowledge ``β``, secondary scaling ``κ``.
+
+    Returns
+    -------
+    w_m, w_c : ndarray, shape (2n + 1,)
+        Mean and covariance weights.
+    c : float
+        ``n + λ = α²(n + κ)``.
     """
     lam = alpha**2 * (n + kappa) - n
     c = n + lam
@@ -67,6 +81,16 @@ def psd_sqrt(P: Array) -> Array:
 
     A member whose Cholesky factorisation fails (``P`` singular or made slightly indefinite by rounding)
     gets ``V diag(√max(λ, 0))`` from ``P = V Λ Vᵀ``; the others keep their Cholesky factor.
+
+    Parameters
+    ----------
+    P : ndarray, shape (..., n, n)
+        Symmetric positive semi-definite matrices.
+
+    Returns
+    -------
+    ndarray, shape (..., n, n)
+        ``S`` with ``S Sᵀ = P`` (lower triangular where the Cholesky factorisation succeeds).
     """
     try:
         return np.linalg.cholesky(P)

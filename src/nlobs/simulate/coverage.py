@@ -40,7 +40,19 @@ __all__ = ["Condition", "Coverage", "InRegion", "InputBound", "Premise", "Violat
 
 @dataclass(frozen=True)
 class Violation:
-    """The first hypothesis a run violates: which, when, and how."""
+    """The first hypothesis a run violates: which, when, and how.
+
+    Attributes
+    ----------
+    run : int
+        Index of the run (along the batch axis).
+    hypothesis : str
+        Name of the violated hypothesis.
+    time : float
+        First saved instant at which it is violated.
+    detail : str
+        How it is violated (e.g. the component outside the region).
+    """
 
     run: int
     hypothesis: str
@@ -56,7 +68,17 @@ class Violation:
 
 @dataclass(frozen=True)
 class InRegion:
-    """The state or the estimate stays in the box ``[lower, upper]`` (where the certificate was verified)."""
+    """The state or the estimate stays in the box ``[lower, upper]`` (where the certificate was verified).
+
+    Parameters
+    ----------
+    lower, upper : array, shape (n,)
+        Bounds of the box, per component (a NaN value counts as outside).
+    which : str
+        ``"state"`` checks the truth ``x``, any other value the estimate ``x_hat``.
+    region : str
+        Name of the region, appended to the hypothesis' name.
+    """
 
     lower: Array
     upper: Array
@@ -92,7 +114,15 @@ class InRegion:
 
 @dataclass(frozen=True)
 class InputBound:
-    """``‖u(t)‖₂ ≤ mu`` (the input bound of a design, e.g. μ of (2.17))."""
+    """``‖u(t)‖₂ ≤ mu`` (the input bound of a design, e.g. μ of (2.17)).
+
+    Parameters
+    ----------
+    mu : float
+        The bound ``μ`` on the Euclidean norm of the known input.
+    rtol : float
+        Relative tolerance: a violation is ``‖u‖ > μ (1 + rtol)``.
+    """
 
     mu: float
     rtol: float = 1e-9
@@ -119,7 +149,17 @@ class InputBound:
 
 @dataclass(frozen=True)
 class Premise:
-    """A hypothesis the whole set-up satisfies or not (``holds=False``: every run violates it, from t0)."""
+    """A hypothesis the whole set-up satisfies or not (``holds=False``: every run violates it, from t0).
+
+    Parameters
+    ----------
+    name : str
+        What the hypothesis is.
+    holds : bool
+        Whether the set-up satisfies it.
+    reason : str
+        Why it fails (shown with the name among the failed premises).
+    """
 
     name: str
     holds: bool

@@ -93,6 +93,20 @@ def _scheduled(label: str, idx: NDArray[np.intp], stride: int, sensor: Measureme
 def sample_stride(label: str, rate: float, dt: float) -> int:
     """Number of integration steps between samples, ``1 / (rate dt)``, checked to be an integer.
 
+    Parameters
+    ----------
+    label : str
+        Name of the group, used in error messages.
+    rate : float
+        Sample rate, in Hz.
+    dt : float
+        Integration step, in seconds.
+
+    Returns
+    -------
+    int
+        The stride (``>= 1``).
+
     Raises
     ------
     InvalidArgumentError
@@ -142,6 +156,20 @@ def schedule_measurements(
     Every output must belong to exactly one group: an output the observer
     never receives would otherwise have to be invented.
 
+    Parameters
+    ----------
+    groups : sequence of MeasurementGroup
+        The measurement groups, each with its outputs (names or indices) and rate.
+    outputs : sequence of str
+        The plant's output names.
+    dt : float
+        Integration step, in seconds.
+
+    Returns
+    -------
+    tuple of ScheduledGroup
+        One per group, in the order given.
+
     Raises
     ------
     InvalidArgumentError
@@ -172,6 +200,20 @@ def schedule_measurements(
 
 def schedule_inputs(sensors: Sequence[InputSensor], inputs: Sequence[str], dt: float) -> tuple[ScheduledGroup, ...]:
     """Resolve input sensors against the plant inputs and the step ``dt``.
+
+    Parameters
+    ----------
+    sensors : sequence of InputSensor
+        The input sensors, each with its inputs (names or indices) and rate.
+    inputs : sequence of str
+        The plant's input names.
+    dt : float
+        Integration step, in seconds.
+
+    Returns
+    -------
+    tuple of ScheduledGroup
+        One per sensor, in the order given.
 
     Raises
     ------

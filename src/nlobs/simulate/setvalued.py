@@ -131,7 +131,18 @@ def run_setvalued(system: DiscreteUISystem, design: SetValuedDesign | GivenGain,
 
 
 def radii_of(result: SimulationResult) -> Radii | None:
-    """The :class:`Radii` of a :func:`run_setvalued` result (``None`` when it has none)."""
+    """The :class:`Radii` of a :func:`run_setvalued` result (``None`` when it has none).
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A result of :func:`run_setvalued` or :func:`simulate_batch`.
+
+    Returns
+    -------
+    Radii or None
+        The state and input radii with their limits and label.
+    """
     if "radius_state" not in result.extras:
         return None
     info = result.info
@@ -141,7 +152,17 @@ def radii_of(result: SimulationResult) -> Radii | None:
 
 
 def input_estimates(result: SimulationResult) -> Array:
-    """Centres ``d̂_{k−1}`` of the input balls, ``k = 1..K``, shape ``(B, K, p)`` (index ``j`` holds ``d̂_j``)."""
+    """Centres ``d̂_{k−1}`` of the input balls, ``k = 1..K``, shape ``(B, K, p)`` (index ``j`` holds ``d̂_j``).
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A result of :func:`run_setvalued` or :func:`simulate_batch` (its extra ``d_hat``).
+
+    Returns
+    -------
+    ndarray, shape (B, K, p)
+    """
     return result.extras["d_hat"][:, 1:]
 
 
@@ -153,7 +174,26 @@ def _radii_or_fail(result: SimulationResult, what: str) -> Radii:
 
 
 def state_containment(result: SimulationResult, x_true: ArrayLike | None = None, rtol: float = 1e-9) -> BoolArray:
-    """``(B, K + 1)``: ``‖x_k − x̂_{k|k}‖ ≤ δˣ_k`` (with a relative round-off allowance); truth default ``result.x``."""
+    """``(B, K + 1)``: ``‖x_k − x̂_{k|k}‖ ≤ δˣ_k`` (with a relative round-off allowance); truth default ``result.x``.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A result of :func:`run_setvalued` or :func:`simulate_batch`, with radii.
+    x_true : array_like, shape (B, K + 1, n), optional
+        The true states; default ``result.x``.
+    rtol : float
+        Round-off allowance: inside when the error is at most ``δˣ_k (1 + rtol) + rtol``.
+
+    Returns
+    -------
+    ndarray of bool, shape (B, K + 1)
+
+    Raises
+    ------
+    InvalidArgumentError
+        The result has no radii, or no truth is given.
+    """
     rad = _radii_or_fail(result, "state_containment")
     x = result.x if x_true is None else np.asarray(x_true)
     if x is None:
@@ -163,7 +203,26 @@ def state_containment(result: SimulationResult, x_true: ArrayLike | None = None,
 
 
 def input_containment(result: SimulationResult, d_true: ArrayLike, rtol: float = 1e-9) -> BoolArray:
-    """``(B, K)``: ``‖d_{k−1} − d̂_{k−1}‖ ≤ δᵈ_{k−1}`` for ``d_true`` of shape ``(B, K, p)`` (``d_0..d_{K−1}``)."""
+    """``(B, K)``: ``‖d_{k−1} − d̂_{k−1}‖ ≤ δᵈ_{k−1}`` for ``d_true`` of shape ``(B, K, p)`` (``d_0..d_{K−1}``).
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A result of :func:`run_setvalued` or :func:`simulate_batch`, with radii.
+    d_true : array_like, shape (B, K, p)
+        The true unknown inputs ``d_0..d_{K−1}``.
+    rtol : float
+        Round-off allowance: inside when the error is at most ``δᵈ_{k−1} (1 + rtol) + rtol``.
+
+    Returns
+    -------
+    ndarray of bool, shape (B, K)
+
+    Raises
+    ------
+    InvalidArgumentError
+        The result has no radii.
+    """
     rad = _radii_or_fail(result, "input_containment")
     e = np.linalg.norm(np.asarray(d_true) - input_estimates(result), axis=-1)
     return e <= rad.input * (1 + rtol) + rtol
@@ -172,7 +231,25 @@ def input_containment(result: SimulationResult, d_true: ArrayLike, rtol: float =
 def ball_samples(rng: np.random.Generator, shape: tuple[int, ...], radius: float, dim: int,
                  at_bound: float = 0.5) -> Array:
     """Points in the ball of ``radius`` in ``R^dim``: uniform direction; a fraction ``at_bound`` exactly on the sphere,
-    the rest uniform in the ball."""
+    the rest uniform in the ball.
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        Source of the draws.
+    shape : tuple of int
+        Batch shape of the points.
+    radius : float
+        Radius of the ball.
+    dim : int
+        Dimension of the space (``0``: an empty last axis).
+    at_bound : float
+        Fraction of the points (in probability) drawn exactly on the sphere.
+
+    Returns
+    -------
+    ndarray, shape (*shape, dim)
+    """
     if dim == 0:
         return np.zeros(shape + (0,))
     g = rng.standard_normal(shape + (dim,))
@@ -292,12 +369,42 @@ def simulate_batch(system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
     ``t ↦ u(t)`` ``(m,)`` is the known input ``u_k = u(k dt)`` of ``B u`` and ``D u`` (zero when
     omitted), the same in every run and given to the observer.
 
+    Parameters
+    ----------
+    system : DiscreteUISystem
+        The plant (8), with its initial ball (``x0``, ``delta0``) and noise bounds ``eta_w``, ``eta_v``.
+    gain : SetValuedDesign or GivenGain
+        The observer's gains (a :class:`GivenGain` needs ``radii``).
+    unknown_input : callable
+        ``d(t)``: maps the times ``(K + 1,)`` to the unknown input ``(K + 1, p)``.
+    runs : int
+        Number of runs ``B`` (``>= 1``).
+    steps : int
+        Number of steps ``K`` (``>= 1``).
+    seed : int
+        Initial value of the random generator (:func:`numpy.random.default_rng`) of the draws.
+    radii : Radii, optional
+        Radii to report (default: the sound recursion for a design).
+    at_bound : float
+        Fraction of the initial states and noises drawn exactly on the bound (:func:`ball_samples`).
+    known_input : callable, optional
+        ``u(t)`` ``(m,)``, the known input; zero when omitted.
+
     Returns
     -------
     SimulationResult
         Of :func:`~nlobs.simulate.setvalued.run_setvalued`, with the truth ``x`` ``(B, K + 1, n)``, the
         measurements ``y`` ``(B, K + 1, l)`` and the extra ``d`` ``(B, K + 1, p)`` (the unknown input);
         ``info["seconds"]`` is the plant and observer time.
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``runs`` or ``steps`` below 1, or a design certified for another system.
+    NonFiniteError
+        The unknown or the known input is not finite at some step.
+    SimulationDiverged
+        The plant's state overflows.
     """
     R, K = int(runs), int(steps)
     if R < 1 or K < 1:
@@ -341,6 +448,28 @@ def containment_of(batch: SimulationResult, label: str = "sound", *, system: Dis
     ``batch`` is a :func:`simulate_batch` result. With its ``system`` and ``gain``, also evaluates on the
     pairs the runs visit: the class condition the certificate uses, whether the states left ``box`` (where
     the class was checked), and a floating-point round-off estimate against the radius (``ContainmentResult``).
+
+    Parameters
+    ----------
+    batch : SimulationResult
+        A :func:`simulate_batch` result, with radii.
+    label : str
+        Label of the result.
+    system : DiscreteUISystem, optional
+        The plant of ``batch``; with ``gain``, enables the conditions along the runs.
+    gain : SetValuedDesign or GivenGain, optional
+        The gains ``batch`` was run with.
+    box : tuple of (lower, upper) array_like, optional
+        The box where the class was checked (only with ``system`` and ``gain``).
+
+    Returns
+    -------
+    ContainmentResult
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``batch`` has no radii.
     """
     rad = radii_of(batch)
     if rad is None:

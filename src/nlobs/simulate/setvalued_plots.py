@@ -20,7 +20,20 @@ __all__ = ["plot_errors_vs_radii", "plot_trajectories", "save_figure"]
 
 
 def save_figure(fig: Any, path: str | Path) -> Path:
-    """Save a matplotlib figure as PNG atomically (:func:`nlobs._io.save_figure`, 120 dpi); returns the path."""
+    """Save a matplotlib figure as PNG atomically (:func:`nlobs._io.save_figure`, 120 dpi); returns the path.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    path : str or Path
+        Output file; the format follows its suffix (PNG when it has none).
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     return _save(fig, path, dpi=120)
 
 
@@ -29,6 +42,24 @@ def plot_errors_vs_radii(results: tuple[ContainmentResult, ...], path: str | Pat
     """Save a figure of the error norms over the runs (range, median) against each result's state radius.
 
     Uses matplotlib's object API (no pyplot). Returns ``path``.
+
+    Parameters
+    ----------
+    results : tuple of ContainmentResult
+        The results to compare (e.g. sound and printed radii); up to four are drawn.
+    path : str or Path
+        Output file.
+    title : str
+        Figure title.
+    dt : float
+        Step length for the time axis (``1``: the axis is the step ``k``).
+    log : bool
+        Logarithmic vertical axis.
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     from matplotlib.figure import Figure
 
@@ -54,6 +85,22 @@ def plot_trajectories(batch: SimulationResult, path: str | Path, *, run: int = 0
     """States, unknown inputs, their estimates and the balls over time for one run (like Khajenejad & Yong, Figs. 2-5).
 
     The ball ``‖x − x̂‖ ≤ δˣ`` is drawn per component as the interval ``x̂ᵢ ± δˣ`` (a projection of the ball).
+
+    Parameters
+    ----------
+    batch : SimulationResult
+        A :func:`~nlobs.simulate.setvalued.simulate_batch` result (truth ``x`` and extra ``d``).
+    path : str or Path
+        Output file.
+    run : int
+        Index of the run to draw.
+    title : str
+        Title of the top panel.
+
+    Returns
+    -------
+    Path
+        The file written.
     """
     from matplotlib.figure import Figure
 
