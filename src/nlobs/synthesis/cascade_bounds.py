@@ -87,6 +87,13 @@ def theorem1_optimal_scaling(alpha3: float, alpha4: float, L1: float, L2: float)
     ``γ(c) = 4cα₃/(4L₂² + c²α₄²L₁²)`` is maximal at ``c* = 2L₂/(α₄L₁)`` with
     ``γ(c*) = α₃/(α₄L₁L₂)``; the ratio ``α₃/α₄`` is scale-invariant.
 
+    Parameters
+    ----------
+    alpha3, alpha4 : float
+        Constants of Assumption 1, (6) and (7) (positive).
+    L1, L2 : float
+        Lipschitz constants of Assumptions 2 and 3 (positive).
+
     Returns
     -------
     (c_star, gamma) : tuple of float

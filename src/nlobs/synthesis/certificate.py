@@ -55,12 +55,34 @@ __all__ = [
 
 
 def verified_of(checks: Iterable[Check]) -> bool:
-    """Whether every check passed (the verdict of a certificate)."""
+    """Whether every check passed (the verdict of a certificate).
+
+    Parameters
+    ----------
+    checks : iterable of Check
+        The checks of a certificate.
+
+    Returns
+    -------
+    bool
+        ``True`` when every check passed (also for no checks).
+    """
     return all(c.passed for c in checks)
 
 
 def failed_of(checks: Iterable[Check]) -> tuple[Check, ...]:
-    """The checks that failed (empty when verified)."""
+    """The checks that failed (empty when verified).
+
+    Parameters
+    ----------
+    checks : iterable of Check
+        The checks of a certificate.
+
+    Returns
+    -------
+    tuple of Check
+        The checks whose ``passed`` is false, in their order.
+    """
     return tuple(c for c in checks if not c.passed)
 
 

@@ -33,6 +33,19 @@ class ErrorBoundConstants:
     Valid (Theorem 3.1 / 3.8) when ``(K, P)`` solves (2.17) with ``γ ≥ √(γ_L² + γ_H²)``,
     ``‖u‖ ≤ μ``, and the trajectories stay where the Lipschitz constants hold; with
     sampled constants the bound is an estimate.
+
+    Parameters
+    ----------
+    gamma_phi, gamma_phi_inv : float
+        Lipschitz constants ``γ_Φ`` of ``Φ_s`` and ``γ_{Φ⁻¹}`` of ``Φ_s⁻¹`` (3.3).
+    cond_P, norm_P : float
+        Condition number ``cn(P)`` and spectral norm ``‖P‖`` of the Lyapunov matrix of (2.17).
+    alpha : float
+        Decay rate ``α`` of the certificate.
+    kappa1, kappa2 : float
+        The constants ``κ₁``, ``κ₂`` of (3.17).
+    estimated : bool
+        Whether the Lipschitz constants were estimated by sampling (rather than given).
     """
 
     gamma_phi: float
@@ -62,7 +75,26 @@ class ErrorBoundConstants:
 
 def error_bound_constants(cert: DriftGainCertificate, gamma_phi: float, gamma_phi_inv: float, *,
                           estimated: bool = True) -> ErrorBoundConstants:
-    """``κ₁``, ``κ₂`` of (3.17) for a verified pair and the Lipschitz constants of ``Φ_s``, ``Φ_s⁻¹``."""
+    """``κ₁``, ``κ₂`` of (3.17) for a verified pair and the Lipschitz constants of ``Φ_s``, ``Φ_s⁻¹``.
+
+    Parameters
+    ----------
+    cert : DriftGainCertificate
+        A certificate of (2.17); its ``cond_P``, ``norm_P`` and ``constants.alpha`` are used.
+    gamma_phi, gamma_phi_inv : float
+        Lipschitz constants of ``Φ_s`` and ``Φ_s⁻¹`` (positive).
+    estimated : bool
+        Whether those constants were estimated by sampling (recorded in the result).
+
+    Returns
+    -------
+    ErrorBoundConstants
+
+    Raises
+    ------
+    InvalidArgumentError, NonFiniteError
+        ``gamma_phi`` or ``gamma_phi_inv`` is not a positive finite number.
+    """
     gp = positive("gamma_phi", gamma_phi)
     gpi = positive("gamma_phi_inv", gamma_phi_inv)
     cn, nP, a = cert.cond_P, cert.norm_P, cert.constants.alpha

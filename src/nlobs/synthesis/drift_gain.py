@@ -202,6 +202,20 @@ def riccati_lhs(c: RiccatiConstants, K: ArrayLike, P: ArrayLike) -> Array:
 
     For long chains its decisive eigenvalue is below the rounding level of this computation;
     the certificates use the scaled form ``D L D`` instead (module docstring).
+
+    Parameters
+    ----------
+    c : RiccatiConstants
+        The data of (2.17).
+    K : array_like, shape (n, q)
+        The gain.
+    P : array_like, shape (n, n)
+        The Lyapunov matrix (symmetrised before use).
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        The symmetrised left side ``L`` of (2.17).
     """
     K_ = as_matrix("K", K, (c.n, c.q))
     P_ = as_matrix("P", P, (c.n, c.n))
@@ -488,7 +502,19 @@ def verify_drift_gain(c: RiccatiConstants, K: ArrayLike, P: ArrayLike, *, method
 
 
 class VandermondeGain(NamedTuple):
-    """``K(w)``, ``V_s(w)``, ``P(w) = (V_sᵀ V_s)⁻¹`` and the assigned eigenvalues (Remark 2.11)."""
+    """``K(w)``, ``V_s(w)``, ``P(w) = (V_sᵀ V_s)⁻¹`` and the assigned eigenvalues (Remark 2.11).
+
+    Attributes
+    ----------
+    K : ndarray, shape (n, q)
+        The block gain ``K(w)``.
+    V : ndarray, shape (n, n)
+        The block Vandermonde matrix ``V_s(w)``.
+    P : ndarray, shape (n, n)
+        ``P(w) = V_s⁻¹ V_s⁻ᵀ``.
+    eigenvalues : ndarray, shape (n,)
+        The assigned eigenvalues ``−w, …, −s_j w`` of each block, in block order.
+    """
 
     K: Array
     V: Array
@@ -533,6 +559,23 @@ def vandermonde_gain(s: Sequence[int], w: float) -> VandermondeGain:
     entrywise from the exact ``w = 1`` data (rationals, rounded once), so that every entry of
     ``P(w)`` — down to ``~w^{−2(s_j−1)}`` — has full relative accuracy, which inverting
     ``V_s(w)`` in floating point does not give.
+
+    Parameters
+    ----------
+    s : sequence of int
+        Multi-index (positive; ``n = Σ s_j``, ``q = len(s)``).
+    w : float
+        Eigenvalue scale ``w > 0``.
+
+    Returns
+    -------
+    VandermondeGain
+        Read-only arrays ``K``, ``V``, ``P`` and ``eigenvalues``.
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``w`` is so large that ``K(w)`` or ``P(w)`` overflows a double (or ``s``, ``w`` are invalid).
     """
     s_ = positive_multi_index(s)
     w = positive("w", w)
@@ -602,6 +645,19 @@ def smallest_w(c: RiccatiConstants, *, w_max: float = 1e5, rtol: float = 1e-3) -
     Bracketing: from ``w₀ = max(α, 10⁻³)`` (``A_s − K C_s`` must have abscissa
     ``< −α``, so no ``w ≤ α`` works) ``w`` doubles until the verification passes or ``w``
     exceeds ``w_max``; then bisection in ``log w`` to relative width ``rtol``.
+
+    Parameters
+    ----------
+    c : RiccatiConstants
+        The data of (2.17).
+    w_max : float
+        Largest ``w`` tried by the bracketing.
+    rtol : float
+        Relative width of the final bisection bracket.
+
+    Returns
+    -------
+    WSearch
 
     Raises
     ------
@@ -717,6 +773,19 @@ def sdp_size(c: RiccatiConstants, objective: DriftObjective | str = DriftObjecti
 
     ``S̃`` and ``Ŷ`` with ``σ`` and the slack ``t``; the LMI of (2.17) (``n + q + w`` with ``w`` the columns
     of ``F``), ``S̃ ⪰ σ I``, and ``S̃ ⪯ κ σ I`` and/or the gain block ``n + q``.
+
+    Parameters
+    ----------
+    c : RiccatiConstants
+        The data of (2.17).
+    objective : DriftObjective or str
+        As in :func:`design_drift_gain_sdp`.
+    gain_bound : float, optional
+        As in :func:`design_drift_gain_sdp` (adds the gain block with ``"min_condition"``).
+
+    Returns
+    -------
+    tuple of (int, tuple of int)
     """
     return _sdp_size(c.s, c.F.shape[1], as_enum("objective", DriftObjective, objective), gain_bound)
 
@@ -740,6 +809,17 @@ def require_sdp_size(s: Sequence[int], f_columns: int = 0, objective: DriftObjec
 
     Counted from the multi-index ``s`` and the columns of ``F`` alone (``f_columns = 0`` gives a lower bound,
     for a refusal before ``F`` is computed); raises :class:`~nlobs.errors.InvalidArgumentError`.
+
+    Parameters
+    ----------
+    s : sequence of int
+        Multi-index.
+    f_columns : int
+        Number of columns of ``F_{s,r}``.
+    objective : DriftObjective or str
+        As in :func:`design_drift_gain_sdp`.
+    gain_bound : float, optional
+        As in :func:`design_drift_gain_sdp`.
     """
     s_ = tuple(int(k) for k in s)
     nvar, blocks = _sdp_size(s_, int(f_columns), as_enum("objective", DriftObjective, objective), gain_bound)

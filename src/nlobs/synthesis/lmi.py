@@ -150,12 +150,37 @@ def as_enum(kind: str, cls: type[E], value: E | str) -> E:
 
 
 def as_solver(solver: Solver | str) -> Solver:
-    """Return ``solver`` as a :class:`Solver` (accepts ``"clarabel"``, ``"SCS"``...)."""
+    """Return ``solver`` as a :class:`Solver` (accepts ``"clarabel"``, ``"SCS"``...).
+
+    Parameters
+    ----------
+    solver : Solver or str
+        A member or its name, in any case.
+
+    Returns
+    -------
+    Solver
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``solver`` names no known solver.
+    """
     return as_enum("solver", Solver, solver)
 
 
 def is_expression(x: object) -> bool:
-    """Whether ``x`` is a CVXPY expression (as opposed to a numeric array)."""
+    """Whether ``x`` is a CVXPY expression (as opposed to a numeric array).
+
+    Parameters
+    ----------
+    x : object
+        Any value.
+
+    Returns
+    -------
+    bool
+    """
     return isinstance(x, cp.Expression)
 
 
@@ -165,6 +190,16 @@ def symmetrise(M: Any) -> Any:
     Every LMI block is symmetrised explicitly before it enters a constraint:
     CVXPY's ``<<`` only constrains the symmetric part anyway, and making it
     explicit keeps the verified block identical to the constrained one.
+
+    Parameters
+    ----------
+    M : cvxpy.Expression or ndarray
+        A square matrix.
+
+    Returns
+    -------
+    cvxpy.Expression or ndarray
+        Of the same kind as ``M``.
     """
     return (M + M.T) / 2
 
@@ -174,6 +209,16 @@ def bmat(rows: Sequence[Sequence[Any]]) -> Any:
 
     Uses :func:`cvxpy.bmat` when any block is an expression, else
     :func:`numpy.block`.
+
+    Parameters
+    ----------
+    rows : sequence of sequence
+        Rows of blocks (CVXPY expressions, arrays or array_likes) with compatible shapes.
+
+    Returns
+    -------
+    cvxpy.Expression or ndarray
+        An expression when any block is one, else a float array.
     """
     if any(is_expression(b) for row in rows for b in row):
         return cp.bmat([list(row) for row in rows])
@@ -181,7 +226,18 @@ def bmat(rows: Sequence[Sequence[Any]]) -> Any:
 
 
 def max_eig(M: NDArray[np.float64]) -> float:
-    """Largest eigenvalue of the symmetric part of a numeric matrix."""
+    """Largest eigenvalue of the symmetric part of a numeric matrix.
+
+    Parameters
+    ----------
+    M : array_like, shape (k, k)
+        A numeric square matrix.
+
+    Returns
+    -------
+    float
+        ``λ_max((M + Mᵀ)/2)``.
+    """
     S = 0.5 * (np.asarray(M, dtype=float) + np.asarray(M, dtype=float).T)
     return float(np.linalg.eigvalsh(S)[-1])
 
@@ -225,7 +281,19 @@ def solve(problem: cp.Problem, solver: Solver | str = Solver.CLARABEL, options: 
 
 
 def lmi_problem_size(n_variables: int, blocks: Sequence[int]) -> int:
-    """The size :data:`MAX_LMI_SIZE` bounds: ``n_variables + Σ k(k+1)/2`` over the semidefinite blocks."""
+    """The size :data:`MAX_LMI_SIZE` bounds: ``n_variables + Σ k(k+1)/2`` over the semidefinite blocks.
+
+    Parameters
+    ----------
+    n_variables : int
+        Scalar decision variables.
+    blocks : sequence of int
+        Sizes of the semidefinite blocks.
+
+    Returns
+    -------
+    int
+    """
     return int(n_variables) + sum(int(k) * (int(k) + 1) // 2 for k in blocks)
 
 

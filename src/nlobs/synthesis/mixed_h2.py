@@ -215,6 +215,19 @@ def h2_error_norm(A: ArrayLike, C: ArrayLike, K: ArrayLike, noise: NoiseModel) -
 
     ``T(s) = L_z (sI − A + K C)⁻¹ B̂(K)`` (module docstring), by :func:`nlobs.linear.norms.h2_norm`
     (a Gramian); ``inf`` when ``A − K C`` is not Hurwitz.
+
+    Parameters
+    ----------
+    A, C : array_like
+        The system matrices, ``(n, n)`` and ``(p, n)``.
+    K : array_like, shape (n, p)
+        The observer gain.
+    noise : NoiseModel
+        Noise intensities and the error weight ``L_z``.
+
+    Returns
+    -------
+    float
     """
     A_, C_, K_ = _acK(A, C, K)
     noise.check_against(A_.shape[0], C_.shape[0])
@@ -238,6 +251,20 @@ def _h2(A: NDArray, C: NDArray, K: NDArray, noise: NoiseModel) -> float:
 
 def error_covariance(A: ArrayLike, C: ArrayLike, K: ArrayLike, noise: NoiseModel) -> NDArray[np.float64]:
     """Steady-state covariance ``Σ`` of the error ``e`` (not weighted): ``(A − KC) Σ + Σ (A − KC)ᵀ + B̂ B̂ᵀ = 0``.
+
+    Parameters
+    ----------
+    A, C : array_like
+        The system matrices, ``(n, n)`` and ``(p, n)``.
+    K : array_like, shape (n, p)
+        The observer gain.
+    noise : NoiseModel
+        Noise intensities (its error weight is not used).
+
+    Returns
+    -------
+    ndarray, shape (n, n)
+        ``Σ`` (read-only).
 
     Raises
     ------
@@ -268,6 +295,15 @@ def kalman_bucy_gain(A: ArrayLike, C: ArrayLike, noise: NoiseModel, *,
     stabilisable on the imaginary axis — e.g. an integrator whose input is unmodelled) has no
     stabilising solution; the process noise is then regularised by ``regularise · ‖·‖ · I`` and
     the flag says so: the gain approaches the infimum, which is not attained.
+
+    Parameters
+    ----------
+    A, C : array_like
+        The system matrices, ``(n, n)`` and ``(p, n)``.
+    noise : NoiseModel
+        Noise intensities ``V`` (must be positive definite) and ``B_w``, ``W``.
+    regularise : float
+        Relative size of the process noise added when no stabilising solution exists without it.
 
     Returns
     -------
@@ -653,6 +689,27 @@ def verify_h2_gain(A: ArrayLike, C: ArrayLike, Bd: ArrayLike, K: ArrayLike, *, g
 
     The same checks as :func:`design_h2_gain`'s certificate (``h2_bound`` and ``h2_convex`` are
     the gain's own norm; nothing was solved for it but ``P``).
+
+    Parameters
+    ----------
+    A, C, Bd : array_like
+        The extended system (8): ``(n, n)``, ``(p, n)``, ``(n, m)``.
+    K : array_like, shape (n, p)
+        The gain to certify.
+    gamma : float
+        ``γ`` of LMI (14), ``‖H‖∞ < γ``.
+    noise : NoiseModel
+        Noise intensities and the error weight.
+    region : PoleRegion or sequence of PoleRegion, optional
+        Chilali–Gahinet pole regions ``A − K C`` must lie in.
+    gain_bound : GainBound or float, optional
+        ``‖K‖₂ ≤ κ``.
+    margin : float
+        Strictness margin of the LMIs.
+
+    Returns
+    -------
+    MixedH2Certificate
     """
     g = positive("gamma", gamma)
     if not isinstance(noise, NoiseModel):

@@ -304,6 +304,25 @@ def sdp_estimate(A: ArrayLike, C: ArrayLike, Bd: ArrayLike, *, N: ArrayLike | No
 
     ``gamma_n`` (or ``N``, or objective ``MIN_GAMMA_N``) adds LMI (15); the other arguments as in
     :func:`design_observer_gain`. The estimate's ``fits`` is what ``method="sdp"`` checks first.
+
+    Parameters
+    ----------
+    A, C, Bd : array_like
+        ``𝔄 (n×n)``, ``ℭ (p×n)``, ``𝔅_d (n×m)`` of the error dynamics (12a).
+    N : array_like, shape (p, q), optional
+        Noise input matrix of LMI (15).
+    gamma_n : float, optional
+        ``γn`` of LMI (15); given, it adds that LMI.
+    region : PoleRegion or sequence of PoleRegion, optional
+        Chilali–Gahinet region(s) for the eigenvalues of ``A − K C``.
+    gain_bound : GainBound or float, optional
+        ``‖K‖₂ ≤ κ``.
+    objective : Objective or str
+        As in :func:`design_observer_gain`; ``CENTRAL`` adds the log-det cones.
+
+    Returns
+    -------
+    SdpEstimate
     """
     obj = _as_objective(objective)
     need_noise = gamma_n is not None or N is not None or obj is Objective.MIN_GAMMA_N

@@ -54,7 +54,21 @@ def _check_order(r: int, name: str = "r") -> int:
 
 
 def high_gain_roots(r: int, theta: float, placement: Placement = "powers") -> Array:
-    """Roots of (10): ``−θ, −θ², …, −θ^r`` (``"powers"``, [9, 10]) or ``−θ`` ``r`` times (``"multiple"``, [13])."""
+    """Roots of (10): ``−θ, −θ², …, −θ^r`` (``"powers"``, [9, 10]) or ``−θ`` ``r`` times (``"multiple"``, [13]).
+
+    Parameters
+    ----------
+    r : int
+        Block size (relative degree, positive).
+    theta : float
+        ``θ > 0``.
+    placement : {"powers", "multiple"}
+        Where the roots go.
+
+    Returns
+    -------
+    ndarray, shape (r,)
+    """
     r_ = _check_order(r)
     th = positive("theta", theta)
     if _check_placement(placement) == "powers":
@@ -69,6 +83,19 @@ def high_gain_coefficients(r: int, theta: float, placement: Placement = "powers"
     ``−θ^i``, ``k_i = e_i(θ, θ², …, θ^r)`` (elementary symmetric polynomials,
     ``= θ^{i(i+1)/2}`` times the Gaussian binomial ``[r choose i]_θ``), computed
     by expanding the product.
+
+    Parameters
+    ----------
+    r : int
+        Block size (relative degree, positive).
+    theta : float
+        ``θ > 0``.
+    placement : {"powers", "multiple"}
+        Root placement, as in :func:`high_gain_roots`.
+
+    Returns
+    -------
+    ndarray, shape (r,)
     """
     r_ = _check_order(r)
     th = positive("theta", theta)
@@ -109,7 +136,17 @@ class HighGain:
 
 
 def companion_error_matrix(k: ArrayLike) -> Array:
-    """``A − k cᵀ`` of (9a) for one block (Brunovsky ``A``, ``c = e_1``); its eigenvalues are the roots of (10)."""
+    """``A − k cᵀ`` of (9a) for one block (Brunovsky ``A``, ``c = e_1``); its eigenvalues are the roots of (10).
+
+    Parameters
+    ----------
+    k : array_like, shape (r,)
+        The gain of one block.
+
+    Returns
+    -------
+    ndarray, shape (r, r)
+    """
     kv = as_vector("k", k)
     r = kv.size
     M = np.diag(np.ones(r - 1), 1)
@@ -119,6 +156,18 @@ def companion_error_matrix(k: ArrayLike) -> Array:
 
 def resolve_gain(k: ArrayLike | HighGain, r: Sequence[int]) -> tuple[Array, HighGain | None]:
     """The stacked numeric ``k`` (``Σ r_j`` entries) and the :class:`HighGain` it came from (``None`` if given).
+
+    Parameters
+    ----------
+    k : array_like or HighGain
+        A numeric gain vector or a high-gain design.
+    r : sequence of int
+        Block sizes ``r_j``, one per output.
+
+    Returns
+    -------
+    k : ndarray, shape (Σ r_j,)
+    design : HighGain or None
 
     Raises
     ------

@@ -87,7 +87,21 @@ class FilterRiccati:
 
 
 def riccati_delta(Bd: NDArray[np.float64], gamma: float, margin: float) -> float:
-    """The strictness term ``δ = ε · max(1, ‖B_d‖₂² / γ²)`` (``ε`` the design's margin)."""
+    """The strictness term ``δ = ε · max(1, ‖B_d‖₂² / γ²)`` (``ε`` the design's margin).
+
+    Parameters
+    ----------
+    Bd : ndarray, shape (n, m)
+        Disturbance input matrix ``B_d``.
+    gamma : float
+        ``γ`` of LMI (14).
+    margin : float
+        The design's strictness margin ``ε``.
+
+    Returns
+    -------
+    float
+    """
     return float(margin * max(1.0, float(np.linalg.norm(Bd, 2)) ** 2 / gamma**2))
 
 
@@ -111,6 +125,23 @@ def filter_riccati(A: NDArray[np.float64], C: NDArray[np.float64], Bd: NDArray[n
     the blocks of (14) and (15) then hold with their Schur complements ``⪯ −σ I``, a margin that
     survives rounding. Returns the solution, or a one-sentence reason why no stabilising positive
     definite solution exists.
+
+    Parameters
+    ----------
+    A, C, Bd : ndarray
+        ``(n, n)``, ``(p, n)``, ``(n, m)``: the error dynamics of LMIs (14), (15).
+    W : ndarray, shape (p, p)
+        ``N Nᵀ ≻ 0``.
+    gamma, gamma_n : float
+        ``γ`` of (14) and ``γn`` of (15).
+    delta : float
+        The term ``δ > 0`` (see :func:`riccati_delta`).
+    sigma : float
+        The output weight ``σ ≥ 0``.
+
+    Returns
+    -------
+    FilterRiccati or str
     """
     n = A.shape[0]
     R, Q, WiC = _parts(A, C, Bd, W, gamma, gamma_n, delta, sigma)
@@ -153,7 +184,25 @@ def filter_riccati(A: NDArray[np.float64], C: NDArray[np.float64], Bd: NDArray[n
 def smallest_riccati_scale(A: NDArray[np.float64], C: NDArray[np.float64], Bd: NDArray[np.float64],
                            W: NDArray[np.float64], gamma: float, gamma_n: float, margin: float,
                            *, sigma: float = 0.0, steps: int = 30) -> float | None:
-    """Smallest ``τ ≥ 1`` (to about 0.1 %) with a solution at ``(τγ, τγn)``; ``None`` when none up to ``τ = 10⁶``."""
+    """Smallest ``τ ≥ 1`` (to about 0.1 %) with a solution at ``(τγ, τγn)``; ``None`` when none up to ``τ = 10⁶``.
+
+    Parameters
+    ----------
+    A, C, Bd, W : ndarray
+        As in :func:`filter_riccati`.
+    gamma, gamma_n : float
+        The bounds ``γ``, ``γn`` that ``τ`` scales.
+    margin : float
+        Strictness margin ``ε``; ``δ`` is :func:`riccati_delta` at each ``τγ``.
+    sigma : float
+        The output weight ``σ ≥ 0``.
+    steps : int
+        Most bisection steps (in ``log τ``) after the decade bracket.
+
+    Returns
+    -------
+    float or None
+    """
 
     def ok(t: float) -> bool:
         g = t * gamma

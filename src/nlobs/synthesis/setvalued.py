@@ -243,7 +243,20 @@ class ErrorDynamics:
 
 
 def error_dynamics(system: DiscreteUISystem, transform: UITransform | None = None) -> ErrorDynamics:
-    """Build ``Ξ₀`` and ``Ξ_c`` of the error dynamics (16) for ``system`` (see module docstring)."""
+    """Build ``Ξ₀`` and ``Ξ_c`` of the error dynamics (16) for ``system`` (see module docstring).
+
+    Parameters
+    ----------
+    system : DiscreteUISystem
+        The discrete-time system with unknown inputs.
+    transform : UITransform, optional
+        The transformation of Appendix A.1; default :func:`~nlobs.linear.transform_ui.ui_transform`
+        of ``system``'s ``G, C, H, D``.
+
+    Returns
+    -------
+    ErrorDynamics
+    """
     tr = ui_transform(system.G, system.C, system.H, system.D) if transform is None else transform
     n, l, nw = system.n, system.l, system.n_w
     Phi, Psi = tr.Phi, tr.Psi

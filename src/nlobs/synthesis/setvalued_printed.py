@@ -147,6 +147,26 @@ def exact_condition_a16(M: Array, Phi: Array, Psi: Array, C2: Array, L_tilde: Ar
 
     (A.16) without its ``γ`` row; ``Ă = −(I − L̃C₂)ΦΨ``, ``B̆ = (I − L̃C₂)Φ`` (A.12). It must be
     ``≥ 0`` for the Lyapunov decrease (17).
+
+    Parameters
+    ----------
+    M : ndarray, shape (2n, 2n)
+        The multiplier ``[[M11, M12], [M12ᵀ, M22]]`` of **f**.
+    Phi, Psi, C2 : ndarray
+        ``Φ``, ``Ψ`` and ``C₂`` of the transformation of Appendix A.1.
+    L_tilde : ndarray
+        The gain ``L̃``.
+    P : ndarray, shape (n, n)
+        The Lyapunov matrix.
+    kappa : float
+        The S-procedure multiplier weight ``κ``.
+    alpha : float
+        The ``α`` of the decrease condition.
+
+    Returns
+    -------
+    float
+        The minimum eigenvalue of the symmetric part.
     """
     n = P.shape[0]
     Bb = (np.eye(n) - L_tilde @ C2) @ Phi
@@ -158,7 +178,22 @@ def exact_condition_a16(M: Array, Phi: Array, Psi: Array, C2: Array, L_tilde: Ar
 
 
 def theta1_printed(P: ArrayLike) -> float:
-    r"""``θ₁ = |λ_max(P) − 1| / λ_min(P)`` of Theorem 5.13, (32), from the eigenvalues of ``P`` alone."""
+    r"""``θ₁ = |λ_max(P) − 1| / λ_min(P)`` of Theorem 5.13, (32), from the eigenvalues of ``P`` alone.
+
+    Parameters
+    ----------
+    P : array_like, shape (n, n)
+        The Lyapunov matrix; its symmetric part is used.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    InvalidArgumentError
+        The symmetric part of ``P`` is not positive definite.
+    """
     P_ = as_square("P", P)
     ev = np.linalg.eigvalsh(0.5 * (P_ + P_.T))  # the symmetric part (a printed P* need not be symmetric)
     if ev[0] <= 0:
@@ -488,6 +523,8 @@ def design_printed(system: DiscreteUISystem, M: ArrayLike, *, alphas: Sequence[f
         smallest feasible ``α``, then golden section of ``ρ*(α)``; :func:`_alpha_line_search`).
     eps_grid : sequence of float
         Coarse grid for ``ε₁ = ε₂``'s search; then ``refine`` rounds of a 3×3 grid around the best point.
+    refine : int
+        Rounds of the 3×3 refinement of ``(ε₁, ε₂)`` around the best grid point.
     solver : Solver or str
     margin : float
         Margin of the strict ``P ≻ 0`` and ``N ≻ 0``.

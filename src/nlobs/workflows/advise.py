@@ -133,6 +133,15 @@ class CascadeStructure:
 
     The form (1a)–(1b) of Grip, Saberi & Johansen: a linear measured subsystem Σ₂ (the states
     :attr:`linear_states`) driven by the nonlinear Σ₁ (:attr:`nonlinear_states`) through ``z``.
+
+    Attributes
+    ----------
+    linear_states : tuple of str
+        Names of the states ``w`` of the linear measured subsystem.
+    nonlinear_states : tuple of str
+        Names of the other states.
+    drive : tuple of str
+        ``"state: z_i"`` for each linear state driven by a nonlinear one, with its ``z_i``.
     """
 
     linear_states: tuple[str, ...]
@@ -169,6 +178,8 @@ class MethodAdvice:
         The first ``nlobs`` command to run (``None`` when the method does not apply).
     region : str or None
         Where a local verdict holds.
+    rank : int
+        Preference among applicable methods (lower is preferred; not printed).
     """
 
     method: str
@@ -468,6 +479,18 @@ def singularities(model: SymbolicModel, box: Box) -> tuple[Singularity, ...]:
     evaluated at :data:`SAMPLES` seeded points and the corners; one of a single state that is a
     polynomial in it is solved for its zeros inside the box. Then ``f`` itself is evaluated at the
     points (zero input) and a non-finite value is reported with its point.
+
+    Parameters
+    ----------
+    model : SymbolicModel
+        The model (its parameters are substituted).
+    box : Box
+        The state region searched.
+
+    Returns
+    -------
+    tuple of Singularity
+        Empty when none was found.
     """
     subs = model.substituted()
     exprs = [e.subs(subs) for e in (*model.rhs, *model.h)]
@@ -566,6 +589,15 @@ def cascade_structure(model: SymbolicModel) -> CascadeStructure | None:
     some ``z_i`` depends on a state outside ``w`` (the linear part is driven by the nonlinear one),
     and ``w`` is neither empty nor all the states. Subsets are searched largest first, for
     ``n ≤`` :data:`CASCADE_MAX_N` (the Jacobian is built once; each test is a table look-up).
+
+    Parameters
+    ----------
+    model : SymbolicModel
+        A continuous-time model (a discrete-time one gives ``None``).
+
+    Returns
+    -------
+    CascadeStructure or None
     """
     n = model.n
     if n < 2 or n > CASCADE_MAX_N or model.time.is_discrete:

@@ -109,7 +109,17 @@ SAVED_POINTS = 2000
 
 @dataclass(frozen=True)
 class DivergedRun:
-    """A Monte Carlo run whose estimate blew up: its index, when, and how."""
+    """A Monte Carlo run whose estimate blew up: its index, when, and how.
+
+    Attributes
+    ----------
+    run : int
+        Index of the run.
+    time : float
+        First time the error was non-finite or too large (``nan`` when the batch stopped with an error).
+    reason : str
+        What happened, e.g. ``"non-finite estimate"``.
+    """
 
     run: int
     time: float

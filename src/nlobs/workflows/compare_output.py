@@ -179,6 +179,22 @@ def write_comparison(report: ComparisonReport, scenario: Scenario, out: Path, *,
 
     ``plant`` is the compiled model the runs used (the output panel evaluates ``h`` on the truth).
 
+    Parameters
+    ----------
+    report : ComparisonReport
+        The comparison to write.
+    scenario : Scenario
+        The scenario it ran.
+    out : Path
+        Output directory.
+    plant : optional
+        The compiled model the runs used.
+
+    Returns
+    -------
+    tuple of Path
+        The files written, ``compare.json`` last.
+
     Raises
     ------
     OutputError

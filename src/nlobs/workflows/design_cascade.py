@@ -132,6 +132,8 @@ class CascadeDesign:
     theorem1 : Theorem1Check or None
     failure : str
         Empty, or why there is no gain.
+    noise_notes : tuple of str
+        How the noise model of ``method="h2"`` was obtained (empty otherwise).
     """
 
     cascade: CascadeModel
@@ -248,6 +250,13 @@ def cascade_noise_model(cascade: CascadeModel, scenario: Scenario) -> tuple[Nois
       ``∂h/∂x Q_xx ∂h/∂xᵀ`` (``∂h/∂x`` at ``[simulation].x0``, or at the origin without one; a note
       says when it is not constant);
     * **error weight** the identity: the variance of the errors of ``ŵ`` and ``ẑ`` together.
+
+    Parameters
+    ----------
+    cascade : CascadeModel
+        The cascade form of the model.
+    scenario : Scenario
+        The model file, with its ``[sensors.NAME]``, ``[process_noise]`` and ``[simulation]`` tables.
 
     Returns
     -------

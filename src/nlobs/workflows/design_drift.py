@@ -276,8 +276,18 @@ def design_drift_report(
         Remark 2.11 (smallest ``w``, or the given ``w`` checked) or the LMI design.
     region : Box, optional
         Where the checks and constants are evaluated (default ``[−1, 1]ⁿ``).
+    parameters : mapping of str to float, optional
+        Override values of the model's named parameters.
+    w : float, optional
+        ``"vandermonde"``: verify ``K(w)`` at this ``w`` instead of searching the smallest one.
+    w_max : float
+        ``"vandermonde"``: the largest ``w`` the search tries.
     objective : {"min_gain", "min_condition"}
         SDP objective.
+    samples : int
+        Number of sampled points of the region for the Lipschitz estimates.
+    seed : int
+        State of the random generator that draws the sampled points (checks and Lipschitz estimates).
 
     Returns
     -------
@@ -421,6 +431,43 @@ def simulate_drift(
     ``saturation`` (default on): the observer's nonlinear terms are saturated on the design's region
     outside it (Khalil's form, :mod:`nlobs.observers.drift`); while the estimate is in the region it is
     (3.1) itself, so every run the certificate covers is unchanged. ``False``: (3.1) as printed.
+
+    Parameters
+    ----------
+    model : SymbolicModel
+        The plant, and the model the observer is designed for.
+    x0 : array_like, shape (n,) or (*batch, n)
+        Initial plant state(s).
+    x_hat0 : array_like, shape (n,) or (*batch, n)
+        Initial estimate(s).
+    duration : float
+        Simulated time span (seconds).
+    dt : float
+        Integration step (and the sampling period of noisy outputs).
+    u : None, array_like or callable, optional
+        Known input: a constant or a callable ``u(t)``.
+    s, alpha, mu, gamma, method, region : optional
+        As in :func:`design_drift_report` (not used with ``report``).
+    w : float, optional
+        Vandermonde parameter of the simulated gain; default: the gain of the report's certificate.
+    parameters : mapping of str to float, optional
+        Override values of the model's named parameters (design and plant).
+    noise_std : float
+        Standard deviation of the Gaussian noise on every output (``0``: exact outputs).
+    seed : int, optional
+        State of the random generator of the measurement noise (required when ``noise_std > 0``).
+    regularization : float
+        Tikhonov ``ε`` of the observer's solve with ``Q_s`` (``0``: exact).
+    save_every : int
+        Keep every ``save_every``-th step (and always the last one).
+    report : DriftDesignReport, optional
+        A design to reuse instead of calling :func:`design_drift_report`.
+    saturation : bool
+        Saturate the observer's nonlinear terms outside the design's region.
+
+    Returns
+    -------
+    DriftSimulation
     """
     rep = report or design_drift_report(model, s, alpha=alpha, mu=mu, gamma=gamma, method=method, region=region,
                                         parameters=parameters)

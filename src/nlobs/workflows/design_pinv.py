@@ -228,6 +228,32 @@ def design_pinv_report(
     A5 failing is reported (``usable`` false), not raised; A1 failing raises
     :class:`~nlobs.errors.AssumptionViolated` (no ``Q⁺`` exists). The observer is built once and
     kept in the report (:attr:`PinvDesignReport.observer`).
+
+    Parameters
+    ----------
+    model : SymbolicModel
+        Continuous-time, input-affine model.
+    k : array_like, optional
+        Stacked gain vector (``Σ r_j`` entries); default: the high-gain design.
+    theta : float
+        ``θ > 0`` of :class:`~nlobs.synthesis.pinv_gain.HighGain`.
+    placement : {"powers", "multiple"}
+        Root placement of the high-gain design.
+    region : Box, optional
+        Where A1 and A5 are checked (default ``[−1, 1]ⁿ``).
+    parameters : mapping of str to float, optional
+        Override values of the model's named parameters.
+    pinv : {"symbolic", "numeric"}
+        ``Q⁺`` from its simplified closed form, or ``np.linalg.pinv`` of ``Q`` at each evaluation.
+
+    Returns
+    -------
+    PinvDesignReport
+
+    Raises
+    ------
+    AssumptionViolated
+        A1 fails on the region.
     """
     obs = _build_observer(model, k, theta, placement, region, parameters, pinv)
     F = obs.fields
@@ -279,6 +305,37 @@ def simulate_pinv(
     (:meth:`~nlobs.observers.pinv.PinvObserver.with_saturation`, Khalil's form of
     :mod:`nlobs.observers.pinv`; the same as (7) while the estimate is in the region); ``False``
     (default here): (7) as printed.
+
+    Parameters
+    ----------
+    model : SymbolicModel
+        The plant, and the model the observer is built for.
+    x0 : array_like, shape (n,) or (*batch, n)
+        Initial plant state(s).
+    x_hat0 : array_like, shape (n,) or (*batch, n)
+        Initial estimate(s).
+    duration : float
+        Simulated time span (seconds).
+    dt : float
+        Integration step.
+    u : None, array_like, callable or SampledSignal
+        Known input (``None``: zero input).
+    k, theta, placement, region, pinv : optional
+        As in :func:`design_pinv_report` (not used with ``report``).
+    parameters : mapping of str to float, optional
+        Override values of the model's named parameters (plant, and observer without ``report``).
+    measurements : MeasurementGroup or sequence of them, optional
+        Sampled sensors (``None``: exact outputs).
+    seed : int, optional
+        State of the random generator of the measurement noise.
+    report : PinvDesignReport, optional
+        A design whose observer is used.
+    saturation : bool
+        Saturate the observer on its region outside it.
+
+    Returns
+    -------
+    SimulationResult
     """
     obs = report.observer if report is not None else _build_observer(model, k, theta, placement, region, parameters,
                                                                       pinv)

@@ -98,7 +98,15 @@ _COLUMNS = (
 
 @dataclass(frozen=True)
 class GammaSweep:
-    """Result of :func:`gamma_sweep`: one :class:`GammaSweepRow` per ``γ``, largest first."""
+    """Result of :func:`gamma_sweep`: one :class:`GammaSweepRow` per ``γ``, largest first.
+
+    Attributes
+    ----------
+    rows : tuple of GammaSweepRow
+        One per ``γ``, largest first.
+    design : str
+        The design used: ``"LMI (14)"``, ``"LMI (14), (15)"`` or ``"pole placement"``.
+    """
 
     rows: tuple[GammaSweepRow, ...]
     design: str
@@ -160,6 +168,18 @@ def gamma_sweep(
         :func:`~nlobs.synthesis.cascade_gain.design_cascade_gain` (with ``N, gamma_n, region,
         gain_bound, objective``) or :func:`~nlobs.synthesis.cascade_gain.place_cascade_gain`
         (with ``poles``).
+    N : array_like, optional
+        ``"lmi"``: noise input matrix of LMI (15).
+    gamma_n : float, optional
+        ``"lmi"``: ``γn`` of LMI (15); given, it adds that LMI.
+    region : PoleRegion or sequence of PoleRegion, optional
+        ``"lmi"``: pole region(s) for ``𝔄 − Kℭ``.
+    gain_bound : GainBound or float, optional
+        ``"lmi"``: ``‖K‖₂ ≤ κ``.
+    objective : Objective or str
+        ``"lmi"``: the objective of the design.
+    poles : array_like of complex, optional
+        ``"placement"``: pole pattern (default: unit Butterworth).
 
     Returns
     -------

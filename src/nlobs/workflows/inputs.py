@@ -59,6 +59,17 @@ class BoxError(InvalidArgumentError):
 def box_from_numbers(values: Sequence[float], n: int) -> Box:
     """A box from ``lo, hi`` (the same interval for every state) or ``2n`` numbers ``lo1, hi1, lo2, hi2, ...``.
 
+    Parameters
+    ----------
+    values : sequence of float
+        ``2`` or ``2n`` numbers.
+    n : int
+        Number of states.
+
+    Returns
+    -------
+    Box
+
     Raises
     ------
     BoxError
@@ -78,6 +89,18 @@ def box_from_numbers(values: Sequence[float], n: int) -> Box:
 def as_region(box: Sequence[float] | Box | None, n: int) -> Box | None:
     """``None``, a given :class:`~nlobs.geometry.region.Box` (its dimension checked), or :func:`box_from_numbers`.
 
+    Parameters
+    ----------
+    box : sequence of float, Box or None
+        The region, as numbers (see :func:`box_from_numbers`) or a box.
+    n : int
+        Number of states.
+
+    Returns
+    -------
+    Box or None
+        ``None`` when ``box`` is ``None``.
+
     Raises
     ------
     BoxError
@@ -94,6 +117,15 @@ def as_region(box: Sequence[float] | Box | None, n: int) -> Box | None:
 
 def symbolic_model(model: str | Path | SymbolicModel) -> SymbolicModel:
     """The nonlinear model behind ``model``: a model file, a shipped model name, or a loaded model.
+
+    Parameters
+    ----------
+    model : str, Path or SymbolicModel
+        A model file, a shipped model name or a loaded model.
+
+    Returns
+    -------
+    SymbolicModel
 
     Raises
     ------
@@ -129,7 +161,17 @@ def model_units(model: str | Path | Any) -> dict[str, str]:
 
 
 def model_label(model: str | Path | Any) -> str:
-    """How messages name ``model``: a path or shipped name as given, else the model's ``name``."""
+    """How messages name ``model``: a path or shipped name as given, else the model's ``name``.
+
+    Parameters
+    ----------
+    model : str, Path or model
+        A path, a shipped model name or a loaded model.
+
+    Returns
+    -------
+    str
+    """
     if isinstance(model, (str, Path)):
         return str(model)
     return str(getattr(model, "name", type(model).__name__))

@@ -125,6 +125,22 @@ def point_baselines(system: DiscreteUISystem, *, q_d: float, box: tuple[ArrayLik
     evidence, not proof). EKF: ``Q_w = η_w²/(n_w + 2) I``, ``R_v = η_v²/(l + 2) I`` (covariances of the
     uniform distribution in the noise balls), ``Q_d = q_d I``, ``P₀ = δ₀²/(n + 2) I``, Jacobian of ``φ`` by
     central differences.
+
+    Parameters
+    ----------
+    system : DiscreteUISystem
+        The system with unknown inputs.
+    q_d : float
+        Intensity of the EKF's white-noise model of the unknown input ``d`` (``Q_d = q_d I``).
+    box : tuple of (array_like, array_like), optional
+        ``(lo, hi)`` where the Jacobians of ``φ`` are sampled; default ``x0 ± max(10 δ₀, 1)``.
+    seed : int
+        State of the random generator of the sampled Jacobians.
+
+    Returns
+    -------
+    PointBaselines
+        The Lipschitz observer and the EKF (each ``None`` when not set up), with notes saying why.
     """
     from nlobs.errors import CertificateError, DesignInfeasible
     from nlobs.synthesis.discrete_lipschitz import design_discrete_lipschitz_gain
@@ -311,7 +327,24 @@ def monte_carlo(system: DiscreteUISystem, design: SetValuedDesign, unknown_input
 
 
 def plot_study(study: MonteCarloStudy, path: str | Path, *, title: str = "", dt: float = 1.0) -> Path:
-    """Errors of Algorithm 1 against its radii, and the baselines' errors on the same runs (log scale)."""
+    """Errors of Algorithm 1 against its radii, and the baselines' errors on the same runs (log scale).
+
+    Parameters
+    ----------
+    study : MonteCarloStudy
+        The study to plot.
+    path : str or Path
+        Where the figure is saved.
+    title : str
+        Title of the upper panel.
+    dt : float
+        Time step; ``1.0`` labels the axis by step ``k``.
+
+    Returns
+    -------
+    Path
+        The file written.
+    """
     from matplotlib.figure import Figure
 
     res = study.containment
@@ -359,7 +392,18 @@ def _structure_dict(st: StructuralReport | None, why: str) -> dict[str, Any]:
 
 
 def class_check_box(m: DiscreteUIModel) -> tuple[Array, Array]:
-    """Where the function class is checked: the file's ``box``, else ``x0 ± max(10 δ0, 1)``."""
+    """Where the function class is checked: the file's ``box``, else ``x0 ± max(10 δ0, 1)``.
+
+    Parameters
+    ----------
+    m : DiscreteUIModel
+        A loaded set-valued model file.
+
+    Returns
+    -------
+    lo, hi : ndarray
+        The corners of the box.
+    """
     if m.box is not None:
         return m.box
     s = m.system
@@ -512,6 +556,8 @@ class SetValuedStudyReport:
         ``OK`` when the certified balls contained the truth in every run, ``FAILED`` (GUARANTEE VIOLATED)
         otherwise, ``NO_OBSERVER`` from the design.
     message : str
+    violated : str
+        Empty, or the whole ``GUARANTEE VIOLATED`` verdict with its likely cause.
     """
 
     design: SetValuedDesignReport
