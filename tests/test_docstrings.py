@@ -1,11 +1,15 @@
-"""The public API is documented in numpydoc form: every function and class ``import nlobs`` offers that takes
-parameters has a ``Parameters`` (classes: or ``Attributes``) section naming each of them, and so do the methods
-of the one observer protocol. (A missing section, or a parameter the section forgets, fails here.)"""
+"""The public API is documented in numpydoc form: every function and class ``import nlobs`` offers, and every one
+in a module's ``__all__`` (the command line and the paper reproductions aside), that takes parameters has a
+``Parameters`` (classes: or ``Attributes``) section naming each of them, and so do the methods of the one observer
+protocol. Enumerations and exceptions are described in prose. (A missing section, or a parameter the section
+forgets, fails here.)"""
 
 from __future__ import annotations
 
+import enum
 import importlib
 import inspect
+import pkgutil
 import re
 
 import pytest
@@ -15,11 +19,21 @@ from nlobs.observers.base import CorrectingObserver, Observer
 
 
 def _public() -> list[tuple[str, object]]:
-    out = []
+    out, seen = [], set()
     for name, module in sorted(nlobs._LAZY.items()):
         obj = getattr(importlib.import_module(module), name)
         if callable(obj) and not inspect.ismodule(obj):
             out.append((f"{module}.{name}", obj))
+            seen.add(id(obj))
+    for info in pkgutil.walk_packages(nlobs.__path__, "nlobs."):
+        if ".cli" in info.name or ".papers" in info.name:
+            continue
+        mod = importlib.import_module(info.name)
+        for name in getattr(mod, "__all__", []):
+            obj = getattr(mod, name, None)
+            if callable(obj) and id(obj) not in seen and getattr(obj, "__module__", "") == info.name:
+                out.append((f"{info.name}.{name}", obj))
+                seen.add(id(obj))
     out += [(f"Observer.{m}", getattr(Observer, m)) for m in ("init", "rhs", "estimate")]
     out.append(("CorrectingObserver.correct", CorrectingObserver.correct))
     return out
@@ -38,8 +52,8 @@ def test_public_callable_documents_its_parameters(name: str, obj: object) -> Non
         pytest.skip("no signature")
     params = [p for p in sig.parameters.values() if p.name not in ("self", "cls") and not p.name.startswith("_")
               and p.kind not in (p.VAR_POSITIONAL, p.VAR_KEYWORD)]
-    if inspect.isclass(obj) and issubclass(obj, BaseException):
-        params = []  # exceptions: the message and the keywords are described in the class docstring's prose
+    if inspect.isclass(obj) and issubclass(obj, (BaseException, enum.Enum)):
+        params = []  # exceptions and enumerations: described in the class docstring's prose
     if not params:
         return
     doc = inspect.getdoc(obj) or ""
