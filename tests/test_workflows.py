@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from nlobs._io import with_schema
 from nlobs.cli import app
 from nlobs.errors import InvalidArgumentError, OutputError
 from nlobs.workflows import Verdict
@@ -26,7 +27,7 @@ def _json(args: list[str]) -> tuple[int, object, str]:
 def test_analyze_report_is_what_the_cli_prints() -> None:
     rep = analyze_model("isidori-146", box=[-1.0, 1.0])
     code, data, _ = _json(["analyze", "isidori-146", "--box", "-1,1", "--json"])
-    assert code == 0 and data == json.loads(json.dumps(rep.to_dict())) and rep.verdict is Verdict.OK
+    assert code == 0 and data == json.loads(json.dumps(with_schema(rep.to_dict()))) and rep.verdict is Verdict.OK
     res = runner.invoke(app, ["analyze", "isidori-146", "--box", "-1,1"])
     assert res.stdout.strip() == rep.summary().strip()
 

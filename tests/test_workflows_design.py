@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
+from nlobs._io import with_schema
 from nlobs.cli import app
 from nlobs.cli.common import jsonable
 from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, OutputError, StudyFailed
@@ -65,11 +66,11 @@ def test_drift_report_is_what_the_cli_prints(tmp_path: Path) -> None:
     status, stdout, _ = _cli("design", "drift", *args, "--json")
     assert status == 0
     cli = json.loads(stdout)
-    mine = json.loads(json.dumps(jsonable(rep.to_dict())))
+    mine = json.loads(json.dumps(jsonable(with_schema(rep.to_dict()))))
     for d in (cli, mine):  # the wall-clock time of the design is the one thing that differs between runs
         d["design"]["certificate"].pop("seconds", None)
     assert mine == cli
-    assert list(rep.to_dict()) == ["design", "simulation"]
+    assert list(rep.to_dict()) == ["design", "simulation"] and list(cli) == ["schema_version", "design", "simulation"]
     assert list(rep.to_dict()["simulation"]) == ["final_error_norm", "initial_error_norm", "max_error_norm", "files",
                                                  "decay_rate", "bound_ratio", "certified", "gain_certified",
                                                  "certificate_covers_run", "certificate_covered_fraction",
@@ -105,7 +106,7 @@ def test_pinv_report_is_what_the_cli_prints(tmp_path: Path) -> None:
     rep = design_pinv_observer("isidori-146", simulate=req)
     assert rep.verdict is Verdict.OK and rep.message == ""
     status, stdout, _ = _cli("design", "pinv", *args, "--json")
-    assert status == 0 and json.loads(stdout) == json.loads(json.dumps(jsonable(rep.to_dict())))
+    assert status == 0 and json.loads(stdout) == json.loads(json.dumps(jsonable(with_schema(rep.to_dict()))))
     status, stdout, _ = _cli("design", "pinv", *args)
     assert status == 0 and stdout == rep.summary() + "\n"
     assert {p.name for p in rep.files} == {"pinv.png", "pinv.npz"}

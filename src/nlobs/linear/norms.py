@@ -665,8 +665,8 @@ def _system_or_matrices(A: Any, B: Any, C: Any, D: Any, discrete: bool) -> tuple
 
         sys = as_linear_system(A, "A")
         return sys.A, sys.B, sys.C, sys.D, sys.is_discrete
-    if B is None or C is None or D is None:
-        raise InvalidArgumentError("give A, B, C and D, or one system (LinearSystem or python-control) as A")
+    if B is None or C is None:
+        raise InvalidArgumentError("give A, B, C (and D), or one system (LinearSystem or python-control) as A")
     return A, B, C, D, discrete
 
 
