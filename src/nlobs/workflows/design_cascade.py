@@ -291,9 +291,9 @@ def cascade_noise_model(cascade: CascadeModel, scenario: Scenario) -> tuple[Nois
         ws = np.zeros(n_w) if x0 is None else np.asarray(x0, dtype=float)[n_x:]
         u0 = np.zeros(s1.m)
         Hx = s1.h_x(u0, ws, xs)
-        other = s1.h_x(u0, ws + 0.37, xs * 1.3 + 0.21)
+        other = s1.h_x(u0, ws + 0.37, xs * 1.3 + 0.21)  # a second, arbitrary point: is ∂h/∂x constant?
         Wz = Hx @ Q[:n_x, :n_x] @ Hx.T
-        Bw = np.vstack([np.eye(n_w + p_z)])
+        Bw = np.eye(n_w + p_z)
         W = np.zeros((n_w + p_z, n_w + p_z))
         W[:n_w, :n_w] = Q[n_x:, n_x:]
         W[n_w:, n_w:] = Wz
