@@ -41,11 +41,6 @@ __all__ = ["euler_error_deg", "plot_euler_error", "plot_ground_track", "plot_nav
 
 _COLOURS = ("tab:blue", "tab:red")
 
-
-def _NO_TICKS():  # noqa: N802 - a locator class, imported lazily
-    from matplotlib.ticker import NullLocator
-
-    return NullLocator()
 _AXES = ("North", "East", "Down")
 _ANGLES = ("roll", "pitch", "yaw")
 
@@ -162,6 +157,8 @@ def _error_figure(result: SimulationResult, runs: list[SimulationResult], labels
     transient and a small steady-state error are both readable. The comparison run is drawn on top
     with a thinner line, so neither hides the other.
     """
+    from matplotlib.ticker import NullLocator
+
     fig = _new((10.0, 9.0))
     axes = fig.subplots(4, 1, sharex=True, gridspec_kw={"height_ratios": [1.0, 1.0, 1.0, 0.8]})
     t = result.t
@@ -184,7 +181,7 @@ def _error_figure(result: SimulationResult, runs: list[SimulationResult], labels
                                                             int(np.floor(np.log10(max(top, band)))) + 1)]
             ticks = sorted({x for x in ticks} | {-x for x in ticks})
             ax.set_yticks(ticks, [f"{x:.2g}" for x in ticks])
-            ax.yaxis.set_minor_locator(_NO_TICKS())
+            ax.yaxis.set_minor_locator(NullLocator())
         ax.grid(True, alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=8, ncol=2)
     axes[0].set_title(f"{title} (linear within ±{band:.2g} {unit_err}, shaded; logarithmic outside)", fontsize=10)
