@@ -21,7 +21,7 @@ import pytest
 SRC = Path(__file__).resolve().parents[1] / "src" / "nlobs"
 
 CORE = {"errors", "_validate", "_io", "_typing", "_progress", "_lazy", "checks"}
-BELOW_WORKFLOWS = CORE | {"systems", "geometry", "linear", "synthesis", "observers", "simulate", "navigation"}
+BELOW_WORKFLOWS = CORE | {"systems", "geometry", "linear", "synthesis", "observers", "simulate", "navigation", "export"}
 # layer -> nlobs top-level names it may import (besides itself)
 ALLOWED: dict[str, set[str]] = {
     "core": CORE,
@@ -32,6 +32,7 @@ ALLOWED: dict[str, set[str]] = {
     "observers": CORE | {"systems", "geometry", "linear", "synthesis"},
     "simulate": CORE | {"systems", "geometry", "linear", "synthesis", "observers"},
     "navigation": CORE | {"systems", "linear", "synthesis", "observers", "simulate"},
+    "export": CORE | {"systems", "geometry", "linear", "synthesis", "observers", "simulate", "navigation"},
     "workflows": BELOW_WORKFLOWS,
     "papers": BELOW_WORKFLOWS | {"workflows", "api"},
     "api": BELOW_WORKFLOWS | {"workflows"},

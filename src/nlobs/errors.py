@@ -190,3 +190,12 @@ class ProblemTooLarge(InvalidArgumentError):
     that the Riccati path applies, or reduce the model). A subclass of
     :class:`InvalidArgumentError`, so the command line reports it in one line with exit 2.
     """
+
+
+class CompilerError(NlobsError, RuntimeError):
+    """Generated C could not be compiled or loaded: no C compiler was found, or the compiler failed.
+
+    The message names the compiler tried (or the ones looked for) and the first lines of its
+    diagnostics. Install the ``codegen`` extra (``pip install nlobs[codegen]``, a C compiler from the
+    package index), put ``cc`` on the ``PATH``, or name one with the ``NLOBS_CC`` environment variable.
+    """

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import builtins
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Callable
 
 import numpy as np
@@ -66,6 +66,10 @@ class BatchedFunction:
     groups: tuple[int, ...]
     vector: bool
     _fn: Callable[..., Any]
+    #: The compiled entries, row-major, and the argument symbols of each group: what it was compiled
+    #: from (the C export prints the same expressions; ``()`` for a function built otherwise).
+    expressions: tuple[sp.Expr, ...] = field(default=(), repr=False, compare=False)
+    arguments: tuple[tuple[sp.Symbol, ...], ...] = field(default=(), repr=False, compare=False)
 
     def __call__(self, *args: Array) -> Array:
         if len(args) != len(self.groups):
@@ -135,4 +139,6 @@ def compile_matrix(
         groups=tuple(len(g) for g in groups),
         vector=vector,
         _fn=fn,
+        expressions=tuple(entries),
+        arguments=tuple(tuple(g) for g in groups),
     )

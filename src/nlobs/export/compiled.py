@@ -1,0 +1,344 @@
+"""The compiled fast path: an observer whose step runs in its generated C, on the one protocol.
+
+:func:`compile_observer` generates the observer's C (:mod:`nlobs.export.generate`), compiles it
+(:mod:`nlobs.export.compiler`, cached) and loads it with :mod:`ctypes`. The result is an observer
+like any other: :func:`nlobs.simulate.simulate` and :func:`nlobs.simulate.run_observer` take it
+unchanged. It is *self-stepping* (:class:`~nlobs.observers.base.SelfStepping`): one call of
+``P_step_batch`` advances every run of the batch over ``[t, t + h]`` with ``u`` and ``y`` held (RK4
+for a continuous observer, stage for stage as the loops' own RK4 on recorded data), so a
+simulation of a compiled observer equals :func:`~nlobs.simulate.run_observer` of the Python one on
+the same measurements to rounding. In :func:`~nlobs.simulate.simulate` with exact (unsampled)
+outputs the Python observer sees the plant's output at every RK4 stage, the compiled one holds it
+over the step, as a flight computer does.
+
+:meth:`CompiledObserver.run_record` runs one recorded run entirely in C (``P_run``): no Python per
+step (the benchmark's and a deployment's loop).
+
+Errors. A run whose new state is not finite keeps it (the loops report the divergence with its time
+and component). Where the C reports a singular gain matrix (``Q_s`` of (3.1)), the Python observer
+makes that step of that run again and raises its own error (:class:`~nlobs.observers.drift.
+SingularObservabilityError` with the point and time), or, with ``on_singular="nan"``, that run's
+state becomes NaN and the others go on.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import threading
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from nlobs._typing import Array, BoolArray
+from nlobs.errors import DimensionError, NumericalError
+from nlobs.export.compiler import Compiler, build_shared
+from nlobs.export.cprint import c_identifier
+from nlobs.export.generate import generate
+from nlobs.export.program import CProgram, nlobs_version, render
+from nlobs.observers.base import DeferredEstimate
+from nlobs.systems.timebase import TimeBase
+
+__all__ = ["CompiledCorrectingObserver", "CompiledObserver", "compile_observer", "load_library"]
+
+_D = ctypes.POINTER(ctypes.c_double)
+_B = ctypes.POINTER(ctypes.c_ubyte)
+_I = ctypes.POINTER(ctypes.c_int)
+_LOADED: dict[str, Any] = {}
+_LOCK = threading.Lock()
+
+OK, SINGULAR, NONFINITE = 0, 1, 2
+
+
+
+
+def load_library(program: CProgram, *, compiler: Compiler | None = None, strict: bool = False) -> Any:
+    """Compile (or take from the cache) and load ``program``; the library with its argument types set.
+
+    Parameters
+    ----------
+    program : CProgram
+        The generated module.
+    compiler : Compiler, optional
+        Default :func:`nlobs.export.compiler.find_compiler`.
+    strict : bool
+        Compile with every warning an error.
+
+    Raises
+    ------
+    CompilerError
+        No compiler, or it failed.
+    """
+    header, source = render(program, nlobs_version())
+    path = build_shared(source, headers={program.header_name: header}, strict=strict, compiler=compiler)
+    key = str(path)
+    with _LOCK:
+        lib = _LOADED.get(key)
+        if lib is None:
+            lib = ctypes.CDLL(key)
+            P = program.prefix
+            c_long, c_int, c_d = ctypes.c_long, ctypes.c_int, ctypes.c_double
+            sigs: dict[str, tuple[Any, list[Any]]] = {
+                "init": (c_int, [_D, _D]),
+                "rhs": (c_int, [c_d, _D, _D, _D, _D]),
+                "step": (c_int, [c_d, _D, _D, _D, c_d]),
+                "estimate": (None, [_D, _D]),
+                "rhs_batch": (c_long, [c_long, c_d, _D, _D, _D, _D, _I]),
+                "step_batch": (c_long, [c_long, c_d, _D, _D, _D, c_d, _I]),
+                "run": (c_long, [c_long, _D, _D, _D, _D, _B, _D]),
+            }
+            if program.correcting:
+                sigs["correct"] = (c_int, [c_d, _D, _D, _D, _B])
+                sigs["correct_batch"] = (c_long, [c_long, c_d, _D, _D, _D, _B, _I])
+            for name, (res, args) in sigs.items():
+                fn = getattr(lib, f"{P}_{name}")
+                fn.restype = res
+                fn.argtypes = args
+            _LOADED[key] = lib
+    return lib
+
+
+def _ptr(a: Array) -> Any:
+    return a.ctypes.data_as(_D)
+
+
+def _contig(a: Any, shape: tuple[int, ...]) -> Array:
+    return np.array(np.broadcast_to(np.asarray(a, dtype=float), shape), dtype=np.float64, order="C")
+
+
+@dataclass(frozen=True, eq=False)
+class CompiledObserver:
+    """An observer advanced by its generated C (module docstring); satisfies the observer protocol.
+
+    Build it with :func:`compile_observer`.
+
+    Attributes
+    ----------
+    observer : Observer
+        The Python observer it was generated from (names, initial checks, the errors it raises).
+    program : CProgram
+        The generated module.
+    library : ctypes.CDLL
+        The loaded shared library.
+    time : Continuous or Discrete
+        The observer's time base.
+    name : str
+        ``"<observer> [C]"``.
+    """
+
+    observer: Any
+    program: CProgram
+    library: Any = field(repr=False)
+    time: TimeBase = field(init=False)
+    name: str = field(init=False)
+    state_names: tuple[str, ...] | None = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "time", self.observer.time)
+        label = getattr(self.observer, "name", None) or type(self.observer).__name__
+        object.__setattr__(self, "name", f"{label} [C]")
+        names = getattr(self.observer, "state_names", None)
+        object.__setattr__(self, "state_names", tuple(names) if names and len(names) == self.program.n_z else None)
+        P = self.program.prefix
+        object.__setattr__(self, "_fn", {k: getattr(self.library, f"{P}_{k}") for k in (
+            "step_batch", "rhs_batch", "run", "init", "estimate", *(("correct_batch",) if self.program.correcting
+                                                                     else ()))})
+
+    # ------------------------------------------------------------------ sizes
+    @property
+    def n_x(self) -> int:
+        """Estimate dimension."""
+        return self.program.n_x
+
+    @property
+    def n_z(self) -> int:
+        """Flat state dimension of one run."""
+        return self.program.n_z
+
+    # ------------------------------------------------------------------ state conversion
+    def _pack(self, z: Any) -> Array:
+        codec = self.program.codec
+        flat = codec.pack(z) if codec is not None else z
+        return np.ascontiguousarray(flat, dtype=np.float64)
+
+    def _unpack(self, flat: Array) -> Any:
+        codec = self.program.codec
+        return codec.unpack(flat) if codec is not None else flat
+
+    def _io(self, z: Array, u: Array, y: Array) -> tuple[Array, Array, Array, int, tuple[int, ...]]:
+        z = np.asarray(z, dtype=float)
+        if z.ndim < 1 or z.shape[-1] != self.n_z:
+            raise DimensionError(f"{self.name}: state of shape {z.shape}, expected (..., {self.n_z})")
+        batch = z.shape[:-1]
+        n = int(np.prod(batch, dtype=int))
+        zc = np.array(z, dtype=np.float64, order="C", copy=True)
+        uc = _contig(u, (*batch, self.program.n_u)) if self.program.n_u else np.zeros(max(n, 1))
+        yc = _contig(y, (*batch, self.program.n_y)) if self.program.n_y else np.zeros(max(n, 1))
+        return zc, uc, yc, n, batch
+
+    # ------------------------------------------------------------------ protocol
+    def init(self, x_hat0: ArrayLike) -> Array:
+        """The Python observer's ``init`` (its checks included), as the flat C state ``(..., n_z)``."""
+        return self._pack(self.observer.init(x_hat0))
+
+    def estimate(self, z: Array) -> Array:
+        """``x̂`` of the flat state (the Python observer's ``estimate`` of the unpacked state)."""
+        if self.program.codec is None and self.n_z == self.n_x:
+            est = getattr(self.observer, "estimate")
+            return est(z)  # type: ignore[no-any-return]
+        return self.observer.estimate(self._unpack(z))  # type: ignore[no-any-return]
+
+    def rhs(self, t: float, z: Array, u: Array, y: Array) -> Array:
+        """``ż`` or ``z⁺`` of every run, computed in C (``P_rhs_batch``, or ``P_step_batch`` in discrete time)."""
+        if self.program.discrete:
+            return self.step(t, z, u, y, 0.0)
+        zc, uc, yc, n, batch = self._io(z, u, y)
+        dz = np.empty_like(zc)
+        status = np.zeros(max(n, 1), dtype=np.intc)
+        bad = self._fn["rhs_batch"](n, float(t), _ptr(zc), _ptr(uc), _ptr(yc), _ptr(dz), status.ctypes.data_as(_I))
+        if bad:
+            self._failed(status[:n], t, z, u, y, dz, lambda zz, uu, yy: self.observer.rhs(t, zz, uu, yy))
+        return dz
+
+    def step(self, t: float, z: Array, u: Array, y: Array, h: float) -> Array:
+        """The state of every run at ``t + h`` (``u``, ``y`` held), one ``P_step_batch`` call."""
+        zc, uc, yc, n, batch = self._io(z, u, y)
+        status = np.zeros(max(n, 1), dtype=np.intc)
+        bad = self._fn["step_batch"](n, float(t), _ptr(zc), _ptr(uc), _ptr(yc), float(h), status.ctypes.data_as(_I))
+        if bad:
+            self._failed(status[:n], t, z, u, y, zc, lambda zz, uu, yy: self._python_step(t, zz, uu, yy, h))
+        return zc
+
+    def _python_step(self, t: float, z: Array, u: Array, y: Array, h: float) -> Any:
+        from nlobs.simulate.integrators import rk4_step
+
+        obs = self.observer
+        if self.program.discrete:
+            return obs.rhs(t, z, u, y)
+        step = getattr(obs, "step", None)
+        if step is not None:
+            return step(t, z, u, y, h)
+        return rk4_step(lambda tt, zz: obs.rhs(tt, zz, u, y), t, z, h)
+
+    def _failed(self, status: Array, t: float, z: Array, u: Array, y: Array, out: Array, redo: Any) -> None:
+        """Runs whose C step reported a singular matrix: the Python observer's error, or NaN (module docstring)."""
+        flat = out.reshape(-1, self.n_z)
+        singular = np.flatnonzero(status == SINGULAR)
+        if singular.size == 0:
+            return  # non-finite states are kept: the loops report the divergence
+        if getattr(self.observer, "on_singular", "raise") == "nan":
+            flat[singular] = np.nan
+            return
+        r = int(singular[0])
+        zb = np.asarray(z, dtype=float).reshape(-1, self.n_z)[r]
+        ub = np.broadcast_to(np.asarray(u, dtype=float), (*np.shape(z)[:-1], self.program.n_u)).reshape(-1, self.program.n_u)[r]
+        yb = np.broadcast_to(np.asarray(y, dtype=float), (*np.shape(z)[:-1], self.program.n_y)).reshape(-1, self.program.n_y)[r]
+        with np.errstate(all="ignore"):
+            redo(self._unpack(zb), ub, yb)  # raises the Python observer's own error (point, time)
+        raise NumericalError(f"{self.name}: at t = {t:g} the generated C found a singular matrix in run {r} "
+                             "where the Python observer does not (a pivot at rounding level)")
+
+    def run_record(self, t: ArrayLike, x_hat0: ArrayLike, *, u: ArrayLike | None = None,
+                   y: ArrayLike | None = None, sampled: ArrayLike | None = None) -> Array:
+        """One run over a recorded grid, entirely in C (``P_run``); the estimates ``(K, n_x)``.
+
+        Parameters
+        ----------
+        t : array_like, shape (K,)
+            Increasing times.
+        x_hat0 : array_like, shape (n_x,)
+            Initial estimate.
+        u : array_like, shape (K, m), optional
+            Known input at each instant (held over the step).
+        y : array_like, shape (K, p), optional
+            Measurement at each instant (taken where ``sampled``).
+        sampled : array_like of bool, shape (K, p), optional
+            Where ``y`` holds a fresh sample (default: everywhere).
+
+        Raises
+        ------
+        NumericalError
+            A step or correction failed in C (the instant is named).
+        """
+        grid = np.ascontiguousarray(t, dtype=np.float64)
+        if grid.ndim != 1 or grid.size < 1 or np.any(np.diff(grid) <= 0):
+            raise DimensionError("t: expected an increasing one-dimensional grid")
+        K, p = grid.size, self.program
+        z = self.init(np.asarray(x_hat0, dtype=float)).reshape(-1)
+        if z.size != p.n_z:
+            raise DimensionError(f"x_hat0: one run only (a state of {p.n_z} values), got {z.size}")
+        z = np.ascontiguousarray(z)
+        uc = _contig(u if u is not None else np.zeros((K, 0)), (K, p.n_u)) if p.n_u else np.zeros(1)
+        yc = _contig(y if y is not None else np.zeros((K, 0)), (K, p.n_y)) if p.n_y else np.zeros(1)
+        sm = None if sampled is None else np.ascontiguousarray(np.broadcast_to(np.asarray(sampled, dtype=bool),
+                                                                             (K, p.n_y)), dtype=np.uint8)
+        out = np.empty((K, p.n_x))
+        rc = self._fn["run"](K, _ptr(grid), _ptr(z), _ptr(uc), _ptr(yc),
+                             None if sm is None else sm.ctypes.data_as(_B), _ptr(out))
+        if rc:
+            raise NumericalError(f"{self.name}: the step at t = {grid[int(rc) - 1]:g} failed in C")
+        return out
+
+
+@dataclass(frozen=True, eq=False)
+class CompiledCorrectingObserver(CompiledObserver):
+    """A :class:`CompiledObserver` that also corrects at samples (``P_correct_batch``)."""
+
+    def correct(self, t: float, z: Array, u: Array, y: Array, fresh: BoolArray) -> Array:
+        """The corrected state of every run (a non-finite sampled value is skipped by the C, as in Python)."""
+        zc, uc, yc, n, batch = self._io(z, u, y)
+        fr = np.ascontiguousarray(np.asarray(fresh, dtype=bool), dtype=np.uint8)
+        status = np.zeros(max(n, 1), dtype=np.intc)
+        self._fn["correct_batch"](n, float(t), _ptr(zc), _ptr(uc), _ptr(yc), fr.ctypes.data_as(_B),
+                                  status.ctypes.data_as(_I))
+        return zc
+
+
+class _CompiledDeferred(CompiledCorrectingObserver):
+    """A compiled observer whose Python original defers its estimates (one projection per run)."""
+
+    def raw_estimate(self, z: Array) -> Array:
+        """The Python observer's raw estimate of the unpacked state."""
+        return self.observer.raw_estimate(self._unpack(z))  # type: ignore[no-any-return]
+
+    def finish_estimates(self, raw: Array) -> Any:
+        """The Python observer's ``finish_estimates``."""
+        return self.observer.finish_estimates(raw)
+
+
+def compile_observer(observer: Any, *, prefix: str | None = None, compiler: Compiler | None = None,
+                     notes: tuple[tuple[str, str], ...] = ()) -> CompiledObserver:
+    """``observer`` with its step in generated, compiled C (module docstring).
+
+    Parameters
+    ----------
+    observer : Observer
+        One of :func:`nlobs.export.generate.supported`.
+    prefix : str, optional
+        C prefix (default from the observer's class).
+    compiler : Compiler, optional
+        Default :func:`nlobs.export.compiler.find_compiler`.
+    notes : tuple of (str, str)
+        Lines for the generated header.
+
+    Returns
+    -------
+    CompiledObserver
+        Or its correcting form (the observer corrects at samples).
+
+    Raises
+    ------
+    InvalidArgumentError
+        The observer has no C generator.
+    CompilerError
+        No C compiler, or it failed.
+    """
+    program = generate(observer, c_identifier(prefix or f"nlobs_{type(observer).__name__.lower()}"), notes=notes)
+    lib = load_library(program, compiler=compiler)
+    if program.correcting:
+        cls: type[CompiledObserver] = _CompiledDeferred if isinstance(observer, DeferredEstimate) \
+            else CompiledCorrectingObserver
+        return cls(observer, program, lib)
+    return CompiledObserver(observer, program, lib)

@@ -1,0 +1,207 @@
+"""Find a C compiler and build generated C into a shared library, cached by content.
+
+The compiler is, in this order: the command in the ``NLOBS_CC`` environment variable (split like
+a shell word list, e.g. ``"zig cc"``), the Zig toolchain of the ``ziglang`` package (the
+``codegen`` extra: a C compiler from the package index, so a fresh machine needs nothing else),
+then ``cc``, ``gcc`` or ``clang`` on the ``PATH``.
+
+Flags. Every build is ``-std=c99 -O2 -ffp-contract=off``: no fused multiply-adds are formed, so
+the compiled arithmetic rounds like NumPy's (``a*b + c`` is two roundings on both sides). Strict
+builds add ``-Wall -Wextra -Werror -pedantic`` (the tests compile every generated module so).
+
+Cache. A library is stored as ``<cache>/<sha256 of compiler, flags and source>.so`` (``cache``:
+``NLOBS_CACHE``, else ``$XDG_CACHE_HOME/nlobs/c``, else ``~/.cache/nlobs/c``), written atomically:
+compiling the same source again costs nothing, and two processes building one source at once each
+leave a complete file.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+from nlobs.errors import CompilerError
+
+__all__ = ["BASE_FLAGS", "STRICT_FLAGS", "Compiler", "build_shared", "cache_dir", "compile_object", "find_compiler"]
+
+#: Flags of every build (module docstring).
+BASE_FLAGS: tuple[str, ...] = ("-std=c99", "-O2", "-ffp-contract=off")
+#: Added by a strict build: any warning is an error.
+STRICT_FLAGS: tuple[str, ...] = ("-Wall", "-Wextra", "-Werror", "-pedantic")
+
+_TIMEOUT_S = 120.0
+
+
+@dataclass(frozen=True)
+class Compiler:
+    """A C compiler command.
+
+    Attributes
+    ----------
+    command : tuple of str
+        The argument vector that starts it (``("cc",)``, ``(python, "-m", "ziglang", "cc")``).
+    label : str
+        How it was found: ``"NLOBS_CC"``, ``"ziglang"`` or ``"PATH"``.
+    """
+
+    command: tuple[str, ...]
+    label: str
+
+    def describe(self) -> str:
+        """The command as one line (for messages and headers)."""
+        return " ".join(self.command)
+
+
+def _ziglang() -> Compiler | None:
+    try:
+        import ziglang  # noqa: F401  (only whether it is installed)
+    except ImportError:
+        return None
+    return Compiler((sys.executable, "-m", "ziglang", "cc"), "ziglang")
+
+
+def find_compiler() -> Compiler:
+    """The C compiler nlobs uses (module docstring for the order).
+
+    Returns
+    -------
+    Compiler
+
+    Raises
+    ------
+    CompilerError
+        ``NLOBS_CC`` is set but empty or not found, or no compiler is installed.
+    """
+    env = os.environ.get("NLOBS_CC")
+    if env is not None:
+        words = shlex.split(env)
+        if not words or shutil.which(words[0]) is None:
+            raise CompilerError(f"NLOBS_CC={env!r}: no such compiler command")
+        return Compiler(tuple(words), "NLOBS_CC")
+    zig = _ziglang()
+    if zig is not None:
+        return zig
+    for name in ("cc", "gcc", "clang"):
+        path = shutil.which(name)
+        if path is not None:
+            return Compiler((path,), "PATH")
+    raise CompilerError("no C compiler found (looked for NLOBS_CC, the ziglang package, cc, gcc, clang); "
+                        "install one, e.g. pip install 'nlobs[codegen]'")
+
+
+def cache_dir() -> Path:
+    """The folder of compiled libraries (module docstring)."""
+    env = os.environ.get("NLOBS_CACHE")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    return Path(base) / "nlobs" / "c"
+
+
+def _run(compiler: Compiler, args: list[str], what: str) -> None:
+    cmd = [*compiler.command, *args]
+    try:
+        proc = subprocess.run(cmd, capture_output=True, text=True, timeout=_TIMEOUT_S, check=False)
+    except FileNotFoundError as exc:
+        raise CompilerError(f"{compiler.describe()}: cannot start the compiler ({exc})") from None
+    except subprocess.TimeoutExpired:
+        raise CompilerError(f"{compiler.describe()}: compiling {what} took more than {_TIMEOUT_S:g} s") from None
+    if proc.returncode != 0:
+        lines = [ln for ln in (proc.stderr or proc.stdout).splitlines() if ln.strip()]
+        detail = "\n".join(lines[:12])
+        raise CompilerError(f"{compiler.describe()} failed on {what} (exit {proc.returncode}):\n{detail}")
+
+
+def compile_object(source: str, *, strict: bool = True, compiler: Compiler | None = None,
+                   headers: dict[str, str] | None = None) -> None:
+    """Compile ``source`` to an object file in a temporary folder and discard it: a syntax and warning check.
+
+    Parameters
+    ----------
+    source : str
+        C99 source text.
+    strict : bool
+        Add :data:`STRICT_FLAGS` (any warning fails).
+    compiler : Compiler, optional
+        Default :func:`find_compiler`.
+    headers : dict of str to str, optional
+        Header files (name → text) placed beside the source.
+
+    Raises
+    ------
+    CompilerError
+        The compiler reported an error (or a warning, when strict).
+    """
+    cc = compiler or find_compiler()
+    with tempfile.TemporaryDirectory(prefix="nlobs-cc-") as tmp:
+        for name, text in (headers or {}).items():
+            Path(tmp, name).write_text(text, encoding="utf-8")
+        src = Path(tmp, "module.c")
+        src.write_text(source, encoding="utf-8")
+        flags = [*BASE_FLAGS, *(STRICT_FLAGS if strict else ())]
+        _run(cc, [*flags, "-c", str(src), "-o", str(Path(tmp, "module.o"))], "the generated module")
+
+
+def build_shared(source: str, *, headers: dict[str, str] | None = None, strict: bool = False,
+                 compiler: Compiler | None = None) -> Path:
+    """A shared library compiled from ``source`` (from the cache when it was built before).
+
+    Parameters
+    ----------
+    source : str
+        C99 source text.
+    headers : dict of str to str, optional
+        Header files the source includes (name → text); part of the cache key.
+    strict : bool
+        Add :data:`STRICT_FLAGS`.
+    compiler : Compiler, optional
+        Default :func:`find_compiler`.
+
+    Returns
+    -------
+    Path
+        The library file (``.so``; ``.dylib``/``.dll`` names are not used: ctypes loads any name).
+
+    Raises
+    ------
+    CompilerError
+        No compiler, or it failed.
+    OutputError
+        The cache folder cannot be written.
+    """
+    from nlobs.errors import OutputError
+
+    cc = compiler or find_compiler()
+    flags = [*BASE_FLAGS, *(STRICT_FLAGS if strict else ()), "-shared", "-fPIC"]
+    key = hashlib.sha256()
+    for part in (cc.describe(), " ".join(flags), source, *(f"{k}\0{v}" for k, v in sorted((headers or {}).items()))):
+        key.update(part.encode("utf-8"))
+        key.update(b"\0")
+    folder = cache_dir()
+    target = folder / f"{key.hexdigest()[:32]}.so"
+    if target.is_file():
+        return target
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=".build-", dir=folder))
+    except OSError as exc:
+        raise OutputError(f"{folder}: cannot write the compiled-code cache ({exc.strerror or exc}); "
+                          "set NLOBS_CACHE to a writable folder") from None
+    try:
+        for name, text in (headers or {}).items():
+            (tmp / name).write_text(text, encoding="utf-8")
+        src = tmp / "module.c"
+        src.write_text(source, encoding="utf-8")
+        out = tmp / "module.so"
+        _run(cc, [*flags, str(src), "-o", str(out), "-lm"], "the generated module")
+        os.replace(out, target)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return target

@@ -1,0 +1,374 @@
+"""A generated observer as C: :class:`CProgram` and the one C interface every module has.
+
+Every generated module with prefix ``P`` (a C identifier) has these functions (``P.h``); arrays
+are plain ``double`` arrays of one run, no heap, no global state, nothing beyond ``<math.h>``:
+
+* ``int P_init(const double *xhat0, double *z)`` — the observer state from an initial estimate;
+* ``int P_rhs(double t, const double *z, const double *u, const double *y, double *dz)`` — ``ż``
+  (continuous) or ``z⁺`` (discrete);
+* ``int P_step(double t, double *z, const double *u, const double *y, double h)`` — in place, the
+  state at ``t + h`` with ``u`` and ``y`` held over the step: one classical RK4 step of ``P_rhs``
+  (the integrator of :func:`nlobs.simulate.integrators.rk4_step`, stage for stage), the observer's
+  own discretisation where it has one, or ``z ← z⁺`` for a discrete observer (``h`` unused);
+* ``int P_correct(double t, double *z, const double *u, const double *y, const unsigned char *fresh)``
+  — only for observers that correct at samples (``fresh[j]`` non-zero where output ``j`` was just
+  sampled; a non-finite sampled value is a missing sample, skipped);
+* ``void P_estimate(const double *z, double *xhat)``;
+* ``long P_rhs_batch(…, double *dz, int *status)``, ``long P_step_batch(long n, double t, double *z,
+  const double *u, const double *y, double h, int *status)`` (and ``P_correct_batch``) — the same for
+  ``n`` runs stored one after the other, every run advanced whatever the others did: the status of
+  run ``r`` in ``status[r]`` (``status`` may be ``NULL``), the number of failing runs returned;
+* ``long P_run(long K, const double *t, double *z, const double *u, const double *y,
+  const unsigned char *sampled, double *xhat)`` — one run over a record of ``K`` instants, the loop
+  of :func:`nlobs.simulate.run_observer`: at ``t[k]`` a correcting observer corrects where
+  ``sampled[k][j]`` (``NULL``: every output at every instant), any other takes the samples into its
+  held measurement; ``xhat[k]`` is recorded; the observer advances to ``t[k+1]``.
+
+Every ``int`` function returns ``P_OK`` (0), ``P_SINGULAR`` (1: a matrix the observer inverts is
+singular, e.g. ``Q_s(x̂)`` of Dalla Mora, Germani & Manes (3.1)) or ``P_NONFINITE`` (2: the new state
+is not finite); ``P_run`` returns 0 or one plus the index of the instant whose step or correction
+failed (the state is left as it was before it).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from nlobs.export.cprint import PRELUDE, c_double, comment
+
+__all__ = ["CProgram", "StateCodec", "nlobs_version", "render"]
+
+
+def nlobs_version() -> str:
+    """The installed nlobs's version (written into every generated header)."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("nlobs")
+    except PackageNotFoundError:  # a source tree that was never installed
+        return "0+unknown"
+
+
+@dataclass(frozen=True)
+class StateCodec:
+    """How an observer's state maps to the flat ``double`` array of the C module (one run: ``n_z`` values).
+
+    Attributes
+    ----------
+    pack : callable
+        ``pack(z) -> ndarray (..., n_z)``.
+    unpack : callable
+        ``unpack(flat) -> z`` (the observer's own state type).
+    """
+
+    pack: Callable[[Any], Any]
+    unpack: Callable[[Any], Any]
+
+
+@dataclass(frozen=True)
+class CProgram:
+    """An observer's step as C99 source, with what the Python side needs to call it.
+
+    Attributes
+    ----------
+    prefix : str
+        The C identifier in front of every public name.
+    title : str
+        One line: which observer, of which model.
+    n_z, n_x, n_u, n_y : int
+        Sizes of one run's state, estimate, input and measurement.
+    discrete : bool
+        ``P_rhs`` is ``z⁺`` (else ``ż``).
+    correcting : bool
+        The body defines ``P_correct_``.
+    own_step : bool
+        The body defines ``P_step_`` (else ``P_step`` is RK4 on ``P_rhs_``, or ``z ← z⁺``).
+    own_init : bool
+        The body defines ``P_init_`` (else ``z = x̂0``).
+    own_estimate : bool
+        The body defines ``P_estimate_`` (else ``x̂ = z``).
+    body : str
+        Static C definitions: ``int P_rhs_(double t, const double *z, const double *u,
+        const double *y, double *dz)`` and the optional ones above.
+    notes : tuple of (str, str)
+        The header's comment block: model, gain, certificate summary…
+    codec : StateCodec or None
+        For a structured observer state (``None``: the state is the flat array).
+    dt : float or None
+        A discrete observer's period.
+    """
+
+    prefix: str
+    title: str
+    n_z: int
+    n_x: int
+    n_u: int
+    n_y: int
+    discrete: bool
+    body: str
+    correcting: bool = False
+    own_step: bool = False
+    own_init: bool = False
+    own_estimate: bool = False
+    notes: tuple[tuple[str, str], ...] = ()
+    codec: StateCodec | None = field(default=None, repr=False, compare=False)
+    dt: float | None = None
+
+    @property
+    def header_name(self) -> str:
+        """``P.h``."""
+        return f"{self.prefix}.h"
+
+    @property
+    def source_name(self) -> str:
+        """``P.c``."""
+        return f"{self.prefix}.c"
+
+
+def _banner(program: CProgram, version: str) -> str:
+    lines = [program.title, "", f"Generated by nlobs {version}. Do not edit: generate it again from the design.", ""]
+    width = max((len(k) for k, _ in program.notes), default=0)
+    for key, value in program.notes:
+        text = str(value).splitlines() or [""]
+        lines.append(f"{key.ljust(width)} : {text[0]}")
+        lines.extend(f"{' ' * width}   {more}" for more in text[1:])
+    body = "\n".join(f" * {comment(ln)}".rstrip() for ln in lines)
+    return f"/*\n{body}\n */\n"
+
+
+def render(program: CProgram, version: str) -> tuple[str, str]:
+    """The header and the source of ``program`` (module docstring for the interface).
+
+    Parameters
+    ----------
+    program : CProgram
+        What the observer-specific generator produced.
+    version : str
+        nlobs's version, written into the comment block.
+
+    Returns
+    -------
+    (str, str)
+        ``P.h`` and ``P.c``.
+    """
+    P, up = program.prefix, program.prefix.upper()
+    guard = f"{up}_H"
+    api = [
+        f"int {P}_init(const double *xhat0, double *z);",
+        f"int {P}_rhs(double t, const double *z, const double *u, const double *y, double *dz);",
+        f"int {P}_step(double t, double *z, const double *u, const double *y, double h);",
+        f"void {P}_estimate(const double *z, double *xhat);",
+        f"long {P}_rhs_batch(long n, double t, const double *z, const double *u, const double *y, double *dz,\n"
+        f"                   int *status);",
+        f"long {P}_step_batch(long n, double t, double *z, const double *u, const double *y, double h,\n"
+        f"                    int *status);",
+        f"long {P}_run(long K, const double *t, double *z, const double *u, const double *y,\n"
+        f"             const unsigned char *sampled, double *xhat);",
+    ]
+    if program.correcting:
+        api.insert(3, f"int {P}_correct(double t, double *z, const double *u, const double *y, "
+                      "const unsigned char *fresh);")
+        api.append(f"long {P}_correct_batch(long n, double t, double *z, const double *u, const double *y,\n"
+                   f"                      const unsigned char *fresh, int *status);")
+    defines = [
+        f"#define {up}_NZ {program.n_z}   /* observer state, per run */",
+        f"#define {up}_NX {program.n_x}   /* estimate */",
+        f"#define {up}_NU {program.n_u}   /* known input */",
+        f"#define {up}_NY {program.n_y}   /* measurement */",
+        f"#define {up}_DISCRETE {int(program.discrete)}",
+    ]
+    if program.dt is not None:
+        defines.append(f"#define {up}_DT {c_double(program.dt)}")
+    defines += [f"#define {up}_OK 0", f"#define {up}_SINGULAR 1", f"#define {up}_NONFINITE 2"]
+    header = (_banner(program, version) + f"#ifndef {guard}\n#define {guard}\n\n" + "\n".join(defines) + "\n\n"
+              + "\n".join(api) + f"\n\n#endif /* {guard} */\n")
+    prelude = "".join(text for name, text in PRELUDE.items() if f"{name}(" in program.body)
+    src = [_banner(program, version), "#include <math.h>", f'#include "{program.header_name}"', "",
+           prelude, _nz_helpers(P, up), program.body.rstrip() + "\n", _public(program)]
+    return header, "\n".join(src)
+
+
+def _nz_helpers(P: str, up: str) -> str:
+    return f"""\
+/* n is at least 1 in every array below: C has no zero-length arrays */
+#define {up}_NZ1 ({up}_NZ > 0 ? {up}_NZ : 1)
+#define {up}_NU1 ({up}_NU > 0 ? {up}_NU : 1)
+#define {up}_NY1 ({up}_NY > 0 ? {up}_NY : 1)
+
+static int {P}_finite(const double *v, int n)
+{{
+    int i;
+    for (i = 0; i < n; ++i) {{
+        if (!(v[i] - v[i] == 0.0)) {{
+            return 0;
+        }}
+    }}
+    return 1;
+}}
+"""
+
+
+def _public(program: CProgram) -> str:
+    P, up = program.prefix, program.prefix.upper()
+    init = (f"    return {P}_init_(xhat0, z);" if program.own_init else
+            f"    int i;\n    for (i = 0; i < {up}_NZ; ++i) {{\n        z[i] = xhat0[i];\n    }}\n"
+            f"    return {P}_finite(z, {up}_NZ) ? {up}_OK : {up}_NONFINITE;")
+    estimate = (f"    {P}_estimate_(z, xhat);" if program.own_estimate else
+                f"    int i;\n    for (i = 0; i < {up}_NX; ++i) {{\n        xhat[i] = z[i];\n    }}")
+    if program.own_step:
+        step = f"    int s = {P}_step_(t, z, u, y, h);\n    if (s != {up}_OK) {{\n        return s;\n    }}"
+    elif program.discrete:
+        step = (f"    double zn[{up}_NZ1];\n    int i, s;\n    (void)h;\n"
+                f"    s = {P}_rhs_(t, z, u, y, zn);\n    if (s != {up}_OK) {{\n        return s;\n    }}\n"
+                f"    for (i = 0; i < {up}_NZ; ++i) {{\n        z[i] = zn[i];\n    }}")
+    else:
+        step = f"""\
+    double k1[{up}_NZ1], k2[{up}_NZ1], k3[{up}_NZ1], k4[{up}_NZ1], w[{up}_NZ1];
+    const double hh = 0.5 * h, h6 = h / 6.0;
+    int i, s;
+    /* classical RK4 with u and y held, stage for stage as nlobs.simulate.integrators.rk4_step */
+    if ((s = {P}_rhs_(t, z, u, y, k1)) != {up}_OK) {{
+        return s;
+    }}
+    for (i = 0; i < {up}_NZ; ++i) {{
+        w[i] = z[i] + hh * k1[i];
+    }}
+    if ((s = {P}_rhs_(t + hh, w, u, y, k2)) != {up}_OK) {{
+        return s;
+    }}
+    for (i = 0; i < {up}_NZ; ++i) {{
+        w[i] = z[i] + hh * k2[i];
+    }}
+    if ((s = {P}_rhs_(t + hh, w, u, y, k3)) != {up}_OK) {{
+        return s;
+    }}
+    for (i = 0; i < {up}_NZ; ++i) {{
+        w[i] = z[i] + h * k3[i];
+    }}
+    if ((s = {P}_rhs_(t + h, w, u, y, k4)) != {up}_OK) {{
+        return s;
+    }}
+    for (i = 0; i < {up}_NZ; ++i) {{
+        z[i] = z[i] + h6 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
+    }}"""
+    out = [f"""\
+int {P}_init(const double *xhat0, double *z)
+{{
+{init}
+}}
+
+int {P}_rhs(double t, const double *z, const double *u, const double *y, double *dz)
+{{
+    int s = {P}_rhs_(t, z, u, y, dz);
+    if (s != {up}_OK) {{
+        return s;
+    }}
+    return {P}_finite(dz, {up}_NZ) ? {up}_OK : {up}_NONFINITE;
+}}
+
+int {P}_step(double t, double *z, const double *u, const double *y, double h)
+{{
+{step}
+    return {P}_finite(z, {up}_NZ) ? {up}_OK : {up}_NONFINITE;
+}}
+
+void {P}_estimate(const double *z, double *xhat)
+{{
+{estimate}
+}}
+
+long {P}_rhs_batch(long n, double t, const double *z, const double *u, const double *y, double *dz, int *status)
+{{
+    long r, bad = 0;
+    for (r = 0; r < n; ++r) {{
+        int s = {P}_rhs(t, z + r * {up}_NZ, u + r * {up}_NU, y + r * {up}_NY, dz + r * {up}_NZ);
+        bad += (s != {up}_OK);
+        if (status != 0) {{
+            status[r] = s;
+        }}
+    }}
+    return bad;
+}}
+
+long {P}_step_batch(long n, double t, double *z, const double *u, const double *y, double h, int *status)
+{{
+    long r, bad = 0;
+    for (r = 0; r < n; ++r) {{
+        int s = {P}_step(t, z + r * {up}_NZ, u + r * {up}_NU, y + r * {up}_NY, h);
+        bad += (s != {up}_OK);
+        if (status != 0) {{
+            status[r] = s;
+        }}
+    }}
+    return bad;
+}}
+"""]
+    if program.correcting:
+        out.append(f"""\
+int {P}_correct(double t, double *z, const double *u, const double *y, const unsigned char *fresh)
+{{
+    int s = {P}_correct_(t, z, u, y, fresh);
+    if (s != {up}_OK) {{
+        return s;
+    }}
+    return {P}_finite(z, {up}_NZ) ? {up}_OK : {up}_NONFINITE;
+}}
+
+long {P}_correct_batch(long n, double t, double *z, const double *u, const double *y,
+                      const unsigned char *fresh, int *status)
+{{
+    long r, bad = 0;
+    for (r = 0; r < n; ++r) {{
+        int s = {P}_correct(t, z + r * {up}_NZ, u + r * {up}_NU, y + r * {up}_NY, fresh);
+        bad += (s != {up}_OK);
+        if (status != 0) {{
+            status[r] = s;
+        }}
+    }}
+    return bad;
+}}
+""")
+    if program.correcting:
+        sample = f"""\
+            if (any && {P}_correct(t[k], z, uk, y + k * {up}_NY, fresh) != {up}_OK) {{
+                return k + 1;
+            }}"""
+    else:
+        sample = f"""\
+            for (j = 0; j < {up}_NY; ++j) {{
+                if (fresh[j]) {{
+                    held[j] = y[k * {up}_NY + j];
+                }}
+            }}"""
+    out.append(f"""\
+long {P}_run(long K, const double *t, double *z, const double *u, const double *y,
+             const unsigned char *sampled, double *xhat)
+{{
+    double held[{up}_NY1];
+    unsigned char fresh[{up}_NY1];
+    long k;
+    int j, any;
+    for (j = 0; j < {up}_NY1; ++j) {{
+        held[j] = NAN;
+    }}
+    for (k = 0; k < K; ++k) {{
+        const double *uk = u + k * {up}_NU;
+        any = 0;
+        for (j = 0; j < {up}_NY; ++j) {{
+            fresh[j] = (unsigned char)(sampled == 0 ? 1 : (sampled[k * {up}_NY + j] != 0));
+            any = any || fresh[j];
+        }}
+        if (any) {{
+{sample}
+        }}
+        {P}_estimate(z, xhat + k * {up}_NX);
+        if (k + 1 < K && {P}_step(t[k], z, uk, held, t[k + 1] - t[k]) != {up}_OK) {{
+            return k + 1;
+        }}
+    }}
+    return 0;
+}}
+""")
+    return "\n".join(out)
