@@ -240,6 +240,9 @@ def version_cmd() -> None:
 from nlobs.cli.advise import advise_cmd  # noqa: E402 - registered after the app exists
 
 app.command("advise")(advise_cmd)
+from nlobs.cli.export import export_cmd  # noqa: E402 - registered after the app exists
+
+app.command("export")(export_cmd)
 app.add_typer(design_app, name="design")
 app.add_typer(simulate_app, name="simulate")
 

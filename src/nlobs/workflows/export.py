@@ -1,0 +1,166 @@
+"""``nlobs export``: design an observer for a model and write its step as dependency-free C99.
+
+:func:`export_model_observer` runs the design the matching ``nlobs design`` command runs (the same
+defaults, the model file's region), takes the observer that design built and writes it with
+:func:`nlobs.export.export_observer`. The header's comment block carries what the certificate says:
+the verdict, the region it was verified on, the certificate's own summary (its checks and margins).
+A design that is not usable is still written, with that in the header, and the report's verdict is
+``FAILED`` (exit status 1): the code exists, the guarantee does not.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from nlobs._io import with_schema
+from nlobs.errors import InvalidArgumentError
+from nlobs.workflows.verdict import Verdict
+
+__all__ = ["EXPORTABLE", "ExportReport", "export_model_observer"]
+
+#: The observers ``nlobs export --observer`` designs and writes.
+EXPORTABLE: tuple[str, ...] = ("drift", "pinv")
+LANGUAGES: tuple[str, ...] = ("c",)
+
+
+@dataclass(frozen=True)
+class ExportReport:
+    """What :func:`export_model_observer` designed and wrote.
+
+    Attributes
+    ----------
+    model : str
+        The model's name.
+    observer : str
+        One of :data:`EXPORTABLE`.
+    certified : bool
+        The design is usable (its certificate verified and its premises checked on the region).
+    certificate : str
+        The certificate's summary, as written into the header.
+    files : tuple of Path
+        The header and the source.
+    exported : Any
+        The :class:`nlobs.export.ExportResult`.
+    verdict : Verdict
+        ``OK`` when certified, else ``FAILED``.
+    message : str
+        Why not, when ``FAILED``.
+    """
+
+    model: str
+    observer: str
+    certified: bool
+    certificate: str
+    files: tuple[Path, ...]
+    exported: Any = field(repr=False)
+    verdict: Verdict = Verdict.OK
+    message: str = ""
+
+    def summary(self) -> str:
+        """What was written, and on which certificate."""
+        ex = self.exported
+        lines = [f"{self.model}: {ex.program.title} written as C99",
+                 *(f"  {p}" for p in self.files),
+                 f"  compiled with -Wall -Wextra -Werror -std=c99 -pedantic by {ex.checked_with}" if ex.checked_with
+                 else "  not compiled: no C compiler was found (pip install 'nlobs[codegen]')",
+                 f"  certificate: {'verified' if self.certified else 'NOT usable'}"]
+        lines += ["    " + ln for ln in self.certificate.splitlines()]
+        if self.message:
+            lines.append(self.message)
+        return "\n".join(lines)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready view (``schema_version`` first)."""
+        return with_schema({"model": self.model, "observer": self.observer, "certified": self.certified,
+                            "certificate": self.certificate, "files": [str(p) for p in self.files],
+                            "module": self.exported.to_dict(), "verdict": self.verdict.value,
+                            "message": self.message})
+
+
+def _drift(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, str, str]:
+    from nlobs.workflows.design_drift import design_drift_report
+    from nlobs.workflows.inputs import as_region
+
+    region = None if box is None else as_region(box, model.n)
+    rep = design_drift_report(model, region=region)
+    sat = True if saturation is None else saturation
+    obs = rep.observer(saturation=sat)
+    text = "\n".join([f"Dalla Mora, Germani & Manes, Theorem 3.1 on {rep.region.describe()}",
+                      rep.certificate.summary(),
+                      f"bound (3.2): {rep.bound.describe()}"])
+    why = "" if rep.usable else "; ".join(rep.reasons)
+    return obs, rep.usable, text, why
+
+
+def _pinv(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, str, str]:
+    from nlobs.workflows.design_pinv import design_pinv_report
+    from nlobs.workflows.inputs import as_region
+
+    region = None if box is None else as_region(box, model.n)
+    rep = design_pinv_report(model, None, region=region)
+    obs = rep.observer
+    sat = (box is not None) if saturation is None else saturation
+    if sat:
+        obs = obs.with_saturation(obs.region)
+    lines = [f"Röbenack, Theorem 4.1 / Corollary 4.1 on {obs.region.describe()}"]
+    lines += [f"{c.name}: {'passed' if c.passed else 'FAILED'}: {c.evidence}" for c in rep.checks]
+    lines += [f"{h['name']}: {h['status']}" for h in rep.hypotheses]
+    why = "" if rep.usable else "the design is not usable: " + "; ".join(rep.missing or ("a check failed",))
+    return obs, rep.usable, "\n".join(lines), why
+
+
+def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: str = "c",
+                          box: Sequence[float] | Any | None = None, saturation: bool | None = None,
+                          prefix: str | None = None) -> ExportReport:
+    """Design ``observer`` for ``model`` and write its C module to ``out`` (``nlobs export``).
+
+    Parameters
+    ----------
+    model : str, Path or SymbolicModel
+        A model file or shipped model name.
+    observer : str
+        One of :data:`EXPORTABLE`.
+    out : str or Path
+        The folder of ``P.h`` and ``P.c``.
+    lang : str
+        ``"c"`` (the only language).
+    box : sequence of float or Box, optional
+        The design's region (as for ``nlobs design``).
+    saturation : bool, optional
+        Khalil's saturated form outside the region (default: the design command's default).
+    prefix : str, optional
+        The C prefix (default from the model's name).
+
+    Returns
+    -------
+    ExportReport
+
+    Raises
+    ------
+    InvalidArgumentError
+        Unknown observer or language.
+    CompilerError
+        The strict compilation of the generated module failed (nothing is written).
+    OutputError
+        ``out`` cannot be written.
+    """
+    from nlobs.export import export_observer
+    from nlobs.workflows.inputs import symbolic_model
+
+    if lang not in LANGUAGES:
+        raise InvalidArgumentError(f"--lang: expected one of {', '.join(LANGUAGES)}, got {lang!r}")
+    makers = {"drift": _drift, "pinv": _pinv}
+    if observer not in makers:
+        raise InvalidArgumentError(f"--observer: expected one of {', '.join(EXPORTABLE)}, got {observer!r}")
+    m = symbolic_model(model)
+    obs, certified, text, why = makers[observer](m, box, saturation)
+    notes = (("certificate", ("verified" if certified else "NOT USABLE") + (f" ({why})" if why else "")),
+             ("certified on", text))
+    res = export_observer(obs, out, prefix=prefix or f"{m.name}_{observer}", notes=notes)
+    verdict = Verdict.OK if certified else Verdict.FAILED
+    msg = "" if certified else f"{m.name}: the {observer} design is not certified ({why}); the code was written " \
+                               "with that in its header"
+    return ExportReport(m.name, observer, certified, text, (res.header, res.source), res, verdict, msg)
