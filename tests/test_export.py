@@ -239,3 +239,47 @@ def test_compiler_failure_is_a_typed_error(monkeypatch) -> None:
     monkeypatch.delenv("NLOBS_CC")
     with pytest.raises(CompilerError, match="failed"):
         compile_object("int f(void) { return x; }\n", strict=True)
+
+
+# ----------------------------------------------------------------------------- workflow, command line
+def test_cli_export_writes_certified_module_and_refuses_bad_options(tmp_path) -> None:
+    import json
+
+    from typer.testing import CliRunner
+
+    from nlobs.cli import app
+
+    runner = CliRunner()
+    r = runner.invoke(app, ["export", "duffing-actuator", "--observer", "drift", "--out", str(tmp_path / "d"), "--json"])
+    assert r.exit_code == 0, r.output
+    d = json.loads(r.output)
+    assert d["schema_version"] == 1 and d["certified"] is True and d["module"]["n_x"] == 4
+    header = (tmp_path / "d" / "duffing_actuator_drift.h").read_text()
+    assert "certificate" in header and "verified" in header and "(2.17) scaled" in header
+    assert "Theorem 3.1 on [-1, 1]" in header
+    r = runner.invoke(app, ["export", "isidori-146", "--observer", "pinv", "--out", str(tmp_path / "p")])
+    assert r.exit_code == 0 and "A2: not checked" in r.output
+    for args, text in ((["--observer", "bogus"], "--observer: expected one of"),
+                       (["--observer", "drift", "--lang", "fortran"], "--lang: expected one of c"),
+                       (["--observer", "drift", "--saturation", "maybe"], "--saturation: expected 'on' or 'off'")):
+        r = runner.invoke(app, ["export", "duffing-actuator", *args, "--out", str(tmp_path / "x")])
+        assert r.exit_code == 2 and text in r.output and "Traceback" not in r.output
+    blocker = tmp_path / "blocker"
+    blocker.write_text("")
+    r = runner.invoke(app, ["export", "duffing-actuator", "--observer", "drift", "--out", str(blocker)])
+    assert r.exit_code == 2 and "cannot write" in r.output
+
+
+def test_compare_backend_c_gives_the_python_numbers() -> None:
+    from nlobs.workflows.compare import compare_observers
+
+    kw = dict(observers=["drift", "pinv", "luenberger"], runs=3, duration=3.0, dt=1e-3, rate=100.0, noise_std=0.01)
+    a = compare_observers("pendulum", **kw)
+    b = compare_observers("pendulum", backend="c", **kw)
+    for name in kw["observers"]:
+        oa, ob = a.observers[name], b.observers[name]
+        assert oa.skipped is None and ob.skipped is None
+        assert np.allclose(ob.rms_error_all, oa.rms_error_all, rtol=1e-9, atol=0) and "generated C" in ob.description
+        assert np.allclose(ob.result.x_hat, oa.result.x_hat, rtol=0, atol=1e-11 * np.abs(oa.result.x_hat).max())
+    with pytest.raises(InvalidArgumentError, match="--backend"):
+        compare_observers("pendulum", backend="fortran", **kw)

@@ -70,6 +70,7 @@ if TYPE_CHECKING:
         UnknownInputEKF,
     )
     from nlobs import simulate
+    from nlobs.export import compile_observer, export_observer
     from nlobs.simulate import SimulationResult, run_observer
     from nlobs.synthesis import (
         Certificate,
@@ -106,6 +107,7 @@ _LAZY: dict[str, str] = {
     **dict.fromkeys(("AssumptionViolated", "CertificateError", "DesignError", "DesignInfeasible", "DimensionError",
                      "ModelError", "ModelFileError", "NlobsError", "NonFiniteError", "SimulationDiverged",
                      "UnknownNameError"), "nlobs.errors"),
+    **dict.fromkeys(("compile_observer", "export_observer"), "nlobs.export"),
     "ExtendedKalmanFilter": "nlobs.navigation.ekf",
     "GnssInsObserver": "nlobs.navigation.gnss_ins",
     "ScheduledGnssInsObserver": "nlobs.navigation.schedule",

@@ -79,6 +79,9 @@ def compare_cmd(
     alpha: Annotated[float, typer.Option(help="Luenberger gain: poles left of −alpha.")] = 1.0,
     as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
     out: Annotated[Path | None, typer.Option("--out", help="Folder for compare.json, plots, .npz and .csv.")] = None,
+    backend: Annotated[str, typer.Option(
+        "--backend", help="'python' (default) or 'c': the observers with a C generator run as generated, "
+                          "compiled C (the Kalman filters stay in Python).")] = "python",
 ) -> None:
     """Compare observers (drift, pinv, luenberger, cascade) with an EKF and a UKF on the same noisy runs."""
     from nlobs.workflows.compare import compare_observers
@@ -94,7 +97,7 @@ def compare_cmd(
             x_hat0=parse_floats("--xhat0", xhat0), initial_error_std=_one_or_many("--initial-error-std", initial_error_std),
             box=box_numbers("--box", box), settle=settle, rate=rate, noise_std=_one_or_many("--noise-std", noise_std),
             inputs=_inputs(input_), process_noise=pn, filter_q=fq, alpha=alpha, out=out, progress=None if not as_json else False,
-            name=model)
+            name=model, backend=backend)
     except ModelFileError as exc:
         fail(str(exc))
     except OutputError as exc:

@@ -237,8 +237,8 @@ class CompiledObserver:
         yb = np.broadcast_to(np.asarray(y, dtype=float), (*np.shape(z)[:-1], self.program.n_y)).reshape(-1, self.program.n_y)[r]
         with np.errstate(all="ignore"):
             redo(self._unpack(zb), ub, yb)  # raises the Python observer's own error (point, time)
-        raise NumericalError(f"{self.name}: at t = {t:g} the generated C found a singular matrix in run {r} "
-                             "where the Python observer does not (a pivot at rounding level)")
+        raise NumericalError(f"{self.name}: at t = {t:g} the generated C refused the step of run {r} "
+                             f"({self.program.status1}) where the Python observer does not")
 
     def run_record(self, t: ArrayLike, x_hat0: ArrayLike, *, u: ArrayLike | None = None,
                    y: ArrayLike | None = None, sampled: ArrayLike | None = None) -> Array:
@@ -284,7 +284,17 @@ class CompiledObserver:
 
 @dataclass(frozen=True, eq=False)
 class CompiledCorrectingObserver(CompiledObserver):
-    """A :class:`CompiledObserver` that also corrects at samples (``P_correct_batch``)."""
+    """A :class:`CompiledObserver` that also corrects at samples (``P_correct_batch``).
+
+    Attributes
+    ----------
+    observer : CorrectingObserver
+        The Python observer it was generated from.
+    program : CProgram
+        The generated module (``correcting`` is true).
+    library : ctypes.CDLL
+        The loaded shared library.
+    """
 
     def correct(self, t: float, z: Array, u: Array, y: Array, fresh: BoolArray) -> Array:
         """The corrected state of every run (a non-finite sampled value is skipped by the C, as in Python)."""

@@ -98,6 +98,8 @@ class CProgram:
         For a structured observer state (``None``: the state is the flat array).
     dt : float or None
         A discrete observer's period.
+    status1 : str
+        What status 1 (``P_SINGULAR``) means for this module (messages).
     """
 
     prefix: str
@@ -115,6 +117,7 @@ class CProgram:
     notes: tuple[tuple[str, str], ...] = ()
     codec: StateCodec | None = field(default=None, repr=False, compare=False)
     dt: float | None = None
+    status1: str = "a singular matrix, e.g. a pivot at rounding level"
 
     @property
     def header_name(self) -> str:

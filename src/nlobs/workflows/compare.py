@@ -95,6 +95,8 @@ __all__ = [
 
 #: The observers ``nlobs simulate MODEL`` knows, in the order they are reported.
 OBSERVERS: tuple[str, ...] = ("drift", "pinv", "luenberger", "cascade", "ekf", "ukf")
+#: Where the observers' steps run: NumPy, or their generated C (``--backend c``).
+BACKENDS: tuple[str, ...] = ("python", "c")
 #: A run diverged when its error exceeds this many times ``1 + max‖x‖`` of its truth (or is not finite).
 BLOWUP = 1e6
 #: Process-noise spectral density a Kalman filter assumes per state when the model has no ``[process_noise]``.
@@ -715,6 +717,7 @@ def compare_observers(
     out: Path | None = None,
     progress: bool | None = None,
     name: str | None = None,
+    backend: str = "python",
 ) -> ComparisonReport:
     """Run the chosen observers on the same noisy, multi-rate Monte Carlo runs of a model (module docstring).
 
@@ -758,6 +761,11 @@ def compare_observers(
         A progress bar over observers and steps (``None``: on a terminal, for long runs).
     name : str, optional
         How messages name the model.
+    backend : {"python", "c"}
+        ``"c"``: every observer that has a C generator (drift, pinv, luenberger, cascade) runs as its
+        generated, compiled C (:func:`nlobs.export.compile_observer`; the same estimates to rounding
+        when the outputs are sampled; with exact outputs it holds ``y`` over each step); the Kalman
+        filters stay in Python.
 
     Returns
     -------
@@ -786,13 +794,15 @@ def compare_observers(
     if len(set(chosen)) != len(chosen):
         raise InvalidArgumentError(f"--observer: {', '.join(chosen)} names an observer twice")
     alpha = positive("alpha", alpha)
+    if backend not in BACKENDS:
+        raise InvalidArgumentError(f"--backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
     s = _setup(scenario, label, runs=runs, duration=duration, dt=dt, seed=seed, x0=x0, x_hat0=x_hat0,
                initial_error_std=initial_error_std, box=box, settle=settle, rate=rate, noise_std=noise_std,
                inputs=inputs, process_noise=process_noise)
     prepare_out(out)
     outcomes: dict[str, ObserverOutcome] = {}
     for name_ in chosen:
-        outcomes[name_] = _run_one(name_, s, alpha, filter_q, progress)
+        outcomes[name_] = _run_one(name_, s, alpha, filter_q, progress, backend)
     files: tuple[Path, ...] = ()
     report = _report(s, outcomes, files)
     if out is not None:
@@ -803,7 +813,17 @@ def compare_observers(
     return report
 
 
-def _run_one(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None, progress: bool | None) -> ObserverOutcome:
+def _compiled(obs: Any, desc: str) -> tuple[Any, str]:
+    """``obs`` as its generated C where it has a generator (``--backend c``), else itself."""
+    from nlobs.export import compile_observer, supported
+
+    if type(obs).__name__ not in supported():
+        return obs, desc
+    return compile_observer(obs), desc + "; generated C"
+
+
+def _run_one(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None, progress: bool | None,
+             backend: str = "python") -> ObserverOutcome:
     try:
         if name == "cascade":
             obs, desc, cert = _design_cascade(s)
@@ -817,6 +837,8 @@ def _run_one(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None, pro
             obs, desc, cert = _design_kalman(s, name, filter_q)
     except _Skip as why:
         return ObserverOutcome(name, str(why))
+    if backend == "c":
+        obs, desc = _compiled(obs, desc)
     x0 = np.broadcast_to(s.x0, (s.runs, s.scenario.model.n))
     try:
         res = simulate(s.plant, obs, x0, s.x_hat0, duration=s.duration, dt=s.dt, u=s.u,
