@@ -208,3 +208,21 @@ def test_unsupported_configurations_are_refused(flight):
         generate_gnss_ins(GnssInsObserver(K, PAPER_GAMMA, flight.m_n, flight.g_n), "x")
     with pytest.raises(InvalidArgumentError, match="imu_period"):
         generate_gnss_ins(GnssInsObserver.paper(flight.m_n, flight.g_n), "x", imu_period=-1.0)
+
+
+@pytest.mark.parametrize("kind", ("paper", "position-only"))
+def test_c_init_and_raw_estimate_match_the_python_observer(kind, flight, noise_optimal_K):
+    import ctypes
+
+    obs = _observer(kind, flight, noise_optimal_K)
+    cobs = compile_observer(obs)
+    P, lib = cobs.program.prefix, cobs.library
+    x0 = np.concatenate([[1.0, -2.0, 3.0], [4.0, 5.0, -6.0], rot_z(0.4).ravel()])
+    z = np.empty(cobs.n_z)
+    ptr = ctypes.POINTER(ctypes.c_double)
+    assert getattr(lib, f"{P}_init")(x0.ctypes.data_as(ptr), z.ctypes.data_as(ptr)) == 0
+    np.testing.assert_array_equal(z, cobs.init(x0))
+    est = np.empty(15)
+    getattr(lib, f"{P}_estimate")(z.ctypes.data_as(ptr), est.ctypes.data_as(ptr))
+    np.testing.assert_array_equal(est, obs.raw_estimate(obs.init(x0)))
+    np.testing.assert_array_equal(cobs.raw_estimate(z), est)
