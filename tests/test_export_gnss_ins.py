@@ -193,7 +193,7 @@ def test_another_imu_period_is_refused_by_the_step_and_compiled_for_on_request(f
     traj = make_traj(0, 10.0, 200.0)
     data = generate_sensors(traj, imu_rate_hz=200.0, gnss_rate_hz=5.0, noise=DEMO_NOISE, seed=2)
     R0 = traj.R[0] @ rot_z(np.radians(30.0))
-    with pytest.raises(NumericalError):  # generated for 100 Hz: P_step returns status 1 at 200 Hz
+    with pytest.raises(NumericalError, match="IMU period"):  # generated for 100 Hz: P_step returns status 1 at 200 Hz
         run_navigation(compile_observer(obs), data, traj.p[0], traj.v[0], R0)
     c = run_navigation(compile_gnss_ins(obs, imu_period=1.0 / 200.0), data, traj.p[0], traj.v[0], R0)
     _check_equal(c, run_navigation(obs, data, traj.p[0], traj.v[0], R0))

@@ -319,7 +319,7 @@ class _CompiledDeferred(CompiledCorrectingObserver):
 
 
 def compile_observer(observer: Any, *, prefix: str | None = None, compiler: Compiler | None = None,
-                     notes: tuple[tuple[str, str], ...] = ()) -> CompiledObserver:
+                     notes: tuple[tuple[str, str], ...] = (), options: dict[str, Any] | None = None) -> CompiledObserver:
     """``observer`` with its step in generated, compiled C (module docstring).
 
     Parameters
@@ -332,6 +332,8 @@ def compile_observer(observer: Any, *, prefix: str | None = None, compiler: Comp
         Default :func:`nlobs.export.compiler.find_compiler`.
     notes : tuple of (str, str)
         Lines for the generated header.
+    options : dict, optional
+        Keyword arguments of the observer's generator (the GNSS/INS observer: ``imu_period``).
 
     Returns
     -------
@@ -345,7 +347,8 @@ def compile_observer(observer: Any, *, prefix: str | None = None, compiler: Comp
     CompilerError
         No C compiler, or it failed.
     """
-    program = generate(observer, c_identifier(prefix or f"nlobs_{type(observer).__name__.lower()}"), notes=notes)
+    program = generate(observer, c_identifier(prefix or f"nlobs_{type(observer).__name__.lower()}"), notes=notes,
+                       options=options)
     lib = load_library(program, compiler=compiler)
     if program.correcting:
         cls: type[CompiledObserver] = _CompiledDeferred if isinstance(observer, DeferredEstimate) \

@@ -464,10 +464,10 @@ def _abscissa(M: Any, discrete: bool) -> float:
 
 
 def _lazy(module: str, name: str) -> Any:
-    def gen(obs: Any, prefix: str) -> Any:
+    def gen(obs: Any, prefix: str, **options: Any) -> Any:
         import importlib
 
-        return getattr(importlib.import_module(module), name)(obs, prefix)
+        return getattr(importlib.import_module(module), name)(obs, prefix, **options)
 
     return gen
 
@@ -481,12 +481,17 @@ def _generators() -> dict[str, Any]:
             "CascadeObserver": _lazy("nlobs.export.cascade", "generate_cascade")}
 
 
+#: Observer classes whose generator takes options (``generate(..., options=)``).
+_TAKES_OPTIONS = frozenset({"GnssInsObserver", "ScheduledGnssInsObserver"})
+
+
 def supported() -> tuple[str, ...]:
     """Names of the observer classes this module generates C for."""
     return tuple(_generators())
 
 
-def generate(observer: Any, prefix: str, *, notes: tuple[tuple[str, str], ...] = ()) -> CProgram:
+def generate(observer: Any, prefix: str, *, notes: tuple[tuple[str, str], ...] = (),
+             options: dict[str, Any] | None = None) -> CProgram:
     """The :class:`CProgram` of ``observer``.
 
     Parameters
@@ -497,6 +502,8 @@ def generate(observer: Any, prefix: str, *, notes: tuple[tuple[str, str], ...] =
         A C identifier (:func:`nlobs.export.cprint.c_identifier`).
     notes : tuple of (str, str)
         More lines for the header (the certificate summary of a design).
+    options : dict, optional
+        Keyword arguments of the observer's generator (the GNSS/INS observer: ``imu_period``).
 
     Raises
     ------
@@ -509,7 +516,9 @@ def generate(observer: Any, prefix: str, *, notes: tuple[tuple[str, str], ...] =
     gen = _generators().get(kind)
     if gen is None:
         raise InvalidArgumentError(f"no C export for {kind}; exported: {', '.join(supported())}")
-    parts = gen(observer, prefix)
+    if options and kind not in _TAKES_OPTIONS:
+        raise InvalidArgumentError(f"options: the C generator of {kind} takes none, got {', '.join(sorted(options))}")
+    parts = gen(observer, prefix, **options) if options else gen(observer, prefix)
     if isinstance(parts, CProgram):  # a generator that sets the optional parts itself (own step, correction…)
         return dataclasses.replace(parts, notes=parts.notes + tuple(notes))
     tb = observer.time

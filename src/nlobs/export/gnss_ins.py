@@ -589,7 +589,9 @@ static void {P}_estimate_(const double *z, double *xhat)
              else "GNSS/INS observer (24)") + " of Grip, Fossen, Johansen & Saberi, split step"
     return CProgram(prefix=P, title=title, n_z=nz, n_x=15, n_u=9, n_y=ny, discrete=False, body=body,
                     correcting=True, own_step=True, own_init=True, own_estimate=True, notes=notes,
-                    codec=gnss_ins_codec(po))
+                    codec=gnss_ins_codec(po),
+                    status1=f"a step other than the module's IMU period h0 = {h0:.17g} s: generate it for that "
+                            "period (imu_period=)")
 
 
 def _matrix(M: Any) -> str:
@@ -640,12 +642,7 @@ def compile_gnss_ins(observer: Any, *, imu_period: float, prefix: str | None = N
     prefix, compiler, notes
         As :func:`~nlobs.export.compiled.compile_observer`.
     """
-    import dataclasses
+    from nlobs.export.compiled import compile_observer
 
-    from nlobs.export.compiled import _CompiledDeferred, load_library
-    from nlobs.export.cprint import c_identifier
-
-    P = c_identifier(prefix or f"nlobs_{type(observer).__name__.lower()}")
-    program = generate_gnss_ins(observer, P, imu_period=imu_period)
-    program = dataclasses.replace(program, notes=program.notes + tuple(notes))
-    return _CompiledDeferred(observer, program, load_library(program, compiler=compiler))
+    return compile_observer(observer, prefix=prefix, compiler=compiler, notes=notes,
+                            options={"imu_period": imu_period})
