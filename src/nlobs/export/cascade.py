@@ -117,10 +117,12 @@ def generate_cascade(obs: Any, prefix: str) -> CProgram:
     Bu, Du = s2.input_matrices(m)
     K = np.asarray(obs.K, dtype=float)
     mats = {"A": s2.A, "Bu": Bu, "Bz": s2.B_z, "C": s2.C, "Du": Du, "Dz": s2.D_z, "Kw": K[:nw], "Kz": K[nw:]}
+    if m == 0:  # no input: B_u u and D_u u are empty sums, left out (adding 0.0 changes nothing)
+        del mats["Bu"], mats["Du"]
     body += "".join(_const(f"{P}_{k}", v) for k, v in mats.items()) + "\n" + _mv(P)
 
     args = "u, wh, xh" if fb else "u, xh"
-    uterm = m > 0  # with no input, B_u u and D_u u are empty sums (left out: adding 0.0 changes nothing)
+    uterm = m > 0
     lines = [
         f"    const double *xh = z, *wh = z + {nx}, *xi = z + {nx + nw};",
         f"    double zh[{pz}], yt[{py}], gg[{nx}], hx[{pz * nx}], a[{max(nw, pz, py)}], b[{max(nw, pz, py)}];",
@@ -232,7 +234,9 @@ def design_notes(design: Any) -> tuple[tuple[str, str], ...]:
     cert = getattr(design, "certificate", None)
     if cert is None:
         raise InvalidArgumentError(f"no gain to export: {getattr(design, 'failure', '')}")
-    out = [("design", f"method {design.method}, ||H||inf < gamma = {design.gamma:.17g}"),
+    cascade = getattr(design, "cascade", None)
+    out = [("design model", str(getattr(cascade, "name", "?"))),
+           ("design", f"method {design.method}, ||H||inf < gamma = {design.gamma:.17g}"),
            ("certificate", f"{'verified' if cert.verified else 'NOT verified'}")]
     out += [(f"check {c.name}", f"{'passed' if c.passed else 'FAILED'}: {c.evidence}") for c in design.checks]
     t1 = design.theorem1
