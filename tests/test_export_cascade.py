@@ -210,6 +210,16 @@ def test_header_notes_chemostat():
         assert text in header, text
 
 
+def test_export_observer_writes_the_module(tmp_path):
+    from nlobs.export import export_observer
+
+    obs, design = _chemostat()
+    res = export_observer(obs, tmp_path, prefix="chemostat", notes=design_notes(design))
+    header = (tmp_path / "chemostat.h").read_text(encoding="utf-8")
+    assert "#define CHEMOSTAT_NZ 4" in header and "#define CHEMOSTAT_NX 3" in header
+    assert (tmp_path / "chemostat.c").is_file() and res is not None
+
+
 def test_numeric_sigma1_is_refused():
     from nlobs.papers import grip_example1 as ex
 

@@ -11,7 +11,9 @@ r"""Observer → :class:`~nlobs.export.program.CProgram`: one generator per obse
 * :class:`~nlobs.observers.drift.DriftObserver` — Dalla Mora, Germani & Manes (3.1), ``f, g, h, Q_s``
   printed, ``Q_s(x̂)⁻¹ K ỹ`` by an LU solve with partial pivoting (LAPACK's ``getrf`` choice), the same
   singularity test (exact zero pivot, or the lower bound ``‖Q_s‖_F ‖c‖ / (√n ‖b‖)`` on ``cond(Q_s)``
-  above ``cond_limit``), the Tikhonov form and the saturated form.
+  above ``cond_limit``), the Tikhonov form and the saturated form;
+* :class:`~nlobs.observers.cascade.CascadeObserver` — Grip, Saberi & Johansen (9)–(10) / (17)–(18), in
+  :mod:`nlobs.export.cascade`.
 
 Every symbolic part goes through :func:`nlobs.export.cprint.emit_assignments` (SymPy's C99 printer
 with common subexpressions); the fixed parts (RK4, the solve, the saturated forms) are this module's
