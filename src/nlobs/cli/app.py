@@ -189,6 +189,9 @@ def demo_cmd(
     ] = None,
     position_only: Annotated[bool, typer.Option(help="GNSS position only (Sec. 5.2, C = [I 0]).")] = False,
     ekf: Annotated[bool, typer.Option(help="Also run the EKF baseline.")] = True,
+    backend: Annotated[str, typer.Option(
+        help="'python' (default) or 'c': observer (24) runs as its generated, compiled C (the EKF stays in "
+             "Python).")] = "python",
 ) -> None:
     """Run a demo: gnss-ins simulates a flight and compares observer (24) with an EKF."""
     from nlobs.workflows.demo import DemoConfig, gnss_ins_demo
@@ -197,7 +200,7 @@ def demo_cmd(
         fail(f"unknown demo {name!r} (known: {', '.join(DEMOS)})")
     try:
         config = DemoConfig(seed=seed, duration=duration, yaw_error_deg=yaw_error, gains=gains,
-                            attitude_gain=attitude_gain, position_only=position_only, ekf=ekf)
+                            attitude_gain=attitude_gain, position_only=position_only, ekf=ekf, backend=backend)
     except NlobsError as exc:
         fail(str(exc))
     try:

@@ -43,9 +43,8 @@ from nlobs.systems.timebase import TimeBase
 
 __all__ = ["CompiledCorrectingObserver", "CompiledObserver", "compile_observer", "load_library"]
 
-_D = ctypes.POINTER(ctypes.c_double)
-_B = ctypes.POINTER(ctypes.c_ubyte)
-_I = ctypes.POINTER(ctypes.c_int)
+# pointers travel as plain addresses (``ndarray.ctypes.data``): ctypes' typed-pointer casts cost microseconds
+_D = _B = _I = ctypes.c_void_p
 _LOADED: dict[str, Any] = {}
 _LOCK = threading.Lock()
 
@@ -85,6 +84,7 @@ def load_library(program: CProgram, *, compiler: Compiler | None = None, strict:
                 "rhs": (c_int, [c_d, _D, _D, _D, _D]),
                 "step": (c_int, [c_d, _D, _D, _D, c_d]),
                 "estimate": (None, [_D, _D]),
+                "estimate_batch": (None, [c_long, _D, _D]),
                 "rhs_batch": (c_long, [c_long, c_d, _D, _D, _D, _D, _I]),
                 "step_batch": (c_long, [c_long, c_d, _D, _D, _D, c_d, _I]),
                 "run": (c_long, [c_long, _D, _D, _D, _D, _B, _D]),
@@ -100,11 +100,14 @@ def load_library(program: CProgram, *, compiler: Compiler | None = None, strict:
     return lib
 
 
-def _ptr(a: Array) -> Any:
-    return a.ctypes.data_as(_D)
+def _ptr(a: Array) -> int:
+    return a.ctypes.data  # type: ignore[no-any-return]
 
 
 def _contig(a: Any, shape: tuple[int, ...]) -> Array:
+    """``a`` as a C-contiguous float64 array of ``shape`` (no copy when it already is one)."""
+    if isinstance(a, np.ndarray) and a.shape == shape and a.dtype == np.float64 and a.flags.c_contiguous:
+        return a
     return np.array(np.broadcast_to(np.asarray(a, dtype=float), shape), dtype=np.float64, order="C")
 
 
@@ -143,7 +146,7 @@ class CompiledObserver:
         object.__setattr__(self, "state_names", tuple(names) if names and len(names) == self.program.n_z else None)
         P = self.program.prefix
         object.__setattr__(self, "_fn", {k: getattr(self.library, f"{P}_{k}") for k in (
-            "step_batch", "rhs_batch", "run", "init", "estimate", *(("correct_batch",) if self.program.correcting
+            "step_batch", "rhs_batch", "run", "init", "estimate", "estimate_batch", *(("correct_batch",) if self.program.correcting
                                                                      else ()))})
 
     # ------------------------------------------------------------------ sizes
@@ -168,12 +171,11 @@ class CompiledObserver:
         return codec.unpack(flat) if codec is not None else flat
 
     def _io(self, z: Array, u: Array, y: Array) -> tuple[Array, Array, Array, int, tuple[int, ...]]:
-        z = np.asarray(z, dtype=float)
-        if z.ndim < 1 or z.shape[-1] != self.n_z:
-            raise DimensionError(f"{self.name}: state of shape {z.shape}, expected (..., {self.n_z})")
-        batch = z.shape[:-1]
-        n = int(np.prod(batch, dtype=int))
         zc = np.array(z, dtype=np.float64, order="C", copy=True)
+        if zc.ndim < 1 or zc.shape[-1] != self.n_z:
+            raise DimensionError(f"{self.name}: state of shape {zc.shape}, expected (..., {self.n_z})")
+        batch = zc.shape[:-1]
+        n = zc.size // self.n_z
         uc = _contig(u, (*batch, self.program.n_u)) if self.program.n_u else np.zeros(max(n, 1))
         yc = _contig(y, (*batch, self.program.n_y)) if self.program.n_y else np.zeros(max(n, 1))
         return zc, uc, yc, n, batch
@@ -190,24 +192,31 @@ class CompiledObserver:
             return est(z)  # type: ignore[no-any-return]
         return self.observer.estimate(self._unpack(z))  # type: ignore[no-any-return]
 
+    def _c_estimate(self, z: Array) -> Array:
+        zc = _contig(z, np.shape(z))
+        out = np.empty((*zc.shape[:-1], self.n_x))
+        self._fn["estimate_batch"](zc.size // self.n_z, _ptr(zc), _ptr(out))
+        return out
+
     def rhs(self, t: float, z: Array, u: Array, y: Array) -> Array:
         """``ż`` or ``z⁺`` of every run, computed in C (``P_rhs_batch``, or ``P_step_batch`` in discrete time)."""
         if self.program.discrete:
             return self.step(t, z, u, y, 0.0)
         zc, uc, yc, n, batch = self._io(z, u, y)
         dz = np.empty_like(zc)
-        status = np.zeros(max(n, 1), dtype=np.intc)
-        bad = self._fn["rhs_batch"](n, float(t), _ptr(zc), _ptr(uc), _ptr(yc), _ptr(dz), status.ctypes.data_as(_I))
-        if bad:
+        if self._fn["rhs_batch"](n, float(t), _ptr(zc), _ptr(uc), _ptr(yc), _ptr(dz), None):
+            status = np.zeros(max(n, 1), dtype=np.intc)
+            self._fn["rhs_batch"](n, float(t), _ptr(zc), _ptr(uc), _ptr(yc), _ptr(dz), _ptr(status))
             self._failed(status[:n], t, z, u, y, dz, lambda zz, uu, yy: self.observer.rhs(t, zz, uu, yy))
         return dz
 
     def step(self, t: float, z: Array, u: Array, y: Array, h: float) -> Array:
         """The state of every run at ``t + h`` (``u``, ``y`` held), one ``P_step_batch`` call."""
         zc, uc, yc, n, batch = self._io(z, u, y)
-        status = np.zeros(max(n, 1), dtype=np.intc)
-        bad = self._fn["step_batch"](n, float(t), _ptr(zc), _ptr(uc), _ptr(yc), float(h), status.ctypes.data_as(_I))
-        if bad:
+        if self._fn["step_batch"](n, float(t), _ptr(zc), _ptr(uc), _ptr(yc), float(h), None):
+            zc, uc, yc, n, batch = self._io(z, u, y)  # once more from the start, with the status of every run
+            status = np.zeros(max(n, 1), dtype=np.intc)
+            self._fn["step_batch"](n, float(t), _ptr(zc), _ptr(uc), _ptr(yc), float(h), _ptr(status))
             self._failed(status[:n], t, z, u, y, zc, lambda zz, uu, yy: self._python_step(t, zz, uu, yy, h))
         return zc
 
@@ -276,7 +285,7 @@ class CompiledObserver:
                                                                              (K, p.n_y)), dtype=np.uint8)
         out = np.empty((K, p.n_x))
         rc = self._fn["run"](K, _ptr(grid), _ptr(z), _ptr(uc), _ptr(yc),
-                             None if sm is None else sm.ctypes.data_as(_B), _ptr(out))
+                             None if sm is None else _ptr(sm), _ptr(out))
         if rc:
             raise NumericalError(f"{self.name}: the step at t = {grid[int(rc) - 1]:g} failed in C")
         return out
@@ -300,9 +309,7 @@ class CompiledCorrectingObserver(CompiledObserver):
         """The corrected state of every run (a non-finite sampled value is skipped by the C, as in Python)."""
         zc, uc, yc, n, batch = self._io(z, u, y)
         fr = np.ascontiguousarray(np.asarray(fresh, dtype=bool), dtype=np.uint8)
-        status = np.zeros(max(n, 1), dtype=np.intc)
-        self._fn["correct_batch"](n, float(t), _ptr(zc), _ptr(uc), _ptr(yc), fr.ctypes.data_as(_B),
-                                  status.ctypes.data_as(_I))
+        self._fn["correct_batch"](n, float(t), _ptr(zc), _ptr(uc), _ptr(yc), _ptr(fr), None)
         return zc
 
 
@@ -310,8 +317,8 @@ class _CompiledDeferred(CompiledCorrectingObserver):
     """A compiled observer whose Python original defers its estimates (one projection per run)."""
 
     def raw_estimate(self, z: Array) -> Array:
-        """The Python observer's raw estimate of the unpacked state."""
-        return self.observer.raw_estimate(self._unpack(z))  # type: ignore[no-any-return]
+        """The raw estimate (the Python observer's ``raw_estimate`` layout), computed in C (``P_estimate_batch``)."""
+        return self._c_estimate(z)
 
     def finish_estimates(self, raw: Array) -> Any:
         """The Python observer's ``finish_estimates``."""

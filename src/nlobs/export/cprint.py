@@ -7,9 +7,10 @@ are printed by SymPy's C99 printer after every symbol was renamed to a generated
 comments, through :func:`comment`, which cannot close the comment or form a trigraph.
 
 Numbers are printed with 17 significant digits (the double is read back exactly); ``pi`` and ``E``
-as such literals (``M_PI`` is not part of C99). ``sign`` and the pointwise ``DiracDelta`` of
-:mod:`nlobs.systems.codegen` are the small functions ``nlobs_sign`` and ``nlobs_dirac`` of
-:data:`PRELUDE`, with NumPy's values (``sign(0) = 0``, NaN propagates; ``DiracDelta`` NaN at 0, else 0).
+as such literals (``M_PI`` is not part of C99). ``sign``, the pointwise ``DiracDelta`` of
+:mod:`nlobs.systems.codegen`, ``Min`` and ``Max`` are the small functions ``nlobs_sign``, ``nlobs_dirac``,
+``nlobs_min`` and ``nlobs_max`` of :data:`PRELUDE`, with NumPy's values (``sign(0) = 0``; ``DiracDelta``
+NaN at 0, else 0; a NaN argument of ``sign``, ``min`` or ``max`` gives NaN, where C's ``fmin`` would drop it).
 """
 
 from __future__ import annotations
@@ -29,6 +30,8 @@ __all__ = ["PRELUDE", "c_double", "c_identifier", "comment", "emit_assignments",
 PRELUDE: dict[str, str] = {
     "nlobs_sign": "static double nlobs_sign(double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : x); }\n",
     "nlobs_dirac": "static double nlobs_dirac(double x) { return x == 0.0 ? NAN : 0.0; }\n",
+    "nlobs_min": "static double nlobs_min(double a, double b) { return (a != a || b != b) ? NAN : (b < a ? b : a); }\n",
+    "nlobs_max": "static double nlobs_max(double a, double b) { return (a != a || b != b) ? NAN : (b > a ? b : a); }\n",
 }
 
 _C_KEYWORDS = frozenset("""auto break case char const continue default do double else enum extern float for goto if
@@ -102,6 +105,19 @@ class _Printer(C99CodePrinter):
 
     def _print_DiracDelta(self, expr: Any) -> str:
         return f"nlobs_dirac({self._print(expr.args[0])})"
+
+    def _fold(self, name: str, args: Any) -> str:
+        items = [self._print(a) for a in args]
+        out = items[0]
+        for item in items[1:]:
+            out = f"{name}({out}, {item})"
+        return out
+
+    def _print_Min(self, expr: Any) -> str:  # NumPy's minimum: NaN propagates (C's fmin drops it)
+        return self._fold("nlobs_min", expr.args)
+
+    def _print_Max(self, expr: Any) -> str:
+        return self._fold("nlobs_max", expr.args)
 
     def _print_Rational(self, expr: sp.Rational) -> str:
         return f"({c_double(float(expr.p))}/{c_double(float(expr.q))})"

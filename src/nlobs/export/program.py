@@ -13,7 +13,7 @@ are plain ``double`` arrays of one run, no heap, no global state, nothing beyond
 * ``int P_correct(double t, double *z, const double *u, const double *y, const unsigned char *fresh)``
   — only for observers that correct at samples (``fresh[j]`` non-zero where output ``j`` was just
   sampled; a non-finite sampled value is a missing sample, skipped);
-* ``void P_estimate(const double *z, double *xhat)``;
+* ``void P_estimate(const double *z, double *xhat)`` (and ``P_estimate_batch(long n, …)``);
 * ``long P_rhs_batch(…, double *dz, int *status)``, ``long P_step_batch(long n, double t, double *z,
   const double *u, const double *y, double h, int *status)`` (and ``P_correct_batch``) — the same for
   ``n`` runs stored one after the other, every run advanced whatever the others did: the status of
@@ -163,6 +163,7 @@ def render(program: CProgram, version: str) -> tuple[str, str]:
         f"int {P}_rhs(double t, const double *z, const double *u, const double *y, double *dz);",
         f"int {P}_step(double t, double *z, const double *u, const double *y, double h);",
         f"void {P}_estimate(const double *z, double *xhat);",
+        f"void {P}_estimate_batch(long n, const double *z, double *xhat);",
         f"long {P}_rhs_batch(long n, double t, const double *z, const double *u, const double *y, double *dz,\n"
         f"                   int *status);",
         f"long {P}_step_batch(long n, double t, double *z, const double *u, const double *y, double h,\n"
@@ -280,6 +281,14 @@ int {P}_step(double t, double *z, const double *u, const double *y, double h)
 void {P}_estimate(const double *z, double *xhat)
 {{
 {estimate}
+}}
+
+void {P}_estimate_batch(long n, const double *z, double *xhat)
+{{
+    long r;
+    for (r = 0; r < n; ++r) {{
+        {P}_estimate(z + r * {up}_NZ, xhat + r * {up}_NX);
+    }}
 }}
 
 long {P}_rhs_batch(long n, double t, const double *z, const double *u, const double *y, double *dz, int *status)

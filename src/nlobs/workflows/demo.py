@@ -51,6 +51,8 @@ GAINS = ("noise-optimal", "paper", "designed")
 
 #: The attitude-gain choices of the noise-optimal observer (``--attitude-gain``).
 ATTITUDE_GAINS = ("scheduled", "constant")
+#: Where the observers (24) run: NumPy/Python floats, or their generated C.
+BACKENDS = ("python", "c")
 
 #: The longest flight the demo simulates, in IMU samples (a flight is held in memory: ~1 kB per sample).
 MAX_IMU_SAMPLES = 2e6
@@ -87,6 +89,9 @@ class DemoConfig:
         GNSS position only (Sec. 5.2, C = [I 0]); the gain is then designed by nlobs.
     ekf : bool
         Also run the EKF baseline.
+    backend : str
+        ``"python"`` (default) or ``"c"``: the observers (24) run as their generated, compiled C
+        (:func:`nlobs.export.compile_observer`, the same estimates to rounding; the EKF stays in Python).
     """
 
     seed: int = 0
@@ -99,6 +104,7 @@ class DemoConfig:
     attitude_gain: str | None = None
     position_only: bool = False
     ekf: bool = True
+    backend: str = "python"
     noise: SensorNoise = field(default_factory=lambda: DEMO_NOISE)
 
     def __post_init__(self) -> None:
@@ -116,6 +122,8 @@ class DemoConfig:
         positive("converge_deg", self.converge_deg)
         if self.gains not in GAINS:
             raise InvalidArgumentError(f"gains: expected one of {', '.join(map(repr, GAINS))}, got {self.gains!r}")
+        if self.backend not in BACKENDS:
+            raise InvalidArgumentError(f"backend: expected one of {', '.join(map(repr, BACKENDS))}, got {self.backend!r}")
         if self.attitude_gain is not None:
             if self.attitude_gain not in ATTITUDE_GAINS:
                 raise InvalidArgumentError(f"attitude_gain: expected one of {', '.join(map(repr, ATTITUDE_GAINS))}, "
@@ -167,6 +175,7 @@ class DemoResult:
                 "gains": c.gains,
                 "attitude_gain": "scheduled" if c.scheduled else "constant",
                 "position_only": c.position_only,
+                "backend": c.backend,
             },
             "observer": self.metrics("observer"),
             "observer_paper": None if self.observer_paper is None else self.metrics("observer_paper"),
@@ -224,10 +233,11 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
     R0 = rot_z(np.deg2rad(config.yaw_error_deg)) @ traj.R[0]
     p0 = data.p_gnss[0] if np.all(np.isfinite(data.p_gnss[0])) else traj.p[0]
     v0 = data.v_gnss[0] if data.v_gnss is not None and np.all(np.isfinite(data.v_gnss[0])) else np.zeros(3)
-    obs_res = run_navigation(observer, data, p0, v0, R0, progress=progress)
+    run = _backend(config)
+    obs_res = run_navigation(run(observer), data, p0, v0, R0, progress=progress)
     paper_res = None
     if config.gains == "noise-optimal":
-        paper_res = run_navigation(_paper_observer(config, flight), data, p0, v0, R0, progress=progress)
+        paper_res = run_navigation(run(_paper_observer(config, flight)), data, p0, v0, R0, progress=progress)
     ekf_res = None
     if config.ekf:
         ekf = ExtendedKalmanFilter(EkfConfig.for_noise(config.noise, yaw_std_deg=max(30.0, abs(config.yaw_error_deg)),
@@ -240,6 +250,15 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
                                   labels=(_label(config), "EKF") if ekf_res is not None else None)
     return DemoResult(config, obs_res, ekf_res, figures, float(traj.t[-1]), observer_paper=paper_res,
                       certificate=cert, schedule=schedule)
+
+
+def _backend(config: DemoConfig) -> Any:
+    """The observer as it runs: itself, or its generated C for the demo's IMU period (``backend="c"``)."""
+    if config.backend == "python":
+        return lambda obs: obs
+    from nlobs.export import compile_observer
+
+    return lambda obs: compile_observer(obs, options={"imu_period": 1.0 / config.imu_rate_hz})
 
 
 _LABELS = {"noise-optimal": "observer, noise-optimal gains", "paper": "observer, paper's gains",
