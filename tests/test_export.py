@@ -283,3 +283,24 @@ def test_compare_backend_c_gives_the_python_numbers() -> None:
         assert np.allclose(ob.result.x_hat, oa.result.x_hat, rtol=0, atol=1e-11 * np.abs(oa.result.x_hat).max())
     with pytest.raises(InvalidArgumentError, match="--backend"):
         compare_observers("pendulum", backend="fortran", **kw)
+
+
+def test_cli_export_cascade_and_gnss_ins_carry_their_certificates(tmp_path) -> None:
+    from typer.testing import CliRunner
+
+    from nlobs.cli import app
+
+    runner = CliRunner()
+    r = runner.invoke(app, ["export", "chemostat-analyser", "--observer", "cascade", "--out", str(tmp_path / "c")])
+    assert r.exit_code == 0, r.output
+    header = (tmp_path / "c" / "chemostat_analyser_cascade.h").read_text()
+    assert "‖H‖∞ < γ (13)" in header and "status: H∞ gain verified" in header
+    r = runner.invoke(app, ["export", "gnss-ins", "--observer", "gnss-ins", "--out", str(tmp_path / "g")])
+    assert r.exit_code == 0, r.output
+    header = (tmp_path / "g" / "gnss_ins_gnss_ins.h").read_text()
+    assert "LMI (14)" in header and "‖H‖∞ = 49.995 < γ = 50" in header and "h0 = 0.01 s" in header
+    r = runner.invoke(app, ["export", "pendulum", "--observer", "gnss-ins", "--out", str(tmp_path / "x")])
+    assert r.exit_code == 2 and "named gnss-ins" in r.output
+    r = runner.invoke(app, ["export", "chemostat-analyser", "--observer", "cascade", "--box", "0,1",
+                            "--out", str(tmp_path / "x")])
+    assert r.exit_code == 2 and "do not apply to the cascade observer" in r.output

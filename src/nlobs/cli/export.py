@@ -13,15 +13,16 @@ from typing import Annotated
 
 import typer
 
-from nlobs.cli.common import console, emit_json, fail, finish
+from nlobs.cli.common import box_numbers, console, emit_json, fail, finish
 from nlobs.errors import ModelFileError, NlobsError
 
 
 def export_cmd(
     model: Annotated[str, typer.Argument(help="A model file (.toml), or the name of a shipped model.")],
     observer: Annotated[str, typer.Option(
-        "--observer", help="Which design to export: drift (Dalla Mora, Germani & Manes (3.1)) or pinv "
-                           "(Röbenack (7), (17)).")],
+        "--observer", help="Which design to export: drift (Dalla Mora, Germani & Manes (3.1)), pinv "
+                           "(Röbenack (7), (17)), cascade (Grip, Saberi & Johansen, the file's [cascade] table) or "
+                           "gnss-ins (the demo's observer (24); MODEL is gnss-ins).")],
     out: Annotated[Path, typer.Option("--out", help="Folder for the header and the source (created).")],
     lang: Annotated[str, typer.Option("--lang", help="Target language (c: C99, math.h only, no heap).")] = "c",
     box: Annotated[str | None, typer.Option(
@@ -41,7 +42,8 @@ def export_cmd(
 
     sat = None if saturation is None else _on_off("--saturation", saturation)
     try:
-        report = export_model_observer(model, observer=observer, out=out, lang=lang, box=_region(model, box),
+        region = _region(model, box) if observer in ("drift", "pinv") else box_numbers("--box", box)
+        report = export_model_observer(model, observer=observer, out=out, lang=lang, box=region,
                                        saturation=sat, prefix=prefix)
     except ModelFileError as exc:
         fail(str(exc))

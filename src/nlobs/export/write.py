@@ -45,7 +45,8 @@ class ExportResult:
 
 
 def export_observer(observer: Any, out: str | Path, *, prefix: str | None = None,
-                    notes: tuple[tuple[str, str], ...] = (), check: bool = True) -> ExportResult:
+                    notes: tuple[tuple[str, str], ...] = (), check: bool = True,
+                    options: dict[str, Any] | None = None) -> ExportResult:
     """Write the C99 module of ``observer``'s step to the folder ``out``.
 
     Parameters
@@ -60,6 +61,8 @@ def export_observer(observer: Any, out: str | Path, *, prefix: str | None = None
         More lines for the header's comment block (model, gain and certificate summary).
     check : bool
         Compile the module strictly once (when a compiler is found) before writing it.
+    options : dict, optional
+        Keyword arguments of the observer's generator (the GNSS/INS observer: ``imu_period``).
 
     Returns
     -------
@@ -74,7 +77,8 @@ def export_observer(observer: Any, out: str | Path, *, prefix: str | None = None
     OutputError
         The folder cannot be written.
     """
-    program = generate(observer, c_identifier(prefix or f"nlobs_{type(observer).__name__.lower()}"), notes=notes)
+    program = generate(observer, c_identifier(prefix or f"nlobs_{type(observer).__name__.lower()}"), notes=notes,
+                       options=options)
     header, source = render(program, nlobs_version())
     checked: str | None = None
     if check:

@@ -204,13 +204,28 @@ def _paper_observer(config: DemoConfig, flight: Any) -> GnssInsObserver:
     return GnssInsObserver(K, PAPER_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
 
 
-def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = None, *,
-             progress: bool = False) -> DemoResult:
-    """Run the GNSS/INS demo (see the module docstring) and write figures into ``out_dir``."""
-    flight = traffic_pattern(seed=config.seed, duration=config.duration)
-    traj = flight.sample(config.imu_rate_hz)
-    data = generate_sensors(traj, imu_rate_hz=config.imu_rate_hz, gnss_rate_hz=config.gnss_rate_hz,
-                            noise=config.noise, seed=config.seed, position_only=config.position_only)
+def demo_observer(config: DemoConfig, flight: Any, start_s: float = 0.0) -> tuple[
+        GnssInsObserver | ScheduledGnssInsObserver, MixedH2Certificate | None, AttitudeGainSchedule | None]:
+    """The demo's observer (24) for ``config`` and ``flight``, with the noise-optimal gain's certificate and Γ(t).
+
+    Parameters
+    ----------
+    config : DemoConfig
+        Gains, attitude gain, receiver, rates and noise.
+    flight : Flight
+        The flight (its ``m_n``, ``g_n``).
+    start_s : float
+        The first time stamp of the data (the schedule of Γ starts there).
+
+    Returns
+    -------
+    (observer, certificate or None, schedule or None)
+
+    Raises
+    ------
+    DesignInfeasible
+        The noise-optimal gain failed its certificate.
+    """
     cert: MixedH2Certificate | None = None
     schedule: AttitudeGainSchedule | None = None
     observer: GnssInsObserver | ScheduledGnssInsObserver
@@ -223,13 +238,24 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
         observer = GnssInsObserver(K, NOISE_OPTIMAL_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
         if config.scheduled:
             schedule = noise_scheduled_gain(config.noise, flight.m_n, flight.g_n, initial=NOISE_OPTIMAL_GAMMA[0, 0],
-                                            start_s=float(traj.t[0]))
+                                            start_s=start_s)
             observer = ScheduledGnssInsObserver(observer, schedule)
     elif config.gains == "paper":
         observer = _paper_observer(config, flight)
     else:
         K, _ = design_gains(position_only=config.position_only)
         observer = GnssInsObserver(K, PAPER_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
+    return observer, cert, schedule
+
+
+def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = None, *,
+             progress: bool = False) -> DemoResult:
+    """Run the GNSS/INS demo (see the module docstring) and write figures into ``out_dir``."""
+    flight = traffic_pattern(seed=config.seed, duration=config.duration)
+    traj = flight.sample(config.imu_rate_hz)
+    data = generate_sensors(traj, imu_rate_hz=config.imu_rate_hz, gnss_rate_hz=config.gnss_rate_hz,
+                            noise=config.noise, seed=config.seed, position_only=config.position_only)
+    observer, cert, schedule = demo_observer(config, flight, float(traj.t[0]))
     R0 = rot_z(np.deg2rad(config.yaw_error_deg)) @ traj.R[0]
     p0 = data.p_gnss[0] if np.all(np.isfinite(data.p_gnss[0])) else traj.p[0]
     v0 = data.v_gnss[0] if data.v_gnss is not None and np.all(np.isfinite(data.v_gnss[0])) else np.zeros(3)

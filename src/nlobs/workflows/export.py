@@ -22,7 +22,7 @@ from nlobs.workflows.verdict import Verdict
 __all__ = ["EXPORTABLE", "ExportReport", "export_model_observer"]
 
 #: The observers ``nlobs export --observer`` designs and writes.
-EXPORTABLE: tuple[str, ...] = ("drift", "pinv")
+EXPORTABLE: tuple[str, ...] = ("drift", "pinv", "cascade", "gnss-ins")
 LANGUAGES: tuple[str, ...] = ("c",)
 
 
@@ -112,6 +112,39 @@ def _pinv(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, str
     return obs, rep.usable, "\n".join(lines), why
 
 
+def _cascade(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, str, str]:
+    from nlobs.export.cascade import design_notes
+    from nlobs.systems.cascade_file import load_cascade
+    from nlobs.workflows.design_cascade import design_cascade
+
+    if box is not None or saturation is not None:
+        raise InvalidArgumentError("--box and --saturation do not apply to the cascade observer (its region and "
+                                   "saturations are the file's [cascade] table)")
+    design = design_cascade(load_cascade(model))
+    if design.certificate is None:
+        raise InvalidArgumentError(f"no gain to export: {design.failure}")
+    text = "\n".join(f"{k}: {v}" for k, v in design_notes(design))
+    why = "" if design.verified else f"status {design.status}: {design.failure or 'a check failed'}"
+    return design.observer(), design.verified, f"Grip, Saberi & Johansen, LMI (14) and Theorem 1\n{text}", why
+
+
+def _gnss_ins(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, str, str]:
+    from nlobs.navigation.trajectory import traffic_pattern
+    from nlobs.workflows.demo import DemoConfig, demo_observer
+
+    if box is not None or saturation is not None:
+        raise InvalidArgumentError("--box and --saturation do not apply to the GNSS/INS observer")
+    config = DemoConfig()
+    obs, cert, schedule = demo_observer(config, traffic_pattern(seed=config.seed))
+    assert cert is not None
+    lines = ["Grip, Fossen, Johansen & Saberi (24), the demo's noise-optimal certified gains",
+             cert.summary()]
+    if schedule is not None:
+        lines.append(f"attitude gain: {schedule.describe() if hasattr(schedule, 'describe') else schedule}")
+    lines.append(f"IMU period {1.0 / config.imu_rate_hz:g} s (the module refuses another step length)")
+    return obs, bool(cert.verified), "\n".join(lines), "" if cert.verified else "the gain's certificate failed"
+
+
 def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: str = "c",
                           box: Sequence[float] | Any | None = None, saturation: bool | None = None,
                           prefix: str | None = None) -> ExportReport:
@@ -152,15 +185,31 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
 
     if lang not in LANGUAGES:
         raise InvalidArgumentError(f"--lang: expected one of {', '.join(LANGUAGES)}, got {lang!r}")
-    makers = {"drift": _drift, "pinv": _pinv}
+    makers = {"drift": _drift, "pinv": _pinv, "cascade": _cascade, "gnss-ins": _gnss_ins}
     if observer not in makers:
         raise InvalidArgumentError(f"--observer: expected one of {', '.join(EXPORTABLE)}, got {observer!r}")
-    m = symbolic_model(model)
-    obs, certified, text, why = makers[observer](m, box, saturation)
+    if observer == "gnss-ins":
+        if str(model) != "gnss-ins":
+            raise InvalidArgumentError(f"--observer gnss-ins: the model is the demo's flight, named gnss-ins (got {model!r})")
+        name = "gnss-ins"
+        obs, certified, text, why = _gnss_ins(None, box, saturation)
+    elif observer == "cascade":
+        name = Path(str(model)).stem
+        obs, certified, text, why = _cascade(model, box, saturation)
+    else:
+        m = symbolic_model(model)
+        name = m.name
+        obs, certified, text, why = makers[observer](m, box, saturation)
     notes = (("certificate", ("verified" if certified else "NOT USABLE") + (f" ({why})" if why else "")),
              ("certified on", text))
-    res = export_observer(obs, out, prefix=prefix or f"{m.name}_{observer}", notes=notes)
+    if observer == "gnss-ins":
+        from nlobs.workflows.demo import DemoConfig
+
+        options: dict[str, Any] | None = {"imu_period": 1.0 / DemoConfig().imu_rate_hz}
+    else:
+        options = None
+    res = export_observer(obs, out, prefix=prefix or f"{name}_{observer}", notes=notes, options=options)
     verdict = Verdict.OK if certified else Verdict.FAILED
-    msg = "" if certified else f"{m.name}: the {observer} design is not certified ({why}); the code was written " \
+    msg = "" if certified else f"{name}: the {observer} design is not certified ({why}); the code was written " \
                                "with that in its header"
-    return ExportReport(m.name, observer, certified, text, (res.header, res.source), res, verdict, msg)
+    return ExportReport(name, observer, certified, text, (res.header, res.source), res, verdict, msg)
