@@ -38,7 +38,7 @@ from nlobs.export.compiler import Compiler, build_shared
 from nlobs.export.cprint import c_identifier
 from nlobs.export.generate import generate
 from nlobs.export.program import CProgram, nlobs_version, render
-from nlobs.observers.base import DeferredEstimate
+from nlobs.observers.base import DeferredEstimate, Diagnosing
 from nlobs.systems.timebase import TimeBase
 
 __all__ = ["CompiledCorrectingObserver", "CompiledObserver", "compile_observer", "load_library"]
@@ -357,8 +357,27 @@ def compile_observer(observer: Any, *, prefix: str | None = None, compiler: Comp
     program = generate(observer, c_identifier(prefix or f"nlobs_{type(observer).__name__.lower()}"), notes=notes,
                        options=options)
     lib = load_library(program, compiler=compiler)
+    cls: type[CompiledObserver] = CompiledObserver
     if program.correcting:
-        cls: type[CompiledObserver] = _CompiledDeferred if isinstance(observer, DeferredEstimate) \
-            else CompiledCorrectingObserver
-        return cls(observer, program, lib)
-    return CompiledObserver(observer, program, lib)
+        cls = _CompiledDeferred if isinstance(observer, DeferredEstimate) else CompiledCorrectingObserver
+    if isinstance(observer, Diagnosing):
+        cls = _with_diagnostics(cls)
+    return cls(observer, program, lib)
+
+
+_DIAGNOSING: dict[type, type] = {}
+
+
+def _with_diagnostics(base: type[CompiledObserver]) -> type[CompiledObserver]:
+    """``base`` with ``diagnostics``: the Python observer's, of the unpacked state (the loops record them)."""
+    cls = _DIAGNOSING.get(base)
+    if cls is None:
+        def diagnostics(self: CompiledObserver, z: Array, u: Array) -> Any:
+            """The Python observer's diagnostics of the unpacked state."""
+            return self.observer.diagnostics(self._unpack(z), u)
+
+        cls = _DIAGNOSING[base] = type(f"{base.__name__.lstrip('_')}Diagnosing", (base,),
+                                       {"diagnostics": diagnostics, "__module__": __name__,
+                                        "__doc__": f"A {base.__name__.lstrip('_')} that records the Python "
+                                                   "observer's diagnostics."})
+    return cls
