@@ -173,3 +173,21 @@ def test_unexported_configurations_say_why() -> None:
     obs = SetValuedObserver(lpv, GivenGain.for_system(lpv, np.zeros((2, 2))), lpv_weights=True)
     with pytest.raises(InvalidArgumentError, match="LPV"):
         generate(obs, "sv")
+
+
+def test_infinite_given_radii_are_values_not_overflow(case62) -> None:  # type: ignore[no-untyped-def]
+    """A bound that does not converge (a printed one) is +inf: the C carries it, the run goes on."""
+    from nlobs.observers.setvalued import Radii
+
+    m, obs, t, x, y = case62
+    K = t.size - 1
+    state = np.where(np.arange(K + 1) > K // 2, np.inf, np.linspace(0.5, 3.0, K + 1))
+    state[3] = np.nan
+    radii = Radii(state, np.where(np.arange(K) > K // 3, np.inf, 1.0), np.inf, np.inf, "printed")
+    o = SetValuedObserver(obs.system, obs.design, radii=radii)
+    xh0 = np.broadcast_to(o.system.x0, (RUNS, o.n_x))
+    py = run_observer(o, t, x_hat0=xh0, y=y)
+    cc = run_observer(compile_observer(o), t, x_hat0=xh0, y=y)
+    np.testing.assert_array_equal(cc.extras["radius_state"], py.extras["radius_state"])
+    np.testing.assert_array_equal(cc.extras["radius_input"], py.extras["radius_input"])
+    _close(cc.x_hat, py.x_hat, "centres")

@@ -18,7 +18,8 @@ depend on the data). The Python observer uses plain floating point (no outward r
 State layout (``n_z = n + p₁ + p + 9`` values of one run, :func:`codec`): ``x̂`` (``n``), ``d̂₁`` (``p₁``),
 ``d̂`` (``p``), then ``k``, ``corrected``, ``δˣ``, ``δᵈ``, ``V̄`` and four flags saying whether ``d̂``,
 ``δˣ``, ``δᵈ``, ``V̄`` are defined (the Python state holds NaN there before the first step, or without
-radii; the flat state holds 0 and the flag, so the C's finiteness checks see only real overflows).
+radii; the flat state holds 0 and the flag, so the C's finiteness checks see only real overflows). An
+infinite radius (a bound that does not converge, e.g. a printed one) is 0 with flag 2: it is a value.
 
 Errors. What the Python observer raises, the C cannot: a non-finite or missing sample, a correction of
 an already corrected step, a time update before the correction, or a run longer than the given radii
@@ -57,6 +58,17 @@ def _lit(v: float) -> str:
     return c_double(v)
 
 
+def _encode(v: float) -> tuple[float, float]:
+    """A radius or ``V̄`` as (value, flag): finite (v, 1); NaN (0, 0); +inf (0, 2); -inf (0, 3)."""
+    if math.isfinite(v):
+        return v, 1.0
+    return 0.0, 0.0 if math.isnan(v) else (2.0 if v > 0 else 3.0)
+
+
+def _decode(v: float, flag: float) -> float:
+    return v if flag == 1.0 else {2.0: math.inf, 3.0: -math.inf}.get(flag, math.nan)
+
+
 def codec(n: int, p1: int, p: int) -> StateCodec:
     """Pack :class:`~nlobs.observers.setvalued.SetValuedState` to the flat ``(..., n_z)`` layout and back.
 
@@ -79,11 +91,8 @@ def codec(n: int, p1: int, p: int) -> StateCodec:
         d, d_ok = _flag(np.broadcast_to(np.asarray(z.d, dtype=float), (*batch, p)))
         if p == 0:
             d_ok = np.ones((*batch, 1))
-        scal = []
-        for v in (z.radius, z.radius_input, z.V):
-            v = float(v)
-            scal.append(0.0 if math.isnan(v) else v)
-        flags = [0.0 if math.isnan(float(v)) else 1.0 for v in (z.radius, z.radius_input, z.V)]
+        enc = [_encode(float(v)) for v in (z.radius, z.radius_input, z.V)]
+        scal, flags = [v for v, _ in enc], [f for _, f in enc]
         tail = np.broadcast_to(np.array([float(z.k), float(bool(z.corrected)), *scal, 0.0, *flags]),
                                (*batch, _N_SCALARS)).copy()
         tail[..., _DDEF] = d_ok[..., 0]
@@ -97,7 +106,7 @@ def codec(n: int, p1: int, p: int) -> StateCodec:
         d = np.where(d_ok, d, np.nan)
 
         def scalar(i: int, flag: int) -> float:
-            return float(first[i]) if first[flag] != 0.0 else math.nan
+            return _decode(float(first[i]), float(first[flag]))
 
         return SetValuedState(x=np.array(x), d1=np.array(d1), d=d, k=int(first[_K]), corrected=bool(first[_CORR]),
                               radius=scalar(_RAD, _RDEF), radius_input=scalar(_RADIN, _RIDEF), V=scalar(_V, _VDEF))
@@ -153,7 +162,7 @@ def _radii_c(obs: Any, P: str, up: str, O: str) -> tuple[str, str, list[tuple[st
         code = f"""\
     {{
         /* RadiusRecursion.advance: (dd, dx, V) from (radius, V), Python's min(a, b) = (b < a ? b : a) */
-        const double dx = z[{O} + {_RAD}], V = z[{O} + {_V}];
+        const double dx = {P}_get(z, {_RAD}, {_RDEF}), V = {P}_get(z, {_V}, {_VDEF});
         const double sv = sqrt(V);
         double a, b, dd, tri, Vn, q, dxn, Vc;
         a = {P}_thd * dx + {P}_rd;
@@ -166,12 +175,9 @@ def _radii_c(obs: Any, P: str, up: str, O: str) -> tuple[str, str, list[tuple[st
         q = sqrt(Vn / {P}_lmin);
         dxn = (tri < q ? tri : q);
         Vc = {P}_lmax * (dxn * dxn);
-        dz[{O} + {_RADIN}] = dd;
-        dz[{O} + {_RAD}] = dxn;
-        dz[{O} + {_V}] = (Vc < Vn ? Vc : Vn);
-        dz[{O} + {_RIDEF}] = 1.0;
-        dz[{O} + {_RDEF}] = 1.0;
-        dz[{O} + {_VDEF}] = 1.0;
+        {P}_set(dz, {_RADIN}, {_RIDEF}, dd);
+        {P}_set(dz, {_RAD}, {_RDEF}, dxn);
+        {P}_set(dz, {_V}, {_VDEF}, Vc < Vn ? Vc : Vn);
     }}
 """
         notes.append(("radii", "sound recursion (RadiusRecursion): V_k = min(lam_eff V_k-1 + c, lmax dx_k^2), "
@@ -197,30 +203,18 @@ def _radii_c(obs: Any, P: str, up: str, O: str) -> tuple[str, str, list[tuple[st
             }}
             return {up}_NONFINITE;
         }}
-        dz[{O} + {_RADIN}] = {P}_rad_input[k1 - 1];
-        dz[{O} + {_RAD}] = {P}_rad_state[k1];
-        dz[{O} + {_RIDEF}] = ({P}_rad_input[k1 - 1] == {P}_rad_input[k1 - 1]) ? 1.0 : 0.0;
-        dz[{O} + {_RDEF}] = ({P}_rad_state[k1] == {P}_rad_state[k1]) ? 1.0 : 0.0;
-        if (dz[{O} + {_RIDEF}] == 0.0) {{
-            dz[{O} + {_RADIN}] = 0.0;
-        }}
-        if (dz[{O} + {_RDEF}] == 0.0) {{
-            dz[{O} + {_RAD}] = 0.0;
-        }}
-        dz[{O} + {_V}] = 0.0;
-        dz[{O} + {_VDEF}] = 0.0;
+        {P}_set(dz, {_RADIN}, {_RIDEF}, {P}_rad_input[k1 - 1]);
+        {P}_set(dz, {_RAD}, {_RDEF}, {P}_rad_state[k1]);
+        {P}_set(dz, {_V}, {_VDEF}, NAN);
     }}
 """
         notes.append(("radii", f"given ({radii.label}): {ns} state and {ni} input radii as tables; "
                                f"steady {radii.state_steady:.6g} (state), {radii.input_steady:.6g} (input)"))
         return consts, code, notes
     code = f"""\
-    dz[{O} + {_RAD}] = 0.0;
-    dz[{O} + {_RADIN}] = 0.0;
-    dz[{O} + {_V}] = 0.0;
-    dz[{O} + {_RDEF}] = 0.0;
-    dz[{O} + {_RIDEF}] = 0.0;
-    dz[{O} + {_VDEF}] = 0.0;
+    {P}_set(dz, {_RAD}, {_RDEF}, NAN);
+    {P}_set(dz, {_RADIN}, {_RIDEF}, NAN);
+    {P}_set(dz, {_V}, {_VDEF}, NAN);
 """
     notes.append(("radii", "none (a given gain without radii: the radii are undefined, NaN in Python)"))
     return "", code, notes
@@ -271,9 +265,29 @@ def generate_setvalued(observer: Any, prefix: str) -> CProgram:
         body += _function(f"{P}_phi", phi, ("z",), f"{s.name}: phi") + "\n"
     rconsts, rcode, rnotes = _radii_c(observer, P, up, O)
     body += rconsts + "\n"
+    getter = (f"""\
+/* a radius or V: stored finite with flag 1; NaN (undefined), +inf, -inf as 0 with flag 0, 2, 3 */
+static double {P}_get(const double *z, int i, int flag)
+{{
+    const double f = z[{O} + flag];
+    return f == 1.0 ? z[{O} + i] : (f == 2.0 ? INFINITY : (f == 3.0 ? -INFINITY : NAN));
+}}
+
+""" if f"{P}_get(" in rcode else "")
     phi_add = f"    {P}_phi(z, ph);\n    for (i = 0; i < {n}; ++i) {{\n        fx[i] = fx[i] + ph[i];\n    }}\n" \
         if phi is not None else ""
     body += f"""\
+{getter}static void {P}_set(double *z, int i, int flag, double v)
+{{
+    if (v - v == 0.0) {{
+        z[{O} + i] = v;
+        z[{O} + flag] = 1.0;
+    }} else {{
+        z[{O} + i] = 0.0;
+        z[{O} + flag] = v > 0.0 ? 2.0 : (v < 0.0 ? 3.0 : 0.0);
+    }}
+}}
+
 /* make the centre NaN: what the Python observer raises on (module docstring) */
 static int {P}_fail(double *z)
 {{
@@ -386,7 +400,7 @@ static int {P}_init_(const double *xhat0, double *z)
         z[i] = xhat0[i];
     }}
     z[{O} + {_K}] = -1.0;
-{_init_radii(observer, O)}    return {P}_finite(z, {up}_NZ) ? {up}_OK : {up}_NONFINITE;
+{_init_radii(observer, P)}    return {P}_finite(z, {up}_NZ) ? {up}_OK : {up}_NONFINITE;
 }}
 
 #undef {O}
@@ -423,12 +437,12 @@ def _num(v: Any) -> str:
     return "-" if v is None else f"{float(v):.17g}"
 
 
-def _init_radii(observer: Any, O: str) -> str:
+def _init_radii(observer: Any, observer_prefix: str) -> str:
     """The initial radius and ``V̄_0`` of :meth:`SetValuedObserver.init` (computed in Python: a constant)."""
     z0 = observer.init(np.zeros(observer.system.n))
     lines = []
     if not math.isnan(z0.radius):
-        lines += [f"    z[{O} + {_RAD}] = {_lit(z0.radius)};", f"    z[{O} + {_RDEF}] = 1.0;"]
+        lines.append(f"    {observer_prefix}_set(z, {_RAD}, {_RDEF}, {_lit(z0.radius)});")
     if not math.isnan(z0.V):
-        lines += [f"    z[{O} + {_V}] = {_lit(z0.V)};", f"    z[{O} + {_VDEF}] = 1.0;"]
+        lines.append(f"    {observer_prefix}_set(z, {_V}, {_VDEF}, {_lit(z0.V)});")
     return "".join(ln + "\n" for ln in lines)
