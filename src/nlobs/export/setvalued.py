@@ -420,7 +420,8 @@ static int {P}_init_(const double *xhat0, double *z)
     ]
     if isinstance(design, SetValuedDesign):
         vals = ", ".join(f"{k} = {_num(getattr(design, k, None))}" for k in ("rho", "lam", "lam_eff", "c", "kappa"))
-        notes += [("design", f"objective {getattr(design.objective, 'value', design.objective)}, verified {design.verified}, {vals}"),
+        objective = getattr(design.objective, "value", design.objective)
+        notes += [("design", f"objective {objective}, verified {design.verified}, {vals}"),
                   ("steady radius", f"{_num(design.steady_radius)} (of the design)"),
                   ("P", _matrix_note(design.P))]
     else:
