@@ -15,6 +15,7 @@ NaN at 0, else 0; a NaN argument of ``sign``, ``min`` or ``max`` gives NaN, wher
 
 from __future__ import annotations
 
+import itertools
 import re
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -166,7 +167,7 @@ def emit_assignments(exprs: Sequence[sp.Expr], inputs: Mapping[sp.Symbol, str], 
     if stray:
         raise ModelError(f"{what}: free symbols that are not inputs: {', '.join(sorted(set(stray)))}")
     renamed = [e.xreplace(local) for e in exprs]
-    temps, reduced = sp.cse(renamed, symbols=sp.numbered_symbols("w", real=True))
+    temps, reduced = sp.cse(renamed, symbols=(sp.Symbol(f"w{i}", real=True) for i in itertools.count()))
     printer = _Printer({"strict": False})
     used = set().union(*(e.free_symbols for e in renamed)) if renamed else set()
     lines = [f"{indent}const double {local[s]} = {src};" for s, src in inputs.items() if local[s] in used]
