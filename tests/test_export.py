@@ -304,3 +304,14 @@ def test_cli_export_cascade_and_gnss_ins_carry_their_certificates(tmp_path) -> N
     r = runner.invoke(app, ["export", "chemostat-analyser", "--observer", "cascade", "--box", "0,1",
                             "--out", str(tmp_path / "x")])
     assert r.exit_code == 2 and "do not apply to the cascade observer" in r.output
+
+
+def test_cli_export_setvalued(tmp_path) -> None:
+    from typer.testing import CliRunner
+
+    from nlobs.cli import app
+
+    r = CliRunner().invoke(app, ["export", "khajenejad-6-1", "--observer", "setvalued", "--out", str(tmp_path)])
+    assert r.exit_code == 0, r.output
+    header = (tmp_path / "khajenejad_6_1_setvalued.h").read_text()
+    assert "S-procedure condition" in header and "steady radius" in header

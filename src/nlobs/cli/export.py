@@ -21,7 +21,8 @@ def export_cmd(
     model: Annotated[str, typer.Argument(help="A model file (.toml), or the name of a shipped model.")],
     observer: Annotated[str, typer.Option(
         "--observer", help="Which design to export: drift (Dalla Mora, Germani & Manes (3.1)), pinv "
-                           "(Röbenack (7), (17)), cascade (Grip, Saberi & Johansen, the file's [cascade] table) or "
+                           "(Röbenack (7), (17)), cascade (Grip, Saberi & Johansen, the file's [cascade] table), setvalued "
+                           "(Khajenejad & Yong, Algorithm 1) or "
                            "gnss-ins (the demo's observer (24); MODEL is gnss-ins).")],
     out: Annotated[Path, typer.Option("--out", help="Folder for the header and the source (created).")],
     lang: Annotated[str, typer.Option("--lang", help="Target language (c: C99, math.h only, no heap).")] = "c",

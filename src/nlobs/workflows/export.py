@@ -22,7 +22,7 @@ from nlobs.workflows.verdict import Verdict
 __all__ = ["EXPORTABLE", "ExportReport", "export_model_observer"]
 
 #: The observers ``nlobs export --observer`` designs and writes.
-EXPORTABLE: tuple[str, ...] = ("drift", "pinv", "cascade", "gnss-ins")
+EXPORTABLE: tuple[str, ...] = ("drift", "pinv", "cascade", "setvalued", "gnss-ins")
 LANGUAGES: tuple[str, ...] = ("c",)
 
 
@@ -128,6 +128,28 @@ def _cascade(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, 
     return design.observer(), design.verified, f"Grip, Saberi & Johansen, LMI (14) and Theorem 1\n{text}", why
 
 
+def _setvalued(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, str, str]:
+    from nlobs.observers.setvalued import SetValuedObserver
+    from nlobs.systems.modelfile import load_discrete_ui_model
+    from nlobs.workflows.setvalued import design_setvalued_observer
+
+    if box is not None or saturation is not None:
+        raise InvalidArgumentError("--box and --saturation do not apply to the set-valued observer (its class box "
+                                   "is the file's)")
+    m = load_discrete_ui_model(model)
+    rep = design_setvalued_observer(m)
+    if rep.design is None:
+        raise InvalidArgumentError(f"no gain to export: {rep.message}")
+    d = rep.design
+    verified = all(c.passed for c in d.checks)
+    lines = [f"Khajenejad & Yong, observer (10)-(15), Algorithm 1, with nlobs's sound design and radius recursion "
+             f"(objective {d.objective.value})",
+             f"rho = {d.rho}, lambda_eff = {d.lam_eff:.6g}, c = {d.c:.6g}, steady radius = {d.steady_radius:.6g}"]
+    lines += [f"{c.name}: {'passed' if c.passed else 'FAILED'}: {c.evidence}" for c in d.checks]
+    why = "" if verified and rep.verdict is Verdict.OK else (rep.message or "a check failed")
+    return SetValuedObserver(m.system, d), verified and rep.verdict is Verdict.OK, "\n".join(lines), why
+
+
 def _gnss_ins(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, str, str]:
     from nlobs.navigation.trajectory import traffic_pattern
     from nlobs.workflows.demo import DemoConfig, demo_observer
@@ -185,7 +207,7 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
 
     if lang not in LANGUAGES:
         raise InvalidArgumentError(f"--lang: expected one of {', '.join(LANGUAGES)}, got {lang!r}")
-    makers = {"drift": _drift, "pinv": _pinv, "cascade": _cascade, "gnss-ins": _gnss_ins}
+    makers = {"drift": _drift, "pinv": _pinv, "cascade": _cascade, "setvalued": _setvalued, "gnss-ins": _gnss_ins}
     if observer not in makers:
         raise InvalidArgumentError(f"--observer: expected one of {', '.join(EXPORTABLE)}, got {observer!r}")
     if observer == "gnss-ins":
@@ -193,9 +215,9 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
             raise InvalidArgumentError(f"--observer gnss-ins: the model is the demo's flight, named gnss-ins (got {model!r})")
         name = "gnss-ins"
         obs, certified, text, why = _gnss_ins(None, box, saturation)
-    elif observer == "cascade":
+    elif observer in ("cascade", "setvalued"):
         name = Path(str(model)).stem
-        obs, certified, text, why = _cascade(model, box, saturation)
+        obs, certified, text, why = makers[observer](model, box, saturation)
     else:
         m = symbolic_model(model)
         name = m.name
