@@ -185,10 +185,16 @@ def test_every_generated_module_compiles_strictly() -> None:
         DriftObserver.from_model(model, vandermonde_gain((3, 1), 3.0).K, saturation=Box.around(np.zeros(4), 1.0)),
         DriftObserver.from_model(model, vandermonde_gain((3, 1), 3.0).K, regularization=1e-3),
     ]
+    import shutil
+
+    from nlobs.export import Compiler
+
+    compilers = [find_compiler()] + [Compiler((p,), "PATH") for p in map(shutil.which, ("gcc", "clang")) if p]
     for obs in observers:
         prog = generate(obs, "m")
         header, source = render(prog, "test")
-        compile_object(source, strict=True, headers={prog.header_name: header})
+        for cc in compilers:  # the one nlobs uses, and GCC and Clang where installed (their warnings differ)
+            compile_object(source, strict=True, headers={prog.header_name: header}, compiler=cc)
 
 
 def test_names_that_are_c_keywords_or_odd_still_compile_and_run() -> None:
@@ -315,3 +321,40 @@ def test_cli_export_setvalued(tmp_path) -> None:
     assert r.exit_code == 0, r.output
     header = (tmp_path / "khajenejad_6_1_setvalued.h").read_text()
     assert "S-procedure condition" in header and "steady radius" in header
+
+
+def test_run_observer_takes_the_whole_record_in_c_and_falls_back_to_the_step_loop() -> None:
+    from nlobs.errors import SimulationDiverged
+
+    model = load_model("duffing-actuator")
+    obs = DriftObserver.from_model(model, vandermonde_gain((3, 1), 3.0).K)
+    co = compile_observer(obs)
+    t, U, Y, X = _record(model.compile(), [0.3, 0.0, 0.1, 0.2], 800, 0.002, [0.2, -0.1], 0.001)
+    xh0 = np.array([[0.0, 0.0, 0.0, 0.0], [0.5, -0.5, 0.2, 0.1]])
+    kw = dict(u=np.broadcast_to(U, (2, *U.shape)), y=np.broadcast_to(Y, (2, *Y.shape)))
+    a, b = run_observer(obs, t, x_hat0=xh0, **kw), run_observer(co, t, x_hat0=xh0, save_every=7, **kw)
+    assert b.method.endswith("whole record in one call") and b.t.size == a.t[::7].size + 1
+    assert rel(b.x_hat, a.x_hat[:, np.r_[0:800:7, 799]]) < 1e-12
+    # a measurement that makes one run non-finite: raised (with its time) or kept, the other run unchanged
+    lin = LuenbergerObserver(_linear(), np.array([[3.0, 0.1], [4.0, 0.2], [0.0, 1.5]]))
+    cl = compile_observer(lin)
+    tl = 0.01 * np.arange(600)
+    Yl = np.random.default_rng(4).standard_normal((2, 600, 2))
+    Yl[1, 300:] = 1e308
+    Ul = np.zeros((2, 600, 1))
+    ref = run_observer(lin, tl, x_hat0=np.zeros((2, 3)), u=Ul, y=Yl, divergence="keep")
+    with pytest.raises(SimulationDiverged):
+        run_observer(cl, tl, x_hat0=np.zeros((2, 3)), u=Ul, y=Yl)
+    kept = run_observer(cl, tl, x_hat0=np.zeros((2, 3)), u=Ul, y=Yl, divergence="keep")
+    assert kept.method.endswith("whole record in one call")
+    assert np.all(np.isfinite(kept.x_hat[0])) and not np.all(np.isfinite(kept.x_hat[1]))
+    assert rel(kept.x_hat[0], ref.x_hat[0]) < 1e-12 and kept.info["diverged_at"] == ref.info["diverged_at"] > tl[299]
+    # a singular Q_s: the C gives the record back (None), and the step loop raises the Python observer's error
+    x1, x2 = sp.symbols("x1 x2", real=True)
+    sq = SymbolicModel.input_affine(["x1", "x2"], ["u"], ["y"], f=[x2, -x1], g=[[0], [1]], h=[x1**2], name="sq")
+    cs = compile_observer(DriftObserver.from_model(sq, vandermonde_gain((2,), 2.0).K))
+    tt = 0.01 * np.arange(30)
+    sampled = np.ones((30, 1), dtype=bool)
+    assert cs.run_records(tt, np.array([[0.0, 0.5]]), np.zeros((1, 30, 1)), np.ones((1, 30, 1)), sampled) is None
+    ok = cs.run_records(tt, np.array([[1.0, 0.5]]), np.zeros((1, 30, 1)), np.ones((1, 30, 1)), sampled)
+    assert ok is not None and ok.shape == (1, 30, 2) and np.all(np.isfinite(ok))

@@ -88,6 +88,7 @@ def load_library(program: CProgram, *, compiler: Compiler | None = None, strict:
                 "rhs_batch": (c_long, [c_long, c_d, _D, _D, _D, _D, _I]),
                 "step_batch": (c_long, [c_long, c_d, _D, _D, _D, c_d, _I]),
                 "run": (c_long, [c_long, _D, _D, _D, _D, _B, _D]),
+                "run_batch": (c_long, [c_long, c_long, _D, _D, _D, _D, _B, _D, _I]),
             }
             if program.correcting:
                 sigs["correct"] = (c_int, [c_d, _D, _D, _D, _B])
@@ -146,7 +147,7 @@ class CompiledObserver:
         object.__setattr__(self, "state_names", tuple(names) if names and len(names) == self.program.n_z else None)
         P = self.program.prefix
         object.__setattr__(self, "_fn", {k: getattr(self.library, f"{P}_{k}") for k in (
-            "step_batch", "rhs_batch", "run", "init", "estimate", "estimate_batch", *(("correct_batch",) if self.program.correcting
+            "step_batch", "rhs_batch", "run", "run_batch", "init", "estimate", "estimate_batch", *(("correct_batch",) if self.program.correcting
                                                                      else ()))})
 
     # ------------------------------------------------------------------ sizes
@@ -248,6 +249,44 @@ class CompiledObserver:
             redo(self._unpack(zb), ub, yb)  # raises the Python observer's own error (point, time)
         raise NumericalError(f"{self.name}: at t = {t:g} the generated C refused the step of run {r} "
                              f"({self.program.status1}) where the Python observer does not")
+
+    def run_records(self, t: Array, z0: Array, u: Array, y: Array, sampled: BoolArray) -> Array | None:
+        """Every run over the record in one C call (``P_run_batch``): raw estimates ``(*batch, K, n_x)``.
+
+        The capability :class:`~nlobs.observers.base.RecordRunning` that :func:`nlobs.simulate.run_observer`
+        uses: no Python per step. A run whose state becomes non-finite goes on with NaN (the loop
+        reports the divergence); where the C finds a singular matrix this returns ``None`` and the loop
+        steps the record instead, so that the Python observer reports it as it always does.
+
+        Parameters
+        ----------
+        t : ndarray, shape (K,)
+            The time grid.
+        z0 : ndarray, shape (*batch, n_z)
+            The initial flat states.
+        u : ndarray, shape (*batch, K, m)
+            Known input at each instant.
+        y : ndarray, shape (*batch, K, p)
+            Measurement at each instant (read where ``sampled``).
+        sampled : ndarray of bool, shape (K, p)
+            Fresh samples.
+        """
+        p = self.program
+        zc = np.array(z0, dtype=np.float64, order="C", copy=True)
+        batch = zc.shape[:-1]
+        n = zc.size // p.n_z
+        grid = np.ascontiguousarray(t, dtype=np.float64)
+        K = grid.size
+        uc = _contig(u, (*batch, K, p.n_u)) if p.n_u else np.zeros(1)
+        yc = _contig(y, (*batch, K, p.n_y)) if p.n_y else np.zeros(1)
+        sm = np.ascontiguousarray(np.broadcast_to(np.asarray(sampled, dtype=bool), (K, p.n_y)), dtype=np.uint8) \
+            if p.n_y else np.zeros(1, dtype=np.uint8)
+        out = np.empty((*batch, K, p.n_x))
+        status = np.zeros(max(n, 1), dtype=np.intc)
+        if self._fn["run_batch"](n, K, _ptr(grid), _ptr(zc), _ptr(uc), _ptr(yc), _ptr(sm), _ptr(out), _ptr(status)):
+            if np.any(status[:n] == SINGULAR):
+                return None
+        return out
 
     def run_record(self, t: ArrayLike, x_hat0: ArrayLike, *, u: ArrayLike | None = None,
                    y: ArrayLike | None = None, sampled: ArrayLike | None = None) -> Array:

@@ -22,7 +22,10 @@ are plain ``double`` arrays of one run, no heap, no global state, nothing beyond
   const unsigned char *sampled, double *xhat)`` — one run over a record of ``K`` instants, the loop
   of :func:`nlobs.simulate.run_observer`: at ``t[k]`` a correcting observer corrects where
   ``sampled[k][j]`` (``NULL``: every output at every instant), any other takes the samples into its
-  held measurement; ``xhat[k]`` is recorded; the observer advances to ``t[k+1]``.
+  held measurement; ``xhat[k]`` is recorded; the observer advances to ``t[k+1]``;
+* ``long P_run_batch(long n, long K, …, int *status)`` — ``n`` such runs (their states, inputs,
+  measurements and estimates one after the other; ``sampled`` shared), each going on through a
+  non-finite state (its estimates are then NaN) and stopping only at a singular matrix (``status[r]``).
 
 Every ``int`` function returns ``P_OK`` (0), ``P_SINGULAR`` (1: a matrix the observer inverts is
 singular, e.g. ``Q_s(x̂)`` of Dalla Mora, Germani & Manes (3.1)) or ``P_NONFINITE`` (2: the new state
@@ -170,6 +173,8 @@ def render(program: CProgram, version: str) -> tuple[str, str]:
         f"                    int *status);",
         f"long {P}_run(long K, const double *t, double *z, const double *u, const double *y,\n"
         f"             const unsigned char *sampled, double *xhat);",
+        f"long {P}_run_batch(long n, long K, const double *t, double *z, const double *u, const double *y,\n"
+        f"                   const unsigned char *sampled, double *xhat, int *status);",
     ]
     if program.correcting:
         api.insert(3, f"int {P}_correct(double t, double *z, const double *u, const double *y, "
@@ -344,7 +349,9 @@ long {P}_correct_batch(long n, double t, double *z, const double *u, const doubl
 """)
     if program.correcting:
         sample = f"""\
-            if (any && {P}_correct(t[k], z, uk, y + k * {up}_NY, fresh) != {up}_OK) {{
+            s = {P}_correct(t[k], z, uk, y + k * {up}_NY, fresh);
+            if (s != {up}_OK && !(s == {up}_NONFINITE && keep)) {{
+                *status = s;
                 return k + 1;
             }}"""
     else:
@@ -355,13 +362,15 @@ long {P}_correct_batch(long n, double t, double *z, const double *u, const doubl
                 }}
             }}"""
     out.append(f"""\
-long {P}_run(long K, const double *t, double *z, const double *u, const double *y,
-             const unsigned char *sampled, double *xhat)
+/* one run over K instants (the loop of run_observer); keep: go on through non-finite states */
+static long {P}_run_one(long K, const double *t, double *z, const double *u, const double *y,
+                        const unsigned char *sampled, double *xhat, int keep, int *status)
 {{
     double held[{up}_NY1];
     unsigned char fresh[{up}_NY1];
     long k;
-    int j, any;
+    int j, any, s;
+    *status = {up}_OK;
     for (j = 0; j < {up}_NY1; ++j) {{
         held[j] = NAN;
     }}
@@ -376,11 +385,38 @@ long {P}_run(long K, const double *t, double *z, const double *u, const double *
 {sample}
         }}
         {P}_estimate(z, xhat + k * {up}_NX);
-        if (k + 1 < K && {P}_step(t[k], z, uk, held, t[k + 1] - t[k]) != {up}_OK) {{
-            return k + 1;
+        if (k + 1 < K) {{
+            s = {P}_step(t[k], z, uk, held, t[k + 1] - t[k]);
+            if (s != {up}_OK && !(s == {up}_NONFINITE && keep)) {{
+                *status = s;
+                return k + 1;
+            }}
         }}
     }}
     return 0;
+}}
+
+long {P}_run(long K, const double *t, double *z, const double *u, const double *y,
+             const unsigned char *sampled, double *xhat)
+{{
+    int s;
+    return {P}_run_one(K, t, z, u, y, sampled, xhat, 0, &s);
+}}
+
+long {P}_run_batch(long n, long K, const double *t, double *z, const double *u, const double *y,
+                   const unsigned char *sampled, double *xhat, int *status)
+{{
+    long r, bad = 0;
+    for (r = 0; r < n; ++r) {{
+        int s;
+        {P}_run_one(K, t, z + r * {up}_NZ, u + r * K * {up}_NU, y + r * K * {up}_NY, sampled,
+                    xhat + r * K * {up}_NX, 1, &s);
+        bad += (s != {up}_OK);
+        if (status != 0) {{
+            status[r] = s;
+        }}
+    }}
+    return bad;
 }}
 """)
     return "\n".join(out)

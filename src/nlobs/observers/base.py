@@ -43,6 +43,9 @@ The loops look for these methods and use them when present (each is a small prot
   the cheap raw estimate at every step and turns the whole record into estimates (and extras) in
   one call at the end (the GNSS/INS observer projects ``R̂`` onto SO(3) once per run instead of
   once per step).
+* :class:`RecordRunning` — ``run_records(t, z0, u, y, sampled)``: every run over a whole record in
+  one call (an observer whose step is compiled code: no Python per step); :func:`~nlobs.simulate.run_observer`
+  uses it for an observer without diagnostics, and takes the step-by-step loop when it returns ``None``.
 * ``state_names`` — names used in divergence reports (default ``z[i]``, or a dataclass field).
 * ``name`` — a short label (results and progress bars).
 
@@ -59,7 +62,8 @@ from nlobs.systems.timebase import TimeBase
 
 Z = TypeVar("Z")
 
-__all__ = ["CorrectingObserver", "DeferredEstimate", "Diagnosing", "Observer", "SelfStepping", "ToControl", "Z"]
+__all__ = ["CorrectingObserver", "DeferredEstimate", "Diagnosing", "Observer", "RecordRunning", "SelfStepping",
+           "ToControl", "Z"]
 
 
 class ToControl:
@@ -216,3 +220,33 @@ class DeferredEstimate(Protocol[Z]):
         estimates into it and return it (extras must not be views of what it overwrites).
         """
         ...
+
+
+@runtime_checkable
+class RecordRunning(Protocol[Z]):
+    """An observer that runs whole records in one call (module docstring)."""
+
+    def run_records(self, t: Array, z0: Z, u: Array, y: Array, sampled: BoolArray) -> Array | None:
+        """The estimates (raw ones for a :class:`DeferredEstimate`) of every run at every instant of ``t``.
+
+        Parameters
+        ----------
+        t : ndarray, shape (K,)
+            The time grid.
+        z0 : Z
+            The initial state of every run (leading batch axes).
+        u : ndarray, shape (*batch, K, m)
+            The known input at each instant, held over the step after it.
+        y : ndarray, shape (*batch, K, p)
+            The measurement at each instant where ``sampled`` (anything elsewhere).
+        sampled : ndarray of bool, shape (K, p)
+            Which outputs were sampled at each instant.
+
+        Returns
+        -------
+        ndarray, shape (*batch, K, n_x), or None
+            ``None`` where the record cannot be run in one call (the loop then steps it, and reports
+            what went wrong the way it always does).
+        """
+        ...
+

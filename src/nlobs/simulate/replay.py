@@ -17,6 +17,11 @@ each grid time ``t_k``:
    (:class:`~nlobs.observers.base.SelfStepping`), else one RK4 step of ``rhs`` with
    ``h_k = t_{k+1} − t_k``.
 
+Compiled observers (:class:`~nlobs.observers.base.RecordRunning`, e.g. :func:`nlobs.export.compile_observer`)
+without diagnostics run the whole record, every run of the batch, in one call instead of the loop
+above; the result is the same (``method`` ends with ``"whole record in one call"``). Where that call
+gives the record back (``None``: a singular matrix), the loop steps it as above.
+
 Timing: ``info["cost_per_step_us"]`` is the wall time spent inside the observer's ``correct``,
 ``rhs`` and ``step`` (not ``estimate``, not recording) divided by the number of grid instants and
 by the number of batch members: the cost of one step of one run, amortised over the batch.
@@ -44,7 +49,7 @@ from nlobs._progress import Progress
 from nlobs._typing import Array, IntArray
 from nlobs._validate import as_finite_array, as_real_array
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError, SimulationDiverged
-from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
+from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, RecordRunning, SelfStepping
 from nlobs.simulate.loop import finish, initial_state, observer_label, record_diagnostics, time_major_extras
 from nlobs.simulate.result import SimulationResult
 from nlobs.simulate.integrators import rk4_step
@@ -292,32 +297,50 @@ def run_observer(
                 diverged_at = when
         checked = upto + 1
 
-    with np.errstate(over="ignore", invalid="ignore", divide="ignore"), Progress(K, progress, label) as bar:
-        for k in range(K):
-            u_k = u_arr[..., k, :] if u_arr is not None else u0
-            g = fix_list[k]
-            if g >= 0:
-                y_g = y_arr[..., g, :]
-                fresh = rows[g]
-                if correcting:
+    whole = None
+    if isinstance(observer, RecordRunning) and not diagnose:  # compiled code: the whole record in one call
+        u_grid = u_arr if u_arr is not None else np.zeros((*batch, K, 0))
+        y_grid = np.full((*batch, K, p), np.nan)
+        s_grid = np.zeros((K, p), dtype=bool)
+        at = np.flatnonzero(fix_at >= 0)
+        if at.size:
+            y_grid[..., at, :] = y_arr[..., fix_at[at], :]
+            s_grid[at] = rows[fix_at[at]]
+        t0 = perf()
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            whole = observer.run_records(grid, z, np.broadcast_to(u_grid, (*batch, K, u_grid.shape[-1])), y_grid, s_grid)
+        busy = perf() - t0
+    if whole is not None:
+        rec[...] = np.moveaxis(whole[..., save_steps, :], -2, 0)
+        with np.errstate(invalid="ignore"):
+            check(Ks - 1)
+    else:
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"), Progress(K, progress, label) as bar:
+            for k in range(K):
+                u_k = u_arr[..., k, :] if u_arr is not None else u0
+                g = fix_list[k]
+                if g >= 0:
+                    y_g = y_arr[..., g, :]
+                    fresh = rows[g]
+                    if correcting:
+                        t0 = perf()
+                        z = observer.correct(t_list[k], z, u_k, y_g, fresh)  # type: ignore[attr-defined]
+                        busy += perf() - t0
+                    else:
+                        y_held[..., fresh] = y_g[..., fresh]
+                j = row_list[k]
+                if j >= 0:
+                    rec[j] = estimate(z)
+                    if diagnose:
+                        record_diagnostics(extras, observer.diagnostics(z, u_k), j, Ks)  # type: ignore[attr-defined]
+                    if j - checked + 1 >= check_every:
+                        check(j)
+                if k < K - 1:
                     t0 = perf()
-                    z = observer.correct(t_list[k], z, u_k, y_g, fresh)  # type: ignore[attr-defined]
+                    z = advance(k, z, u_k)
                     busy += perf() - t0
-                else:
-                    y_held[..., fresh] = y_g[..., fresh]
-            j = row_list[k]
-            if j >= 0:
-                rec[j] = estimate(z)
-                if diagnose:
-                    record_diagnostics(extras, observer.diagnostics(z, u_k), j, Ks)  # type: ignore[attr-defined]
-                if j - checked + 1 >= check_every:
-                    check(j)
-            if k < K - 1:
-                t0 = perf()
-                z = advance(k, z, u_k)
-                busy += perf() - t0
-            bar.update(k + 1)
-        check(Ks - 1)
+                bar.update(k + 1)
+            check(Ks - 1)
 
     x_hat = np.moveaxis(rec, 0, -2)
     out_extras = time_major_extras(extras, len(batch))
@@ -342,6 +365,8 @@ def run_observer(
     observer_s = busy
     dt = float(np.mean(h)) if K > 1 else (tb.dt if isinstance(tb, Discrete) else 0.0)
     method = "discrete" if discrete else ("observer step" if self_step else "rk4")
+    if whole is not None:
+        method += ", whole record in one call"
     return SimulationResult(
         t=grid[save_steps] if Ks != K else grid,
         x=truth_arr,
