@@ -64,7 +64,7 @@ def _record(model, K: int, dt: float, seed: int = 0):
     xs = np.empty((K, x.size))
     for k in range(K):
         xs[k] = x
-        x = rk4_step(lambda tt, xx: plant.rhs(tt, xx, U[k]), t[k], x, dt)
+        x = rk4_step(lambda tt, xx, uk=U[k]: plant.rhs(tt, xx, uk), t[k], x, dt)
     Y = plant.output(0.0, xs, U) + 1e-3 * np.random.default_rng(seed).standard_normal((K, len(plant.outputs)))
     return t, U, Y
 
@@ -119,7 +119,7 @@ def main() -> None:
         print(json.dumps({"compiler": cc.describe(), "first_compile_s": warm, "generation": gen, "steps": rows}, indent=2))
         return
     print(f"compiler: {cc.describe()} ({cc.label}); its first compilation in an empty cache: {warm:.2f} s")
-    print(f"\ngeneration + compilation + load, empty library cache (target ≤ 5 s):")
+    print("\ngeneration + compilation + load, empty library cache (target ≤ 5 s):")
     for r in gen:
         print(f"  {r['observer']:<42} {r['seconds']:6.2f} s  {'ok' if r['seconds'] <= 5.0 else 'NOT met'}")
     print(f"\none run, {a.steps} steps (Python: run_observer, time inside the observer; C: one P_run call):")

@@ -51,7 +51,7 @@ def _record(plant, x0, K: int, dt: float, u, noise: float, seed: int = 0):
     U = np.broadcast_to(np.asarray(u, dtype=float).reshape(1, m) if m else np.zeros((1, 0)), (K, m)).copy()
     xs = [np.asarray(x0, dtype=float)]
     for k in range(K - 1):
-        xs.append(rk4_step(lambda tt, xx: plant.rhs(tt, xx, U[k]), t[k], xs[-1], dt))
+        xs.append(rk4_step(lambda tt, xx, uk=U[k]: plant.rhs(tt, xx, uk), t[k], xs[-1], dt))
     X = np.array(xs)
     Y = plant.output(0.0, X, U) + noise * np.random.default_rng(seed).standard_normal((K, len(plant.outputs)))
     return t, U, Y, X

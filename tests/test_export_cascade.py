@@ -299,11 +299,11 @@ def test_teacher_forced_steps(case):
     Z[0] = obs.init(x_hat0[0])
     for k in range(K - 1):
         h = t[k + 1] - t[k]
-        Z[k + 1] = rk4_step(lambda tt, zz: obs.rhs(tt, zz, um[k], y[0, k]), t[k], Z[k], h)
+        Z[k + 1] = rk4_step(lambda tt, zz, uk=um[k], yk=y[0, k]: obs.rhs(tt, zz, uk, yk), t[k], Z[k], h)
     # every step at once: the C advances the K - 1 states as a batch, each with its own u, y and h equal
     h = float(t[1] - t[0])
     assert np.allclose(np.diff(t[:K]), h, rtol=1e-12, atol=0.0)
-    ref = np.stack([rk4_step(lambda tt, zz: obs.rhs(tt, zz, um[k], y[0, k]), t[k], Z[k], h) for k in range(K - 1)])
+    ref = np.stack([rk4_step(lambda tt, zz, uk=um[k], yk=y[0, k]: obs.rhs(tt, zz, uk, yk), t[k], Z[k], h) for k in range(K - 1)])
     got = cobs.step(0.0, Z[:-1], um[: K - 1], y[0, : K - 1], h)
     worst = max(_rel(got[k], ref[k]) for k in range(K - 1))
     assert worst <= RTOL

@@ -26,7 +26,6 @@ from __future__ import annotations
 import ctypes
 import threading
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -189,7 +188,7 @@ class CompiledObserver:
     def estimate(self, z: Array) -> Array:
         """``x̂`` of the flat state (the Python observer's ``estimate`` of the unpacked state)."""
         if self.program.codec is None and self.n_z == self.n_x:
-            est = getattr(self.observer, "estimate")
+            est = self.observer.estimate
             return est(z)  # type: ignore[no-any-return]
         return self.observer.estimate(self._unpack(z))  # type: ignore[no-any-return]
 

@@ -260,17 +260,17 @@ def generate_gnss_ins(observer: Any, prefix: str, *, imu_period: float | None = 
     k0 = base._scalar
     K = np.asarray(base.K, dtype=float)
     body = "".join([
-        f"/* nominal IMU period h0 and the accepted deviation |h - h0| */\n",
+        "/* nominal IMU period h0 and the accepted deviation |h - h0| */\n",
         f"static const double {P}_h0 = {c_double(h0)};\n",
         f"static const double {P}_htol = {c_double(IMU_PERIOD_RTOL * h0)};\n",
         f"/* linear sub-flow over h0/2: [flow 0 (no fix yet), flow 1 (with a fix)] x 3 axes x ({nb}x{nb} Phi, {nb} d);"
         f" and F Phi, F^2 Phi / 2 */\n",
         _const(f"{P}_phi", phi), _const(f"{P}_t1", t1), _const(f"{P}_t2", t2),
-        "/* m^n, S(m^n), S(m^n)^2, g^n, K (row-major, 9 x {0}) */\n".format(ny),
+        f"/* m^n, S(m^n), S(m^n)^2, g^n, K (row-major, 9 x {ny}) */\n",
         _const(f"{P}_mn", k0.m_n), _const(f"{P}_Sn", k0.Sn), _const(f"{P}_Sn2", k0.Sn2),
         _const(f"{P}_gn", base.g_n), _const(f"{P}_K", K),
-        f"/* attitude gain per mode: eigenvalues, eigenvectors V (row-major; unused where hasV is 0: "
-        f"Gamma diagonal), Gamma itself; switch times */\n",
+        "/* attitude gain per mode: eigenvalues, eigenvectors V (row-major; unused where hasV is 0: "
+        "Gamma diagonal), Gamma itself; switch times */\n",
         f"#define {up}_NMODES {N}\n",
         _const(f"{P}_gam", gam), _const(f"{P}_V", Vs), _const(f"{P}_hasV", hasV, "int"), _const(f"{P}_Gam", Gam),
         _const(f"{P}_switch", times if times else [0.0]),
@@ -499,10 +499,10 @@ static int {P}_rhs_(double t, const double *z, const double *u, const double *y,
     for (i = 0; i < 3; ++i) {{
         e[i] = (z[18 + i] - z[i]) * act;
     }}
-""" + ("" if po else f"""\
-    for (i = 0; i < 3; ++i) {{
+""" + ("" if po else """\
+    for (i = 0; i < 3; ++i) {
         e[3 + i] = (z[21 + i] - z[3 + i]) * act;
-    }}
+    }
 """) + f"""\
     for (i = 0; i < 9; ++i) {{
         double acc = 0.0;
@@ -522,7 +522,7 @@ static int {P}_rhs_(double t, const double *z, const double *u, const double *y,
         dz[10 + 3 * i] = Rw1 + GJ[3 * i + 1];
         dz[11 + 3 * i] = Rw2 + GJ[3 * i + 2];
 """ + (
-            (f"        dz[18 + i] = z[3 + i];                                       /* y_p' = v_hat */\n" if po else
+            ("        dz[18 + i] = z[3 + i];                                       /* y_p' = v_hat */\n" if po else
              f"        dz[18 + i] = z[21 + i];                                      /* y_p' = y_v */\n"
              f"        dz[21 + i] = zh[i] + {P}_gn[i];                               /* y_v' = z_hat + g^n */\n")
             if predict else
