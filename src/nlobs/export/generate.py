@@ -373,16 +373,12 @@ static void {P}_drift(const double *v, const double *u, double *d)
     }}
 }}
 """
-    body += correction
-    B = obs.saturation
-    if B is None:
-        body += f"""
-static int {P}_rhs_{_RHS_SIG}
+    body += correction + f"""
+/* (3.1) itself from the parts v at x: dz = f + g u + Q_s^-1 K (y - h) */
+static int {P}_plain(const double *v, const double *u, const double *y, double *dz)
 {{
-    double v[{size}], c[{n}];
+    double c[{n}];
     int i;
-    (void)t;
-    {P}_parts(z, v);
     {P}_drift(v, u, dz);
     if ({P}_correction(v, y, c) != 0) {{
         return 1;
@@ -391,6 +387,17 @@ static int {P}_rhs_{_RHS_SIG}
         dz[i] = dz[i] + c[i];
     }}
     return 0;
+}}
+"""
+    B = obs.saturation
+    if B is None:
+        body += f"""
+static int {P}_rhs_{_RHS_SIG}
+{{
+    double v[{size}];
+    (void)t;
+    {P}_parts(z, v);
+    return {P}_plain(v, u, y, dz);
 }}
 """
     else:
@@ -405,14 +412,7 @@ static int {P}_rhs_{_RHS_SIG}
     (void)t;
     {P}_parts(z, v);
     if (!{P}_sat({n}, z, sig)) {{
-        {P}_drift(v, u, dz);
-        if ({P}_correction(v, y, c) != 0) {{
-            return 1;
-        }}
-        for (i = 0; i < {n}; ++i) {{
-            dz[i] = dz[i] + c[i];
-        }}
-        return 0;
+        return {P}_plain(v, u, y, dz);  /* inside the box: (3.1) itself, bit for bit */
     }}
     {P}_parts(sig, vs);
     {P}_drift(vs, u, ds);
