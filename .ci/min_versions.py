@@ -10,7 +10,10 @@ dependency pinned to its floor (``pip install -c``: transitive dependencies reso
 2. runs ``nlobs reproduce PAPER --json`` for every paper in both environments and requires the
    same rows with every numeric value within ``--rtol`` (default 5 %, norm-wise per row: the SDP
    optimisers are not unique and move with the solvers' versions, measured up to 3 %; the printed
-   verdicts and notes are text and are not compared).
+   verdicts and notes are text and are not compared). The rows of :data:`NON_UNIQUE` hold an optimiser
+   that is not unique at all (Khajenejad & Yong's ``P*`` of Theorem 5.10 as printed: measured 8 %
+   apart while the ``Y*``, ``L̃*`` and ``ρ*`` it gives agree to 1e-4); their difference is printed,
+   not compared, and the quantities they certify are compared as every other row.
 
 ``python .ci/min_versions.py [--venv DIR] [--reference PYTHON] [--rtol R]`` (``make test-min``);
 exit 0 when everything agrees, 1 with the first difference otherwise.
@@ -81,13 +84,19 @@ def _flat(v) -> list[float] | None:
     return None
 
 
-def compare_rows(a: list[dict], b: list[dict]) -> tuple[str | None, float, str]:
+#: Quantities (ends of row names) whose value is a non-unique optimiser: reported, not compared.
+NON_UNIQUE: tuple[str, ...] = ("P* (Thm 5.10 as printed)",)
+
+
+def compare_rows(a: list[dict], b: list[dict], loose: list[str] | None = None) -> tuple[str | None, float, str]:
     """Compare two ``nlobs reproduce --json`` outputs row by row.
 
     The rows must name the same quantities in the same order. Each row's ``nlobs`` value, when it is
     numeric, is compared norm-wise: ``‖a − b‖ / max(‖a‖, ‖b‖)`` (the SDP optimisers nlobs reports are
     not unique, so their entries move with the solver's version while the matrix as a whole does
-    not). Returns ``(a structural difference or None, the largest relative difference, its row)``.
+    not). Rows of :data:`NON_UNIQUE` are left out of the largest difference and described in
+    ``loose`` (when given). Returns ``(a structural difference or None, the largest relative
+    difference, its row)``.
     """
     if [r.get("quantity") for r in a] != [r.get("quantity") for r in b]:
         return "the rows differ", math.inf, ""
@@ -104,6 +113,10 @@ def compare_rows(a: list[dict], b: list[dict]) -> tuple[str | None, float, str]:
             continue
         na, nb = math.hypot(*fa), math.hypot(*fb)
         d = math.hypot(*(x - y for x, y in zip(fa, fb))) / max(na, nb, 1e-300)
+        if str(ra.get("quantity")).endswith(NON_UNIQUE):
+            if loose is not None:
+                loose.append(f"{ra.get('quantity')!r} {d:.2g} (a non-unique optimiser: not compared)")
+            continue
         if d > worst:
             worst, where = d, str(ra.get("quantity"))
     return None, worst, where
@@ -158,13 +171,16 @@ def main(argv: list[str] | None = None) -> int:
                       file=sys.stderr)
                 return 1
             outs.append(json.loads(r.stdout))
-        why, worst, where = compare_rows(outs[0], outs[1])
+        loose: list[str] = []
+        why, worst, where = compare_rows(outs[0], outs[1], loose)
         if why or worst > args.rtol:
             print(f"FAIL: nlobs reproduce {paper}: minimum versions and the reference differ: "
                   f"{why or f'relative difference {worst:.3g} > {args.rtol:g} at {where!r}'}", file=sys.stderr)
             return 1
         print(f"ok   nlobs reproduce {paper}: the same rows; largest relative difference {worst:.2g}"
               + (f" ({where[:60]})" if where else ""), flush=True)
+        for text in loose:
+            print(f"     {text}", flush=True)
     print(f"minimum versions: all checks pass ({time.perf_counter() - t0:.0f} s)")
     return 0
 
