@@ -358,3 +358,73 @@ def test_run_observer_takes_the_whole_record_in_c_and_falls_back_to_the_step_loo
     assert cs.run_records(tt, np.array([[0.0, 0.5]]), np.zeros((1, 30, 1)), np.ones((1, 30, 1)), sampled) is None
     ok = cs.run_records(tt, np.array([[1.0, 0.5]]), np.zeros((1, 30, 1)), np.ones((1, 30, 1)), sampled)
     assert ok is not None and ok.shape == (1, 30, 2) and np.all(np.isfinite(ok))
+
+
+MAIN_C = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include "PFX.h"
+
+/* reads K, then K records (t, u[NU], y[NY]) as doubles from stdin; prints x_hat at every instant */
+int main(void)
+{
+    long K, k;
+    int j;
+    double z[UP_NZ], xhat[UP_NX], xhat0[UP_NX] = {0};
+    double *rec;
+    if (fread(&K, sizeof K, 1, stdin) != 1) return 3;
+    rec = malloc(sizeof(double) * (size_t)K * (1 + UP_NU + UP_NY));
+    if (rec == NULL || fread(rec, sizeof(double), (size_t)K * (1 + UP_NU + UP_NY), stdin)
+            != (size_t)K * (1 + UP_NU + UP_NY)) return 4;
+    if (PFX_init(xhat0, z) != 0) return 5;
+    for (k = 0; k < K; ++k) {
+        double *r = rec + k * (1 + UP_NU + UP_NY);
+        PFX_estimate(z, xhat);
+        for (j = 0; j < UP_NX; ++j) printf("%.17g ", xhat[j]);
+        printf("\n");
+        if (k + 1 < K && PFX_step(r[0], z, r + 1, r + 1 + UP_NU, r[1 + UP_NU + UP_NY] - r[0]) != 0) return 6;
+    }
+    free(rec);
+    return 0;
+}
+"""
+
+
+def test_exported_files_build_a_standalone_program_that_matches_python(tmp_path) -> None:
+    """The two written files and a plain main() (no nlobs, no Python) give the Python observer's estimates."""
+    import subprocess
+
+    model = load_model("pendulum")
+    plant = model.compile()
+    obs = ConstantGainObserver(plant, np.array([[4.0], [6.0]]))
+    res = export_observer(obs, tmp_path, prefix="pend")
+    P, up = res.program.prefix, res.program.prefix.upper()
+    main = MAIN_C.replace("PFX", P).replace("UP_", f"{up}_")
+    (tmp_path / "main.c").write_text(main)
+    cc = find_compiler()
+    exe = tmp_path / "observer"
+    subprocess.run([*cc.command, "-std=c99", "-O2", "-ffp-contract=off", str(tmp_path / "main.c"),
+                    str(res.source), "-I", str(tmp_path), "-lm", "-o", str(exe)], check=True, capture_output=True)
+    t, U, Y, X = _record(plant, [1.0, 0.0], 2000, 0.005, [0.3], 0.01)
+    data = np.int64(t.size).tobytes() + np.column_stack([t, U, Y]).astype(np.float64).tobytes()
+    out = subprocess.run([str(exe)], input=data, capture_output=True, check=True).stdout.decode()
+    got = np.array([[float(v) for v in line.split()] for line in out.splitlines()])
+    ref = run_observer(obs, t, x_hat0=[0.0, 0.0], u=U, y=Y).x_hat
+    assert got.shape == ref.shape and rel(got, ref) < 1e-12
+
+
+def test_cli_export_luenberger_is_certified_for_a_linear_model_only(tmp_path) -> None:
+    from typer.testing import CliRunner
+
+    from nlobs.cli import app
+
+    runner = CliRunner()
+    r = runner.invoke(app, ["export", "gnss-ins-axis", "--observer", "luenberger", "--out", str(tmp_path / "a")])
+    assert r.exit_code == 0, r.output
+    header = (tmp_path / "a" / "gnss_ins_axis_luenberger.h").read_text()
+    assert "LMI (14)" in header and "certificate  : verified" in header and "Use, one run" in header
+    r = runner.invoke(app, ["export", "pendulum", "--observer", "luenberger", "--out", str(tmp_path / "p")])
+    assert r.exit_code == 1 and "not for the nonlinear plant" in r.output
+    assert "NOT USABLE" in (tmp_path / "p" / "pendulum_luenberger.h").read_text()
+    r = runner.invoke(app, ["export", "double-integrator-discrete", "--observer", "luenberger", "--out", str(tmp_path)])
+    assert r.exit_code == 2 and "continuous time" in r.output

@@ -20,7 +20,9 @@ from nlobs.errors import ModelFileError, NlobsError
 def export_cmd(
     model: Annotated[str, typer.Argument(help="A model file (.toml), or the name of a shipped model.")],
     observer: Annotated[str, typer.Option(
-        "--observer", help="Which design to export: drift (Dalla Mora, Germani & Manes (3.1)), pinv "
+        "--observer", help="Which design to export: luenberger (the gain of LMIs (14), (15); for a nonlinear model "
+                           "the copy of the plant with the gain of its linearisation at x0), drift (Dalla Mora, "
+                           "Germani & Manes (3.1)), pinv "
                            "(Röbenack (7), (17)), cascade (Grip, Saberi & Johansen, the file's [cascade] table), setvalued "
                            "(Khajenejad & Yong, Algorithm 1) or "
                            "gnss-ins (the demo's observer (24); MODEL is gnss-ins).")],

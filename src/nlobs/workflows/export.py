@@ -22,7 +22,9 @@ from nlobs.workflows.verdict import Verdict
 __all__ = ["EXPORTABLE", "ExportReport", "export_model_observer"]
 
 #: The observers ``nlobs export --observer`` designs and writes.
-EXPORTABLE: tuple[str, ...] = ("drift", "pinv", "cascade", "setvalued", "gnss-ins")
+EXPORTABLE: tuple[str, ...] = ("luenberger", "drift", "pinv", "cascade", "setvalued", "gnss-ins")
+#: The Luenberger gain of ``nlobs export --observer luenberger``: LMIs (14), (15) with Re λ < −1 at γ = γn.
+LUENBERGER_ALPHA, LUENBERGER_GAMMA = 1.0, 1000.0
 LANGUAGES: tuple[str, ...] = ("c",)
 
 
@@ -68,9 +70,7 @@ class ExportReport:
                  else "  not compiled: no C compiler was found (pip install 'nlobs[codegen]')",
                  f"  certificate: {'verified' if self.certified else 'NOT usable'}"]
         lines += ["    " + ln for ln in self.certificate.splitlines()]
-        if self.message:
-            lines.append(self.message)
-        return "\n".join(lines)
+        return "\n".join(lines)  # the message, when FAILED, is the command's one line
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready view (``schema_version`` first)."""
@@ -78,6 +78,38 @@ class ExportReport:
                             "certificate": self.certificate, "files": [str(p) for p in self.files],
                             "module": self.exported.to_dict(), "verdict": self.verdict.value,
                             "message": self.message})
+
+
+def _luenberger(model: Any, box: Any, saturation: bool | None, x0: Any = None) -> tuple[Any, bool, str, str]:
+    """A linear model: the Luenberger observer of the certified gain. A nonlinear one: the constant-gain copy
+    of the plant with the gain certified for its linearisation at the file's x0 (not for the plant)."""
+    import numpy as np
+
+    from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
+    from nlobs.synthesis.observer_gain import design_observer_gain
+    from nlobs.synthesis.regions import HalfPlane
+    from nlobs.systems.linear import LinearSystem
+    from nlobs.systems.linearize import linearize
+
+    if box is not None or saturation is not None:
+        raise InvalidArgumentError("--box and --saturation do not apply to the Luenberger observer")
+    if model.time.is_discrete:
+        raise InvalidArgumentError("the certified gain of LMIs (14), (15) is for continuous time: a discrete "
+                                   "model's observer is exported from Python (export_observer)")
+    linear = isinstance(model, LinearSystem)
+    x0 = np.zeros(model.n) if x0 is None else np.asarray(x0, dtype=float)
+    u0 = np.zeros(model.m)
+    lin = model if linear else linearize(model, x0, u0)
+    cert = design_observer_gain(lin.A, lin.C, np.eye(model.n), gamma=LUENBERGER_GAMMA, gamma_n=LUENBERGER_GAMMA,
+                                region=HalfPlane(LUENBERGER_ALPHA))
+    obs = LuenbergerObserver(lin, cert.gain) if linear else ConstantGainObserver(model.compile(), cert.gain)
+    where = "the linear model" if linear else f"the linearisation at x0 = {x0.tolist()}, u = {u0.tolist()}"
+    text = (f"Grip, Saberi & Johansen, LMIs (14), (15) for {where} (Re λ < −{LUENBERGER_ALPHA:g}, "
+            f"γ = γn = {LUENBERGER_GAMMA:g})\n{cert.summary()}")
+    why = "" if cert.verified and linear else (
+        "the gain's certificate failed" if not cert.verified else
+        f"the certificate is for {where}, not for the nonlinear plant")
+    return obs, bool(cert.verified) and linear, text, why
 
 
 def _drift(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, str, str]:
@@ -207,7 +239,7 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
 
     if lang not in LANGUAGES:
         raise InvalidArgumentError(f"--lang: expected one of {', '.join(LANGUAGES)}, got {lang!r}")
-    makers = {"drift": _drift, "pinv": _pinv, "cascade": _cascade, "setvalued": _setvalued, "gnss-ins": _gnss_ins}
+    makers = {"luenberger": _luenberger, "drift": _drift, "pinv": _pinv, "cascade": _cascade, "setvalued": _setvalued, "gnss-ins": _gnss_ins}
     if observer not in makers:
         raise InvalidArgumentError(f"--observer: expected one of {', '.join(EXPORTABLE)}, got {observer!r}")
     if observer == "gnss-ins":
@@ -215,6 +247,17 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
             raise InvalidArgumentError(f"--observer gnss-ins: the model is the demo's flight, named gnss-ins (got {model!r})")
         name = "gnss-ins"
         obs, certified, text, why = _gnss_ins(None, box, saturation)
+    elif observer == "luenberger":
+        from nlobs.errors import NlobsError
+        from nlobs.systems.modelfile import load_model, load_scenario
+
+        m = load_model(model) if isinstance(model, (str, Path)) else model
+        name = m.name
+        try:
+            x0 = load_scenario(model).defaults.x0 if isinstance(model, (str, Path)) else None
+        except NlobsError:
+            x0 = None
+        obs, certified, text, why = _luenberger(m, box, saturation, x0)
     elif observer in ("cascade", "setvalued"):
         name = Path(str(model)).stem
         obs, certified, text, why = makers[observer](model, box, saturation)
