@@ -428,3 +428,61 @@ def test_cli_export_luenberger_is_certified_for_a_linear_model_only(tmp_path) ->
     assert "NOT USABLE" in (tmp_path / "p" / "pendulum_luenberger.h").read_text()
     r = runner.invoke(app, ["export", "double-integrator-discrete", "--observer", "luenberger", "--out", str(tmp_path)])
     assert r.exit_code == 2 and "continuous time" in r.output
+
+
+def test_wrong_widths_are_refused_and_a_failed_discrete_step_does_not_keep_the_old_state() -> None:
+    from nlobs.errors import DimensionError
+
+    obs = LuenbergerObserver(_linear(), np.array([[3.0, 0.1], [4.0, 0.2], [0.0, 1.5]]))
+    co = compile_observer(obs)
+    z = co.init(np.zeros((2, 3)))
+    with pytest.raises(DimensionError, match=r"y of shape \(2, 1\), expected \(\.\.\., 2\)"):
+        co.step(0.0, z, np.zeros((2, 1)), np.zeros((2, 1)), 0.01)  # one column would broadcast onto two outputs
+    with pytest.raises(DimensionError, match="u of shape"):
+        co.run_record(0.01 * np.arange(5), np.zeros(3), y=np.zeros((5, 2)))
+    t = 0.01 * np.arange(50)
+    with pytest.raises(DimensionError):
+        run_observer(co, t, x_hat0=np.zeros(3), u=np.zeros((50, 1)), y=np.zeros((50, 1)))
+    # the C of a discrete step whose right-hand side reports a non-finite value: it takes z+, not the old state
+    from nlobs.export.compiled import load_library
+
+    prog = generate(LuenbergerObserver(_linear(True), 0.1 * np.ones((3, 2))), "dzbad")
+    assert prog.body.count("    return 0;\n}") == 1
+    body = prog.body.replace("    return 0;\n}", "    return 2;\n}")  # P_rhs_ reports non-finite
+    broken = load_library(dataclasses.replace(prog, body=body))
+    zz = np.ones(3)
+    status = broken.dzbad_step(0.0, zz.ctypes.data, np.zeros(1).ctypes.data, np.zeros(2).ctypes.data, 0.1)
+    assert status == 2 and not np.allclose(zz, 1.0)  # z+ as the right-hand side left it, not the old state
+
+
+def test_fresh_broadcasts_like_python_and_a_damaged_cache_file_is_rebuilt(tmp_path, monkeypatch) -> None:
+    from nlobs.errors import DimensionError
+    from nlobs.export.compiled import _LOADED, load_library
+    from nlobs.export.compiler import build_shared
+    from nlobs.export.program import nlobs_version
+    from nlobs.observers.setvalued import SetValuedObserver
+    from nlobs.systems.modelfile import load_discrete_ui_model
+    from nlobs.workflows.setvalued import design_setvalued_observer
+
+    m = load_discrete_ui_model("khajenejad-6-1")
+    obs = SetValuedObserver(m.system, design_setvalued_observer(m, samples=500).design)
+    co = compile_observer(obs)
+    z0 = np.broadcast_to(m.system.x0, (2, m.system.n))
+    y = np.zeros((2, co.program.n_y))
+    a = co.correct(0.0, co.init(z0), np.zeros((2, 0)), y, True)  # one flag for every output, as in Python
+    b = co.correct(0.0, co.init(z0), np.zeros((2, 0)), y, np.ones(co.program.n_y, dtype=bool))
+    assert np.array_equal(a, b)
+    with pytest.raises(DimensionError, match="fresh"):
+        co.correct(0.0, co.init(z0), np.zeros((2, 0)), y, np.ones(co.program.n_y + 1, dtype=bool))
+    # a damaged library in the cache is built again, not loaded (or reported as a bare OSError)
+    monkeypatch.setenv("NLOBS_CACHE", str(tmp_path))
+    prog = generate(LuenbergerObserver(_linear(), np.ones((3, 2))), "dmg")
+    header, source = render(prog, nlobs_version())
+    path = build_shared(source, headers={prog.header_name: header})
+    path.write_bytes(b"not a library")
+    _LOADED.pop(str(path), None)
+    lib = load_library(prog)
+    assert lib.dmg_estimate is not None and path.stat().st_size > 100
+    monkeypatch.setenv("NLOBS_CC", "'unclosed")
+    with pytest.raises(CompilerError, match="NLOBS_CC"):
+        find_compiler()

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import ctypes
 import threading
+from pathlib import Path
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -32,7 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nlobs._typing import Array, BoolArray
-from nlobs.errors import DimensionError, NumericalError
+from nlobs.errors import CompilerError, DimensionError, NumericalError
 from nlobs.export.compiler import Compiler, build_shared
 from nlobs.export.cprint import c_identifier
 from nlobs.export.generate import generate
@@ -75,7 +76,15 @@ def load_library(program: CProgram, *, compiler: Compiler | None = None, strict:
     with _LOCK:
         lib = _LOADED.get(key)
         if lib is None:
-            lib = ctypes.CDLL(key)
+            try:
+                lib = ctypes.CDLL(key)
+            except OSError:  # a damaged file in the cache (a full disk, another tool): build it once more
+                Path(key).unlink(missing_ok=True)
+                path = build_shared(source, headers={program.header_name: header}, strict=strict, compiler=compiler)
+                try:
+                    lib = ctypes.CDLL(str(path))
+                except OSError as exc:
+                    raise CompilerError(f"{path}: the compiled module cannot be loaded ({exc})") from None
             P = program.prefix
             c_long, c_int, c_d = ctypes.c_long, ctypes.c_int, ctypes.c_double
             sigs: dict[str, tuple[Any, list[Any]]] = {
@@ -102,6 +111,13 @@ def load_library(program: CProgram, *, compiler: Compiler | None = None, strict:
 
 def _ptr(a: Array) -> int:
     return a.ctypes.data  # type: ignore[no-any-return]
+
+
+def _width(name: str, what: str, a: Any, n: int) -> None:
+    """``a`` has ``n`` entries along its last axis (broadcasting must never stretch a measurement or an input)."""
+    shape = np.shape(a)
+    if n and (not shape or shape[-1] != n):
+        raise DimensionError(f"{name}: {what} of shape {shape}, expected (..., {n})")
 
 
 def _contig(a: Any, shape: tuple[int, ...]) -> Array:
@@ -176,6 +192,8 @@ class CompiledObserver:
             raise DimensionError(f"{self.name}: state of shape {zc.shape}, expected (..., {self.n_z})")
         batch = zc.shape[:-1]
         n = zc.size // self.n_z
+        _width(self.name, "u", u, self.program.n_u)
+        _width(self.name, "y", y, self.program.n_y)
         uc = _contig(u, (*batch, self.program.n_u)) if self.program.n_u else np.zeros(max(n, 1))
         yc = _contig(y, (*batch, self.program.n_y)) if self.program.n_y else np.zeros(max(n, 1))
         return zc, uc, yc, n, batch
@@ -276,6 +294,8 @@ class CompiledObserver:
         n = zc.size // p.n_z
         grid = np.ascontiguousarray(t, dtype=np.float64)
         K = grid.size
+        _width(self.name, "u", u, p.n_u)
+        _width(self.name, "y", y, p.n_y)
         uc = _contig(u, (*batch, K, p.n_u)) if p.n_u else np.zeros(1)
         yc = _contig(y, (*batch, K, p.n_y)) if p.n_y else np.zeros(1)
         sm = np.ascontiguousarray(np.broadcast_to(np.asarray(sampled, dtype=bool), (K, p.n_y)), dtype=np.uint8) \
@@ -317,6 +337,8 @@ class CompiledObserver:
         if z.size != p.n_z:
             raise DimensionError(f"x_hat0: one run only (a state of {p.n_z} values), got {z.size}")
         z = np.ascontiguousarray(z)
+        _width(self.name, "u", np.zeros((K, 0)) if u is None else u, p.n_u)
+        _width(self.name, "y", np.zeros((K, 0)) if y is None else y, p.n_y)
         uc = _contig(u if u is not None else np.zeros((K, 0)), (K, p.n_u)) if p.n_u else np.zeros(1)
         yc = _contig(y if y is not None else np.zeros((K, 0)), (K, p.n_y)) if p.n_y else np.zeros(1)
         sm = None if sampled is None else np.ascontiguousarray(np.broadcast_to(np.asarray(sampled, dtype=bool),
@@ -346,7 +368,11 @@ class CompiledCorrectingObserver(CompiledObserver):
     def correct(self, t: float, z: Array, u: Array, y: Array, fresh: BoolArray) -> Array:
         """The corrected state of every run (a non-finite sampled value is skipped by the C, as in Python)."""
         zc, uc, yc, n, batch = self._io(z, u, y)
-        fr = np.ascontiguousarray(np.asarray(fresh, dtype=bool), dtype=np.uint8)
+        try:  # as the Python observers: a scalar or one flag per output, never fewer bytes than C reads
+            fr = np.array(np.broadcast_to(np.asarray(fresh, dtype=bool), (self.program.n_y,)), dtype=np.uint8)
+        except ValueError:
+            raise DimensionError(f"{self.name}: fresh of shape {np.shape(fresh)}, expected "
+                                 f"({self.program.n_y},)") from None
         self._fn["correct_batch"](n, float(t), _ptr(zc), _ptr(uc), _ptr(yc), _ptr(fr), None)
         return zc
 

@@ -81,7 +81,10 @@ def find_compiler() -> Compiler:
     """
     env = os.environ.get("NLOBS_CC")
     if env is not None:
-        words = shlex.split(env)
+        try:
+            words = shlex.split(env)
+        except ValueError as exc:
+            raise CompilerError(f"NLOBS_CC={env!r}: {exc}") from None
         if not words or shutil.which(words[0]) is None:
             raise CompilerError(f"NLOBS_CC={env!r}: no such compiler command")
         return Compiler(tuple(words), "NLOBS_CC")

@@ -29,8 +29,8 @@ are plain ``double`` arrays of one run, no heap, no global state, nothing beyond
 
 Every ``int`` function returns ``P_OK`` (0), ``P_SINGULAR`` (1: a matrix the observer inverts is
 singular, e.g. ``Q_s(x̂)`` of Dalla Mora, Germani & Manes (3.1)) or ``P_NONFINITE`` (2: the new state
-is not finite); ``P_run`` returns 0 or one plus the index of the instant whose step or correction
-failed (the state is left as it was before it).
+is not finite: the state holds the non-finite values, never the previous state); ``P_run`` returns 0
+or one plus the index of the instant whose step or correction failed.
 """
 
 from __future__ import annotations
@@ -246,43 +246,69 @@ def _public(program: CProgram) -> str:
             f"    return {P}_finite(z, {up}_NZ) ? {up}_OK : {up}_NONFINITE;")
     estimate = (f"    {P}_estimate_(z, xhat);" if program.own_estimate else
                 f"    int i;\n    for (i = 0; i < {up}_NX; ++i) {{\n        xhat[i] = z[i];\n    }}")
+    void = ""
     if program.own_step:
         step = f"    int s = {P}_step_(t, z, u, y, h);\n    if (s != {up}_OK) {{\n        return s;\n    }}"
     elif program.discrete:
         step = (f"    double zn[{up}_NZ1];\n    int i, s;\n    (void)h;\n"
-                f"    s = {P}_rhs_(t, z, u, y, zn);\n    if (s != {up}_OK) {{\n        return s;\n    }}\n"
-                f"    for (i = 0; i < {up}_NZ; ++i) {{\n        z[i] = zn[i];\n    }}")
+                f"    s = {P}_rhs_(t, z, u, y, zn);\n    if (s == {up}_SINGULAR) {{\n        return s;\n    }}\n"
+                f"    /* non-finite: z+ as the right-hand side left it (NaN where it failed), never the old state */\n"
+                f"    for (i = 0; i < {up}_NZ; ++i) {{\n        z[i] = zn[i];\n    }}\n"
+                f"    if (s != {up}_OK) {{\n        return s;\n    }}")
     else:
+        void = f"""\
+/* an RK4 stage reported non-finite: the run's state becomes NaN (it must not keep its previous value) */
+static void {P}_void(double *z)
+{{
+    int i;
+    for (i = 0; i < {up}_NZ; ++i) {{
+        z[i] = NAN;
+    }}
+}}
+
+"""
         step = f"""\
     double k1[{up}_NZ1], k2[{up}_NZ1], k3[{up}_NZ1], k4[{up}_NZ1], w[{up}_NZ1];
     const double hh = 0.5 * h, h6 = h / 6.0;
     int i, s;
     /* classical RK4 with u and y held, stage for stage as nlobs.simulate.integrators.rk4_step */
     if ((s = {P}_rhs_(t, z, u, y, k1)) != {up}_OK) {{
+        if (s == {up}_NONFINITE) {{
+            {P}_void(z);
+        }}
         return s;
     }}
     for (i = 0; i < {up}_NZ; ++i) {{
         w[i] = z[i] + hh * k1[i];
     }}
     if ((s = {P}_rhs_(t + hh, w, u, y, k2)) != {up}_OK) {{
+        if (s == {up}_NONFINITE) {{
+            {P}_void(z);
+        }}
         return s;
     }}
     for (i = 0; i < {up}_NZ; ++i) {{
         w[i] = z[i] + hh * k2[i];
     }}
     if ((s = {P}_rhs_(t + hh, w, u, y, k3)) != {up}_OK) {{
+        if (s == {up}_NONFINITE) {{
+            {P}_void(z);
+        }}
         return s;
     }}
     for (i = 0; i < {up}_NZ; ++i) {{
         w[i] = z[i] + h * k3[i];
     }}
     if ((s = {P}_rhs_(t + h, w, u, y, k4)) != {up}_OK) {{
+        if (s == {up}_NONFINITE) {{
+            {P}_void(z);
+        }}
         return s;
     }}
     for (i = 0; i < {up}_NZ; ++i) {{
         z[i] = z[i] + h6 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
     }}"""
-    out = [f"""\
+    out = [void + f"""\
 int {P}_init(const double *xhat0, double *z)
 {{
 {init}
