@@ -35,8 +35,7 @@ from numpy.typing import ArrayLike
 from nlobs._typing import Array, BoolArray
 from nlobs.errors import CompilerError, DimensionError, NumericalError
 from nlobs.export.compiler import Compiler, build_shared
-from nlobs.export.cprint import c_identifier
-from nlobs.export.generate import generate
+from nlobs.export.generate import default_prefix, generate
 from nlobs.export.program import CProgram, nlobs_version, render
 from nlobs.observers.base import DeferredEstimate, Diagnosing
 from nlobs.systems.timebase import TimeBase
@@ -418,7 +417,7 @@ def compile_observer(observer: Any, *, prefix: str | None = None, compiler: Comp
     CompilerError
         No C compiler, or it failed.
     """
-    program = generate(observer, c_identifier(prefix or f"nlobs_{type(observer).__name__.lower()}"), notes=notes,
+    program = generate(observer, default_prefix(observer, prefix), notes=notes,
                        options=options)
     lib = load_library(program, compiler=compiler)
     cls: type[CompiledObserver] = CompiledObserver

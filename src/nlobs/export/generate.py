@@ -30,12 +30,12 @@ import numpy as np
 import sympy as sp
 
 from nlobs.errors import InvalidArgumentError
-from nlobs.export.cprint import c_double, emit_assignments, matrix_literal
+from nlobs.export.cprint import c_double, c_identifier, emit_assignments, matrix_literal
 from nlobs.export.program import CProgram
 from nlobs.systems.codegen import BatchedFunction
 from nlobs.systems.timebase import Discrete
 
-__all__ = ["generate", "supported"]
+__all__ = ["default_prefix", "generate", "supported"]
 
 
 def _sym_inputs(groups: tuple[tuple[sp.Symbol, ...], ...], names: tuple[str, ...]) -> dict[sp.Symbol, str]:
@@ -485,6 +485,19 @@ def _generators() -> dict[str, Any]:
 
 #: Observer classes whose generator takes options (``generate(..., options=)``).
 _TAKES_OPTIONS = frozenset({"GnssInsObserver", "ScheduledGnssInsObserver"})
+
+
+def default_prefix(observer: Any, prefix: str | None = None) -> str:
+    """The C prefix of an observer's module: ``prefix`` made a C identifier, else ``nlobs_<class>``.
+
+    Parameters
+    ----------
+    observer : Observer
+        The observer.
+    prefix : str, optional
+        A name the caller chose.
+    """
+    return c_identifier(prefix or f"nlobs_{type(observer).__name__.lower()}")
 
 
 def supported() -> tuple[str, ...]:

@@ -48,6 +48,7 @@ import numpy as np
 
 from nlobs.errors import InvalidArgumentError
 from nlobs.export.cprint import c_double, comment, matrix_literal
+from nlobs.export.generate import _matrix_note
 from nlobs.export.program import CProgram, StateCodec
 
 __all__ = ["DEFAULT_IMU_PERIOD", "IMU_PERIOD_RTOL", "compile_gnss_ins", "generate_gnss_ins", "gnss_ins_codec"]
@@ -594,11 +595,6 @@ static void {P}_estimate_(const double *z, double *xhat)
                             "period (imu_period=)")
 
 
-def _matrix(M: Any) -> str:
-    arr = np.atleast_2d(np.asarray(M, dtype=float))
-    return "\n".join("[" + ", ".join(f"{v:.17g}" for v in row) + "]" for row in arr)
-
-
 def _notes(observer: Any, base: Any, modes: tuple[Any, ...], times: tuple[float, ...], h0: float,
            po: bool) -> tuple[tuple[str, str], ...]:
     notes: list[tuple[str, str]] = [
@@ -611,10 +607,10 @@ def _notes(observer: Any, base: Any, modes: tuple[Any, ...], times: tuple[float,
         ("step", "Strang split C(h/2) A(h/2) B(h) A(h/2) C(h/2), exact sub-flows"),
         ("IMU period", f"h0 = {h0:.17g} s; |h - h0| <= {IMU_PERIOD_RTOL:g} h0, else status 1"),
         ("intersample", str(base.intersample)),
-        ("gain K", _matrix(base.K)),
+        ("gain K", _matrix_note(base.K)),
         ("rho(A - K C)", f"{base._rho:.6g} 1/s"),
-        ("m_n", _matrix(base.m_n)),
-        ("g_n", _matrix(base.g_n)),
+        ("m_n", _matrix_note(base.m_n)),
+        ("g_n", _matrix_note(base.g_n)),
     ]
     if type(observer).__name__ == "ScheduledGnssInsObserver":
         notes.append(("Gamma(t)", comment(observer.schedule.describe())))
@@ -624,7 +620,7 @@ def _notes(observer: Any, base: Any, modes: tuple[Any, ...], times: tuple[float,
         notes.append(("switch times", ", ".join(f"{t:.17g}" for t in times) + " s (mode = number of "
                                       "switch times <= t + 1e-9)"))
     else:
-        notes.append(("Gamma", _matrix(base.Gamma)))
+        notes.append(("Gamma", _matrix_note(base.Gamma)))
         lam = np.linalg.eigvalsh(np.asarray(base.Gamma, dtype=float))
         notes.append(("Gamma eigenvalues", ", ".join(f"{v:.17g}" for v in lam)))
     return tuple(notes)

@@ -9,8 +9,7 @@ from typing import Any
 from nlobs._io import atomic_write_text, prepare_output_dir
 from nlobs.errors import CompilerError, OutputError
 from nlobs.export.compiler import compile_object, find_compiler
-from nlobs.export.cprint import c_identifier
-from nlobs.export.generate import generate
+from nlobs.export.generate import default_prefix, generate
 from nlobs.export.program import CProgram, nlobs_version, render
 
 __all__ = ["ExportResult", "export_observer"]
@@ -77,7 +76,7 @@ def export_observer(observer: Any, out: str | Path, *, prefix: str | None = None
     OutputError
         The folder cannot be written.
     """
-    program = generate(observer, c_identifier(prefix or f"nlobs_{type(observer).__name__.lower()}"), notes=notes,
+    program = generate(observer, default_prefix(observer, prefix), notes=notes,
                        options=options)
     header, source = render(program, nlobs_version())
     checked: str | None = None

@@ -194,7 +194,7 @@ def _gnss_ins(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool,
     lines = ["Grip, Fossen, Johansen & Saberi (24), the demo's noise-optimal certified gains",
              cert.summary()]
     if schedule is not None:
-        lines.append(f"attitude gain: {schedule.describe() if hasattr(schedule, 'describe') else schedule}")
+        lines.append(f"attitude gain: {schedule.describe()}")
     lines.append(f"IMU period {1.0 / config.imu_rate_hz:g} s (the module refuses another step length)")
     return obs, bool(cert.verified), "\n".join(lines), "" if cert.verified else "the gain's certificate failed"
 
