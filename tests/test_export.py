@@ -260,6 +260,11 @@ def test_cli_export_writes_certified_module_and_refuses_bad_options(tmp_path) ->
     assert r.exit_code == 0, r.output
     d = json.loads(r.output)
     assert d["schema_version"] == 1 and d["certified"] is True and d["module"]["n_x"] == 4
+    # the keys the README documents ("nlobs export --json keys")
+    assert set(d) == {"schema_version", "model", "observer", "certified", "certificate", "files", "module", "verdict",
+                      "message"}
+    assert set(d["module"]) == {"prefix", "title", "header", "source", "n_z", "n_x", "n_u", "n_y", "discrete",
+                                "correcting", "checked_with"}
     header = (tmp_path / "d" / "duffing_actuator_drift.h").read_text()
     assert "certificate" in header and "verified" in header and "(2.17) scaled" in header
     assert "Theorem 3.1 on [-1, 1]" in header
