@@ -548,3 +548,107 @@ def _trajectory_conditions(batch: SimulationResult, system: DiscreteUISystem, ga
     return out
 
 
+
+
+def run_summaries(batch: SimulationResult, system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
+                  box: tuple[ArrayLike, ArrayLike] | None = None) -> dict[str, Array]:
+    """Per-run values of a :func:`simulate_batch` result, for a Monte Carlo study (each ``(runs,)``).
+
+    ``contained`` / ``input_contained``: the truth ``x_k`` (``d_k``) is in its ball at every step;
+    ``final_error`` ``‖x_K − x̂_K‖``; ``max_error_over_radius`` over the steps; ``covered``: the certificate
+    covers the run (:class:`~nlobs.simulate.coverage.Coverage`: a verified design, the class on the visited
+    pairs and the round-off bound); ``class_violated``, ``left_box`` (``box`` given) and ``roundoff`` flag the
+    conditions one by one.
+    """
+    res = containment_of(batch, system=system, gain=gain, box=box)
+    rad = res.radii
+    R = res.runs
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        inside = state_containment(batch).all(axis=1)
+        inside_d = _input_inside(batch, batch.extras["d"][:, :-1], rad).all(axis=1)
+        ratio = np.where(rad.state > 0, res.errors / rad.state, np.where(res.errors > 0, np.inf, 0.0))
+    ratio = np.where(np.isnan(ratio), np.inf, ratio)
+    cov = res.coverage
+    covered = np.zeros(R, bool) if cov is None or cov.failed_premises or not cov.verified else np.ones(R, bool)
+    flags = {"class": np.zeros(R, bool), "box": np.zeros(R, bool), "round-off": np.zeros(R, bool)}
+    for v in () if cov is None else cov.violations:
+        covered[v.run] = False
+        if v.hypothesis.startswith("function class"):
+            flags["class"][v.run] = True
+        elif v.hypothesis.startswith("floating-point"):
+            flags["round-off"][v.run] = True
+    out = {"contained": inside, "input_contained": inside_d, "final_error": res.errors[:, -1].copy(),
+           "max_error_over_radius": ratio.max(axis=1), "covered": covered, "class_violated": flags["class"],
+           "roundoff": flags["round-off"]}
+    if box is not None:
+        lo, hi = np.asarray(box[0], dtype=float), np.asarray(box[1], dtype=float)
+        x, xh = batch.x, batch.x_hat
+        with np.errstate(invalid="ignore"):
+            out["left_box"] = ((x < lo) | (x > hi)).any(axis=(1, 2)) | ~((xh >= lo) & (xh <= hi)).all(axis=(1, 2))
+    return out
+
+
+def _array_digest(*arrays: Any) -> str:
+    import hashlib
+
+    h = hashlib.sha256()
+    for a in arrays:
+        h.update(np.ascontiguousarray(np.asarray(a, dtype=float)).tobytes())
+    return h.hexdigest()[:16]
+
+
+@dataclass(frozen=True, eq=False)
+class SetValuedStudy:
+    """Monte Carlo runs of the plant (8) and Algorithm 1 (Khajenejad & Yong), for :func:`~nlobs.simulate.monte_carlo`.
+
+    Each batch draws its initial states and noises as :func:`simulate_batch` does, from the batch's own
+    generator, and returns :func:`run_summaries` per run; with trajectories, the truth ``x`` and the centres
+    ``x_hat`` (the radii are the same in every run: ``design``'s sound recursion).
+
+    Parameters
+    ----------
+    system : DiscreteUISystem
+    design : SetValuedDesign
+        A verified design (its sound radii are used).
+    unknown_input : callable
+        ``t`` ``(K + 1,)`` → ``d`` ``(K + 1, p)``, the same in every run.
+    steps : int
+    input_label : str
+        Names ``unknown_input`` in :meth:`key` (a function cannot be compared across processes).
+    box : (lo, hi), optional
+        Where the class was checked (runs leaving it are flagged ``left_box``).
+    known_input : callable, optional
+        ``t ↦ u(t)``, the known input (zero when omitted); named in ``input_label`` too.
+    default_batch : int
+        Runs per batch unless :func:`monte_carlo` is told otherwise.
+    """
+
+    system: DiscreteUISystem
+    design: SetValuedDesign
+    unknown_input: Callable[[Array], Array]
+    steps: int
+    input_label: str
+    box: tuple[ArrayLike, ArrayLike] | None = None
+    known_input: Callable[[float], Any] | None = None
+    default_batch: int = 250
+
+    @property
+    def name(self) -> str:
+        return f"set-valued {self.system.name}"
+
+    def key(self) -> str:
+        box = None if self.box is None else _array_digest(*self.box)
+        return (f"setvalued|{self.system.name}|{_array_digest(self.system.A, self.system.C, self.system.G, self.system.H, [self.system.x0], [self.system.delta0, self.system.eta_w, self.system.eta_v])}"
+                f"|{_array_digest(self.design.gain)}|{self.steps}|{self.input_label}|{box}")
+
+    def prepare(self) -> None:
+        return None
+
+    def run(self, prepared: Any, rng: np.random.Generator, runs: int, trajectories: bool) -> Any:
+        from nlobs.simulate.montecarlo import RunBatch
+
+        batch = simulate_batch(self.system, self.design, self.unknown_input, runs=runs, steps=self.steps, seed=rng,
+                               known_input=self.known_input)
+        summ = run_summaries(batch, self.system, self.design, self.box)
+        traj = {} if not trajectories else {"x": batch.x, "x_hat": batch.x_hat}
+        return RunBatch(summ, traj)
