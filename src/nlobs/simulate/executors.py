@@ -99,6 +99,31 @@ def describe(executor: Any) -> tuple[str, int]:
     return "executor", max(1, int(getattr(executor, "_max_workers", 1) or 1))
 
 
+_UNPICKLED: dict[str, Any] = {}
+
+
+def _dumps(obj: Any) -> bytes:
+    """``obj`` pickled by value where it must be (generated functions): cloudpickle when installed."""
+    try:
+        import cloudpickle
+    except ImportError:  # pragma: no cover - cloudpickle comes with the dask extra
+        import pickle
+
+        return pickle.dumps(obj)
+    return cloudpickle.dumps(obj)
+
+
+def _call_pickled(blob: bytes, digest: str, *args: Any) -> Any:
+    """In a pool's process: ``fn(shared, *args)`` from their pickle, unpickled once per process."""
+    import pickle
+
+    if digest not in _UNPICKLED:
+        _UNPICKLED.clear()
+        _UNPICKLED[digest] = pickle.loads(blob)
+    fn, shared = _UNPICKLED[digest]
+    return fn(shared, *args)
+
+
 def run_tasks(executor: Any, fn: Callable[..., Any], shared: Any, tasks: Iterable[tuple[Any, ...]],
               done: Callable[[int, Any], None]) -> None:
     """Run ``fn(shared, *args)`` for every task; ``done(i, result)`` in this process as each finishes (any order).
@@ -128,6 +153,13 @@ def run_tasks(executor: Any, fn: Callable[..., Any], shared: Any, tasks: Iterabl
     window = IN_FLIGHT_PER_WORKER * describe(executor)[1]
     if dask:
         shared = executor.scatter(shared, broadcast=True, hash=False)
+    else:  # a concurrent.futures pool pickles by reference: send the function and the shared object by value
+        import hashlib
+
+        blob = _dumps((fn, shared))
+        fn, shared = _call_pickled, blob
+        first_args: tuple[Any, ...] = (hashlib.sha256(blob).hexdigest(),)
+        tasks = [(i, first_args + tuple(a)) for i, a in tasks]
     pending = iter(tasks)
     index: dict[Any, int] = {}
 
