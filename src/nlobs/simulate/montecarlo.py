@@ -207,10 +207,12 @@ class MonteCarloResult:
         return whole[[i - first for i in sel]]
 
     def statistics(self) -> dict[str, dict[str, float]]:
-        """Per summary: ``mean``, ``min``, ``max`` over runs and values (NaN-aware), and the count of
+        """Per numeric summary: ``mean``, ``min``, ``max`` over runs and values (NaN-aware), and the count of
         non-finite values; a flag's ``mean`` is the fraction of runs where it holds."""
         out: dict[str, dict[str, float]] = {}
         for name, a in self.summaries.items():
+            if a.dtype.kind not in "biuf":
+                continue  # text (a run's first violation, say): per run only
             v = np.asarray(a, dtype=float).reshape(-1)
             fin = v[np.isfinite(v)]
             out[name] = {"mean": float(fin.mean()) if fin.size else math.nan,
@@ -303,6 +305,22 @@ def _write_chunk(path: Path, start: int, stop: int, summ: dict[str, Array], traj
         atomic_write(path, lambda fh: np.savez(fh, **data))
     except OSError as exc:
         raise OutputError(f"{path}: cannot write ({exc.strerror or exc})") from exc
+
+
+def same_results(a: MonteCarloResult, b: MonteCarloResult) -> bool:
+    """Whether two results hold the same summaries, bit for bit (NaN equal to NaN)."""
+    if a.summaries.keys() != b.summaries.keys():
+        return False
+    for k, x in a.summaries.items():
+        y = b.summaries[k]
+        if x.dtype != y.dtype or x.shape != y.shape:
+            return False
+        if x.dtype.kind in "fc":
+            if not np.array_equal(x.view(np.uint8), y.view(np.uint8)):
+                return False
+        elif not np.array_equal(x, y):
+            return False
+    return True
 
 
 def monte_carlo(study: Study, runs: int, *, seed: int = 0, batch: int | None = None, chunk: int | None = None,

@@ -294,6 +294,9 @@ class ContainmentResult:
         The largest ratio of that estimate to the radius.
     max_abs_input : float or None
         ``max |d|`` over the runs.
+    per_run : dict of str to ndarray
+        Per-run values of the conditions above, each ``(runs,)``: ``class_margin`` (smallest ``QC − γ``
+        of the run), ``roundoff_ratio`` (largest round-off estimate over ``δˣ_k``), ``left_box`` (flags).
     coverage : Coverage or None
         The certificate monitor on these runs (:func:`nlobs.simulate.coverage.monitor`): the function
         class on the visited pairs and the round-off bound, the hypotheses above as one mechanism, with
@@ -318,6 +321,7 @@ class ContainmentResult:
     roundoff_runs: int | None = None
     roundoff_ratio: float | None = None
     max_abs_input: float | None = None
+    per_run: dict[str, Array] = field(default_factory=dict, repr=False)
     coverage: Coverage | None = field(default=None, repr=False)
 
     @property
@@ -507,12 +511,15 @@ def _trajectory_conditions(batch: SimulationResult, system: DiscreteUISystem, ga
     x, xh = batch.x, batch.x_hat
     d = batch.extras["d"]
     out: dict[str, Any] = {}
+    per_run: dict[str, Array] = {}
     hypotheses: list[Hypothesis] = []
     fc = gain.function_class if isinstance(gain, SetValuedDesign) else system.function_class
     if not isinstance(fc, LPV):  # a vertex design is run with the plant's weights: π is in the polytope by construction
         margin, rel = class_margins(system.nonlinear, fc, xh[:, :-1], x[:, :-1])
         out["class_violated_in_runs"] = int(np.sum((rel < 0).any(axis=1)))
         out["class_worst_margin"] = float(np.min(margin)) if margin.size else None
+        per_run["class_margin"] = margin.reshape(margin.shape[0], -1).min(axis=1) if margin.size else np.full(
+            x.shape[0], np.inf)
         hypotheses.append(Condition(f"function class {fc.label} on the visited pairs (x_k, x̂_k)", rel,
                                     "QC − γ (tolerance-adjusted)"))
     if box is not None:
@@ -520,6 +527,7 @@ def _trajectory_conditions(batch: SimulationResult, system: DiscreteUISystem, ga
         with np.errstate(invalid="ignore"):
             outside = ((x < lo) | (x > hi)).any(axis=(1, 2)) | ~((xh >= lo) & (xh <= hi)).all(axis=(1, 2))
         out["left_box_runs"] = int(np.sum(outside))
+        per_run["left_box"] = outside
     tr = gain.transform
 
     def nrm(M: Array) -> float:
@@ -537,6 +545,7 @@ def _trajectory_conditions(batch: SimulationResult, system: DiscreteUISystem, ga
     rr = np.where(np.isfinite(rr) & np.isfinite(xh).all(axis=-1), rr, np.inf)
     out["roundoff_runs"] = int(np.sum((rr > ROUNDOFF_FRACTION).any(axis=1)))
     out["roundoff_ratio"] = float(np.max(rr))
+    per_run["roundoff_ratio"] = rr.max(axis=1)
     out["max_abs_input"] = float(np.max(np.abs(d))) if d.size else 0.0
     with np.errstate(invalid="ignore"):
         hypotheses.append(Condition(f"floating-point round-off within {ROUNDOFF_FRACTION:g} × the radius δˣ_k",
@@ -545,46 +554,59 @@ def _trajectory_conditions(batch: SimulationResult, system: DiscreteUISystem, ga
     premises = [] if isinstance(gain, SetValuedDesign) else [
         Premise("a certificate for the gain", False, "a given gain (not designed by nlobs) has none")]
     out["coverage"] = monitor(batch, [*hypotheses, *premises], verified=verified)
+    out["per_run"] = per_run
     return out
 
 
 
 
 def run_summaries(batch: SimulationResult, system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
-                  box: tuple[ArrayLike, ArrayLike] | None = None) -> dict[str, Array]:
+                  box: tuple[ArrayLike, ArrayLike] | None = None, *,
+                  containment: ContainmentResult | None = None) -> dict[str, Array]:
     """Per-run values of a :func:`simulate_batch` result, for a Monte Carlo study (each ``(runs,)``).
 
     ``contained`` / ``input_contained``: the truth ``x_k`` (``d_k``) is in its ball at every step;
-    ``final_error`` ``‖x_K − x̂_K‖``; ``max_error_over_radius`` over the steps; ``covered``: the certificate
-    covers the run (:class:`~nlobs.simulate.coverage.Coverage`: a verified design, the class on the visited
-    pairs and the round-off bound); ``class_violated``, ``left_box`` (``box`` given) and ``roundoff`` flag the
-    conditions one by one.
+    ``first_violation_step`` (−1: none); ``final_error`` ``‖x_K − x̂_K‖``; ``max_error_over_radius`` over
+    the steps and ``…_after_step_0``; ``covered``: the certificate covers the run
+    (:class:`~nlobs.simulate.coverage.Coverage`: a verified design, the class on the visited pairs and
+    the round-off bound), with the run's first violation (``violation_hypothesis``, ``violation_time``,
+    ``violation_detail``; empty / NaN when none); ``class_violated``, ``class_margin``, ``left_box``
+    (``box`` given), ``roundoff`` and ``roundoff_ratio`` give the conditions one by one.
+    ``containment`` is :func:`containment_of` of the same batch when already computed.
     """
-    res = containment_of(batch, system=system, gain=gain, box=box)
+    res = containment if containment is not None else containment_of(batch, system=system, gain=gain, box=box)
     rad = res.radii
     R = res.runs
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        inside = state_containment(batch).all(axis=1)
+        inside_k = state_containment(batch)
         inside_d = _input_inside(batch, batch.extras["d"][:, :-1], rad).all(axis=1)
         ratio = np.where(rad.state > 0, res.errors / rad.state, np.where(res.errors > 0, np.inf, 0.0))
     ratio = np.where(np.isnan(ratio), np.inf, ratio)
+    first = np.where(inside_k.all(axis=1), -1, np.argmax(~inside_k, axis=1))
     cov = res.coverage
     covered = np.zeros(R, bool) if cov is None or cov.failed_premises or not cov.verified else np.ones(R, bool)
-    flags = {"class": np.zeros(R, bool), "box": np.zeros(R, bool), "round-off": np.zeros(R, bool)}
+    hyp, det = np.full(R, "", dtype=object), np.full(R, "", dtype=object)
+    when = np.full(R, np.nan)
+    class_v = np.zeros(R, bool)
     for v in () if cov is None else cov.violations:
         covered[v.run] = False
-        if v.hypothesis.startswith("function class"):
-            flags["class"][v.run] = True
-        elif v.hypothesis.startswith("floating-point"):
-            flags["round-off"][v.run] = True
-    out = {"contained": inside, "input_contained": inside_d, "final_error": res.errors[:, -1].copy(),
-           "max_error_over_radius": ratio.max(axis=1), "covered": covered, "class_violated": flags["class"],
-           "roundoff": flags["round-off"]}
-    if box is not None:
-        lo, hi = np.asarray(box[0], dtype=float), np.asarray(box[1], dtype=float)
-        x, xh = batch.x, batch.x_hat
-        with np.errstate(invalid="ignore"):
-            out["left_box"] = ((x < lo) | (x > hi)).any(axis=(1, 2)) | ~((xh >= lo) & (xh <= hi)).all(axis=(1, 2))
+        hyp[v.run], det[v.run], when[v.run] = v.hypothesis, v.detail, v.time
+    pr = res.per_run
+    if "class_margin" in pr:
+        class_v = pr["class_margin"] < 0
+        for v in () if cov is None else cov.violations:
+            class_v[v.run] |= v.hypothesis.startswith("function class")
+    out = {"contained": inside_k.all(axis=1), "input_contained": inside_d, "first_violation_step": first,
+           "final_error": res.errors[:, -1].copy(), "max_error_over_radius": ratio.max(axis=1),
+           "max_error_over_radius_after_step_0": (ratio[:, 1:].max(axis=1) if ratio.shape[1] > 1
+                                                  else np.full(R, np.nan)),
+           "covered": covered, "violation_hypothesis": hyp.astype(str), "violation_time": when,
+           "violation_detail": det.astype(str), "class_violated": class_v,
+           "class_margin": pr.get("class_margin", np.full(R, np.nan)),
+           "roundoff_ratio": pr.get("roundoff_ratio", np.full(R, np.nan))}
+    out["roundoff"] = out["roundoff_ratio"] > ROUNDOFF_FRACTION
+    if "left_box" in pr:
+        out["left_box"] = pr["left_box"]
     return out
 
 
