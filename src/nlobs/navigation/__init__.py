@@ -1,7 +1,8 @@
 """GNSS/INS navigation (Grip, Saberi & Johansen, Sec. 5): SO(3) utilities, flight and sensor generation,
 the interconnected observer (22)/(24) (with a constant or a scheduled attitude gain) and the EKF baseline (both correcting observers of
 :mod:`nlobs.observers.base`), ``run_navigation`` (a thin call of :func:`nlobs.simulate.run_observer`),
-the navigation metrics of its :class:`~nlobs.simulate.SimulationResult`, and plots.
+the navigation metrics of its :class:`~nlobs.simulate.SimulationResult`, plots, and the Monte Carlo
+study of the observer's flights (:class:`GnssInsStudy`, for :func:`nlobs.simulate.monte_carlo`).
 
 Conventions and channel layouts are stated in :mod:`nlobs.navigation.base`.
 """
@@ -18,6 +19,7 @@ if TYPE_CHECKING:
     from nlobs.navigation.gains import design_gains, paper_gains, verify_paper_gains
     from nlobs.navigation.gnss_ins import GnssInsObserver, GnssInsState
     from nlobs.navigation.metrics import summary_dict
+    from nlobs.navigation.montecarlo import GnssInsStudy
     from nlobs.navigation.plots import plot_navigation
     from nlobs.navigation.run import run_navigation
     from nlobs.navigation.schedule import AttitudeGainSchedule, ScheduledGnssInsObserver, noise_scheduled_gain
@@ -31,6 +33,7 @@ _LAZY: dict[str, str] = {
     **dict.fromkeys(("design_gains", "paper_gains", "verify_paper_gains"), "nlobs.navigation.gains"),
     **dict.fromkeys(("GnssInsObserver", "GnssInsState"), "nlobs.navigation.gnss_ins"),
     "summary_dict": "nlobs.navigation.metrics",
+    "GnssInsStudy": "nlobs.navigation.montecarlo",
     "plot_navigation": "nlobs.navigation.plots",
     "run_navigation": "nlobs.navigation.run",
     **dict.fromkeys(("AttitudeGainSchedule", "ScheduledGnssInsObserver", "noise_scheduled_gain"),
