@@ -14,6 +14,9 @@ scripts and notebooks. See :mod:`nlobs.workflows.verdict` for how a report says 
   the set-valued input-and-state observer of Khajenejad & Yong (:mod:`nlobs.workflows.setvalued`);
 * :func:`gnss_ins_demo` (``nlobs demo gnss-ins``) → :class:`DemoReport`: the GNSS/INS example of
   Grip, Saberi & Johansen, Sec. 5, against an EKF (:mod:`nlobs.workflows.demo`);
+* :func:`gnss_ins_monte_carlo` (``nlobs simulate gnss-ins``) → :class:`GnssInsStudyReport`: Monte Carlo
+  flights of the same observer (24) from random initial errors, here or on Dask
+  (:mod:`nlobs.workflows.gnss_ins_study`);
 * :func:`gamma_sweep` → :class:`GammaSweep`: Sec. 3.2 of Grip, Saberi & Johansen, design and
   simulate for decreasing ``γ`` (:mod:`nlobs.workflows.gamma_sweep`);
 * the inputs a caller hands over as plain values (:mod:`nlobs.workflows.inputs`):
@@ -52,6 +55,7 @@ if TYPE_CHECKING:
         design_pinv_report,
         simulate_pinv,
     )
+    from nlobs.workflows.gnss_ins_study import GnssInsStudyReport, gnss_ins_monte_carlo
     from nlobs.workflows.gamma_sweep import GammaSweep, GammaSweepRow, gamma_sweep
     from nlobs.workflows.inputs import BoxError, SimulationRequest, box_from_numbers, symbolic_model
     from nlobs.workflows.setvalued import (
@@ -76,6 +80,7 @@ _LAZY: dict[str, str] = {
     **dict.fromkeys(
         ("PinvDesignReport", "PinvWorkflowReport", "design_pinv_observer", "design_pinv_report", "simulate_pinv"),
         "nlobs.workflows.design_pinv"),
+    **dict.fromkeys(("GnssInsStudyReport", "gnss_ins_monte_carlo"), "nlobs.workflows.gnss_ins_study"),
     **dict.fromkeys(("GammaSweep", "GammaSweepRow", "gamma_sweep"), "nlobs.workflows.gamma_sweep"),
     **dict.fromkeys(("BoxError", "SimulationRequest", "box_from_numbers", "symbolic_model"), "nlobs.workflows.inputs"),
     "escape_unsafe": "nlobs._validate",
@@ -94,6 +99,7 @@ __all__ = [
     "DriftWorkflowReport",
     "GammaSweep",
     "GammaSweepRow",
+    "GnssInsStudyReport",
     "MonteCarloStudy",
     "PinvDesignReport",
     "PinvWorkflowReport",
@@ -110,6 +116,7 @@ __all__ = [
     "design_setvalued_observer",
     "escape_unsafe",
     "gamma_sweep",
+    "gnss_ins_monte_carlo",
     "gnss_ins_demo",
     "jsonable",
     "with_schema",
