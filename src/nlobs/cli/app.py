@@ -246,6 +246,8 @@ app.command("advise")(advise_cmd)
 from nlobs.cli.export import export_cmd  # noqa: E402 - registered after the app exists
 
 app.command("export")(export_cmd)
+from nlobs.cli import gnss_ins as _gnss_ins  # noqa: E402,F401 - registers `simulate gnss-ins`
+
 app.add_typer(design_app, name="design")
 app.add_typer(simulate_app, name="simulate")
 

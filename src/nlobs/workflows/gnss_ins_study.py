@@ -120,7 +120,8 @@ class GnssInsStudyReport:
         lines = [self.setup(),
                  f"converged (attitude error below {st.converge_deg:g}° for good): {self.converged}/{self.flights} "
                  f"({100.0 * self.converged / self.flights:.1f} %)" + (f", {self.diverged} diverged" if self.diverged else ""),
-                 f"time to converge: median {x['converge_s_median']:.2f} s, worst {x['converge_s_max']:.2f} s",
+                 (f"time to converge: median {x['converge_s_median']:.2f} s, worst {x['converge_s_max']:.2f} s"
+                  if self.converged else "time to converge: no flight converged"),
                  f"final attitude error: median {x['final_attitude_error_deg_median']:.3g}°, "
                  f"worst {x['final_attitude_error_deg_max']:.3g}°",
                  f"RMS over the last {st.tail:g} s (median over the flights): position {x['rms_position_m_median']:.3f} m, "
