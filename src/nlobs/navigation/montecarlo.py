@@ -6,7 +6,10 @@ sampled at the IMU rate), the gains and the observer (24): the paper's ``K`` and
 ``Γ = diag(20, 0.2, 0.2)`` (Sec. 5.2), or the noise-optimal ``K`` (the smallest noise-to-error H2 norm
 under LMI (14) at ``γ = 50``, :func:`~nlobs.navigation.gains.noise_optimal_gains`, refused unless its
 certificate is verified) with ``Γ = 0.5 I`` or with the scheduled ``Γ(t)`` of
-:func:`~nlobs.navigation.schedule.noise_scheduled_gain`. :meth:`GnssInsStudy.run` computes one batch of
+:func:`~nlobs.navigation.schedule.noise_scheduled_gain`. An SDP solver's answer may differ in its last bits from one
+process to another (BLAS threads, CPU), so :meth:`GnssInsStudy.solved` solves the noise-optimal gain
+once, where the study is made, and puts it in the recipe (``axis_gain``); :meth:`~GnssInsStudy.prepare`
+then only re-verifies it (:func:`~nlobs.synthesis.verify_h2_gain`), and every worker flies the same gain. :meth:`GnssInsStudy.run` computes one batch of
 flights, every random number from the batch's generator, in this order:
 
 1. the sensor noise of every flight, :func:`~nlobs.navigation.sensors.generate_sensors` with
@@ -26,16 +29,26 @@ no region or input bound to check along a run), so the summaries carry no ``cove
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
 
 from nlobs._typing import Array
-from nlobs._validate import as_count, in_range, positive
+from nlobs._validate import as_count, as_finite_array, in_range, positive
 from nlobs.errors import DesignInfeasible, InvalidArgumentError, SimulationDiverged
 from nlobs.navigation.base import GNSS_OUTPUTS, GNSS_OUTPUTS_P, NAV_STATES, SensorData, nav_vector
-from nlobs.navigation.gains import NOISE_OPTIMAL_GAMMA, PAPER_GAMMA, noise_optimal_gains, paper_gains
+from nlobs.navigation.gains import (
+    NOISE_OPTIMAL_GAMMA,
+    PAPER_GAMMA,
+    PAPER_GAMMA_HINF,
+    axis_gain,
+    axis_noise_model,
+    axis_system,
+    kron_gain,
+    noise_optimal_gains,
+    paper_gains,
+)
 from nlobs.navigation.gnss_ins import GnssInsObserver
 from nlobs.navigation import metrics
 from nlobs.navigation.run import run_navigation
@@ -113,6 +126,12 @@ class GnssInsStudy:
         so that a record is ``(runs, ⌈K / trajectory_every⌉, 15)``; the times are ``t[::trajectory_every]``.
     default_batch : int
         Flights computed together (and drawn from one generator) unless :func:`monte_carlo` is told otherwise.
+    axis_gain : tuple of tuple of float, optional
+        The per-axis noise-optimal gain ``K3`` (3×2: rows ``p, v, z``, columns ``p, v``; ``K = kron(K3, I3)``)
+        for ``gains`` ``"noise-optimal"`` and ``"scheduled"``; ``None``: :meth:`prepare` solves it. An SDP
+        solver's answer can differ in its last bits between processes (the BLAS threads, the CPU), so
+        for numbers that are the same on every worker solve it once where the study is made,
+        :meth:`solved`, and send it with the recipe; :meth:`prepare` re-verifies a given gain.
 
     Raises
     ------
@@ -132,6 +151,7 @@ class GnssInsStudy:
     tail_s: float | None = None
     trajectory_every: int = 10
     default_batch: int = 100
+    axis_gain: tuple[tuple[float, ...], ...] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.noise, SensorNoise):
@@ -156,6 +176,14 @@ class GnssInsStudy:
                 raise InvalidArgumentError(f"tail_s: {tail:g} s is longer than the flight ({d:g} s)")
         as_count("trajectory_every", self.trajectory_every, minimum=1)
         as_count("default_batch", self.default_batch, minimum=1)
+        if self.axis_gain is not None:
+            if self.gains == "paper":
+                raise InvalidArgumentError("axis_gain: the paper's gains are fixed (Sec. 5.2); give it with "
+                                           "gains 'noise-optimal' or 'scheduled'")
+            K3 = as_finite_array("axis_gain", self.axis_gain, ndim=2)
+            if K3.shape != (3, 2):
+                raise InvalidArgumentError(f"axis_gain: expected a 3×2 per-axis gain, got shape {K3.shape}")
+            object.__setattr__(self, "axis_gain", tuple(tuple(float(v) for v in row) for row in K3))
 
     # ------------------------------------------------------------------ Study protocol
     @property
@@ -182,13 +210,45 @@ class GnssInsStudy:
             parts.append(f"{f.name}={value}")
         return "gnss-ins|" + "|".join(parts)
 
-    def prepare(self) -> PreparedFlight:
-        """The flight on the IMU grid and observer (24) with the study's gains (deterministic).
+    def solved(self) -> GnssInsStudy:
+        """This recipe with the noise-optimal per-axis gain solved (and verified) here, in ``axis_gain``.
+
+        The paper's gains, or a gain already given: the recipe itself.
 
         Raises
         ------
         DesignInfeasible
-            The noise-optimal gain failed its certificate (never run under that name).
+            The noise-optimal gain failed its certificate.
+        """
+        if self.gains == "paper" or self.axis_gain is not None:
+            return self
+        K = self._noise_optimal()
+        return replace(self, axis_gain=tuple(tuple(float(v) for v in row) for row in axis_gain(K)))
+
+    def _noise_optimal(self) -> Array:
+        """``K = kron(K3, I3)`` of the noise-optimal gain: ``axis_gain`` re-verified, or solved; certified."""
+        rates = {"imu_rate_hz": float(self.imu_rate_hz), "gnss_rate_hz": float(self.gnss_rate_hz)}
+        if self.axis_gain is None:
+            K, cert = noise_optimal_gains(self.noise, **rates)
+        else:
+            from nlobs.synthesis import verify_h2_gain
+
+            A, Bd, C = axis_system(False)
+            K3 = np.array(self.axis_gain, dtype=float)
+            cert = verify_h2_gain(A, C, Bd, K3, gamma=PAPER_GAMMA_HINF, noise=axis_noise_model(self.noise, **rates))
+            K = kron_gain(K3)
+        if not cert.verified:  # never run an uncertified gain under this name
+            raise DesignInfeasible("the noise-optimal gain failed its certificate: "
+                                   + ", ".join(ch.name for ch in cert.failed_checks), constraint="certificate")
+        return K
+
+    def prepare(self) -> PreparedFlight:
+        """The flight on the IMU grid and observer (24) with the study's gains (deterministic given ``axis_gain``).
+
+        Raises
+        ------
+        DesignInfeasible
+            The noise-optimal gain (solved, or given in ``axis_gain``) failed its certificate.
         """
         flight = traffic_pattern(seed=int(self.flight_seed), duration=float(self.duration))
         traj = flight.sample(float(self.imu_rate_hz))
@@ -197,11 +257,7 @@ class GnssInsStudy:
             observer = GnssInsObserver(paper_gains(), PAPER_GAMMA, flight.m_n, flight.g_n)
             what = "the paper's K and Γ = diag(20, 0.2, 0.2)"
         else:
-            K, cert = noise_optimal_gains(self.noise, imu_rate_hz=float(self.imu_rate_hz),
-                                          gnss_rate_hz=float(self.gnss_rate_hz))
-            if not cert.verified:
-                raise DesignInfeasible("the noise-optimal gain failed its certificate: "
-                                       + ", ".join(ch.name for ch in cert.failed_checks), constraint="certificate")
+            K = self._noise_optimal()
             observer = GnssInsObserver(K, NOISE_OPTIMAL_GAMMA, flight.m_n, flight.g_n)
             what = "the noise-optimal K (certified) and Γ = 0.5 I"
             if self.gains == "scheduled":

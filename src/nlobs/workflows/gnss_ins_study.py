@@ -266,6 +266,7 @@ def gnss_ins_monte_carlo(*, flights: int = 1000, duration: float = 60.0, seed: i
         raise InvalidArgumentError("trajectories: saving them needs an output folder (out)")
     study = GnssInsStudy(DEMO_NOISE, duration=duration, flight_seed=flight_seed, gains=gains,
                          attitude_error_deg=attitude_error_deg, position_error_m=position_error_m)
+    study = study.solved()  # the noise-optimal gain solved once, here: the same bits on every worker
     folder = None if out is None else Path(out)
     if folder is not None:
         try:
