@@ -1,4 +1,6 @@
-"""Monte Carlo flights of the GNSS/INS observer (24) of Grip, Saberi & Johansen, as a study of :func:`nlobs.simulate.monte_carlo`.
+"""Monte Carlo flights of the GNSS/INS observer (24) of Grip, Saberi & Johansen: a study for ``monte_carlo``.
+
+A study of :func:`nlobs.simulate.monte_carlo`.
 
 :class:`GnssInsStudy` is a small recipe (plain values). :meth:`GnssInsStudy.prepare` builds, once per
 process, the flight (the demo's traffic pattern, :func:`~nlobs.navigation.trajectory.traffic_pattern`,
@@ -9,8 +11,8 @@ certificate is verified) with ``Γ = 0.5 I`` or with the scheduled ``Γ(t)`` of
 :func:`~nlobs.navigation.schedule.noise_scheduled_gain`. An SDP solver's answer may differ in its last bits from one
 process to another (BLAS threads, CPU), so :meth:`GnssInsStudy.solved` solves the noise-optimal gain
 once, where the study is made, and puts it in the recipe (``axis_gain``); :meth:`~GnssInsStudy.prepare`
-then only re-verifies it (:func:`~nlobs.synthesis.verify_h2_gain`), and every worker flies the same gain. :meth:`GnssInsStudy.run` computes one batch of
-flights, every random number from the batch's generator, in this order:
+then only re-verifies it (:func:`~nlobs.synthesis.verify_h2_gain`), and every worker flies the same gain.
+:meth:`GnssInsStudy.run` computes one batch of flights, every random number from the batch's generator, in this order:
 
 1. the sensor noise of every flight, :func:`~nlobs.navigation.sensors.generate_sensors` with
    ``seed=rng, batch=runs``;
@@ -295,8 +297,9 @@ class GnssInsStudy:
         traj_out: dict[str, Array] = {}
         if trajectories:
             every = int(self.trajectory_every)
+            truth = np.asarray(res.x)[::every]
             traj_out = {"x_hat": np.ascontiguousarray(res.x_hat[:, ::every]),
-                        "x": np.ascontiguousarray(np.broadcast_to(res.x[::every], (runs, *res.x[::every].shape)))}  # type: ignore[index]
+                        "x": np.ascontiguousarray(np.broadcast_to(truth, (runs, *truth.shape)))}
         return RunBatch(summ, traj_out)
 
     def summaries(self, res: SimulationResult) -> dict[str, Array]:

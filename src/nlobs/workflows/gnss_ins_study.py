@@ -119,14 +119,17 @@ class GnssInsStudyReport:
         st, r, x = self.study, self.result, self.statistics()
         lines = [self.setup(),
                  f"converged (attitude error below {st.converge_deg:g}° for good): {self.converged}/{self.flights} "
-                 f"({100.0 * self.converged / self.flights:.1f} %)" + (f", {self.diverged} diverged" if self.diverged else ""),
+                 f"({100.0 * self.converged / self.flights:.1f} %)"
+                 + (f", {self.diverged} diverged" if self.diverged else ""),
                  (f"time to converge: median {x['converge_s_median']:.2f} s, worst {x['converge_s_max']:.2f} s"
                   if self.converged else "time to converge: no flight converged"),
                  f"final attitude error: median {x['final_attitude_error_deg_median']:.3g}°, "
                  f"worst {x['final_attitude_error_deg_max']:.3g}°",
-                 f"RMS over the last {st.tail:g} s (median over the flights): position {x['rms_position_m_median']:.3f} m, "
+                 f"RMS over the last {st.tail:g} s (median over the flights): "
+                 f"position {x['rms_position_m_median']:.3f} m, "
                  f"velocity {x['rms_velocity_mps_median']:.3f} m/s, attitude {x['rms_attitude_deg_median']:.3f}°",
-                 f"ran {r.chunks} chunk{'s' if r.chunks != 1 else ''} (batch {r.batch}, chunk {r.chunk}) on {r.executor} "
+                 f"ran {r.chunks} chunk{'s' if r.chunks != 1 else ''} (batch {r.batch}, chunk {r.chunk}) "
+                 f"on {r.executor} "
                  f"({r.workers} worker{'s' if r.workers != 1 else ''})"
                  + (f", {r.resumed_chunks} resumed" if r.resumed_chunks else "") + f" in {self.seconds:.2f} s"]
         if r.out is not None:
@@ -141,7 +144,8 @@ class GnssInsStudyReport:
         return {
             "setup": {"flights": self.flights, "duration_s": float(st.duration), "seed": r.seed,
                       "flight_seed": int(st.flight_seed), "gains": st.gains,
-                      "attitude_error_deg": float(st.attitude_error_deg), "position_error_m": float(st.position_error_m),
+                      "attitude_error_deg": float(st.attitude_error_deg),
+                      "position_error_m": float(st.position_error_m),
                       "imu_rate_hz": float(st.imu_rate_hz), "gnss_rate_hz": float(st.gnss_rate_hz),
                       "converge_deg": float(st.converge_deg), "tail_s": st.tail},
             "converged": self.converged,
@@ -193,7 +197,8 @@ def _figure(report: GnssInsStudyReport, path: Path) -> Path:
                   fontsize=10)
     ax2.grid(alpha=0.3)
     fig.suptitle(f"GNSS/INS observer (24), {st.gains} gains: {report.flights} flights × {st.duration:g} s, "
-                 f"initial attitude errors up to {st.attitude_error_deg:g}°, position errors {st.position_error_m:g} m",
+                 f"initial attitude errors up to {st.attitude_error_deg:g}°, "
+                 f"position errors {st.position_error_m:g} m",
                  fontsize=11)
     fig.tight_layout()
     return save_figure(fig, path)
