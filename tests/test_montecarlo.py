@@ -187,3 +187,31 @@ def test_a_killed_run_finishes_from_its_last_chunk_with_identical_results(tmp_pa
             assert a.files == b.files
             for k in a.files:
                 assert np.array_equal(a[k], b[k], equal_nan=a[k].dtype.kind == "f"), (c, k)
+
+
+def test_plant_study_is_the_loop_and_its_closed_form() -> None:
+    from nlobs.observers.luenberger import LuenbergerObserver
+    from nlobs.simulate.plant_study import PlantStudy
+    from nlobs.simulate.sampling import MeasurementGroup
+    from nlobs.systems.linear import LinearSystem
+
+    sys_ = LinearSystem([[-1.0]], np.zeros((1, 0)), [[1.0]], states=("pos",))
+    obs = LuenbergerObserver(sys_, [[3.0]])  # error dynamics ė = −4 e without noise
+    exact = PlantStudy("scalar, L = 3", sys_, obs, [1.0], [1.0], 0.5, duration=1.0, dt=1e-3, default_batch=8)
+    r = monte_carlo(exact, 20, seed=4)
+    e0 = batch_rng(4, 1).standard_normal((8, 1))[:, 0] * 0.5  # batch 1 holds runs 8..15
+    np.testing.assert_allclose(r.summaries["final_error"][8:16], np.abs(e0) * np.exp(-4.0), rtol=1e-9)
+    assert not r.summaries["diverged"].any()
+    noisy = PlantStudy("scalar, L = 3, noisy", sys_, obs, [1.0], [1.0], 0.5, duration=1.0, dt=1e-3,
+                       measurements=[MeasurementGroup("pos", [0], rate=100.0, noise_std=0.01)], after=0.5,
+                       tol=0.05, default_batch=8)
+    ref = monte_carlo(noisy, 20, seed=4)
+    _same(ref, monte_carlo(noisy, 20, seed=4, chunk=3))
+    with cf.ProcessPoolExecutor(2) as pool:
+        _same(ref, monte_carlo(noisy, 20, seed=4, chunk=5, executor=pool))
+    e0 = np.concatenate([batch_rng(4, k).standard_normal((8, 1))[:, 0] * 0.5 for k in range(3)])[:20]
+    # after 0.5 s the initial error has decayed to |e0| e^{-2}; the sensor noise (σ = 0.01) adds little
+    assert ref.summaries["rms_error"].shape == (20, 1)
+    assert np.all(ref.summaries["rms_error"][:, 0] <= np.abs(e0) * np.exp(-2.0) + 0.02)
+    with pytest.raises(InvalidArgumentError, match="label"):
+        PlantStudy("", sys_, obs, [1.0], [1.0], 0.5, duration=1.0)

@@ -71,7 +71,7 @@ if TYPE_CHECKING:
     )
     from nlobs import simulate
     from nlobs.export import compile_observer, export_observer
-    from nlobs.simulate import SimulationResult, run_observer
+    from nlobs.simulate import SimulationResult, monte_carlo, run_observer
     from nlobs.synthesis import (
         Certificate,
         design_cascade_gain,
@@ -114,7 +114,7 @@ _LAZY: dict[str, str] = {
     **dict.fromkeys(("ByrnesIsidoriObserver", "CascadeObserver", "ConstantGainObserver", "CorrectingObserver",
                      "DiscreteLipschitzObserver", "DriftObserver", "EKF", "LuenbergerObserver", "Observer",
                      "PinvObserver", "SetValuedObserver", "UKF", "UnknownInputEKF"), "nlobs.observers"),
-    **dict.fromkeys(("SimulationResult", "run_observer"), "nlobs.simulate"),
+    **dict.fromkeys(("SimulationResult", "run_observer", "monte_carlo"), "nlobs.simulate"),
     "simulate": "nlobs.simulate",
     **dict.fromkeys(("Certificate", "design_cascade_gain", "design_discrete_lipschitz_gain", "design_drift_gain",
                      "design_observer_gain", "design_setvalued", "verify_discrete_lipschitz_gain",

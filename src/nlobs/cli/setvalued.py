@@ -92,14 +92,31 @@ def simulate_setvalued_cmd(
     objective: Annotated[Objective, typer.Option(help="Design objective (see design setvalued).")] = Objective.radius,
     baselines: Annotated[bool, typer.Option(help="Also run the Lipschitz LMI observer and the EKF.")] = True,
     samples: Annotated[int, typer.Option(min=2, help="Sampled pairs for the function-class check.")] = 20_000,
+    batch: Annotated[int | None, typer.Option(min=1, help="Runs computed together, each batch from its own seed "
+                                              "stream (default min(runs, 1000)); with --seed, fixes the numbers.")]
+    = None,
+    chunk: Annotated[int | None, typer.Option(min=1, help="Runs per task and per file (default one batch); any "
+                                              "value gives the same numbers.")] = None,
+    workers: Annotated[int | None, typer.Option(min=1, help="Run the chunks on a local Dask cluster of N worker "
+                                                "processes (needs nlobs[dask]).")] = None,
+    scheduler: Annotated[str | None, typer.Option(help="Run the chunks on the Dask scheduler at this address "
+                                                  "(tcp://host:8786).")] = None,
+    trajectories: Annotated[bool, typer.Option(help="Save every run's truth and centres in the chunk files of "
+                                               "OUT/runs (needs --out).")] = False,
+    progress: Annotated[bool | None, typer.Option(help="Progress bar over runs (default: on a terminal, for long "
+                                                  "runs).")] = None,
 ) -> None:
-    """Run Algorithm 1 (Khajenejad–Yong) in Monte Carlo: containment rates, radii and the point baselines."""
+    """Run Algorithm 1 (Khajenejad–Yong) in Monte Carlo: containment rates, radii and the point baselines.
+
+    With --out, every finished chunk is a file in OUT/runs and the same command resumes where it stopped.
+    """
     from nlobs.workflows.setvalued import simulate_setvalued_observer
 
     try:
         report = simulate_setvalued_observer(model, runs=runs, steps=steps, unknown_input=unknown_input.value,
                                              seed=seed, objective=objective.value, baselines=baselines,
-                                             samples=samples, out=out)
+                                             samples=samples, out=out, batch=batch, chunk=chunk, workers=workers,
+                                             scheduler=scheduler, trajectories=trajectories, progress=progress)
     except NlobsError as exc:
         _errors(model, exc)
     _show(report, as_json)

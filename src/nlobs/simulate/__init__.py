@@ -3,6 +3,9 @@
 Two entry points, one result: :func:`simulate` runs a plant and an observer together,
 :func:`run_observer` runs any observer on recorded data; both return an immutable
 :class:`SimulationResult` with error metrics, extras, a plot and an ``.npz`` round trip.
+:func:`monte_carlo` runs a study (:class:`PlantStudy`, :class:`SetValuedStudy`, the GNSS/INS flights)
+in chunks, here or on Dask, with the same numbers however it is split; :func:`sweep` evaluates a design
+problem over a grid in the same way.
 
 The package is callable: ``nlobs.simulate(plant, observer, x0, ...)`` is
 ``nlobs.simulate.simulate(plant, observer, x0, ...)`` (same signature), so the top-level name
@@ -18,7 +21,10 @@ from typing import Any
 
 from nlobs.simulate.integrators import RK4, SolveIVP, rk4_integrate, rk4_step, rk4_step_joint, solve_ivp_batch
 from nlobs.simulate.loop import simulate
+from nlobs._lazy import lazy_exports
 from nlobs.simulate.metrics import ErrorMetrics
+from nlobs.simulate.montecarlo import MonteCarloResult, RunBatch, Study, monte_carlo
+from nlobs.simulate.plant_study import PlantStudy
 from nlobs.simulate.replay import run_observer
 from nlobs.simulate.result import SimulationResult
 from nlobs.simulate.sampling import InputSensor, MeasurementGroup
@@ -29,9 +35,15 @@ __all__ = [
     "ErrorMetrics",
     "InputSensor",
     "MeasurementGroup",
+    "MonteCarloResult",
+    "PlantStudy",
+    "RunBatch",
+    "SetValuedStudy",
     "SampledSignal",
     "SimulationResult",
     "SolveIVP",
+    "Study",
+    "monte_carlo",
     "rk4_integrate",
     "rk4_step",
     "rk4_step_joint",
@@ -49,4 +61,6 @@ class _CallablePackage(types.ModuleType):
 
 
 sys.modules[__name__].__class__ = _CallablePackage
+#: Imported on first use: the set-valued study needs the synthesis layer's solvers.
+__getattr__, _lazy_dir = lazy_exports(__name__, {"SetValuedStudy": "nlobs.simulate.setvalued"})
 __signature__ = inspect.signature(simulate)

@@ -530,6 +530,67 @@ def design_setvalued_observer(model: str | Path | DiscreteUIModel, *, objective:
     return SetValuedDesignReport(label, data, d, st, Verdict.OK, "")
 
 
+@dataclass(frozen=True, eq=False)
+class SetValuedBaselineStudy:
+    """Algorithm 1 and the point baselines on the same runs, a batch at a time (:func:`nlobs.simulate.monte_carlo`).
+
+    A batch is :func:`monte_carlo` on the batch's generator; its per-run values are
+    :func:`nlobs.simulate.setvalued.run_summaries` and the baselines' final errors
+    (``baseline_lipschitz_final_error``, ``baseline_ekf_final_error``; ``inf`` where an estimate is not
+    finite, NaN where a baseline was not run) with ``baseline_ekf_failure`` (why the EKF gave none, else empty).
+    """
+
+    system: DiscreteUISystem
+    design: SetValuedDesign
+    unknown_input: Callable[[Array], Array]
+    unknown_input_label: str
+    steps: int
+    baselines: PointBaselines | None
+    q_d: float | None
+    box: tuple[ArrayLike, ArrayLike] | None
+    known_input: Callable[[float], Any] | None = None
+    default_batch: int = 1000
+
+    @property
+    def name(self) -> str:
+        return f"set-valued {self.system.name}"
+
+    def key(self) -> str:
+        from nlobs.simulate.setvalued import SetValuedStudy
+
+        inner = SetValuedStudy(self.system, self.design, self.unknown_input, self.steps, self.unknown_input_label,
+                               box=self.box).key()
+        return f"{inner}|baselines={self.baselines is not None}|q_d={self.q_d!r}"
+
+    def prepare(self) -> None:
+        return None
+
+    def batch_study(self, rng: np.random.Generator, runs: int) -> MonteCarloStudy:
+        """The whole :class:`MonteCarloStudy` of one batch (the figures use the first)."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            return monte_carlo(self.system, self.design, self.unknown_input, runs=runs, steps=self.steps, seed=rng,
+                               baselines=self.baselines if self.baselines is not None else False, q_d=self.q_d,
+                               box=self.box, known_input=self.known_input)
+
+    def run(self, prepared: Any, rng: np.random.Generator, runs: int, trajectories: bool) -> Any:
+        from nlobs.simulate.montecarlo import RunBatch
+        from nlobs.simulate.setvalued import run_summaries
+
+        st = self.batch_study(rng, runs)
+        out = run_summaries(st.batch, self.system, self.design, self.box, containment=st.containment)
+
+        def final(e: Array | None) -> Array:
+            if e is None:
+                return np.full(runs, np.nan)
+            return np.where(np.isfinite(e[:, -1]), e[:, -1], np.inf)
+
+        out["baseline_lipschitz_final_error"] = final(st.baseline_lipschitz_errors)
+        out["baseline_ekf_final_error"] = final(st.baseline_ekf_errors)
+        out["baseline_ekf_failure"] = np.full(runs, st.baseline_ekf_failure or "")
+        traj = {} if not trajectories else {"x": st.batch.x, "x_hat": st.batch.x_hat}
+        return RunBatch(out, traj)
+
+
 #: The largest Monte Carlo batch, runs · (steps + 1) · n (one batch is held in memory).
 MAX_BATCH = 5e8
 #: Bytes the study holds per element of the batch: about 8 float64 arrays of runs · (steps + 1) · n
@@ -547,7 +608,8 @@ class SetValuedStudyReport:
     ----------
     design : SetValuedDesignReport
     study : MonteCarloStudy or None
-        ``None`` when there is no observer (the design report's verdict).
+        ``None`` when there is no observer (the design report's verdict). Its ``containment`` covers every
+        run; its runs (``batch``, errors, baselines' estimates) are the first batch's, those of the figures.
     data : dict
         The JSON report (``to_dict()``).
     figures : tuple of Path
@@ -596,7 +658,7 @@ class SetValuedStudyReport:
                  f"input {res.rate_input:.4f}",
                  f"  final radius: state {res.final_radius_state:.4g}, input {res.final_radius_input:.4g}; "
                  f"max error/radius {res.max_error_over_radius:.4g} (after step 0: "
-                 f"{float(np.max(res.errors[:, 1:] / res.radii.state[1:])):.4g}); max final error "
+                 f"{data['max_error_over_radius_after_step_0']:.4g}); max final error "
                  f"{study.final_error_state:.4g}",
                  f"  baselines, max final error: Lipschitz LMI observer {num(study.baseline_lipschitz_final_error)}, "
                  f"EKF (d as noise) {num(study.baseline_ekf_final_error)}"]
@@ -614,23 +676,57 @@ class SetValuedStudyReport:
         return "\n".join(lines)
 
 
+def _aggregate(first: ContainmentResult, v: dict[str, Array], seconds: float,
+               box: tuple[ArrayLike, ArrayLike] | None) -> ContainmentResult:
+    """The containment of every run from the per-run values of a chunked study (``first``: batch 0's, for the
+    radii, the hypotheses checked and the failed premises, the same in every batch)."""
+    from nlobs.simulate.coverage import Coverage, Violation
+
+    R = int(v["contained"].shape[0])
+    fv = v["first_violation_step"]
+    cov = first.coverage
+    coverage = None
+    if cov is not None:
+        runs_v = np.flatnonzero(v["violation_hypothesis"] != "")
+        coverage = Coverage(cov.hypotheses, cov.failed_premises, tuple(
+            Violation(int(i), str(v["violation_hypothesis"][i]), float(v["violation_time"][i]),
+                      str(v["violation_detail"][i])) for i in runs_v), R, cov.verified)
+    margins = v["class_margin"]
+    return dataclasses.replace(
+        first, runs=R, rate_state=float(v["contained"].mean()), rate_input=float(v["input_contained"].mean()),
+        max_error_over_radius=float(np.max(v["max_error_over_radius"])),
+        first_violation_step=int(fv[fv >= 0].min()) if np.any(fv >= 0) else None, seconds=seconds,
+        class_violated_in_runs=(int(np.sum(v["class_violated"])) if first.class_violated_in_runs is not None
+                                else None),
+        class_worst_margin=(float(np.min(margins)) if first.class_worst_margin is not None else None),
+        left_box_runs=int(np.sum(v["left_box"])) if box is not None and "left_box" in v else first.left_box_runs,
+        roundoff_runs=int(np.sum(v["roundoff"])) if first.roundoff_runs is not None else None,
+        roundoff_ratio=float(np.max(v["roundoff_ratio"])) if first.roundoff_ratio is not None else None,
+        coverage=coverage)
+
+
 def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: int = 1000, steps: int = 200,
                                 unknown_input: str = "bounded", seed: int = 0, objective: str = "radius",
                                 baselines: bool = True, samples: int = 20_000,
-                                out: str | Path | None = None) -> SetValuedStudyReport:
+                                out: str | Path | None = None, batch: int | None = None, chunk: int | None = None,
+                                executor: Any = None, workers: int | None = None, scheduler: str | None = None,
+                                trajectories: bool = False, progress: bool | None = None) -> SetValuedStudyReport:
     """Design Algorithm 1's gain (:func:`design_setvalued_observer`) and run it in Monte Carlo with the baselines.
+
+    The runs go through :func:`nlobs.simulate.monte_carlo` (batches of ``batch`` runs, each from its own
+    seed stream), here or on Dask: the numbers do not depend on ``chunk`` or on how many workers ran them.
 
     Parameters
     ----------
     model : str, Path or DiscreteUIModel
         A model file with unknown inputs, a shipped name, or a loaded model.
     runs, steps : int
-        Monte Carlo runs and steps per run (``runs·(steps + 1)·n ≤`` :data:`MAX_BATCH`, and about
+        Monte Carlo runs and steps per run (one batch: ``batch·(steps + 1)·n ≤`` :data:`MAX_BATCH`, and about
         :data:`STUDY_BYTES_PER_ELEMENT` bytes each at most :data:`MAX_STUDY_BYTES`).
     unknown_input : {"bounded", "growing"}
         The file's signal ``d(t)``.
     seed : int
-        Seed of the initial states and noises.
+        Seed of the initial states and noises (the root of every batch's seed stream).
     objective : str
         The design objective.
     baselines : bool
@@ -638,7 +734,20 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
     samples : int
         Sampled pairs for the function-class check.
     out : str or Path, optional
-        Folder for the figures (written atomically).
+        Folder for the figures (written atomically) and, in ``out/runs``, the chunk files: a run on the
+        same folder resumes where it stopped.
+    batch, chunk : int, optional
+        Runs per batch (default ``min(runs, 1000)``) and per chunk (default one batch).
+    executor : optional
+        Where the chunks run (:func:`nlobs.simulate.monte_carlo`); at most one of it, ``workers`` and ``scheduler``.
+    workers : int, optional
+        Run the chunks on a Dask LocalCluster of this many single-threaded worker processes.
+    scheduler : str, optional
+        Run the chunks on the Dask scheduler at this address.
+    trajectories : bool
+        Save every run's truth and centres in the chunk files (needs ``out``).
+    progress : bool, optional
+        A progress bar over runs.
 
     Returns
     -------
@@ -648,20 +757,30 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
     Raises
     ------
     InvalidArgumentError
-        The batch is too large.
+        The batch is too large, or a bad scale-out option.
     StudyFailed
         The runs could not be completed (e.g. the plant overflows); the cause is chained.
     OutputError
         ``out`` cannot be written.
     """
+    from nlobs.simulate.executors import cluster
+    from nlobs.simulate.montecarlo import batch_rng
+    from nlobs.simulate.montecarlo import monte_carlo as run_chunks
+
     m = _load(model)
-    elements = runs * (steps + 1) * m.system.n
+    if sum(x is not None for x in (executor, workers, scheduler)) > 1:
+        raise InvalidArgumentError("--workers and --scheduler (or an executor): give one (workers start a local "
+                                   "cluster, a scheduler address uses a running one)")
+    if trajectories and out is None:
+        raise InvalidArgumentError("--trajectories: saving them needs an output folder (--out)")
+    width = min(SetValuedBaselineStudy.default_batch if batch is None else max(int(batch), 1), max(int(runs), 1))
+    elements = width * (steps + 1) * m.system.n
     need = STUDY_BYTES_PER_ELEMENT * elements
     if elements > MAX_BATCH or need > MAX_STUDY_BYTES:
         raise InvalidArgumentError(
-            f"--runs {runs} x --steps {steps}: too large for one batch: about {need / 1024**3:.3g} GiB "
+            f"--batch {width} x --steps {steps}: too large for one batch: about {need / 1024**3:.3g} GiB "
             f"({STUDY_BYTES_PER_ELEMENT} bytes per run, step and state, n = {m.system.n}); at most "
-            f"{MAX_STUDY_BYTES / 1024**3:g} GiB (lower --runs or --steps)")
+            f"{MAX_STUDY_BYTES / 1024**3:g} GiB (lower --batch or --steps; --runs may be any number)")
     if out is not None:
         try:
             prepare_output_dir(out)
@@ -680,14 +799,23 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
     with np.errstate(over="ignore", invalid="ignore"):  # a non-finite Q_d is reported by the EKF's note
         q_d = float(np.mean(m.signals["bounded"](t) ** 2)) if s.p else 0.0
     try:
+        pb = point_baselines(s, q_d=q_d, box=box, seed=seed) if baselines else None
+        recipe = SetValuedBaselineStudy(s, d, m.signals[unknown_input], unknown_input, steps, pb, q_d, box,
+                                        m.known_input)
         # overflow in the runs is not silent: the plant's raises SimulationDiverged, the observer's and the
         # round-off it causes are measured (ContainmentResult.roundoff_runs) and reported below
-        with np.errstate(over="ignore", invalid="ignore"):
-            study = monte_carlo(s, d, m.signals[unknown_input], runs=runs, steps=steps, seed=seed,
-                                baselines=baselines, q_d=q_d, box=box, known_input=m.known_input)
+        with cluster(workers, scheduler) as client:
+            mc = run_chunks(recipe, runs, seed=seed, batch=width, chunk=chunk,
+                            executor=executor if executor is not None else client,
+                            out=None if out is None else Path(out) / "runs", trajectories=trajectories,
+                            progress=progress)
+        study = recipe.batch_study(batch_rng(mc.seed, 0), mc.batch)  # the first batch: figures, the radii
+    except (InvalidArgumentError, OutputError):
+        raise
     except NlobsError as exc:
         raise StudyFailed(str(exc)) from exc
-    res = study.containment
+    res = _aggregate(study.containment, mc.summaries, mc.seconds, box)
+    v = mc.summaries
     causes = res.likely_causes()
     held = res.guarantee_held
     warnings = []
@@ -703,6 +831,23 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
         warnings.append(f"floating-point round-off reaches {res.roundoff_ratio:.3g} × the radius in "
                         f"{res.roundoff_runs} of {runs} runs (|d| = {res.max_abs_input:.4g}): containment may be "
                         "lost to round-off (docs/setvalued.md, 'Soundness conditions')")
+
+    def worst(name: str) -> float | None:
+        e = v[name]
+        if np.all(np.isnan(e)):
+            return None
+        m_ = float(np.nanmax(e))
+        return m_ if math.isfinite(m_) else math.inf
+
+    fails = [f for f in dict.fromkeys(v["baseline_ekf_failure"].tolist()) if f]
+    ekf_failure = fails[0] if fails else None
+    if ekf_failure is None and pb is not None and pb.ekf is not None and not np.all(
+            np.isfinite(v["baseline_ekf_final_error"])):
+        ekf_failure = "EKF diverged (non-finite estimates)"
+    study = dataclasses.replace(study, baseline_ekf_failure=ekf_failure, baseline_lipschitz_final_error=worst(
+        "baseline_lipschitz_final_error"), baseline_ekf_final_error=worst("baseline_ekf_final_error"),
+        final_error_state=float(np.max(v["final_error"])))
+    after0 = v["max_error_over_radius_after_step_0"]
     data = rep.data
     out_data = {
         "model": s.name, "runs": runs, "steps": steps, "seed": seed, "unknown_input": unknown_input,
@@ -716,14 +861,13 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
         "final_radius_state": res.final_radius_state, "final_radius_input": res.final_radius_input,
         "steady_radius_state": d.steady_radius,
         "max_error_over_radius": res.max_error_over_radius,
-        "max_error_over_radius_after_step_0": (float(np.max(res.errors[:, 1:] / res.radii.state[1:]))
-                                               if steps >= 1 else None),
+        "max_error_over_radius_after_step_0": float(np.max(after0)) if steps >= 1 else None,
         "final_error_state": study.final_error_state,
         "baseline_lipschitz_final_error": study.baseline_lipschitz_final_error,
         "baseline_ekf_final_error": study.baseline_ekf_final_error,
-        "baseline_lipschitz_note": study.baselines.lipschitz_note if study.baselines else None,
-        "baseline_ekf_note": study.baselines.ekf_note if study.baselines else None,
-        "baseline_ekf_failure": study.baseline_ekf_failure,
+        "baseline_lipschitz_note": pb.lipschitz_note if pb else None,
+        "baseline_ekf_note": pb.ekf_note if pb else None,
+        "baseline_ekf_failure": ekf_failure,
         "guarantee_held": held,
         "likely_causes": causes if not held else [],
         "class_violated_in_runs": res.class_violated_in_runs,
@@ -736,6 +880,8 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
         **(res.coverage.to_dict() if res.coverage is not None else {}),
         "seconds": res.seconds, "design": data["design"], "structure": data["structure"],
         "class_check": data["class_check"],
+        "monte_carlo": {k: mc.to_dict()[k] for k in ("batch", "chunk", "chunks", "resumed_chunks", "executor",
+                                                     "workers", "out", "trajectories")},
     }
     violated = ("GUARANTEE VIOLATED: the certified balls did not contain the truth in every run (state "
                 f"{res.rate_state:.4f}, input {res.rate_input:.4f}); likely cause: "
@@ -744,14 +890,17 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
     figures: list[Path] = []
     if out is not None:
         folder = Path(out)
+        first = f"first {mc.batch} of " if mc.batch < runs else ""
         try:
             figures.append(plot_study(study, folder / f"{s.name}-{unknown_input}-errors.png",
-                                      title=f"{s.name}, {unknown_input} d, {runs} runs", dt=s.time.dt))
+                                      title=f"{s.name}, {unknown_input} d, {first}{runs} runs", dt=s.time.dt))
             figures.append(plot_trajectories(study.batch, folder / f"{s.name}-{unknown_input}-run0.png",
                                              title=f"{s.name}, {unknown_input} d, run 0"))
         except OSError as exc:
             raise OutputError(f"--out {out}: {exc}") from exc
     out_data["figures"] = [str(f) for f in figures]
+    # the report's study: every run's containment; its trajectories and errors are the first batch's
+    study = dataclasses.replace(study, containment=res)
     label = rep.model
     if held:
         return SetValuedStudyReport(rep, study, out_data, tuple(figures), tuple(warnings), Verdict.OK, "")
