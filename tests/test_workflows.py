@@ -59,7 +59,9 @@ def test_no_observer_is_a_verdict_with_the_evidence() -> None:
 
 def test_the_batch_bound_is_refused_before_any_work() -> None:
     with pytest.raises(InvalidArgumentError, match="too large for one batch"):
-        simulate_setvalued_observer("khajenejad-6-1", runs=10**7, steps=100)
+        simulate_setvalued_observer("khajenejad-6-1", runs=10**7, batch=10**7, steps=100)
+    with pytest.raises(InvalidArgumentError, match="per-run summaries alone"):
+        simulate_setvalued_observer("khajenejad-6-1", runs=10**8, steps=100)
 
 
 @pytest.mark.parametrize("kind", ["file", "under-a-file"])

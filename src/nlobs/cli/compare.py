@@ -82,6 +82,11 @@ def compare_cmd(
     backend: Annotated[str, typer.Option(
         "--backend", help="'python' (default) or 'c': the observers with a C generator run as generated, "
                           "compiled C (the Kalman filters stay in Python).")] = "python",
+    workers: Annotated[int | None, typer.Option(min=1, help="Run the observers, one task each, on a local Dask "
+                                                "cluster of N worker processes (the same numbers; needs nlobs[dask]).")]
+    = None,
+    scheduler: Annotated[str | None, typer.Option(help="Run the observers on the Dask scheduler at this address "
+                                                  "(tcp://host:8786).")] = None,
 ) -> None:
     """Compare observers (drift, pinv, luenberger, cascade) with an EKF and a UKF on the same noisy runs."""
     from nlobs.workflows.compare import compare_observers
@@ -97,7 +102,7 @@ def compare_cmd(
             x_hat0=parse_floats("--xhat0", xhat0), initial_error_std=_one_or_many("--initial-error-std", initial_error_std),
             box=box_numbers("--box", box), settle=settle, rate=rate, noise_std=_one_or_many("--noise-std", noise_std),
             inputs=_inputs(input_), process_noise=pn, filter_q=fq, alpha=alpha, out=out, progress=None if not as_json else False,
-            name=model, backend=backend)
+            name=model, backend=backend, workers=workers, scheduler=scheduler)
     except ModelFileError as exc:
         fail(str(exc))
     except OutputError as exc:

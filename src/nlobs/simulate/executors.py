@@ -70,7 +70,7 @@ def cluster(workers: int | None = None, scheduler: str | None = None) -> Iterato
                    if k != "MALLOC_TRIM_THRESHOLD_"}
         with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}), \
                 distributed.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                      dashboard_address=None, silence_logs=logging.ERROR) as lc, \
+                                      dashboard_address=":0", silence_logs=logging.ERROR) as lc, \
                 distributed.Client(lc) as client:
             yield client
         return
@@ -114,14 +114,14 @@ def _dumps(obj: Any) -> bytes:
 
 
 def _call_pickled(blob: bytes, digest: str, *args: Any) -> Any:
-    """In a pool's process: ``fn(shared, *args)`` from their pickle, unpickled once per process."""
+    """In a pool's process: ``fn(shared, *args)`` from their pickle, unpickled once per process; its result pickled."""
     import pickle
 
     if digest not in _UNPICKLED:
         _UNPICKLED.clear()
         _UNPICKLED[digest] = pickle.loads(blob)
     fn, shared = _UNPICKLED[digest]
-    return fn(shared, *args)
+    return _dumps(fn(shared, *args))  # the result by value too (an observer with generated functions)
 
 
 def run_tasks(executor: Any, fn: Callable[..., Any], shared: Any, tasks: Iterable[tuple[Any, ...]],
@@ -190,13 +190,14 @@ def run_tasks(executor: Any, fn: Callable[..., Any], shared: Any, tasks: Iterabl
             raise
         return
     import concurrent.futures as cf
+    import pickle
 
     live = set(first)
     try:
         while live:
             finished, live = cf.wait(live, return_when=cf.FIRST_COMPLETED)
             for fut in finished:
-                done(index.pop(fut), fut.result())
+                done(index.pop(fut), pickle.loads(fut.result()))
                 nxt = submit()
                 if nxt is not None:
                     live.add(nxt)

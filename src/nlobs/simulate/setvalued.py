@@ -560,6 +560,10 @@ def _trajectory_conditions(batch: SimulationResult, system: DiscreteUISystem, ga
 
 
 
+#: Bytes of a violation's detail kept per run in a Monte Carlo summary.
+DETAIL_BYTES = 96
+
+
 def run_summaries(batch: SimulationResult, system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
                   box: tuple[ArrayLike, ArrayLike] | None = None, *,
                   containment: ContainmentResult | None = None) -> dict[str, Array]:
@@ -569,8 +573,9 @@ def run_summaries(batch: SimulationResult, system: DiscreteUISystem, gain: SetVa
     ``first_violation_step`` (−1: none); ``final_error`` ``‖x_K − x̂_K‖``; ``max_error_over_radius`` over
     the steps and ``…_after_step_0``; ``covered``: the certificate covers the run
     (:class:`~nlobs.simulate.coverage.Coverage`: a verified design, the class on the visited pairs and
-    the round-off bound), with the run's first violation (``violation_hypothesis``, ``violation_time``,
-    ``violation_detail``; empty / NaN when none); ``class_violated``, ``class_margin``, ``left_box``
+    the round-off bound), with the run's first violation (``violation_hypothesis``: its index in the
+    coverage's ``hypotheses``, −1 when none; ``violation_time``, NaN when none; ``violation_detail``, UTF-8
+    bytes, at most :data:`DETAIL_BYTES`); ``class_violated``, ``class_margin``, ``left_box``
     (``box`` given), ``roundoff`` and ``roundoff_ratio`` give the conditions one by one.
     ``containment`` is :func:`containment_of` of the same batch when already computed.
     """
@@ -585,12 +590,15 @@ def run_summaries(batch: SimulationResult, system: DiscreteUISystem, gain: SetVa
     first = np.where(inside_k.all(axis=1), -1, np.argmax(~inside_k, axis=1))
     cov = res.coverage
     covered = np.zeros(R, bool) if cov is None or cov.failed_premises or not cov.verified else np.ones(R, bool)
-    hyp, det = np.full(R, "", dtype=object), np.full(R, "", dtype=object)
+    hyp = np.full(R, -1, dtype=np.int16)
+    det = np.full(R, b"", dtype=object)
     when = np.full(R, np.nan)
     class_v = np.zeros(R, bool)
+    names = list(cov.hypotheses) if cov is not None else []
     for v in () if cov is None else cov.violations:
         covered[v.run] = False
-        hyp[v.run], det[v.run], when[v.run] = v.hypothesis, v.detail, v.time
+        hyp[v.run] = names.index(v.hypothesis) if v.hypothesis in names else len(names)
+        det[v.run], when[v.run] = v.detail.encode("utf-8")[:DETAIL_BYTES], v.time
     pr = res.per_run
     if "class_margin" in pr:
         class_v = pr["class_margin"] < 0
@@ -600,8 +608,8 @@ def run_summaries(batch: SimulationResult, system: DiscreteUISystem, gain: SetVa
            "final_error": res.errors[:, -1].copy(), "max_error_over_radius": ratio.max(axis=1),
            "max_error_over_radius_after_step_0": (ratio[:, 1:].max(axis=1) if ratio.shape[1] > 1
                                                   else np.full(R, np.nan)),
-           "covered": covered, "violation_hypothesis": hyp.astype(str), "violation_time": when,
-           "violation_detail": det.astype(str), "class_violated": class_v,
+           "covered": covered, "violation_hypothesis": hyp, "violation_time": when,
+           "violation_detail": det.astype(bytes), "class_violated": class_v,
            "class_margin": pr.get("class_margin", np.full(R, np.nan)),
            "roundoff_ratio": pr.get("roundoff_ratio", np.full(R, np.nan))}
     out["roundoff"] = out["roundoff_ratio"] > ROUNDOFF_FRACTION
@@ -660,8 +668,9 @@ class SetValuedStudy:
 
     def key(self) -> str:
         box = None if self.box is None else _array_digest(*self.box)
-        return (f"setvalued|{self.system.name}|{_array_digest(self.system.A, self.system.C, self.system.G, self.system.H, [self.system.x0], [self.system.delta0, self.system.eta_w, self.system.eta_v])}"
-                f"|{_array_digest(self.design.gain)}|{self.steps}|{self.input_label}|{box}")
+        s = self.system
+        plant = _array_digest(s.A, s.C, s.G, s.H, [s.x0], [s.delta0, s.eta_w, s.eta_v])
+        return f"setvalued|{s.name}|{plant}|{_array_digest(self.design.gain)}|{self.steps}|{self.input_label}|{box}"
 
     def prepare(self) -> None:
         return None

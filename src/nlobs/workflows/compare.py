@@ -718,6 +718,9 @@ def compare_observers(
     progress: bool | None = None,
     name: str | None = None,
     backend: str = "python",
+    executor: Any = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
 ) -> ComparisonReport:
     """Run the chosen observers on the same noisy, multi-rate Monte Carlo runs of a model (module docstring).
 
@@ -766,6 +769,15 @@ def compare_observers(
         generated, compiled C (:func:`nlobs.export.compile_observer`; the same estimates to rounding
         when the outputs are sampled; with exact outputs it holds ``y`` over each step); the Kalman
         filters stay in Python.
+    executor : optional
+        Where the observers run, one task per observer (:mod:`nlobs.simulate.executors`: a Dask client,
+        a scheduler address or a process pool; ``None``: here). Each task is the same call as here, so
+        the numbers are the same; the runs of one observer stay one batch (its metrics, median
+        convergence time and figures need whole records).
+    workers : int, optional
+        Run the observers on a Dask LocalCluster of this many worker processes.
+    scheduler : str, optional
+        Run the observers on the Dask scheduler at this address.
 
     Returns
     -------
@@ -799,10 +811,22 @@ def compare_observers(
     s = _setup(scenario, label, runs=runs, duration=duration, dt=dt, seed=seed, x0=x0, x_hat0=x_hat0,
                initial_error_std=initial_error_std, box=box, settle=settle, rate=rate, noise_std=noise_std,
                inputs=inputs, process_noise=process_noise)
+    if sum(v is not None for v in (executor, workers, scheduler)) > 1:
+        raise InvalidArgumentError("--workers and --scheduler (or an executor): give one (workers start a local "
+                                   "cluster, a scheduler address uses a running one)")
     prepare_out(out)
     outcomes: dict[str, ObserverOutcome] = {}
-    for name_ in chosen:
-        outcomes[name_] = _run_one(name_, s, alpha, filter_q, progress, backend)
+    if executor is None and workers is None and scheduler is None:
+        for name_ in chosen:
+            outcomes[name_] = _run_one(name_, s, alpha, filter_q, progress, backend)
+    else:
+        from nlobs.simulate.executors import cluster, run_tasks
+
+        got: dict[int, ObserverOutcome] = {}
+        with cluster(workers, scheduler) as client:
+            run_tasks(executor if executor is not None else client, _run_task, s,
+                      [(n_, alpha, filter_q, backend) for n_ in chosen], got.__setitem__)
+        outcomes = {n_: got[i] for i, n_ in enumerate(chosen)}
     files: tuple[Path, ...] = ()
     report = _report(s, outcomes, files)
     if out is not None:
@@ -853,6 +877,11 @@ def _run_one(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None, pro
             raise
         return _failed(name, desc, s, f"stopped: {exc}")
     return dataclasses.replace(_outcome(name, desc, res, s, cert), observer=obs)
+
+
+def _run_task(s: _Setup, name: str, alpha: float, filter_q: ArrayLike | None, backend: str) -> ObserverOutcome:
+    """:func:`_run_one` on a worker (no progress bar there)."""
+    return _run_one(name, s, alpha, filter_q, False, backend)
 
 
 def _failed(name: str, desc: str, s: _Setup, reason: str) -> ObserverOutcome:

@@ -39,7 +39,7 @@ from nlobs.observers.kalman import UnknownInputEKF
 from nlobs.observers.lipschitz import DiscreteLipschitzObserver
 from nlobs.simulate.replay import run_observer
 from nlobs.simulate.result import SimulationResult
-from nlobs.simulate.setvalued import ContainmentResult, containment_of, input_estimates, simulate_batch
+from nlobs.simulate.setvalued import DETAIL_BYTES, ContainmentResult, containment_of, input_estimates, simulate_batch
 from nlobs.simulate.setvalued_plots import plot_trajectories, save_figure
 from nlobs.synthesis.setvalued import SetValuedDesign, design_setvalued
 from nlobs.systems.discrete_ui import DiscreteUISystem, Lipschitz, check_function_class
@@ -586,7 +586,7 @@ class SetValuedBaselineStudy:
 
         out["baseline_lipschitz_final_error"] = final(st.baseline_lipschitz_errors)
         out["baseline_ekf_final_error"] = final(st.baseline_ekf_errors)
-        out["baseline_ekf_failure"] = np.full(runs, st.baseline_ekf_failure or "")
+        out["baseline_ekf_failure"] = np.full(runs, (st.baseline_ekf_failure or "").encode("utf-8")[:DETAIL_BYTES])
         traj = {} if not trajectories else {"x": st.batch.x, "x_hat": st.batch.x_hat}
         return RunBatch(out, traj)
 
@@ -596,6 +596,8 @@ MAX_BATCH = 5e8
 #: Bytes the study holds per element of the batch: about 8 float64 arrays of runs · (steps + 1) · n
 #: (truth, centres, radii, errors and their temporaries; measured: 1.0 GB at 20000 runs × 201 × 4).
 STUDY_BYTES_PER_ELEMENT = 64
+#: Bytes of per-run summaries a chunked study keeps in memory (about 20 values and two short texts).
+SUMMARY_BYTES_PER_RUN = 400
 #: Most memory a Monte Carlo study may take; a larger one is refused before the design.
 MAX_STUDY_BYTES = 4 * 1024**3
 
@@ -687,10 +689,11 @@ def _aggregate(first: ContainmentResult, v: dict[str, Array], seconds: float,
     cov = first.coverage
     coverage = None
     if cov is not None:
-        runs_v = np.flatnonzero(v["violation_hypothesis"] != "")
+        runs_v = np.flatnonzero(v["violation_hypothesis"] >= 0)
+        names = [*cov.hypotheses, "another hypothesis"]
         coverage = Coverage(cov.hypotheses, cov.failed_premises, tuple(
-            Violation(int(i), str(v["violation_hypothesis"][i]), float(v["violation_time"][i]),
-                      str(v["violation_detail"][i])) for i in runs_v), R, cov.verified)
+            Violation(int(i), names[int(v["violation_hypothesis"][i])], float(v["violation_time"][i]),
+                      bytes(v["violation_detail"][i]).decode("utf-8", "ignore")) for i in runs_v), R, cov.verified)
     margins = v["class_margin"]
     return dataclasses.replace(
         first, runs=R, rate_state=float(v["contained"].mean()), rate_input=float(v["input_contained"].mean()),
@@ -781,6 +784,12 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
             f"--batch {width} x --steps {steps}: too large for one batch: about {need / 1024**3:.3g} GiB "
             f"({STUDY_BYTES_PER_ELEMENT} bytes per run, step and state, n = {m.system.n}); at most "
             f"{MAX_STUDY_BYTES / 1024**3:g} GiB (lower --batch or --steps; --runs may be any number)")
+    if int(runs) * SUMMARY_BYTES_PER_RUN > MAX_STUDY_BYTES:
+        raise InvalidArgumentError(
+            f"--runs {runs}: the per-run summaries alone would take about "
+            f"{int(runs) * SUMMARY_BYTES_PER_RUN / 1024**3:.3g} GiB ({SUMMARY_BYTES_PER_RUN} bytes per run); at most "
+            f"{MAX_STUDY_BYTES / 1024**3:g} GiB (split the study: the same --seed and --batch with more runs keep "
+            "the first runs' numbers)")
     if out is not None:
         try:
             prepare_output_dir(out)
@@ -839,7 +848,7 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
         m_ = float(np.nanmax(e))
         return m_ if math.isfinite(m_) else math.inf
 
-    fails = [f for f in dict.fromkeys(v["baseline_ekf_failure"].tolist()) if f]
+    fails = [f.decode("utf-8", "ignore") for f in dict.fromkeys(v["baseline_ekf_failure"].tolist()) if f]
     ekf_failure = fails[0] if fails else None
     if ekf_failure is None and pb is not None and pb.ekf is not None and not np.all(
             np.isfinite(v["baseline_ekf_final_error"])):
