@@ -5,12 +5,21 @@ observer (:class:`nlobs.observers.cascade.CascadeObserver`, a layer above synthe
 simulation, so the sweep sits in the layer that may use all three. The simulation is passed in as a
 callable (``simulate(observer) -> SimulationResult``), so the caller chooses the plant, the initial
 conditions and the horizon; without it the sweep is design-only.
+
+The γ values are the points of a :func:`nlobs.simulate.sweep.sweep` of one parameter, ``gamma``, so
+``executor=`` runs them on Dask (or any executor) with the same rows as in this process. The sweep's
+problem prepares, once per process, what every γ shares: the extended system (8c) of Σ₂ on which
+LMI (14) (and (15)) is written. The LMI itself is built and solved per γ by
+:func:`nlobs.synthesis.observer_gain.design_observer_gain`, exactly as in one design: that function
+chooses its path by γ (the Riccati form, the SDP, the diagnosis of an infeasible γ), so one CVXPY
+problem with γ as a parameter would not give the same numbers.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -20,11 +29,12 @@ from numpy.typing import ArrayLike
 from nlobs._typing import Array
 from nlobs._validate import positive
 from nlobs.errors import DesignError, InvalidArgumentError
-from nlobs.linear.assumption4 import require_assumption4
+from nlobs.linear.assumption4 import ExtendedSystem, extended_system, require_assumption4
 from nlobs.observers.cascade import CascadeObserver
-from nlobs.synthesis.cascade_gain import design_cascade_gain, place_cascade_gain
+from nlobs.simulate.sweep import sweep
+from nlobs.synthesis.cascade_gain import place_cascade_gain
 from nlobs.synthesis.certificate import Objective
-from nlobs.synthesis.observer_gain import GainBound
+from nlobs.synthesis.observer_gain import GainBound, design_observer_gain
 from nlobs.synthesis.regions import PoleRegion
 from nlobs.systems.interconnected import LinearSubsystem, NonlinearSubsystem, check_interconnection
 
@@ -138,6 +148,88 @@ class GammaSweep:
         return "\n".join(lines)
 
 
+#: The flat values of one row (``K`` as ``K_rows``, ``K_cols`` and ``K[i,j]``), as a sweep point returns them.
+_FLOATS = ("hinf_H", "hinf_G", "gain_norm", "slowest_pole", "fastest_pole", "initial_error", "final_error",
+           "decay_rate")
+
+
+@dataclass(frozen=True)
+class _GammaProblem:
+    """One γ of :func:`gamma_sweep` as a point of :func:`nlobs.simulate.sweep.sweep` (picklable with cloudpickle)."""
+
+    sigma1: NonlinearSubsystem
+    sigma2: LinearSubsystem
+    method: str
+    N: ArrayLike | None
+    gamma_n: float | None
+    region: PoleRegion | Sequence[PoleRegion] | None
+    gain_bound: GainBound | float | None
+    objective: Objective | str
+    poles: ArrayLike | None
+    simulate: Callable[[CascadeObserver], _SimulationLike] | None
+    name: str = "γ sweep"
+
+    def key(self) -> str:
+        # what prepare() builds depends on Σ₂'s matrices only
+        h = hashlib.sha256()
+        for a in (self.sigma2.A, self.sigma2.B_z, self.sigma2.C, self.sigma2.D_z):
+            arr = np.ascontiguousarray(a, dtype=float)
+            h.update(repr(arr.shape).encode())
+            h.update(arr.tobytes())
+        return "nlobs.workflows.gamma_sweep:" + h.hexdigest()
+
+    def prepare(self) -> ExtendedSystem:
+        s2 = self.sigma2
+        return extended_system(s2.A, s2.B_z, s2.C, s2.D_z)
+
+    def evaluate(self, ext: ExtendedSystem, point: Mapping[str, float]) -> dict[str, Any]:
+        g = point["gamma"]
+        try:
+            if self.method == "lmi":  # design_cascade_gain(check_assumptions=False) on the prepared (8c)
+                cert = design_observer_gain(ext.A, ext.C, ext.Bd, gamma=g, N=self.N, gamma_n=self.gamma_n,
+                                            region=self.region, gain_bound=self.gain_bound, objective=self.objective)
+            else:
+                cert = place_cascade_gain(self.sigma2, gamma=g, poles=self.poles, check_assumptions=False)
+        except DesignError as exc:
+            return _flat(GammaSweepRow(gamma=g, status=type(exc).__name__, message=str(exc)))
+        eig = np.asarray(cert.eigenvalues)
+        row: dict[str, Any] = {
+            "gamma": g, "status": "ok", "hinf_H": float(cert.hinf_H),
+            "hinf_G": float(cert.hinf_G) if cert.hinf_G is not None else math.nan,
+            "gain_norm": cert.gain_norm, "slowest_pole": float(np.max(eig.real)),
+            "fastest_pole": float(np.min(eig.real)),
+            "K": tuple(tuple(float(v) for v in r) for r in cert.gain),
+        }
+        if self.simulate is not None:
+            obs = CascadeObserver(self.sigma1, self.sigma2, cert.gain)
+            try:
+                res = self.simulate(obs)
+            except ArithmeticError as exc:  # SimulationDiverged
+                row.update(status=type(exc).__name__, message=str(exc))
+            else:
+                en = np.asarray(res.error_norm)
+                row.update(
+                    initial_error=float(np.max(en[..., 0])),
+                    final_error=float(np.max(en[..., -1])),
+                    decay_rate=float(np.min(np.asarray(res.decay_rate()))),
+                )
+        return _flat(GammaSweepRow(**row))
+
+
+def _flat(row: GammaSweepRow) -> dict[str, Any]:
+    out: dict[str, Any] = {"status": row.status, "message": row.message}
+    out.update({k: float(getattr(row, k)) for k in _FLOATS})
+    out["K_rows"], out["K_cols"] = len(row.K), len(row.K[0]) if row.K else 0
+    out.update({f"K[{i},{j}]": v for i, r in enumerate(row.K) for j, v in enumerate(r)})
+    return out
+
+
+def _row(gamma: float, v: Mapping[str, Any]) -> GammaSweepRow:
+    K = tuple(tuple(float(v[f"K[{i},{j}]"]) for j in range(int(v["K_cols"]))) for i in range(int(v["K_rows"])))
+    return GammaSweepRow(gamma=gamma, status=str(v["status"]), message=str(v["message"]),
+                         **{k: float(v[k]) for k in _FLOATS}, K=K)
+
+
 def gamma_sweep(
     sigma1: NonlinearSubsystem,
     sigma2: LinearSubsystem,
@@ -151,6 +243,8 @@ def gamma_sweep(
     gain_bound: GainBound | float | None = None,
     objective: Objective | str = Objective.CENTRAL,
     poles: ArrayLike | None = None,
+    executor: Any = None,
+    progress: bool | None = False,
 ) -> GammaSweep:
     r"""Sec. 3.2's tuning: start with a large ``γ`` and decrease it, designing and simulating each step.
 
@@ -180,6 +274,13 @@ def gamma_sweep(
         ``"lmi"``: the objective of the design.
     poles : array_like of complex, optional
         ``"placement"``: pole pattern (default: unit Butterworth).
+    executor : None, dask.distributed.Client, str or concurrent.futures.Executor
+        Where the γ values are designed (and simulated): ``None`` in this process, else on the workers of
+        a Dask client or scheduler address (:func:`nlobs.simulate.executors.cluster`), through
+        :func:`nlobs.simulate.sweep.sweep`; the rows are the same either way. On Dask, ``simulate`` and
+        Σ₁ travel with cloudpickle.
+    progress : bool, optional
+        A progress bar over the γ values (``None``: automatic; default none).
 
     Returns
     -------
@@ -200,38 +301,10 @@ def gamma_sweep(
     gs = sorted((positive("gammas", g) for g in gammas), reverse=True)
     if not gs:
         raise InvalidArgumentError("gammas: at least one value is required")
-    rows = []
-    for g in gs:
-        try:
-            if method == "lmi":
-                cert = design_cascade_gain(sigma2, gamma=g, N=N, gamma_n=gamma_n, region=region,
-                                           gain_bound=gain_bound, objective=objective, check_assumptions=False)
-            else:
-                cert = place_cascade_gain(sigma2, gamma=g, poles=poles, check_assumptions=False)
-        except DesignError as exc:
-            rows.append(GammaSweepRow(gamma=g, status=type(exc).__name__, message=str(exc)))
-            continue
-        eig = np.asarray(cert.eigenvalues)
-        row: dict[str, Any] = {
-            "gamma": g, "status": "ok", "hinf_H": float(cert.hinf_H),
-            "hinf_G": float(cert.hinf_G) if cert.hinf_G is not None else math.nan,
-            "gain_norm": cert.gain_norm, "slowest_pole": float(np.max(eig.real)),
-            "fastest_pole": float(np.min(eig.real)),
-            "K": tuple(tuple(float(v) for v in r) for r in cert.gain),
-        }
-        if simulate is not None:
-            obs = CascadeObserver(sigma1, sigma2, cert.gain)
-            try:
-                res = simulate(obs)
-            except ArithmeticError as exc:  # SimulationDiverged
-                row.update(status=type(exc).__name__, message=str(exc))
-            else:
-                en = np.asarray(res.error_norm)
-                row.update(
-                    initial_error=float(np.max(en[..., 0])),
-                    final_error=float(np.max(en[..., -1])),
-                    decay_rate=float(np.min(np.asarray(res.decay_rate()))),
-                )
-        rows.append(GammaSweepRow(**row))
+    problem = _GammaProblem(sigma1, sigma2, method, N, gamma_n, region, gain_bound, objective, poles, simulate)
+    # record=(): the problem records a failed design in its row itself (status, message), as Sec. 3.2's tuning
+    # shows where decreasing γ stops working; anything else (a bad option) propagates as from one design
+    res = sweep(problem, {"gamma": gs}, executor=executor, progress=progress, record=())
+    rows = [_row(p["gamma"], v) for p, v in zip(res.points, res.values)]  # type: ignore[arg-type]
     label = "LMI (14)" + (", (15)" if gamma_n is not None else "") if method == "lmi" else "pole placement"
     return GammaSweep(rows=tuple(rows), design=label)
