@@ -33,7 +33,7 @@ PREPARES: collections.Counter[str] = collections.Counter()
 
 @dataclass(frozen=True)
 class FirstOrder:
-    """``G(s) = c b / (s − a) + d`` at the point ``(a, d)``: ‖G‖∞ by nlobs.linear.hinf_norm; ``a ≥ 0`` is infeasible.
+    """``G(s) = c b / (s − a) + d`` at the point ``(a, d)``: ‖G‖∞ by ``hinf_norm``; ``a ≥ 0`` is infeasible.
 
     ``a = 99`` raises a ZeroDivisionError (a bug, not a failed point); ``delay`` sleeps ``delay · (9 − a)`` s
     so later points finish first on a pool of threads.
