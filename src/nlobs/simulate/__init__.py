@@ -4,7 +4,7 @@ Two entry points, one result: :func:`simulate` runs a plant and an observer toge
 :func:`run_observer` runs any observer on recorded data; both return an immutable
 :class:`SimulationResult` with error metrics, extras, a plot and an ``.npz`` round trip.
 :func:`monte_carlo` runs a study (:class:`PlantStudy`, :class:`SetValuedStudy`, the GNSS/INS flights)
-in chunks, here or on Dask, with the same numbers however it is split; :func:`sweep` evaluates a design
+in chunks, here or on Dask, with the same numbers however it is split; :func:`nlobs.simulate.sweep.sweep` evaluates a design
 problem over a grid in the same way.
 
 The package is callable: ``nlobs.simulate(plant, observer, x0, ...)`` is
