@@ -5,6 +5,15 @@ a shell word list, e.g. ``"zig cc"``), the Zig toolchain of the ``ziglang`` pack
 ``codegen`` extra: a C compiler from the package index, so a fresh machine needs nothing else),
 then ``cc``, ``gcc`` or ``clang`` on the ``PATH``.
 
+The ``ziglang`` package is never imported and never started as ``python -m ziglang``: both put
+the current folder first on ``sys.path``, so a ``ziglang`` folder or ``ziglang.py`` where nlobs is
+run would be imported and its code run. Instead the packaged binary ``ziglang/zig`` (``zig.exe``
+on Windows) is looked up in the installation's site-packages folders only (``sysconfig``'s
+``purelib`` and ``platlib``, :func:`site.getsitepackages`, and the user site when enabled; never
+``''``, the current folder or a relative ``sys.path`` entry) and run directly as ``(zig, "cc")``:
+the argument vector ``python -m ziglang cc`` itself executes. An absent or non-executable binary
+falls through to the ``PATH`` compilers.
+
 Flags. Every build is ``-std=c99 -O2 -ffp-contract=off``: no fused multiply-adds are formed, so
 the compiled arithmetic rounds like NumPy's (``a*b + c`` is two roundings on both sides). Strict
 builds add ``-Wall -Wextra -Werror -pedantic`` (the tests compile every generated module so).
@@ -21,8 +30,10 @@ import hashlib
 import os
 import shlex
 import shutil
+import site
 import subprocess
 import sys
+import sysconfig
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -46,7 +57,8 @@ class Compiler:
     Attributes
     ----------
     command : tuple of str
-        The argument vector that starts it (``("cc",)``, ``(python, "-m", "ziglang", "cc")``).
+        The argument vector that starts it (``("/usr/bin/cc",)``,
+        ``("<site-packages>/ziglang/zig", "cc")``).
     label : str
         How it was found: ``"NLOBS_CC"``, ``"ziglang"`` or ``"PATH"``.
     """
@@ -59,12 +71,38 @@ class Compiler:
         return " ".join(self.command)
 
 
-def _ziglang() -> Compiler | None:
+def _site_dirs() -> list[str]:
+    """The installation's site-packages folders: absolute paths only, never ``''`` or the current folder."""
+    found: list[str] = []
+    paths = sysconfig.get_paths()
+    candidates = [paths.get("purelib"), paths.get("platlib")]
     try:
-        import ziglang  # noqa: F401  (only whether it is installed)
-    except ImportError:
-        return None
-    return Compiler((sys.executable, "-m", "ziglang", "cc"), "ziglang")
+        candidates.extend(site.getsitepackages())
+    except AttributeError:  # some old virtualenv builds of site.py lack it
+        pass
+    if site.ENABLE_USER_SITE and not sys.flags.no_user_site:
+        try:
+            candidates.append(site.getusersitepackages())
+        except AttributeError:
+            pass
+    for folder in candidates:
+        if not folder or not os.path.isabs(folder):
+            continue
+        folder = os.path.normpath(folder)
+        if folder not in found:
+            found.append(folder)
+    return found
+
+
+def _ziglang() -> Compiler | None:
+    names = ("zig.exe", "zig") if os.name == "nt" else ("zig",)
+    for folder in _site_dirs():
+        for name in names:
+            path = os.path.join(folder, "ziglang", name)
+            if os.path.isfile(path) and os.access(path, os.X_OK):
+                # ``python -m ziglang cc ...`` execs ``[<package>/zig, "cc", ...]``: the same vector, no Python.
+                return Compiler((path, "cc"), "ziglang")
+    return None
 
 
 def find_compiler() -> Compiler:
