@@ -21,8 +21,9 @@ import time
 import numpy as np
 
 from nlobs.export import compile_observer
-from nlobs.observers.setvalued import GivenGain, SetValuedObserver, printed_radii
+from nlobs.observers.setvalued import GivenGain, SetValuedObserver
 from nlobs.papers.khajenejad_yong import example_62
+from nlobs.papers.khajenejad_yong_printed import printed_radii
 from nlobs.simulate import run_observer
 from nlobs.simulate.setvalued import ball_samples
 from nlobs.systems.modelfile import load_discrete_ui_model

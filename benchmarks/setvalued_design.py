@@ -1,6 +1,6 @@
 """Design speed of the Khajenejad–Yong set-valued observer: one compiled problem vs a naive grid rebuilt per point.
 
-The issue's target: a full design of Example 6.1 (flexible-joint robot, Class II with Lemma 2.14's γ) at
+The target: a full design of Example 6.1 (flexible-joint robot, Class II with Lemma 2.14's γ) at
 least 10× faster than a naive grid that rebuilds the problem per point, at the same objective to 1 %.
 
 * **fast** — :func:`nlobs.synthesis.setvalued.design_setvalued`: the LMI (⋆) compiled once with ``λ`` a
@@ -18,8 +18,8 @@ least 10× faster than a naive grid that rebuilds the problem per point, at the 
 Both run in one process on the same machine; the best of ``--repeat`` timings is kept. Printed: both
 times, both objectives, the ratio, whether the 10× target is met, and why not when it is not.
 
-By default (``--no-printed`` skips it) also the comparison the issue describes for the paper's own
-formulation, Theorem 5.10 as printed (:func:`nlobs.synthesis.setvalued_printed.design_printed`:
+By default (``--no-printed`` skips it) also the same comparison for the paper's own
+formulation, Theorem 5.10 as printed (:func:`nlobs.papers.khajenejad_yong_printed.design_printed`:
 compiled once, α by bisection and golden section, ε coarse to fine) against a naive 575-point
 (α, ε₁, ε₂) grid rebuilt per point (``--printed-sample K`` times K of its points and extrapolates).
 
@@ -36,11 +36,11 @@ from typing import Any
 
 import numpy as np
 
+from nlobs.papers import khajenejad_yong_printed as svp
 from nlobs.papers.khajenejad_yong import example_61
+from nlobs.papers.khajenejad_yong_printed import design_printed
 from nlobs.synthesis import setvalued as sv
 from nlobs.synthesis.lmi import Solver
-from nlobs.synthesis import setvalued_printed as svp
-from nlobs.synthesis.setvalued_printed import design_printed
 from nlobs.systems.discrete_ui import DiscreteUISystem
 
 TOL = 0.01
@@ -194,7 +194,7 @@ def main() -> None:
     if "printed" in out:
         p = out["printed"]
         g = p["naive_grid"]
-        print("Example 6.1 Class II, Theorem 5.10 as printed (the (α, ε1, ε2) search the issue describes)")
+        print("Example 6.1 Class II, Theorem 5.10 as printed (the (α, ε1, ε2) search: α by bisection, ε coarse to fine)")
         print(f"  fast (compiled once, α line search, ε coarse to fine): {p['fast']['seconds']:7.3f} s, "
               f"{p['fast']['solves']:4d} solves, ρ {p['fast']['rho']:.6g}")
         print(f"  naive (575-point grid, rebuilt per point): {g['seconds']:7.3f} s"

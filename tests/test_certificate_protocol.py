@@ -23,13 +23,12 @@ from nlobs.cli.common import jsonable
 from nlobs.errors import InvalidArgumentError
 from nlobs.linear.transform_ui import structural_check, ui_transform
 from nlobs.papers.khajenejad_yong import example_61
+from nlobs.papers.khajenejad_yong_printed import design_printed, design_prop516
 from nlobs.synthesis import (
     Certificate,
     CertificateStatus,
     design_discrete_lipschitz_gain,
     design_observer_gain,
-    design_printed,
-    design_prop516,
     design_setvalued,
     extended_system,
     verify_observer_gain,

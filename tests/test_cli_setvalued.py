@@ -175,8 +175,8 @@ def _lpv_file(*, f: str, A: str, V: str) -> str:
 
 
 def test_lpv_file_outside_its_polytope_is_refused(tmp_path: Path) -> None:
-    """The reviewer's lpvhole.toml: σ̃-Lipschitz, but no difference quotient in the polytope; was certified, exit 0."""
-    p = tmp_path / "lpvhole.toml"
+    """φ = [0, 1.5x₂] is σ̃-Lipschitz, but no difference quotient lies in the stated polytope: refused, exit 2."""
+    p = tmp_path / "lpv_outside_polytope.toml"
     p.write_text(_lpv_file(f='["0", "1.5*x2"]', A="[[0, 0], [0, 0]]", V="[[[0, 1.5], [0, 0]], [[0, 0], [0, 0]]]"))
     for cmd in ("design", "simulate"):
         res = runner.invoke(app, [cmd, "setvalued", str(p), "--runs", "5", "--steps", "5"][: 3 if cmd == "design" else 7])
@@ -196,18 +196,19 @@ def test_lpv_file_is_designed_with_the_lipschitz_multiplier_and_contained(tmp_pa
     assert d["design"]["function_class_used"] == "Class I (Lipschitz)" and d["design"]["lpv_design"] == "lipschitz"
 
 
-def _boxhole_file(*, bounded: str) -> str:
-    return _two_state_file("boxhole", '["0.5*x1 + 0.2*x2", "0.3*x2 + 0.1*x1**3"]', bounded, "3 + 0.1*t",
+def _cubic_on_box_file(*, bounded: str) -> str:
+    """φ = [0, 0.1x₁³], stated 0.3-Lipschitz (Class I) on the box |x₁|, |x₂| ≤ 1 only."""
+    return _two_state_file("cubic-on-box", '["0.5*x1 + 0.2*x2", "0.3*x2 + 0.1*x1**3"]', bounded, "3 + 0.1*t",
                            'kind = "I"\nlinear_part = [[0.5, 0.2], [0, 0.3]]\nL = 0.3\nbox = [[-1, 1], [-1, 1]]')
 
 
 def test_class_violated_along_trajectories_is_a_violated_guarantee(tmp_path: Path) -> None:
-    """The reviewer's boxhole2.toml: 0.1x₁³ is 0.3-Lipschitz on the box only, and d drives x₁ out of it."""
-    p = tmp_path / "boxhole2.toml"
-    p.write_text(_boxhole_file(bounded="0.8 + 0.2*sin(t)"))
+    """0.1x₁³ is 0.3-Lipschitz on the box only, and an input d = 0.8 + 0.2 sin t drives x₁ out of it."""
+    p = tmp_path / "cubic_leaves_box.toml"
+    p.write_text(_cubic_on_box_file(bounded="0.8 + 0.2*sin(t)"))
     res = runner.invoke(app, ["simulate", "setvalued", str(p), "--runs", "100", "--steps", "100", "--no-baselines",
                               "--json"])
-    assert res.exit_code == 1, res.output  # was 0 with containment 0.81
+    assert res.exit_code == 1, res.output  # the containment (0.81) is not the verdict: the guarantee is lost
     d = json.loads(res.stdout)
     assert d["containment_rate_state"] < 1 and d["guarantee_held"] is False
     assert d["class_violated_in_runs"] == 100 and d["class_worst_margin_in_runs"] < 0 and d["left_box_runs"] == 100
@@ -224,8 +225,8 @@ def test_class_violated_along_trajectories_is_a_violated_guarantee(tmp_path: Pat
 
 
 def test_guarantee_held_is_reported(tmp_path: Path) -> None:
-    p = tmp_path / "boxok.toml"
-    p.write_text(_boxhole_file(bounded="0.2*sin(t)"))
+    p = tmp_path / "cubic_stays_in_box.toml"
+    p.write_text(_cubic_on_box_file(bounded="0.2*sin(t)"))
     res = runner.invoke(app, ["simulate", "setvalued", str(p), "--runs", "50", "--steps", "50", "--no-baselines",
                               "--json"])
     assert res.exit_code == 0, res.output
@@ -239,7 +240,7 @@ def test_guarantee_held_is_reported(tmp_path: Path) -> None:
 def test_roundoff_with_an_unbounded_input_is_flagged() -> None:
     res = runner.invoke(app, ["simulate", "setvalued", "khajenejad-6-1", "--runs", "10", "--steps", "4000",
                               "--unknown-input", "growing", "--no-baselines", "--json"])
-    assert res.exit_code == 1, res.output  # was 0 with containment 0.0 and the overflow warnings suppressed
+    assert res.exit_code == 1, res.output  # containment 0.0, the overflow reported, not suppressed
     d = json.loads(res.stdout)
     assert d["containment_rate_state"] == 0.0 and d["guarantee_held"] is False
     assert d["roundoff_runs"] == 10 and d["roundoff_over_radius"] > 1 and d["max_abs_unknown_input"] > 1e18
@@ -249,8 +250,8 @@ def test_roundoff_with_an_unbounded_input_is_flagged() -> None:
 
 
 def test_plant_overflow_names_the_step(tmp_path: Path) -> None:
-    p = tmp_path / "boxhole.toml"
-    p.write_text(_boxhole_file(bounded="0.2*sin(t)"))
+    p = tmp_path / "cubic_growing_input.toml"
+    p.write_text(_cubic_on_box_file(bounded="0.2*sin(t)"))
     res = runner.invoke(app, ["simulate", "setvalued", str(p), "--runs", "10", "--steps", "100", "--unknown-input",
                               "growing"])
     assert res.exit_code == 1, res.output
@@ -259,7 +260,7 @@ def test_plant_overflow_names_the_step(tmp_path: Path) -> None:
 
 
 def test_ekf_that_cannot_run_is_a_note_not_a_traceback(tmp_path: Path) -> None:
-    """The reviewer's sigover.toml: d = exp(1000 t) makes the EKF's R + H Q_d Hᵀ singular (was LinAlgError)."""
+    """d = exp(1000 t) makes the EKF's R + H Q_d Hᵀ singular: a note in the report, not a LinAlgError traceback."""
     path = _variant(tmp_path, 'bounded = ["5*sin(2*t) + 1 + sign(t - 1)"]', 'bounded = ["exp(1000*t)"]')
     res = runner.invoke(app, ["simulate", "setvalued", path, "--runs", "3", "--steps", "30", "--json"])
     assert res.exception is None or isinstance(res.exception, SystemExit), res.exception

@@ -16,10 +16,10 @@ import pytest
 from cvxpy.constraints import PSD
 
 from nlobs.errors import InvalidArgumentError, ModelFileError
+from nlobs.papers import khajenejad_yong_printed as sp
 from nlobs.synthesis import discrete_lipschitz as dl
 from nlobs.synthesis import drift_gain as dg
 from nlobs.synthesis import setvalued as sv
-from nlobs.synthesis import setvalued_printed as sp
 from nlobs.synthesis.lmi import MAX_LMI_SIZE, lmi_problem_size
 from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, Lipschitz
 from nlobs.systems.modelfile import load_model

@@ -9,8 +9,9 @@ import pytest
 from nlobs.errors import InvalidArgumentError, SimulationDiverged
 from nlobs.export import compile_observer, generate, render
 from nlobs.export.compiler import compile_object
-from nlobs.observers.setvalued import GivenGain, SetValuedObserver, printed_radii
+from nlobs.observers.setvalued import GivenGain, SetValuedObserver
 from nlobs.papers.khajenejad_yong import example_61, example_62
+from nlobs.papers.khajenejad_yong_printed import printed_radii
 from nlobs.simulate import run_observer
 from nlobs.simulate.setvalued import ball_samples, state_containment
 from nlobs.systems.modelfile import load_discrete_ui_model

@@ -192,7 +192,7 @@ def test_position_only_observer_converges_on_the_flight(make_traj):
     assert float(M.position_rms_m(r, after=60.0)) < 0.05
 
 
-# ----------------------------------------------------- update, before the fix
+# ------------------------------------- update: invalid fixes, no injection before the first fix
 def test_update_skips_invalid_fixes_per_member_and_counts_them():
     obs = GnssInsObserver.paper(M_N, G_N)
     st = obs.init_state(np.zeros((2, 3)), np.zeros(3), np.eye(3))

@@ -1,8 +1,8 @@
 """Silently wrong results of the linear layer: badly scaled, huge or stiff data.
 
-Each case was a wrong number (or verdict) returned without complaint; each test compares with a
-closed form or an independent algorithm (SciPy's Lyapunov solver on a hand-scaled realisation,
-python-control's ``linfnorm``) and fails on the code before the fix.
+Each case is data on which a naive computation returns a wrong number (or verdict) without complaint;
+each test compares with a closed form or an independent algorithm (SciPy's Lyapunov solver on a
+hand-scaled realisation, python-control's ``linfnorm``).
 """
 
 from __future__ import annotations

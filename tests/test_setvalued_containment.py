@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from nlobs.errors import InvalidArgumentError
+from nlobs.observers.setvalued import GivenGain
 from nlobs.papers.khajenejad_yong import PaperExample, containment_study, example_61, example_62
-from nlobs.observers.setvalued import GivenGain, printed_radii
+from nlobs.papers.khajenejad_yong_printed import printed_radii
 from nlobs.simulate.setvalued import input_containment, radii_of, run_setvalued, state_containment
 from nlobs.synthesis.setvalued import design_setvalued
 from nlobs.systems.discrete_ui import DiscreteUISystem, Lipschitz

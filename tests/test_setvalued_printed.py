@@ -8,7 +8,7 @@ import pytest
 from nlobs.errors import DesignInfeasible
 from nlobs.papers.khajenejad_yong import example_61, example_62
 from nlobs.linear.transform_ui import ui_transform
-from nlobs.synthesis.setvalued_printed import design_printed, exact_condition_a16
+from nlobs.papers.khajenejad_yong_printed import design_printed, exact_condition_a16
 
 
 def _lipschitz_M(L: float, n: int) -> np.ndarray:

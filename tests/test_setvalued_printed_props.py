@@ -12,19 +12,19 @@ import numpy as np
 import pytest
 
 from nlobs.errors import DesignInfeasible, InvalidArgumentError
-from nlobs.papers.khajenejad_yong import TS, example_61, example_62
 from nlobs.linear.transform_ui import structural_check, ui_transform
-from nlobs.observers.setvalued import printed_radii
-from nlobs.synthesis.setvalued import design_setvalued
-from nlobs.synthesis.setvalued_printed import (
+from nlobs.papers.khajenejad_yong import TS, example_61, example_62
+from nlobs.papers.khajenejad_yong_printed import (
     Prop56Verdict,
     Prop516Branch,
     design_printed,
     design_prop516,
     exact_condition_a16,
     necessary_condition_printed,
+    printed_radii,
     theta1_printed,
 )
+from nlobs.synthesis.setvalued import design_setvalued
 from nlobs.systems.discrete_ui import DiscreteUISystem
 from nlobs.systems.timebase import Discrete
 

@@ -21,7 +21,7 @@ VERTS = (np.array([[0.0, 1.5], [0.0, 0.0]]), np.zeros((2, 2)))
 
 
 def _hole(x: np.ndarray) -> np.ndarray:
-    """The reviewer's lpvhole.toml: φ = [0, 1.5 x₂], 1.5-Lipschitz but no difference quotient in conv{Aᵢ}."""
+    """φ = [0, 1.5 x₂]: 1.5-Lipschitz, but no difference quotient in conv{Aᵢ} (an LPV class with a hole)."""
     return np.stack([np.zeros(x.shape[:-1]), 1.5 * x[..., 1]], axis=-1)
 
 
@@ -40,7 +40,7 @@ def _lpv_system(phi=_member) -> DiscreteUISystem:  # type: ignore[no-untyped-def
 
 
 def test_lpv_class_check_tests_polytope_membership_not_only_the_lipschitz_bound() -> None:
-    # the σ̃ = 1.5 Lipschitz bound holds for lpvhole's φ ...
+    # the σ̃ = 1.5 Lipschitz bound holds for this φ ...
     assert check_function_class(_hole, Lipschitz(1.5, 2), LO, HI, n_pairs=2000).passed
     # ... but its difference quotients [0, 1.5 Δx₂] are not λ [1.5 Δx₂, 0]: the LPV class is violated
     chk = check_function_class(_hole, LPV(VERTS), LO, HI, n_pairs=2000)
@@ -109,7 +109,7 @@ def test_design_run_on_another_system_is_refused() -> None:
 
 
 def _cubic() -> DiscreteUISystem:
-    """boxhole.toml: φ = [0, 0.1x₁³] is 0.3-Lipschitz only on |x₁| ≤ 1."""
+    """φ = [0, 0.1x₁³]: 0.3-Lipschitz only on |x₁| ≤ 1."""
     return DiscreteUISystem(np.array([[0.5, 0.2], [0.0, 0.3]]), [[1.0], [0.0]], [[1.0, 0.0], [0.0, 0.0]],
                             [[0.0], [1.0]], phi=lambda x: np.stack([0 * x[..., 0], 0.1 * x[..., 0] ** 3], axis=-1),
                             function_class=Lipschitz(0.3, 2), eta_w=0.01, eta_v=0.01, delta0=0.5, time=Discrete(1.0))
@@ -200,15 +200,15 @@ def test_class_0_member_k_star_is_found_and_used_by_the_structural_check() -> No
     K = np.diag([1.0, 0.0])
     fc = QuadraticConstraint(_qcstar_M(K), 0.0)
     members = fc.linear_members()
-    assert len(members) == 1 and np.allclose(members[0], K)  # was (): M22 = -KᵀK is not ⪰ 0
+    assert len(members) == 1 and np.allclose(members[0], K)  # found although M22 = -KᵀK is not ⪰ 0
     # Sec. 6.2's (A, G, C) has the invariant zero -1.343; with φ = K x the plant is (A + K) x, zero -0.343.
-    # K = 0 is not in this class, so the zero of (A, G, C) says nothing (was: a false "no stable observer")
+    # K = 0 is not in this class, so the zero of (A, G, C) says nothing (no "no stable observer" verdict)
     A = np.array([[-0.42, 1.0], [-0.6, 0.0]])
     s = DiscreteUISystem(A, [[1.0], [-0.65]], [[0.0, 1.0]], phi=lambda x: x @ K.T, function_class=fc, eta_w=0.2,
                          eta_v=0.1, delta0=0.5, time=Discrete(1.0))
     try:
         d = design_setvalued(s)
-    except AssumptionViolated as exc:  # pragma: no cover - the behaviour before the fix
+    except AssumptionViolated as exc:  # pragma: no cover - a false verdict from the zero of (A, G, C)
         pytest.fail(f"false 'no stable observer' verdict: {exc}")
     assert len(d.spectral_radii) == 1 and d.spectral_radii[0] < 1
 
@@ -248,7 +248,7 @@ def test_a_failed_verification_at_the_chosen_lambda_falls_back_to_the_next_candi
         return (checks, *rest)
 
     monkeypatch.setattr(sv, "_verify", fails_at_first)
-    second = design_setvalued(s)  # was: CertificateError
+    second = design_setvalued(s)  # no CertificateError: the next solved λ is verified
     assert second.verified and second.lam != first.lam
     assert second.steady_radius >= first.steady_radius * (1 - 1e-3)  # the next in cost order
 
@@ -267,6 +267,6 @@ def test_one_readonly_helper_for_the_setvalued_modules() -> None:
     with pytest.raises(ValueError, match="read-only"):
         r[0, 0] = 5.0
     for mod in ("nlobs.systems.discrete_ui", "nlobs.linear.transform_ui", "nlobs.synthesis.setvalued",
-                "nlobs.synthesis.setvalued_printed", "nlobs.observers.setvalued", "nlobs.observers.lipschitz", "nlobs.observers.kalman"):
+                "nlobs.papers.khajenejad_yong_printed", "nlobs.observers.setvalued", "nlobs.observers.lipschitz", "nlobs.observers.kalman"):
         m = importlib.import_module(mod)
         assert not hasattr(m, "_ro") and m.readonly is readonly

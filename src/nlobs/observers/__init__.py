@@ -29,7 +29,6 @@ from nlobs.observers.setvalued import (
     SetValuedObserver,
     SetValuedState,
     input_error_map,
-    printed_radii,
     sound_radii,
 )
 from nlobs.observers.ukf import UKF
@@ -61,6 +60,5 @@ __all__ = [
     "UnknownInputEKF",
     "input_error_map",
     "joseph_update",
-    "printed_radii",
     "sound_radii",
 ]

@@ -24,8 +24,9 @@ re-derived bounds (``docs/setvalued.md``), each step taking the smaller of
 and ``V̄_k ← min(V̄_k, λ_max(P) δ_k²)``. The input radius is
 ``δᵈ_{k−1} = θ_d δ_{k−1} + r_d + α`` with ``d̃_{k−1} = F_ζζ + F_ππ + F_ωω``.
 
-:func:`printed_radii` evaluates Theorem 5.13 exactly as printed, for comparison
-only: it is not safe (measured in ``docs/setvalued.md``).
+Any other radius table (:class:`Radii`) can be given to the observer instead, e.g. Theorem 5.13 exactly
+as printed (``printed_radii`` of the reading room, :mod:`nlobs.papers.khajenejad_yong_printed`), which
+is not safe (measured in ``docs/setvalued.md``).
 """
 
 from __future__ import annotations
@@ -54,7 +55,6 @@ __all__ = [
     "SetValuedObserver",
     "SetValuedState",
     "input_error_map",
-    "printed_radii",
     "sound_radii",
 ]
 
@@ -271,83 +271,6 @@ def sound_radii(system: DiscreteUISystem, design: SetValuedDesign, steps: int, *
     return Radii(readonly(dx), readonly(dd), ssx, ssd, "sound")
 
 
-def printed_radii(system: DiscreteUISystem, L_tilde: ArrayLike, P: ArrayLike, rho: float, steps: int, *,
-                  L_f: float | None = None, A_aux: ArrayLike | None = None, delta0: float | None = None) -> Radii:
-    r"""Theorem 5.13 **as printed** (for comparison; not safe, see ``docs/setvalued.md``).
-
-    ``δ_{k,1} = √(δ₀²θ₁ᵏ + ρ²/λ_min(P) (η_w² + η_v²) Σθ₁^{i−1})`` (31), ``θ₁ = |λ_max(P) − 1|/λ_min(P)`` (32),
-    ``δ_{k,2} = δ₀θ₂ᵏ + η Σθ₂^{i−1}`` (33), ``η = ‖ℜ‖η_v + ‖ΨΦW‖η_w``,
-    ``ℜ = −(ΨΦG₁M₁T₁ + ΨG₂M₂T₂ + L̃T₂)``; Class I (34): ``θ₂ = (L_f + ‖Ψ‖)‖(I − L̃C₂)Φ‖``,
-    ``β = ‖V₁M₁C₁ − V₂M₂C₂Ψ‖ + L_f‖V₂M₂C₂‖``; Class II (35): ``λ_max(𝒜ᵀ𝒜)`` in place of ``L_f``;
-    ``α = ‖V₂M₂C₂‖η_w + [‖(V₂M₂C₂G₁ − V₁)M₁T₁‖ + ‖V₂M₂T₂‖]η_v``; (29), (30).
-
-    Exactly one of ``L_f`` (Class I) and ``A_aux`` (Class II) must be given; as
-    in the paper they describe the whole ``f``.
-
-    Parameters
-    ----------
-    system : DiscreteUISystem
-        The plant (8).
-    L_tilde : array_like
-        The gain ``L̃``, reshaped to ``(n, l − p_H)``.
-    P : array_like, shape (n, n)
-        The symmetric positive definite matrix ``P`` of (31), (32) (symmetrised).
-    rho : float
-        ``ρ`` of (31).
-    steps : int
-        Number of steps ``K``.
-    L_f : float, optional
-        Lipschitz constant of ``f`` (Class I, (34)).
-    A_aux : array_like, optional
-        The matrix ``𝒜`` of Class II (35).
-    delta0 : float, optional
-        Initial state radius ``δ₀``; default ``system.delta0``.
-
-    Returns
-    -------
-    Radii
-        ``K + 1`` state radii, ``K`` input radii and their limits, labelled ``"printed"``.
-
-    Raises
-    ------
-    InvalidArgumentError
-        Neither or both of ``L_f`` and ``A_aux`` are given.
-    """
-    if (L_f is None) == (A_aux is None):
-        raise InvalidArgumentError("printed_radii: give exactly one of L_f (Class I) and A_aux (Class II)")
-    tr = ui_transform(system.G, system.C, system.H, system.D)
-    n = system.n
-    L = np.asarray(L_tilde, dtype=float).reshape(n, tr.C2.shape[0])
-    P_ = np.asarray(P, dtype=float)
-    ev = np.linalg.eigvalsh(0.5 * (P_ + P_.T))
-    d0 = system.delta0 if delta0 is None else float(delta0)
-    nrm = _nrm
-    Phi, Psi = tr.Phi, tr.Psi
-    theta1 = abs(ev[-1] - 1) / ev[0]
-    Lc = L_f if L_f is not None else float(np.linalg.eigvalsh(np.asarray(A_aux).T @ np.asarray(A_aux))[-1])
-    theta2 = (Lc + nrm(Psi)) * nrm((np.eye(n) - L @ tr.C2) @ Phi)
-    Rm = -(Psi @ Phi @ tr.G1 @ tr.M1 @ tr.T1 + Psi @ tr.G2 @ tr.M2 @ tr.T2 + L @ tr.T2)
-    eta = nrm(Rm) * system.eta_v + nrm(Psi @ Phi @ system.W) * system.eta_w
-    V2M2C2 = tr.V2 @ tr.M2 @ tr.C2
-    beta = nrm(tr.V1 @ tr.M1 @ tr.C1 - V2M2C2 @ Psi) + Lc * nrm(V2M2C2)
-    alpha = nrm(V2M2C2) * system.eta_w + (nrm((V2M2C2 @ tr.G1 - tr.V1) @ tr.M1 @ tr.T1)
-                                          + nrm(tr.V2 @ tr.M2 @ tr.T2)) * system.eta_v
-    K = int(steps)
-    k = np.arange(1, K + 1)
-    geo1 = np.array([np.sum(theta1 ** np.arange(i)) for i in k])
-    geo2 = np.array([np.sum(theta2 ** np.arange(i)) for i in k])
-    noise2 = system.eta_w**2 + system.eta_v**2
-    with np.errstate(over="ignore", invalid="ignore"):
-        d1 = np.sqrt(d0**2 * theta1**k + rho**2 / ev[0] * noise2 * geo1)
-        d2 = d0 * theta2**k + eta * geo2
-    dx = np.concatenate([[d0], np.minimum(d1, d2)])
-    dd = beta * dx[:-1] + alpha
-    s1 = rho * math.sqrt(noise2 / (ev[0] * (1 - theta1))) if theta1 < 1 else math.inf
-    s2 = eta / (1 - theta2) if theta2 < 1 else math.inf
-    ss = min(s1, s2)
-    return Radii(readonly(dx), readonly(dd), ss, beta * ss + alpha, "printed")
-
-
 @dataclass(frozen=True)
 class GivenGain:
     """A gain ``L̃`` (``gain``) that was not designed by nlobs (e.g. a published one), with its transformation.
@@ -427,8 +350,8 @@ class SetValuedObserver(ToControl):
         A design certified for ``system`` (:func:`nlobs.synthesis.setvalued.design_setvalued`), or a
         given ``L̃`` without certificate (then ``radii`` must be given for radii to be reported).
     radii : Radii, optional
-        Radius sequences to report instead of the sound recursion (e.g. :func:`printed_radii`); the
-        run may not be longer than they are.
+        Radius sequences to report instead of the sound recursion (any table, e.g. the printed radii of
+        ``nlobs.papers.khajenejad_yong_printed``); the run may not be longer than they are.
     lpv_weights : bool
         The input ``u`` carries the run-time LPV weights ``λ_k`` after the known inputs (Class III,
         Definition 2.4: (13) uses ``Σλᵢ Aᵢ``): required for a design certified at the vertices.

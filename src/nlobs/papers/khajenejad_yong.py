@@ -338,7 +338,7 @@ def _lst(a: ArrayLike, digits: int = 4) -> list[object]:
 def _prop516_rows(tag: str, system: DiscreteUISystem, M: Array) -> list[ReproRow]:
     """Proposition 5.16 as printed (two SDPs for its disjunction): ρ**, θ₁ at P**, and what L̃** does."""
     from nlobs.errors import DesignInfeasible
-    from nlobs.synthesis.setvalued_printed import design_prop516
+    from nlobs.papers.khajenejad_yong_printed import design_prop516
 
     try:
         d = design_prop516(system, M)
@@ -363,14 +363,13 @@ def reproduce() -> list[ReproRow]:
     """``nlobs reproduce khajenejad-yong``: Sec. 6's reported values beside nlobs's (printed and sound).
 
     Every ``nlobs`` value is recomputed here: the printed formulation by
-    :func:`~nlobs.synthesis.setvalued_printed.design_printed` (Theorem 5.10 with (18)), the sound one by
+    :func:`~nlobs.papers.khajenejad_yong_printed.design_printed` (Theorem 5.10 with (18)), the sound one by
     :func:`~nlobs.synthesis.setvalued.design_setvalued`. See ``docs/setvalued.md`` for the reasons.
     """
     from nlobs.errors import AssumptionViolated, DesignInfeasible
     from nlobs.linear.transform_ui import structural_check, ui_transform
-    from nlobs.observers.setvalued import printed_radii
+    from nlobs.papers.khajenejad_yong_printed import design_printed, printed_radii
     from nlobs.synthesis.setvalued import design_setvalued
-    from nlobs.synthesis.setvalued_printed import design_printed
     from nlobs.systems.discrete_ui import estimate_lipschitz
 
     rows: list[ReproRow] = []

@@ -9,9 +9,10 @@
 * Dalla Mora, Germani & Manes: the pair ``(K, P)`` of (2.17) (:mod:`~nlobs.synthesis.drift_gain`) and
   the constants ``κ₁``, ``κ₂`` of (3.17) (:mod:`~nlobs.synthesis.drift_bounds`).
 * Röbenack: the high-gain vector ``k`` of (10) (:mod:`~nlobs.synthesis.pinv_gain`).
-* Khajenejad & Yong: the sound set-valued design (``docs/setvalued.md``), Theorem 5.10 and Propositions
-  5.6 and 5.16 as printed, the discrete Lipschitz observer gain (``docs/baselines.md``) and the affine
-  abstraction of Proposition 2.18 (``docs/affine_abstraction.md``).
+* Khajenejad & Yong: the sound set-valued design (``docs/setvalued.md``), the discrete Lipschitz observer
+  gain (``docs/baselines.md``) and the affine abstraction of Proposition 2.18 (``docs/affine_abstraction.md``).
+  Theorem 5.10 and Propositions 5.6 and 5.16 as printed are in the reading room,
+  :mod:`nlobs.papers.khajenejad_yong_printed`.
 
 Every design returns a :class:`Certificate` (``gain``, ``P``, ``checks``, ``verified``,
 ``failed_checks``, ``solver``, ``summary()``, ``to_dict()``).
@@ -80,16 +81,6 @@ from nlobs.synthesis.setvalued import (
     error_dynamics,
     verify_setvalued,
 )
-from nlobs.synthesis.setvalued_printed import (
-    NecessaryConditionPrinted,
-    PrintedDesign,
-    Prop56Verdict,
-    Prop516Branch,
-    Prop516Design,
-    design_printed,
-    design_prop516,
-    necessary_condition_printed,
-)
 
 __all__ = [
     "AbstractionBound",
@@ -110,15 +101,10 @@ __all__ = [
     "HighGain",
     "LmiRegion",
     "MixedH2Certificate",
-    "NecessaryConditionPrinted",
     "NoiseModel",
     "Objective",
     "ObserverGainCertificate",
     "PoleRegion",
-    "PrintedDesign",
-    "Prop516Branch",
-    "Prop516Design",
-    "Prop56Verdict",
     "QuadraticLyapunov",
     "RiccatiConstants",
     "Sector",
@@ -137,8 +123,6 @@ __all__ = [
     "design_drift_gain_sdp",
     "design_h2_gain",
     "design_observer_gain",
-    "design_printed",
-    "design_prop516",
     "design_setvalued",
     "error_bound_constants",
     "error_covariance",
@@ -148,7 +132,6 @@ __all__ = [
     "high_gain_coefficients",
     "high_gain_roots",
     "kalman_bucy_gain",
-    "necessary_condition_printed",
     "place_cascade_gain",
     "quadratic_lyapunov_constants",
     "sampled_intensity",

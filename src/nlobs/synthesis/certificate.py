@@ -13,8 +13,8 @@ verbs ``summary()`` (text) and ``to_dict()`` (data). :class:`CertificateMixin` w
   Lipschitz observer baseline;
 * :class:`~nlobs.synthesis.setvalued.SetValuedDesign` — the sound design of the set-valued observer
   of Khajenejad–Yong;
-* :class:`~nlobs.synthesis.setvalued_printed.PrintedDesign` and
-  :class:`~nlobs.synthesis.setvalued_printed.Prop516Design` — Khajenejad–Yong's Theorem 5.10 and
+* outside the library, in the reading room: :class:`~nlobs.papers.khajenejad_yong_printed.PrintedDesign`
+  and :class:`~nlobs.papers.khajenejad_yong_printed.Prop516Design` — Khajenejad–Yong's Theorem 5.10 and
   Proposition 5.16 as printed, whose checks (the exact condition (A.16), the spectral radius) fail
   for the paper's examples.
 

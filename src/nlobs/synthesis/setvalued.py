@@ -53,8 +53,9 @@ eigensolver and a bisection) allow a relative ``1e-7``. A failed check raises
 :class:`~nlobs.errors.CertificateError` (after trying the line search's other solved ``λ`` in order
 of cost).
 
-The paper's printed LMIs (18), (26)-(28) are *not* implemented as a design here:
-they are not sufficient (measured in ``docs/setvalued.md``).
+The paper's printed LMIs (18), (26)-(28) are *not* a design of the library: they are not sufficient
+(measured in ``docs/setvalued.md``); the reading room has them for comparison
+(:mod:`nlobs.papers.khajenejad_yong_printed`).
 """
 
 from __future__ import annotations

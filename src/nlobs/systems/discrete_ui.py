@@ -198,7 +198,7 @@ def qc_linear_members(M: ArrayLike, candidates: tuple[ArrayLike, ...] = ()) -> t
 
     A candidate is accepted when ``[K; I]ᵀ M [K; I] ⪰ −tol`` (:func:`qc_member_min_eig`,
     :func:`qc_member_tolerance`); duplicates are dropped. Shared by :class:`QuadraticConstraint` and the
-    printed formulations (:mod:`nlobs.synthesis.setvalued_printed`).
+    printed formulations of the reading room (:mod:`nlobs.papers.khajenejad_yong_printed`).
 
     Parameters
     ----------

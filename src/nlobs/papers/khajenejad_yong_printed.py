@@ -1,4 +1,9 @@
-r"""Khajenejad & Yong's Theorems 5.4 and 5.10, Proposition 5.6 and Proposition 5.16 **as printed**, for comparison.
+r"""Khajenejad & Yong's Theorems 5.4, 5.10 and 5.13, Propositions 5.6 and 5.16 **as printed**, for comparison.
+
+This module is part of the reading room (``nlobs.papers``): the paper's formulations as printed, used by
+:mod:`nlobs.papers.khajenejad_yong` (``nlobs reproduce khajenejad-yong``) to show where they fail. The
+library's sound design is :mod:`nlobs.synthesis.setvalued`; its observer takes any radius table
+(:class:`~nlobs.observers.setvalued.Radii`), e.g. the one :func:`printed_radii` returns.
 
 These LMIs are *not* a sound design (measured in ``docs/setvalued.md``): a gain they
 accept can give unstable error dynamics. :func:`design_printed` solves the SDP of Theorem 5.10,
@@ -20,6 +25,9 @@ branches as two SDPs (each compiled once, same search) and keeps the smaller ``�
 gain ``L̃ = P̃⁻¹Ỹ`` is unstable — ``Ỹ`` is a free variable, so it says nothing about other gains,
 and "no stable observer exists" does not follow (a scalar counterexample is in ``docs/setvalued.md``
 and ``tests/test_setvalued_printed_props.py``). Infeasibility proves nothing.
+
+:func:`printed_radii` evaluates the radii of Theorem 5.13 exactly as printed (31)-(35); it is not safe
+(measured in ``docs/setvalued.md``).
 
 Transcription notes (each is where the printed text cannot be used literally):
 
@@ -49,9 +57,10 @@ from numpy.typing import ArrayLike
 from nlobs._typing import Array
 from nlobs._validate import as_matrix, as_square, as_symmetric, positive, readonly
 from nlobs.checks import Check, CheckKind
-from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.errors import CertificateError, DesignInfeasible, DimensionError, InvalidArgumentError
 from nlobs.linear.transform_ui import UITransform, structural_check, ui_transform
+from nlobs.observers.setvalued import Radii
+from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.synthesis.lmi import Solver, as_solver, require_lmi_size, solve
 from nlobs.systems.discrete_ui import DiscreteUISystem, qc_member_min_eig, qc_member_tolerance
 
@@ -67,6 +76,7 @@ __all__ = [
     "Prop56Verdict",
     "NecessaryConditionPrinted",
     "necessary_condition_printed",
+    "printed_radii",
 ]
 
 
@@ -1044,3 +1054,88 @@ def necessary_condition_printed(system: DiscreteUISystem, M: ArrayLike, *, gamma
         None if Pv is None else readonly(Pv), None if Yv is None else readonly(Yv), None if Gv is None else readonly(Gv), ev,
         None if Lv is None or not (feasible or Lg is not None) else readonly(Lv), pit_min, pih_min, ex_min, tuple(evid),
         time.perf_counter() - t0)
+
+
+# --------------------------------------------------------------------------- Theorem 5.13 as printed
+
+
+def _nrm(M: Array) -> float:
+    """Spectral norm, ``0`` for an empty matrix (as in :mod:`nlobs.observers.setvalued`)."""
+    return float(np.linalg.norm(M, 2)) if M.size else 0.0
+
+
+def printed_radii(system: DiscreteUISystem, L_tilde: ArrayLike, P: ArrayLike, rho: float, steps: int, *,
+                  L_f: float | None = None, A_aux: ArrayLike | None = None, delta0: float | None = None) -> Radii:
+    r"""Theorem 5.13 **as printed** (for comparison; not safe, see ``docs/setvalued.md``).
+
+    ``δ_{k,1} = √(δ₀²θ₁ᵏ + ρ²/λ_min(P) (η_w² + η_v²) Σθ₁^{i−1})`` (31), ``θ₁ = |λ_max(P) − 1|/λ_min(P)`` (32),
+    ``δ_{k,2} = δ₀θ₂ᵏ + η Σθ₂^{i−1}`` (33), ``η = ‖ℜ‖η_v + ‖ΨΦW‖η_w``,
+    ``ℜ = −(ΨΦG₁M₁T₁ + ΨG₂M₂T₂ + L̃T₂)``; Class I (34): ``θ₂ = (L_f + ‖Ψ‖)‖(I − L̃C₂)Φ‖``,
+    ``β = ‖V₁M₁C₁ − V₂M₂C₂Ψ‖ + L_f‖V₂M₂C₂‖``; Class II (35): ``λ_max(𝒜ᵀ𝒜)`` in place of ``L_f``;
+    ``α = ‖V₂M₂C₂‖η_w + [‖(V₂M₂C₂G₁ − V₁)M₁T₁‖ + ‖V₂M₂T₂‖]η_v``; (29), (30).
+
+    Exactly one of ``L_f`` (Class I) and ``A_aux`` (Class II) must be given; as
+    in the paper they describe the whole ``f``.
+
+    Parameters
+    ----------
+    system : DiscreteUISystem
+        The plant (8).
+    L_tilde : array_like
+        The gain ``L̃``, reshaped to ``(n, l − p_H)``.
+    P : array_like, shape (n, n)
+        The symmetric positive definite matrix ``P`` of (31), (32) (symmetrised).
+    rho : float
+        ``ρ`` of (31).
+    steps : int
+        Number of steps ``K``.
+    L_f : float, optional
+        Lipschitz constant of ``f`` (Class I, (34)).
+    A_aux : array_like, optional
+        The matrix ``𝒜`` of Class II (35).
+    delta0 : float, optional
+        Initial state radius ``δ₀``; default ``system.delta0``.
+
+    Returns
+    -------
+    Radii
+        ``K + 1`` state radii, ``K`` input radii and their limits, labelled ``"printed"``.
+
+    Raises
+    ------
+    InvalidArgumentError
+        Neither or both of ``L_f`` and ``A_aux`` are given.
+    """
+    if (L_f is None) == (A_aux is None):
+        raise InvalidArgumentError("printed_radii: give exactly one of L_f (Class I) and A_aux (Class II)")
+    tr = ui_transform(system.G, system.C, system.H, system.D)
+    n = system.n
+    L = np.asarray(L_tilde, dtype=float).reshape(n, tr.C2.shape[0])
+    P_ = np.asarray(P, dtype=float)
+    ev = np.linalg.eigvalsh(0.5 * (P_ + P_.T))
+    d0 = system.delta0 if delta0 is None else float(delta0)
+    nrm = _nrm
+    Phi, Psi = tr.Phi, tr.Psi
+    theta1 = abs(ev[-1] - 1) / ev[0]
+    Lc = L_f if L_f is not None else float(np.linalg.eigvalsh(np.asarray(A_aux).T @ np.asarray(A_aux))[-1])
+    theta2 = (Lc + nrm(Psi)) * nrm((np.eye(n) - L @ tr.C2) @ Phi)
+    Rm = -(Psi @ Phi @ tr.G1 @ tr.M1 @ tr.T1 + Psi @ tr.G2 @ tr.M2 @ tr.T2 + L @ tr.T2)
+    eta = nrm(Rm) * system.eta_v + nrm(Psi @ Phi @ system.W) * system.eta_w
+    V2M2C2 = tr.V2 @ tr.M2 @ tr.C2
+    beta = nrm(tr.V1 @ tr.M1 @ tr.C1 - V2M2C2 @ Psi) + Lc * nrm(V2M2C2)
+    alpha = nrm(V2M2C2) * system.eta_w + (nrm((V2M2C2 @ tr.G1 - tr.V1) @ tr.M1 @ tr.T1)
+                                          + nrm(tr.V2 @ tr.M2 @ tr.T2)) * system.eta_v
+    K = int(steps)
+    k = np.arange(1, K + 1)
+    geo1 = np.array([np.sum(theta1 ** np.arange(i)) for i in k])
+    geo2 = np.array([np.sum(theta2 ** np.arange(i)) for i in k])
+    noise2 = system.eta_w**2 + system.eta_v**2
+    with np.errstate(over="ignore", invalid="ignore"):
+        d1 = np.sqrt(d0**2 * theta1**k + rho**2 / ev[0] * noise2 * geo1)
+        d2 = d0 * theta2**k + eta * geo2
+    dx = np.concatenate([[d0], np.minimum(d1, d2)])
+    dd = beta * dx[:-1] + alpha
+    s1 = rho * math.sqrt(noise2 / (ev[0] * (1 - theta1))) if theta1 < 1 else math.inf
+    s2 = eta / (1 - theta2) if theta2 < 1 else math.inf
+    ss = min(s1, s2)
+    return Radii(readonly(dx), readonly(dd), ss, beta * ss + alpha, "printed")
