@@ -54,7 +54,7 @@ box = [-2, 2]
 
 
 def test_same_truth_and_noise_for_every_observer() -> None:
-    rep = compare_observers(parse_scenario(PEND), observers=["pinv", "luenberger", "drift"], runs=4, seed=11)
+    rep = compare_observers(parse_scenario(PEND), observers=["ekf", "luenberger", "drift"], runs=4, seed=11)
     results = [o.result for o in rep.observers.values() if o.result is not None]
     assert len(results) == 3
     for r in results[1:]:
@@ -62,7 +62,7 @@ def test_same_truth_and_noise_for_every_observer() -> None:
         np.testing.assert_array_equal(r.y, results[0].y)  # the same sensor samples
         np.testing.assert_array_equal(r.sampled, results[0].sampled)
     assert not np.array_equal(results[0].x[0], results[0].x[1])  # the runs differ (process noise)
-    x_hat0 = np.stack([r.x_hat[:, 0] for r in results])
+    x_hat0 = np.stack([r.x_hat[:, 0] for r in results[1:]])  # the EKF's first value is already corrected
     np.testing.assert_array_equal(x_hat0[1], x_hat0[0])  # the same initial estimates
     # the noise realisation follows the seed
     again = compare_observers(parse_scenario(PEND), observers=["luenberger"], runs=4, seed=11)
@@ -199,24 +199,26 @@ def test_cli_json_keys_and_files(tmp_path: Path) -> None:
     model = tmp_path / "pend.toml"
     model.write_text(PEND)
     out = tmp_path / "out"
-    res = runner.invoke(app, ["simulate", str(model), "--observer", "pinv,luenberger,cascade", "--runs", "3",
+    res = runner.invoke(app, ["simulate", str(model), "--observer", "pinv,ekf,luenberger,cascade", "--runs", "3",
                               "--json", "--out", str(out)])
     assert res.exit_code == 0, res.output
     d = json.loads(res.stdout)
     assert {"observers", "runs", "seed", "states"} <= set(d)
     assert d["runs"] == 3 and d["seed"] == 0 and d["states"] == ["theta", "omega"]
-    assert list(d["observers"]) == ["pinv", "luenberger", "cascade"]
-    for name in ("pinv", "luenberger"):
+    assert list(d["observers"]) == ["pinv", "ekf", "luenberger", "cascade"]
+    # the pendulum's Σ r_j = n: Röbenack's reduced observer does not apply (as nlobs advise says)
+    assert d["observers"]["pinv"]["skipped"].startswith("Σ r_j = 2 is not < n = 2")
+    for name in ("ekf", "luenberger"):
         o = d["observers"][name]
         assert JSON_KEYS <= set(o) and o["skipped"] is None and len(o["rms_error"]) == 2
     assert d["observers"]["cascade"]["skipped"]
-    for f in ("states.png", "error_norms.png", "rms_boxplot.png", "pinv.npz", "luenberger.npz", "trajectories.csv",
+    for f in ("states.png", "error_norms.png", "rms_boxplot.png", "ekf.npz", "luenberger.npz", "trajectories.csv",
               "compare.json"):
         assert (out / f).is_file(), f
-    assert json.loads((out / "compare.json").read_text())["observers"]["pinv"]["rms_error"] == d["observers"]["pinv"]["rms_error"]
-    back = SimulationResult.load(out / "pinv.npz")
+    assert json.loads((out / "compare.json").read_text())["observers"]["ekf"]["rms_error"] == d["observers"]["ekf"]["rms_error"]
+    back = SimulationResult.load(out / "ekf.npz")
     rows = list(csv.reader((out / "trajectories.csv").open()))
-    assert rows[0][:3] == ["t", "x_theta", "x_omega"] and "pinv_theta" in rows[0]
+    assert rows[0][:3] == ["t", "x_theta", "x_omega"] and "ekf_theta" in rows[0]
     assert len(rows) - 1 == back.t.size
     np.testing.assert_allclose([float(r[1]) for r in rows[1:]], back.x[0, :, 0], rtol=1e-15)
 

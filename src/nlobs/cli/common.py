@@ -64,6 +64,13 @@ def fail(message: str, status: int = EXIT_BAD_INPUT) -> NoReturn:
     raise typer.Exit(status)
 
 
+def on_off(option: str, text: str) -> bool:
+    """``"on"`` → ``True``, ``"off"`` → ``False``; anything else is one line and exit 2."""
+    if text not in ("on", "off"):
+        fail(f"{option}: expected 'on' or 'off', got {text!r}")
+    return text == "on"
+
+
 def finish(report: Any, as_json: bool = False) -> None:
     """Exit by a workflow report's verdict after it was printed: 0 ``OK``, 1 ``FAILED``, 3 ``NO_OBSERVER``.
 

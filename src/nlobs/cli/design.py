@@ -33,6 +33,7 @@ from nlobs.cli.common import (
     emit_json,
     fail,
     finish,
+    on_off,
     parse_floats,
 )
 from nlobs.errors import (
@@ -62,26 +63,6 @@ Out_ = Annotated[Path | None, typer.Option("--out", help="Folder for the plot (.
 Saturation_ = Annotated[str, typer.Option(
     "--saturation", help="'on' (default): the simulated observer is saturated outside the region (peaking remedy; "
     "the same observer while the estimate is in the region); 'off': as printed in the paper.")]
-
-
-def _on_off(option: str, text: str) -> bool:
-    if text not in ("on", "off"):
-        fail(f"{option}: expected 'on' or 'off', got {text!r}")
-    return text == "on"
-
-
-def _region(model: str, box: str | None) -> list[float] | None:
-    """``--box``, else the model file's ``[simulation] box`` (the region the plant runs in), else ``None`` (-1, 1)."""
-    if box is not None:
-        return box_numbers("--box", box)
-    from nlobs.systems.modelfile import load_scenario
-
-    try:
-        defaults = load_scenario(model).defaults
-    except NlobsError:  # a model without a scenario (or read elsewhere with its own message)
-        return None
-    b = defaults.box
-    return None if b is None else [float(v) for lo, hi in zip(b[0], b[1]) for v in (lo, hi)]
 
 
 def _symbolic(model: str) -> "SymbolicModel":
@@ -153,8 +134,10 @@ def _errors(model: str, exc: NlobsError) -> NoReturn:
 def drift_cmd(
     model: Annotated[str, typer.Argument(help="A model file (.toml) or a shipped model name.")],
     s: Annotated[str | None, typer.Option("--s", help="Multi-index, e.g. '3,1' (default: observability indices).")] = None,
-    alpha: Annotated[float, typer.Option(help="Decay rate α of (2.17).")] = 1.0,
-    mu: Annotated[float, typer.Option(help="Input bound μ of (2.17).")] = 1.0,
+    alpha: Annotated[float | None, typer.Option(help="Decay rate α of (2.17) (default 1).")] = None,
+    mu: Annotated[float | None, typer.Option(
+        help="Input bound μ of (2.17) (default: the largest ‖u(t)‖ of the file's [input_signals] over its "
+             "[simulation] duration, else 0).")] = None,
     gamma: Annotated[float | None, typer.Option(help="γ of (2.17) (default: estimated on the region).")] = None,
     method: Annotated[str, typer.Option(help="'vandermonde' (Remark 2.11) or 'sdp' (LMI in S = P⁻¹, Y = S K).")] = "vandermonde",
     w: Annotated[float | None, typer.Option(help="Check and use K(w) instead of searching the smallest w.")] = None,
@@ -181,12 +164,12 @@ def drift_cmd(
     m = _symbolic(model)
     if method not in METHODS:
         fail(f"--method: expected 'vandermonde' or 'sdp', got {method!r}")
-    region = _region(model, box)
-    sat = _on_off("--saturation", saturation)
+    region = box_numbers("--box", box)
+    sat = on_off("--saturation", saturation)
     multi_index = _ints("--s", s)
     request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
     try:
-        report = design_drift_observer(m, s=multi_index, alpha=alpha, mu=mu, gamma=gamma, method=method, w=w,
+        report = design_drift_observer(model, s=multi_index, alpha=alpha, mu=mu, gamma=gamma, method=method, w=w,
                                        box=region, simulate=request, name=model, w_max=w_max,
                                        saturation=sat)
     except AssumptionViolated as exc:
@@ -225,12 +208,12 @@ def pinv_cmd(
     m = _symbolic(model)
     if placement not in PLACEMENTS:
         fail(f"--placement: expected 'powers' or 'multiple', got {placement!r}")
-    region = _region(model, box)
-    sat = None if saturation is None else _on_off("--saturation", saturation)
+    region = box_numbers("--box", box)
+    sat = None if saturation is None else on_off("--saturation", saturation)
     kv = parse_floats("--k", k)
     request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
     try:
-        report = design_pinv_observer(m, k=kv, theta=theta, placement=placement, box=region,  # type: ignore[arg-type]
+        report = design_pinv_observer(model, k=kv, theta=theta, placement=placement, box=region,  # type: ignore[arg-type]
                                       simulate=request, saturation=sat)
     except AssumptionViolated as exc:
         fail(f"{model}: {exc}", EXIT_NO_OBSERVER)

@@ -13,8 +13,36 @@ from typing import Annotated
 
 import typer
 
-from nlobs.cli.common import box_numbers, console, emit_json, fail, finish
-from nlobs.errors import ModelFileError, NlobsError
+from nlobs.cli.common import (
+    EXIT_FAILURE,
+    EXIT_NO_OBSERVER,
+    box_numbers,
+    console,
+    emit_json,
+    fail,
+    finish,
+    parse_floats,
+)
+from nlobs.errors import AssumptionViolated, DesignError, ModelFileError, NlobsError
+
+#: The design options of ``nlobs export``: the parameter each flag sets (the same as ``nlobs design``'s).
+_FLAGS = {"s": "--s", "alpha": "--alpha", "mu": "--mu", "gamma": "--gamma", "gain_method": "--method", "w": "--w",
+          "w_max": "--w-max", "theta": "--theta", "placement": "--placement", "k": "--k",
+          "gain_bound": "--gain-bound", "saturation": "--saturation", "box": "--box", "observer": "--observer"}
+
+
+def _flags(message: str) -> str:
+    """A workflow's message with the parameter names it starts with spelled as this command's flags."""
+    first, space, tail = message.partition(" ")
+    if first in _FLAGS and space and not first.endswith(":"):
+        return f"{_FLAGS[first]} {tail}"
+    head, sep, rest = message.partition(": ")
+    if not sep:
+        return message
+    words = [w.strip() for w in head.split(",")]
+    if words and all(w in _FLAGS for w in words):
+        return ", ".join(_FLAGS[w] for w in words) + sep + rest
+    return message
 
 
 def export_cmd(
@@ -36,24 +64,50 @@ def export_cmd(
                              "nlobs design).")] = None,
     prefix: Annotated[str | None, typer.Option(
         "--prefix", help="C prefix of every name and of the two files (default: <model>_<observer>).")] = None,
+    s: Annotated[str | None, typer.Option("--s", help="drift: multi-index, e.g. '3,1'.")] = None,
+    alpha: Annotated[float | None, typer.Option(
+        help="drift: decay rate α of (2.17); luenberger: poles left of −alpha (default 1).")] = None,
+    mu: Annotated[float | None, typer.Option(
+        help="drift: input bound μ of (2.17) (default: the largest ‖u(t)‖ of the file's [input_signals] over "
+             "its [simulation] duration).")] = None,
+    gamma: Annotated[float | None, typer.Option(
+        help="drift: γ of (2.17) (default: estimated on the region); cascade: ‖H‖∞ < γ (default: the file's).")] = None,
+    method: Annotated[str | None, typer.Option(
+        help="drift: 'vandermonde' or 'sdp'; cascade: 'lmi', 'placement' or 'h2' (as nlobs design).")] = None,
+    w: Annotated[float | None, typer.Option(help="drift: check and use K(w).")] = None,
+    w_max: Annotated[float | None, typer.Option("--w-max", help="drift: largest w the search tries.")] = None,
+    theta: Annotated[float | None, typer.Option(help="pinv: high-gain parameter θ of the roots of (10).")] = None,
+    placement: Annotated[str | None, typer.Option(help="pinv: 'powers' or 'multiple'.")] = None,
+    k: Annotated[str | None, typer.Option("--k", help="pinv: gain vector k (Σ r_j numbers), instead of θ.")] = None,
+    gain_bound: Annotated[float | None, typer.Option("--gain-bound", help="cascade: ‖K‖ bound.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON report.")] = False,
 ) -> None:
     """Design an observer for a model and write its step as dependency-free C99 (header carries the certificate)."""
-    from nlobs.cli.design import _on_off, _region
+    from nlobs.cli.common import on_off
     from nlobs.workflows.export import export_model_observer
     from nlobs.workflows.inputs import BoxError
 
-    sat = None if saturation is None else _on_off("--saturation", saturation)
+    sat = None if saturation is None else on_off("--saturation", saturation)
+    ints = parse_floats("--s", s)
+    if ints is not None and any(v != int(v) for v in ints):
+        fail(f"--s: expected integers, got {s!r}")
+    given = {"s": None if ints is None else [int(v) for v in ints], "alpha": alpha, "mu": mu, "gamma": gamma,
+             "gain_method": method, "w": w, "w_max": w_max, "theta": theta, "placement": placement,
+             "k": parse_floats("--k", k), "gain_bound": gain_bound}
+    options = {name: value for name, value in given.items() if value is not None}
     try:
-        region = _region(model, box) if observer in ("drift", "pinv") else box_numbers("--box", box)
-        report = export_model_observer(model, observer=observer, out=out, lang=lang, box=region,
-                                       saturation=sat, prefix=prefix)
+        report = export_model_observer(model, observer=observer, out=out, lang=lang, box=box_numbers("--box", box),
+                                       saturation=sat, prefix=prefix, **options)
     except ModelFileError as exc:
         fail(str(exc))
     except BoxError as exc:
         fail(f"--box: {exc}")
+    except AssumptionViolated as exc:
+        fail(f"{model}: {exc}", EXIT_NO_OBSERVER)
+    except DesignError as exc:
+        fail(f"{model}: design failed: {exc}", EXIT_FAILURE)
     except NlobsError as exc:
-        fail(f"{model}: {exc}")
+        fail(f"{model}: {_flags(str(exc))}")
     if as_json:
         emit_json(report.to_dict())
     else:

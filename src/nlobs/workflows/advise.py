@@ -58,7 +58,16 @@ from nlobs.geometry.lie import tidy
 from nlobs.geometry.observability import AffineFields, observability_jacobian
 from nlobs.geometry.region import Box, format_point
 from nlobs.geometry.report import GeometryReport, geometry_report
+from nlobs.geometry.singularities import (
+    SAMPLES,
+    Singularity,
+    expression_atoms,
+    real_roots,
+    sample_points,
+    singularities,
+)
 from nlobs.linear import analyze_linear
+from nlobs.methods.problem import problem
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.expressions import as_sympy_expr, as_symbols
 from nlobs.systems.linear import LinearSystem
@@ -78,53 +87,12 @@ __all__ = ["CHECK_RMS_FACTOR", "METHODS", "AdviceReport", "SensorCheck", "Cascad
 
 #: The methods the advisor reports on, in the order it prefers an applicable one.
 METHODS: tuple[str, ...] = ("cascade", "setvalued", "drift", "pinv", "ekf-ukf", "luenberger")
-#: Sampled points of the region (plus its corners up to n = 10).
-SAMPLES = 512
 #: Fraction of the remaining interval kept away from a singular value of one state.
 MARGIN = 0.05
 #: Largest ``n`` whose subsets are searched for a cascade structure (2ⁿ subsets).
 CASCADE_MAX_N = 12
 #: Default decay rate α of (2.17) and of the Luenberger poles (``nlobs design drift --alpha``).
 DEFAULT_ALPHA = 1.0
-
-
-@dataclass(frozen=True)
-class Singularity:
-    """A place in the region where ``f``, ``g`` or ``h`` is not defined or not finite.
-
-    Attributes
-    ----------
-    kind : str
-        ``"pole"`` (a denominator vanishes), ``"domain"`` (a square-root or logarithm argument is
-        negative there) or ``"non-finite"`` (a sampled value of ``f`` is not finite).
-    expression : str
-        The denominator or argument (parameters substituted), or the equation.
-    state : str or None
-        The one state it depends on (``None``: several, or a sampled value).
-    values : tuple of float
-        Its zeros in that state inside the region (empty when not located).
-    point : tuple of float or None
-        A point of the region where it happens.
-    """
-
-    kind: str
-    expression: str
-    state: str | None
-    values: tuple[float, ...] = ()
-    point: tuple[float, ...] | None = None
-
-    def describe(self) -> str:
-        what = {"pole": f"the denominator {self.expression} vanishes",
-                "domain": f"the argument {self.expression} is negative",
-                "non-finite": f"{self.expression} is not finite"}[self.kind]
-        if self.state is not None and self.values:
-            where = ", ".join(f"{self.state} = {v:.4g}" for v in self.values)
-            return f"{what} at {where} inside the region"
-        return f"{what} at x = {format_point(np.asarray(self.point))}" if self.point is not None else what
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "expression": self.expression, "state": self.state, "values": list(self.values),
-                "point": None if self.point is None else list(self.point), "description": self.describe()}
 
 
 @dataclass(frozen=True)
@@ -432,109 +400,6 @@ def box_option(box: Box) -> str:
     return "--box=" + ",".join(f"{_num(a)},{_num(b)}" for a, b in zip(lo, hi))
 
 
-def _sample(box: Box, count: int = SAMPLES, seed: int = 0) -> np.ndarray:
-    pts = [box.sample(count, seed), box.lower[None, :], box.upper[None, :], ((box.lower + box.upper) / 2)[None, :]]
-    if box.n <= 10:
-        corners = np.array(np.meshgrid(*[(a, b) for a, b in zip(box.lower, box.upper)], indexing="ij"))
-        pts.append(corners.reshape(box.n, -1).T)
-    return np.vstack(pts)
-
-
-def _atoms(e: sp.Expr) -> list[tuple[str, sp.Expr]]:
-    """Denominators (``"pole"``) and square-root / logarithm arguments (``"domain"``) of an expression."""
-    e = as_sympy_expr("e", e)
-    out: list[tuple[str, sp.Expr]] = []
-    for a in sp.preorder_traversal(e):
-        if isinstance(a, sp.Pow) and a.exp.is_number:
-            if a.exp.is_negative:
-                out.append(("pole", a.base))
-            if a.exp.is_Rational and not a.exp.is_Integer and int(a.exp.q) % 2 == 0:
-                out.append(("domain", a.base))
-        elif isinstance(a, sp.log):
-            out.append(("domain", a.args[0]))
-    return out
-
-
-def _real_roots(e: sp.Expr, x: sp.Symbol, lo: float, hi: float) -> tuple[float, ...] | None:
-    """The real zeros of ``e`` in ``[lo, hi]`` when it is a polynomial in ``x`` of degree ≤ 8 (else ``None``)."""
-    e = as_sympy_expr("e", e)
-    (x,) = as_symbols("x", [x])
-    num = sp.numer(sp.together(e))
-    try:
-        poly = sp.Poly(num, x)
-    except sp.PolynomialError:
-        return None
-    if poly.degree() > 8 or poly.degree() < 1:
-        return None
-    coeffs = [float(c) for c in poly.all_coeffs()]
-    roots = np.roots(coeffs)
-    real = sorted({float(r.real) for r in roots if abs(r.imag) <= 1e-9 * (1 + abs(r.real)) and lo <= r.real <= hi})
-    return tuple(real)
-
-
-def singularities(model: SymbolicModel, box: Box) -> tuple[Singularity, ...]:
-    """Where ``f``, ``g`` or ``h`` is not defined in the box: vanishing denominators, negative roots' arguments.
-
-    Each denominator and each argument of an even root or a logarithm (parameters substituted) is
-    evaluated at :data:`SAMPLES` seeded points and the corners; one of a single state that is a
-    polynomial in it is solved for its zeros inside the box. Then ``f`` itself is evaluated at the
-    points (zero input) and a non-finite value is reported with its point.
-
-    Parameters
-    ----------
-    model : SymbolicModel
-        The model (its parameters are substituted).
-    box : Box
-        The state region searched.
-
-    Returns
-    -------
-    tuple of Singularity
-        Empty when none was found.
-    """
-    subs = model.substituted()
-    exprs = [e.subs(subs) for e in (*model.rhs, *model.h)]
-    xs = tuple(model.x)
-    states = set(xs)
-    pts = _sample(box)
-    found: list[Singularity] = []
-    seen: set[tuple[str, str]] = set()
-    for e in exprs:
-        for kind, atom in _atoms(e):
-            if not atom.free_symbols or not atom.free_symbols <= states or (kind, str(atom)) in seen:
-                continue
-            seen.add((kind, str(atom)))
-            fn = compile_matrix(sp.Matrix([atom]), (xs,), vector=True, what=f"the {kind} {atom}")
-            with np.errstate(all="ignore"):
-                v = np.asarray(fn(pts), dtype=float)[:, 0]
-            ok = np.isfinite(v)
-            if kind == "domain":
-                bad = bool(np.any(v[ok] < 0))
-            else:
-                bad = bool(np.any(v[ok] == 0) or (np.any(v[ok] > 0) and np.any(v[ok] < 0)))
-            if not bad:
-                continue
-            free = sorted(atom.free_symbols, key=xs.index)
-            state, values = None, ()
-            if len(free) == 1:
-                i = xs.index(free[0])
-                roots = _real_roots(atom, free[0], float(box.lower[i]), float(box.upper[i]))
-                if roots is not None:
-                    state, values = model.states[i], roots
-            k = int(np.argmin(np.abs(np.where(ok, v, 0.0)))) if kind == "pole" else int(np.argmax(v <= 0))
-            found.append(Singularity(kind, str(atom), state, values, tuple(float(c) for c in pts[k])))
-    if not found:
-        f = compile_matrix(sp.Matrix([e.subs({u: 0 for u in model.u}) for e in exprs[: model.n]]), (xs,), vector=True,
-                           what="f")
-        with np.errstate(all="ignore"):
-            fv = np.asarray(f(pts), dtype=float)
-        nonfinite = ~np.all(np.isfinite(fv), axis=-1)
-        if np.any(nonfinite):
-            k = int(np.argmax(nonfinite))
-            found.append(Singularity("non-finite", "f(x)", None, (), tuple(float(c) for c in pts[k])))
-    return tuple(found)
-
-
 def _cut_box(box: Box, cuts: dict[int, list[float]], keep: dict[int, Any], x0: np.ndarray | None) -> Box:
     """The box cut at the given values of its states: per state the piece holding ``x0`` (else the widest).
 
@@ -574,7 +439,7 @@ def _univariate(model: SymbolicModel, text: str, i: int) -> Any:
     """The singular expression ``text`` (found among the model's atoms) as a function of state ``i``."""
     subs = model.substituted()
     for e in (*model.rhs, *model.h):
-        for _kind, atom in _atoms(e.subs(subs)):
+        for _kind, atom in expression_atoms(e.subs(subs)):
             if str(atom) == text:
                 fn = compile_matrix(sp.Matrix([atom]), ((model.x[i],),), vector=True, what=text)
                 return lambda v: float(np.asarray(fn(np.array([[v]])), dtype=float)[0, 0])
@@ -632,15 +497,12 @@ def cascade_structure(model: SymbolicModel) -> CascadeStructure | None:
     return None
 
 
-def _input_bound(scenario: Any, duration: float | None) -> tuple[float, str]:
-    """``μ``: the largest ``‖u(t)‖`` of the file's input signals over the run (``0`` without inputs)."""
-    sig = getattr(scenario, "input_signals", None)
-    if sig is None:
+def _input_bound(scenario: Any) -> tuple[float, str]:
+    """``μ``: the largest ``‖u(t)‖`` of the file's input signals over its run, by the one rule of every command."""
+    if getattr(scenario, "input_signals", None) is None:
         return 0.0, "no [input_signals] in the file (μ = 0: give --mu for your inputs)"
-    t = np.linspace(0.0, float(duration or 10.0), 4001)
-    u = np.stack([np.broadcast_to(np.asarray(s(t), dtype=float), t.shape) for s in sig.signals], axis=-1)
-    mu = float(np.max(np.linalg.norm(u, axis=-1)))
-    return mu, f"max ‖u(t)‖ of [input_signals] over [0, {t[-1]:g}] = {mu:.4g}"
+    pb = problem(scenario)
+    return pb.mu, f"{pb.sources['mu']} = {pb.mu:.4g}"
 
 
 def _det_evidence(fields: AffineFields, s: tuple[int, ...], region: Box) -> tuple[str | None, Any]:
@@ -651,7 +513,7 @@ def _det_evidence(fields: AffineFields, s: tuple[int, ...], region: Box) -> tupl
     if det.is_number:
         return f"det Q_s = {det} (constant)", det
     fn = compile_matrix(sp.Matrix([det]), (tuple(fields.x),), vector=True, what="det Q_s")
-    pts = _sample(region)
+    pts = sample_points(region)
     with np.errstate(all="ignore"):
         v = np.abs(np.asarray(fn(pts), dtype=float)[:, 0])
     v = np.where(np.isfinite(v), v, 0.0)
@@ -667,7 +529,7 @@ def _local_drift_box(fields: AffineFields, det: Any, region: Box, x0: np.ndarray
     if len(free) != 1:
         return None
     i = fields.x.index(free[0])
-    roots = _real_roots(det, free[0], float(region.lower[i]), float(region.upper[i]))
+    roots = real_roots(det, free[0], float(region.lower[i]), float(region.upper[i]))
     if not roots:
         return None
     return _cut_box(region, {i: list(roots)}, {}, x0)
@@ -904,7 +766,7 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
             geo_err, fields = str(exc), None
     else:
         geo_err = "a linear model"
-    mu, mu_src = _input_bound(scenario, None if defaults is None else defaults.duration)
+    mu, mu_src = _input_bound(scenario)
     luen, kal = _linear_part(target, m, x_lin, geo, geo_err)
     methods = (
         _cascade(target, m, tables),

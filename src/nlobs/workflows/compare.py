@@ -71,7 +71,13 @@ from nlobs.errors import (
     StudyFailed,
     UnknownNameError,
 )
-from nlobs.simulate.coverage import InputBound, InRegion, Premise, monitor
+from nlobs.methods.base import Design
+from nlobs.methods.kalman import DEFAULT_FILTER_Q, noise_matrix
+from nlobs.methods.luenberger import LUENBERGER_GAMMA
+from nlobs.methods.problem import Problem, problem
+from nlobs.methods.registry import get as get_method
+from nlobs.methods.registry import names
+from nlobs.simulate.coverage import monitor
 from nlobs.simulate.loop import simulate
 from nlobs.simulate.result import SimulationResult
 from nlobs.systems.linear import LinearSystem
@@ -93,16 +99,12 @@ __all__ = [
     "compare_observers",
 ]
 
-#: The observers ``nlobs simulate MODEL`` knows, in the order they are reported.
-OBSERVERS: tuple[str, ...] = ("drift", "pinv", "luenberger", "cascade", "ekf", "ukf")
+#: The observers ``nlobs simulate MODEL`` knows, in the order they are reported (:mod:`nlobs.methods.registry`).
+OBSERVERS: tuple[str, ...] = names(simulated=True)
 #: Where the observers' steps run: NumPy, or their generated C (``--backend c``).
 BACKENDS: tuple[str, ...] = ("python", "c")
 #: A run diverged when its error exceeds this many times ``1 + max‖x‖`` of its truth (or is not finite).
 BLOWUP = 1e6
-#: Process-noise spectral density a Kalman filter assumes per state when the model has no ``[process_noise]``.
-DEFAULT_FILTER_Q = 1e-6
-#: ``γ`` and ``γn`` of LMIs (14), (15) for the Luenberger gain (the analytic centre of the region's LMIs at these).
-LUENBERGER_GAMMA = 1e3
 #: Most values (runs × saved times × states, per array) one comparison keeps.
 MAX_SAVED_VALUES = 50_000_000
 #: Saved instants per run (the step grid is thinned to about this many).
@@ -161,6 +163,8 @@ class ObserverOutcome:
         The trajectories (not part of :meth:`to_dict`).
     observer : Observer or None
         The observer that was run, with its gains (not part of :meth:`to_dict`).
+    design : Design or None
+        The method's design (:class:`nlobs.methods.base.Design`; ``to_dict()`` is the ``design`` key).
     """
 
     name: str
@@ -178,6 +182,7 @@ class ObserverOutcome:
     run_rms: Array = field(default_factory=lambda: np.zeros(0))
     result: SimulationResult | None = None
     observer: Any = None
+    design: Design | None = None
 
     def to_dict(self) -> dict[str, Any]:
         if self.skipped is not None:
@@ -185,6 +190,7 @@ class ObserverOutcome:
         return {
             "skipped": None,
             "description": self.description,
+            "design": None if self.design is None else self.design.to_dict(),
             "rms_error": list(self.rms_error),
             "rms_error_all": list(self.rms_error_all),
             "rms_error_norm": self.rms_error_norm,
@@ -321,6 +327,7 @@ class _Setup:
     box: Any
     save_every: int
     describe: dict[str, Any]
+    problem: Problem
 
 
 def _vector(name: str, value: ArrayLike | None, n: int) -> Array | None:
@@ -394,11 +401,14 @@ def _setup(scenario: Scenario, label: str, *, runs: int | None, duration: float 
         p0_std = np.maximum(std, 1e-3 * np.maximum(1.0, np.abs(x0_)))
         init_text = f"x̂0 = x0 + N(0, diag(std²)), std = {np.asarray(std).tolist()}"
     sensors = _sensor_override(model, rate, noise_std, scenario.sensors)
-    q = scenario.process_noise if process_noise is None else _noise_matrix("process_noise", process_noise, n)
+    q = scenario.process_noise if process_noise is None else noise_matrix("process_noise", process_noise, n)
     u, u_text = _input(scenario, inputs)
     u0 = np.asarray(u(0.0) if callable(u) else u, dtype=float).reshape(model.m) if model.m else np.zeros(0)
     region = as_region(box, n) if box is not None else (
         None if d.box is None else as_region([v for pair in zip(*d.box) for v in pair], n))
+    pb = problem(scenario, box=region, x0=x0_, duration=dur, u=u if inputs else None,
+                 u_source="the given inputs" if inputs else None, sensors=sensors, process_noise=q, label=label)
+    pb = dataclasses.replace(pb, sources={**pb.sources, **_sources(d, box, x0, duration)})
     save_every = max(1, steps // SAVED_POINTS)
     if runs_ * (steps // save_every + 1) * max(n, model.p) > MAX_SAVED_VALUES:
         raise InvalidArgumentError(f"--runs {runs_}: {runs_} runs × {steps // save_every + 1} saved times × "
@@ -415,18 +425,16 @@ def _setup(scenario: Scenario, label: str, *, runs: int | None, duration: float 
     }
     plant = model.compile() if isinstance(model, SymbolicModel) else model
     return _Setup(scenario, label, plant, np.asarray(x0_, dtype=float), x_hat, np.asarray(p0_std, dtype=float), dur,
-                  step, float(settle_), runs_, int(seed), u, u0, sensors, q, region, save_every, describe)
+                  step, float(settle_), runs_, int(seed), u, u0, sensors, q, region, save_every, describe, pb)
 
 
-def _noise_matrix(name: str, value: ArrayLike, n: int) -> Array:
-    """A covariance from standard deviations per state (``diag(std²)``) or an ``(n, n)`` symmetric PSD matrix."""
-    q = np.asarray(value, dtype=float)
-    if q.ndim == 1:
-        if q.shape != (n,) or not np.all(np.isfinite(q)) or np.any(q < 0):
-            raise InvalidArgumentError(f"{name}: expected {n} finite, non-negative standard deviations (one per "
-                                       f"state), got {q.tolist()}")
-        return np.diag(q**2)
-    return as_covariance(name, q, n)
+def _sources(d: Any, box: Any, x0: Any, duration: Any) -> dict[str, str]:
+    """Where the region, ``x0`` and the horizon of a comparison came from (options, ``[simulation]``, defaults)."""
+    return {"region": "given" if box is not None else ("[simulation] box" if d.box is not None else
+                                                      "default [-1, 1] per state"),
+            "x0": "given" if x0 is not None else ("[simulation] x0" if d.x0 is not None else "default zeros"),
+            "duration": "given" if duration is not None else ("[simulation] duration" if d.duration is not None
+                                                              else "default 10")}
 
 
 def _describe_sensor(g: MeasurementGroup, time_unit: str = "s") -> str:
@@ -462,173 +470,6 @@ def _input(scenario: Scenario, inputs: Any) -> tuple[Any, str]:
 
 
 # ----------------------------------------------------------------------------- designs
-class _Skip(Exception):
-    """An observer that does not apply: the reason."""
-
-
-def _design_drift(s: _Setup) -> tuple[Any, str, _Cert | None]:
-    from nlobs.workflows.design_drift import design_drift_report
-
-    model = s.scenario.model
-    if not isinstance(model, SymbolicModel):
-        raise _Skip("(3.1) of Dalla Mora, Germani & Manes is for nonlinear input-affine models; this one is linear")
-    try:
-        rep = design_drift_report(model, region=s.box, mu=_input_bound(s))
-    except (ModelError, AssumptionViolated, DesignError) as exc:
-        raise _Skip(str(exc)) from None
-    if not rep.usable:
-        raise _Skip("; ".join(rep.reasons))
-    obs = rep.observer(on_singular="nan")
-    mu = rep.certificate.constants.mu
-    box, where = rep.region, rep.region.describe()
-    hyps: list[Any] = [_exact(s, "Theorem 3.1 assumes an exact output and an exact model"),
-                       InRegion(box.lower, box.upper, "state", where), InRegion(box.lower, box.upper, "estimate", where)]
-    if model.m:
-        hyps.append(InputBound(mu))
-    cert = _Cert(bool(rep.certificate.verified), tuple(hyps), {"region": where, "mu": mu})
-    desc = (f"(3.1), s = {list(rep.s)}, K of Remark 2.11 (w = {rep.certificate.w:.4g}), α = "
-            f"{rep.certificate.constants.alpha:g}, γ = {rep.gamma:.4g} on {rep.region.describe()}")
-    return obs, desc, cert
-
-
-def _design_cascade(s: _Setup) -> tuple[Any, str, _Cert | None]:
-    from nlobs.systems.cascade_file import has_cascade, load_cascade
-    from nlobs.workflows.design_cascade import cascade_noise_model, design_cascade
-
-    path = s.scenario.path
-    if not path or not Path(path).is_file() or not has_cascade(Path(path)):  # a parsed text has no file to read
-        raise _Skip("the observer (9)–(10) of Grip, Saberi & Johansen needs a nonlinear subsystem Σ₁ whose "
-                    "unmeasured output drives a linear Σ₂ ((1a), (1b)); this model file has no [cascade] table "
-                    "describing one: add it, or build the interconnection with nlobs.CascadeObserver")
-    cm = load_cascade(path)
-    if cm.method == "h2":  # the gain for the file's own sensors and process noise
-        noise, notes = cascade_noise_model(cm, s.scenario)
-        design = design_cascade(cm, noise=noise, noise_notes=notes)
-    else:
-        design = design_cascade(cm)
-    if not design.verified:
-        raise _Skip(design.failure or "the gain fails its re-verification: "
-                    + "; ".join(k.summary() for k in design.checks if not k.passed))
-    t1 = design.theorem1
-    assert t1 is not None and design.certificate is not None
-    hyps = [Premise(f"{t1.theorem}: ‖H‖∞ below its γ", t1.holds,
-                    "no [cascade.lyapunov] constants" if t1.bound is None else
-                    f"‖H‖∞ = {t1.hinf_H:.4g} ≥ γ = {t1.bound:.4g}"),
-            Premise("continuous measurement", not s.sensors,
-                    "the output is sampled and held (Theorem 1 assumes a continuous output)"),
-            _exact(s, "Theorem 1 is for an exact output and model")]
-    K = design.certificate.gain
-    how = {"lmi": "LMI (14)", "h2": "the smallest noise-to-error H2 norm under LMI (14)"}.get(design.method,
-                                                                                              "pole placement")
-    desc = (f"{'(17)–(18)' if cm.feedback else '(9)–(10)'} with Σ1's injection g of the file, K = "
-            f"{[round(float(v), 5) for v in K.ravel()]} by {how} (‖H‖∞ = {t1.hinf_H:.4g} < γ = {design.gamma:g}); "
-            f"{design.status}")
-    return design.observer(), desc, _Cert(design.verified, tuple(hyps),
-                                          {"hinf_H": t1.hinf_H, "theorem1_gamma": t1.bound})
-
-
-def _input_bound(s: _Setup) -> float:
-    """``μ`` of (2.17): the largest ``‖u(t)‖`` of the run's known input (sampled at 2001 instants; 0 without inputs)."""
-    if not s.scenario.model.m or s.u is None:
-        return 0.0
-    if not callable(s.u):
-        return float(np.linalg.norm(np.asarray(s.u, dtype=float)))
-    ts = np.linspace(0.0, s.duration, 2001)
-    return float(max(np.linalg.norm(np.asarray(s.u(float(t)), dtype=float)) for t in ts))
-
-
-def _design_pinv(s: _Setup) -> tuple[Any, str, _Cert | None]:
-    from nlobs.workflows.design_pinv import design_pinv_report
-
-    model = s.scenario.model
-    if not isinstance(model, SymbolicModel):
-        raise _Skip("Röbenack's observer (7) is for nonlinear input-affine models; this one is linear")
-    try:
-        rep = design_pinv_report(model, region=s.box)
-    except (ModelError, AssumptionViolated, DesignError) as exc:
-        raise _Skip(str(exc)) from None
-    if not rep.usable:
-        failed = [c for c in rep.checks if not c.passed]
-        raise _Skip("; ".join(f"{c.name} fails: {c.evidence}" for c in failed) or "A5 fails")
-    desc = f"(7) with l(x) = Q⁺(x) k (17), k = {[round(v, 6) for v in rep.k]} (θ = {rep.theta:g}, {rep.placement})"
-    return rep.observer, desc, None
-
-
-def _design_luenberger(s: _Setup, alpha: float) -> tuple[Any, str, _Cert | None]:
-    from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
-    from nlobs.synthesis.observer_gain import design_observer_gain
-    from nlobs.synthesis.regions import HalfPlane
-    from nlobs.systems.linearize import linearize
-
-    model = s.scenario.model
-    if model.time.is_discrete:
-        raise _Skip("the certified gain of LMIs (14), (15) is for continuous time; use ekf or ukf for a discrete model")
-    lin = model if isinstance(model, LinearSystem) else linearize(model, s.x0, s.u0)
-    cert = None
-    for solver in ("clarabel", "scs"):  # the certificate is re-verified in NumPy whichever solver found it
-        try:
-            cert = design_observer_gain(lin.A, lin.C, np.eye(model.n), gamma=LUENBERGER_GAMMA,
-                                        gamma_n=LUENBERGER_GAMMA, region=HalfPlane(alpha), solver=solver)
-            break
-        except DesignError as exc:
-            failure = exc
-    if cert is None:
-        raise _Skip(f"no gain for the linearisation at x0 = {s.x0.tolist()}: {failure}")
-    L = cert.gain
-    obs = LuenbergerObserver(lin, L) if isinstance(model, LinearSystem) else ConstantGainObserver(s.plant, L)
-    poles = np.linalg.eigvals(lin.A - L @ lin.C)
-    linear = isinstance(model, LinearSystem)
-    hyps = [Premise("the plant is the linear model the certificate is for", linear,
-                    f"the certificate is for the linearisation at x0 = {s.x0.tolist()}, u = {s.u0.tolist()}; the "
-                    "plant is nonlinear"),
-            Premise("continuous measurement", not s.sensors,
-                    "the output is sampled and held (the certificate assumes a continuous output)"),
-            _exact(s, "the certificate bounds the decay of the error, not its noise floor")]
-    desc = (f"copy of the plant + L (y − h(x̂)), L of LMIs (14), (15) for the linearisation at x0 "
-            f"(Re λ < −{alpha:g}, analytic centre at γ = γn = {LUENBERGER_GAMMA:g}); poles of A − LC: "
-            + ", ".join(f"{complex(p).real:.3g}{complex(p).imag:+.3g}j" for p in poles))
-    return obs, desc, _Cert(bool(cert.verified), tuple(hyps), {})
-
-
-def _design_kalman(s: _Setup, kind: str, filter_q: ArrayLike | None) -> tuple[Any, str, _Cert | None]:
-    model = s.scenario.model
-    if not s.sensors:
-        raise _Skip("a Kalman filter needs sampled, noisy measurements: add [sensors] to the model file, or give "
-                    "--rate and --noise-std")
-    R = _measurement_covariance(model, s.sensors)
-    if np.linalg.eigvalsh(R)[0] <= 0:
-        zero = [g.name for g in s.sensors if np.any(np.asarray(g.noise_std) == 0)]
-        raise _Skip(f"the measurement covariance R is singular (sensor {', '.join(zero) or '?'} has zero noise); "
-                    "a Kalman filter needs R positive definite")
-    if filter_q is not None:
-        Q, q_text = _noise_matrix("filter_q", filter_q, model.n), "given"
-    elif s.process_noise is not None and np.any(s.process_noise):
-        Q, q_text = s.process_noise, "the process noise"
-    else:
-        Q, q_text = DEFAULT_FILTER_Q * np.eye(model.n), f"{DEFAULT_FILTER_Q:g} I (no process noise given)"
-    P0 = np.diag(s.p0_std**2)
-    from nlobs.observers import EKF, UKF
-
-    cls = EKF if kind == "ekf" else UKF
-    try:
-        obs = cls(s.plant, Q, R, P0, name=kind.upper())
-    except NlobsError as exc:
-        raise _Skip(str(exc)) from None
-    mode = "discrete" if model.time.is_discrete else "continuous-discrete"
-    desc = (f"{mode} {'extended' if kind == 'ekf' else 'unscented'} Kalman filter, Q = {q_text}, R from the sensors, "
-            f"P0 = diag({[float(f'{v:.4g}') for v in s.p0_std]}²)")
-    return obs, desc, None
-
-
-def _measurement_covariance(model: Any, sensors: Sequence[MeasurementGroup]) -> Array:
-    p = len(model.outputs)
-    R = np.zeros((p, p))
-    for g in sensors:
-        idx = [model.outputs.index(o) if isinstance(o, str) else int(o) for o in g.outputs]
-        R[np.ix_(idx, idx)] = g.covariance
-    return R
-
-
 @dataclass(frozen=True)
 class _Cert:
     """A certified design's verdict and the hypotheses a run must stay inside to be covered."""
@@ -636,14 +477,6 @@ class _Cert:
     verified: bool
     hypotheses: tuple[Any, ...]
     extras: Mapping[str, Any]
-
-
-def _exact(s: _Setup, why: str) -> Premise:
-    """The premise of an exact model and output: fails with measurement noise, bias or process noise."""
-    noisy = any(np.any(np.asarray(g.noise_std) > 0) or np.any(g.bias != 0) for g in s.sensors)
-    q = s.process_noise is not None and bool(np.any(s.process_noise))
-    what = [w for w, on in (("measurement noise or bias", noisy), ("process noise", q)) if on]
-    return Premise("exact measurement and model", not what, f"{' and '.join(what)} ({why})")
 
 
 # ----------------------------------------------------------------------------- metrics
@@ -846,21 +679,40 @@ def _compiled(obs: Any, desc: str) -> tuple[Any, str]:
     return compile_observer(obs), desc + "; generated C"
 
 
+def _options(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None) -> dict[str, Any]:
+    """The design options a comparison gives each method (the rest are the method's defaults)."""
+    if name == "drift":
+        return {"on_singular": "nan"}
+    if name == "luenberger":
+        return {"alpha": alpha}
+    if name in ("ekf", "ukf"):
+        return {"filter_q": filter_q, "p0_std": s.p0_std}
+    return {}
+
+
+def _design(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None) -> Design | str:
+    """The method's design for the comparison's problem, or why the observer is skipped."""
+    method = get_method(name)
+    why = method.applies(s.problem)
+    if why is not None:
+        return str(why)
+    try:
+        design = method.design(s.problem, **_options(name, s, alpha, filter_q))
+    except (ModelError, AssumptionViolated, DesignError) as exc:
+        return str(exc)
+    if not design.usable:
+        return "; ".join(design.failed)
+    return design
+
+
 def _run_one(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None, progress: bool | None,
              backend: str = "python") -> ObserverOutcome:
-    try:
-        if name == "cascade":
-            obs, desc, cert = _design_cascade(s)
-        elif name == "drift":
-            obs, desc, cert = _design_drift(s)
-        elif name == "pinv":
-            obs, desc, cert = _design_pinv(s)
-        elif name == "luenberger":
-            obs, desc, cert = _design_luenberger(s, alpha)
-        else:
-            obs, desc, cert = _design_kalman(s, name, filter_q)
-    except _Skip as why:
-        return ObserverOutcome(name, str(why))
+    design = _design(name, s, alpha, filter_q)
+    if isinstance(design, str):
+        return ObserverOutcome(name, design)
+    obs, desc = design.observer, design.description
+    cert = None if design.certificate is None else _Cert(design.verified, design.hypotheses,
+                                                           design.coverage_extras)
     if backend == "c":
         obs, desc = _compiled(obs, desc)
     x0 = np.broadcast_to(s.x0, (s.runs, s.scenario.model.n))
@@ -871,12 +723,12 @@ def _run_one(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None, pro
     except SimulationDiverged as exc:
         if exc.which == "plant":
             raise StudyFailed(f"the plant itself diverged ({exc}): check x0, the inputs and the process noise") from exc
-        return _failed(name, desc, s, f"stopped: {exc}")
+        return dataclasses.replace(_failed(name, desc, s, f"stopped: {exc}"), design=design)
     except NlobsError as exc:
         if isinstance(exc, (InvalidArgumentError, DimensionError)) and "rate" in str(exc):
             raise
-        return _failed(name, desc, s, f"stopped: {exc}")
-    return dataclasses.replace(_outcome(name, desc, res, s, cert), observer=obs)
+        return dataclasses.replace(_failed(name, desc, s, f"stopped: {exc}"), design=design)
+    return dataclasses.replace(_outcome(name, desc, res, s, cert), observer=obs, design=design)
 
 
 def _run_task(s: _Setup, name: str, alpha: float, filter_q: ArrayLike | None, backend: str) -> ObserverOutcome:

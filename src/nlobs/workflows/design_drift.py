@@ -63,6 +63,9 @@ from nlobs.synthesis.drift_gain import (
 )
 from nlobs.systems.brunovsky import brunovsky
 from nlobs.systems.symbolic import SymbolicModel
+from nlobs.methods.base import Design
+from nlobs.methods.drift import DRIFT, METHODS, DriftDesignReport, design_drift_report
+from nlobs.methods.problem import problem
 from nlobs.workflows._results import (
     checked_request,
     error_line,
@@ -84,259 +87,9 @@ __all__ = [
     "simulate_drift",
 ]
 
-#: The gain designs of (2.17): Remark 2.11 (Vandermonde) and the LMI in ``S = P⁻¹``, ``Y = S K``.
-METHODS: tuple[str, ...] = ("vandermonde", "sdp")
-#: A given ``γ`` counts as below the sampled estimate when smaller by more than this relative amount.
-_GAMMA_RTOL = 1e-9
 
 
 # --------------------------------------------------------------------------- the design
-
-
-@dataclass(frozen=True, eq=False)
-class DriftDesignReport:
-    """Everything ``nlobs design drift`` prints: structure, checks, gain, verification, bound constants.
-
-    Attributes
-    ----------
-    fields : AffineFields
-    s, r : tuple
-        Multi-index and observation relative degrees (``None``: undefined on the region).
-    checks : tuple of Check
-        Drift-observability on the region and ``s ≤ r``.
-    F : ndarray
-        ``F_{s,r}`` (2.12).
-    H : str
-        ``H_{s,r}(x)`` (2.11), as text.
-    gamma : float
-        ``γ`` used in (2.17).
-    gamma_source : str
-        ``"given"`` or ``"estimated"`` (``√(γ_L² + γ_H²)`` from :attr:`lipschitz`).
-    certificate : DriftGainCertificate
-    lipschitz : LipschitzEstimates
-    bound : ErrorBoundConstants
-    region : Box
-
-    The verdict (:attr:`usable`, with :attr:`reasons`) collects the premises of Theorem 3.1
-    that the report can check: drift-observability on the region, the certificate of
-    (2.17), and ``γ`` not below the sampled ``√(γ_L² + γ_H²)`` (the sampled values are
-    attained, so a ``γ`` below them is too small for the region: :attr:`warnings`). The
-    gain's own certificate may be verified while the design is not usable.
-    """
-
-    fields: AffineFields
-    s: tuple[int, ...]
-    r: tuple[int | None, ...]
-    checks: tuple[Check, ...]
-    F: Array
-    H: str
-    gamma: float
-    gamma_source: str
-    certificate: DriftGainCertificate
-    lipschitz: LipschitzEstimates
-    bound: ErrorBoundConstants
-    region: Box
-
-    @property
-    def model(self) -> str:
-        return self.fields.name
-
-    @property
-    def drift_check(self) -> Check:
-        """The drift-observability check on the region (Def. 2.3: ``Q_s`` nonsingular)."""
-        return next(k for k in self.checks if k.name == "drift-observability")
-
-    @property
-    def warnings(self) -> tuple[str, ...]:
-        """A given ``γ`` below the sampled estimate on the region (the certificate does not cover the model there)."""
-        est = self.lipschitz.gamma
-        if self.gamma < est * (1.0 - _GAMMA_RTOL):
-            return (f"γ = {self.gamma:.4g} ({self.gamma_source}) is below the sampled √(γ_L² + γ_H²) = {est:.4g} on the "
-                    "region: the certificate of (2.17) does not cover the model there (raise γ or shrink the region)",)
-        return ()
-
-    @property
-    def reasons(self) -> tuple[str, ...]:
-        """Why the design is not usable (empty when it is): failed premises, a failed certificate, :attr:`warnings`."""
-        out = []
-        drift = self.drift_check
-        if not drift.passed:
-            out.append(f"drift-observability fails on the region ({drift.evidence}): Theorem 3.1 does not apply")
-        if not self.certificate.verified:
-            out.append("the gain certificate of (2.17) failed: "
-                       + "; ".join(k.summary() for k in self.certificate.failed_checks))
-        return (*out, *self.warnings)
-
-    @property
-    def usable(self) -> bool:
-        """Drift-observable on the region, (2.17) verified, and ``γ`` covering the sampled estimate."""
-        return not self.reasons
-
-    def observer(self, *, regularization: float = 0.0, cond_limit: float = COND_LIMIT,
-                 on_singular: str = "raise", saturation: bool = False) -> DriftObserver:
-        """The observer (3.1) with this report's ``s`` and ``K``; ``saturation=True``: saturated on the region
-        (Khalil's form, :mod:`nlobs.observers.drift`; the same as (3.1) while the estimate is in the region)."""
-        return DriftObserver.from_fields(self.fields, self.s, self.certificate.gain, regularization=regularization,
-                                         cond_limit=cond_limit, on_singular=on_singular,
-                                         saturation=self.region if saturation else None)
-
-    @property
-    def usable_scope(self) -> str:
-        """``"local, on the region …"`` when usable: the premises of Theorem 3.1 (Lipschitz constants of Φ_s,
-        Φ_s⁻¹, L_s, H_{s,r}, asked on all of ℝⁿ) are estimated by sampling on the region only; else ``"none"``."""
-        return f"local, on the region {self.region.describe()}" if self.usable else "none"
-
-    def summary(self) -> str:
-        c = self.certificate.constants
-        r_txt = ", ".join("∞" if v is None else str(v) for v in self.r)
-        lines = [
-            f"drift-observability observer (Dalla Mora–Germani–Manes) for {self.model}",
-            f"  multi-index s = ({', '.join(map(str, self.s))}), observation relative degree r = ({r_txt})",
-            f"  region {self.region.describe()}",
-        ]
-        lines += [f"  [{'ok' if k.passed else 'FAILS'}] {k.name}: {k.evidence}" for k in self.checks]
-        lines.append(f"  H_s,r(x) = {self.H}")
-        L = self.lipschitz
-        lines.append(f"  sampled on the region ({L.samples} points): γ_Φ ≈ {L.gamma_phi:.4g}, γ_Φ⁻¹ ≈ {L.gamma_phi_inv:.4g}, "
-                     f"γ_L ≈ {L.gamma_L:.4g}, γ_H ≈ {L.gamma_H:.4g}")
-        lines.append(f"  (2.17) with α = {c.alpha:g}, μ = {c.mu:g}, γ = {self.gamma:.4g} ({self.gamma_source})")
-        lines += ["  " + ln for ln in self.certificate.summary().splitlines()]
-        lines.append("  K = " + np.array2string(self.certificate.gain, precision=5, separator=", ").replace("\n", "\n      "))
-        lines.append("  " + self.bound.describe())
-        lines += [f"  warning: {m}" for m in self.warnings]
-        lines.append(f"  usable: {self.usable_scope} (drift-observable there, (2.17) verified, γ covers the Lipschitz "
-                     "constants sampled there; Theorem 3.1 asks them globally: it covers a run while its state and "
-                     "estimate stay in the region, which --simulate checks)"
-                     if self.usable else "  usable: NO — " + "; ".join(self.reasons))
-        return "\n".join(lines)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "model": self.model,
-            "s": list(self.s),
-            "r": list(self.r),
-            "checks": [k.to_dict() for k in self.checks],
-            "F": self.F.tolist(),
-            "H": self.H,
-            "gamma": self.gamma,
-            "gamma_source": self.gamma_source,
-            "certificate": self.certificate.to_dict(),
-            "lipschitz": self.lipschitz.to_dict(),
-            "bound": self.bound.to_dict(),
-            "usable": self.usable,
-            "usable_scope": self.usable_scope,
-            "reasons": list(self.reasons),
-            "warnings": list(self.warnings),
-        }
-
-
-def _singular_note(model: Any, region: Box) -> str:
-    """``"; the model is singular in the region: …"`` (a pole or a root's domain, :func:`singularities`), or ``""``."""
-    from nlobs.workflows.advise import singularities
-
-    if not isinstance(model, SymbolicModel):
-        return ""
-    try:
-        found = singularities(model, region)
-    except NlobsError:
-        return ""
-    return "; the model itself is singular in the region: " + "; ".join(f.describe() for f in found) if found else ""
-
-
-def design_drift_report(
-    model: SymbolicModel,
-    s: Sequence[int] | None = None,
-    *,
-    alpha: float = 1.0,
-    mu: float = 1.0,
-    gamma: float | None = None,
-    method: str = "vandermonde",
-    region: Box | None = None,
-    parameters: Mapping[str, float] | None = None,
-    w: float | None = None,
-    w_max: float = 1e5,
-    objective: str = "min_gain",
-    samples: int = 2000,
-    seed: int = 0,
-) -> DriftDesignReport:
-    """Design and verify the gain of observer (3.1) for a model; the function behind ``nlobs design drift``.
-
-    Parameters
-    ----------
-    model : SymbolicModel
-        Continuous-time, input-affine, ``h`` independent of ``u``.
-    s : sequence of int, optional
-        Multi-index; default: the observability indices on the region.
-    alpha, mu : float
-        Decay rate ``α`` and input bound ``μ`` of (2.17).
-    gamma : float, optional
-        ``γ = √(γ_L² + γ_H²)``; default: estimated by sampling the region
-        (:func:`~nlobs.geometry.lipschitz.lipschitz_estimates`).
-    method : {"vandermonde", "sdp"}
-        Remark 2.11 (smallest ``w``, or the given ``w`` checked) or the LMI design.
-    region : Box, optional
-        Where the checks and constants are evaluated (default ``[−1, 1]ⁿ``).
-    parameters : mapping of str to float, optional
-        Override values of the model's named parameters.
-    w : float, optional
-        ``"vandermonde"``: verify ``K(w)`` at this ``w`` instead of searching the smallest one.
-    w_max : float
-        ``"vandermonde"``: the largest ``w`` the search tries.
-    objective : {"min_gain", "min_condition"}
-        SDP objective.
-    samples : int
-        Number of sampled points of the region for the Lipschitz estimates.
-    seed : int
-        State of the random generator that draws the sampled points (checks and Lipschitz estimates).
-
-    Returns
-    -------
-    DriftDesignReport
-        Also when drift-observability fails on the region or a given ``γ`` is below the
-        sampled estimate: then :attr:`DriftDesignReport.usable` is false and
-        :attr:`~DriftDesignReport.reasons` says why.
-
-    Raises
-    ------
-    ModelError
-        Not input-affine / not continuous-time.
-    InvalidArgumentError
-        ``s`` does not sum to ``n``.
-    NonFiniteError
-        The model is not finite at any sampled point of the region.
-    DesignInfeasible
-        No gain satisfies (2.17) (the message names the constraint and by how much).
-    AssumptionViolated
-        No gain satisfies (2.17) *and* drift-observability fails on the region: the failed check is the
-        cause (``Q_s`` singular there), named with its evidence.
-    """
-    fields = AffineFields.from_model(model, parameters)
-    reg = region or Box.unit(fields.n)
-    s_ = check_multi_index(default_multi_index(fields, reg) if s is None else s, fields.q, fields.n)
-    if str(method).lower() == "sdp":  # a lower bound (F not yet known), before the geometry; exact in the design
-        require_sdp_size(s_)
-    rd = observation_relative_degree(fields, reg)
-    checks = (check_drift_observability(fields, s_, reg, seed=seed), check_s_le_r(s_, rd.r))
-    H, F = input_gain_structure(fields, s_, rd.r)
-    lip = lipschitz_estimates(fields, s_, rd.r, reg, samples=samples, seed=seed)
-    g = lip.gamma if gamma is None else positive("gamma", gamma, allow_zero=True)
-    c = RiccatiConstants(s_, F, alpha, mu, g)
-    kw: dict[str, Any] = {"objective": objective} if str(method).lower() == "sdp" else {}
-    try:
-        cert = design_drift_gain(c, method, w=w, w_max=w_max, **kw)
-    except DesignInfeasible as exc:
-        drift = checks[0]
-        if not drift.passed:  # the real cause: Q_s is singular in the region, so no observer (3.1) exists there
-            raise AssumptionViolated(
-                f"drift-observability fails on {reg.describe()} ({drift.evidence}){_singular_note(model, reg)}: "
-                f"there is no observer (3.1) there, and (2.17) has no solution either (γ = {g:.4g}, sampled where "
-                "Q_s⁻¹ is large or undefined); choose a region (--box) where Q_s is nonsingular (nlobs advise "
-                "suggests one), or another output",
-                item="drift-observability", evidence=drift.evidence) from exc
-        raise
-    bound = error_bound_constants(cert, lip.gamma_phi, lip.gamma_phi_inv)
-    return DriftDesignReport(fields, s_, rd.r, checks, readonly(F), str(H.tolist()), float(g),
-                             "estimated" if gamma is None else "given", cert, lip, bound, reg)
 
 
 # --------------------------------------------------------------------------- simulate
@@ -533,6 +286,10 @@ class DriftWorkflowReport:
         certificate of (2.17)).
     message : str
         Empty when ``OK``; else ``"<model>: no usable observer: "`` and the reasons.
+    method_design : Design or None
+        The method's :class:`~nlobs.methods.base.Design` (its ``to_dict()`` keys join ``design`` in
+        :meth:`to_dict`: the same ``method``, ``parameters``, ``sources``, ``gain``, ``certified``,
+        ``premises`` as every other command reports).
     """
 
     design: DriftDesignReport
@@ -541,6 +298,7 @@ class DriftWorkflowReport:
     files: tuple[Path, ...]
     verdict: Verdict
     message: str
+    method_design: Design | None = None
 
     def _simulation_dict(self) -> dict[str, Any]:
         sim = self.simulation
@@ -561,7 +319,8 @@ class DriftWorkflowReport:
         ``certificate_violations`` (first per run: hypothesis, time, detail), ``certificate_failed_premises``,
         ``certificate_hypotheses``.
         """
-        data: dict[str, Any] = {"design": self.design.to_dict()}
+        data: dict[str, Any] = {"design": {**self.design.to_dict(), **(
+            {} if self.method_design is None else self.method_design.to_dict())}}
         if self.simulation is not None:
             data["simulation"] = self._simulation_dict()
         return data
@@ -586,8 +345,8 @@ def design_drift_observer(
     model: str | Path | SymbolicModel,
     *,
     s: Sequence[int] | None = None,
-    alpha: float = 1.0,
-    mu: float = 1.0,
+    alpha: float | None = None,
+    mu: float | None = None,
     gamma: float | None = None,
     method: str = "vandermonde",
     w: float | None = None,
@@ -606,8 +365,10 @@ def design_drift_observer(
         loaded continuous-time input-affine model.
     s : sequence of int, optional
         Multi-index (default: the observability indices on the region).
-    alpha, mu : float
-        Decay rate ``α`` and input bound ``μ`` of (2.17).
+    alpha, mu : float, optional
+        Decay rate ``α`` (default 1) and input bound ``μ`` of (2.17) (default: the largest
+        ``‖u(t)‖`` of the file's ``[input_signals]`` over its ``[simulation]`` duration, by the rule
+        of :mod:`nlobs.methods.problem`; 0 for a model given without a file).
     gamma : float, optional
         ``γ`` of (2.17) (default: estimated by sampling the region).
     method : {"vandermonde", "sdp"}
@@ -617,7 +378,8 @@ def design_drift_observer(
         and the simulation (if any) uses it.
     box : sequence of float, or Box, optional
         The region: ``lo, hi`` for every state or ``lo1, hi1, …``
-        (:func:`~nlobs.workflows.inputs.box_from_numbers`); default ``[−1, 1]ⁿ``.
+        (:func:`~nlobs.workflows.inputs.box_from_numbers`); default: the file's ``[simulation] box``,
+        else ``[−1, 1]ⁿ``.
     simulate : SimulationRequest, optional
         Simulate the design from these initial conditions (only when it is usable) and write
         the plot and trajectories to ``simulate.out``.
@@ -655,26 +417,29 @@ def design_drift_observer(
         The simulation stopped with another nlobs error (e.g. ``Q_s`` singular along the estimate);
         the cause is chained.
     """
-    m = symbolic_model(model)
     label = model_label(model) if name is None else str(name)
     if method not in METHODS:
         raise InvalidArgumentError(f"method: expected 'vandermonde' or 'sdp', got {method!r}")
-    region = None if box is None else as_region(box, m.n)
+    pb = problem(model, box=box, label=label)  # the model file is read once, here
+    m = symbolic_model(pb.model)
     # α, μ, γ checked (and named as the options) before the Lipschitz sampling and the design
-    riccati_constant("--alpha", alpha)
-    riccati_constant("--mu", mu, allow_zero=True)
+    if alpha is not None:
+        riccati_constant("--alpha", alpha)
+    if mu is not None:
+        riccati_constant("--mu", mu, allow_zero=True)
     if gamma is not None:
         riccati_constant("--gamma", gamma, allow_zero=True)
     # the simulation's vectors, size and output folder are checked before the design (which can take long)
     resolved = checked_request(simulate, m)
     w_max = riccati_constant("--w-max", w_max)
-    rep = design_drift_report(m, s, alpha=alpha, mu=mu, gamma=gamma, method=method, region=region, w=w, w_max=w_max)
-    if not rep.usable:
+    design = DRIFT.design(pb, s=s, alpha=alpha, mu=mu, gamma=gamma, gain_method=method, w=w, w_max=w_max)
+    rep = design.report
+    if not design.usable:
         verdict = Verdict.NO_OBSERVER if not rep.drift_check.passed else Verdict.FAILED
         return DriftWorkflowReport(rep, None, simulate, (), verdict,
-                                   f"{label}: no usable observer: " + "; ".join(rep.reasons))
+                                   f"{label}: no usable observer: " + "; ".join(design.failed), design)
     if simulate is None:
-        return DriftWorkflowReport(rep, None, None, (), Verdict.OK, "")
+        return DriftWorkflowReport(rep, None, None, (), Verdict.OK, "", design)
     assert resolved is not None
     x0, x_hat0, u = resolved
     try:
@@ -685,4 +450,4 @@ def design_drift_observer(
             brunovsky(rep.s)[0] - vandermonde_gain(rep.s, w).K @ brunovsky(rep.s)[2])
         raise explain_divergence(exc, float(np.max(np.abs(eig))), simulate.dt, saturation) from exc
     files = write_result(sim.result, simulate.out, "drift", model_units(model))
-    return DriftWorkflowReport(rep, sim, simulate, files, Verdict.OK, "")
+    return DriftWorkflowReport(rep, sim, simulate, files, Verdict.OK, "", design)

@@ -39,6 +39,9 @@ from nlobs.simulate.sampling import MeasurementGroup
 from nlobs.simulate.signals import InputLike
 from nlobs.synthesis.pinv_gain import DEFAULT_THETA, PLACEMENTS, HighGain, Placement
 from nlobs.systems.symbolic import SymbolicModel
+from nlobs.methods.base import Design
+from nlobs.methods.pinv import PINV, PinvDesignReport, build_pinv_observer, design_pinv_report
+from nlobs.methods.problem import problem
 from nlobs.workflows._results import checked_request, error_line, error_summary, run_study, write_result
 from nlobs.workflows.inputs import SimulationRequest, as_region, model_units, symbolic_model
 from nlobs.workflows.verdict import Verdict
@@ -51,227 +54,6 @@ __all__ = [
     "design_pinv_report",
     "simulate_pinv",
 ]
-
-
-def _build_observer(
-    model: SymbolicModel,
-    k: ArrayLike | None,
-    theta: float,
-    placement: Placement,
-    region: Box | None,
-    parameters: Mapping[str, float] | None,
-    pinv: Literal["symbolic", "numeric"],
-) -> PinvObserver:
-    """Observer (7)/(17) with ``k`` or ``HighGain(theta, placement)``; A5 failing only warns (silenced here)."""
-    gain: ArrayLike | HighGain = HighGain(theta, placement) if k is None else k
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", AssumptionWarning)
-        return PinvObserver.from_model(model, parameters=parameters, k=gain, region=region, require_a5=False,
-                                       pinv=pinv)
-
-
-# ----------------------------------------------------------------------------- the design
-def _strings(M: sp.MatrixBase) -> tuple[tuple[str, ...], ...]:
-    return tuple(tuple(str(M[i, j]) for j in range(M.shape[1])) for i in range(M.shape[0]))
-
-
-@dataclass(frozen=True)
-class PinvDesignReport:
-    """What ``nlobs design pinv`` prints: relative degree, checks, ``Q⁺``, the gain field and ``k``.
-
-    Attributes
-    ----------
-    model : str
-    states, outputs : tuple of str
-    relative_degree : tuple of int
-    input_gains : tuple of str
-        Per output, ``L_g L_f^{r_j−1} h_j`` (where it vanishes the relative degree
-        is not uniform, but the observation relative degree still is ``r_j``).
-    observability_rank : int or None
-        Generic rank of the codistribution spanned by the ``dL_f^k h`` (``None``: undecided, see
-        :func:`nlobs.geometry.checks.observability_rank_evidence`).
-    checks : tuple of Check
-        A1 and A5.
-    Q, pinv : tuple of tuple of str
-        ``Q`` (13) and ``Q⁺`` (25), row by row.
-    gain_field : tuple of tuple of str
-        ``l(x) = Q⁺(x) K`` with the symbols ``k1, k2, …`` (n rows, q columns).
-    gain_numeric : tuple of tuple of str
-        The same with the numeric ``k``.
-    k : tuple of float
-    roots : tuple of float
-        Eigenvalues of every ``A − k cᵀ`` (the roots of (10)).
-    theta : float or None
-    placement : str or None
-    usable : bool
-        A1 and A5 hold on the region — a *local* verdict (:attr:`usable_scope`): Corollary 4.1 also
-        needs A3, A4 (global Lipschitz and output-to-state stability conditions in the coordinates (2))
-        and A6 (the ``τ_i`` complete), which are not checked (:attr:`hypotheses`).
-    region : str
-        The region A1 and A5 were checked on.
-    observer : PinvObserver
-        The observer this report describes (built once; :func:`simulate_pinv` with
-        ``report=`` runs this very object). Not part of :meth:`to_dict` nor of equality.
-    """
-
-    model: str
-    states: tuple[str, ...]
-    outputs: tuple[str, ...]
-    relative_degree: tuple[int, ...]
-    input_gains: tuple[str, ...]
-    observability_rank: int | None
-    checks: tuple[Check, ...]
-    Q: tuple[tuple[str, ...], ...]
-    pinv: tuple[tuple[str, ...], ...]
-    gain_field: tuple[tuple[str, ...], ...]
-    gain_numeric: tuple[tuple[str, ...], ...]
-    k: tuple[float, ...]
-    roots: tuple[float, ...]
-    theta: float | None
-    placement: str | None
-    usable: bool
-    region: str = ""
-    observer: PinvObserver = field(default=None, repr=False, compare=False)  # type: ignore[assignment]
-
-    @property
-    def hypotheses(self) -> tuple[dict[str, str], ...]:
-        """Every hypothesis of Röbenack's Corollary 4.1 (A1, A3–A6; A2 through Theorem 4.1), each with its status.
-
-        ``status`` is ``"verified on the region"`` / ``"fails on the region"`` (A1, A5: sampled rank and
-        involutivity tests with their evidence) or ``"not checked"`` (the global conditions).
-        """
-        out = []
-        for c in self.checks:
-            key = "A1" if c.name.startswith("A1") else "A5" if c.name.startswith("A5") else c.name
-            out.append({"name": key, "status": "verified on the region" if c.passed else "fails on the region",
-                        "evidence": c.evidence})
-        out += [
-            {"name": "A2", "status": "not checked",
-             "evidence": "Φ (2) a global diffeomorphism: given by Theorem 4.1 only when A1, A5 and A6 hold globally"},
-            {"name": "A3", "status": "not checked",
-             "evidence": "α, β globally Lipschitz (11) in the coordinates (2) on all of Ω, not only the region"},
-            {"name": "A4", "status": "not checked",
-             "evidence": "an exponential-decay OSS Lyapunov function V₂ of the zero dynamics (12)"},
-            {"name": "A6", "status": "not checked", "evidence": "the vector fields τ_1, …, τ_r complete"},
-        ]
-        return tuple(out)
-
-    @property
-    def missing(self) -> tuple[str, ...]:
-        """The hypotheses of Corollary 4.1 that are not verified (failed or not checked)."""
-        return tuple(h["name"] for h in self.hypotheses if h["status"] != "verified on the region")
-
-    @property
-    def usable_scope(self) -> str:
-        """``"local, on the region …"`` when A1 and A5 hold there (the global A2–A4, A6 unchecked), else ``"none"``."""
-        return f"local, on the region {self.region}" if self.usable else "none"
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready form (stable keys)."""
-        return {
-            "model": self.model, "states": list(self.states), "outputs": list(self.outputs),
-            "observation_relative_degree": list(self.relative_degree), "input_gains": list(self.input_gains),
-            "observability_rank": self.observability_rank, "checks": [c.to_dict() for c in self.checks],
-            "involutive": next(c.passed for c in self.checks if c.name.startswith("A5")),
-            "Q": [list(r) for r in self.Q], "pinv": [list(r) for r in self.pinv],
-            "pinv_gain": [list(r) for r in self.gain_field], "pinv_gain_numeric": [list(r) for r in self.gain_numeric],
-            "k": list(self.k), "roots": list(self.roots), "theta": self.theta, "placement": self.placement,
-            "usable": self.usable, "usable_scope": self.usable_scope, "hypotheses": list(self.hypotheses),
-            "missing_hypotheses": list(self.missing),
-        }
-
-    def summary(self) -> str:
-        """A plain-text report."""
-        lines = [f"Moore–Penrose observer (Röbenack 2008, (7) with (17)) for {self.model}"]
-        for o, rj, lg in zip(self.outputs, self.relative_degree, self.input_gains):
-            lines.append(f"  output {o}: observation relative degree r = {rj}, L_g L_f^{rj - 1} h = {lg}")
-        if self.observability_rank is None:
-            lines.append("  generic rank of the observability codistribution: undecided (a scaled singular value "
-                         "lies within the rounding error; see nlobs analyze)")
-        else:
-            lines.append(f"  generic rank of the observability codistribution: {self.observability_rank} "
-                         f"(n = {len(self.states)}; {len(self.states) - self.observability_rank} unobservable "
-                         "direction(s))")
-        for c in self.checks:
-            lines.append(f"  {'ok  ' if c.passed else 'FAIL'} {c.name}: {c.evidence}")
-        lines.append("  Q⁺(x) (columns τ_i, (18)):")
-        lines += [f"    [{', '.join(r)}]" for r in self.pinv]
-        lines.append("  gain field l(x) = Q⁺(x) k (17):")
-        for s, g, gn in zip(self.states, self.gain_field, self.gain_numeric):
-            lines.append(f"    {s}: {', '.join(g)}    = {', '.join(gn)}")
-        design = f" (θ = {self.theta:g}, placement {self.placement})" if self.theta is not None else ""
-        lines.append(f"  k = [{', '.join(f'{v:.6g}' for v in self.k)}]{design}; roots of (10): "
-                     f"[{', '.join(f'{v:.6g}' for v in self.roots)}]")
-        for h in self.hypotheses[len(self.checks):]:
-            lines.append(f"  ?    {h['name']} {h['status']}: {h['evidence']}")
-        if self.usable:
-            lines.append(f"  usable: local only, on the region {self.region} (A1, A5 verified there by sampling); "
-                         f"Corollary 4.1's convergence also needs {', '.join(self.missing)}, not checked")
-        else:
-            lines.append("  usable: no: A5 fails, Theorem 4.1 does not apply")
-        return "\n".join(lines)
-
-
-def design_pinv_report(
-    model: SymbolicModel,
-    k: ArrayLike | None = None,
-    theta: float = DEFAULT_THETA,
-    placement: Placement = "powers",
-    region: Box | None = None,
-    *,
-    parameters: Mapping[str, float] | None = None,
-    pinv: Literal["symbolic", "numeric"] = "symbolic",
-) -> PinvDesignReport:
-    """Design the Moore–Penrose observer of ``model`` and report it (for ``nlobs design pinv``).
-
-    ``k`` (stacked, ``Σ r_j`` entries) overrides the high-gain design ``(theta, placement)``.
-    A5 failing is reported (``usable`` false), not raised; A1 failing raises
-    :class:`~nlobs.errors.AssumptionViolated` (no ``Q⁺`` exists). The observer is built once and
-    kept in the report (:attr:`PinvDesignReport.observer`).
-
-    Parameters
-    ----------
-    model : SymbolicModel
-        Continuous-time, input-affine model.
-    k : array_like, optional
-        Stacked gain vector (``Σ r_j`` entries); default: the high-gain design.
-    theta : float
-        ``θ > 0`` of :class:`~nlobs.synthesis.pinv_gain.HighGain`.
-    placement : {"powers", "multiple"}
-        Root placement of the high-gain design.
-    region : Box, optional
-        Where A1 and A5 are checked (default ``[−1, 1]ⁿ``).
-    parameters : mapping of str to float, optional
-        Override values of the model's named parameters.
-    pinv : {"symbolic", "numeric"}
-        ``Q⁺`` from its simplified closed form, or ``np.linalg.pinv`` of ``Q`` at each evaluation.
-
-    Returns
-    -------
-    PinvDesignReport
-
-    Raises
-    ------
-    AssumptionViolated
-        A1 fails on the region.
-    """
-    obs = _build_observer(model, k, theta, placement, region, parameters, pinv)
-    F = obs.fields
-    lg = []
-    for j, rj in enumerate(obs.r):
-        phi = F.lie_chain(j, rj)[-1]
-        row = ", ".join(str(sp.factor(lie_derivative(phi, F.g[:, c], F.x))) for c in range(F.m))
-        lg.append(row if F.m == 1 else f"[{row}]")
-    roots = np.concatenate([np.sort(np.linalg.eigvals(M).real) for M in obs.error_matrices])
-    return PinvDesignReport(
-        model=F.name, states=F.states, outputs=F.outputs, relative_degree=obs.r, input_gains=tuple(lg),
-        observability_rank=observability_rank(F, obs.region), checks=obs.checks, Q=_strings(obs.Q),
-        pinv=_strings(obs.Qp), gain_field=_strings(obs.gain_symbolic), gain_numeric=_strings(obs.gain),
-        k=tuple(float(v) for v in obs.k_vector), roots=tuple(float(v) for v in roots),
-        theta=None if obs.high_gain is None else obs.high_gain.theta,
-        placement=None if obs.high_gain is None else obs.high_gain.placement,
-        usable=all(c.passed for c in obs.checks), region=obs.region.describe(), observer=obs,
-    )
 
 
 # ----------------------------------------------------------------------------- simulation
@@ -337,7 +119,7 @@ def simulate_pinv(
     -------
     SimulationResult
     """
-    obs = report.observer if report is not None else _build_observer(model, k, theta, placement, region, parameters,
+    obs = report.observer if report is not None else build_pinv_observer(model, k, theta, placement, region, parameters,
                                                                       pinv)
     if saturation:
         obs = obs.with_saturation(obs.region)
@@ -370,6 +152,9 @@ class PinvWorkflowReport:
         reported in the design, not as a failure.
     message : str
         Empty.
+    method_design : Design or None
+        The method's :class:`~nlobs.methods.base.Design` (its ``to_dict()`` keys join ``design`` in
+        :meth:`to_dict`).
     """
 
     design: PinvDesignReport
@@ -379,6 +164,7 @@ class PinvWorkflowReport:
     verdict: Verdict = Verdict.OK
     message: str = ""
     coverage: Coverage | None = None
+    method_design: Design | None = None
 
     def _simulation_dict(self) -> dict[str, Any]:
         assert self.simulation is not None
@@ -395,7 +181,8 @@ class PinvWorkflowReport:
         ``certificate_covers_run``, ``certificate_covered_fraction``, ``certificate_violations`` (first per run:
         hypothesis, time, detail), ``certificate_failed_premises``, ``certificate_hypotheses``.
         """
-        data: dict[str, Any] = {"design": self.design.to_dict()}
+        data: dict[str, Any] = {"design": {**self.design.to_dict(), **(
+            {} if self.method_design is None else self.method_design.to_dict())}}
         if self.simulation is not None:
             data["simulation"] = self._simulation_dict()
         return data
@@ -468,19 +255,21 @@ def design_pinv_observer(
     StudyFailed
         The simulation stopped with another nlobs error; the cause is chained.
     """
-    m = symbolic_model(model)
     if placement not in PLACEMENTS:
         raise InvalidArgumentError(f"placement: expected 'powers' or 'multiple', got {placement!r}")
-    region = None if box is None else as_region(box, m.n)
+    pb = problem(model, box=box)  # the model file is read once, here
+    m = symbolic_model(pb.model)
     # the simulation's vectors, size and output folder are checked before the design (which can take long)
     resolved = checked_request(simulate, m)
-    rep = design_pinv_report(m, None if k is None else [float(v) for v in k], theta, placement, region)
+    design = PINV.design(pb, k=None if k is None else [float(v) for v in k], theta=theta, placement=placement)
+    rep = design.report
+    region_given = pb.sources.get("region") in ("given", "[simulation] box")
     if simulate is None:
-        return PinvWorkflowReport(rep, None, None, ())
+        return PinvWorkflowReport(rep, None, None, (), method_design=design)
     assert resolved is not None
     x0, x_hat0, u = resolved
     res = run_study(lambda: simulate_pinv(m, x0, x_hat0, simulate.duration, dt=simulate.dt, u=u, report=rep,
-                                          saturation=box is not None if saturation is None else saturation))
+                                          saturation=region_given if saturation is None else saturation))
     files = write_result(res, simulate.out, "pinv", model_units(model))
     box = rep.observer.region
     assert box is not None
@@ -489,4 +278,4 @@ def design_pinv_observer(
     hyps: list[Any] = [InRegion(box.lower, box.upper, "state", where), InRegion(box.lower, box.upper, "estimate", where),
                        Premise(f"{', '.join(missing)} of Corollary 4.1", False, "not checked (global conditions)")]
     coverage = monitor(res, hyps, u=np.asarray(u, dtype=float), verified=rep.usable)
-    return PinvWorkflowReport(rep, res, simulate, files, coverage=coverage)
+    return PinvWorkflowReport(rep, res, simulate, files, coverage=coverage, method_design=design)

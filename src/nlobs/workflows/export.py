@@ -17,14 +17,15 @@ from typing import Any
 
 from nlobs._io import with_schema
 from nlobs.errors import InvalidArgumentError
+from nlobs.methods.registry import names
 from nlobs.workflows.verdict import Verdict
 
 __all__ = ["EXPORTABLE", "ExportReport", "export_model_observer"]
 
-#: The observers ``nlobs export --observer`` designs and writes.
-EXPORTABLE: tuple[str, ...] = ("luenberger", "drift", "pinv", "cascade", "setvalued", "gnss-ins")
-#: The Luenberger gain of ``nlobs export --observer luenberger``: LMIs (14), (15) with Re λ < −1 at γ = γn.
-LUENBERGER_ALPHA, LUENBERGER_GAMMA = 1.0, 1000.0
+#: Observers of a domain of their own, exported from their own files (not methods of the registry).
+_DOMAIN: tuple[str, ...] = ("setvalued", "gnss-ins")
+#: The observers ``nlobs export --observer`` designs and writes: the registry's, then :data:`_DOMAIN`.
+EXPORTABLE: tuple[str, ...] = (*names(exported=True), *_DOMAIN)
 LANGUAGES: tuple[str, ...] = ("c",)
 
 
@@ -50,6 +51,9 @@ class ExportReport:
         ``OK`` when certified, else ``FAILED``.
     message : str
         Why not, when ``FAILED``.
+    design : Design or None
+        The method's design (:class:`nlobs.methods.base.Design`; ``None`` for ``setvalued`` and
+        ``gnss-ins``); ``to_dict()`` is the ``design`` key.
     """
 
     model: str
@@ -60,6 +64,7 @@ class ExportReport:
     exported: Any = field(repr=False)
     verdict: Verdict = Verdict.OK
     message: str = ""
+    design: Any = field(default=None, repr=False)
 
     def summary(self) -> str:
         """What was written, and on which certificate."""
@@ -77,87 +82,49 @@ class ExportReport:
         return with_schema({"model": self.model, "observer": self.observer, "certified": self.certified,
                             "certificate": self.certificate, "files": [str(p) for p in self.files],
                             "module": self.exported.to_dict(), "verdict": self.verdict.value,
-                            "message": self.message})
+                            "message": self.message,
+                            "design": None if self.design is None else self.design.to_dict()})
 
 
-def _luenberger(model: Any, box: Any, saturation: bool | None, x0: Any = None) -> tuple[Any, bool, str, str]:
-    """A linear model: the Luenberger observer of the certified gain. A nonlinear one: the constant-gain copy
-    of the plant with the gain certified for its linearisation at the file's x0 (not for the plant)."""
-    import numpy as np
+def _certificate_text(design: Any, title: str) -> str:
+    """What the header's comment block says the design rests on: the method, its certificate, its premises."""
+    lines = [title, design.description]
+    if design.certificate is not None:
+        lines.append(design.certificate.summary())
+    lines += [f"{p.name}: {'passed' if p.passed else 'FAILED'}: {p.evidence}" for p in design.premises]
+    lines += [f"{u}: not checked" for u in design.unchecked]
+    report = design.report
+    if design.method == "drift":
+        lines.append(f"bound (3.2): {report.bound.describe()}")
+    elif design.method == "cascade":
+        from nlobs.export.cascade import design_notes
 
-    from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
-    from nlobs.synthesis.observer_gain import design_observer_gain
-    from nlobs.synthesis.regions import HalfPlane
-    from nlobs.systems.linear import LinearSystem
-    from nlobs.systems.linearize import linearize
-
-    if box is not None or saturation is not None:
-        raise InvalidArgumentError("--box and --saturation do not apply to the Luenberger observer")
-    if model.time.is_discrete:
-        raise InvalidArgumentError("the certified gain of LMIs (14), (15) is for continuous time: a discrete "
-                                   "model's observer is exported from Python (export_observer)")
-    linear = isinstance(model, LinearSystem)
-    x0 = np.zeros(model.n) if x0 is None else np.asarray(x0, dtype=float)
-    u0 = np.zeros(model.m)
-    lin = model if linear else linearize(model, x0, u0)
-    cert = design_observer_gain(lin.A, lin.C, np.eye(model.n), gamma=LUENBERGER_GAMMA, gamma_n=LUENBERGER_GAMMA,
-                                region=HalfPlane(LUENBERGER_ALPHA))
-    obs = LuenbergerObserver(lin, cert.gain) if linear else ConstantGainObserver(model.compile(), cert.gain)
-    where = "the linear model" if linear else f"the linearisation at x0 = {x0.tolist()}, u = {u0.tolist()}"
-    text = (f"Grip, Saberi & Johansen, LMIs (14), (15) for {where} (Re λ < −{LUENBERGER_ALPHA:g}, "
-            f"γ = γn = {LUENBERGER_GAMMA:g})\n{cert.summary()}")
-    why = "" if cert.verified and linear else (
-        "the gain's certificate failed" if not cert.verified else
-        f"the certificate is for {where}, not for the nonlinear plant")
-    return obs, bool(cert.verified) and linear, text, why
+        lines += [f"{k}: {v}" for k, v in design_notes(report)]
+    return "\n".join(lines)
 
 
-def _drift(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, str, str]:
-    from nlobs.workflows.design_drift import design_drift_report
-    from nlobs.workflows.inputs import as_region
+def _method_design(method: Any, pb: Any, options: dict[str, Any], saturation: bool | None) -> tuple[Any, bool, str, str, Any]:
+    """The registry method's design for the export: observer, certified, header text, why not, the Design."""
+    from nlobs.errors import AssumptionViolated
 
-    region = None if box is None else as_region(box, model.n)
-    rep = design_drift_report(model, region=region)
-    sat = True if saturation is None else saturation
-    obs = rep.observer(saturation=sat)
-    text = "\n".join([f"Dalla Mora, Germani & Manes, Theorem 3.1 on {rep.region.describe()}",
-                      rep.certificate.summary(),
-                      f"bound (3.2): {rep.bound.describe()}"])
-    why = "" if rep.usable else "; ".join(rep.reasons)
-    return obs, rep.usable, text, why
-
-
-def _pinv(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, str, str]:
-    from nlobs.workflows.design_pinv import design_pinv_report
-    from nlobs.workflows.inputs import as_region
-
-    region = None if box is None else as_region(box, model.n)
-    rep = design_pinv_report(model, None, region=region)
-    obs = rep.observer
-    sat = (box is not None) if saturation is None else saturation
-    if sat:
-        obs = obs.with_saturation(obs.region)
-    lines = [f"Röbenack, Theorem 4.1 / Corollary 4.1 on {obs.region.describe()}"]
-    lines += [f"{c.name}: {'passed' if c.passed else 'FAILED'}: {c.evidence}" for c in rep.checks]
-    lines += [f"{h['name']}: {h['status']}" for h in rep.hypotheses]
-    why = "" if rep.usable else "the design is not usable: " + "; ".join(rep.missing or ("a check failed",))
-    return obs, rep.usable, "\n".join(lines), why
-
-
-def _cascade(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, str, str]:
-    from nlobs.export.cascade import design_notes
-    from nlobs.systems.cascade_file import load_cascade
-    from nlobs.workflows.design_cascade import design_cascade
-
-    if box is not None or saturation is not None:
-        raise InvalidArgumentError("--box and --saturation do not apply to the cascade observer (its region and "
-                                   "saturations are the file's [cascade] table)")
-    design = design_cascade(load_cascade(model))
-    if design.certificate is None:
-        raise InvalidArgumentError(f"no gain to export: {design.failure}")
-    text = "\n".join(f"{k}: {v}" for k, v in design_notes(design))
-    why = "" if design.verified else f"status {design.status}: {design.failure or 'a check failed'}"
-    return design.observer(), design.verified, f"Grip, Saberi & Johansen, LMI (14) and Theorem 1\n{text}", why
+    why = method.applies(pb)
+    if why is not None:
+        raise AssumptionViolated(f"{method.name}: {why}")
+    if "saturation" in method.options:
+        # the design commands' defaults: the drift observer saturated on its region; pinv when a region was given
+        given_region = pb.sources.get("region") in ("given", "[simulation] box")
+        options = {**options, "saturation": (True if method.name == "drift" else given_region)
+                   if saturation is None else saturation}
+    elif saturation is not None:
+        raise InvalidArgumentError(f"saturation does not apply to the {method.name} observer")
+    design = method.design(pb, **options)
+    where = pb.region.describe()
+    title = {"drift": f"Dalla Mora, Germani & Manes, Theorem 3.1 on {where}",
+             "pinv": f"Röbenack, Theorem 4.1 / Corollary 4.1 on {where}",
+             "cascade": "Grip, Saberi & Johansen, LMI (14) and Theorem 1",
+             "luenberger": "Grip, Saberi & Johansen, LMIs (14), (15)"}.get(method.name, method.title)
+    why_not = "" if design.certified else design.status
+    return design.observer, design.certified, _certificate_text(design, title), why_not, design
 
 
 def _setvalued(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, str, str]:
@@ -201,7 +168,7 @@ def _gnss_ins(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool,
 
 def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: str = "c",
                           box: Sequence[float] | Any | None = None, saturation: bool | None = None,
-                          prefix: str | None = None) -> ExportReport:
+                          prefix: str | None = None, **options: Any) -> ExportReport:
     """Design ``observer`` for ``model`` and write its C module to ``out`` (``nlobs export``).
 
     Parameters
@@ -220,6 +187,9 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
         Khalil's saturated form outside the region (default: the design command's default).
     prefix : str, optional
         The C prefix (default from the model's name).
+    **options
+        Design options of the method, as ``nlobs design`` takes them (``mu``, ``alpha``, ``theta``,
+        ``gamma``, …; :mod:`nlobs.methods`); an option the method does not take is refused.
 
     Returns
     -------
@@ -239,33 +209,37 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
 
     if lang not in LANGUAGES:
         raise InvalidArgumentError(f"--lang: expected one of {', '.join(LANGUAGES)}, got {lang!r}")
-    makers = {"luenberger": _luenberger, "drift": _drift, "pinv": _pinv, "cascade": _cascade, "setvalued": _setvalued, "gnss-ins": _gnss_ins}
-    if observer not in makers:
-        raise InvalidArgumentError(f"--observer: expected one of {', '.join(EXPORTABLE)}, got {observer!r}")
-    if observer == "gnss-ins":
-        if str(model) != "gnss-ins":
-            raise InvalidArgumentError(f"--observer gnss-ins: the model is the demo's flight, named gnss-ins (got {model!r})")
-        name = "gnss-ins"
-        obs, certified, text, why = _gnss_ins(None, box, saturation)
-    elif observer == "luenberger":
-        from nlobs.errors import NlobsError
-        from nlobs.systems.modelfile import load_model, load_scenario
+    from nlobs.methods.problem import problem
+    from nlobs.methods.registry import get, names
 
-        m = load_model(model) if isinstance(model, (str, Path)) else model
-        name = m.name
-        try:
-            x0 = load_scenario(model).defaults.x0 if isinstance(model, (str, Path)) else None
-        except NlobsError:
-            x0 = None
-        obs, certified, text, why = _luenberger(m, box, saturation, x0)
-    elif observer in ("cascade", "setvalued"):
-        name = Path(str(model)).stem
-        obs, certified, text, why = makers[observer](model, box, saturation)
+    known = (*names(exported=True), *_DOMAIN)
+    if observer not in known:
+        raise InvalidArgumentError(f"observer: expected one of {', '.join(known)}, got {observer!r}")
+    design = None
+    if observer in _DOMAIN:
+        if options:
+            raise InvalidArgumentError(f"{', '.join(sorted(options))}: not a design option of the {observer} observer")
+        if observer == "gnss-ins":
+            if str(model) != "gnss-ins":
+                raise InvalidArgumentError(f"observer gnss-ins: the model is the demo's flight, named gnss-ins (got "
+                                           f"{model!r})")
+            name = "gnss-ins"
+            obs, certified, text, why = _gnss_ins(None, box, saturation)
+        else:
+            name = Path(str(model)).stem
+            obs, certified, text, why = _setvalued(model, box, saturation)
     else:
-        m = symbolic_model(model)
-        name = m.name
-        obs, certified, text, why = makers[observer](m, box, saturation)
-    notes = (("certificate", ("verified" if certified else "NOT USABLE") + (f" ({why})" if why else "")),
+        method = get(observer)
+        unknown = sorted(set(options) - set(method.options))
+        if unknown:
+            raise InvalidArgumentError(f"{', '.join(unknown)}: not a design option of the {observer} observer "
+                                       f"(it takes {', '.join(sorted(method.options)) or 'none'})")
+        if box is not None and not method.uses_region:
+            raise InvalidArgumentError(f"box does not apply to the {observer} observer")
+        pb = problem(model, box=box)
+        name = pb.model.name
+        obs, certified, text, why, design = _method_design(method, pb, dict(options), saturation)
+    notes = (("certificate", ("verified" if certified else "NOT CERTIFIED") + (f" ({why})" if why else "")),
              ("certified on", text))
     if observer == "gnss-ins":
         from nlobs.workflows.demo import DemoConfig
@@ -277,4 +251,4 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
     verdict = Verdict.OK if certified else Verdict.FAILED
     msg = "" if certified else f"{name}: the {observer} design is not certified ({why}); the code was written " \
                                "with that in its header"
-    return ExportReport(name, observer, certified, text, (res.header, res.source), res, verdict, msg)
+    return ExportReport(name, observer, certified, text, (res.header, res.source), res, verdict, msg, design)

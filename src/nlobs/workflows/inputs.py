@@ -27,6 +27,7 @@ from nlobs._typing import Array
 from nlobs._validate import escape_unsafe, positive, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, NlobsError, NonFiniteError
 from nlobs.geometry.region import Box
+from nlobs.methods.problem import BoxError, as_region, box_from_numbers, model_label, symbolic_model
 from nlobs.systems.linear import LinearSystem
 from nlobs.systems.modelfile import load_model
 from nlobs.systems.symbolic import SymbolicModel
@@ -52,98 +53,6 @@ MAX_SIMULATION_STEPS = 10_000_000
 MAX_SIMULATION_BYTES = 2 * 1024**3
 
 
-class BoxError(InvalidArgumentError):
-    """A region given as numbers is malformed (the CLI prefixes the option name, ``--box``)."""
-
-
-def box_from_numbers(values: Sequence[float], n: int) -> Box:
-    """A box from ``lo, hi`` (the same interval for every state) or ``2n`` numbers ``lo1, hi1, lo2, hi2, ...``.
-
-    Parameters
-    ----------
-    values : sequence of float
-        ``2`` or ``2n`` numbers.
-    n : int
-        Number of states.
-
-    Returns
-    -------
-    Box
-
-    Raises
-    ------
-    BoxError
-        Not 2 or ``2n`` numbers, or an invalid box (non-finite, ``lo > hi``).
-    """
-    vals = [float(v) for v in values]
-    if len(vals) == 2:
-        vals = vals * n
-    if len(vals) != 2 * n:
-        raise BoxError(f"expected 'lo,hi' or {2 * n} numbers lo1,hi1,...; got {len(values)} numbers")
-    try:
-        return Box(np.array(vals[0::2]), np.array(vals[1::2]))
-    except NlobsError as exc:
-        raise BoxError(str(exc)) from exc
-
-
-def as_region(box: Sequence[float] | Box | None, n: int) -> Box | None:
-    """``None``, a given :class:`~nlobs.geometry.region.Box` (its dimension checked), or :func:`box_from_numbers`.
-
-    Parameters
-    ----------
-    box : sequence of float, Box or None
-        The region, as numbers (see :func:`box_from_numbers`) or a box.
-    n : int
-        Number of states.
-
-    Returns
-    -------
-    Box or None
-        ``None`` when ``box`` is ``None``.
-
-    Raises
-    ------
-    BoxError
-        Numbers that do not make a box of ``ℝⁿ``, or a box of another dimension.
-    """
-    if box is None:
-        return None
-    if isinstance(box, Box):
-        if box.n != n:
-            raise BoxError(f"the region has dimension {box.n}, the model has n = {n}")
-        return box
-    return box_from_numbers(box, n)
-
-
-def symbolic_model(model: str | Path | SymbolicModel) -> SymbolicModel:
-    """The nonlinear model behind ``model``: a model file, a shipped model name, or a loaded model.
-
-    Parameters
-    ----------
-    model : str, Path or SymbolicModel
-        A model file, a shipped model name or a loaded model.
-
-    Returns
-    -------
-    SymbolicModel
-
-    Raises
-    ------
-    ModelFileError
-        The file cannot be found, read or validated (the message names the file and line).
-    ModelError
-        The model is linear (``"a nonlinear (symbolic) model is needed; this one is linear"``).
-    InvalidArgumentError
-        ``model`` is neither a path, a name nor a model.
-    """
-    m = load_model(model) if isinstance(model, (str, Path)) else model
-    if isinstance(m, SymbolicModel):
-        return m
-    if isinstance(m, LinearSystem):
-        raise ModelError("a nonlinear (symbolic) model is needed; this one is linear")
-    raise InvalidArgumentError(f"model: expected a model file, a shipped model name or a model, got {type(model).__name__}")
-
-
 def model_units(model: str | Path | Any) -> dict[str, str]:
     """The ``units`` table of the model file behind ``model`` (``{}`` for a loaded model or a file without one).
 
@@ -158,23 +67,6 @@ def model_units(model: str | Path | Any) -> dict[str, str]:
         return dict(load_scenario(model).units)
     except NlobsError:
         return {}
-
-
-def model_label(model: str | Path | Any) -> str:
-    """How messages name ``model``: a path or shipped name as given, else the model's ``name``.
-
-    Parameters
-    ----------
-    model : str, Path or model
-        A path, a shipped model name or a loaded model.
-
-    Returns
-    -------
-    str
-    """
-    if isinstance(model, (str, Path)):
-        return str(model)
-    return str(getattr(model, "name", type(model).__name__))
 
 
 def _finite_vector(name: str, value: ArrayLike | None) -> Array | None:

@@ -1,0 +1,184 @@
+r"""The observer *method*: how an observer kind is chosen, checked and designed (:class:`Method`, :class:`Design`).
+
+The observer protocol (:mod:`nlobs.observers.base`) says how an observer runs. A :class:`Method` says
+how one kind of observer is made for a model: whether it applies (:meth:`Method.applies`, a reason
+when it does not) and its design (:meth:`Method.design`), which returns one :class:`Design`: the
+observer, its certificate (or ``None``), the premises of its theorem as :class:`~nlobs.checks.Check`
+objects, the premises nobody checked, the parameters actually used with their sources, and a
+description. Every command that designs (``nlobs advise``, ``design``, ``export``, ``simulate``) calls
+the method of the one registry (:mod:`nlobs.methods.registry`), so the same model file and options
+give the same design everywhere, and :meth:`Design.to_dict` is the same ``design`` object in every
+command's JSON.
+
+Verdicts. A design is *usable* when nothing it checked failed (its gain exists and was re-verified,
+its checked premises hold); it is *certified* only when it is usable, has a certificate, and every
+premise of its theorem was checked: a premise that was not checked makes it not certified, listed
+in :attr:`Design.unchecked`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from nlobs.checks import Check
+from nlobs.methods.problem import Problem
+
+__all__ = ["Design", "Method"]
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    return value
+
+
+@dataclass(frozen=True, eq=False)
+class Design:
+    """One method's design for one model: the observer and everything it rests on.
+
+    Attributes
+    ----------
+    method : str
+        The method's name in the registry (``"drift"``, ``"luenberger"``, …).
+    observer : Observer
+        The observer, ready to run (:mod:`nlobs.observers`).
+    certificate : Certificate or None
+        The gain's certificate, re-verified without the solver (``None``: the method has none).
+    premises : tuple of Check
+        The premises of the method's theorem that were checked, passed or failed.
+    unchecked : tuple of str
+        The premises nobody checked (each makes the design not certified).
+    parameters : mapping of str to value
+        The parameters actually used (``mu``, ``alpha``, ``w``, ``theta``, ``gamma``, ``region``, …).
+    sources : mapping of str to str
+        Where each parameter that came from a default was taken from (``"mu": "max ‖u(t)‖ of
+        [input_signals] over [0, 10]"``).
+    description : str
+        What was designed, in one line.
+    gain : ndarray or None
+        The gain (``K``, ``L``, the coefficients ``k``…; ``None`` for a filter without one).
+    failed : tuple of str
+        Why the design is not usable (empty when it is).
+    hypotheses : tuple
+        What a run must stay inside to be covered (:mod:`nlobs.simulate.coverage`), for the
+        simulation of this problem's sensors and noise.
+    coverage_extras : mapping
+        Values reported beside the coverage of a run (e.g. the region and ``μ``).
+    report : Any
+        The method's full design report (what ``nlobs design`` prints), when it has one.
+    """
+
+    method: str
+    observer: Any
+    certificate: Any
+    premises: tuple[Check, ...]
+    unchecked: tuple[str, ...]
+    parameters: Mapping[str, Any]
+    sources: Mapping[str, str]
+    description: str
+    gain: Any = None
+    failed: tuple[str, ...] = ()
+    hypotheses: tuple[Any, ...] = ()
+    coverage_extras: Mapping[str, Any] = field(default_factory=dict)
+    report: Any = field(default=None, repr=False)
+
+    @property
+    def usable(self) -> bool:
+        """Nothing that was checked failed (the gain exists and was re-verified, the checked premises hold)."""
+        return not self.failed
+
+    @property
+    def verified(self) -> bool:
+        """The certificate exists and was re-verified."""
+        return self.certificate is not None and bool(self.certificate.verified)
+
+    @property
+    def certified(self) -> bool:
+        """Usable, with a verified certificate, and every premise of the theorem checked and holding."""
+        return self.usable and self.verified and not self.unchecked and all(p.passed for p in self.premises)
+
+    @property
+    def status(self) -> str:
+        """``"certified"``, ``"not certified: …"`` with the unchecked premises, or ``"not usable: …"``."""
+        if not self.usable:
+            return "not usable: " + "; ".join(self.failed)
+        if self.certified:
+            return "certified"
+        why = [f"{p.name} fails ({p.evidence})" for p in self.premises if not p.passed]
+        if self.unchecked:
+            why.append(f"{', '.join(self.unchecked)} not checked")
+        if self.certificate is None:
+            why.append("the method has no certificate")
+        elif not self.verified:
+            why.append("the certificate failed its re-verification")
+        return "not certified: " + "; ".join(why)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``design`` object of every command's JSON (the README's JSON section)."""
+        return {
+            "method": self.method,
+            "parameters": {k: _plain(v) for k, v in self.parameters.items()},
+            "sources": dict(self.sources),
+            "gain": None if self.gain is None else _plain(np.asarray(self.gain, dtype=float)),
+            "certified": self.certified,
+            "usable": self.usable,
+            "status": self.status,
+            "premises": [p.to_dict() for p in self.premises],
+            "unchecked": list(self.unchecked),
+            "failed": list(self.failed),
+            "description": self.description,
+        }
+
+    def summary(self) -> str:
+        """The parameters with their sources, and the verdict, as text."""
+        params = ", ".join(f"{k} = {_fmt(v)}" + (f" ({self.sources[k]})" if k in self.sources else "")
+                           for k, v in self.parameters.items())
+        return "\n".join([f"{self.method}: {self.description}", f"  parameters: {params}", f"  {self.status}"])
+
+
+def _fmt(v: Any) -> str:
+    v = _plain(v)
+    if isinstance(v, float):
+        return f"{v:.4g}"
+    if isinstance(v, list):
+        return "[" + ", ".join(_fmt(x) for x in v) + "]"
+    return str(v)
+
+
+@runtime_checkable
+class Method(Protocol):
+    """One kind of observer: whether it applies to a problem, and its design.
+
+    Attributes
+    ----------
+    name : str
+        The name every command uses (``nlobs simulate --observer NAME``, ``nlobs export --observer NAME``).
+    title : str
+        The method with its paper and equation numbers, for help and reports.
+    options : frozenset of str
+        The design options :meth:`design` accepts (an option a method does not take is refused by the
+        commands with its name).
+    uses_region : bool
+        The design reads the problem's region (a box given to a method that does not is refused).
+    """
+
+    name: str
+    title: str
+    uses_region: bool
+    options: frozenset[str]
+
+    def applies(self, problem: Problem) -> str | None:
+        """``None`` when the method applies to the problem, else why not (one line)."""
+        ...
+
+    def design(self, problem: Problem, **options: Any) -> Design:
+        """The design for the problem (raises :class:`~nlobs.errors.DesignError` when no gain exists)."""
+        ...

@@ -1,0 +1,378 @@
+r"""What every design reads from a model file, by one rule: the :class:`Problem`.
+
+Every command that designs an observer (``nlobs advise``, ``design``, ``export``, ``simulate``) builds
+one :class:`Problem` from the model file and the options given, and hands it to a method
+(:mod:`nlobs.methods.registry`). Each default is taken from the file by the same rule, and each value
+keeps where it came from (:attr:`Problem.sources`), so a report can say "μ = 10.31 from
+[input_signals] over [0, 10]":
+
+* the **region** of the designs: the given box, else the file's ``[simulation] box``, else
+  ``[−1, 1]ⁿ``;
+* the **initial state** ``x0`` (the point of a linearisation): the given one, else
+  ``[simulation] x0``, else zeros;
+* the **horizon** ``T``: the given duration, else ``[simulation] duration``, else 10;
+* the **known input** ``u(t)``: the given signals, else the file's ``[input_signals]``, else zero;
+  ``u0 = u(0)``;
+* the **input bound** ``μ`` of (2.17) of Dalla Mora, Germani & Manes: the largest ``‖u(t)‖`` of
+  that input at :data:`INPUT_BOUND_SAMPLES` instants of ``[0, T]`` (:func:`input_bound`).
+
+The module also holds the plain-value inputs the designs share (a box from numbers, a nonlinear
+model from a file or a name, how messages name a model); :mod:`nlobs.workflows.inputs` re-exports
+them. It loads no solver, observer or simulation.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from nlobs._typing import Array
+from nlobs._validate import readonly
+from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, NlobsError, NonFiniteError
+from nlobs.geometry.region import Box
+from nlobs.systems.linear import LinearSystem
+from nlobs.systems.modelfile import load_model
+from nlobs.systems.scenario import Scenario
+from nlobs.systems.sensors import MeasurementGroup
+from nlobs.systems.symbolic import SymbolicModel
+
+__all__ = [
+    "DEFAULT_DURATION",
+    "INPUT_BOUND_SAMPLES",
+    "BoxError",
+    "Problem",
+    "as_region",
+    "box_from_numbers",
+    "input_bound",
+    "model_label",
+    "problem",
+    "symbolic_model",
+]
+
+#: The horizon ``T`` without ``[simulation] duration`` or a given duration.
+DEFAULT_DURATION = 10.0
+#: Instants of ``[0, T]`` at which ``‖u(t)‖`` is evaluated for the input bound ``μ``.
+INPUT_BOUND_SAMPLES = 4001
+
+
+class BoxError(InvalidArgumentError):
+    """A region given as numbers is malformed (the CLI prefixes the option name, ``--box``)."""
+
+
+def box_from_numbers(values: Sequence[float], n: int) -> Box:
+    """A box from ``lo, hi`` (the same interval for every state) or ``2n`` numbers ``lo1, hi1, lo2, hi2, ...``.
+
+    Parameters
+    ----------
+    values : sequence of float
+        ``2`` or ``2n`` numbers.
+    n : int
+        Number of states.
+
+    Returns
+    -------
+    Box
+
+    Raises
+    ------
+    BoxError
+        Not 2 or ``2n`` numbers, or an invalid box (non-finite, ``lo > hi``).
+    """
+    vals = [float(v) for v in values]
+    if len(vals) == 2:
+        vals = vals * n
+    if len(vals) != 2 * n:
+        raise BoxError(f"expected 'lo,hi' or {2 * n} numbers lo1,hi1,...; got {len(values)} numbers")
+    try:
+        return Box(np.array(vals[0::2]), np.array(vals[1::2]))
+    except NlobsError as exc:
+        raise BoxError(str(exc)) from exc
+
+
+def as_region(box: Sequence[float] | Box | None, n: int) -> Box | None:
+    """``None``, a given :class:`~nlobs.geometry.region.Box` (its dimension checked), or :func:`box_from_numbers`.
+
+    Parameters
+    ----------
+    box : sequence of float, Box or None
+        The region, as numbers (see :func:`box_from_numbers`) or a box.
+    n : int
+        Number of states.
+
+    Returns
+    -------
+    Box or None
+        ``None`` when ``box`` is ``None``.
+
+    Raises
+    ------
+    BoxError
+        Numbers that do not make a box of ``ℝⁿ``, or a box of another dimension.
+    """
+    if box is None:
+        return None
+    if isinstance(box, Box):
+        if box.n != n:
+            raise BoxError(f"the region has dimension {box.n}, the model has n = {n}")
+        return box
+    return box_from_numbers(box, n)
+
+
+def symbolic_model(model: str | Path | SymbolicModel) -> SymbolicModel:
+    """The nonlinear model behind ``model``: a model file, a shipped model name, or a loaded model.
+
+    Parameters
+    ----------
+    model : str, Path or SymbolicModel
+        A model file, a shipped model name or a loaded model.
+
+    Returns
+    -------
+    SymbolicModel
+
+    Raises
+    ------
+    ModelFileError
+        The file cannot be found, read or validated (the message names the file and line).
+    ModelError
+        The model is linear (``"a nonlinear (symbolic) model is needed; this one is linear"``).
+    InvalidArgumentError
+        ``model`` is neither a path, a name nor a model.
+    """
+    m = load_model(model) if isinstance(model, (str, Path)) else model
+    if isinstance(m, SymbolicModel):
+        return m
+    if isinstance(m, LinearSystem):
+        raise ModelError("a nonlinear (symbolic) model is needed; this one is linear")
+    raise InvalidArgumentError(f"model: expected a model file, a shipped model name or a model, got {type(model).__name__}")
+
+
+def model_label(model: str | Path | Any) -> str:
+    """How messages name ``model``: a path or shipped name as given, else the model's ``name``.
+
+    Parameters
+    ----------
+    model : str, Path or model
+        A path, a shipped model name or a loaded model.
+
+    Returns
+    -------
+    str
+    """
+    if isinstance(model, (str, Path)):
+        return str(model)
+    return str(getattr(model, "name", type(model).__name__))
+
+
+def input_bound(u: Any, duration: float, m: int) -> float:
+    """``μ`` of (2.17): the largest ``‖u(t)‖`` at :data:`INPUT_BOUND_SAMPLES` instants of ``[0, duration]``.
+
+    Parameters
+    ----------
+    u : callable, array_like or None
+        The known input: a signal ``u(t)`` (an :class:`~nlobs.systems.signals.InputSignals` or any
+        callable), a constant vector, or ``None`` (zero).
+    duration : float
+        The horizon ``T``.
+    m : int
+        Number of inputs (``0``: ``μ = 0``).
+
+    Returns
+    -------
+    float
+    """
+    if not m or u is None:
+        return 0.0
+    if not callable(u):
+        return float(np.linalg.norm(np.asarray(u, dtype=float)))
+    ts = np.linspace(0.0, float(duration), INPUT_BOUND_SAMPLES)
+    values = np.stack([np.asarray(u(float(t)), dtype=float).reshape(m) for t in ts])
+    return float(np.max(np.linalg.norm(values, axis=-1)))
+
+
+def _vector(name: str, value: ArrayLike, n: int) -> Array:
+    v = np.asarray(value, dtype=float).reshape(-1)
+    if v.shape != (n,):
+        raise DimensionError(f"{name}: expected {n} numbers (one per state), got {v.size}")
+    if not np.all(np.isfinite(v)):
+        raise NonFiniteError(f"{name}: values must be finite, got {v.tolist()}")
+    return v
+
+
+@dataclass(frozen=True, eq=False)
+class Problem:
+    """A model with everything a design reads from its file, each value with its source.
+
+    Build it with :func:`problem` (from a file, a shipped name or a model) or, inside a command
+    that has already read the file, with the constructor.
+
+    Attributes
+    ----------
+    scenario : Scenario
+        The model file's tables (:mod:`nlobs.systems.scenario`).
+    label : str
+        How messages name the model (the path or name as given).
+    region : Box
+        The region of the designs.
+    x0 : ndarray, shape (n,)
+        The initial plant state; the point of a linearisation.
+    u : callable, ndarray or None
+        The known input ``u(t)`` (a signal), a constant vector, or ``None`` (no inputs).
+    duration : float
+        The horizon ``T`` (of the input bound, and of a simulation unless one says otherwise).
+    mu : float
+        The largest ``‖u(t)‖`` on ``[0, T]`` (:func:`input_bound`).
+    sensors : tuple of MeasurementGroup
+        The measurement groups (the file's ``[sensors]``, or those a command was given).
+    process_noise : ndarray or None
+        The process-noise covariance (spectral density).
+    sources : mapping of str to str
+        Where ``region``, ``x0``, ``duration``, ``mu`` came from.
+    """
+
+    scenario: Scenario
+    label: str
+    region: Box
+    x0: Array
+    u: Any
+    duration: float
+    mu: float
+    sensors: tuple[MeasurementGroup, ...] = ()
+    process_noise: Array | None = None
+    sources: Mapping[str, str] = field(default_factory=dict)
+
+    @property
+    def model(self) -> SymbolicModel | LinearSystem:
+        """The model of the file."""
+        return self.scenario.model
+
+    @property
+    def path(self) -> Path | None:
+        """The model file, or ``None`` (a shipped name's text, a model given in Python)."""
+        p = self.scenario.path
+        return Path(p) if p and Path(p).is_file() else None
+
+    @property
+    def u0(self) -> Array:
+        """``u(0)`` (zeros for a model without inputs)."""
+        m = self.model.m
+        if not m or self.u is None:
+            return np.zeros(m)
+        return np.asarray(self.u(0.0) if callable(self.u) else self.u, dtype=float).reshape(m)
+
+    @property
+    def exact(self) -> tuple[bool, str]:
+        """Whether the output and the model are exact, and if not what makes them inexact."""
+        noisy = any(np.any(np.asarray(g.noise_std) > 0) or np.any(g.bias != 0) for g in self.sensors)
+        q = self.process_noise is not None and bool(np.any(self.process_noise))
+        what = [w for w, on in (("measurement noise or bias", noisy), ("process noise", q)) if on]
+        return not what, " and ".join(what)
+
+    def describe(self, name: str) -> str:
+        """``"μ = 10.31 (max ‖u(t)‖ of [input_signals] over [0, 10])"`` for ``name`` in :attr:`sources`."""
+        value = {"region": self.region.describe(), "x0": str(self.x0.tolist()), "duration": f"{self.duration:g}",
+                 "mu": f"{self.mu:.4g}"}[name]
+        return f"{'μ' if name == 'mu' else name} = {value} ({self.sources.get(name, 'given')})"
+
+
+def _from_defaults(scenario: Scenario, box: Sequence[float] | Box | None, x0: ArrayLike | None,
+                   duration: float | None) -> tuple[Box, str, Array, str, float, str]:
+    model, d = scenario.model, scenario.defaults
+    n = model.n
+    region = as_region(box, n)
+    if region is not None:
+        region_src = "given"
+    elif d.box is not None:
+        region, region_src = Box(np.asarray(d.box[0], dtype=float), np.asarray(d.box[1], dtype=float)), \
+            "[simulation] box"
+    else:
+        region, region_src = Box.unit(n), "default [-1, 1] per state"
+    if x0 is not None:
+        x, x_src = _vector("x0", x0, n), "given"
+    elif d.x0 is not None:
+        x, x_src = np.asarray(d.x0, dtype=float).reshape(n), "[simulation] x0"
+    else:
+        x, x_src = np.zeros(n), "default zeros"
+    if duration is not None:
+        T, T_src = float(duration), "given"
+    elif d.duration is not None:
+        T, T_src = float(d.duration), "[simulation] duration"
+    else:
+        T, T_src = DEFAULT_DURATION, f"default {DEFAULT_DURATION:g}"
+    if not (np.isfinite(T) and T > 0):
+        raise InvalidArgumentError(f"duration: must be positive and finite, got {T!r}")
+    return region, region_src, x, x_src, T, T_src
+
+
+def problem(model: str | Path | Scenario | SymbolicModel | LinearSystem, *, box: Sequence[float] | Box | None = None,
+            x0: ArrayLike | None = None, duration: float | None = None, u: Any = None, u_source: str | None = None,
+            sensors: Sequence[MeasurementGroup] | None = None, process_noise: ArrayLike | None = None,
+            label: str | None = None) -> Problem:
+    """The :class:`Problem` of a model file (read once) and the options given (module docstring for the rules).
+
+    Parameters
+    ----------
+    model : str, Path, Scenario, SymbolicModel or LinearSystem
+        A model file, a shipped model name, a file already read, or a model.
+    box : sequence of float or Box, optional
+        The region (``lo, hi`` or ``lo1, hi1, …``).
+    x0 : array_like, optional
+        The initial state.
+    duration : float, optional
+        The horizon ``T``.
+    u : callable or array_like, optional
+        The known input, instead of the file's ``[input_signals]``.
+    u_source : str, optional
+        How to name a given ``u`` in :attr:`Problem.sources` (default ``"the given input"``).
+    sensors : sequence of MeasurementGroup, optional
+        Instead of the file's ``[sensors]``.
+    process_noise : array_like, optional
+        A covariance, instead of the file's ``[process_noise]``.
+    label : str, optional
+        How messages name the model.
+
+    Returns
+    -------
+    Problem
+
+    Raises
+    ------
+    ModelFileError
+        The file cannot be read.
+    BoxError, DimensionError, NonFiniteError, InvalidArgumentError
+        A malformed option.
+    """
+    from nlobs.systems.modelfile import load_scenario
+
+    if isinstance(model, Scenario):
+        scenario = model
+    elif isinstance(model, (str, Path)):
+        scenario = load_scenario(model)
+    else:
+        scenario = Scenario(model)
+    name = label if label is not None else model_label(model if not isinstance(model, Scenario) else scenario.model)
+    region, region_src, x, x_src, T, T_src = _from_defaults(scenario, box, x0, duration)
+    m = scenario.model.m
+    if u is not None:
+        sig, sig_src = u, u_source or "the given input"
+    elif scenario.input_signals is not None:
+        sig, sig_src = scenario.input_signals, "[input_signals]"
+    else:
+        sig, sig_src = (np.zeros(m) if m else None), "no [input_signals]: zero input"
+    mu = input_bound(sig, T, m)
+    if not m:
+        mu_src = "the model has no inputs"
+    elif callable(sig):
+        mu_src = f"max ‖u(t)‖ of {sig_src} over [0, {T:g}]"
+    else:
+        mu_src = sig_src if u is None else f"‖u‖ of {sig_src}"
+    q = scenario.process_noise if process_noise is None else np.asarray(process_noise, dtype=float)
+    return Problem(scenario, name, region, readonly(x), sig, T, mu,
+                   tuple(scenario.sensors if sensors is None else sensors), q,
+                   {"region": region_src, "x0": x_src, "duration": T_src, "mu": mu_src})
+
