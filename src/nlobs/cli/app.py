@@ -109,17 +109,24 @@ def _root(
 def analyze_cmd(
     model: Annotated[str, typer.Argument(help="A model file (.toml), or the name of a shipped model.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON report.")] = False,
-    x0: Annotated[str | None, typer.Option(help="Linearisation point of a nonlinear model, e.g. '0,1,0,0'.")] = None,
-    u0: Annotated[str | None, typer.Option(help="Input at the linearisation point.")] = None,
+    x0: Annotated[str | None, typer.Option(
+        help="Linearisation point of a nonlinear model, e.g. '0,1,0,0' (default: the file's [simulation] x0, "
+             "else zeros).")] = None,
+    u0: Annotated[str | None, typer.Option(
+        help="Input at the linearisation point (default: the file's [input_signals] at t = 0, else zero).")] = None,
     box: Annotated[str | None, typer.Option(
         help="Region of the symbolic analyses of a nonlinear model: 'lo,hi' for every state, or 2n numbers "
-             "lo1,hi1,lo2,hi2,... (default -1,1).")] = None,
+             "lo1,hi1,lo2,hi2,... (default: the file's [simulation] box, else -1,1).")] = None,
     symbolic_budget: Annotated[float, typer.Option(
         "--symbolic-budget", min=0.0,
         help="Seconds for the optional symbolic parts (the gain field Q⁺(x)k); a part that does not finish is "
              "evaluated numerically and named in the report.")] = 5.0,
 ) -> None:
-    """Report a model's dimensions, structural properties and norms."""
+    """Report a model's dimensions, structural properties and norms.
+
+    A nonlinear model is linearised at --x0/--u0 (else the file's [simulation] x0 and its inputs at t = 0, else
+    zero) and analysed on --box (else the file's [simulation] box, else [-1, 1]^n); the report says which.
+    """
     from nlobs.workflows.analyze import analyze_model
     from nlobs.workflows.inputs import BoxError
 
@@ -129,7 +136,7 @@ def analyze_cmd(
     except ModelFileError as exc:
         fail(str(exc))
     except BoxError as exc:
-        fail(f"--box: {exc}")
+        fail(f"--box: {exc}" if box is not None else f"{model}: {exc}")  # else the file's [simulation] box
     except NlobsError as exc:
         fail(f"{model}: {exc}")
     if as_json:
