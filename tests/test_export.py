@@ -314,7 +314,7 @@ def test_cli_export_cascade_and_gnss_ins_carry_their_certificates(tmp_path) -> N
     header = (tmp_path / "g" / "gnss_ins_gnss_ins.h").read_text()
     assert "LMI (14)" in header and "‖H‖∞ = 49.995 < γ = 50" in header and "h0 = 0.01 s" in header
     r = runner.invoke(app, ["export", "pendulum", "--observer", "gnss-ins", "--out", str(tmp_path / "x")])
-    assert r.exit_code == 2 and "named gnss-ins" in r.output
+    assert r.exit_code == 3 and "named gnss-ins" in r.output
     r = runner.invoke(app, ["export", "chemostat-analyser", "--observer", "cascade", "--box", "0,1",
                             "--out", str(tmp_path / "x")])
     assert r.exit_code == 2 and "--box does not apply to the cascade observer" in r.output

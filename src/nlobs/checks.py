@@ -30,7 +30,7 @@ import numpy as np
 
 from nlobs.errors import InvalidArgumentError
 
-__all__ = ["CheckKind", "Check"]
+__all__ = ["CheckKind", "Check", "Verdict"]
 
 
 class CheckKind(Enum):
@@ -270,3 +270,14 @@ class Check:
             "worst_point": None if self.worst_point is None else list(self.worst_point),
             "symbolic": self.symbolic,
         }
+
+
+class Verdict(Enum):
+    """What a report concluded, in the words the CLI turns into exit statuses (``OK`` 0, ``FAILED`` 1, ``NO_OBSERVER`` 3)."""
+
+    OK = "ok"
+    """Everything asked for was done and holds (a design is usable, a guarantee held)."""
+    FAILED = "failed"
+    """A design is not usable, a certificate failed, or a guarantee was violated (exit status 1)."""
+    NO_OBSERVER = "no observer"
+    """No observer of the requested structure exists for this model (exit status 3)."""

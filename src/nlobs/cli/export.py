@@ -28,7 +28,8 @@ from nlobs.errors import AssumptionViolated, DesignError, ModelFileError, NlobsE
 #: The design options of ``nlobs export``: the parameter each flag sets (the same as ``nlobs design``'s).
 _FLAGS = {"s": "--s", "alpha": "--alpha", "mu": "--mu", "gamma": "--gamma", "gain_method": "--method", "w": "--w",
           "w_max": "--w-max", "theta": "--theta", "placement": "--placement", "k": "--k",
-          "gain_bound": "--gain-bound", "saturation": "--saturation", "box": "--box", "observer": "--observer"}
+          "gain_bound": "--gain-bound", "saturation": "--saturation", "box": "--box", "observer": "--observer",
+          "lang": "--lang", "prefix": "--prefix"}
 
 
 def _flags(message: str) -> str:

@@ -29,7 +29,6 @@ from typing import Any
 
 import numpy as np
 
-from nlobs._typing import Array
 from nlobs._validate import positive
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import AssumptionViolated, DesignError, DesignInfeasible, InvalidArgumentError

@@ -57,6 +57,10 @@ REGISTRY: tuple[Entry, ...] = (
           "Grip, Saberi & Johansen (9)–(10) / (17)–(18), the file's [cascade] table"),
     Entry("ekf", "nlobs.methods.kalman", "EKF", "extended Kalman filter (no certificate)", exported=False),
     Entry("ukf", "nlobs.methods.kalman", "UKF", "unscented Kalman filter (no certificate)", exported=False),
+    Entry("setvalued", "nlobs.methods.setvalued", "SETVALUED",
+          "Khajenejad & Yong (10)–(15), Algorithm 1, a discrete model with [unknown_inputs]", simulated=False),
+    Entry("gnss-ins", "nlobs.methods.gnss_ins", "GNSS_INS",
+          "Grip, Fossen, Johansen & Saberi (24), the demo's flight (MODEL is gnss-ins)", simulated=False),
 )
 
 

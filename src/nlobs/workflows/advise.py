@@ -59,7 +59,6 @@ from nlobs.geometry.observability import AffineFields, observability_jacobian
 from nlobs.geometry.region import Box, format_point
 from nlobs.geometry.report import GeometryReport, geometry_report
 from nlobs.geometry.singularities import (
-    SAMPLES,
     Singularity,
     expression_atoms,
     real_roots,
@@ -69,7 +68,6 @@ from nlobs.geometry.singularities import (
 from nlobs.linear import analyze_linear
 from nlobs.methods.problem import problem
 from nlobs.systems.codegen import compile_matrix
-from nlobs.systems.expressions import as_sympy_expr, as_symbols
 from nlobs.systems.linear import LinearSystem
 from nlobs.systems.linearize import linearize
 from nlobs.systems.modelfile import Model, load_discrete_ui_model, load_model, load_scenario, model_file_tables

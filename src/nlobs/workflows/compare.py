@@ -59,7 +59,7 @@ from numpy.typing import ArrayLike
 
 from nlobs._io import atomic_write_json, jsonable, with_schema
 from nlobs._typing import Array
-from nlobs._validate import as_count, as_covariance, positive
+from nlobs._validate import as_count, positive
 from nlobs.errors import (
     AssumptionViolated,
     DesignError,
@@ -73,7 +73,6 @@ from nlobs.errors import (
 )
 from nlobs.methods.base import Design
 from nlobs.methods.kalman import DEFAULT_FILTER_Q, noise_matrix
-from nlobs.methods.luenberger import LUENBERGER_GAMMA
 from nlobs.methods.problem import Problem, problem
 from nlobs.methods.registry import get as get_method
 from nlobs.methods.registry import names

@@ -13,130 +13,40 @@ paper's Figs. 4–6.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from nlobs._io import atomic_write_json, prepare_output_dir, with_schema
-from nlobs._validate import in_range, positive
-from nlobs.errors import DesignInfeasible, InvalidArgumentError, OutputError
+from nlobs.errors import InvalidArgumentError, OutputError
 from nlobs.navigation.ekf import EkfConfig, ExtendedKalmanFilter
-from nlobs.navigation.gains import NOISE_OPTIMAL_GAMMA, PAPER_GAMMA, design_gains, noise_optimal_gains, paper_gains
-from nlobs.navigation.gnss_ins import GnssInsObserver
+from nlobs.navigation.gains import NOISE_OPTIMAL_GAMMA
 from nlobs.navigation.metrics import summary_dict
 from nlobs.navigation.plots import plot_navigation
 from nlobs.navigation.run import run_navigation
-from nlobs.navigation.schedule import AttitudeGainSchedule, ScheduledGnssInsObserver, noise_scheduled_gain
-from nlobs.navigation.sensors import SensorNoise, generate_sensors
+from nlobs.navigation.schedule import AttitudeGainSchedule
+from nlobs.navigation.sensors import generate_sensors
 from nlobs.navigation.so3 import rot_z
 from nlobs.navigation.trajectory import traffic_pattern
+from nlobs.methods.gnss_ins import (
+    ATTITUDE_GAINS,
+    BACKENDS,
+    DEMO_NOISE,
+    GAINS,
+    MAX_IMU_SAMPLES,
+    DemoConfig,
+    demo_observer,
+    paper_observer,
+)
 from nlobs.workflows.verdict import Verdict
 from nlobs.simulate.result import SimulationResult
 from nlobs.synthesis.mixed_h2 import MixedH2Certificate
 
-#: Sensor noise of the demo: a consumer-grade IMU and a standalone GNSS receiver.
-DEMO_NOISE = SensorNoise(
-    gyro_std=0.002,  # rad/s
-    accel_std=0.05,  # m/s²
-    mag_std=0.01,  # normalised field units
-    gnss_p_std=1.5,  # m
-    gnss_v_std=0.1,  # m/s
-)
-
-
-#: The demo's gain choices (``--gains``).
-GAINS = ("noise-optimal", "paper", "designed")
-
-#: The attitude-gain choices of the noise-optimal observer (``--attitude-gain``).
-ATTITUDE_GAINS = ("scheduled", "constant")
-#: Where the observers (24) run: NumPy/Python floats, or their generated C.
-BACKENDS = ("python", "c")
-
-#: The longest flight the demo simulates, in IMU samples (a flight is held in memory: ~1 kB per sample).
-MAX_IMU_SAMPLES = 2e6
-
-
-@dataclass(frozen=True)
-class DemoConfig:
-    """Options of the GNSS/INS demo.
-
-    Attributes
-    ----------
-    seed : int
-        Seed of the flight and of the sensor noise.
-    duration : float or None
-        Length of the flight [s]; ``None`` for the whole traffic pattern.
-    imu_rate_hz, gnss_rate_hz : float
-        Sensor rates (the paper's 100 Hz and 5 Hz).
-    yaw_error_deg : float
-        Initial attitude error, a rotation about the down axis.
-    converge_deg : float
-        Attitude-error threshold that defines convergence.
-    gains : str
-        ``"noise-optimal"`` (default: the certified gain with the smallest noise-to-error H2 norm
-        under LMI (14) at γ = 50 and Γ = 0.5 I, :func:`~nlobs.navigation.gains.noise_optimal_gains`;
-        the paper's gains run beside it for comparison), ``"paper"`` (Sec. 5.2's K and Γ) or
-        ``"designed"`` (nlobs's central LMI design with the paper's Γ).
-    attitude_gain : str or None
-        The attitude gain of the noise-optimal observer: ``"scheduled"`` (its default: ``Γ(t)`` of
-        :func:`~nlobs.navigation.schedule.noise_scheduled_gain`) or ``"constant"``
-        (:data:`~nlobs.navigation.gains.NOISE_OPTIMAL_GAMMA` throughout). ``None``: the default of
-        ``gains``; the paper's and the designed gains use the paper's constant Γ, so only ``None`` is
-        accepted with them.
-    position_only : bool
-        GNSS position only (Sec. 5.2, C = [I 0]); the gain is then designed by nlobs.
-    ekf : bool
-        Also run the EKF baseline.
-    backend : str
-        ``"python"`` (default) or ``"c"``: the observers (24) run as their generated, compiled C
-        (:func:`nlobs.export.compile_observer`, the same estimates to rounding; the EKF stays in Python).
-    """
-
-    seed: int = 0
-    duration: float | None = None
-    imu_rate_hz: float = 100.0
-    gnss_rate_hz: float = 5.0
-    yaw_error_deg: float = 60.0
-    converge_deg: float = 5.0
-    gains: str = "noise-optimal"
-    attitude_gain: str | None = None
-    position_only: bool = False
-    ekf: bool = True
-    backend: str = "python"
-    noise: SensorNoise = field(default_factory=lambda: DEMO_NOISE)
-
-    def __post_init__(self) -> None:
-        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
-            raise InvalidArgumentError(f"seed: expected an integer >= 0, got {self.seed!r}")
-        if self.duration is not None:
-            positive("duration", self.duration)
-            if self.duration * self.imu_rate_hz > MAX_IMU_SAMPLES:
-                raise InvalidArgumentError(
-                    f"duration: {self.duration:g} s at {self.imu_rate_hz:g} Hz is {self.duration * self.imu_rate_hz:.3g} "
-                    f"IMU samples; at most {MAX_IMU_SAMPLES:.0e} fit in memory")
-        positive("imu_rate_hz", self.imu_rate_hz)
-        positive("gnss_rate_hz", self.gnss_rate_hz)
-        in_range("yaw_error_deg", self.yaw_error_deg, -180.0, 180.0, hi_open=False)
-        positive("converge_deg", self.converge_deg)
-        if self.gains not in GAINS:
-            raise InvalidArgumentError(f"gains: expected one of {', '.join(map(repr, GAINS))}, got {self.gains!r}")
-        if self.backend not in BACKENDS:
-            raise InvalidArgumentError(f"backend: expected one of {', '.join(map(repr, BACKENDS))}, got {self.backend!r}")
-        if self.attitude_gain is not None:
-            if self.attitude_gain not in ATTITUDE_GAINS:
-                raise InvalidArgumentError(f"attitude_gain: expected one of {', '.join(map(repr, ATTITUDE_GAINS))}, "
-                                           f"got {self.attitude_gain!r}")
-            if self.gains != "noise-optimal":
-                raise InvalidArgumentError(
-                    f"attitude_gain: applies to gains 'noise-optimal' (the {self.gains!r} gains use the paper's Γ)")
-
-    @property
-    def scheduled(self) -> bool:
-        """Whether the observer's attitude gain is scheduled (the noise-optimal default)."""
-        return self.gains == "noise-optimal" and self.attitude_gain in (None, "scheduled")
-
+#: What the demo's command uses, and the configuration and observer of :mod:`nlobs.methods.gnss_ins` it re-exports.
+__all__ = ["ATTITUDE_GAINS", "BACKENDS", "DEMO_NOISE", "GAINS", "MAX_IMU_SAMPLES", "DemoConfig", "DemoReport",
+           "demo_observer", "gnss_ins_demo"]
 
 @dataclass(frozen=True)
 class DemoResult:
@@ -198,56 +108,6 @@ def _certificate_dict(c: MixedH2Certificate, schedule: AttitudeGainSchedule | No
             "failed_checks": [ch.name for ch in c.failed_checks]}
 
 
-def _paper_observer(config: DemoConfig, flight: Any) -> GnssInsObserver:
-    """Observer (24) with the paper's gains (or, for a position-only receiver, the paper's recipe) and Γ."""
-    K = paper_gains(position_only=config.position_only)  # position-only: the paper's recipe, designed once and cached
-    return GnssInsObserver(K, PAPER_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
-
-
-def demo_observer(config: DemoConfig, flight: Any, start_s: float = 0.0) -> tuple[
-        GnssInsObserver | ScheduledGnssInsObserver, MixedH2Certificate | None, AttitudeGainSchedule | None]:
-    """The demo's observer (24) for ``config`` and ``flight``, with the noise-optimal gain's certificate and Γ(t).
-
-    Parameters
-    ----------
-    config : DemoConfig
-        Gains, attitude gain, receiver, rates and noise.
-    flight : Flight
-        The flight (its ``m_n``, ``g_n``).
-    start_s : float
-        The first time stamp of the data (the schedule of Γ starts there).
-
-    Returns
-    -------
-    (observer, certificate or None, schedule or None)
-
-    Raises
-    ------
-    DesignInfeasible
-        The noise-optimal gain failed its certificate.
-    """
-    cert: MixedH2Certificate | None = None
-    schedule: AttitudeGainSchedule | None = None
-    observer: GnssInsObserver | ScheduledGnssInsObserver
-    if config.gains == "noise-optimal":
-        K, cert = noise_optimal_gains(config.noise, imu_rate_hz=config.imu_rate_hz, gnss_rate_hz=config.gnss_rate_hz,
-                                      position_only=config.position_only)
-        if not cert.verified:  # never run an uncertified gain under this name
-            raise DesignInfeasible("the noise-optimal gain failed its certificate: "
-                                   + ", ".join(ch.name for ch in cert.failed_checks), constraint="certificate")
-        observer = GnssInsObserver(K, NOISE_OPTIMAL_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
-        if config.scheduled:
-            schedule = noise_scheduled_gain(config.noise, flight.m_n, flight.g_n, initial=NOISE_OPTIMAL_GAMMA[0, 0],
-                                            start_s=start_s)
-            observer = ScheduledGnssInsObserver(observer, schedule)
-    elif config.gains == "paper":
-        observer = _paper_observer(config, flight)
-    else:
-        K, _ = design_gains(position_only=config.position_only)
-        observer = GnssInsObserver(K, PAPER_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
-    return observer, cert, schedule
-
-
 def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = None, *,
              progress: bool = False) -> DemoResult:
     """Run the GNSS/INS demo (see the module docstring) and write figures into ``out_dir``."""
@@ -263,7 +123,7 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
     obs_res = run_navigation(run(observer), data, p0, v0, R0, progress=progress)
     paper_res = None
     if config.gains == "noise-optimal":
-        paper_res = run_navigation(run(_paper_observer(config, flight)), data, p0, v0, R0, progress=progress)
+        paper_res = run_navigation(run(paper_observer(config, flight)), data, p0, v0, R0, progress=progress)
     ekf_res = None
     if config.ekf:
         ekf = ExtendedKalmanFilter(EkfConfig.for_noise(config.noise, yaw_std_deg=max(30.0, abs(config.yaw_error_deg)),

@@ -24,7 +24,6 @@ injection ``g`` of an observer for Σ₁ (3)/(16). This workflow
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -32,25 +31,12 @@ from typing import Any
 import numpy as np
 
 from nlobs._typing import Array
-from nlobs._validate import positive
-from nlobs.checks import Check, CheckKind
-from nlobs.errors import DesignError, InvalidArgumentError
-from nlobs.linear.assumption4 import Assumption4Report, check_assumption4, extended_system
-from nlobs.linear.norms import hinf_norm
-from nlobs.observers.cascade import CascadeObserver
+from nlobs.errors import InvalidArgumentError
 from nlobs.simulate.coverage import Coverage, Premise, monitor
 from nlobs.simulate.loop import simulate as run_simulation
 from nlobs.simulate.result import SimulationResult
-from nlobs.synthesis.cascade_bounds import (
-    theorem1_gamma_bound,
-    theorem1_optimal_scaling,
-    theorem1_prime_gamma_bound,
-)
-from nlobs.synthesis.cascade_gain import design_cascade_gain, place_cascade_gain
-from nlobs.synthesis.certificate import ObserverGainCertificate
-from nlobs.synthesis.mixed_h2 import MixedH2Certificate, NoiseModel, design_h2_gain, sampled_intensity
+from nlobs.synthesis.mixed_h2 import NoiseModel
 from nlobs.systems.cascade_file import CascadeModel, load_cascade
-from nlobs.systems.scenario import Scenario
 from nlobs.systems.interconnected import interconnected_plant
 from nlobs.methods.cascade import (
     DEFAULT_GAIN_BOUND,

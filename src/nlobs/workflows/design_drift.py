@@ -28,35 +28,19 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nlobs._typing import Array
-from nlobs._validate import positive, readonly
 from nlobs.errors import (
-    AssumptionViolated,
-    DesignInfeasible,
     InvalidArgumentError,
-    NlobsError,
     SimulationDiverged,
     StudyFailed,
 )
-from nlobs.geometry.checks import Check, check_drift_observability, check_s_le_r, default_multi_index
-from nlobs.geometry.lipschitz import LipschitzEstimates, lipschitz_estimates
-from nlobs.geometry.observability import (
-    AffineFields,
-    check_multi_index,
-    input_gain_structure,
-    observation_relative_degree,
-)
 from nlobs.geometry.region import Box
-from nlobs.observers.drift import COND_LIMIT, DriftObserver
+from nlobs.observers.drift import DriftObserver
 from nlobs.simulate.coverage import Coverage, InputBound, InRegion, Premise, monitor
 from nlobs.simulate.loop import simulate
 from nlobs.simulate.result import SimulationResult
 from nlobs.simulate.sampling import MeasurementGroup
 from nlobs.synthesis.drift_bounds import ErrorBoundConstants, error_bound_constants
 from nlobs.synthesis.drift_gain import (
-    DriftGainCertificate,
-    RiccatiConstants,
-    design_drift_gain,
-    require_sdp_size,
     vandermonde_gain,
     riccati_constant,
     verify_drift_gain,
@@ -74,7 +58,7 @@ from nlobs.workflows._results import (
     run_study,
     write_result,
 )
-from nlobs.workflows.inputs import SimulationRequest, as_region, model_label, model_units, symbolic_model
+from nlobs.workflows.inputs import SimulationRequest, model_label, model_units, symbolic_model
 from nlobs.workflows.verdict import Verdict
 
 __all__ = [

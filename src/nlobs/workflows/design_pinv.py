@@ -16,34 +16,28 @@ is ``x̂̇ = f(x̂) + g(x̂) u + Q⁺(x̂) K (y − h(x̂))`` (7) with the gain 
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
-import sympy as sp
 from numpy.typing import ArrayLike
 
-from nlobs.checks import Check
 from nlobs.errors import InvalidArgumentError
-from nlobs.geometry.checks import observability_rank
-from nlobs.geometry.lie import lie_derivative
 from nlobs.geometry.region import Box
-from nlobs.observers.pinv import AssumptionWarning, PinvObserver
 from nlobs.simulate.coverage import Coverage, InRegion, Premise, monitor
 from nlobs.simulate.loop import simulate
 from nlobs.simulate.result import SimulationResult
 from nlobs.simulate.sampling import MeasurementGroup
 from nlobs.simulate.signals import InputLike
-from nlobs.synthesis.pinv_gain import DEFAULT_THETA, PLACEMENTS, HighGain, Placement
+from nlobs.synthesis.pinv_gain import DEFAULT_THETA, PLACEMENTS, Placement
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.methods.base import Design
 from nlobs.methods.pinv import PINV, PinvDesignReport, build_pinv_observer, design_pinv_report
 from nlobs.methods.problem import problem
 from nlobs.workflows._results import checked_request, error_line, error_summary, run_study, write_result
-from nlobs.workflows.inputs import SimulationRequest, as_region, model_units, symbolic_model
+from nlobs.workflows.inputs import SimulationRequest, model_units, symbolic_model
 from nlobs.workflows.verdict import Verdict
 
 __all__ = [

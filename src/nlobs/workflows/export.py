@@ -22,10 +22,8 @@ from nlobs.workflows.verdict import Verdict
 
 __all__ = ["EXPORTABLE", "ExportReport", "export_model_observer"]
 
-#: Observers of a domain of their own, exported from their own files (not methods of the registry).
-_DOMAIN: tuple[str, ...] = ("setvalued", "gnss-ins")
-#: The observers ``nlobs export --observer`` designs and writes: the registry's, then :data:`_DOMAIN`.
-EXPORTABLE: tuple[str, ...] = (*names(exported=True), *_DOMAIN)
+#: The observers ``nlobs export --observer`` designs and writes (the registry's methods with a C generator).
+EXPORTABLE: tuple[str, ...] = names(exported=True)
 LANGUAGES: tuple[str, ...] = ("c",)
 
 
@@ -100,6 +98,10 @@ def _certificate_text(design: Any, title: str) -> str:
         from nlobs.export.cascade import design_notes
 
         lines += [f"{k}: {v}" for k, v in design_notes(report)]
+    elif design.method == "gnss-ins":
+        if report is not None:
+            lines.append(f"attitude gain: {report.describe()}")
+        lines.append(f"IMU period {design.parameters['imu_period']:g} s (the module refuses another step length)")
     return "\n".join(lines)
 
 
@@ -118,52 +120,17 @@ def _method_design(method: Any, pb: Any, options: dict[str, Any], saturation: bo
     elif saturation is not None:
         raise InvalidArgumentError(f"saturation does not apply to the {method.name} observer")
     design = method.design(pb, **options)
-    where = pb.region.describe()
+    where = pb.region.describe() if method.uses_region else ""
     title = {"drift": f"Dalla Mora, Germani & Manes, Theorem 3.1 on {where}",
              "pinv": f"Röbenack, Theorem 4.1 / Corollary 4.1 on {where}",
              "cascade": "Grip, Saberi & Johansen, LMI (14) and Theorem 1",
-             "luenberger": "Grip, Saberi & Johansen, LMIs (14), (15)"}.get(method.name, method.title)
+             "luenberger": "Grip, Saberi & Johansen, LMIs (14), (15)",
+             "setvalued": "Khajenejad & Yong, observer (10)-(15), Algorithm 1, with nlobs's sound design and radius "
+                          "recursion",
+             "gnss-ins": "Grip, Fossen, Johansen & Saberi (24), the demo's noise-optimal certified gains"}.get(
+                 method.name, method.title)
     why_not = "" if design.certified else design.status
     return design.observer, design.certified, _certificate_text(design, title), why_not, design
-
-
-def _setvalued(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, str, str]:
-    from nlobs.observers.setvalued import SetValuedObserver
-    from nlobs.systems.modelfile import load_discrete_ui_model
-    from nlobs.workflows.setvalued import design_setvalued_observer
-
-    if box is not None or saturation is not None:
-        raise InvalidArgumentError("--box and --saturation do not apply to the set-valued observer (its class box "
-                                   "is the file's)")
-    m = load_discrete_ui_model(model)
-    rep = design_setvalued_observer(m)
-    if rep.design is None:
-        raise InvalidArgumentError(f"no gain to export: {rep.message}")
-    d = rep.design
-    verified = all(c.passed for c in d.checks)
-    lines = [f"Khajenejad & Yong, observer (10)-(15), Algorithm 1, with nlobs's sound design and radius recursion "
-             f"(objective {d.objective.value})",
-             f"rho = {d.rho}, lambda_eff = {d.lam_eff:.6g}, c = {d.c:.6g}, steady radius = {d.steady_radius:.6g}"]
-    lines += [f"{c.name}: {'passed' if c.passed else 'FAILED'}: {c.evidence}" for c in d.checks]
-    why = "" if verified and rep.verdict is Verdict.OK else (rep.message or "a check failed")
-    return SetValuedObserver(m.system, d), verified and rep.verdict is Verdict.OK, "\n".join(lines), why
-
-
-def _gnss_ins(model: Any, box: Any, saturation: bool | None) -> tuple[Any, bool, str, str]:
-    from nlobs.navigation.trajectory import traffic_pattern
-    from nlobs.workflows.demo import DemoConfig, demo_observer
-
-    if box is not None or saturation is not None:
-        raise InvalidArgumentError("--box and --saturation do not apply to the GNSS/INS observer")
-    config = DemoConfig()
-    obs, cert, schedule = demo_observer(config, traffic_pattern(seed=config.seed))
-    assert cert is not None
-    lines = ["Grip, Fossen, Johansen & Saberi (24), the demo's noise-optimal certified gains",
-             cert.summary()]
-    if schedule is not None:
-        lines.append(f"attitude gain: {schedule.describe()}")
-    lines.append(f"IMU period {1.0 / config.imu_rate_hz:g} s (the module refuses another step length)")
-    return obs, bool(cert.verified), "\n".join(lines), "" if cert.verified else "the gain's certificate failed"
 
 
 def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: str = "c",
@@ -205,49 +172,31 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
         ``out`` cannot be written.
     """
     from nlobs.export import export_observer
-    from nlobs.workflows.inputs import symbolic_model
+    from nlobs.methods.problem import problem
+    from nlobs.methods.registry import get
 
     if lang not in LANGUAGES:
-        raise InvalidArgumentError(f"--lang: expected one of {', '.join(LANGUAGES)}, got {lang!r}")
-    from nlobs.methods.problem import problem
-    from nlobs.methods.registry import get, names
-
-    known = (*names(exported=True), *_DOMAIN)
-    if observer not in known:
-        raise InvalidArgumentError(f"observer: expected one of {', '.join(known)}, got {observer!r}")
-    design = None
-    if observer in _DOMAIN:
-        if options:
-            raise InvalidArgumentError(f"{', '.join(sorted(options))}: not a design option of the {observer} observer")
-        if observer == "gnss-ins":
-            if str(model) != "gnss-ins":
-                raise InvalidArgumentError(f"observer gnss-ins: the model is the demo's flight, named gnss-ins (got "
-                                           f"{model!r})")
-            name = "gnss-ins"
-            obs, certified, text, why = _gnss_ins(None, box, saturation)
-        else:
-            name = Path(str(model)).stem
-            obs, certified, text, why = _setvalued(model, box, saturation)
+        raise InvalidArgumentError(f"lang: expected one of {', '.join(LANGUAGES)}, got {lang!r}")
+    if observer not in EXPORTABLE:
+        raise InvalidArgumentError(f"observer: expected one of {', '.join(EXPORTABLE)}, got {observer!r}")
+    method = get(observer)
+    unknown = sorted(set(options) - set(method.options))
+    if unknown:
+        raise InvalidArgumentError(f"{', '.join(unknown)}: not a design option of the {observer} observer "
+                                   f"(it takes {', '.join(sorted(method.options)) or 'none'})")
+    if box is not None and not method.uses_region:
+        raise InvalidArgumentError(f"box does not apply to the {observer} observer")
+    if observer == "gnss-ins":  # the demo's flight, not a model file
+        pb: Any = str(model)
+        name = "gnss-ins"
     else:
-        method = get(observer)
-        unknown = sorted(set(options) - set(method.options))
-        if unknown:
-            raise InvalidArgumentError(f"{', '.join(unknown)}: not a design option of the {observer} observer "
-                                       f"(it takes {', '.join(sorted(method.options)) or 'none'})")
-        if box is not None and not method.uses_region:
-            raise InvalidArgumentError(f"box does not apply to the {observer} observer")
         pb = problem(model, box=box)
         name = pb.model.name
-        obs, certified, text, why, design = _method_design(method, pb, dict(options), saturation)
+    obs, certified, text, why, design = _method_design(method, pb, dict(options), saturation)
     notes = (("certificate", ("verified" if certified else "NOT CERTIFIED") + (f" ({why})" if why else "")),
              ("certified on", text))
-    if observer == "gnss-ins":
-        from nlobs.workflows.demo import DemoConfig
-
-        options: dict[str, Any] | None = {"imu_period": 1.0 / DemoConfig().imu_rate_hz}
-    else:
-        options = None
-    res = export_observer(obs, out, prefix=prefix or f"{name}_{observer}", notes=notes, options=options)
+    c_options = {"imu_period": design.parameters["imu_period"]} if observer == "gnss-ins" else None
+    res = export_observer(obs, out, prefix=prefix or f"{name}_{observer}", notes=notes, options=c_options)
     verdict = Verdict.OK if certified else Verdict.FAILED
     msg = "" if certified else f"{name}: the {observer} design is not certified ({why}); the code was written " \
                                "with that in its header"

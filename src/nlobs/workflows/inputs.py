@@ -15,7 +15,6 @@ The command line imports this module when it starts: it loads no solver, observe
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,11 +24,9 @@ from numpy.typing import ArrayLike
 
 from nlobs._typing import Array
 from nlobs._validate import escape_unsafe, positive, readonly
-from nlobs.errors import DimensionError, InvalidArgumentError, ModelError, NlobsError, NonFiniteError
+from nlobs.errors import DimensionError, InvalidArgumentError, NlobsError, NonFiniteError
 from nlobs.geometry.region import Box
 from nlobs.methods.problem import BoxError, as_region, box_from_numbers, model_label, symbolic_model
-from nlobs.systems.linear import LinearSystem
-from nlobs.systems.modelfile import load_model
 from nlobs.systems.symbolic import SymbolicModel
 
 __all__ = [

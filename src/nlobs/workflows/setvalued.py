@@ -26,24 +26,27 @@ from nlobs._io import prepare_output_dir
 
 from nlobs._typing import Array
 from nlobs.errors import (
-    AssumptionViolated,
     InvalidArgumentError,
-    ModelError,
     NlobsError,
     OutputError,
     SimulationDiverged,
     StudyFailed,
 )
-from nlobs.linear.transform_ui import StructuralReport, structural_check
 from nlobs.observers.kalman import UnknownInputEKF
 from nlobs.observers.lipschitz import DiscreteLipschitzObserver
 from nlobs.simulate.replay import run_observer
 from nlobs.simulate.result import SimulationResult
 from nlobs.simulate.setvalued import DETAIL_BYTES, ContainmentResult, containment_of, input_estimates, simulate_batch
 from nlobs.simulate.setvalued_plots import plot_trajectories, save_figure
-from nlobs.synthesis.setvalued import SetValuedDesign, design_setvalued
-from nlobs.systems.discrete_ui import DiscreteUISystem, Lipschitz, check_function_class
-from nlobs.systems.modelfile import DiscreteUIModel, load_discrete_ui_model
+from nlobs.synthesis.setvalued import SetValuedDesign
+from nlobs.systems.discrete_ui import DiscreteUISystem, Lipschitz
+from nlobs.systems.modelfile import DiscreteUIModel
+from nlobs.methods.setvalued import (
+    SetValuedDesignReport,
+    class_check_box,
+    design_setvalued_observer,
+    load_setvalued_model,
+)
 from nlobs.workflows.verdict import Verdict
 
 __all__ = [
@@ -377,159 +380,6 @@ def plot_study(study: MonteCarloStudy, path: str | Path, *, title: str = "", dt:
 # --------------------------------------------------------------------------- the two commands
 
 
-def _structure(s: DiscreteUISystem) -> tuple[StructuralReport | None, str]:
-    """The structural check, or ``None`` with the reason when Lemma 5.1's rank condition fails."""
-    try:
-        return structural_check(s.A, s.G, s.C, s.H, members=s.function_class.linear_members()), ""
-    except AssumptionViolated as exc:
-        return None, str(exc)
-
-
-def _structure_dict(st: StructuralReport | None, why: str) -> dict[str, Any]:
-    if st is None:
-        return {"exists": False, "lemma_5_1_rank": False, "evidence": why}
-    return {"exists": st.exists, "lemma_5_1_rank": True, **st.to_dict()}
-
-
-def class_check_box(m: DiscreteUIModel) -> tuple[Array, Array]:
-    """Where the function class is checked: the file's ``box``, else ``x0 ± max(10 δ0, 1)``.
-
-    Parameters
-    ----------
-    m : DiscreteUIModel
-        A loaded set-valued model file.
-
-    Returns
-    -------
-    lo, hi : ndarray
-        The corners of the box.
-    """
-    if m.box is not None:
-        return m.box
-    s = m.system
-    half = max(10.0 * s.delta0, 1.0)
-    return s.x0 - half, s.x0 + half
-
-
-def _load(model: str | Path | DiscreteUIModel) -> DiscreteUIModel:
-    return model if isinstance(model, DiscreteUIModel) else load_discrete_ui_model(model)
-
-
-_NO_OBSERVER = ("no stable observer of this structure exists (a linear member of the class is not strongly "
-                "detectable, or Lemma 5.1's rank condition fails); evidence printed above")
-
-
-@dataclass(frozen=True, eq=False)
-class SetValuedDesignReport:
-    """What ``nlobs design setvalued`` prints: structure, sampled class check, design and verification.
-
-    Attributes
-    ----------
-    model : str
-        The model as the user named it (for messages).
-    data : dict
-        The JSON report (``to_dict()``).
-    design : SetValuedDesign or None
-        ``None`` when no stable observer of the structure exists.
-    structure : StructuralReport or None
-        ``None`` when Lemma 5.1's rank condition fails.
-    verdict : Verdict
-        ``OK`` or ``NO_OBSERVER``.
-    message : str
-        The line printed after the report when the verdict is not ``OK``.
-    """
-
-    model: str
-    data: dict[str, Any]
-    design: SetValuedDesign | None
-    structure: StructuralReport | None
-    verdict: Verdict
-    message: str
-
-    def to_dict(self) -> dict[str, Any]:
-        """The JSON report."""
-        return copy.deepcopy(self.data)
-
-    def head(self) -> str:
-        """The model, structure and class-check lines (shared with the simulation report)."""
-        d = self.data
-        st = d["structure"]
-        return "\n".join([
-            f"model {d['model']}: n = {d['n']}, unknown inputs p = {d['p']}, measurements l = {d['l']}; "
-            f"{d['function_class']} (γ = {d['gamma']:.4g}); η_w = {d['eta_w']:g}, η_v = {d['eta_v']:g}, "
-            f"δ0 = {d['delta0']:g}",
-            "structural checks: Lemma 5.1 rank ok; stable observer of this structure exists: "
-            f"{'yes' if st['exists'] else 'NO'}",
-            "  " + st["evidence"].replace("\n", "\n  "),
-            "function class (sampled): " + d["class_check"]["text"],
-        ])
-
-    def summary(self) -> str:
-        """The text report."""
-        if self.design is None:
-            return f"{self.model}: NO stable observer of the structure (10)-(15) exists\n" + \
-                self.data["structure"]["evidence"]
-        return self.head() + "\n" + self.design.summary()
-
-
-def design_setvalued_observer(model: str | Path | DiscreteUIModel, *, objective: str = "radius",
-                              samples: int = 20_000, seed: int = 0) -> SetValuedDesignReport:
-    """Structural checks, the sampled function-class check and the certified design of Algorithm 1's gain.
-
-    Parameters
-    ----------
-    model : str, Path or DiscreteUIModel
-        A model file with unknown inputs, the name of a shipped one, or a loaded model.
-    objective : {"radius", "hinf"}
-        The design objective of :func:`nlobs.synthesis.setvalued.design_setvalued`.
-    samples : int
-        Sampled pairs for the function-class check (in :func:`class_check_box`).
-    seed : int
-        Seed of that sampling.
-
-    Returns
-    -------
-    SetValuedDesignReport
-        Verdict ``NO_OBSERVER`` (with the evidence) when no stable observer of the structure (10)-(15) exists.
-
-    Raises
-    ------
-    ModelFileError
-        The model file cannot be read or is invalid.
-    ModelError
-        The nonlinear part violates its stated class on the sampled pairs (no certificate would hold).
-    DesignInfeasible, CertificateError
-        The design failed (the message says which LMI and by how much) or failed its re-verification.
-    """
-    m = _load(model)
-    label = str(model) if not isinstance(model, DiscreteUIModel) else m.system.name
-    s = m.system
-    st, why = _structure(s)
-    lo, hi = class_check_box(m)
-    chk = check_function_class(s.nonlinear, s.function_class, lo, hi, n_pairs=samples, seed=seed)
-    data: dict[str, Any] = {
-        "model": s.name, "n": s.n, "p": s.p, "l": s.l, "function_class": s.function_class.label,
-        "gamma": s.function_class.gamma, "eta_w": s.eta_w, "eta_v": s.eta_v, "delta0": s.delta0,
-        "structure": _structure_dict(st, why),
-        "class_check": {"holds": chk.passed, "worst_margin": chk.value, "x1": chk.values["x1"].tolist(),
-                        "x2": chk.values["x2"].tolist(), "pairs": chk.values["n_pairs"],
-                        "box": [lo.tolist(), hi.tolist()], "text": chk.evidence},
-    }
-    if st is None or not st.exists:
-        return SetValuedDesignReport(label, data, None, st, Verdict.NO_OBSERVER, f"{label}: {_NO_OBSERVER}")
-    if not chk.passed:
-        raise ModelError(f"the nonlinear part violates its stated class, so no certificate would hold: {chk.evidence}")
-    try:
-        # the observer runs on the plant's own φ (no run-time LPV weights): a Class III file is designed with
-        # the σ̃ Lipschitz multiplier, not at the vertices (docs/setvalued.md, "Soundness conditions")
-        d = design_setvalued(s, objective=objective, lpv="lipschitz", structure=st)
-    except AssumptionViolated as exc:  # pragma: no cover - the structural check above catches these first
-        data["structure"]["evidence"] = exc.evidence or str(exc)
-        return SetValuedDesignReport(label, data, None, st, Verdict.NO_OBSERVER, f"{label}: {_NO_OBSERVER}")
-    data["design"] = d.to_dict()
-    return SetValuedDesignReport(label, data, d, st, Verdict.OK, "")
-
-
 @dataclass(frozen=True, eq=False)
 class SetValuedBaselineStudy:
     """Algorithm 1 and the point baselines on the same runs, a batch at a time (:func:`nlobs.simulate.monte_carlo`).
@@ -770,7 +620,7 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
     from nlobs.simulate.montecarlo import batch_rng
     from nlobs.simulate.montecarlo import monte_carlo as run_chunks
 
-    m = _load(model)
+    m = load_setvalued_model(model)
     if sum(x is not None for x in (executor, workers, scheduler)) > 1:
         raise InvalidArgumentError("--workers and --scheduler (or an executor): give one (workers start a local "
                                    "cluster, a scheduler address uses a running one)")

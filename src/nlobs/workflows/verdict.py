@@ -8,17 +8,6 @@ verdict is not :attr:`Verdict.OK`). The CLI maps the verdict to its exit status:
 
 from __future__ import annotations
 
-from enum import Enum
+from nlobs.checks import Verdict
 
 __all__ = ["Verdict"]
-
-
-class Verdict(Enum):
-    """The outcome of a workflow."""
-
-    OK = "ok"
-    """Everything asked for was done and holds (a design is usable, a guarantee held)."""
-    FAILED = "failed"
-    """A design is not usable, a certificate failed, or a guarantee was violated (exit status 1)."""
-    NO_OBSERVER = "no observer"
-    """No observer of the requested structure exists for this model (exit status 3)."""

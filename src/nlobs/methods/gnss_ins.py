@@ -1,0 +1,256 @@
+r"""The GNSS/INS observer (24) of Grip, Saberi & Johansen (Sec. 5) as a method: the demo's configuration and observer.
+
+:class:`DemoConfig` holds the options of the GNSS/INS example (gains, attitude gain, sensor rates and
+noise); :func:`demo_observer` builds its observer (24) — by default with the certified gain of the
+smallest noise-to-error H2 norm under LMI (14) at γ = 50 and the attitude gain Γ(t) scheduled from
+the sensor noise (:func:`~nlobs.navigation.schedule.noise_scheduled_gain`). :data:`GNSS_INS` is the
+method of the registry: the demo's observer, for ``nlobs export --observer gnss-ins``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from nlobs._validate import in_range, positive
+from nlobs.errors import DesignInfeasible, InvalidArgumentError
+from nlobs.navigation.gains import NOISE_OPTIMAL_GAMMA, PAPER_GAMMA, design_gains, noise_optimal_gains, paper_gains
+from nlobs.navigation.gnss_ins import GnssInsObserver
+from nlobs.navigation.schedule import AttitudeGainSchedule, ScheduledGnssInsObserver, noise_scheduled_gain
+from nlobs.navigation.sensors import SensorNoise
+from nlobs.synthesis.mixed_h2 import MixedH2Certificate
+
+__all__ = ["ATTITUDE_GAINS", "BACKENDS", "DEMO_NOISE", "GAINS", "GNSS_INS", "MAX_IMU_SAMPLES", "DemoConfig",
+           "GnssInsMethod", "demo_observer"]
+
+
+#: Sensor noise of the demo: a consumer-grade IMU and a standalone GNSS receiver.
+DEMO_NOISE = SensorNoise(
+    gyro_std=0.002,  # rad/s
+    accel_std=0.05,  # m/s²
+    mag_std=0.01,  # normalised field units
+    gnss_p_std=1.5,  # m
+    gnss_v_std=0.1,  # m/s
+)
+
+
+#: The demo's gain choices (``--gains``).
+GAINS = ("noise-optimal", "paper", "designed")
+
+#: The attitude-gain choices of the noise-optimal observer (``--attitude-gain``).
+ATTITUDE_GAINS = ("scheduled", "constant")
+#: Where the observers (24) run: NumPy/Python floats, or their generated C.
+BACKENDS = ("python", "c")
+
+#: The longest flight the demo simulates, in IMU samples (a flight is held in memory: ~1 kB per sample).
+MAX_IMU_SAMPLES = 2e6
+
+
+@dataclass(frozen=True)
+class DemoConfig:
+    """Options of the GNSS/INS demo.
+
+    Attributes
+    ----------
+    seed : int
+        Seed of the flight and of the sensor noise.
+    duration : float or None
+        Length of the flight [s]; ``None`` for the whole traffic pattern.
+    imu_rate_hz, gnss_rate_hz : float
+        Sensor rates (the paper's 100 Hz and 5 Hz).
+    yaw_error_deg : float
+        Initial attitude error, a rotation about the down axis.
+    converge_deg : float
+        Attitude-error threshold that defines convergence.
+    gains : str
+        ``"noise-optimal"`` (default: the certified gain with the smallest noise-to-error H2 norm
+        under LMI (14) at γ = 50 and Γ = 0.5 I, :func:`~nlobs.navigation.gains.noise_optimal_gains`;
+        the paper's gains run beside it for comparison), ``"paper"`` (Sec. 5.2's K and Γ) or
+        ``"designed"`` (nlobs's central LMI design with the paper's Γ).
+    attitude_gain : str or None
+        The attitude gain of the noise-optimal observer: ``"scheduled"`` (its default: ``Γ(t)`` of
+        :func:`~nlobs.navigation.schedule.noise_scheduled_gain`) or ``"constant"``
+        (:data:`~nlobs.navigation.gains.NOISE_OPTIMAL_GAMMA` throughout). ``None``: the default of
+        ``gains``; the paper's and the designed gains use the paper's constant Γ, so only ``None`` is
+        accepted with them.
+    position_only : bool
+        GNSS position only (Sec. 5.2, C = [I 0]); the gain is then designed by nlobs.
+    ekf : bool
+        Also run the EKF baseline.
+    backend : str
+        ``"python"`` (default) or ``"c"``: the observers (24) run as their generated, compiled C
+        (:func:`nlobs.export.compile_observer`, the same estimates to rounding; the EKF stays in Python).
+    noise : SensorNoise
+        The sensors' error model (default :data:`DEMO_NOISE`).
+    """
+
+    seed: int = 0
+    duration: float | None = None
+    imu_rate_hz: float = 100.0
+    gnss_rate_hz: float = 5.0
+    yaw_error_deg: float = 60.0
+    converge_deg: float = 5.0
+    gains: str = "noise-optimal"
+    attitude_gain: str | None = None
+    position_only: bool = False
+    ekf: bool = True
+    backend: str = "python"
+    noise: SensorNoise = field(default_factory=lambda: DEMO_NOISE)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
+            raise InvalidArgumentError(f"seed: expected an integer >= 0, got {self.seed!r}")
+        if self.duration is not None:
+            positive("duration", self.duration)
+            if self.duration * self.imu_rate_hz > MAX_IMU_SAMPLES:
+                raise InvalidArgumentError(
+                    f"duration: {self.duration:g} s at {self.imu_rate_hz:g} Hz is {self.duration * self.imu_rate_hz:.3g} "
+                    f"IMU samples; at most {MAX_IMU_SAMPLES:.0e} fit in memory")
+        positive("imu_rate_hz", self.imu_rate_hz)
+        positive("gnss_rate_hz", self.gnss_rate_hz)
+        in_range("yaw_error_deg", self.yaw_error_deg, -180.0, 180.0, hi_open=False)
+        positive("converge_deg", self.converge_deg)
+        if self.gains not in GAINS:
+            raise InvalidArgumentError(f"gains: expected one of {', '.join(map(repr, GAINS))}, got {self.gains!r}")
+        if self.backend not in BACKENDS:
+            raise InvalidArgumentError(f"backend: expected one of {', '.join(map(repr, BACKENDS))}, got {self.backend!r}")
+        if self.attitude_gain is not None:
+            if self.attitude_gain not in ATTITUDE_GAINS:
+                raise InvalidArgumentError(f"attitude_gain: expected one of {', '.join(map(repr, ATTITUDE_GAINS))}, "
+                                           f"got {self.attitude_gain!r}")
+            if self.gains != "noise-optimal":
+                raise InvalidArgumentError(
+                    f"attitude_gain: applies to gains 'noise-optimal' (the {self.gains!r} gains use the paper's Γ)")
+
+    @property
+    def scheduled(self) -> bool:
+        """Whether the observer's attitude gain is scheduled (the noise-optimal default)."""
+        return self.gains == "noise-optimal" and self.attitude_gain in (None, "scheduled")
+
+
+def paper_observer(config: DemoConfig, flight: Any) -> GnssInsObserver:
+    """Observer (24) with the paper's gains (or, for a position-only receiver, the paper's recipe) and Γ.
+
+    Parameters
+    ----------
+    config : DemoConfig
+        Its ``position_only``.
+    flight : Flight
+        The flight (its ``m_n``, ``g_n``).
+
+    Returns
+    -------
+    GnssInsObserver
+    """
+    K = paper_gains(position_only=config.position_only)  # position-only: the paper's recipe, designed once and cached
+    return GnssInsObserver(K, PAPER_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
+
+
+def demo_observer(config: DemoConfig, flight: Any, start_s: float = 0.0) -> tuple[
+        GnssInsObserver | ScheduledGnssInsObserver, MixedH2Certificate | None, AttitudeGainSchedule | None]:
+    """The demo's observer (24) for ``config`` and ``flight``, with the noise-optimal gain's certificate and Γ(t).
+
+    Parameters
+    ----------
+    config : DemoConfig
+        Gains, attitude gain, receiver, rates and noise.
+    flight : Flight
+        The flight (its ``m_n``, ``g_n``).
+    start_s : float
+        The first time stamp of the data (the schedule of Γ starts there).
+
+    Returns
+    -------
+    (observer, certificate or None, schedule or None)
+
+    Raises
+    ------
+    DesignInfeasible
+        The noise-optimal gain failed its certificate.
+    """
+    cert: MixedH2Certificate | None = None
+    schedule: AttitudeGainSchedule | None = None
+    observer: GnssInsObserver | ScheduledGnssInsObserver
+    if config.gains == "noise-optimal":
+        K, cert = noise_optimal_gains(config.noise, imu_rate_hz=config.imu_rate_hz, gnss_rate_hz=config.gnss_rate_hz,
+                                      position_only=config.position_only)
+        if not cert.verified:  # never run an uncertified gain under this name
+            raise DesignInfeasible("the noise-optimal gain failed its certificate: "
+                                   + ", ".join(ch.name for ch in cert.failed_checks), constraint="certificate")
+        observer = GnssInsObserver(K, NOISE_OPTIMAL_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
+        if config.scheduled:
+            schedule = noise_scheduled_gain(config.noise, flight.m_n, flight.g_n, initial=NOISE_OPTIMAL_GAMMA[0, 0],
+                                            start_s=start_s)
+            observer = ScheduledGnssInsObserver(observer, schedule)
+    elif config.gains == "paper":
+        observer = paper_observer(config, flight)
+    else:
+        K, _ = design_gains(position_only=config.position_only)
+        observer = GnssInsObserver(K, PAPER_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
+    return observer, cert, schedule
+
+
+@dataclass(frozen=True)
+class GnssInsMethod:
+    """The GNSS/INS observer (24) of Grip, Saberi & Johansen on the demo's flight, with its certified gains.
+
+    Its "model" is the demo's traffic-pattern flight, named ``gnss-ins`` (not a model file): the
+    problem is not read. The design is :func:`demo_observer` for :class:`DemoConfig`'s defaults: the
+    noise-optimal gain, certified by LMI (14) and its H2 bound, and Γ(t) scheduled from the noise.
+
+    Attributes
+    ----------
+    name : str
+        The name in the registry.
+    title : str
+        The method with its paper and equation numbers.
+    uses_region : bool
+        Whether the design reads the problem's region (no).
+    options : frozenset of str
+        The options :meth:`design` takes (none).
+    """
+
+    name: str = "gnss-ins"
+    title: str = "GNSS/INS observer (Grip, Fossen, Johansen & Saberi (24)), the demo's certified gains"
+    uses_region: bool = False
+    options: frozenset[str] = frozenset()
+
+    def applies(self, problem: Any) -> str | None:
+        label = getattr(problem, "label", problem)
+        if str(label) != "gnss-ins":
+            return f"the GNSS/INS observer's model is the demo's flight, named gnss-ins (got {label!r})"
+        return None
+
+    def design(self, problem: Any) -> Any:
+        """The demo's observer (24) and its certificate (``problem``: the name ``"gnss-ins"``).
+
+        Raises
+        ------
+        AssumptionViolated
+            ``problem`` is not the demo's flight.
+        DesignInfeasible
+            The noise-optimal gain failed its certificate.
+        """
+        from nlobs.errors import AssumptionViolated
+        from nlobs.methods.base import Design
+        from nlobs.navigation.trajectory import traffic_pattern
+
+        why = self.applies(problem)
+        if why is not None:
+            raise AssumptionViolated(why)
+        config = DemoConfig()
+        obs, cert, schedule = demo_observer(config, traffic_pattern(seed=config.seed))
+        assert cert is not None
+        desc = "observer (24) with the demo's noise-optimal certified gains" + (
+            f"; attitude gain {schedule.describe()}" if schedule is not None else "")
+        parameters = {"gamma": cert.gamma, "imu_period": 1.0 / config.imu_rate_hz,
+                      "gnss_period": 1.0 / config.gnss_rate_hz}
+        return Design(self.name, obs, cert, tuple(cert.checks), (), parameters, {"gamma": "default"}, desc,
+                      gain=cert.gain, failed=() if cert.verified else ("the gain's certificate failed",),
+                      report=schedule)
+
+
+#: The GNSS/INS method of the registry.
+GNSS_INS = GnssInsMethod()

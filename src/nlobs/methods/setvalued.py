@@ -1,0 +1,264 @@
+r"""The set-valued input-and-state observer of Khajenejad & Yong as a method (observer (10)–(15), Algorithm 1).
+
+For a discrete-time model with unknown inputs (a model file with ``[unknown_inputs]``,
+:func:`nlobs.systems.modelfile.load_discrete_ui_model`): the structural checks (Lemma 5.1's rank
+condition, strong detectability of every linear member of the class), the sampled function-class
+check, and nlobs's sound design of the gain with its certificate (:func:`nlobs.synthesis.setvalued.design_setvalued`),
+as a :class:`SetValuedDesignReport` (:func:`design_setvalued_observer`, ``nlobs design setvalued``).
+:data:`SETVALUED` is the method of the registry.
+"""
+
+from __future__ import annotations
+
+import copy
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from nlobs._typing import Array
+from nlobs.checks import Verdict
+from nlobs.errors import AssumptionViolated, ModelError
+from nlobs.linear.transform_ui import StructuralReport, structural_check
+from nlobs.methods.base import Design
+from nlobs.methods.problem import Problem
+from nlobs.synthesis.setvalued import SetValuedDesign, design_setvalued
+from nlobs.systems.discrete_ui import DiscreteUISystem, check_function_class
+from nlobs.systems.modelfile import DiscreteUIModel, load_discrete_ui_model
+
+__all__ = ["SETVALUED", "SetValuedDesignReport", "SetValuedMethod", "class_check_box", "design_setvalued_observer",
+           "load_setvalued_model"]
+
+
+def _structure(s: DiscreteUISystem) -> tuple[StructuralReport | None, str]:
+    """The structural check, or ``None`` with the reason when Lemma 5.1's rank condition fails."""
+    try:
+        return structural_check(s.A, s.G, s.C, s.H, members=s.function_class.linear_members()), ""
+    except AssumptionViolated as exc:
+        return None, str(exc)
+
+
+def _structure_dict(st: StructuralReport | None, why: str) -> dict[str, Any]:
+    if st is None:
+        return {"exists": False, "lemma_5_1_rank": False, "evidence": why}
+    return {"exists": st.exists, "lemma_5_1_rank": True, **st.to_dict()}
+
+
+def class_check_box(m: DiscreteUIModel) -> tuple[Array, Array]:
+    """Where the function class is checked: the file's ``box``, else ``x0 ± max(10 δ0, 1)``.
+
+    Parameters
+    ----------
+    m : DiscreteUIModel
+        A loaded set-valued model file.
+
+    Returns
+    -------
+    lo, hi : ndarray
+        The corners of the box.
+    """
+    if m.box is not None:
+        return m.box
+    s = m.system
+    half = max(10.0 * s.delta0, 1.0)
+    return s.x0 - half, s.x0 + half
+
+
+def load_setvalued_model(model: str | Path | DiscreteUIModel) -> DiscreteUIModel:
+    """A set-valued model: loaded (a file or a shipped name) or as given.
+
+    Parameters
+    ----------
+    model : str, Path or DiscreteUIModel
+        A model file with unknown inputs, a shipped name, or a loaded model.
+
+    Returns
+    -------
+    DiscreteUIModel
+    """
+    return model if isinstance(model, DiscreteUIModel) else load_discrete_ui_model(model)
+
+
+_NO_OBSERVER = ("no stable observer of this structure exists (a linear member of the class is not strongly "
+                "detectable, or Lemma 5.1's rank condition fails); evidence printed above")
+
+
+@dataclass(frozen=True, eq=False)
+class SetValuedDesignReport:
+    """What ``nlobs design setvalued`` prints: structure, sampled class check, design and verification.
+
+    Attributes
+    ----------
+    model : str
+        The model as the user named it (for messages).
+    data : dict
+        The JSON report (``to_dict()``).
+    design : SetValuedDesign or None
+        ``None`` when no stable observer of the structure exists.
+    structure : StructuralReport or None
+        ``None`` when Lemma 5.1's rank condition fails.
+    verdict : Verdict
+        ``OK`` or ``NO_OBSERVER``.
+    message : str
+        The line printed after the report when the verdict is not ``OK``.
+    """
+
+    model: str
+    data: dict[str, Any]
+    design: SetValuedDesign | None
+    structure: StructuralReport | None
+    verdict: Verdict
+    message: str
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON report."""
+        return copy.deepcopy(self.data)
+
+    def head(self) -> str:
+        """The model, structure and class-check lines (shared with the simulation report)."""
+        d = self.data
+        st = d["structure"]
+        return "\n".join([
+            f"model {d['model']}: n = {d['n']}, unknown inputs p = {d['p']}, measurements l = {d['l']}; "
+            f"{d['function_class']} (γ = {d['gamma']:.4g}); η_w = {d['eta_w']:g}, η_v = {d['eta_v']:g}, "
+            f"δ0 = {d['delta0']:g}",
+            "structural checks: Lemma 5.1 rank ok; stable observer of this structure exists: "
+            f"{'yes' if st['exists'] else 'NO'}",
+            "  " + st["evidence"].replace("\n", "\n  "),
+            "function class (sampled): " + d["class_check"]["text"],
+        ])
+
+    def summary(self) -> str:
+        """The text report."""
+        if self.design is None:
+            return f"{self.model}: NO stable observer of the structure (10)-(15) exists\n" + \
+                self.data["structure"]["evidence"]
+        return self.head() + "\n" + self.design.summary()
+
+
+def design_setvalued_observer(model: str | Path | DiscreteUIModel, *, objective: str = "radius",
+                              samples: int = 20_000, seed: int = 0) -> SetValuedDesignReport:
+    """Structural checks, the sampled function-class check and the certified design of Algorithm 1's gain.
+
+    Parameters
+    ----------
+    model : str, Path or DiscreteUIModel
+        A model file with unknown inputs, the name of a shipped one, or a loaded model.
+    objective : {"radius", "hinf"}
+        The design objective of :func:`nlobs.synthesis.setvalued.design_setvalued`.
+    samples : int
+        Sampled pairs for the function-class check (in :func:`class_check_box`).
+    seed : int
+        Seed of that sampling.
+
+    Returns
+    -------
+    SetValuedDesignReport
+        Verdict ``NO_OBSERVER`` (with the evidence) when no stable observer of the structure (10)-(15) exists.
+
+    Raises
+    ------
+    ModelFileError
+        The model file cannot be read or is invalid.
+    ModelError
+        The nonlinear part violates its stated class on the sampled pairs (no certificate would hold).
+    DesignInfeasible, CertificateError
+        The design failed (the message says which LMI and by how much) or failed its re-verification.
+    """
+    m = load_setvalued_model(model)
+    label = str(model) if not isinstance(model, DiscreteUIModel) else m.system.name
+    s = m.system
+    st, why = _structure(s)
+    lo, hi = class_check_box(m)
+    chk = check_function_class(s.nonlinear, s.function_class, lo, hi, n_pairs=samples, seed=seed)
+    data: dict[str, Any] = {
+        "model": s.name, "n": s.n, "p": s.p, "l": s.l, "function_class": s.function_class.label,
+        "gamma": s.function_class.gamma, "eta_w": s.eta_w, "eta_v": s.eta_v, "delta0": s.delta0,
+        "structure": _structure_dict(st, why),
+        "class_check": {"holds": chk.passed, "worst_margin": chk.value, "x1": chk.values["x1"].tolist(),
+                        "x2": chk.values["x2"].tolist(), "pairs": chk.values["n_pairs"],
+                        "box": [lo.tolist(), hi.tolist()], "text": chk.evidence},
+    }
+    if st is None or not st.exists:
+        return SetValuedDesignReport(label, data, None, st, Verdict.NO_OBSERVER, f"{label}: {_NO_OBSERVER}")
+    if not chk.passed:
+        raise ModelError(f"the nonlinear part violates its stated class, so no certificate would hold: {chk.evidence}")
+    try:
+        # the observer runs on the plant's own φ (no run-time LPV weights): a Class III file is designed with
+        # the σ̃ Lipschitz multiplier, not at the vertices (docs/setvalued.md, "Soundness conditions")
+        d = design_setvalued(s, objective=objective, lpv="lipschitz", structure=st)
+    except AssumptionViolated as exc:  # pragma: no cover - the structural check above catches these first
+        data["structure"]["evidence"] = exc.evidence or str(exc)
+        return SetValuedDesignReport(label, data, None, st, Verdict.NO_OBSERVER, f"{label}: {_NO_OBSERVER}")
+    data["design"] = d.to_dict()
+    return SetValuedDesignReport(label, data, d, st, Verdict.OK, "")
+
+
+@dataclass(frozen=True)
+class SetValuedMethod:
+    """Khajenejad & Yong's observer (10)–(15) with nlobs's sound design and radius recursion (module docstring).
+
+    Applies to a discrete-time model file with ``[unknown_inputs]``. Premises checked: the
+    structural conditions, the function class on sampled pairs of :func:`class_check_box`, and every
+    block of the design's certificate; the class is checked by sampling the file's box.
+
+    Attributes
+    ----------
+    name : str
+        The name in the registry.
+    title : str
+        The method with its paper and equation numbers.
+    uses_region : bool
+        Whether the design reads the problem's region (no: the class box is the file's).
+    options : frozenset of str
+        The options :meth:`design` takes.
+    """
+
+    name: str = "setvalued"
+    title: str = "set-valued observer (Khajenejad & Yong (10)–(15), Algorithm 1)"
+    uses_region: bool = False
+    options: frozenset[str] = frozenset({"objective", "samples", "seed"})
+
+    def applies(self, problem: Problem) -> str | None:
+        from nlobs.systems.modelfile import model_file_tables
+
+        path = problem.path
+        if path is None or "unknown_inputs" not in model_file_tables(path):
+            return ("Khajenejad & Yong's observer is for a discrete-time model with unknown inputs: this model file has "
+                    "no [unknown_inputs] table")
+        return None
+
+    def design(self, problem: Problem, *, objective: str = "radius", samples: int = 20_000, seed: int = 0) -> Design:
+        """The design of :func:`design_setvalued_observer` for the problem's model file.
+
+        Raises
+        ------
+        AssumptionViolated
+            The model file has no ``[unknown_inputs]``, or no stable observer of the structure exists.
+        ModelError
+            The nonlinear part violates its stated class on the sampled pairs.
+        DesignInfeasible, CertificateError
+            As :func:`design_setvalued_observer`.
+        """
+        from nlobs.observers.setvalued import SetValuedObserver
+
+        why = self.applies(problem)
+        if why is not None:
+            raise AssumptionViolated(why)
+        assert problem.path is not None
+        m = load_setvalued_model(problem.path)
+        rep = design_setvalued_observer(m, objective=objective, samples=samples, seed=seed)
+        if rep.design is None:
+            raise AssumptionViolated(rep.message or _NO_OBSERVER)
+        d = rep.design
+        description = (f"observer (10)-(15), Algorithm 1, sound design (objective {d.objective.value}): rho = {d.rho}, "
+                       f"lambda_eff = {d.lam_eff:.6g}, c = {d.c:.6g}, steady radius = {d.steady_radius:.6g}")
+        failed = tuple(f"{c.name} fails: {c.evidence}" for c in d.checks if not c.passed)
+        parameters = {"objective": d.objective.value, "rho": d.rho, "lam_eff": d.lam_eff, "c": d.c,
+                      "steady_radius": d.steady_radius}
+        return Design(self.name, SetValuedObserver(m.system, d), d, tuple(d.checks), (), parameters,
+                      {"objective": "given" if objective != "radius" else "default"}, description,
+                      gain=d.gain, failed=failed, report=rep)
+
+
+#: The set-valued method of the registry.
+SETVALUED = SetValuedMethod()
