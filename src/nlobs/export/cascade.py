@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from nlobs.errors import InvalidArgumentError
-from nlobs.export.generate import _abscissa, _const, _function, _matrix_note, _require_source
+from nlobs.export.pieces import abscissa, matrix_note, require_source, static_array, static_function
 from nlobs.export.program import CProgram
 
 __all__ = ["design_notes", "generate_cascade"]
@@ -101,25 +101,25 @@ def generate_cascade(obs: Any, prefix: str) -> CProgram:
     fb = bool(s1.feedback)
     nx, nw, pz, py, m = s1.n_x, s2.n_w, s2.p_z, s2.p_y, s1.m
     why = "a Σ1 built from NumPy callables (NonlinearSubsystem.numeric); build it with NonlinearSubsystem.symbolic"
-    f = _require_source(s1._f, f"{s1.name}.f: {why}")
-    h = _require_source(s1._h, f"{s1.name}.h: {why}")
-    g = _require_source(s1._g, f"{s1.name}.g: {why}")
-    hx = _require_source(s1._h_x, f"{s1.name}.dh/dx: {why}")
-    hw = _require_source(s1._h_w, f"{s1.name}.dh/dw: {why}") if fb else None
+    f = require_source(s1._f, f"{s1.name}.f: {why}")
+    h = require_source(s1._h, f"{s1.name}.h: {why}")
+    g = require_source(s1._g, f"{s1.name}.g: {why}")
+    hx = require_source(s1._h_x, f"{s1.name}.dh/dx: {why}")
+    hw = require_source(s1._h_w, f"{s1.name}.dh/dw: {why}") if fb else None
     grp = ("u", "w", "x") if fb else ("u", "x")
     body = "".join([
-        _function(f"{P}_f", f, grp, f"{s1.name}.f"),
-        _function(f"{P}_h", h, grp, f"{s1.name}.h"),
-        _function(f"{P}_g", g, ("u", "x", "w", "zh") if fb else ("u", "x", "zh"), f"{s1.name}.g"),
-        _function(f"{P}_hx", hx, grp, f"{s1.name}.dh/dx"),
-        _function(f"{P}_hw", hw, grp, f"{s1.name}.dh/dw") if hw is not None else "",
+        static_function(f"{P}_f", f, grp, f"{s1.name}.f"),
+        static_function(f"{P}_h", h, grp, f"{s1.name}.h"),
+        static_function(f"{P}_g", g, ("u", "x", "w", "zh") if fb else ("u", "x", "zh"), f"{s1.name}.g"),
+        static_function(f"{P}_hx", hx, grp, f"{s1.name}.dh/dx"),
+        static_function(f"{P}_hw", hw, grp, f"{s1.name}.dh/dw") if hw is not None else "",
     ])
     Bu, Du = s2.input_matrices(m)
     K = np.asarray(obs.K, dtype=float)
     mats = {"A": s2.A, "Bu": Bu, "Bz": s2.B_z, "C": s2.C, "Du": Du, "Dz": s2.D_z, "Kw": K[:nw], "Kz": K[nw:]}
     if m == 0:  # no input: B_u u and D_u u are empty sums, left out (adding 0.0 changes nothing)
         del mats["Bu"], mats["Du"]
-    body += "".join(_const(f"{P}_{k}", v) for k, v in mats.items()) + "\n" + _mv(P)
+    body += "".join(static_array(f"{P}_{k}", v) for k, v in mats.items()) + "\n" + _mv(P)
 
     args = "u, wh, xh" if fb else "u, xh"
     uterm = m > 0
@@ -203,8 +203,8 @@ static void {P}_estimate_(const double *z, double *xhat)
         ("observer", "z_hat = h + xi, y~ = y - C w_hat - D_u u - D_z z_hat, x_hat' = f + g(z_hat), "
                      "w_hat' = A w_hat + B_u u + B_z z_hat + K_w y~, xi' = -dh/dx g + K_z y~"
                      + (" - dh/dw K_w y~" if fb else "")),
-        ("gain K = [K_w; K_z]", _matrix_note(K)),
-        ("A_e - K C_e", f"spectral abscissa {_abscissa(obs.error_matrix, False):.6g}"),
+        ("gain K = [K_w; K_z]", matrix_note(K)),
+        ("A_e - K C_e", f"spectral abscissa {abscissa(obs.error_matrix, False):.6g}"),
         ("||H||inf", _hinf_note(obs)),
     )
     return CProgram(prefix=P, title=f"Cascade observer (Grip, Saberi & Johansen) of {s1.name}",

@@ -30,42 +30,12 @@ import numpy as np
 import sympy as sp
 
 from nlobs.errors import InvalidArgumentError
-from nlobs.export.cprint import c_double, c_identifier, emit_assignments, matrix_literal
+from nlobs.export.cprint import c_double, c_identifier, emit_assignments
+from nlobs.export.pieces import abscissa, matrix_note, require_source, static_array, static_function, symbol_inputs
 from nlobs.export.program import CProgram
-from nlobs.systems.codegen import BatchedFunction
 from nlobs.systems.timebase import Discrete
 
 __all__ = ["default_prefix", "generate", "supported"]
-
-
-def _sym_inputs(groups: tuple[tuple[sp.Symbol, ...], ...], names: tuple[str, ...]) -> dict[sp.Symbol, str]:
-    out: dict[sp.Symbol, str] = {}
-    for grp, arr in zip(groups, names):
-        for j, s in enumerate(grp):
-            out[s] = f"{arr}[{j}]"
-    return out
-
-
-def _require_source(fn: Any, what: str) -> BatchedFunction:
-    if not isinstance(fn, BatchedFunction) or not fn.arguments:
-        raise InvalidArgumentError(f"{what}: its compiled function carries no expressions to print as C "
-                                   "(built outside nlobs's code generation)")
-    return fn
-
-
-def _function(name: str, fn: BatchedFunction, params: tuple[str, ...], what: str) -> str:
-    """``static void name(const double *p0, …, double *out)``: the entries of ``fn``, row-major."""
-    inputs = _sym_inputs(fn.arguments, params)
-    sig = ", ".join(f"const double *{p}" for p in params)
-    body = emit_assignments(list(fn.expressions), inputs, [f"out[{i}]" for i in range(len(fn.expressions))],
-                            what=what)
-    unused = "".join(f"    (void){p};\n" for p in params)
-    return f"static void {name}({sig}, double *out)\n{{\n{unused}{body}}}\n"
-
-
-def _const(name: str, values: Any) -> str:
-    arr = np.asarray(values, dtype=float)
-    return f"static const double {name}[{max(arr.size, 1)}] = {matrix_literal(arr)};\n"
 
 
 _RHS_SIG = "(double t, const double *z, const double *u, const double *y, double *dz)"
@@ -78,7 +48,7 @@ def _luenberger(obs: Any, P: str) -> dict[str, Any]:
     n, m, p = s.n, s.m, s.p
     A, B, C, D, L = (np.asarray(M, dtype=float) for M in (s.A, s.B, s.C, s.D, obs.L))
     Fz, Fu = A - L @ C, B - L @ D
-    body = (_const(f"{P}_Fz", Fz) + _const(f"{P}_Fu", Fu) + _const(f"{P}_L", L)
+    body = (static_array(f"{P}_Fz", Fz) + static_array(f"{P}_Fu", Fu) + static_array(f"{P}_L", L)
             + f"""
 static int {P}_rhs_{_RHS_SIG}
 {{
@@ -101,8 +71,8 @@ static int {P}_rhs_{_RHS_SIG}
 """)
     notes = (("system", f"{n} states, {m} inputs, {p} outputs ({s.time})"),
              ("observer", "z' = (A - L C) z + (B - L D) u + L y, x_hat = z"),
-             ("gain L", _matrix_note(L)),
-             ("A - L C", f"spectral abscissa {_abscissa(Fz, isinstance(s.time, Discrete)):.6g}"))
+             ("gain L", matrix_note(L)),
+             ("A - L C", f"spectral abscissa {abscissa(Fz, isinstance(s.time, Discrete)):.6g}"))
     return dict(n_z=n, n_x=n, n_u=m, n_y=p, body=body, notes=notes, title=f"Luenberger observer ({n} states)")
 
 
@@ -114,20 +84,20 @@ def _constant_gain(obs: Any, P: str) -> dict[str, Any]:
         from nlobs.observers.luenberger import LuenbergerObserver
 
         return _luenberger(LuenbergerObserver(plant, obs.L), P)
-    rhs = _require_source(getattr(plant, "_rhs", None), f"{plant.name}.rhs")
-    h = _require_source(getattr(plant, "_h", None), f"{plant.name}.h")
+    rhs = require_source(getattr(plant, "_rhs", None), f"{plant.name}.rhs")
+    h = require_source(getattr(plant, "_h", None), f"{plant.name}.h")
     L = np.asarray(obs.L, dtype=float)
     ys = tuple(sp.Symbol(f"_y{j}", real=True) for j in range(p))
     xs, us = rhs.arguments
     hx = [e.xreplace(dict(zip(h.arguments[0] + h.arguments[1], xs + us))) for e in h.expressions]
     exprs = [rhs.expressions[i] + sum((sp.Float(L[i, j]) * (ys[j] - hx[j]) for j in range(p)), sp.Integer(0))
              for i in range(n)]
-    inputs = _sym_inputs((xs, us, ys), ("z", "u", "y"))
+    inputs = symbol_inputs((xs, us, ys), ("z", "u", "y"))
     body = f"static int {P}_rhs_{_RHS_SIG}\n{{\n{_UNUSED}" + emit_assignments(
         exprs, inputs, [f"dz[{i}]" for i in range(n)], what=f"{plant.name}: observer") + "    return 0;\n}\n"
     notes = (("model", f"{plant.name}: states {', '.join(plant.states)}; outputs {', '.join(plant.outputs)}"),
              ("observer", "z' = f(z, u) + L (y - h(z, u)), x_hat = z (constant output injection)"),
-             ("gain L", _matrix_note(L)))
+             ("gain L", matrix_note(L)))
     return dict(n_z=n, n_x=n, n_u=m, n_y=p, body=body, notes=notes,
                 title=f"Constant-gain observer of {plant.name}")
 
@@ -185,7 +155,7 @@ static int {P}_solve(int n, double *A, double *b)
 
 
 def _sat_c(P: str, lower: Any, upper: Any) -> str:
-    return (_const(f"{P}_lo", lower) + _const(f"{P}_hi", upper) + f"""\
+    return (static_array(f"{P}_lo", lower) + static_array(f"{P}_hi", upper) + f"""\
 /* sigma = sat(x) onto the box; returns whether any component was clipped */
 static int {P}_sat(int n, const double *x, double *sig)
 {{
@@ -208,22 +178,22 @@ def _injection(obs: Any, P: str) -> dict[str, Any]:
     if getattr(obs, "pinv", "symbolic") != "symbolic":
         raise InvalidArgumentError(f"{F.name}: a Moore–Penrose observer with pinv='numeric' evaluates Q⁺ by an SVD "
                                    "at every step and is not exported; build it with pinv='symbolic'")
-    rhs = _require_source(obs._rhs, f"{F.name}: observer (7)")
-    body = _function(f"{P}_base", rhs, ("z", "u", "y"), f"{F.name}: observer (7)")
+    rhs = require_source(obs._rhs, f"{F.name}: observer (7)")
+    body = static_function(f"{P}_base", rhs, ("z", "u", "y"), f"{F.name}: observer (7)")
     B = getattr(obs, "saturation", None)
     if B is None:
         body += f"\nstatic int {P}_rhs_{_RHS_SIG}\n{{\n    (void)t;\n    {P}_base(z, u, y, dz);\n    return 0;\n}}\n"
     else:
         nr = sum(obs.r)
-        sat = _require_source(obs._sat_fn, f"{F.name}: saturated form")
-        parts = _function(f"{P}_parts", sat, ("z",), f"{F.name}: f, g, h, Φ_r, Q, Q⁺")
+        sat = require_source(obs._sat_fn, f"{F.name}: saturated form")
+        parts = static_function(f"{P}_parts", sat, ("z",), f"{F.name}: f, g, h, Φ_r, Q, Q⁺")
         K = np.asarray(obs._K, dtype=float)  # (nr, q)
         off_g, off_h = n, n + n * m
         off_phi = off_h + q
         off_Q = off_phi + nr
         off_Qp = off_Q + nr * n
         size = off_Qp + n * nr
-        body += parts + _sat_c(P, B.lower, B.upper) + _const(f"{P}_A", obs._A) + _const(f"{P}_K", K) + f"""
+        body += parts + _sat_c(P, B.lower, B.upper) + static_array(f"{P}_A", obs._A) + static_array(f"{P}_K", K) + f"""
 /* Khalil's form outside the box (Röbenack (7) saturated): xi' = A_r (Phi_r(x) - Phi_r(sig)) + Q(sig) F(sig)
    + K (y - h(x)); x' = (I - Q+ Q)(x) F(sig) + Q+(x) xi', F = f + g u */
 static int {P}_rhs_{_RHS_SIG}
@@ -288,12 +258,12 @@ static int {P}_rhs_{_RHS_SIG}
 # ----------------------------------------------------------------------------- Dalla Mora, Germani & Manes (3.1)
 def _drift(obs: Any, P: str) -> dict[str, Any]:
     n, m, q = obs.n_x, obs.n_inputs, obs.n_outputs
-    fn = _require_source(obs._fn, f"{obs.name}: f, g, h, Q_s")
+    fn = require_source(obs._fn, f"{obs.name}: f, g, h, Q_s")
     K = np.asarray(obs.K, dtype=float)
     off_g, off_h, off_Q = n, n + n * m, n + n * m + q
     size = off_Q + n * n
     eps = float(obs.regularization)
-    body = _function(f"{P}_parts", fn, ("z",), f"{obs.name}: f, g, h, Q_s") + _solve_c(P) + _const(f"{P}_K", K)
+    body = static_function(f"{P}_parts", fn, ("z",), f"{obs.name}: f, g, h, Q_s") + _solve_c(P) + static_array(f"{P}_K", K)
     if eps > 0.0:
         solve = f"""\
     /* Tikhonov: (Q^T Q + eps^2 I) c = Q^T b */
@@ -401,9 +371,9 @@ static int {P}_rhs_{_RHS_SIG}
 }}
 """
     else:
-        phi = _require_source(obs._phi, f"{obs.name}: Φ_s")
-        body += (_function(f"{P}_phi", phi, ("z",), f"{obs.name}: Φ_s") + _sat_c(P, B.lower, B.upper)
-                 + _const(f"{P}_A", obs._A) + f"""
+        phi = require_source(obs._phi, f"{obs.name}: Φ_s")
+        body += (static_function(f"{P}_phi", phi, ("z",), f"{obs.name}: Φ_s") + _sat_c(P, B.lower, B.upper)
+                 + static_array(f"{P}_A", obs._A) + f"""
 /* Khalil's form outside the box: Q_s(x) x' = A_s (Phi(x) - Phi(sig)) + Q_s(sig)(f(sig) + g(sig) u) + K (y - h(x)) */
 static int {P}_rhs_{_RHS_SIG}
 {{
@@ -445,7 +415,7 @@ static int {P}_rhs_{_RHS_SIG}
              ("observer", "x_hat' = f(x_hat) + g(x_hat) u + Q_s(x_hat)^-1 K (y - h(x_hat)), "
                           "Dalla Mora, Germani & Manes (3.1)"),
              ("multi-index s", ", ".join(str(v) for v in obs.s)),
-             ("gain K", _matrix_note(K)),
+             ("gain K", matrix_note(K)),
              ("singular Q_s", f"status 1 where a pivot is zero or cond(Q_s) > {obs.cond_limit:g} (lower bound)"
               if eps == 0.0 else f"Tikhonov-regularised, eps = {eps:.17g}")]
     if B is not None:
@@ -455,16 +425,6 @@ static int {P}_rhs_{_RHS_SIG}
 
 
 # ----------------------------------------------------------------------------- dispatch
-def _matrix_note(M: Any) -> str:
-    arr = np.atleast_2d(np.asarray(M, dtype=float))
-    return "\n".join("[" + ", ".join(f"{v:.17g}" for v in row) + "]" for row in arr)
-
-
-def _abscissa(M: Any, discrete: bool) -> float:
-    ev = np.linalg.eigvals(np.asarray(M, dtype=float)) if np.size(M) else np.zeros(1)
-    return float(np.max(np.abs(ev))) if discrete else float(np.max(ev.real))
-
-
 def _lazy(module: str, name: str) -> Any:
     def gen(obs: Any, prefix: str, **options: Any) -> Any:
         import importlib

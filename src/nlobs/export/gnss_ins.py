@@ -48,7 +48,7 @@ import numpy as np
 
 from nlobs.errors import InvalidArgumentError
 from nlobs.export.cprint import c_double, comment, matrix_literal
-from nlobs.export.generate import _matrix_note
+from nlobs.export.pieces import matrix_note
 from nlobs.export.program import CProgram, StateCodec
 
 __all__ = ["DEFAULT_IMU_PERIOD", "IMU_PERIOD_RTOL", "compile_gnss_ins", "generate_gnss_ins", "gnss_ins_codec"]
@@ -150,7 +150,7 @@ def _flow_constants(base: Any, h0: float) -> tuple[list[float], list[float], lis
     return phi, t1, t2
 
 
-def _const(name: str, values: Any, kind: str = "double") -> str:
+def static_array(name: str, values: Any, kind: str = "double") -> str:
     arr = np.asarray(values, dtype=float).reshape(-1)
     if kind == "int":
         lit = "{" + ", ".join(str(int(v)) for v in arr) + "}" if arr.size else "{0}"
@@ -266,15 +266,15 @@ def generate_gnss_ins(observer: Any, prefix: str, *, imu_period: float | None = 
         f"static const double {P}_htol = {c_double(IMU_PERIOD_RTOL * h0)};\n",
         f"/* linear sub-flow over h0/2: [flow 0 (no fix yet), flow 1 (with a fix)] x 3 axes x ({nb}x{nb} Phi, {nb} d);"
         f" and F Phi, F^2 Phi / 2 */\n",
-        _const(f"{P}_phi", phi), _const(f"{P}_t1", t1), _const(f"{P}_t2", t2),
+        static_array(f"{P}_phi", phi), static_array(f"{P}_t1", t1), static_array(f"{P}_t2", t2),
         f"/* m^n, S(m^n), S(m^n)^2, g^n, K (row-major, 9 x {ny}) */\n",
-        _const(f"{P}_mn", k0.m_n), _const(f"{P}_Sn", k0.Sn), _const(f"{P}_Sn2", k0.Sn2),
-        _const(f"{P}_gn", base.g_n), _const(f"{P}_K", K),
+        static_array(f"{P}_mn", k0.m_n), static_array(f"{P}_Sn", k0.Sn), static_array(f"{P}_Sn2", k0.Sn2),
+        static_array(f"{P}_gn", base.g_n), static_array(f"{P}_K", K),
         "/* attitude gain per mode: eigenvalues, eigenvectors V (row-major; unused where hasV is 0: "
         "Gamma diagonal), Gamma itself; switch times */\n",
         f"#define {up}_NMODES {N}\n",
-        _const(f"{P}_gam", gam), _const(f"{P}_V", Vs), _const(f"{P}_hasV", hasV, "int"), _const(f"{P}_Gam", Gam),
-        _const(f"{P}_switch", times if times else [0.0]),
+        static_array(f"{P}_gam", gam), static_array(f"{P}_V", Vs), static_array(f"{P}_hasV", hasV, "int"), static_array(f"{P}_Gam", Gam),
+        static_array(f"{P}_switch", times if times else [0.0]),
         f"""
 /* the mode in force at t: the number of switch times <= t + 1e-9 */
 static int {P}_mode(double t)
@@ -607,10 +607,10 @@ def _notes(observer: Any, base: Any, modes: tuple[Any, ...], times: tuple[float,
         ("step", "Strang split C(h/2) A(h/2) B(h) A(h/2) C(h/2), exact sub-flows"),
         ("IMU period", f"h0 = {h0:.17g} s; |h - h0| <= {IMU_PERIOD_RTOL:g} h0, else status 1"),
         ("intersample", str(base.intersample)),
-        ("gain K", _matrix_note(base.K)),
+        ("gain K", matrix_note(base.K)),
         ("rho(A - K C)", f"{base._rho:.6g} 1/s"),
-        ("m_n", _matrix_note(base.m_n)),
-        ("g_n", _matrix_note(base.g_n)),
+        ("m_n", matrix_note(base.m_n)),
+        ("g_n", matrix_note(base.g_n)),
     ]
     if type(observer).__name__ == "ScheduledGnssInsObserver":
         notes.append(("Gamma(t)", comment(observer.schedule.describe())))
@@ -620,7 +620,7 @@ def _notes(observer: Any, base: Any, modes: tuple[Any, ...], times: tuple[float,
         notes.append(("switch times", ", ".join(f"{t:.17g}" for t in times) + " s (mode = number of "
                                       "switch times <= t + 1e-9)"))
     else:
-        notes.append(("Gamma", _matrix_note(base.Gamma)))
+        notes.append(("Gamma", matrix_note(base.Gamma)))
         lam = np.linalg.eigvalsh(np.asarray(base.Gamma, dtype=float))
         notes.append(("Gamma eigenvalues", ", ".join(f"{v:.17g}" for v in lam)))
     return tuple(notes)

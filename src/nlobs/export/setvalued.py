@@ -38,7 +38,7 @@ import numpy as np
 
 from nlobs.errors import InvalidArgumentError
 from nlobs.export.cprint import c_double
-from nlobs.export.generate import _const, _function, _matrix_note, _require_source
+from nlobs.export.pieces import matrix_note, require_source, static_array, static_function
 from nlobs.export.program import CProgram, StateCodec
 
 __all__ = ["codec", "generate_setvalued"]
@@ -247,7 +247,7 @@ def generate_setvalued(observer: Any, prefix: str) -> CProgram:
                                    "exported; export the design with the Lipschitz multiplier (lpv='lipschitz')")
     phi = None
     if s.phi is not None:
-        phi = _require_source(s.phi, f"{s.name}: the nonlinear part phi (a Python callable; build the system with "
+        phi = require_source(s.phi, f"{s.name}: the nonlinear part phi (a Python callable; build the system with "
                                      "DiscreteUISystem.from_symbolic or from a model file)")
         if len(phi.arguments) != 1 or len(phi.arguments[0]) != s.n or len(phi.expressions) != s.n:
             raise InvalidArgumentError(f"{s.name}: phi's compiled function is not one map of the {s.n} states")
@@ -259,10 +259,10 @@ def generate_setvalued(observer: Any, prefix: str) -> CProgram:
     n_z = off + _N_SCALARS
     mats = {"U1": tr.U1, "U2": tr.U2, "C1": tr.C1, "C2": tr.C2, "D1": tr.D1, "D2": tr.D2, "M1": tr.M1,
             "M2": tr.M2, "V1": tr.V1, "V2": tr.V2, "G1": tr.G1, "G2": tr.G2, "Lt": Lt, "A": s.A, "B": s.B}
-    body = "".join(_const(f"{P}_{k}", v) for k, v in mats.items())
+    body = "".join(static_array(f"{P}_{k}", v) for k, v in mats.items())
     body += f"#define {O} {off}   /* the scalars after x_hat, d1_hat, d_hat */\n\n"
     if phi is not None:
-        body += _function(f"{P}_phi", phi, ("z",), f"{s.name}: phi") + "\n"
+        body += static_function(f"{P}_phi", phi, ("z",), f"{s.name}: phi") + "\n"
     rconsts, rcode, rnotes = _radii_c(observer, P, up, O)
     body += rconsts + "\n"
     getter = (f"""\
@@ -413,7 +413,7 @@ static int {P}_init_(const double *xhat0, double *z)
         ("phi", "printed from the model's expressions" if phi is not None else "none (phi = 0)"),
         ("function class", f"{s.function_class.label}, gamma = {s.function_class.gamma:.17g}"),
         ("noise bounds", f"eta_w = {s.eta_w:.17g}, eta_v = {s.eta_v:.17g}, delta_0 = {s.delta0:.17g}"),
-        ("gain L~", _matrix_note(Lt)),
+        ("gain L~", matrix_note(Lt)),
         ("state layout", f"x_hat[{n}], d1_hat[{p1}], d_hat[{p}], k, corrected, radius, radius_input, V, "
                          "and the flags d_hat, radius, radius_input, V defined"),
         ("arithmetic", "plain IEEE double, as the Python observer (no outward rounding)"),
@@ -423,7 +423,7 @@ static int {P}_init_(const double *xhat0, double *z)
         objective = getattr(design.objective, "value", design.objective)
         notes += [("design", f"objective {objective}, verified {design.verified}, {vals}"),
                   ("steady radius", f"{_num(design.steady_radius)} (of the design)"),
-                  ("P", _matrix_note(design.P))]
+                  ("P", matrix_note(design.P))]
     else:
         notes.append(("design", "a given gain L~ (not designed by nlobs, no certificate)"))
     notes += rnotes

@@ -64,6 +64,17 @@ from nlobs._validate import name_problem
 from nlobs.errors import ModelFileError, NlobsError
 from nlobs.systems.expressions import ExpressionError, as_sympy_matrix, parse_expression
 from nlobs.systems.interconnected import LinearSubsystem, NonlinearSubsystem, check_interconnection
+from nlobs.systems.modelfile_common import (
+    Source,
+    check_header,
+    read_constant,
+    read_constant_matrix,
+    read_names,
+    read_parameters,
+    read_text,
+    read_toml,
+    resolve_model,
+)
 from nlobs.systems.symbolic import SymbolicModel
 from nlobs.systems.timebase import TimeBase
 
@@ -163,12 +174,10 @@ def has_cascade(path: str | Path) -> bool:
     ModelFileError
         No such file or shipped model, the file cannot be read, or it is not valid TOML.
     """
-    from nlobs.systems import modelfile as mf
-
-    p = mf.resolve_model(path)
-    text = mf._read_text(p)
-    src = mf._Source(str(p), text)
-    return "cascade" in mf._toml(src, text)
+    p = resolve_model(path)
+    text = read_text(p)
+    src = Source(str(p), text)
+    return "cascade" in read_toml(src, text)
 
 
 def load_cascade(path: str | Path) -> CascadeModel:
@@ -189,10 +198,8 @@ def load_cascade(path: str | Path) -> CascadeModel:
         The file has no ``[cascade]`` table, or any of its entries is invalid (the message names
         the file, the line and the offending text).
     """
-    from nlobs.systems import modelfile as mf
-
-    p = mf.resolve_model(path)
-    return parse_cascade(mf._read_text(p), source=str(p))
+    p = resolve_model(path)
+    return parse_cascade(read_text(p), source=str(p))
 
 
 def parse_cascade(text: str, *, source: str = "<string>") -> CascadeModel:
@@ -214,22 +221,23 @@ def parse_cascade(text: str, *, source: str = "<string>") -> CascadeModel:
     ModelFileError
         The text has no ``[cascade]`` table, or any of its entries is invalid.
     """
-    from nlobs.systems import modelfile as mf
-
-    src = mf._Source(source, text)
-    data = mf._toml(src, text)
+    src = Source(source, text)
+    data = read_toml(src, text)
     if "cascade" not in data:
         raise ModelFileError(source, None, "", "no [cascade] table (an interconnection of a nonlinear Σ1 and a "
                              "linear Σ2, Grip–Saberi–Johansen (1)); see the model-file format in docs/cascade.md")
-    mf.parse_model(text, source=source)  # every top-level check of the file
+    time = check_header(src, data)[1]  # every top-level check of the file, as the model reader makes them
     name = data.get("name", Path(source).stem)
-    return build_cascade(src, data, str(name), mf._time(src, data))
+    try:
+        return build_cascade(src, data, str(name), time)
+    except ModelFileError:
+        raise
+    except NlobsError as exc:  # as the model reader reports it
+        raise src.error(f"[cascade]: {exc}", key="cascade") from None
 
 
 def build_cascade(src: Any, data: Mapping[str, Any], name: str, time: TimeBase) -> CascadeModel:
     """The :class:`CascadeModel` of parsed TOML ``data`` (``src`` locates errors); used by the model-file reader."""
-    from nlobs.systems import modelfile as mf
-
     if time.is_discrete:
         raise src.error("[cascade]: the observer of Grip, Saberi & Johansen is for continuous time; remove "
                         "time = \"discrete\"", key="time", text="time")
@@ -262,14 +270,14 @@ def build_cascade(src: Any, data: Mapping[str, Any], name: str, time: TimeBase) 
     x_names = _names(src, _T, tab, "states")
     z_names = _names(src, _T, tab, "outputs")
     w_names = _names(src, _TL, lin, "states") if "states" in lin else []
-    inputs = mf._names(src, data, "inputs", required=False) or []
-    y_names = mf._names(src, data, "outputs", required=True) or []
-    params = mf._parameters(src, data)
+    inputs = read_names(src, data, "inputs", required=False) or []
+    y_names = read_names(src, data, "outputs", required=True) or []
+    params = read_parameters(src, data)
     psyms = {k: sp.Symbol(k, real=True) for k in params}
     for k in ("A", "B_z", "C"):
         if k not in lin:
             raise src.table_error(_TL, None, f"[cascade.linear] needs '{k}'", k)
-    A = mf._const_matrix(src, _TL, "A", lin["A"], params, psyms)
+    A = read_constant_matrix(src, _TL, "A", lin["A"], params, psyms)
     n_w = A.shape[0]
     if A.shape != (n_w, n_w) or n_w == 0:
         raise src.table_error(_TL, "A", f"[cascade.linear].A has shape {A.shape}, expected a non-empty square matrix",
@@ -280,13 +288,13 @@ def build_cascade(src: Any, data: Mapping[str, Any], name: str, time: TimeBase) 
         raise src.table_error(_TL, "states", f"[cascade.linear].states has {len(w_names)} names but A is "
                               f"{n_w}×{n_w}", "states")
     p_z, p_y, m = len(z_names), len(y_names), len(inputs)
-    Bz = mf._const_matrix(src, _TL, "B_z", lin["B_z"], params, psyms, rows=n_w, cols=p_z)
-    C = mf._const_matrix(src, _TL, "C", lin["C"], params, psyms, rows=p_y, cols=n_w)
-    Dz = (mf._const_matrix(src, _TL, "D_z", lin["D_z"], params, psyms, rows=p_y, cols=p_z) if "D_z" in lin
+    Bz = read_constant_matrix(src, _TL, "B_z", lin["B_z"], params, psyms, rows=n_w, cols=p_z)
+    C = read_constant_matrix(src, _TL, "C", lin["C"], params, psyms, rows=p_y, cols=n_w)
+    Dz = (read_constant_matrix(src, _TL, "D_z", lin["D_z"], params, psyms, rows=p_y, cols=p_z) if "D_z" in lin
           else np.zeros((p_y, p_z)))
-    Bu = (mf._const_matrix(src, _TL, "B_u", lin["B_u"], params, psyms, rows=n_w, cols=m) if "B_u" in lin
+    Bu = (read_constant_matrix(src, _TL, "B_u", lin["B_u"], params, psyms, rows=n_w, cols=m) if "B_u" in lin
           else np.zeros((n_w, m)))
-    Du = (mf._const_matrix(src, _TL, "D_u", lin["D_u"], params, psyms, rows=p_y, cols=m) if "D_u" in lin
+    Du = (read_constant_matrix(src, _TL, "D_u", lin["D_u"], params, psyms, rows=p_y, cols=m) if "D_u" in lin
           else np.zeros((p_y, m)))
     every = [*x_names, *w_names, *z_names, *inputs, *y_names, *params]
     dup = sorted({s for s in every if every.count(s) > 1})
@@ -295,7 +303,7 @@ def build_cascade(src: Any, data: Mapping[str, Any], name: str, time: TimeBase) 
                         "parameters)", string=dup[0], text=dup[0])
     states = data.get("states")
     if states is not None:
-        mf._names(src, data, "states", required=False)
+        read_names(src, data, "states", required=False)
         if list(states) != [*x_names, *w_names]:
             raise src.error(f"'states' must be Σ1's states then Σ2's, {[*x_names, *w_names]} (the plant state "
                             "[x, w] of (1)), or be left out", key="states", text=repr(states)[:80])
@@ -324,7 +332,7 @@ def build_cascade(src: Any, data: Mapping[str, Any], name: str, time: TimeBase) 
     if method is not None and method not in ("lmi", "placement", "h2"):
         raise src.table_error(_T, "method", "[cascade].method must be \"lmi\" (LMI (14)), \"placement\" or \"h2\"",
                               repr(method))
-    gamma = mf._const(src, _T, "gamma", tab["gamma"], params, psyms) if "gamma" in tab else None
+    gamma = read_constant(src, _T, "gamma", tab["gamma"], params, psyms) if "gamma" in tab else None
     if gamma is not None and gamma <= 0:
         raise src.table_error(_T, "gamma", "[cascade].gamma must be positive (‖H‖∞ < γ)", repr(tab["gamma"]))
     plant = _plant(x_names, w_names, inputs, y_names, f, h, A, Bu, Bz, C, Du, Dz, params, time, name)
@@ -369,8 +377,6 @@ def _exprs(src: Any, key: str, v: Any, want: int, what: str, symbols: Mapping[st
 
 def _lyapunov(src: Any, tab: Mapping[str, Any], params: Mapping[str, float],
               psyms: Mapping[str, sp.Symbol]) -> LyapunovData:
-    from nlobs.systems import modelfile as mf
-
     ly = tab["lyapunov"]
     if not isinstance(ly, dict):
         raise src.table_error(_T, "lyapunov", "[cascade].lyapunov must be a table (alpha3, alpha4, L1, L2)",
@@ -384,7 +390,7 @@ def _lyapunov(src: Any, tab: Mapping[str, Any], params: Mapping[str, float],
         if k not in ly:
             raise src.table_error(_TY, None, f"[cascade.lyapunov] needs '{k}' (Assumptions 1–3 of Grip, Saberi & "
                                   "Johansen)", k)
-        val = mf._const(src, _TY, k, ly[k], params, psyms)
+        val = read_constant(src, _TY, k, ly[k], params, psyms)
         if val <= 0:
             raise src.table_error(_TY, k, f"[cascade.lyapunov].{k} must be positive", repr(ly[k]))
         vals[k] = val

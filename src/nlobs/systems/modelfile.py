@@ -82,10 +82,7 @@ Limits, so that a small or hostile file cannot hang nlobs or garble a terminal:
 
 from __future__ import annotations
 
-import os
 import re
-import tomllib
-from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -95,8 +92,7 @@ import numpy as np
 import sympy as sp
 from numpy.typing import NDArray
 
-from nlobs._io import read_regular_text
-from nlobs._validate import escape_unsafe, name_problem, unsafe_character
+from nlobs._validate import unsafe_character
 from nlobs.errors import InvalidArgumentError, ModelError, ModelFileError, NlobsError
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.discrete_ui import (
@@ -110,139 +106,33 @@ from nlobs.systems.discrete_ui import (
 )
 from nlobs.systems.expressions import ExpressionError, parse_expression
 from nlobs.systems.linear import LinearSystem
+# MAX_FILE_BYTES, MAX_NAMES, MAX_STRINGS, resolve_model and shipped_models are also this module's (re-exported)
+from nlobs.systems.modelfile_common import (
+    MAX_FILE_BYTES,
+    MAX_NAMES,
+    MAX_STRINGS,
+    SCENARIO_TABLES,
+    TOP_KEYS,
+    Source,
+    check_header,
+    read_constant,
+    read_constant_matrix,
+    read_names,
+    read_parameters,
+    read_text,
+    read_toml,
+    resolve_model,
+    shipped_models,
+)
 from nlobs.systems.scenario import RunDefaults, Scenario
 from nlobs.systems.sensors import MeasurementGroup
 from nlobs.systems.symbolic import SymbolicModel
-from nlobs.systems.timebase import CONTINUOUS, Discrete, TimeBase
+from nlobs.systems.timebase import Discrete, TimeBase
 
 Model = SymbolicModel | LinearSystem
 
-_UI_TABLES = ("unknown_inputs", "noise", "initial", "function_class")
-_SCENARIO_TABLES = ("units", "sensors", "input_signals", "process_noise", "simulation")
-#: Tables of a command besides the model (``[cascade]``: the interconnection of ``nlobs design cascade``, from
-#: which the reader also builds the plant [x, w]).
-_COMMAND_TABLES = ("cascade",)
-_TOP_KEYS = {"name", "description", "time", "dt", "states", "inputs", "outputs", "parameters", "dynamics", "linear",
-             *_UI_TABLES, *_SCENARIO_TABLES, *_COMMAND_TABLES}
 _DYN_KEYS = {"f", "g", "rhs", "h"}
 _LIN_KEYS = {"A", "B", "C", "D"}
-#: Largest model file read, in bytes (1 MiB).
-MAX_FILE_BYTES = 1 << 20
-#: Most names of each kind (states, inputs, outputs, parameters) in a model file.
-MAX_NAMES = 1000
-#: Most strings (names, expressions, ...) in a model file: each expression costs a parse.
-MAX_STRINGS = 20_000
-_MAX_INT_BITS = 996  # TOML integers below 2**996 (about 10**300): every one is a finite double
-
-
-class _Source:
-    """The raw text of a model file, to map keys and strings back to line numbers."""
-
-    def __init__(self, path: str, text: str) -> None:
-        self.path = path
-        self.lines = text.splitlines()
-
-    def line_of_string(self, s: str) -> int | None:
-        for quoted in (f'"{s}"', f"'{s}'"):
-            for i, line in enumerate(self.lines, start=1):
-                if quoted in line:
-                    return i
-        bare = re.compile(rf"(?<![A-Za-z0-9_]){re.escape(s)}(?![A-Za-z0-9_])")  # a whole name, not part of one
-        for i, line in enumerate(self.lines, start=1):
-            if bare.search(line):
-                return i
-        return None
-
-    def line_of_key(self, key: str) -> int | None:
-        """The line of ``[key]`` or ``key = …``, also written ``"key" =``, ``table.key =`` or inside an inline table."""
-        k = re.escape(key)
-        pats = (re.compile(rf"^\s*(\[\s*{k}\s*\]|{k}\s*=|([\"']){k}\2\s*=|[\w.\"'-]+\.\s*{k}\s*=)"),
-                re.compile(rf"[{{,]\s*([\"']?){k}\1\s*="))
-        for pat in pats:
-            for i, line in enumerate(self.lines, start=1):
-                if pat.search(line):
-                    return i
-        return None
-
-    def line_of_pattern(self, pattern: str) -> int | None:
-        """The first line matching the regular expression ``pattern``."""
-        pat = re.compile(pattern)
-        return next((i for i, line in enumerate(self.lines, start=1) if pat.search(line)), None)
-
-    def deepest_line(self) -> int | None:
-        """The line with the most opening brackets (where a too deeply nested value starts)."""
-        counts = [line.count("[") + line.count("{") for line in self.lines]
-        return counts.index(max(counts)) + 1 if counts and max(counts) else None
-
-    def line_in_table(self, table: str, key: str | None) -> int | None:
-        """The line of ``key = ...`` inside ``[table]`` (the header's line when ``key`` is ``None`` or absent)."""
-        head = re.compile(rf"^\s*\[\s*{re.escape(table)}\s*\]")
-        start = next((i for i, line in enumerate(self.lines, start=1) if head.search(line)), None)
-        if start is None or key is None:
-            return start
-        pat = re.compile(rf"^\s*{re.escape(key)}\s*=")
-        for i in range(start, len(self.lines)):
-            line = self.lines[i]
-            if re.match(r"^\s*\[", line):
-                break
-            if pat.search(line):
-                return i + 1
-        return start
-
-    def table_error(self, table: str, key: str | None, reason: str, text: str = "") -> ModelFileError:
-        """An error located at ``key`` inside ``[table]``."""
-        return ModelFileError(self.path, self.line_in_table(table, key), text, reason)
-
-    def error(self, reason: str, *, key: str | None = None, text: str = "", string: str | None = None) -> ModelFileError:
-        line = None
-        if string is not None:
-            line = self.line_of_string(string)
-        if line is None and key is not None:
-            line = self.line_of_key(key)
-        return ModelFileError(self.path, line, text, reason)
-
-
-def shipped_models() -> dict[str, Path]:
-    """The model files shipped with nlobs, by name (the file stem), e.g. ``"pendulum"``."""
-    from importlib import resources
-
-    root = resources.files("nlobs") / "data" / "models"
-    return {Path(str(p)).stem: Path(str(p)) for p in root.iterdir() if str(p).endswith(".toml")}
-
-
-def resolve_model(model: str | os.PathLike[str]) -> Path:
-    """The file behind a model argument: a path to a ``.toml`` file, or the name of a shipped model.
-
-    The one lookup of shipped names (the CLI and :func:`load_model` use it). A ``Path``, or a string with
-    a folder separator or the ``.toml`` suffix, is a path (the reader says why it cannot be read); a bare
-    name is looked up among the shipped models, and one that is both a shipped model and a file in the
-    working directory is refused as ambiguous instead of silently taking the local file.
-
-    Raises
-    ------
-    ModelFileError
-        No such file and no shipped model of that name (the message lists the shipped names), or the
-        name is ambiguous.
-    """
-    if not isinstance(model, str):  # a path object is a path: the reader says why it cannot be read
-        return Path(model)
-    text = model
-    path = Path(text)
-    bare = os.sep not in text and "/" not in text and not text.endswith(".toml")
-    shipped = shipped_models()
-    if not bare:  # a path
-        if os.path.lexists(path):
-            return path  # the reader says why it cannot be read, if it cannot
-        raise ModelFileError(text, None, "", f"no such file (cannot read file; shipped models: "
-                             f"{', '.join(sorted(shipped))})")
-    if os.path.lexists(path):
-        if text in shipped:
-            raise ModelFileError(text, None, "", f"ambiguous: both a file in the working directory and the shipped "
-                                 f"model {text!r}; write ./{text} for the file or rename it")
-        return path
-    if text in shipped:
-        return shipped[text]
-    raise ModelFileError(text, None, "", f"no such file (shipped models: {', '.join(sorted(shipped))})")
 
 
 def load_model(path: str | Path) -> Model:
@@ -266,7 +156,7 @@ def load_model(path: str | Path) -> Model:
         and the offending text.
     """
     p = resolve_model(path)
-    return parse_model(_read_text(p), source=str(p))
+    return parse_model(read_text(p), source=str(p))
 
 
 def model_file_tables(path: str | Path) -> frozenset[str]:
@@ -281,26 +171,15 @@ def model_file_tables(path: str | Path) -> frozenset[str]:
         The file cannot be found or read, or is not valid TOML.
     """
     p = resolve_model(path)
-    text = _read_text(p)
-    return frozenset(_toml(_Source(str(p), text), text))
+    text = read_text(p)
+    return frozenset(read_toml(Source(str(p), text), text))
 
 
 def parse_model(text: str, *, source: str = "<string>") -> Model:
     """Parse model-file text (see :func:`load_model`); ``source`` is used in messages."""
-    src = _Source(source, text)
-    data = _toml(src, text)
-    unknown = sorted(set(data) - _TOP_KEYS)
-    if unknown:
-        raise src.error(f"unknown key (allowed: {', '.join(sorted(_TOP_KEYS))})", key=unknown[0], text=unknown[0])
-    name = _string(src, data, "name", default=escape_unsafe(Path(source).stem, one_line=True))
-    if unsafe_character(name, one_line=True):
-        raise src.error("'name' must be one line without control characters or bidirectional overrides",
-                        key="name", text=name)
-    time = _time(src, data)
-    ui = [k for k in _UI_TABLES if k in data]
-    if ui and not isinstance(time, Discrete):
-        raise src.error(f"the table [{ui[0]}] describes a discrete-time model with unknown inputs: it needs "
-                        "time = \"discrete\"", key=ui[0], text=ui[0])
+    src = Source(source, text)
+    data = read_toml(src, text)
+    name, time = check_header(src, data)
     has_dyn, has_lin = "dynamics" in data, "linear" in data
     if "cascade" in data:  # the interconnection of Grip, Saberi & Johansen: the plant [x, w] of (1) / (2)+(1b)
         from nlobs.systems.cascade_file import build_cascade
@@ -335,146 +214,14 @@ def _key_named(message: str) -> str | None:
     return next((k for k in ("states", "inputs", "outputs") if re.search(rf"\b{k[:-1]}s?\b", message)), None)
 
 
-def _toml(src: _Source, text: str) -> dict[str, Any]:
-    """``tomllib.loads`` with every failure a :class:`ModelFileError`, and the text checks of :func:`_check_values`."""
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        msg = str(exc)
-        m = re.search(r"at line (\d+)", msg)
-        line = int(m.group(1)) if m else None
-        offending = src.lines[line - 1].strip() if line and line <= len(src.lines) else ""
-        reason = re.sub(r" \(at .*\)$", "", msg)
-        raise ModelFileError(src.path, line, offending, f"invalid TOML ({reason})") from None
-    except ValueError as exc:  # an integer literal beyond Python's digit limit for int()
-        line = src.line_of_pattern(r"[0-9_]{4000,}")
-        raise ModelFileError(src.path, line, "", f"invalid TOML ({str(exc).split(':')[0]})") from None
-    except (RecursionError, MemoryError):
-        raise ModelFileError(src.path, src.deepest_line(), "", "invalid TOML (arrays or tables nested too deeply)") from None
-    _check_values(src, data)
-    return data
-
-
-def _check_values(src: _Source, data: Mapping[str, Any]) -> None:
-    """Refuse too many names or strings, huge integers, and control characters or bidirectional overrides anywhere.
-
-    The walk is iterative: a file nests at most as deep as ``tomllib`` could
-    read, but nothing here recurses on it.
-    """
-    for key in ("states", "inputs", "outputs", "parameters"):
-        v = data.get(key)
-        if isinstance(v, (list, dict)) and len(v) > MAX_NAMES:
-            raise src.error(f"'{key}': {len(v)} names, more than the limit of {MAX_NAMES}", key=key, text=key)
-    stack: list[tuple[tuple[str, ...], Any]] = [((), data)]
-    strings = 0
-    while stack:
-        keys, v = stack.pop()
-        if isinstance(v, str):
-            strings += 1
-            if strings > MAX_STRINGS:
-                raise _at(src, keys, f"more than {MAX_STRINGS} strings (names and expressions) in the file",
-                          ".".join(keys))
-            _check_string(src, keys, v)
-        elif isinstance(v, bool):
-            continue
-        elif isinstance(v, int):
-            if abs(v).bit_length() > _MAX_INT_BITS:
-                raise _at(src, keys, "integer too large (at most about 10**300)", ".".join(keys))
-        elif isinstance(v, dict):
-            for kk, vv in v.items():
-                _check_string(src, (*keys, kk), kk)
-                stack.append(((*keys, kk), vv))
-        elif isinstance(v, list):
-            stack.extend((keys, vv) for vv in v)
-
-
-def _check_string(src: _Source, keys: tuple[str, ...], s: str) -> None:
-    bad = unsafe_character(s)
-    if bad is not None:
-        raise _at(src, keys, f"control character or bidirectional override U+{ord(bad):04X} in a string", s[:80])
-
-
-def _at(src: _Source, keys: tuple[str, ...], reason: str, text: str) -> ModelFileError:
-    """An error on the line of the innermost of ``keys`` that can be found in the text."""
-    line = next((ln for k in reversed(keys) if (ln := src.line_of_key(k)) is not None), None)
-    return ModelFileError(src.path, line, text, reason)
-
-
-def _read_text(p: Path) -> str:
-    """The text of a regular file of at most :data:`MAX_FILE_BYTES`, read without ever blocking.
-
-    ``os.stat`` first (a FIFO is never opened, a device never read), then the
-    file is opened with ``O_NONBLOCK`` and checked again with ``fstat`` (it may
-    have been replaced in between), and at most one byte more than the limit is read
-    (:func:`nlobs._io.read_regular_text`).
-    """
-    return read_regular_text(p, MAX_FILE_BYTES, lambda reason: ModelFileError(str(p), None, "", reason))
-
-
-def _string(src: _Source, data: Mapping[str, Any], key: str, *, default: str) -> str:
-    v = data.get(key, default)
-    if not isinstance(v, str):
-        raise src.error(f"'{key}' must be a string", key=key, text=repr(v))
-    return v
-
-
-def _names(src: _Source, data: Mapping[str, Any], key: str, *, required: bool) -> list[str] | None:
-    if key not in data:
-        if required:
-            raise src.error(f"missing key '{key}' (a list of names)", text=key)
-        return None
-    v = data[key]
-    if not isinstance(v, list) or not all(isinstance(s, str) for s in v):
-        raise src.error(f"'{key}' must be a list of strings", key=key, text=repr(v)[:80])
-    for s in v:
-        why = name_problem(s)
-        if why is not None:
-            raise src.error(f"'{key}': {s!r} is not a valid name ({why})", key=key, string=s, text=s)
-    dup = sorted(s for s, c in Counter(v).items() if c > 1)
-    if dup:
-        raise src.error(f"'{key}': duplicate names", key=key, text=", ".join(dup))
-    return v
-
-
-def _time(src: _Source, data: Mapping[str, Any]) -> TimeBase:
-    kind = data.get("time", "continuous")
-    if kind not in ("continuous", "discrete"):
-        raise src.error("'time' must be \"continuous\" or \"discrete\"", key="time", text=repr(kind))
-    dt = data.get("dt")
-    if kind == "continuous":
-        if dt is not None:
-            raise src.error("'dt' is only allowed with time = \"discrete\"", key="dt", text=repr(dt))
-        return CONTINUOUS
-    if dt is None:
-        raise src.error("a discrete-time model needs 'dt' (the sampling period in seconds)", key="time", text="dt")
-    if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not np.isfinite(dt) or dt <= 0:
-        raise src.error("'dt' must be a positive finite number", key="dt", text=repr(dt))
-    return Discrete(float(dt))
-
-
-def _parameters(src: _Source, data: Mapping[str, Any]) -> dict[str, float]:
-    params = data.get("parameters", {})
-    if not isinstance(params, dict):
-        raise src.error("'parameters' must be a table of numbers", key="parameters", text=repr(params))
-    out: dict[str, float] = {}
-    for k, v in params.items():
-        why = name_problem(k)
-        if why is not None:
-            raise src.error(f"parameter name is not a valid name ({why})", key="parameters", text=k)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
-            raise src.error(f"parameter '{k}' must be a finite number", key="parameters", string=k, text=repr(v))
-        out[k] = float(v)
-    return out
-
-
-def _expr_list(src: _Source, table: Mapping[str, Any], key: str, symbols: Mapping[str, sp.Symbol]) -> list[sp.Expr]:
+def _expr_list(src: Source, table: Mapping[str, Any], key: str, symbols: Mapping[str, sp.Symbol]) -> list[sp.Expr]:
     v = table[key]
     if not isinstance(v, list):
         raise src.error(f"[dynamics].{key} must be a list of expression strings", key=key, text=repr(v))
     return [_expr(src, key, e, symbols) for e in v]
 
 
-def _expr(src: _Source, key: str, e: Any, symbols: Mapping[str, sp.Symbol]) -> sp.Expr:
+def _expr(src: Source, key: str, e: Any, symbols: Mapping[str, sp.Symbol]) -> sp.Expr:
     if isinstance(e, bool) or not isinstance(e, (str, int, float)):
         raise src.error(f"[dynamics].{key}: entries must be expression strings", key=key, text=repr(e))
     text = str(e)
@@ -485,15 +232,15 @@ def _expr(src: _Source, key: str, e: Any, symbols: Mapping[str, sp.Symbol]) -> s
                         text=exc.offending) from None
 
 
-def _nonlinear(src: _Source, data: Mapping[str, Any], name: str, time: TimeBase) -> SymbolicModel:
-    states = _names(src, data, "states", required=True) or []
-    inputs = _names(src, data, "inputs", required=False) or []
-    outputs = _names(src, data, "outputs", required=True) or []
+def _nonlinear(src: Source, data: Mapping[str, Any], name: str, time: TimeBase) -> SymbolicModel:
+    states = read_names(src, data, "states", required=True) or []
+    inputs = read_names(src, data, "inputs", required=False) or []
+    outputs = read_names(src, data, "outputs", required=True) or []
     if not outputs:
         raise src.error("'outputs' is empty: a model needs at least one output (an observer estimates the state "
                         "from measurements); list the measured names, e.g. outputs = [\"y\"], with one entry of "
                         "[dynamics].h each", key="outputs", text="outputs")
-    params = _parameters(src, data)
+    params = read_parameters(src, data)
     clash = sorted((set(states) & set(inputs)) | ((set(states) | set(inputs)) & set(params)))
     if clash:
         raise src.error("name declared twice (states, inputs, parameters)", string=clash[0], text=clash[0])
@@ -503,7 +250,7 @@ def _nonlinear(src: _Source, data: Mapping[str, Any], name: str, time: TimeBase)
     unknown = sorted(set(dyn) - _DYN_KEYS)
     if unknown:
         hint = (f"; '{unknown[0]}' belongs before the first [table] (TOML puts a key after [dynamics] inside it)"
-                if unknown[0] in _TOP_KEYS else "")
+                if unknown[0] in TOP_KEYS else "")
         raise src.error(f"unknown key in [dynamics] (allowed: {', '.join(sorted(_DYN_KEYS))}){hint}", key=unknown[0],
                         text=unknown[0])
     if ("f" in dyn) == ("rhs" in dyn):
@@ -539,12 +286,12 @@ def _nonlinear(src: _Source, data: Mapping[str, Any], name: str, time: TimeBase)
     return SymbolicModel.input_affine(states, inputs, outputs, f, g, h, parameters=params, time=time, name=name)
 
 
-def _check_len(src: _Source, key: str, v: Sequence[Any], want: int, what: str) -> None:
+def _check_len(src: Source, key: str, v: Sequence[Any], want: int, what: str) -> None:
     if len(v) != want:
         raise src.error(f"[dynamics].{key} has {len(v)} entries but there are {want} {what}", key=key, text=key)
 
 
-def _matrix(src: _Source, lin: Mapping[str, Any], key: str) -> np.ndarray:
+def _matrix(src: Source, lin: Mapping[str, Any], key: str) -> np.ndarray:
     v = lin[key]
     ok = isinstance(v, list) and all(isinstance(r, list) for r in v)
     if ok:
@@ -560,7 +307,7 @@ def _matrix(src: _Source, lin: Mapping[str, Any], key: str) -> np.ndarray:
     return arr
 
 
-def _linear(src: _Source, data: Mapping[str, Any], name: str, time: TimeBase) -> LinearSystem:
+def _linear(src: Source, data: Mapping[str, Any], name: str, time: TimeBase) -> LinearSystem:
     lin = data["linear"]
     if not isinstance(lin, dict):
         raise src.error("[linear] must be a table", key="linear")
@@ -580,7 +327,7 @@ def _linear(src: _Source, data: Mapping[str, Any], name: str, time: TimeBase) ->
     if data.get("outputs") == []:
         raise src.error("'outputs' is empty: a model needs at least one output (one name per row of [linear].C)",
                         key="outputs", text="outputs")
-    inputs = _names(src, data, "inputs", required=False)
+    inputs = read_names(src, data, "inputs", required=False)
     m = len(inputs) if inputs is not None else (_matrix(src, lin, "B").shape[1] if "B" in lin else 0)
     B = _matrix(src, lin, "B") if "B" in lin else np.zeros((n, m))
     D = _matrix(src, lin, "D") if "D" in lin else None
@@ -594,8 +341,8 @@ def _linear(src: _Source, data: Mapping[str, Any], name: str, time: TimeBase) ->
     if D is not None and D.shape != (C.shape[0], m):
         raise src.error(f"[linear].D has shape {D.shape}, expected {(C.shape[0], m)}", key="D", text="D")
     try:
-        return LinearSystem(A, B, C, D, time=time, states=_names(src, data, "states", required=False),
-                            inputs=inputs, outputs=_names(src, data, "outputs", required=False), name=name)
+        return LinearSystem(A, B, C, D, time=time, states=read_names(src, data, "states", required=False),
+                            inputs=inputs, outputs=read_names(src, data, "outputs", required=False), name=name)
     except (ModelError, ValueError) as exc:
         raise src.error(str(exc), key="linear") from None
 
@@ -683,15 +430,15 @@ def load_discrete_ui_model(path: str | Path) -> DiscreteUIModel:
         As :func:`load_discrete_ui`.
     """
     p = resolve_model(path)
-    text = _read_text(p)
+    text = read_text(p)
     return parse_discrete_ui(text, source=str(p), base_dir=p.parent)
 
 
 def parse_discrete_ui(text: str, *, source: str = "<string>", base_dir: str | Path | None = None) -> DiscreteUIModel:
     """Parse the text of a model file with unknown inputs (see :func:`load_discrete_ui`)."""
     model = parse_model(text, source=source)
-    src = _Source(source, text)
-    data = _toml(src, text)
+    src = Source(source, text)
+    data = read_toml(src, text)
     if not isinstance(model.time, Discrete):
         raise src.error("a model with unknown inputs needs time = \"discrete\"", key="time", text="time")
     for key in ("unknown_inputs", "noise", "initial", "function_class"):
@@ -705,7 +452,7 @@ def parse_discrete_ui(text: str, *, source: str = "<string>", base_dir: str | Pa
         if unknown:
             raise src.table_error(key, unknown[0], f"unknown key in [{key}] (allowed: {', '.join(sorted(allowed))})",
                                   text=unknown[0])
-    params = _parameters(src, data) if isinstance(model, SymbolicModel) else {}
+    params = read_parameters(src, data) if isinstance(model, SymbolicModel) else {}
     psyms = {k: sp.Symbol(k, real=True) for k in params}
     n = model.n
     if isinstance(model, SymbolicModel):
@@ -716,10 +463,10 @@ def parse_discrete_ui(text: str, *, source: str = "<string>", base_dir: str | Pa
     ui, noise, init, fc = data["unknown_inputs"], data["noise"], data["initial"], data["function_class"]
     if "G" not in ui:
         raise src.table_error("unknown_inputs", None, "[unknown_inputs] needs 'G' (n x p)", text="G")
-    G = _const_matrix(src, "unknown_inputs", "G", ui["G"], params, psyms, rows=n)
+    G = read_constant_matrix(src, "unknown_inputs", "G", ui["G"], params, psyms, rows=n)
     p = G.shape[1]
-    H = _const_matrix(src, "unknown_inputs", "H", ui["H"], params, psyms, rows=l, cols=p) if "H" in ui else None
-    W = _const_matrix(src, "noise", "W", noise["W"], params, psyms, rows=n) if "W" in noise else None
+    H = read_constant_matrix(src, "unknown_inputs", "H", ui["H"], params, psyms, rows=l, cols=p) if "H" in ui else None
+    W = read_constant_matrix(src, "noise", "W", noise["W"], params, psyms, rows=n) if "W" in noise else None
     eta_w = _bound(src, "noise", "eta_w", noise, params, psyms)
     eta_v = _bound(src, "noise", "eta_v", noise, params, psyms)
     radius = _bound(src, "initial", "radius", init, params, psyms)
@@ -757,7 +504,7 @@ class _LinearPhi:
         return np.asarray(x, dtype=float) @ self.K.T
 
 
-def _linear_output(src: _Source, model: SymbolicModel, params: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+def _linear_output(src: Source, model: SymbolicModel, params: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """``h(x, u) = C x + D u`` read off exactly; a nonlinear or offset ``h`` is an error (model (8))."""
     subs = {sp.Symbol(k, real=True): v for k, v in params.items()}
     h = sp.Matrix(model.h).subs(subs)
@@ -773,60 +520,24 @@ def _linear_output(src: _Source, model: SymbolicModel, params: Mapping[str, floa
     return np.array(Cs, dtype=float).reshape(h.shape[0], model.n), np.array(Ds, dtype=float).reshape(h.shape[0], model.m)
 
 
-def _const(src: _Source, table: str, key: str, e: Any, params: Mapping[str, float],
-           psyms: Mapping[str, sp.Symbol]) -> float:
-    if isinstance(e, bool) or not isinstance(e, (int, float, str)):
-        raise src.table_error(table, key, f"[{table}].{key}: entries must be numbers or constant expressions", repr(e))
-    if isinstance(e, str):
-        try:
-            ex = parse_expression(e, psyms)
-        except ExpressionError as exc:
-            raise src.table_error(table, key, f"[{table}].{key}: {exc.reason}", exc.offending) from None
-        val = ex.subs({psyms[k]: v for k, v in params.items()})
-        try:
-            out = float(val)
-        except (TypeError, ValueError):
-            raise src.table_error(table, key, f"[{table}].{key}: not a constant", e) from None
-    else:
-        out = float(e)
-    if not np.isfinite(out):
-        raise src.table_error(table, key, f"[{table}].{key} has non-finite entries", repr(e))
-    return out
-
-
-def _const_matrix(src: _Source, table: str, key: str, v: Any, params: Mapping[str, float],
-                  psyms: Mapping[str, sp.Symbol], *, rows: int | None = None, cols: int | None = None) -> np.ndarray:
-    if not isinstance(v, list) or not all(isinstance(r, list) for r in v):
-        raise src.table_error(table, key, f"[{table}].{key} must be a list of rows", repr(v)[:80])
-    widths = {len(r) for r in v}
-    if len(widths) > 1:
-        raise src.table_error(table, key, f"[{table}].{key}: rows have different lengths {sorted(widths)}", key)
-    arr = np.array([[_const(src, table, key, e, params, psyms) for e in r] for r in v], dtype=float)
-    arr = arr.reshape(len(v), widths.pop() if widths else 0)
-    if (rows is not None and arr.shape[0] != rows) or (cols is not None and arr.shape[1] != cols):
-        want = (rows if rows is not None else "any", cols if cols is not None else "any")
-        raise src.table_error(table, key, f"[{table}].{key} has shape {arr.shape}, expected {want}", key)
-    return arr
-
-
-def _const_vector(src: _Source, table: str, key: str, v: Any, params: Mapping[str, float],
+def _const_vector(src: Source, table: str, key: str, v: Any, params: Mapping[str, float],
                   psyms: Mapping[str, sp.Symbol], n: int) -> np.ndarray:
     if not isinstance(v, list) or len(v) != n:
         raise src.table_error(table, key, f"[{table}].{key} must be a list of {n} numbers", repr(v)[:80])
-    return np.array([_const(src, table, key, e, params, psyms) for e in v], dtype=float)
+    return np.array([read_constant(src, table, key, e, params, psyms) for e in v], dtype=float)
 
 
-def _bound(src: _Source, table: str, key: str, tab: Mapping[str, Any], params: Mapping[str, float],
+def _bound(src: Source, table: str, key: str, tab: Mapping[str, Any], params: Mapping[str, float],
            psyms: Mapping[str, sp.Symbol]) -> float:
     if key not in tab:
         raise src.table_error(table, None, f"[{table}] needs '{key}' (a bound >= 0)", key)
-    val = _const(src, table, key, tab[key], params, psyms)
+    val = read_constant(src, table, key, tab[key], params, psyms)
     if val < 0:
         raise src.table_error(table, key, f"[{table}].{key} must be >= 0", repr(tab[key]))
     return val
 
 
-def _function_class(src: _Source, fc: Mapping[str, Any], model: Model, params: Mapping[str, float],
+def _function_class(src: Source, fc: Mapping[str, Any], model: Model, params: Mapping[str, float],
                     psyms: Mapping[str, sp.Symbol]) -> tuple[FunctionClass, np.ndarray]:
     n = model.n
     kind = fc.get("kind")
@@ -839,7 +550,7 @@ def _function_class(src: _Source, fc: Mapping[str, Any], model: Model, params: M
         raise src.table_error("function_class", extra[0], f"[function_class]: '{extra[0]}' does not belong to class "
                               f"{kind} (it takes {', '.join(sorted(_UI_CLASS_CONSTANTS[kind]))})", extra[0])
     if "linear_part" in fc:
-        A_lin = _const_matrix(src, "function_class", "linear_part", fc["linear_part"], params, psyms, rows=n, cols=n)
+        A_lin = read_constant_matrix(src, "function_class", "linear_part", fc["linear_part"], params, psyms, rows=n, cols=n)
     elif isinstance(model, LinearSystem):
         A_lin = np.array(model.A)
     else:
@@ -853,26 +564,26 @@ def _function_class(src: _Source, fc: Mapping[str, Any], model: Model, params: M
 
     try:
         if kind == "I":
-            return Lipschitz(_const(src, "function_class", "L", need("L"), params, psyms), n), A_lin
+            return Lipschitz(read_constant(src, "function_class", "L", need("L"), params, psyms), n), A_lin
         if kind == "0":
-            M = _const_matrix(src, "function_class", "M", need("M"), params, psyms, rows=2 * n, cols=2 * n)
-            return QuadraticConstraint(M, _const(src, "function_class", "gamma", need("gamma"), params, psyms)), A_lin
+            M = read_constant_matrix(src, "function_class", "M", need("M"), params, psyms, rows=2 * n, cols=2 * n)
+            return QuadraticConstraint(M, read_constant(src, "function_class", "gamma", need("gamma"), params, psyms)), A_lin
         if kind == "II":
-            A_aux = _const_matrix(src, "function_class", "A_aux", need("A_aux"), params, psyms, rows=n, cols=n)
+            A_aux = read_constant_matrix(src, "function_class", "A_aux", need("A_aux"), params, psyms, rows=n, cols=n)
             if ("gamma" in fc) == ("bound" in fc):
                 raise src.table_error("function_class", None, "[function_class]: class II needs exactly one of 'gamma' "
                                       "or 'bound' (Lemma 2.14: gamma = -(2 bound)^2)", "gamma")
             if "bound" in fc:
-                r = _const(src, "function_class", "bound", fc["bound"], params, psyms)
+                r = read_constant(src, "function_class", "bound", fc["bound"], params, psyms)
                 if r < 0:
                     raise src.table_error("function_class", "bound", "[function_class].bound must be >= 0", repr(fc["bound"]))
                 return qcstar_from_bounded_split(A_aux, r), A_lin
-            return QCStar(A_aux, _const(src, "function_class", "gamma", fc["gamma"], params, psyms)), A_lin
+            return QCStar(A_aux, read_constant(src, "function_class", "gamma", fc["gamma"], params, psyms)), A_lin
         mats = need("constituents")
         if not isinstance(mats, list) or not mats:
             raise src.table_error("function_class", "constituents",
                                   "[function_class].constituents must be a list of n x n matrices", repr(mats)[:80])
-        return LPV(tuple(_const_matrix(src, "function_class", "constituents", m, params, psyms, rows=n, cols=n)
+        return LPV(tuple(read_constant_matrix(src, "function_class", "constituents", m, params, psyms, rows=n, cols=n)
                          for m in mats)), A_lin
     except ModelFileError:
         raise
@@ -887,15 +598,15 @@ def _first_key(fc: Mapping[str, Any]) -> str | None:
     return next((k for k in ("L", "M", "gamma", "A_aux", "bound", "constituents") if k in fc), None)
 
 
-def _box_of(src: _Source, fc: Mapping[str, Any], params: Mapping[str, float], psyms: Mapping[str, sp.Symbol],
+def _box_of(src: Source, fc: Mapping[str, Any], params: Mapping[str, float], psyms: Mapping[str, sp.Symbol],
             n: int) -> tuple[np.ndarray, np.ndarray]:
-    b = _const_matrix(src, "function_class", "box", fc["box"], params, psyms, rows=n, cols=2)
+    b = read_constant_matrix(src, "function_class", "box", fc["box"], params, psyms, rows=n, cols=2)
     if np.any(b[:, 1] < b[:, 0]):
         raise src.table_error("function_class", "box", "[function_class].box: every row is [lo, hi] with lo <= hi", "box")
     return b[:, 0].copy(), b[:, 1].copy()
 
 
-def _signal(src: _Source, ui: Mapping[str, Any], kind: str, params: Mapping[str, float],
+def _signal(src: Source, ui: Mapping[str, Any], kind: str, params: Mapping[str, float],
             p: int) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
     t = sp.Symbol("t", real=True)
     if kind not in ui:
@@ -957,17 +668,17 @@ def load_scenario(path: str | Path) -> Scenario:
         the line and the offending text.
     """
     p = resolve_model(path)
-    return parse_scenario(_read_text(p), source=str(p), base_dir=p.parent)
+    return parse_scenario(read_text(p), source=str(p), base_dir=p.parent)
 
 
 def parse_scenario(text: str, *, source: str = "<string>", base_dir: str | Path | None = None) -> Scenario:
     """Parse model-file text into a :class:`~nlobs.systems.scenario.Scenario` (see :func:`load_scenario`)."""
     model = parse_model(text, source=source)
-    src = _Source(source, text)
-    data = _toml(src, text)
-    params = _parameters(src, data) if isinstance(model, SymbolicModel) else {}
+    src = Source(source, text)
+    data = read_toml(src, text)
+    params = read_parameters(src, data) if isinstance(model, SymbolicModel) else {}
     psyms = {k: sp.Symbol(k, real=True) for k in params}
-    for key in _SCENARIO_TABLES:
+    for key in SCENARIO_TABLES:
         if key in data and not isinstance(data[key], dict):
             raise src.error(f"'{key}' must be a table", key=key, text=key)
     units = _units(src, data.get("units", {}), model)
@@ -978,7 +689,7 @@ def parse_scenario(text: str, *, source: str = "<string>", base_dir: str | Path 
     return Scenario(model, sensors, signals, q, units, defaults, source)
 
 
-def _units(src: _Source, table: Mapping[str, Any], model: Model) -> dict[str, str]:
+def _units(src: Source, table: Mapping[str, Any], model: Model) -> dict[str, str]:
     names = {*model.states, *model.inputs, *model.outputs}
     out = {}
     for k, v in table.items():
@@ -992,14 +703,14 @@ def _units(src: _Source, table: Mapping[str, Any], model: Model) -> dict[str, st
     return out
 
 
-def _number_or_list(src: _Source, table: str, key: str, v: Any, params: Mapping[str, float],
+def _number_or_list(src: Source, table: str, key: str, v: Any, params: Mapping[str, float],
                     psyms: Mapping[str, sp.Symbol]) -> np.ndarray:
     if isinstance(v, list):
-        return np.array([_const(src, table, key, e, params, psyms) for e in v], dtype=float)
-    return np.array(_const(src, table, key, v, params, psyms), dtype=float)
+        return np.array([read_constant(src, table, key, e, params, psyms) for e in v], dtype=float)
+    return np.array(read_constant(src, table, key, v, params, psyms), dtype=float)
 
 
-def _sensors(src: _Source, table: Mapping[str, Any], model: Model, params: Mapping[str, float],
+def _sensors(src: Source, table: Mapping[str, Any], model: Model, params: Mapping[str, float],
              psyms: Mapping[str, sp.Symbol]) -> tuple[MeasurementGroup, ...]:
     groups = []
     owner: dict[str, str] = {}
@@ -1027,19 +738,19 @@ def _sensors(src: _Source, table: Mapping[str, Any], model: Model, params: Mappi
             if o in owner:
                 raise src.table_error(where, "outputs", f"output {o!r} is in both [{owner[o]}] and [{where}]", o)
             owner[o] = where
-        kw: dict[str, Any] = {"rate": _const(src, where, "rate", spec["rate"], params, psyms)}
+        kw: dict[str, Any] = {"rate": read_constant(src, where, "rate", spec["rate"], params, psyms)}
         if "noise_std" in spec:
             kw["noise_std"] = _number_or_list(src, where, "noise_std", spec["noise_std"], params, psyms)
         if "noise_cov" in spec:
             if "noise_std" in spec:
                 raise src.table_error(where, "noise_cov", f"[{where}]: give noise_std or noise_cov, not both",
                                       "noise_cov")
-            kw["noise_cov"] = _const_matrix(src, where, "noise_cov", spec["noise_cov"], params, psyms,
+            kw["noise_cov"] = read_constant_matrix(src, where, "noise_cov", spec["noise_cov"], params, psyms,
                                             rows=len(outs), cols=len(outs))
         if "bias" in spec:
             kw["bias"] = _number_or_list(src, where, "bias", spec["bias"], params, psyms)
         if "outages" in spec:
-            kw["outages"] = _const_matrix(src, where, "outages", spec["outages"], params, psyms, cols=2)
+            kw["outages"] = read_constant_matrix(src, where, "outages", spec["outages"], params, psyms, cols=2)
         try:
             groups.append(MeasurementGroup(gname, tuple(outs), **kw))
         except NlobsError as exc:
@@ -1061,7 +772,7 @@ def _sensor_key(message: str) -> str | None:
     return None
 
 
-def _input_signals(src: _Source, data: Mapping[str, Any], model: Model, params: Mapping[str, float],
+def _input_signals(src: Source, data: Mapping[str, Any], model: Model, params: Mapping[str, float],
                    base_dir: str | Path | None) -> Any:
     table = data.get("input_signals")
     if table is None:
@@ -1094,7 +805,7 @@ def _input_signals(src: _Source, data: Mapping[str, Any], model: Model, params: 
     return InputSignals(tuple(model.inputs), tuple(sigs))
 
 
-def _process_noise(src: _Source, table: Mapping[str, Any], n: int, params: Mapping[str, float],
+def _process_noise(src: Source, table: Mapping[str, Any], n: int, params: Mapping[str, float],
                    psyms: Mapping[str, sp.Symbol]) -> np.ndarray:
     from nlobs._validate import as_covariance
 
@@ -1107,14 +818,14 @@ def _process_noise(src: _Source, table: Mapping[str, Any], n: int, params: Mappi
                               "'covariance' (n x n)", "std")
     if "std" in table:
         return np.diag(_per_state_std(src, "process_noise", "std", table["std"], n, params, psyms) ** 2)
-    cov = _const_matrix(src, "process_noise", "covariance", table["covariance"], params, psyms, rows=n, cols=n)
+    cov = read_constant_matrix(src, "process_noise", "covariance", table["covariance"], params, psyms, rows=n, cols=n)
     try:
         return as_covariance("[process_noise].covariance", cov, n)
     except NlobsError as exc:
         raise src.table_error("process_noise", "covariance", str(exc), "covariance") from None
 
 
-def _per_state_std(src: _Source, table: str, key: str, v: Any, n: int, params: Mapping[str, float],
+def _per_state_std(src: Source, table: str, key: str, v: Any, n: int, params: Mapping[str, float],
                    psyms: Mapping[str, sp.Symbol]) -> np.ndarray:
     """Standard deviations: one number for every state, or ``n`` non-negative numbers."""
     std = _number_or_list(src, table, key, v, params, psyms)
@@ -1126,7 +837,7 @@ def _per_state_std(src: _Source, table: str, key: str, v: Any, n: int, params: M
     return std
 
 
-def _run_defaults(src: _Source, table: Mapping[str, Any], n: int, params: Mapping[str, float],
+def _run_defaults(src: Source, table: Mapping[str, Any], n: int, params: Mapping[str, float],
                   psyms: Mapping[str, sp.Symbol]) -> RunDefaults:
     unknown = sorted(set(table) - _SIMULATION_KEYS)
     if unknown:
@@ -1140,7 +851,7 @@ def _run_defaults(src: _Source, table: Mapping[str, Any], n: int, params: Mappin
                                                  params, psyms)
     for key in ("duration", "dt", "settle"):
         if key in table:
-            val = _const(src, "simulation", key, table[key], params, psyms)
+            val = read_constant(src, "simulation", key, table[key], params, psyms)
             if val < 0 or (val == 0 and key != "settle"):
                 raise src.table_error("simulation", key, f"[simulation].{key} must be "
                                       f"{'non-negative' if key == 'settle' else 'positive'} (seconds)", repr(table[key]))
@@ -1154,7 +865,7 @@ def _run_defaults(src: _Source, table: Mapping[str, Any], n: int, params: Mappin
         b = table["box"]
         if isinstance(b, list) and len(b) == 2 and not any(isinstance(e, list) for e in b):
             b = [b] * n
-        arr = _const_matrix(src, "simulation", "box", b, params, psyms, rows=n, cols=2)
+        arr = read_constant_matrix(src, "simulation", "box", b, params, psyms, rows=n, cols=2)
         if np.any(arr[:, 1] <= arr[:, 0]):
             raise src.table_error("simulation", "box", "[simulation].box: every row is [lo, hi] with lo < hi", "box")
         kw["box"] = (arr[:, 0].copy(), arr[:, 1].copy())
