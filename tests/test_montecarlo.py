@@ -23,7 +23,8 @@ import pytest
 from nlobs.errors import InvalidArgumentError, OutputError
 from nlobs.simulate.montecarlo import MonteCarloResult, RunBatch, batch_rng, chunk_path, monte_carlo, same_results
 from nlobs.simulate.setvalued import SetValuedStudy, simulate_batch
-from nlobs.workflows.setvalued import _load, class_check_box, design_setvalued_observer
+from nlobs.methods.setvalued import class_check_box, design_setvalued_observer
+from nlobs.methods.setvalued import load_setvalued_model as _load
 
 SRC = str(Path(__file__).resolve().parents[1] / "src")
 
@@ -149,7 +150,8 @@ _SCRIPT = textwrap.dedent("""
     import sys
     from nlobs.simulate.montecarlo import monte_carlo
     from nlobs.simulate.setvalued import SetValuedStudy
-    from nlobs.workflows.setvalued import _load, class_check_box, design_setvalued_observer
+    from nlobs.methods.setvalued import class_check_box, design_setvalued_observer
+    from nlobs.methods.setvalued import load_setvalued_model as _load
 
     m = _load("khajenejad-6-1")
     rep = design_setvalued_observer(m, samples=2000)

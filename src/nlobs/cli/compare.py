@@ -27,8 +27,11 @@ from nlobs.cli.common import (
     simulate_app,
 )
 from nlobs.errors import ModelFileError, NlobsError, OutputError, StudyFailed
+from nlobs.methods.registry import REGISTRY, names
 
-_KNOWN = "drift,pinv,luenberger,cascade,ekf,ukf"
+#: The observers ``nlobs simulate MODEL`` runs: the methods' registry (its order).
+_KNOWN = ",".join(names(simulated=True))
+_HELP = "; ".join(f"{e.name}: {e.help}" for e in REGISTRY if e.simulated)
 
 
 def _inputs(values: list[str] | None) -> dict[str, str] | None:
@@ -56,7 +59,7 @@ def _one_or_many(option: str, text: str | None) -> list[float] | float | None:
 def compare_cmd(
     model: Annotated[str, typer.Argument(help="A model file (.toml) with optional [sensors], [input_signals], "
                                               "[process_noise], units and [simulation] tables, or a shipped model.")],
-    observer: Annotated[str, typer.Option("--observer", help=f"Comma-separated observers among {_KNOWN}.")] = _KNOWN,
+    observer: Annotated[str, typer.Option("--observer", help=f"Comma-separated observers (default: all). {_HELP}.")] = _KNOWN,
     runs: Annotated[int | None, typer.Option(help="Monte Carlo runs (default: [simulation].runs, else 20).")] = None,
     duration: Annotated[float | None, typer.Option(help="Simulated time [s] (default: [simulation], else 10).")] = None,
     dt: Annotated[float | None, typer.Option(help="RK4 step [s] (default: [simulation], else 1e-3).")] = None,

@@ -24,6 +24,7 @@ from nlobs.cli.common import (
     parse_floats,
 )
 from nlobs.errors import AssumptionViolated, DesignError, ModelFileError, NlobsError
+from nlobs.methods.registry import REGISTRY
 
 #: The design options of ``nlobs export``: the parameter each flag sets (the same as ``nlobs design``'s).
 _FLAGS = {"s": "--s", "alpha": "--alpha", "mu": "--mu", "gamma": "--gamma", "gain_method": "--method", "w": "--w",
@@ -49,12 +50,8 @@ def _flags(message: str) -> str:
 def export_cmd(
     model: Annotated[str, typer.Argument(help="A model file (.toml), or the name of a shipped model.")],
     observer: Annotated[str, typer.Option(
-        "--observer", help="Which design to export: luenberger (the gain of LMIs (14), (15); for a nonlinear model "
-                           "the copy of the plant with the gain of its linearisation at x0), drift (Dalla Mora, "
-                           "Germani & Manes (3.1)), pinv "
-                           "(Röbenack (7), (17)), cascade (Grip, Saberi & Johansen, the file's [cascade] table), setvalued "
-                           "(Khajenejad & Yong, Algorithm 1) or "
-                           "gnss-ins (the demo's observer (24); MODEL is gnss-ins).")],
+        "--observer", help="Which design to export (MODEL is gnss-ins for gnss-ins): "
+                           + "; ".join(f"{e.name}: {e.help}" for e in REGISTRY if e.exported) + ".")],
     out: Annotated[Path, typer.Option("--out", help="Folder for the header and the source (created).")],
     lang: Annotated[str, typer.Option("--lang", help="Target language (c: C99, math.h only, no heap).")] = "c",
     box: Annotated[str | None, typer.Option(

@@ -1,4 +1,4 @@
-r"""``nlobs advise``: which of nlobs's observers applies to a model, with the evidence and the first command.
+r"""Which of nlobs's observers applies to a model, with the evidence and the first command (``nlobs advise``).
 
 :func:`advise_model` reads a model file (or a shipped name, or a model), chooses the region of its
 analyses, and returns one :class:`MethodAdvice` per method of nlobs in an :class:`AdviceReport`:
@@ -33,7 +33,7 @@ A verdict above is about the *theorems*: a high-gain observer whose hypotheses h
 once its output is sampled and noisy (a continuous high-gain design fed held samples at a rate
 below its bandwidth diverges; a large gain amplifies the sensor noise). ``check=True``
 (``nlobs advise --check``) runs every applicable observer nlobs can simulate and an EKF on a few
-noisy Monte Carlo runs under the file's sensors (:func:`nlobs.workflows.compare.compare_observers`)
+noisy Monte Carlo runs under the file's sensors (:func:`nlobs.methods.comparison.compare_observers`)
 and ranks an observer that diverged or never converged below the Kalman filters, with the measured
 numbers as its evidence (and, for the drift observer, its fastest error pole against the sampling
 interval); one that converges with an error more than :data:`CHECK_RMS_FACTOR` times the EKF's
@@ -58,6 +58,7 @@ from nlobs.geometry.lie import tidy
 from nlobs.geometry.observability import AffineFields, observability_jacobian
 from nlobs.geometry.region import Box, format_point
 from nlobs.geometry.report import GeometryReport, geometry_report
+from nlobs.geometry.unobservable import Unobservability, linear_unobservable_directions, unobservable_directions
 from nlobs.geometry.singularities import (
     Singularity,
     expression_atoms,
@@ -66,18 +67,17 @@ from nlobs.geometry.singularities import (
     singularities,
 )
 from nlobs.linear import analyze_linear
-from nlobs.methods.problem import problem
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.linear import LinearSystem
 from nlobs.systems.linearize import linearize
 from nlobs.systems.modelfile import Model, load_discrete_ui_model, load_model, load_scenario, model_file_tables
 from nlobs.systems.symbolic import SymbolicModel
-from nlobs.workflows.inputs import as_region, model_label
-from nlobs.workflows.verdict import Verdict
+from nlobs.checks import Verdict
+from nlobs.methods.problem import as_region, model_label, problem
 
 #: With ``check``: an observer whose RMS error exceeds this multiple of the EKF's gets a note on noise amplification.
 CHECK_RMS_FACTOR = 10.0
-#: The advisor's methods that :func:`nlobs.workflows.compare.compare_observers` runs (under the same names).
+#: The advisor's methods that :func:`nlobs.methods.comparison.compare_observers` runs (under the same names).
 _SIMULATED = ("drift", "pinv", "luenberger", "cascade")
 
 __all__ = ["CHECK_RMS_FACTOR", "METHODS", "AdviceReport", "SensorCheck", "CascadeStructure", "MethodAdvice", "Singularity", "advise_model",
@@ -211,7 +211,7 @@ def _sensor_check(model: str | Path, methods: Sequence[MethodAdvice], region: Bo
     import dataclasses
     import math
 
-    from nlobs.workflows.compare import compare_observers
+    from nlobs.methods.comparison import compare_observers
 
     names = [m.method for m in methods if m.usable and m.method in _SIMULATED]
     drift = next((m for m in methods if m.method == "drift" and m.usable), None)
@@ -301,6 +301,12 @@ class AdviceReport:
     message : str
     check : SensorCheck or None
         With ``check=True``: the applicable observers and an EKF under the file's sensors.
+    design : Design or None
+        The recommended method's design for the model file (:mod:`nlobs.methods`), as ``nlobs design``,
+        ``nlobs export`` and ``nlobs simulate`` make it (the region the advice recommends); ``None``
+        without a model file, or when the design cannot be made (:attr:`design_error` says why).
+    design_error : str
+        Why there is no :attr:`design` for a recommended method.
     """
 
     model: str
@@ -315,6 +321,8 @@ class AdviceReport:
     verdict: Verdict = Verdict.OK
     message: str = ""
     check: SensorCheck | None = None
+    design: Any = None
+    design_error: str = ""
 
     def method(self, name: str) -> MethodAdvice:
         """The advice on one method (``KeyError`` for an unknown name)."""
@@ -336,7 +344,8 @@ class AdviceReport:
                 "singularities": [s.to_dict() for s in self.singular],
                 "methods": {m.method: m.to_dict() for m in self.methods}, "recommended": self.recommended,
                 "command": self.command, "compare_command": self.compare_command, "verdict": self.verdict.value,
-                "message": self.message, "check": None if self.check is None else self.check.to_dict()}
+                "message": self.message, "check": None if self.check is None else self.check.to_dict(),
+                "design": None if self.design is None else self.design.to_dict()}
 
     def summary(self, *, short: bool = False) -> str:
         """The text report (``short``: the recommendation and one line per method, as ``nlobs analyze`` ends)."""
@@ -613,9 +622,9 @@ def _pinv(target: str, geo: GeometryReport | None, geo_err: str | None, region: 
                         rank=3)
 
 
-def _linear_part(target: str, model: Model, x0: np.ndarray, geo: GeometryReport | None,
-                 err: str | None) -> tuple[MethodAdvice, MethodAdvice]:
-    """Luenberger on the linearisation at ``x0``, and the EKF/UKF."""
+def _linear_part(target: str, model: Model, x0: np.ndarray, u0: np.ndarray, geo: GeometryReport | None,
+                 err: str | None, unobs: Unobservability | None) -> tuple[MethodAdvice, MethodAdvice]:
+    """Luenberger on the linearisation at ``x0``, ``u0``, and the EKF/UKF (open loop along what is unobservable)."""
     lt = "Luenberger / LMI (14), (15) of Grip, Saberi & Johansen"
     kt = "EKF / UKF"
     obs_rank = None if geo is None else geo.observability_rank
@@ -625,9 +634,10 @@ def _linear_part(target: str, model: Model, x0: np.ndarray, geo: GeometryReport 
         if isinstance(model, LinearSystem):
             rep = analyze_linear(model)
         else:
-            rep = analyze_linear(linearize(model, tuple(x0), tuple(np.zeros(model.m))))
+            rep = analyze_linear(linearize(model, tuple(x0), tuple(u0)))
         observable, detectable = bool(rep.observable), bool(rep.detectable)
-        where = "" if isinstance(model, LinearSystem) else f" of the linearisation at x0 = {format_point(x0)}"
+        where = "" if isinstance(model, LinearSystem) else (
+            f" of the linearisation at x0 = {format_point(x0)}" + (f", u0 = {format_point(u0)}" if model.m else ""))
         ev.append(f"observable{where}: {'yes' if observable else 'no'}; detectable: {'yes' if detectable else 'no'}")
     except NlobsError as exc:
         ev.append(f"linearisation at x0 = {format_point(x0)} not available: {exc}")
@@ -649,6 +659,12 @@ def _linear_part(target: str, model: Model, x0: np.ndarray, geo: GeometryReport 
     if ok:
         kal = MethodAdvice("ekf-ukf", kt, "yes", "observable (no convergence certificate: a tuned filter)", tuple(kev),
                            {"Q": "the file's [process_noise]", "R": "the file's [sensors]"}, kcmd, rank=6)
+    elif unobs is not None and unobs.rank and unobs.directions:
+        kev.append(f"unobservable: {'; '.join(unobs.directions)}")
+        kal = MethodAdvice("ekf-ukf", kt, "local", f"the model is {unobs.describe()}: the filters estimate the "
+                           "observable part; their estimate along the unobservable "
+                           f"{'direction' if len(unobs.directions) == 1 else 'directions'} runs open loop",
+                           tuple(kev), {"Q": "the file's [process_noise]", "R": "the file's [sensors]"}, kcmd, rank=12)
     else:
         kal = MethodAdvice("ekf-ukf", kt, "no", "the model is not observable from its outputs", tuple(kev))
     return luen, kal
@@ -728,17 +744,17 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
     """
     is_file = isinstance(model, (str, Path))
     target = str(model) if is_file else model_label(model)
-    m = load_model(model) if is_file else model
-    if not isinstance(m, (SymbolicModel, LinearSystem)):
-        raise ModelError(f"model: expected a model file, a shipped model name or a model, got {type(m).__name__}")
     tables = model_file_tables(model) if is_file else frozenset()
     scenario = None
     if is_file:
         try:
-            scenario = load_scenario(model)
+            scenario = load_scenario(model)  # the model file is parsed once, here
         except ModelFileError:
             if "unknown_inputs" not in tables:
                 raise
+    m = scenario.model if scenario is not None else (load_model(model) if is_file else model)
+    if not isinstance(m, (SymbolicModel, LinearSystem)):
+        raise ModelError(f"model: expected a model file, a shipped model name or a model, got {type(m).__name__}")
     defaults = getattr(scenario, "defaults", None)
     given = as_region(box, m.n)
     if given is not None:
@@ -765,7 +781,13 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
     else:
         geo_err = "a linear model"
     mu, mu_src = _input_bound(scenario)
-    luen, kal = _linear_part(target, m, x_lin, geo, geo_err)
+    u_lin = problem(scenario).u0 if scenario is not None else np.zeros(m.m)
+    unobs = None
+    if geo is not None and geo.observability_rank is not None and geo.observability_rank < m.n and fields is not None:
+        unobs = unobservable_directions(fields, region)
+    elif isinstance(m, LinearSystem):
+        unobs = linear_unobservable_directions(m.A, m.C, m.states)
+    luen, kal = _linear_part(target, m, x_lin, u_lin, geo, geo_err, unobs)
     methods = (
         _cascade(target, m, tables),
         _setvalued(target, tables, m),
@@ -793,9 +815,32 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
         cmp = f"nlobs simulate {target} --observer {sim},ekf,ukf" if sim and is_file else None
         if cmp and not _same(best_region(best, region), reg0):
             cmp += f" {box_option(best_region(best, region))}"
+    design, design_error = None, ""
+    if best is not None and scenario is not None:
+        design, design_error = _recommended_design(best, scenario, region, reg0, src)
     return AdviceReport(m.name, target, reg0 if isinstance(m, SymbolicModel) else None, src,
                         region if isinstance(m, SymbolicModel) else None, sing, methods,
-                        None if best is None else best.method, cmp, verdict, msg, sensor_check)
+                        None if best is None else best.method, cmp, verdict, msg, sensor_check, design, design_error)
+
+
+def _recommended_design(best: MethodAdvice, scenario: Any, region: Box, reg0: Box, src: str) -> tuple[Any, str]:
+    """The registry's design of the recommended method, on the region the advice recommends (or the file's)."""
+    from nlobs.methods.registry import get, names
+
+    name = "ekf" if best.method == "ekf-ukf" else best.method
+    if name not in names():
+        return None, ""
+    method = get(name)
+    box = best_region(best, region) if method.uses_region else None
+    given = None if box is None or (_same(box, reg0) and src != "given") else box
+    try:
+        pb = problem(scenario, box=given)
+        why = method.applies(pb)
+        if why is not None:
+            return None, why
+        return method.design(pb), ""
+    except NlobsError as exc:
+        return None, str(exc)
 
 
 def best_region(advice: MethodAdvice, region: Box) -> Box:

@@ -74,6 +74,8 @@ class Design:
         Values reported beside the coverage of a run (e.g. the region and ``μ``).
     report : Any
         The method's full design report (what ``nlobs design`` prints), when it has one.
+    warnings : tuple of str
+        What a user should know before trusting a run (e.g. states a filter cannot see).
     """
 
     method: str
@@ -89,6 +91,7 @@ class Design:
     hypotheses: tuple[Any, ...] = ()
     coverage_extras: Mapping[str, Any] = field(default_factory=dict)
     report: Any = field(default=None, repr=False)
+    warnings: tuple[str, ...] = ()
 
     @property
     def usable(self) -> bool:
@@ -134,6 +137,7 @@ class Design:
             "premises": [p.to_dict() for p in self.premises],
             "unchecked": list(self.unchecked),
             "failed": list(self.failed),
+            "warnings": list(self.warnings),
             "description": self.description,
         }
 
@@ -141,7 +145,8 @@ class Design:
         """The parameters with their sources, and the verdict, as text."""
         params = ", ".join(f"{k} = {_fmt(v)}" + (f" ({self.sources[k]})" if k in self.sources else "")
                            for k, v in self.parameters.items())
-        return "\n".join([f"{self.method}: {self.description}", f"  parameters: {params}", f"  {self.status}"])
+        return "\n".join([f"{self.method}: {self.description}", f"  parameters: {params}", f"  {self.status}",
+                          *(f"  warning: {w}" for w in self.warnings)])
 
 
 def _fmt(v: Any) -> str:

@@ -1,6 +1,6 @@
-r"""``nlobs simulate MODEL``: every applicable observer on the same noisy, multi-rate Monte Carlo runs.
+r"""Every applicable observer on the same noisy, multi-rate Monte Carlo runs (the engine of ``nlobs simulate MODEL``).
 
-A user's own plant, measured by real sensors: this workflow designs each chosen observer with its
+A user's own plant, measured by real sensors: :func:`compare_observers` designs each chosen observer with its
 method's defaults (or the options given), runs all of them on the same runs — the same truth, the
 same initial estimates, the same sensor and process noise — and reports, per observer, what an
 engineer compares: RMS error per state (after a settling time, and overall), final error,
@@ -10,11 +10,11 @@ run stayed inside what its certificate covers.
 The observers (``OBSERVERS``):
 
 * ``drift`` — (3.1) of Dalla Mora, Germani & Manes with the gain of Remark 2.11 on the region
-  (:func:`nlobs.workflows.design_drift.design_drift_report`), ``α = 1`` and the input bound ``μ`` of
+  (:data:`nlobs.methods.drift.DRIFT`), ``α = 1`` and the input bound ``μ`` of
   (2.17) the largest ``‖u(t)‖`` of the run's known input; skipped when drift-observability fails on
   the region or the design is not usable;
 * ``pinv`` — Röbenack's Moore–Penrose observer (7), (17) with the high-gain placement of (10)
-  (:func:`nlobs.workflows.design_pinv.design_pinv_report`); skipped when A1 or A5 fails;
+  (:data:`nlobs.methods.pinv.PINV`); skipped when A1 or A5 fails;
 * ``luenberger`` — a copy of the plant with constant output injection
   (:class:`~nlobs.observers.luenberger.ConstantGainObserver`; for a linear model the Luenberger
   observer) with the gain of LMIs (14), (15) of Grip, Saberi & Johansen for the linearisation at
@@ -22,7 +22,7 @@ The observers (``OBSERVERS``):
 * ``cascade`` — the observer (9)–(10) (or (17)–(18)) of Grip, Saberi & Johansen, for a model file with a
   ``[cascade]`` table (a nonlinear Σ₁ whose unmeasured output drives a linear Σ₂,
   :mod:`nlobs.systems.cascade_file`), with the gain of
-  :func:`nlobs.workflows.design_cascade.design_cascade` (the file's ``method`` and ``gamma``);
+  :data:`nlobs.methods.cascade.CASCADE` (the file's ``method`` and ``gamma``);
   skipped with the reason for a model without one;
 * ``ekf``, ``ukf`` — the continuous-discrete (discrete for discrete models) extended and unscented
   Kalman filters (:class:`~nlobs.observers.EKF`, :class:`~nlobs.observers.UKF`), tuned from the
@@ -57,7 +57,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from nlobs._io import atomic_write_json, jsonable, with_schema
+
 from nlobs._typing import Array
 from nlobs._validate import as_count, positive
 from nlobs.errors import (
@@ -84,9 +84,8 @@ from nlobs.systems.modelfile import load_scenario
 from nlobs.systems.scenario import Scenario
 from nlobs.systems.sensors import MeasurementGroup
 from nlobs.systems.symbolic import SymbolicModel
-from nlobs.workflows._results import prepare_out
-from nlobs.workflows.inputs import MAX_SIMULATION_STEPS, as_region, model_label
-from nlobs.workflows.verdict import Verdict
+from nlobs.checks import Verdict
+from nlobs.methods.problem import MAX_SIMULATION_STEPS, as_region, model_label
 
 __all__ = [
     "BLOWUP",
@@ -226,6 +225,10 @@ class ComparisonReport:
         ``NO_OBSERVER`` when every observer was skipped; ``FAILED`` when every run of every
         observer that ran diverged.
     message : str
+    scenario : Scenario or None
+        The model file's tables the runs were made from (not part of :meth:`to_dict`).
+    plant : Any
+        The compiled plant that was simulated (not part of :meth:`to_dict`).
     """
 
     model: str
@@ -243,6 +246,8 @@ class ComparisonReport:
     files: tuple[Path, ...]
     verdict: Verdict
     message: str
+    scenario: Scenario | None = None
+    plant: Any = None
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -288,6 +293,7 @@ class ComparisonReport:
                 lines.append(f"  {name}: skipped: {o.skipped}")
                 continue
             lines.append(f"  {name}: {o.description}")
+            lines += [f"    warning: {w}" for w in (o.design.warnings if o.design is not None else ())]
             if o.diverged_runs:
                 shown = ", ".join(f"run {d.run} at t = {d.time:.4g} {self.time_unit} ({d.reason})"
                                   for d in o.diverged_runs[:5])
@@ -546,7 +552,6 @@ def compare_observers(
     process_noise: ArrayLike | None = None,
     filter_q: ArrayLike | None = None,
     alpha: float = 1.0,
-    out: Path | None = None,
     progress: bool | None = None,
     name: str | None = None,
     backend: str = "python",
@@ -590,8 +595,6 @@ def compare_observers(
         The Kalman filters' ``Q`` (std per state or covariance), instead of the process noise.
     alpha : float
         Decay rate of the Luenberger gain's region ``Re λ < −α``.
-    out : Path, optional
-        Folder for ``compare.json``, the plots and the trajectories (``.npz`` and ``.csv``).
     progress : bool, optional
         A progress bar over observers and steps (``None``: on a terminal, for long runs).
     name : str, optional
@@ -646,7 +649,6 @@ def compare_observers(
     if sum(v is not None for v in (executor, workers, scheduler)) > 1:
         raise InvalidArgumentError("--workers and --scheduler (or an executor): give one (workers start a local "
                                    "cluster, a scheduler address uses a running one)")
-    prepare_out(out)
     outcomes: dict[str, ObserverOutcome] = {}
     if executor is None and workers is None and scheduler is None:
         for name_ in chosen:
@@ -659,14 +661,7 @@ def compare_observers(
             run_tasks(executor if executor is not None else client, _run_task, s,
                       [(n_, alpha, filter_q, backend) for n_ in chosen], got.__setitem__)
         outcomes = {n_: got[i] for i, n_ in enumerate(chosen)}
-    files: tuple[Path, ...] = ()
-    report = _report(s, outcomes, files)
-    if out is not None:
-        from nlobs.workflows.compare_output import write_comparison
-
-        files = write_comparison(report, s.scenario, out, plant=s.plant)
-        report = _report(s, outcomes, files)
-    return report
+    return _report(s, outcomes, ())
 
 
 def _compiled(obs: Any, desc: str) -> tuple[Any, str]:
@@ -756,9 +751,6 @@ def _report(s: _Setup, outcomes: dict[str, ObserverOutcome], files: tuple[Path, 
         model=model.name, states=tuple(model.states), units=tuple(s.scenario.unit(v) for v in model.states),
         runs=s.runs, seed=s.seed, duration=s.duration, dt=s.dt, settle=s.settle,
         time_unit=s.scenario.time_unit, x0=tuple(float(v) for v in s.x0),
-        setup=s.describe, observers=outcomes, files=files, verdict=verdict, message=msg)
+        setup=s.describe, observers=outcomes, files=files, verdict=verdict, message=msg, scenario=s.scenario,
+        plant=s.plant)
 
-
-def write_json(report: ComparisonReport, path: Path) -> Path:
-    """``report.to_dict()`` as JSON, atomically."""
-    return atomic_write_json(path, with_schema(jsonable(report.to_dict())))

@@ -294,6 +294,13 @@ def design_drift_report(
                 "suggests one), or another output",
                 item="drift-observability", evidence=drift.evidence) from exc
         raise
+    if not (np.isfinite(lip.gamma_phi) and np.isfinite(lip.gamma_phi_inv)):
+        drift = checks[0]
+        raise AssumptionViolated(
+            f"drift-observability fails on {reg.describe()} ({drift.evidence}){_singular_note(model, reg)}: Φ_s or "
+            f"Φ_s⁻¹ has no finite Lipschitz constant there (γ_Φ = {lip.gamma_phi:.4g}, γ_Φ⁻¹ = "
+            f"{lip.gamma_phi_inv:.4g}), so Theorem 3.1 gives no bound; choose a region where Q_s is nonsingular",
+            item="drift-observability", evidence=drift.evidence)
     bound = error_bound_constants(cert, lip.gamma_phi, lip.gamma_phi_inv)
     return DriftDesignReport(fields, s_, rd.r, checks, readonly(F), str(H.tolist()), float(g),
                              "estimated" if gamma is None else "given", cert, lip, bound, reg)
@@ -341,6 +348,9 @@ class DriftMethod:
             return "(3.1) of Dalla Mora, Germani & Manes is for nonlinear input-affine models; this one is linear"
         if model.time.is_discrete:
             return "(3.1) of Dalla Mora, Germani & Manes is for continuous-time models"
+        unobservable = problem.not_observable()
+        if unobservable is not None:
+            return f"(3.1) needs a drift-observable model (Def. 2.3, Q_s nonsingular); {unobservable}"
         return None
 
     def design(self, problem: Problem, *, s: Sequence[int] | None = None, alpha: float | None = None,
@@ -368,8 +378,8 @@ class DriftMethod:
                                   objective=objective)
         cert = rep.certificate
         premises = (rep.drift_check, _mu_check(problem, mu_, mu is not None))
-        failed = tuple(rep.reasons) + (() if premises[1].passed else (
-            f"the known input exceeds μ: {premises[1].evidence}",))
+        # a μ below the file's input is a design for smaller inputs: usable, not certified for this model file
+        failed = tuple(rep.reasons)
         sources = {"region": problem.sources.get("region", "given"),
                    "alpha": "given" if alpha is not None else "default",
                    "mu": "given" if mu is not None else problem.sources.get("mu", ""),

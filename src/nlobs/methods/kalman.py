@@ -156,7 +156,13 @@ class KalmanMethod:
                 f"sensors, P0 = diag({[float(f'{v:.4g}') for v in std]}²)")
         parameters = {"Q": Q, "R": R, "p0_std": std}
         sources = {"Q": q_text, "R": "[sensors]"}
-        return Design(self.name, obs, None, (), (), parameters, sources, desc)
+        u = problem.observability
+        warnings: tuple[str, ...] = ()
+        if u is not None and u.rank is not None and not u.observable:
+            warnings = (f"the model is {u.describe()}: the filter's estimate along "
+                        f"{'it' if len(u.directions) == 1 else 'them'} runs open loop (no measurement corrects it; its "
+                        "covariance does not shrink)",)
+        return Design(self.name, obs, None, (), (), parameters, sources, desc, warnings=warnings)
 
 
 #: The extended Kalman filter of the registry.

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +45,7 @@ from nlobs.systems.symbolic import SymbolicModel
 __all__ = [
     "DEFAULT_DURATION",
     "INPUT_BOUND_SAMPLES",
+    "MAX_SIMULATION_STEPS",
     "BoxError",
     "Problem",
     "as_region",
@@ -58,6 +60,8 @@ __all__ = [
 DEFAULT_DURATION = 10.0
 #: Instants of ``[0, T]`` at which ``‖u(t)‖`` is evaluated for the input bound ``μ``.
 INPUT_BOUND_SAMPLES = 4001
+#: Most RK4 steps one simulation of a design may take (``ceil(duration / dt)``); beyond it the loop would run for hours.
+MAX_SIMULATION_STEPS = 10_000_000
 
 
 class BoxError(InvalidArgumentError):
@@ -272,6 +276,34 @@ class Problem:
         q = self.process_noise is not None and bool(np.any(self.process_noise))
         what = [w for w, on in (("measurement noise or bias", noisy), ("process noise", q)) if on]
         return not what, " and ".join(what)
+
+    @cached_property
+    def observability(self) -> Any:
+        """The :class:`~nlobs.geometry.unobservable.Unobservability` of the model on the region, or ``None``.
+
+        The generic rank of the observability codistribution on :attr:`region` and its kernel, named
+        (a continuous-time input-affine model); the rank of the observability matrix (a linear model);
+        ``None`` when neither applies or the model cannot be evaluated there. Computed once.
+        """
+        from nlobs.geometry.observability import AffineFields
+        from nlobs.geometry.unobservable import linear_unobservable_directions, unobservable_directions
+
+        model = self.model
+        try:
+            if isinstance(model, LinearSystem):
+                return linear_unobservable_directions(model.A, model.C, model.states)
+            if model.time.is_discrete:
+                return None
+            return unobservable_directions(AffineFields.from_model(model), self.region)
+        except NlobsError:
+            return None
+
+    def not_observable(self) -> str | None:
+        """``None`` when the model is observable from its outputs (or that is unknown), else the evidence."""
+        u = self.observability
+        if u is None or u.rank is None or u.observable:
+            return None
+        return f"the model is {u.describe()}"
 
     def describe(self, name: str) -> str:
         """``"μ = 10.31 (max ‖u(t)‖ of [input_signals] over [0, 10])"`` for ``name`` in :attr:`sources`."""

@@ -376,7 +376,7 @@ def analyze_model(model: str | Path | Model, *, x0: Sequence[float] | None = Non
     NlobsError
         Anything else the analysis refuses (a typed error naming the quantity).
     """
-    from nlobs.workflows.advise import advise_model
+    from nlobs.methods.advice import advise_model
 
     is_file = isinstance(model, (str, Path))
     scenario = _scenario(model) if is_file else None

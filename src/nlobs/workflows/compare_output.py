@@ -30,7 +30,7 @@ from nlobs.errors import OutputError
 from nlobs.systems.scenario import Scenario
 
 if TYPE_CHECKING:
-    from nlobs.workflows.compare import ComparisonReport
+    from nlobs.methods.comparison import ComparisonReport
 
 __all__ = ["write_comparison"]
 

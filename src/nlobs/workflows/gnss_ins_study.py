@@ -28,7 +28,7 @@ from nlobs.errors import InvalidArgumentError, OutputError
 from nlobs.navigation.montecarlo import GnssInsStudy
 from nlobs.simulate.executors import cluster
 from nlobs.simulate.montecarlo import MonteCarloResult, monte_carlo
-from nlobs.workflows.demo import DEMO_NOISE
+from nlobs.methods.gnss_ins import DEMO_NOISE
 from nlobs.workflows.verdict import Verdict
 
 __all__ = ["FIGURE", "GnssInsStudyReport", "RUNS_FOLDER", "gnss_ins_monte_carlo"]

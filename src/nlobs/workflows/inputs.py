@@ -26,7 +26,7 @@ from nlobs._typing import Array
 from nlobs._validate import escape_unsafe, positive, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError, NlobsError, NonFiniteError
 from nlobs.geometry.region import Box
-from nlobs.methods.problem import BoxError, as_region, box_from_numbers, model_label, symbolic_model
+from nlobs.methods.problem import MAX_SIMULATION_STEPS, BoxError, as_region, box_from_numbers, model_label, symbolic_model
 from nlobs.systems.symbolic import SymbolicModel
 
 __all__ = [
@@ -44,8 +44,6 @@ __all__ = [
 ]
 
 
-#: Most RK4 steps one ``--simulate`` may take (``ceil(duration / dt)``); beyond it the loop would run for hours.
-MAX_SIMULATION_STEPS = 10_000_000
 #: Most bytes the trajectories of one ``--simulate`` may hold (time, state, estimate, output, sample flags).
 MAX_SIMULATION_BYTES = 2 * 1024**3
 
