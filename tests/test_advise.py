@@ -148,7 +148,7 @@ def test_json_keys_and_analyze_keeps_its_keys() -> None:
     assert res.exit_code == 0
     data = json.loads(res.stdout)
     assert set(data) == {"schema_version", "model", "box", "box_source", "region", "singularities", "methods", "recommended", "command",
-                         "compare_command", "verdict", "message", "check"}
+                         "compare_command", "verdict", "message", "check", "design"}
     assert set(data["methods"]) == {"cascade", "setvalued", "drift", "pinv", "ekf-ukf", "luenberger"}
     assert set(data["methods"]["drift"]) == {"method", "title", "applicable", "reason", "region", "evidence",
                                              "parameters", "command"}

@@ -189,8 +189,9 @@ def test_an_unobservable_model_skips_the_designs_that_need_observability_and_war
         # the observable states converge, R keeps its initial error (no measurement corrects it)
         rms = obs[name]["rms_error"]
         assert rms[0] < 0.01 and rms[1] < 0.01 and rms[2] > 0.03
+    # R does not decay (λ = 0 in the linearisation): advise recommends no filter, and says which direction it cannot see
     code, a = _json(["advise", str(p), "--json"])
-    assert code == 0 and a["methods"]["ekf-ukf"]["applicable"] == "local"
+    assert code == 3 and a["methods"]["ekf-ukf"]["applicable"] == "no"
     assert "unobservable direction: R" in a["methods"]["ekf-ukf"]["reason"]
 
 
@@ -206,3 +207,20 @@ def test_the_unobservable_directions_of_a_linear_model_are_named() -> None:
     # a direction that is not a state axis: y = x1 - x2 with x1' = x2' = 0 sees x1 - x2 only
     u = linear_unobservable_directions(np.zeros((2, 2)), np.array([[1.0, -1.0]]), ("a", "b"))
     assert u.rank == 1 and u.directions == ("a + b",)
+
+
+def test_design_options_reach_the_method_from_simulate_and_export(axis, tmp_path) -> None:
+    # μ = 12 given to the drift method through nlobs simulate's --option: the same design as nlobs design --mu 12
+    code, s = _json(["simulate", str(axis), "--observer", "drift", "--option", "drift.mu=12", "--runs", "2",
+                     "--duration", "10", "--json"])
+    code_d, d = _json(["design", "drift", str(axis), "--mu", "12", "--json"])
+    assert code == 0 and code_d == 0
+    assert s["observers"]["drift"]["design"]["parameters"] == d["design"]["parameters"]
+    assert d["design"]["parameters"]["mu"] == 12 and d["design"]["sources"]["mu"] == "given"
+    code, out = _json(["simulate", str(axis), "--observer", "drift", "--option", "drift.bogus=1"])
+    assert code == 2 and "bogus is not an option of drift" in out
+    code, out = _json(["simulate", str(axis), "--option", "mu=1"])
+    assert code == 2 and "METHOD.KEY=VALUE" in out
+    code, e = _json(["export", str(axis), "--observer", "drift", "--option", "w_max=1e6", "--out", str(tmp_path),
+                     "--json"])
+    assert code == 0 and e["design"]["parameters"]["mu"] == pytest.approx(MU, rel=1e-12)

@@ -48,6 +48,32 @@ def _inputs(values: list[str] | None) -> dict[str, str] | None:
     return out
 
 
+def _value(text: str) -> object:
+    """A design option's value: a number, numbers separated by commas, or a word (``sdp``, ``powers``)."""
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        nums: list[float | int] = [int(p) if p.lstrip("+-").isdigit() else float(p) for p in parts]
+    except ValueError:
+        return text.strip()
+    return nums[0] if len(nums) == 1 else nums
+
+
+def design_options(values: list[str] | None) -> dict[str, dict[str, object]] | None:
+    """``--option METHOD.KEY=VALUE`` (repeatable) as ``{method: {key: value}}``; a malformed one is exit 2."""
+    if not values:
+        return None
+    out: dict[str, dict[str, object]] = {}
+    for v in values:
+        lhs, sep, rhs = v.partition("=")
+        method, dot, key = lhs.strip().partition(".")
+        if not sep or not dot or not method or not key or not rhs.strip():
+            fail(f"--option: expected METHOD.KEY=VALUE (e.g. drift.mu=2 or pinv.theta=3), got {v!r}")
+        if key.strip().replace("-", "_") in out.get(method.strip(), {}):
+            fail(f"--option: {lhs.strip()!r} given twice")
+        out.setdefault(method.strip(), {})[key.strip().replace("-", "_")] = _value(rhs)
+    return out
+
+
 def _one_or_many(option: str, text: str | None) -> list[float] | float | None:
     vals = parse_floats(option, text)
     if vals is None:
@@ -80,6 +106,10 @@ def compare_cmd(
     filter_q: Annotated[str | None, typer.Option(
         "--filter-q", help="EKF/UKF process-noise std per state (default: the process noise).")] = None,
     alpha: Annotated[float, typer.Option(help="Luenberger gain: poles left of −alpha.")] = 1.0,
+    option: Annotated[list[str] | None, typer.Option(
+        "--option", help="A method's design option, METHOD.KEY=VALUE, repeatable (e.g. drift.mu=2, drift.alpha=0.5, "
+                         "pinv.theta=3, cascade.gamma=0.5, ekf.filter_q=0.01,0.01): the options of nlobs design and "
+                         "nlobs export.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
     out: Annotated[Path | None, typer.Option("--out", help="Folder for compare.json, plots, .npz and .csv.")] = None,
     backend: Annotated[str, typer.Option(
@@ -104,7 +134,8 @@ def compare_cmd(
             model, observers=names, runs=runs, duration=duration, dt=dt, seed=seed, x0=parse_floats("--x0", x0),
             x_hat0=parse_floats("--xhat0", xhat0), initial_error_std=_one_or_many("--initial-error-std", initial_error_std),
             box=box_numbers("--box", box), settle=settle, rate=rate, noise_std=_one_or_many("--noise-std", noise_std),
-            inputs=_inputs(input_), process_noise=pn, filter_q=fq, alpha=alpha, out=out, progress=None if not as_json else False,
+            inputs=_inputs(input_), process_noise=pn, filter_q=fq, alpha=alpha,
+            design_options=design_options(option), out=out, progress=None if not as_json else False,
             name=model, backend=backend, workers=workers, scheduler=scheduler)
     except ModelFileError as exc:
         fail(str(exc))

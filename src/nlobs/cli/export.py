@@ -78,6 +78,9 @@ def export_cmd(
     placement: Annotated[str | None, typer.Option(help="pinv: 'powers' or 'multiple'.")] = None,
     k: Annotated[str | None, typer.Option("--k", help="pinv: gain vector k (Σ r_j numbers), instead of θ.")] = None,
     gain_bound: Annotated[float | None, typer.Option("--gain-bound", help="cascade: ‖K‖ bound.")] = None,
+    option: Annotated[list[str] | None, typer.Option(
+        "--option", help="Any other design option of the method, KEY=VALUE, repeatable (a number, numbers "
+                         "separated by commas, or a word).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON report.")] = False,
 ) -> None:
     """Design an observer for a model and write its step as dependency-free C99 (header carries the certificate)."""
@@ -93,6 +96,12 @@ def export_cmd(
              "gain_method": method, "w": w, "w_max": w_max, "theta": theta, "placement": placement,
              "k": parse_floats("--k", k), "gain_bound": gain_bound}
     options = {name: value for name, value in given.items() if value is not None}
+    from nlobs.cli.compare import design_options
+
+    for key, value in (design_options([f"{observer}.{o}" for o in option or ()]) or {}).get(observer, {}).items():
+        if key in options:
+            fail(f"--option {key}: given twice (also as its own flag)")
+        options[key] = value
     try:
         report = export_model_observer(model, observer=observer, out=out, lang=lang, box=box_numbers("--box", box),
                                        saturation=sat, prefix=prefix, **options)

@@ -661,10 +661,16 @@ def _linear_part(target: str, model: Model, x0: np.ndarray, u0: np.ndarray, geo:
                            {"Q": "the file's [process_noise]", "R": "the file's [sensors]"}, kcmd, rank=6)
     elif unobs is not None and unobs.rank and unobs.directions:
         kev.append(f"unobservable: {'; '.join(unobs.directions)}")
-        kal = MethodAdvice("ekf-ukf", kt, "local", f"the model is {unobs.describe()}: the filters estimate the "
-                           "observable part; their estimate along the unobservable "
-                           f"{'direction' if len(unobs.directions) == 1 else 'directions'} runs open loop",
-                           tuple(kev), {"Q": "the file's [process_noise]", "R": "the file's [sensors]"}, kcmd, rank=12)
+        if detectable:  # the unobservable part decays by itself: the filters' open-loop estimate of it converges
+            kal = MethodAdvice("ekf-ukf", kt, "local", f"the model is {unobs.describe()}: the filters estimate the "
+                               "observable part; their estimate along the unobservable "
+                               f"{'direction' if len(unobs.directions) == 1 else 'directions'} runs open loop (it "
+                               "decays: the linearisation is detectable)", tuple(kev),
+                               {"Q": "the file's [process_noise]", "R": "the file's [sensors]"}, kcmd, rank=12)
+        else:
+            kal = MethodAdvice("ekf-ukf", kt, "no", f"the model is {unobs.describe()}, and that part does not "
+                               "decay (the linearisation is not detectable): a filter's estimate of it runs open loop "
+                               "and does not converge", tuple(kev))
     else:
         kal = MethodAdvice("ekf-ukf", kt, "no", "the model is not observable from its outputs", tuple(kev))
     return luen, kal
@@ -795,6 +801,7 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
         _pinv(target, geo, geo_err, region),
         kal,
         luen,
+        *_registered(target, scenario, is_file),
     )
     sensor_check = None
     if check:
@@ -821,6 +828,35 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
     return AdviceReport(m.name, target, reg0 if isinstance(m, SymbolicModel) else None, src,
                         region if isinstance(m, SymbolicModel) else None, sing, methods,
                         None if best is None else best.method, cmp, verdict, msg, sensor_check, design, design_error)
+
+
+#: The registry's methods this module analyses itself (the others are asked whether they apply).
+_ANALYSED = frozenset({"drift", "pinv", "luenberger", "cascade", "ekf", "ukf", "setvalued", "gnss-ins"})
+
+
+def _registered(target: str, scenario: Any, is_file: bool) -> tuple[MethodAdvice, ...]:
+    """Every other method of the registry, by its own :meth:`~nlobs.methods.base.Method.applies` (a new method
+    appears in the advice without a line here)."""
+    from nlobs.methods.registry import REGISTRY, get
+
+    out = []
+    for e in REGISTRY:
+        if e.name in _ANALYSED:
+            continue
+        title = f"{e.name} ({e.help})"
+        if scenario is None:
+            out.append(MethodAdvice(e.name, title, "no", "needs a model file"))
+            continue
+        try:
+            why = get(e.name).applies(problem(scenario))
+        except NlobsError as exc:
+            why = str(exc)
+        if why is not None:
+            out.append(MethodAdvice(e.name, title, "no", why))
+            continue
+        cmd = f"nlobs simulate {target} --observer {e.name},ekf,ukf" if e.simulated and is_file else None
+        out.append(MethodAdvice(e.name, title, "yes", "applies (by the method's own check)", (), {}, cmd, rank=20))
+    return tuple(out)
 
 
 def _recommended_design(best: MethodAdvice, scenario: Any, region: Box, reg0: Box, src: str) -> tuple[Any, str]:

@@ -552,6 +552,7 @@ def compare_observers(
     process_noise: ArrayLike | None = None,
     filter_q: ArrayLike | None = None,
     alpha: float = 1.0,
+    design_options: Mapping[str, Mapping[str, Any]] | None = None,
     progress: bool | None = None,
     name: str | None = None,
     backend: str = "python",
@@ -595,6 +596,9 @@ def compare_observers(
         The Kalman filters' ``Q`` (std per state or covariance), instead of the process noise.
     alpha : float
         Decay rate of the Luenberger gain's region ``Re λ < −α``.
+    design_options : mapping of str to mapping, optional
+        Design options per method, by name (``{"drift": {"mu": 2.0}, "pinv": {"theta": 3.0}}``): each
+        method's own options (:attr:`~nlobs.methods.base.Method.options`), over the comparison's defaults.
     progress : bool, optional
         A progress bar over observers and steps (``None``: on a terminal, for long runs).
     name : str, optional
@@ -643,6 +647,7 @@ def compare_observers(
     alpha = positive("alpha", alpha)
     if backend not in BACKENDS:
         raise InvalidArgumentError(f"--backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
+    options = _all_options(chosen, alpha, filter_q, design_options)
     s = _setup(scenario, label, runs=runs, duration=duration, dt=dt, seed=seed, x0=x0, x_hat0=x_hat0,
                initial_error_std=initial_error_std, box=box, settle=settle, rate=rate, noise_std=noise_std,
                inputs=inputs, process_noise=process_noise)
@@ -652,14 +657,14 @@ def compare_observers(
     outcomes: dict[str, ObserverOutcome] = {}
     if executor is None and workers is None and scheduler is None:
         for name_ in chosen:
-            outcomes[name_] = _run_one(name_, s, alpha, filter_q, progress, backend)
+            outcomes[name_] = _run_one(name_, s, _with_p0(name_, options[name_], s), progress, backend)
     else:
         from nlobs.simulate.executors import cluster, run_tasks
 
         got: dict[int, ObserverOutcome] = {}
         with cluster(workers, scheduler) as client:
             run_tasks(executor if executor is not None else client, _run_task, s,
-                      [(n_, alpha, filter_q, backend) for n_ in chosen], got.__setitem__)
+                      [(n_, _with_p0(n_, options[n_], s), backend) for n_ in chosen], got.__setitem__)
         outcomes = {n_: got[i] for i, n_ in enumerate(chosen)}
     return _report(s, outcomes, ())
 
@@ -673,25 +678,43 @@ def _compiled(obs: Any, desc: str) -> tuple[Any, str]:
     return compile_observer(obs), desc + "; generated C"
 
 
-def _options(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None) -> dict[str, Any]:
-    """The design options a comparison gives each method (the rest are the method's defaults)."""
-    if name == "drift":
-        return {"on_singular": "nan"}
-    if name == "luenberger":
-        return {"alpha": alpha}
-    if name in ("ekf", "ukf"):
-        return {"filter_q": filter_q, "p0_std": s.p0_std}
-    return {}
+def _all_options(chosen: Sequence[str], alpha: float, filter_q: ArrayLike | None,
+                 given: Mapping[str, Mapping[str, Any]] | None) -> dict[str, dict[str, Any]]:
+    """The design options a comparison gives each chosen method: its defaults here, then the options given."""
+    given = dict(given or {})
+    unknown = sorted(set(given) - set(chosen))
+    if unknown:
+        raise InvalidArgumentError(f"`design_options`: {', '.join(map(repr, unknown))} is not among the observers "
+                                   f"compared ({', '.join(chosen)})")
+    out: dict[str, dict[str, Any]] = {}
+    for name in chosen:
+        base: dict[str, Any] = {"drift": {"on_singular": "nan"}, "luenberger": {"alpha": alpha},
+                                "ekf": {"filter_q": filter_q}, "ukf": {"filter_q": filter_q}}.get(name, {})
+        extra = dict(given.get(name, {}))
+        method = get_method(name)
+        bad = sorted(set(extra) - set(method.options))
+        if bad:
+            raise InvalidArgumentError(f"`design_options`: {', '.join(bad)} is not an option of {name} (it takes "
+                                       f"{', '.join(sorted(method.options)) or 'none'})")
+        out[name] = {**base, **extra}
+    return out
 
 
-def _design(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None) -> Design | str:
+def _with_p0(name: str, options: dict[str, Any], s: _Setup) -> dict[str, Any]:
+    """A Kalman filter starts from the runs' initial error (``P0 = diag(p0_std²)``) unless given one."""
+    if name in ("ekf", "ukf") and "p0_std" not in options:
+        return {**options, "p0_std": s.p0_std}
+    return options
+
+
+def _design(name: str, s: _Setup, options: Mapping[str, Any]) -> Design | str:
     """The method's design for the comparison's problem, or why the observer is skipped."""
     method = get_method(name)
     why = method.applies(s.problem)
     if why is not None:
         return str(why)
     try:
-        design = method.design(s.problem, **_options(name, s, alpha, filter_q))
+        design = method.design(s.problem, **options)
     except (ModelError, AssumptionViolated, DesignError) as exc:
         return str(exc)
     if not design.usable:
@@ -699,9 +722,9 @@ def _design(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None) -> D
     return design
 
 
-def _run_one(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None, progress: bool | None,
+def _run_one(name: str, s: _Setup, options: Mapping[str, Any], progress: bool | None,
              backend: str = "python") -> ObserverOutcome:
-    design = _design(name, s, alpha, filter_q)
+    design = _design(name, s, options)
     if isinstance(design, str):
         return ObserverOutcome(name, design)
     obs, desc = design.observer, design.description
@@ -725,9 +748,9 @@ def _run_one(name: str, s: _Setup, alpha: float, filter_q: ArrayLike | None, pro
     return dataclasses.replace(_outcome(name, desc, res, s, cert), observer=obs, design=design)
 
 
-def _run_task(s: _Setup, name: str, alpha: float, filter_q: ArrayLike | None, backend: str) -> ObserverOutcome:
+def _run_task(s: _Setup, name: str, options: Mapping[str, Any], backend: str) -> ObserverOutcome:
     """:func:`_run_one` on a worker (no progress bar there)."""
-    return _run_one(name, s, alpha, filter_q, False, backend)
+    return _run_one(name, s, options, False, backend)
 
 
 def _failed(name: str, desc: str, s: _Setup, reason: str) -> ObserverOutcome:
