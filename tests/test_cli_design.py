@@ -107,7 +107,8 @@ def test_pinv_refuses_a_model_violating_a1_with_status_3(tmp_path: Path) -> None
         (["design", "pinv", "pendulum", "--simulate"], 2, "--simulate needs --x0"),
         (["design", "pinv", "pendulum", "--simulate", "--x0", "1,2,3"], 2, "--x0: expected 2 numbers"),
         (["design", "pinv", "pendulum", "--placement", "odd"], 2, "--placement"),
-        (["design", "drift", "isidori-146"], 3, "drift-observability fails"),  # det Q_s ≡ 0: the cause, exit 3
+        # not observable (x3 is not seen from y; det Q_s ≡ 0): the cause, named, exit 3
+        (["design", "drift", "isidori-146"], 3, "unobservable direction: x3"),
         (["design", "drift", "rossler", "--box", "-12,12,-12,12,0,25"], 3, "det Q_s = (10*x - 59)/10 changes sign"),
         (["design", "drift", "chemostat", "--box", "0.05,4,0.01,4"], 1, "has no Vandermonde solution"),
         (["design", "pinv", "no-such-model"], 2, "no such file"),

@@ -716,7 +716,7 @@ def _setvalued(target: str, tables: frozenset[str], model: Model) -> MethodAdvic
 def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = None, *,
                  geometry: GeometryReport | None = None, check: bool = False, runs: int = 3,
                  progress: bool | None = None,
-                 symbolic_budget: float | None = DEFAULT_SYMBOLIC_BUDGET) -> AdviceReport:
+                 symbolic_budget: float | None = DEFAULT_SYMBOLIC_BUDGET, scenario: Any = None) -> AdviceReport:
     """Which of nlobs's observers applies to ``model``, with the evidence and the first command (module docstring).
 
     Parameters
@@ -740,6 +740,9 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
     symbolic_budget : float or None
         Seconds for the optional symbolic parts of the geometric analysis
         (:func:`~nlobs.geometry.report.geometry_report`).
+    scenario : Scenario, optional
+        The model file ``model`` names, when the caller has already read it (``nlobs analyze``): it is
+        not read again.
 
     Raises
     ------
@@ -750,12 +753,13 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
     """
     is_file = isinstance(model, (str, Path))
     target = str(model) if is_file else model_label(model)
-    tables = model_file_tables(model) if is_file else frozenset()
-    scenario = None
-    if is_file:
+    tables: frozenset[str] = frozenset() if scenario is None else scenario.tables
+    if is_file and scenario is None:
         try:
-            scenario = load_scenario(model)  # the model file is parsed once, here
+            scenario = load_scenario(model)  # the model file is parsed once, here (its tables too)
+            tables = scenario.tables
         except ModelFileError:
+            tables = model_file_tables(model)
             if "unknown_inputs" not in tables:
                 raise
     m = scenario.model if scenario is not None else (load_model(model) if is_file else model)

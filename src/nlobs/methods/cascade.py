@@ -405,7 +405,8 @@ class CascadeMethod:
         from nlobs.systems.cascade_file import has_cascade
 
         path = problem.path
-        if path is None or not has_cascade(path):
+        tables = problem.scenario.tables
+        if path is None or not ("cascade" in tables if tables else has_cascade(path)):
             return ("the observer (9)–(10) of Grip, Saberi & Johansen needs a nonlinear subsystem Σ₁ whose "
                     "unmeasured output drives a linear Σ₂ ((1a), (1b)); this model file has no [cascade] table "
                     "describing one: add it, or build the interconnection with nlobs.CascadeObserver")

@@ -368,7 +368,8 @@ class DriftMethod:
         """
         why = self.applies(problem)
         if why is not None:
-            raise ModelError(why)
+            # no observer (3.1) for this model: an unobservable model is an assumption that fails, not bad input
+            raise (AssumptionViolated if problem.not_observable() else ModelError)(why)
         model = problem.model
         assert isinstance(model, SymbolicModel)
         alpha_ = DEFAULT_ALPHA if alpha is None else positive("alpha", alpha)
@@ -401,7 +402,8 @@ class DriftMethod:
                 f"({w_txt}), α = {cert.constants.alpha:g}, μ = {cert.constants.mu:.4g}, γ = {rep.gamma:.4g} on {where}")
         return Design(self.name, rep.observer(on_singular=on_singular, saturation=saturation), cert, premises, (),
                       parameters, sources, desc, gain=cert.gain, failed=failed, hypotheses=tuple(hyps),
-                      coverage_extras={"region": where, "mu": cert.constants.mu}, report=rep)
+                      coverage_extras={"region": where, "mu": cert.constants.mu}, report=rep,
+                      warnings=tuple(rep.warnings))
 
 
 #: The drift method of the registry.

@@ -222,7 +222,8 @@ class SetValuedMethod:
         from nlobs.systems.modelfile import model_file_tables
 
         path = problem.path
-        if path is None or "unknown_inputs" not in model_file_tables(path):
+        tables = problem.scenario.tables or (model_file_tables(path) if path is not None else frozenset())
+        if path is None or "unknown_inputs" not in tables:
             return ("Khajenejad & Yong's observer is for a discrete-time model with unknown inputs: this model file has "
                     "no [unknown_inputs] table")
         return None

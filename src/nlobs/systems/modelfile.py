@@ -178,7 +178,11 @@ def model_file_tables(path: str | Path) -> frozenset[str]:
 def parse_model(text: str, *, source: str = "<string>") -> Model:
     """Parse model-file text (see :func:`load_model`); ``source`` is used in messages."""
     src = Source(source, text)
-    data = read_toml(src, text)
+    return _model(src, read_toml(src, text))
+
+
+def _model(src: Source, data: Mapping[str, Any]) -> Model:
+    """The model of a parsed model file (the TOML is read once per file by its caller)."""
     name, time = check_header(src, data)
     has_dyn, has_lin = "dynamics" in data, "linear" in data
     if "cascade" in data:  # the interconnection of Grip, Saberi & Johansen: the plant [x, w] of (1) / (2)+(1b)
@@ -673,9 +677,9 @@ def load_scenario(path: str | Path) -> Scenario:
 
 def parse_scenario(text: str, *, source: str = "<string>", base_dir: str | Path | None = None) -> Scenario:
     """Parse model-file text into a :class:`~nlobs.systems.scenario.Scenario` (see :func:`load_scenario`)."""
-    model = parse_model(text, source=source)
     src = Source(source, text)
-    data = read_toml(src, text)
+    data = read_toml(src, text)  # once: the model and the scenario's tables come from the same parse
+    model = _model(src, data)
     params = read_parameters(src, data) if isinstance(model, SymbolicModel) else {}
     psyms = {k: sp.Symbol(k, real=True) for k in params}
     for key in SCENARIO_TABLES:
@@ -686,7 +690,7 @@ def parse_scenario(text: str, *, source: str = "<string>", base_dir: str | Path 
     signals = _input_signals(src, data, model, params, base_dir)
     q = _process_noise(src, data["process_noise"], model.n, params, psyms) if "process_noise" in data else None
     defaults = _run_defaults(src, data.get("simulation", {}), model.n, params, psyms)
-    return Scenario(model, sensors, signals, q, units, defaults, source)
+    return Scenario(model, sensors, signals, q, units, defaults, source, frozenset(data))
 
 
 def _units(src: Source, table: Mapping[str, Any], model: Model) -> dict[str, str]:

@@ -93,6 +93,9 @@ class Scenario:
         Units of states, inputs and outputs by name (``""`` where not given).
     defaults : RunDefaults
     path : str
+    tables : frozenset of str
+        The model file's top-level tables and keys (``"cascade"``, ``"unknown_inputs"``, …; empty for a
+        model given in Python), so that a command asks the file once.
     """
 
     model: SymbolicModel | LinearSystem
@@ -102,6 +105,7 @@ class Scenario:
     units: Mapping[str, str] = field(default_factory=dict)
     defaults: RunDefaults = field(default_factory=RunDefaults)
     path: str = ""
+    tables: frozenset[str] = frozenset()
 
     @property
     def time_unit(self) -> str:

@@ -405,7 +405,7 @@ def analyze_model(model: str | Path | Model, *, x0: Sequence[float] | None = Non
         report = analyze(m, x0=x0, u0=u0, region=region, symbolic_budget=symbolic_budget)
     geo = getattr(report, "geometry", None)
     advice = advise_model(model if is_file else m, box=None if box is None else region, geometry=geo,
-                          symbolic_budget=symbolic_budget)
+                          symbolic_budget=symbolic_budget, scenario=scenario)
     return AnalysisReport(report, advice=advice)
 
 

@@ -71,7 +71,7 @@ class ExportReport:
                  *(f"  {p}" for p in self.files),
                  f"  compiled with -Wall -Wextra -Werror -std=c99 -pedantic by {ex.checked_with}" if ex.checked_with
                  else "  not compiled: no C compiler was found (pip install 'nlobs[codegen]')",
-                 f"  certificate: {'verified' if self.certified else 'NOT usable'}"]
+                 f"  certificate: {'verified' if self.certified else 'NOT certified'}"]
         lines += ["    " + ln for ln in self.certificate.splitlines()]
         return "\n".join(lines)  # the message, when FAILED, is the command's one line
 
