@@ -42,7 +42,8 @@ HERE = str(Path(__file__).resolve().parent)
 def setvalued(steps: int):
     """The set-valued study of Example 6.1 (its sound design), ``steps`` steps per run."""
     from nlobs.simulate.setvalued import SetValuedStudy
-    from nlobs.workflows.setvalued import _load, class_check_box, design_setvalued_observer
+    from nlobs.methods.setvalued import class_check_box, design_setvalued_observer
+    from nlobs.methods.setvalued import load_setvalued_model as _load
 
     m = _load("khajenejad-6-1")
     return SetValuedStudy(m.system, design_setvalued_observer(m).design, m.signals["bounded"], steps, "bounded",
