@@ -224,3 +224,16 @@ def test_design_options_reach_the_method_from_simulate_and_export(axis, tmp_path
     code, e = _json(["export", str(axis), "--observer", "drift", "--option", "w_max=1e6", "--out", str(tmp_path),
                      "--json"])
     assert code == 0 and e["design"]["parameters"]["mu"] == pytest.approx(MU, rel=1e-12)
+
+
+def test_the_same_cascade_design_from_design_export_and_simulate(tmp_path) -> None:
+    code_d, d = _json(["design", "cascade", "chemostat-analyser", "--json"])
+    code_e, e = _json(["export", "chemostat-analyser", "--observer", "cascade", "--out", str(tmp_path), "--json"])
+    code_s, s = _json(["simulate", "chemostat-analyser", "--observer", "cascade", "--runs", "2", "--duration", "2",
+                       "--json"])
+    assert code_d == 0 and code_e == 1 and code_s == 0  # no [cascade.lyapunov]: verified gain, not certified
+    ds = s["observers"]["cascade"]["design"]
+    for key in ("parameters", "sources", "gain", "certified", "premises", "unchecked", "description"):
+        assert d["design"][key] == e["design"][key] == ds[key], key
+    assert d["design"]["method"] == "placement" and e["design"]["method"] == ds["method"] == "cascade"
+    assert d["design"]["certified"] is False and d["design"]["unchecked"][0].startswith("Theorem 1")

@@ -57,6 +57,7 @@ __all__ = [
     "CascadeDesign",
     "CascadeMethod",
     "Theorem1Check",
+    "cascade_design",
     "cascade_noise_model",
     "design_cascade",
 ]
@@ -440,39 +441,60 @@ class CascadeMethod:
             if not d.assumption4.holds:
                 raise AssumptionViolated(d.failure)
             raise DesignInfeasible(d.failure)
-        t1 = d.theorem1
-        assert t1 is not None
-        premises = (*(it for it in d.assumption4.items if it.required), *d.checks)
-        unchecked: tuple[str, ...] = ()
-        if t1.bound is None:
-            unchecked = (f"{t1.theorem} (no [cascade.lyapunov] constants α₃, α₄, L₁, L₂ of Assumptions 1–3)",)
-        else:
-            premises = (*premises, Check.verdict(f"{t1.theorem}: ‖H‖∞ below its γ", t1.holds, t1.reason,
-                                                 kind=CheckKind.NORM, value=t1.hinf_H, limit=t1.bound))
-        failed = () if d.verified else (d.failure or "the gain fails its re-verification: "
-                                        + "; ".join(k.summary() for k in d.checks if not k.passed),)
-        exact, what = problem.exact
-        hyps = (Premise(f"{t1.theorem}: ‖H‖∞ below its γ", t1.holds,
-                        "no [cascade.lyapunov] constants" if t1.bound is None else
-                        f"‖H‖∞ = {t1.hinf_H:.4g} ≥ γ = {t1.bound:.4g}"),
-                Premise("continuous measurement", not problem.sensors,
-                        "the output is sampled and held (Theorem 1 assumes a continuous output)"),
-                Premise("exact measurement and model", exact, f"{what} (Theorem 1 is for an exact output and model)"))
-        K = d.certificate.gain
-        how = {"lmi": "LMI (14)", "h2": "the smallest noise-to-error H2 norm under LMI (14)"}.get(d.method,
-                                                                                                  "pole placement")
-        desc = (f"{'(17)–(18)' if cm.feedback else '(9)–(10)'} with Σ1's injection g of the file, K = "
-                f"{[round(float(v), 5) for v in np.asarray(K).ravel()]} by {how} (‖H‖∞ = {t1.hinf_H:.4g} < γ = "
-                f"{d.gamma:g}); {d.status}")
-        parameters = {"gamma": d.gamma, "gain_method": d.method, "gain_bound": gain_bound,
-                      "theorem1_gamma": t1.bound, "hinf_H": t1.hinf_H}
-        sources = {"gamma": "given" if gamma is not None else ("[cascade] gamma" if cm.gamma is not None
-                                                                else "default"),
-                   "gain_method": "given" if gain_method is not None else ("[cascade] method" if cm.method
-                                                                           else "default")}
-        return Design(self.name, d.observer(), d.certificate, tuple(premises), unchecked, parameters, sources, desc,
-                      gain=K, failed=failed, hypotheses=hyps,
-                      coverage_extras={"hinf_H": t1.hinf_H, "theorem1_gamma": t1.bound}, report=d)
+        return cascade_design(d, problem, gamma_given=gamma is not None, gain_method_given=gain_method is not None)
+
+
+def cascade_design(d: CascadeDesign, problem: Problem | None = None, *, gamma_given: bool = False,
+                   gain_method_given: bool = False) -> Design:
+    """The :class:`~nlobs.methods.base.Design` of a cascade design that has a gain (what every command reports).
+
+    Parameters
+    ----------
+    d : CascadeDesign
+        From :func:`design_cascade` (with a certificate).
+    problem : Problem, optional
+        The model file's problem: its sensors and noise make the run-time hypotheses (``None``: the
+        exact, continuous measurement of Theorem 1).
+    gamma_given, gain_method_given : bool
+        Whether ``γ`` and the gain method were given (else they are the file's, or the defaults).
+
+    Returns
+    -------
+    Design
+    """
+    cm = d.cascade
+    assert d.certificate is not None
+    t1 = d.theorem1
+    assert t1 is not None
+    premises = (*(it for it in d.assumption4.items if it.required), *d.checks)
+    unchecked: tuple[str, ...] = ()
+    if t1.bound is None:
+        unchecked = (f"{t1.theorem} (no [cascade.lyapunov] constants α₃, α₄, L₁, L₂ of Assumptions 1–3)",)
+    else:
+        premises = (*premises, Check.verdict(f"{t1.theorem}: ‖H‖∞ below its γ", t1.holds, t1.reason,
+                                             kind=CheckKind.NORM, value=t1.hinf_H, limit=t1.bound))
+    failed = () if d.verified else (d.failure or "the gain fails its re-verification: "
+                                    + "; ".join(k.summary() for k in d.checks if not k.passed),)
+    exact, what = problem.exact if problem is not None else (True, "")
+    sensors = problem.sensors if problem is not None else ()
+    hyps = (Premise(f"{t1.theorem}: ‖H‖∞ below its γ", t1.holds,
+                    "no [cascade.lyapunov] constants" if t1.bound is None else
+                    f"‖H‖∞ = {t1.hinf_H:.4g} ≥ γ = {t1.bound:.4g}"),
+            Premise("continuous measurement", not sensors,
+                    "the output is sampled and held (Theorem 1 assumes a continuous output)"),
+            Premise("exact measurement and model", exact, f"{what} (Theorem 1 is for an exact output and model)"))
+    K = d.certificate.gain
+    how = {"lmi": "LMI (14)", "h2": "the smallest noise-to-error H2 norm under LMI (14)"}.get(d.method,
+                                                                                              "pole placement")
+    desc = (f"{'(17)–(18)' if cm.feedback else '(9)–(10)'} with Σ1's injection g of the file, K = "
+            f"{[round(float(v), 5) for v in np.asarray(K).ravel()]} by {how} (‖H‖∞ = {t1.hinf_H:.4g} < γ = "
+            f"{d.gamma:g}); {d.status}")
+    parameters = {"gamma": d.gamma, "gain_method": d.method, "theorem1_gamma": t1.bound, "hinf_H": t1.hinf_H}
+    sources = {"gamma": "given" if gamma_given else ("[cascade] gamma" if cm.gamma is not None else "default"),
+               "gain_method": "given" if gain_method_given else ("[cascade] method" if cm.method else "default")}
+    return Design("cascade", d.observer(), d.certificate, tuple(premises), unchecked, parameters, sources, desc,
+                  gain=K, failed=failed, hypotheses=hyps,
+                  coverage_extras={"hinf_H": t1.hinf_H, "theorem1_gamma": t1.bound}, report=d)
 
 
 #: The cascade method of the registry.

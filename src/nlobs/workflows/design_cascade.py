@@ -38,12 +38,14 @@ from nlobs.simulate.result import SimulationResult
 from nlobs.synthesis.mixed_h2 import NoiseModel
 from nlobs.systems.cascade_file import CascadeModel, load_cascade
 from nlobs.systems.interconnected import interconnected_plant
+from nlobs.methods.base import Design
 from nlobs.methods.cascade import (
     DEFAULT_GAIN_BOUND,
     DEFAULT_GAMMA,
     METHODS,
     CascadeDesign,
     Theorem1Check,
+    cascade_design,
     cascade_noise_model,
     design_cascade,
 )
@@ -131,6 +133,9 @@ class CascadeWorkflowReport:
         ``OK`` with a verified gain; ``NO_OBSERVER`` when Assumption 4 fails (no gain can exist);
         ``FAILED`` when the design is infeasible for the options given.
     message : str
+    method_design : Design or None
+        The method's :class:`~nlobs.methods.base.Design` (its keys join ``design`` in :meth:`to_dict`, the
+        report's own ``method`` — the gain method — and ``status`` kept).
     """
 
     design: CascadeDesign
@@ -139,6 +144,7 @@ class CascadeWorkflowReport:
     files: tuple[Path, ...]
     verdict: Verdict
     message: str
+    method_design: Design | None = None
 
     def _simulation_dict(self) -> dict[str, Any]:
         sim = self.simulation
@@ -156,7 +162,8 @@ class CascadeWorkflowReport:
         covers the run), and the monitor's ``certificate_covers_run``, ``certificate_covered_fraction``,
         ``certificate_violations``, ``certificate_failed_premises``, ``certificate_hypotheses``.
         """
-        data: dict[str, Any] = {"design": self.design.to_dict()}
+        unified = {} if self.method_design is None else self.method_design.to_dict()
+        data: dict[str, Any] = {"design": {**unified, **self.design.to_dict()}}  # the report's own keys first
         if self.simulation is not None:
             data["simulation"] = self._simulation_dict()
         return data
@@ -238,10 +245,11 @@ def design_cascade_observer(
         return CascadeWorkflowReport(design, None, simulate, (), Verdict.FAILED,
                                      f"{label}: the gain fails its re-verification: "
                                      + "; ".join(k.summary() for k in design.checks if not k.passed))
+    unified = cascade_design(design, gamma_given=gamma is not None, gain_method_given=method is not None)
     if simulate is None:
-        return CascadeWorkflowReport(design, None, None, (), Verdict.OK, "")
+        return CascadeWorkflowReport(design, None, None, (), Verdict.OK, "", unified)
     assert resolved is not None
     x0, x_hat0, u = resolved
     sim = run_study(lambda: _simulate(design, simulate, x0, x_hat0, u))
     files = write_result(sim.result, simulate.out, "cascade", model_units(cm.path) if cm.path else None)
-    return CascadeWorkflowReport(design, sim, simulate, files, Verdict.OK, "")
+    return CascadeWorkflowReport(design, sim, simulate, files, Verdict.OK, "", unified)
