@@ -103,7 +103,7 @@ def _singular_model() -> SymbolicModel:
 def test_singular_Q_s_at_initial_estimate_is_a_clear_error() -> None:
     obs = DriftObserver.from_model(_singular_model(), vandermonde_gain((2,), 2.0).K)
     with pytest.raises(SingularObservabilityError, match=r"square-sensor: Q_s \(s = \[2\]\) is singular at the initial "
-                                                         r"estimate, x̂ = \(x1=0, x2=1\).*--xhat0.*--s.*--box") as ei:
+                                                         r"estimate, x̂ = \(x1=0, x2=1\).*`x_hat0`.*`s`.*`region`") as ei:
         obs.init([0.0, 1.0])
     assert ei.value.point == (0.0, 1.0) and ei.value.time is None
     with pytest.raises(SingularObservabilityError, match=r"singular at t=1.5, x̂ = \(x1=0, x2=0.5\)"):

@@ -38,13 +38,13 @@ def test_demo_bad_input() -> None:
     res = r.invoke(app, ["demo", "nope"])
     assert res.exit_code == 2 and "unknown demo 'nope'" in res.stderr
     res = r.invoke(app, ["demo", "gnss-ins", "--duration", "-5"])
-    assert res.exit_code == 2 and "duration: must be positive" in res.stderr
+    assert res.exit_code == 2 and "--duration: must be positive" in res.stderr
     res = r.invoke(app, ["demo", "gnss-ins", "--gains", "magic"])
-    assert res.exit_code == 2 and "gains: expected one of 'noise-optimal', 'paper', 'designed'" in res.stderr
+    assert res.exit_code == 2 and "--gains: expected one of 'noise-optimal', 'paper', 'designed'" in res.stderr
     res = r.invoke(app, ["demo", "gnss-ins", "--gains", "paper", "--attitude-gain", "scheduled"])
-    assert res.exit_code == 2 and "attitude_gain: applies to gains 'noise-optimal'" in res.stderr
+    assert res.exit_code == 2 and "--attitude-gain: applies to --gains 'noise-optimal'" in res.stderr
     res = r.invoke(app, ["demo", "gnss-ins", "--attitude-gain", "slow"])
-    assert res.exit_code == 2 and "attitude_gain: expected one of 'scheduled', 'constant'" in res.stderr
+    assert res.exit_code == 2 and "--attitude-gain: expected one of 'scheduled', 'constant'" in res.stderr
 
 
 def test_noise_optimal_gains_are_the_default_and_beat_the_papers(tmp_path: Path) -> None:

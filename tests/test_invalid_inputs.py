@@ -181,7 +181,7 @@ def test_verify_drift_gain_refuses_non_finite_w():
     g = vandermonde_gain((2,), 5.0)
     assert verify_drift_gain(c, g.K, g.P, method="vandermonde", w=5.0).w == 5.0
     for w, err in ((math.nan, NonFiniteError), (-5.0, InvalidArgumentError)):  # before: recorded as given
-        with pytest.raises(err, match=r"^w: "):
+        with pytest.raises(err, match=r"^`w`: "):
             verify_drift_gain(c, g.K, g.P, method="vandermonde", w=w)
 
 

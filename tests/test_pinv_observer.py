@@ -115,7 +115,7 @@ def test_rhs_is_observer_7(pinv_obs: PinvObserver, model: SymbolicModel) -> None
 
 
 def test_k_of_wrong_length_is_refused(model: SymbolicModel) -> None:
-    with pytest.raises(DimensionError, match=r"k: expected 2 entries"):
+    with pytest.raises(DimensionError, match=r"`k`: expected 2 entries"):
         PinvObserver.from_model(model, k=[1.0, 2.0, 3.0])
 
 

@@ -173,11 +173,11 @@ def test_a_failure_inside_the_simulation_is_status_1() -> None:
 def test_workflow_inputs_are_checked() -> None:
     with pytest.raises(ModelError, match="a nonlinear \\(symbolic\\) model is needed"):
         design_drift_observer("grip-example1-filter")
-    with pytest.raises(InvalidArgumentError, match="method: expected 'vandermonde' or 'sdp'"):
+    with pytest.raises(InvalidArgumentError, match="`method`: expected 'vandermonde' or 'sdp'"):
         design_drift_observer("pendulum", method="magic")
-    with pytest.raises(InvalidArgumentError, match="placement: expected 'powers' or 'multiple'"):
+    with pytest.raises(InvalidArgumentError, match="`placement`: expected 'powers' or 'multiple'"):
         design_pinv_observer("pendulum", placement="odd")  # type: ignore[arg-type]
-    with pytest.raises(DimensionError, match="x0: expected 2 numbers for model pendulum, got 3"):
+    with pytest.raises(DimensionError, match="`x0`: expected 2 numbers for model pendulum, got 3"):
         design_pinv_observer("pendulum", simulate=SimulationRequest([1.0, 2.0, 3.0]))
     with pytest.raises(BoxError, match="expected 'lo,hi' or 4 numbers"):
         as_region([1.0, 2.0, 3.0], 2)

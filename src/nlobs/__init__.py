@@ -132,8 +132,8 @@ _lazy_getattr, _lazy_dir = lazy_exports(__name__, _LAZY)
 
 
 def _version() -> str:
-    """The installed distribution's version (``importlib.metadata`` is imported on first use: ``nlobs --help``
-    needs none of it)."""
+    """The installed distribution's version (``importlib.metadata`` is imported on first use: the command line's
+    help needs none of it)."""
     from importlib.metadata import PackageNotFoundError, version
 
     try:

@@ -138,7 +138,7 @@ def jsonable(obj: Any) -> Any:
     return obj
 
 
-#: Version of the layout of every JSON report nlobs prints (``--json``) or writes (``results.json``,
+#: Version of the layout of every JSON report nlobs prints (the commands' JSON output) or writes (``results.json``,
 #: ``compare.json``): the ``schema_version`` key of each. It grows when a key changes meaning or is
 #: removed; new keys do not change it.
 SCHEMA_VERSION = 1
@@ -147,7 +147,7 @@ SCHEMA_VERSION = 1
 def with_schema(data: Any) -> Any:
     """A JSON report (a mapping) with ``schema_version`` first; anything else unchanged.
 
-    The two list outputs (``nlobs reproduce --json``, ``nlobs models --json``) stay lists.
+    The two list outputs (the JSON of ``nlobs reproduce`` and of ``nlobs models``) stay lists.
     """
     if isinstance(data, dict):
         return {"schema_version": SCHEMA_VERSION, **{k: v for k, v in data.items() if k != "schema_version"}}

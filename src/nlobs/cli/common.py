@@ -5,6 +5,12 @@ From the library this module imports only :mod:`nlobs.workflows`: the escaping o
 :mod:`nlobs.workflows`, and a ``--box`` goes to the workflows as numbers (:func:`box_numbers`),
 which build the region. Both are imported on first use (they load NumPy), so that ``nlobs --help``
 and ``nlobs version`` start without the numeric stack.
+
+The library speaks Python: its messages name a parameter between single backticks (``"`noise_std`:
+expected 2 numbers"``), and :func:`flags` spells each as the command's flag (``--noise-std``). Every
+line a command prints goes through it: :func:`fail` (the one-line errors, also a report's last line
+from :func:`finish`), the console (text reports, :func:`console`) and :func:`emit_json`; a command
+with a spelling of its own maps the message itself, ``fail(flags(str(exc), {"name": "--flag"}))``.
 """
 
 from __future__ import annotations
@@ -12,6 +18,8 @@ from __future__ import annotations
 import functools
 import json
 import math
+import re
+from collections.abc import Collection, Mapping
 from typing import TYPE_CHECKING, Any, NoReturn
 
 import typer
@@ -43,10 +51,11 @@ def _safe_console_class() -> type[Console]:
     from rich.text import Text
 
     class _SafeConsole(Console):
-        """A rich console that passes every string it renders (prints, table cells, titles) through :func:`safe_text`."""
+        """A rich console that passes every string it renders (prints, table cells, titles) through :func:`flags`
+        (a report's backticked parameters as the command's flags) and :func:`safe_text`."""
 
         def render_str(self, text: str, **kwargs: Any) -> Text:
-            return super().render_str(safe_text(text), **kwargs)
+            return super().render_str(safe_text(flags(text)), **kwargs)
 
     return _SafeConsole
 
@@ -55,12 +64,72 @@ def console() -> Console:
     return _safe_console_class()(highlight=False, soft_wrap=True)
 
 
+#: The library's parameters whose flag is not ``--`` + the name with ``_`` written ``-`` (:func:`flags`), for every
+#: command; a command with a spelling of its own passes it to :func:`flags` as ``extra``.
+FLAG_EXCEPTIONS: dict[str, str] = {
+    "x_hat0": "--xhat0",  # SimulationRequest(x_hat0=), compare_observers(x_hat0=)
+    "region": "--box",  # the region of the lower layers (design_drift_report(region=), ...) is the workflows' box
+    "gain_method": "--method",  # the drift and cascade methods' design option (nlobs export --method)
+    "observers": "--observer",  # compare_observers(observers=)
+    "inputs": "--input",  # compare_observers(inputs=)
+    "design_options": "--option",  # compare_observers(design_options=)
+    "yaw_error_deg": "--yaw-error",  # DemoConfig(yaw_error_deg=) (nlobs demo)
+    "attitude_error_deg": "--attitude-error",  # gnss_ins_monte_carlo(attitude_error_deg=) (nlobs simulate gnss-ins)
+    "position_error_m": "--position-error",  # gnss_ins_monte_carlo(position_error_m=)
+}
+
+#: A parameter named in a library message: an identifier between single backticks (not RST's double ones).
+_PARAMETER = re.compile(r"(?<!`)`([A-Za-z_][A-Za-z0-9_]*)`(?!`)")
+
+
+def _command_options() -> frozenset[str] | None:
+    """Every flag of the command being run (``--out``, ``--no-progress``, ...); ``None`` outside a command."""
+    try:  # typer >= 0.2x runs its commands on its own copy of click, with its own current context
+        from typer._click.globals import get_current_context
+    except ImportError:  # older typer: click itself
+        from click import get_current_context
+    ctx = get_current_context(silent=True)
+    if ctx is None:
+        return None
+    return frozenset(opt for p in ctx.command.params for opt in (*p.opts, *getattr(p, "secondary_opts", ()))
+                     if opt.startswith("-"))
+
+
+def flags(message: str, extra: Mapping[str, str] | None = None, *, options: Collection[str] | None = None) -> str:
+    """A library message in the command line's words: each backticked parameter name spelled as its flag.
+
+    Below the CLI a message names the Python parameter it is about between single backticks, the keyword
+    of the function the user called, never a flag (``"`runs`: expected an integer ≥ 1, got 0"``). Here
+    each backticked name becomes its flag: ``extra[name]`` when the command gives one, else
+    ``FLAG_EXCEPTIONS[name]``, else ``--`` + the name with ``_`` written ``-`` (``noise_std`` →
+    ``--noise-std``). A name whose flag the command does not have stays, without its backticks
+    (``options``: the command's flags; by default those of the command being run, and outside a command
+    every name is spelled as a flag). Anything else (text without backticks, RST's double backticks, a
+    backticked text that is not an identifier) is left as it is, so a mapped message maps to itself.
+
+    >>> flags("`duration` 10 / `dt` 1e-07 is 1e8 steps (raise `dt`)", options=["--duration", "--dt"])
+    '--duration 10 / --dt 1e-07 is 1e8 steps (raise --dt)'
+    >>> flags("`x_hat0`: expected 2 numbers; `executor`: not here", options=["--xhat0"])
+    '--xhat0: expected 2 numbers; executor: not here'
+    """
+    if "`" not in message:  # most strings a command prints (every table cell goes through here)
+        return message
+    known = _command_options() if options is None else frozenset(options)
+
+    def flag(m: re.Match[str]) -> str:
+        name = m.group(1)
+        spelled = (extra or {}).get(name) or FLAG_EXCEPTIONS.get(name) or "--" + name.replace("_", "-")
+        return spelled if known is None or spelled in known else name
+
+    return _PARAMETER.sub(flag, message)
+
+
 def fail(message: str, status: int = EXIT_BAD_INPUT) -> NoReturn:
-    """Print a one-line error to stderr (control characters escaped) and exit."""
+    """Print a one-line error to stderr (control characters escaped, parameters as flags: :func:`flags`) and exit."""
     from rich.console import Console
 
-    Console(stderr=True, highlight=False, soft_wrap=True).print(f"nlobs: error: {safe_text(message, one_line=True)}",
-                                                                markup=False)
+    Console(stderr=True, highlight=False, soft_wrap=True).print(
+        f"nlobs: error: {safe_text(flags(message), one_line=True)}", markup=False)
     raise typer.Exit(status)
 
 
@@ -123,11 +192,24 @@ def jsonable(data: Any) -> Any:
     return _jsonable(data)
 
 
+def _flagged(data: Any, options: Collection[str] | None) -> Any:
+    """Every string value of a JSON report through :func:`flags` (the keys are the report's own names)."""
+    if isinstance(data, str):
+        return flags(data, options=options)
+    if isinstance(data, dict):
+        return {k: _flagged(v, options) for k, v in data.items()}
+    if isinstance(data, list):
+        return [_flagged(v, options) for v in data]
+    return data
+
+
 def emit_json(data: dict[str, Any]) -> None:
-    """Print a JSON report (with ``schema_version``, :data:`nlobs._io.SCHEMA_VERSION`)."""
+    """Print a JSON report (with ``schema_version``, :data:`nlobs._io.SCHEMA_VERSION`), its backticked parameters
+    spelled as the command's flags (:func:`flags`, as in every line the command prints)."""
     from nlobs.workflows import with_schema
 
-    typer.echo(json.dumps(jsonable(with_schema(data)), indent=2, allow_nan=False))
+    report = _flagged(jsonable(with_schema(data)), _command_options())
+    typer.echo(json.dumps(report, indent=2, allow_nan=False))
 
 
 

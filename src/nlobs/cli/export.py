@@ -26,26 +26,6 @@ from nlobs.cli.common import (
 from nlobs.errors import AssumptionViolated, DesignError, ModelFileError, NlobsError
 from nlobs.methods.registry import REGISTRY
 
-#: The design options of ``nlobs export``: the parameter each flag sets (the same as ``nlobs design``'s).
-_FLAGS = {"s": "--s", "alpha": "--alpha", "mu": "--mu", "gamma": "--gamma", "gain_method": "--method", "w": "--w",
-          "w_max": "--w-max", "theta": "--theta", "placement": "--placement", "k": "--k",
-          "gain_bound": "--gain-bound", "saturation": "--saturation", "box": "--box", "observer": "--observer",
-          "lang": "--lang", "prefix": "--prefix"}
-
-
-def _flags(message: str) -> str:
-    """A workflow's message with the parameter names it starts with spelled as this command's flags."""
-    first, space, tail = message.partition(" ")
-    if first in _FLAGS and space and not first.endswith(":"):
-        return f"{_FLAGS[first]} {tail}"
-    head, sep, rest = message.partition(": ")
-    if not sep:
-        return message
-    words = [w.strip() for w in head.split(",")]
-    if words and all(w in _FLAGS for w in words):
-        return ", ".join(_FLAGS[w] for w in words) + sep + rest
-    return message
-
 
 def export_cmd(
     model: Annotated[str, typer.Argument(help="A model file (.toml), or the name of a shipped model.")],
@@ -114,7 +94,7 @@ def export_cmd(
     except DesignError as exc:
         fail(f"{model}: design failed: {exc}", EXIT_FAILURE)
     except NlobsError as exc:
-        fail(f"{model}: {_flags(str(exc))}")
+        fail(f"{model}: {exc}")  # its backticked parameters are this command's flags (fail)
     if as_json:
         emit_json(report.to_dict())
     else:

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-#: Default seconds, in all, of the optional symbolic steps of ``nlobs analyze`` (``--symbolic-budget``).
+#: Default seconds, in all, of the optional symbolic steps of ``nlobs analyze`` (its ``symbolic_budget``).
 DEFAULT_SYMBOLIC_BUDGET = 5.0
 
 #: The functions a child process may run (module, name): nothing else is imported there.

@@ -328,7 +328,7 @@ class RankEvidence:
         return f"scaled singular values ({sv}){where}, error bound η = {self.tolerance:.2g}{gap}; {self.method}"
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON view (the ``observability_rank_evidence`` key of ``nlobs analyze --json``)."""
+        """JSON view (the ``observability_rank_evidence`` key of the JSON report of ``nlobs analyze``)."""
         return {"rank": self.rank, "lower": self.lower, "upper": self.upper,
                 "singular_values": list(self.singular_values), "tolerance": self.tolerance, "gap": self.gap,
                 "point": None if self.point is None else list(self.point), "points": self.points,

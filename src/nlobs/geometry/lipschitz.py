@@ -136,7 +136,7 @@ def lipschitz_estimates(fields: AffineFields, s: Sequence[int], r: Sequence[int 
         raise NonFiniteError(
             f"{fields.name}: Q_s (s = {list(s_)}) and the z-Jacobians of L_s and H_s,r are not finite at any of the "
             f"{len(pts)} sampled points of the region {region.describe()}: the model is not defined there "
-            "(choose a region where it is, e.g. --box)")
+            "(choose a region where it is: `region`)")
     sv = np.linalg.svd(Qv[ok], compute_uv=False)
     inv_norm = np.where(sv[:, -1] > 0, 1.0 / np.where(sv[:, -1] > 0, sv[:, -1], 1.0), np.inf)
     Qinv = np.linalg.pinv(Qv[ok])

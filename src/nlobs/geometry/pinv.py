@@ -43,7 +43,7 @@ def block_gain(r: Sequence[int], k: Sequence[sp.Expr | float]) -> sp.Matrix:
     rs = [int(v) for v in r]
     k = [as_sympy_expr(f"k[{i}]", v) for i, v in enumerate(k)]
     if len(k) != sum(rs):
-        raise DimensionError(f"k: expected {sum(rs)} entries (Σ r_j), got {len(k)}")
+        raise DimensionError(f"`k`: expected {sum(rs)} entries (Σ r_j), got {len(k)}")
     K = sp.zeros(sum(rs), len(rs))
     i = 0
     for j, rj in enumerate(rs):

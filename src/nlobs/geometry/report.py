@@ -210,7 +210,7 @@ def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: in
                 parts.append("pinv_gain")
                 notes.append(f"the gain field Q⁺(x) k (Röbenack (17)) was not computed symbolically: {value}; "
                              f"Q⁺(x) is evaluated numerically (numpy.linalg.pinv) at {numeric.samples} points of the "
-                             "region instead (--symbolic-budget to allow more time)")
+                             "region instead (`symbolic_budget` to allow more time)")
                 if square or sum(r_) <= 1:
                     a5 = check_involutive(fields, r_, reg, seed=seed)  # structural: Δ has rank 1 or n
                 else:

@@ -165,7 +165,9 @@ class Method(Protocol):
     Attributes
     ----------
     name : str
-        The name every command uses (``nlobs simulate --observer NAME``, ``nlobs export --observer NAME``).
+        The name every command and workflow uses (``observers=[NAME]`` of
+        :func:`~nlobs.workflows.compare.compare_observers`, ``observer=NAME`` of
+        :func:`~nlobs.workflows.export.export_model_observer`).
     title : str
         The method with its paper and equation numbers, for help and reports.
     options : frozenset of str

@@ -226,7 +226,7 @@ def _theorem1(cm: CascadeModel, hinf_H: float, hurwitz: bool) -> Theorem1Check:
     else:
         reason = (f"‖H‖∞ = {hinf_H:.4g} is not below γ = {bound:.4g} (best scaling of V; {as_given:.4g} as given): "
                   f"{name} does not cover this gain (it is sufficient and conservative); for a certified gain "
-                  f"use --method placement --gamma {0.9 * bound:.3g}")
+                  f"use `method` placement with `gamma` {0.9 * bound:.3g}")
     return Theorem1Check(name, float(bound), float(as_given), hinf_H, holds, reason)
 
 
@@ -266,7 +266,7 @@ def cascade_noise_model(cascade: CascadeModel, scenario: Scenario) -> tuple[Nois
     names = list(s2.outputs)
     if not scenario.sensors:
         raise InvalidArgumentError(
-            "--method h2 needs the measurement noise: give the outputs a [sensors.NAME] table with rate and "
+            "`method` h2 needs the measurement noise: give the outputs a [sensors.NAME] table with rate and "
             "noise_std (or noise_cov)")
     p, n_w, p_z, n_x = len(names), s2.n_w, s1.p_z, s1.n_x
     V = np.zeros((p, p))
@@ -335,12 +335,12 @@ def design_cascade(cascade: CascadeModel, *, gamma: float | None = None, method:
     """
     method = method or cascade.method or "lmi"
     if method not in METHODS:
-        raise InvalidArgumentError(f"method: expected one of {', '.join(map(repr, METHODS))}, got {method!r}")
+        raise InvalidArgumentError(f"`method`: expected one of {', '.join(map(repr, METHODS))}, got {method!r}")
     if method == "h2" and noise is None:
-        raise InvalidArgumentError("method 'h2': needs a noise model (cascade_noise_model builds it from the file)")
+        raise InvalidArgumentError("`method` 'h2': needs a noise model (cascade_noise_model builds it from the file)")
     gamma = gamma if gamma is not None else cascade.gamma
-    g = positive("--gamma", DEFAULT_GAMMA if gamma is None else gamma)
-    gb = positive("--gain-bound", DEFAULT_GAIN_BOUND if gain_bound is None else gain_bound)
+    g = positive("`gamma`", DEFAULT_GAMMA if gamma is None else gamma)
+    gb = positive("`gain_bound`", DEFAULT_GAIN_BOUND if gain_bound is None else gain_bound)
     s2 = cascade.sigma2
     a4 = check_assumption4(s2.A, s2.B_z, s2.C, s2.D_z)
     notes = tuple(noise_notes) if method == "h2" else ()
@@ -360,8 +360,8 @@ def design_cascade(cascade: CascadeModel, *, gamma: float | None = None, method:
         else:
             cert = place_cascade_gain(s2, gamma=g)
     except DesignError as exc:
-        hint = {"lmi": "raise --gamma or --gain-bound, or use --method placement for a small γ",
-                "h2": "raise --gamma or --gain-bound"}.get(method, "raise --gamma, or use --method lmi")
+        hint = {"lmi": "raise `gamma` or `gain_bound`, or use `method` placement for a small γ",
+                "h2": "raise `gamma` or `gain_bound`"}.get(method, "raise `gamma`, or use `method` lmi")
         what = {"lmi": "LMI (14) (‖H‖∞ < γ)", "h2": "the H2 design under LMI (14) (‖H‖∞ < γ)"}.get(
             method, "pole placement (‖H‖∞ < γ)")
         return CascadeDesign(cascade, a4, method, g, None, (), None,

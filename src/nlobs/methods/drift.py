@@ -166,7 +166,7 @@ class DriftDesignReport:
         lines += [f"  warning: {m}" for m in self.warnings]
         lines.append(f"  usable: {self.usable_scope} (drift-observable there, (2.17) verified, γ covers the Lipschitz "
                      "constants sampled there; Theorem 3.1 asks them globally: it covers a run while its state and "
-                     "estimate stay in the region, which --simulate checks)"
+                     "estimate stay in the region, which a simulation checks)"
                      if self.usable else "  usable: NO — " + "; ".join(self.reasons))
         return "\n".join(lines)
 
@@ -279,7 +279,7 @@ def design_drift_report(
     checks = (check_drift_observability(fields, s_, reg, seed=seed), check_s_le_r(s_, rd.r))
     H, F = input_gain_structure(fields, s_, rd.r)
     lip = lipschitz_estimates(fields, s_, rd.r, reg, samples=samples, seed=seed)
-    g = lip.gamma if gamma is None else positive("gamma", gamma, allow_zero=True)
+    g = lip.gamma if gamma is None else positive("`gamma`", gamma, allow_zero=True)
     c = RiccatiConstants(s_, F, alpha, mu, g)
     kw: dict[str, Any] = {"objective": objective} if str(method).lower() == "sdp" else {}
     try:
@@ -290,7 +290,7 @@ def design_drift_report(
             raise AssumptionViolated(
                 f"drift-observability fails on {reg.describe()} ({drift.evidence}){_singular_note(model, reg)}: "
                 f"there is no observer (3.1) there, and (2.17) has no solution either (γ = {g:.4g}, sampled where "
-                "Q_s⁻¹ is large or undefined); choose a region (--box) where Q_s is nonsingular (nlobs advise "
+                "Q_s⁻¹ is large or undefined); choose a region (`region`) where Q_s is nonsingular (nlobs advise "
                 "suggests one), or another output",
                 item="drift-observability", evidence=drift.evidence) from exc
         raise
@@ -372,8 +372,8 @@ class DriftMethod:
             raise (AssumptionViolated if problem.not_observable() else ModelError)(why)
         model = problem.model
         assert isinstance(model, SymbolicModel)
-        alpha_ = DEFAULT_ALPHA if alpha is None else positive("alpha", alpha)
-        mu_ = problem.mu if mu is None else positive("mu", mu, allow_zero=True)
+        alpha_ = DEFAULT_ALPHA if alpha is None else positive("`alpha`", alpha)
+        mu_ = problem.mu if mu is None else positive("`mu`", mu, allow_zero=True)
         rep = design_drift_report(model, s, alpha=alpha_, mu=mu_, gamma=gamma, method=gain_method,
                                   region=problem.region, w=w, w_max=w_max, samples=samples, seed=seed,
                                   objective=objective)

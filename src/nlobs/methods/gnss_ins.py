@@ -4,7 +4,7 @@ r"""The GNSS/INS observer (24) of Grip, Saberi & Johansen (Sec. 5) as a method: 
 noise); :func:`demo_observer` builds its observer (24) — by default with the certified gain of the
 smallest noise-to-error H2 norm under LMI (14) at γ = 50 and the attitude gain Γ(t) scheduled from
 the sensor noise (:func:`~nlobs.navigation.schedule.noise_scheduled_gain`). :data:`GNSS_INS` is the
-method of the registry: the demo's observer, for ``nlobs export --observer gnss-ins``.
+method of the registry: the demo's observer, exported as ``observer="gnss-ins"`` (``nlobs export``).
 """
 
 from __future__ import annotations
@@ -36,10 +36,10 @@ DEMO_NOISE = SensorNoise(
 )
 
 
-#: The demo's gain choices (``--gains``).
+#: The demo's gain choices (:attr:`DemoConfig.gains`).
 GAINS = ("noise-optimal", "paper", "designed")
 
-#: The attitude-gain choices of the noise-optimal observer (``--attitude-gain``).
+#: The attitude-gain choices of the noise-optimal observer (:attr:`DemoConfig.attitude_gain`).
 ATTITUDE_GAINS = ("scheduled", "constant")
 #: Where the observers (24) run: NumPy/Python floats, or their generated C.
 BACKENDS = ("python", "c")
@@ -101,28 +101,28 @@ class DemoConfig:
 
     def __post_init__(self) -> None:
         if isinstance(self.seed, bool) or not isinstance(self.seed, (int, np.integer)) or self.seed < 0:
-            raise InvalidArgumentError(f"seed: expected an integer >= 0, got {self.seed!r}")
+            raise InvalidArgumentError(f"`seed`: expected an integer >= 0, got {self.seed!r}")
         if self.duration is not None:
-            positive("duration", self.duration)
+            positive("`duration`", self.duration)
             if self.duration * self.imu_rate_hz > MAX_IMU_SAMPLES:
                 raise InvalidArgumentError(
-                    f"duration: {self.duration:g} s at {self.imu_rate_hz:g} Hz is {self.duration * self.imu_rate_hz:.3g} "
+                    f"`duration`: {self.duration:g} s at {self.imu_rate_hz:g} Hz is {self.duration * self.imu_rate_hz:.3g} "
                     f"IMU samples; at most {MAX_IMU_SAMPLES:.0e} fit in memory")
         positive("imu_rate_hz", self.imu_rate_hz)
         positive("gnss_rate_hz", self.gnss_rate_hz)
-        in_range("yaw_error_deg", self.yaw_error_deg, -180.0, 180.0, hi_open=False)
+        in_range("`yaw_error_deg`", self.yaw_error_deg, -180.0, 180.0, hi_open=False)
         positive("converge_deg", self.converge_deg)
         if self.gains not in GAINS:
-            raise InvalidArgumentError(f"gains: expected one of {', '.join(map(repr, GAINS))}, got {self.gains!r}")
+            raise InvalidArgumentError(f"`gains`: expected one of {', '.join(map(repr, GAINS))}, got {self.gains!r}")
         if self.backend not in BACKENDS:
-            raise InvalidArgumentError(f"backend: expected one of {', '.join(map(repr, BACKENDS))}, got {self.backend!r}")
+            raise InvalidArgumentError(f"`backend`: expected one of {', '.join(map(repr, BACKENDS))}, got {self.backend!r}")
         if self.attitude_gain is not None:
             if self.attitude_gain not in ATTITUDE_GAINS:
-                raise InvalidArgumentError(f"attitude_gain: expected one of {', '.join(map(repr, ATTITUDE_GAINS))}, "
+                raise InvalidArgumentError(f"`attitude_gain`: expected one of {', '.join(map(repr, ATTITUDE_GAINS))}, "
                                            f"got {self.attitude_gain!r}")
             if self.gains != "noise-optimal":
                 raise InvalidArgumentError(
-                    f"attitude_gain: applies to gains 'noise-optimal' (the {self.gains!r} gains use the paper's Γ)")
+                    f"`attitude_gain`: applies to `gains` 'noise-optimal' (the {self.gains!r} gains use the paper's Γ)")
 
     @property
     def scheduled(self) -> bool:

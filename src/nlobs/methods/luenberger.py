@@ -79,7 +79,7 @@ class LuenbergerMethod:
         why = self.applies(problem)
         if why is not None:
             raise ModelError(why)
-        a = DEFAULT_ALPHA if alpha is None else positive("alpha", alpha)
+        a = DEFAULT_ALPHA if alpha is None else positive("`alpha`", alpha)
         model = problem.model
         linear = isinstance(model, LinearSystem)
         x0, u0 = np.asarray(problem.x0, dtype=float), problem.u0

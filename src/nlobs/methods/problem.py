@@ -65,7 +65,7 @@ MAX_SIMULATION_STEPS = 10_000_000
 
 
 class BoxError(InvalidArgumentError):
-    """A region given as numbers is malformed (the CLI prefixes the option name, ``--box``)."""
+    """A region given as numbers is malformed (the message does not name the parameter: its caller prefixes it)."""
 
 
 def box_from_numbers(values: Sequence[float], n: int) -> Box:

@@ -2,8 +2,8 @@
 
 :data:`REGISTRY` names each method with its module and one line of help, so that the command line
 can list and validate names without importing a numerical library; :func:`get` imports the method
-on first use. ``nlobs simulate --observer``, ``nlobs export --observer``, ``nlobs advise`` and
-``nlobs design`` all take their names from here: a new observer is a module in
+on first use. The observers of ``nlobs simulate``, ``nlobs export``, ``nlobs advise`` and ``nlobs design``
+(and of their workflows) all take their names from here: a new observer is a module in
 :mod:`nlobs.observers`, a :class:`~nlobs.methods.base.Method` in its own module here and one
 :class:`Entry` below.
 """
@@ -32,7 +32,7 @@ class Entry:
     attribute : str
         The method object's name in that module.
     help : str
-        One line for ``--help``: the method with its paper and equation numbers.
+        One line for the command line's help: the method with its paper and equation numbers.
     simulated : bool
         ``nlobs simulate MODEL`` runs it.
     exported : bool

@@ -158,19 +158,19 @@ class GnssInsStudy:
     def __post_init__(self) -> None:
         if not isinstance(self.noise, SensorNoise):
             raise InvalidArgumentError(f"noise: expected a SensorNoise, got {type(self.noise).__name__}")
-        d = positive("duration", self.duration)
+        d = positive("`duration`", self.duration)
         rate = positive("imu_rate_hz", self.imu_rate_hz)
         positive("gnss_rate_hz", self.gnss_rate_hz)
         if d * rate > MAX_IMU_SAMPLES:
-            raise InvalidArgumentError(f"duration: {d:g} s at {rate:g} Hz is {d * rate:.3g} IMU samples; "
+            raise InvalidArgumentError(f"`duration`: {d:g} s at {rate:g} Hz is {d * rate:.3g} IMU samples; "
                                        f"at most {MAX_IMU_SAMPLES:.0e}")
         as_count("flight_seed", self.flight_seed)
         if self.gains not in GAINS:
-            raise InvalidArgumentError(f"gains: expected one of {', '.join(map(repr, GAINS))}, got {self.gains!r}")
-        in_range("attitude_error_deg", self.attitude_error_deg, 0.0, 180.0, hi_open=False)
-        positive("position_error_m", self.position_error_m, allow_zero=True)
+            raise InvalidArgumentError(f"`gains`: expected one of {', '.join(map(repr, GAINS))}, got {self.gains!r}")
+        in_range("`attitude_error_deg`", self.attitude_error_deg, 0.0, 180.0, hi_open=False)
+        positive("`position_error_m`", self.position_error_m, allow_zero=True)
         if not math.isfinite(self.position_error_m):
-            raise InvalidArgumentError(f"position_error_m: must be finite, got {self.position_error_m!r}")
+            raise InvalidArgumentError(f"`position_error_m`: must be finite, got {self.position_error_m!r}")
         positive("converge_deg", self.converge_deg)
         if self.tail_s is not None:
             tail = positive("tail_s", self.tail_s)

@@ -67,7 +67,7 @@ part itself, nor a crossing of the set where ``Q_s(x̂)`` is singular during the
 for (3.1)); its effect is measured, not proved: ``benchmarks/peaking.py``, ``docs/drift.md``.
 :meth:`DriftObserver.saturated_estimate` gives ``sat(x̂)`` (in ``B``); the estimate stays ``x̂`` so that
 the coverage monitor sees it leave ``B``. The workflows (:mod:`nlobs.workflows.design_drift`,
-``nlobs design drift --saturation on``) switch it on by default; the observer itself has it off
+``saturation=True``; ``nlobs design drift``) switch it on by default; the observer itself has it off
 (``saturation=None``, the paper's (3.1)).
 
 Where the rest lives
@@ -136,8 +136,8 @@ class SingularObservabilityError(NlobsError, ValueError):
         super().__init__(
             f"{model}: {quantity} is singular {when}, x̂ = ({pt}) (cond = {self.condition:.3g}); "
             "the drift-observability observer (3.1) needs Q_s(x̂) invertible: start the estimate where "
-            "Φ_s is a local diffeomorphism (--xhat0), choose another multi-index (--s), or a region where Q_s is "
-            "nonsingular (--box; a Tikhonov-regularised observer is in nlobs.observers.drift)"
+            "Φ_s is a local diffeomorphism (`x_hat0`), choose another multi-index (`s`), or a region where Q_s is "
+            "nonsingular (`region`; a Tikhonov-regularised observer is in nlobs.observers.drift)"
         )
 
 

@@ -58,8 +58,8 @@ error ``e_ξ = Φ_r(x) − ξ`` obeys ``ė_ξ = (A_r − K C_r) e_ξ + B_r (L_f^
 driven by ``F(σ)``, bounded, but its decay is A4's (not checked), as for (7). What it does not remove
 is the peak of the linear part itself; its effect is measured, not proved (``benchmarks/peaking.py``,
 ``docs/pinv.md``). :meth:`PinvObserver.saturated_estimate` gives ``sat(x̂)``; the estimate stays
-``x̂``, so the coverage monitor sees it leave ``B``. ``nlobs design pinv --saturation on`` (the default
-of the workflow, :mod:`nlobs.workflows.design_pinv`) switches it on; the observer has it off
+``x̂``, so the coverage monitor sees it leave ``B``. The workflow :mod:`nlobs.workflows.design_pinv`
+(``saturation=True``, its default with a region; ``nlobs design pinv``) switches it on; the observer has it off
 (``saturation=None``, the paper's (7)).
 
 Everything symbolic happens at construction (SymPy); the run-time right-hand side

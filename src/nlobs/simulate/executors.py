@@ -3,8 +3,8 @@
 An *executor* is ``None`` (this process, nothing to install), a ``dask.distributed.Client``, the
 address of a running Dask scheduler (``"tcp://host:8786"``, connected for the call and closed after),
 or any :class:`concurrent.futures.Executor`. :func:`cluster` starts a ``LocalCluster`` of ``workers``
-single-threaded processes, or connects to ``scheduler``; the command line's ``--workers`` and
-``--scheduler`` use it. Dask is the optional extra ``nlobs[dask]``.
+single-threaded processes, or connects to ``scheduler`` (the ``workers`` and ``scheduler`` of the workflows
+and of the command line). Dask is the optional extra ``nlobs[dask]``.
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ def cluster(workers: int | None = None, scheduler: str | None = None) -> Iterato
         Both given, ``workers < 1``, Dask not installed, or the scheduler cannot be reached.
     """
     if workers is not None and scheduler is not None:
-        raise InvalidArgumentError("--workers and --scheduler: give one (workers start a local cluster, a scheduler "
+        raise InvalidArgumentError("`workers` and `scheduler`: give one (workers start a local cluster, a scheduler "
                                    "address uses a running one)")
     if workers is None and scheduler is None:
         yield None
@@ -61,7 +61,7 @@ def cluster(workers: int | None = None, scheduler: str | None = None) -> Iterato
         import dask
 
         if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-            raise InvalidArgumentError(f"workers: expected an integer >= 1, got {workers!r}")
+            raise InvalidArgumentError(f"`workers`: expected an integer >= 1, got {workers!r}")
         # Dask starts its workers with MALLOC_TRIM_THRESHOLD_=65536, which makes glibc hand every large
         # array back to the kernel: NumPy's batch arrays then fault in fresh pages at every step
         # (measured: a set-valued batch 1.5x slower in a worker than in this process); one thread of BLAS

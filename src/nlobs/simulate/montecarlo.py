@@ -373,13 +373,13 @@ def monte_carlo(study: Study, runs: int, *, seed: int = 0, batch: int | None = N
             client.close()
     if not isinstance(study, Study):
         raise InvalidArgumentError(f"study: expected a Study (name, key, prepare, run), got {type(study).__name__}")
-    runs_ = as_count("runs", runs, minimum=1)
-    seed_ = as_count("seed", seed)
+    runs_ = as_count("`runs`", runs, minimum=1)
+    seed_ = as_count("`seed`", seed)
     default = int(getattr(study, "default_batch", 256))
-    batch_ = min(as_count("batch", batch, minimum=1) if batch is not None else default, runs_)
-    chunk_ = min(as_count("chunk", chunk, minimum=1) if chunk is not None else batch_ * BATCHES_PER_CHUNK, runs_)
+    batch_ = min(as_count("`batch`", batch, minimum=1) if batch is not None else default, runs_)
+    chunk_ = min(as_count("`chunk`", chunk, minimum=1) if chunk is not None else batch_ * BATCHES_PER_CHUNK, runs_)
     if trajectories and out is None:
-        raise InvalidArgumentError("trajectories: saving them needs an output folder (out=)")
+        raise InvalidArgumentError("`trajectories`: saving them needs an output folder (`out`)")
     folder = None if out is None else Path(out)
     n_chunks = -(-runs_ // chunk_)
     bounds = [(c * chunk_, min((c + 1) * chunk_, runs_)) for c in range(n_chunks)]

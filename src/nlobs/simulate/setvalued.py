@@ -412,7 +412,7 @@ def simulate_batch(system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
     """
     R, K = int(runs), int(steps)
     if R < 1 or K < 1:
-        raise InvalidArgumentError(f"runs and steps must be >= 1, got {runs!r}, {steps!r}")
+        raise InvalidArgumentError(f"`runs` and `steps` must be >= 1, got {runs!r}, {steps!r}")
     rng = np.random.default_rng(seed)
     t0 = time.perf_counter()
     x0 = system.x0 + ball_samples(rng, (R,), system.delta0, system.n, at_bound)
@@ -423,7 +423,7 @@ def simulate_batch(system: DiscreteUISystem, gain: SetValuedDesign | GivenGain,
     if np.any(bad_d):
         k = int(np.argmax(bad_d))
         raise NonFiniteError(f"unknown input: d(t) is not finite at step {k} (t = {t[k]:g}): the signal overflows "
-                             "the floating-point range; shorten the horizon (--steps) or bound the signal")
+                             "the floating-point range; shorten the horizon (`steps`) or bound the signal")
     d = np.broadcast_to(d1[None], (R, K + 1, system.p))
     u = known_input_grid(known_input, t, system.m, R)
     w = ball_samples(rng, (R, K), system.eta_w, system.n_w, at_bound)

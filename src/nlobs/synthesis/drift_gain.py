@@ -178,9 +178,9 @@ class RiccatiConstants:
         F_.setflags(write=False)
         object.__setattr__(self, "s", s_)
         object.__setattr__(self, "F", F_)
-        object.__setattr__(self, "alpha", riccati_constant("alpha", alpha))
-        object.__setattr__(self, "mu", riccati_constant("mu", mu, allow_zero=True))
-        object.__setattr__(self, "gamma", riccati_constant("gamma", gamma, allow_zero=True))
+        object.__setattr__(self, "alpha", riccati_constant("`alpha`", alpha))
+        object.__setattr__(self, "mu", riccati_constant("`mu`", mu, allow_zero=True))
+        object.__setattr__(self, "gamma", riccati_constant("`gamma`", gamma, allow_zero=True))
 
     @property
     def n(self) -> int:
@@ -485,7 +485,7 @@ def verify_drift_gain(c: RiccatiConstants, K: ArrayLike, P: ArrayLike, *, method
     InvalidArgumentError, NonFiniteError, DimensionError
         Bad ``K``, ``P`` or ``w``.
     """
-    w = None if w is None else positive("w", w)
+    w = None if w is None else positive("`w`", w)
     K_ = as_matrix("K", K, (c.n, c.q)).copy()
     P_ = as_matrix("P", P, (c.n, c.n))
     P_ = 0.5 * (P_ + P_.T)
@@ -578,7 +578,7 @@ def vandermonde_gain(s: Sequence[int], w: float) -> VandermondeGain:
         ``w`` is so large that ``K(w)`` or ``P(w)`` overflows a double (or ``s``, ``w`` are invalid).
     """
     s_ = positive_multi_index(s)
-    w = positive("w", w)
+    w = positive("`w`", w)
     n, q = sum(s_), len(s_)
     K = np.zeros((n, q))
     V = np.zeros((n, n))
@@ -596,7 +596,7 @@ def vandermonde_gain(s: Sequence[int], w: float) -> VandermondeGain:
             lam_all[i : i + sj] = lam
             i += sj
     if not (np.all(np.isfinite(K)) and np.all(np.isfinite(V)) and np.all(np.isfinite(P))):
-        raise InvalidArgumentError(f"w: {w:g} is too large: K(w) ~ w^{max(s_)} or P(w) overflows a double "
+        raise InvalidArgumentError(f"`w`: {w:g} is too large: K(w) ~ w^{max(s_)} or P(w) overflows a double "
                                    f"(s = {s_}); use a smaller w")
     for a in (K, V, P, lam_all):
         a.setflags(write=False)
@@ -665,7 +665,7 @@ def smallest_w(c: RiccatiConstants, *, w_max: float = 1e5, rtol: float = 1e-3) -
         No ``w ≤ w_max`` works: the message gives the smallest ``λ_max(D L D)`` seen and where
         (``constraint="(2.17) with P(w) = (V_sᵀV_s)⁻¹"``, ``violation`` = that ``λ_max``).
     """
-    w_max = positive("w_max", w_max)
+    w_max = positive("`w_max`", w_max)
     rtol = positive("rtol", rtol)
     evals = 0
     w_lo = max(c.alpha, 1e-3)
@@ -683,15 +683,15 @@ def smallest_w(c: RiccatiConstants, *, w_max: float = 1e5, rtol: float = 1e-3) -
         w_fail = w
         if w >= w_max:
             if c.F.size and not _s_le_r_F(c):
-                why = "s ≰ r: lower the input bound μ (Theorem 2.7; CLI --mu) or use the SDP design (--method sdp)"
+                why = "s ≰ r: lower the input bound μ (`mu`; Theorem 2.7) or use the SDP design (`method` sdp)"
             elif best[0] < 0:
                 why = (f"it is negative but not below the rounding tolerance {best[2]:.3g} (or P(w) is not positive "
                        "definite above rounding): P(w) is too ill-conditioned to verify in double precision "
-                       "(cn(D P D) grows fast with the chain length s_j); use shorter chains or method='sdp' "
-                       "(--method sdp)")
+                       "(cn(D P D) grows fast with the chain length s_j); use shorter chains or the SDP design "
+                       "(`method` sdp)")
             else:
-                why = ("raise the search limit w_max (CLI --w-max), or lower α, μ or γ (--alpha, --mu, --gamma; "
-                       "γ also by a smaller region, --box)")
+                why = ("raise the search limit `w_max`, or lower α, μ or γ (`alpha`, `mu`, `gamma`; "
+                       "γ also by a smaller region, `region`)")
             raise DesignInfeasible(
                 f"(2.17) has no Vandermonde solution (K(w), P(w)) for w ≤ {w_max:g} with {c.describe()}: "
                 f"the smallest λ_max of its (scaled) left side is {best[0]:.4g} (at w = {best[1]:.4g}); " + why,
@@ -1022,7 +1022,7 @@ def design_drift_gain_sdp(
     obj = as_enum("objective", DriftObjective, objective)
     sol = as_solver(solver)
     margin = positive("margin", margin)
-    gb = None if gain_bound is None else positive("gain_bound", gain_bound)
+    gb = None if gain_bound is None else positive("`gain_bound`", gain_bound)
     require_sdp_size(c.s, c.F.shape[1], obj, gb)
     found: list[DriftGainCertificate] = []
     errors: list[Exception] = []
@@ -1094,6 +1094,6 @@ def design_drift_gain(
         return cert
     if m == "sdp":
         if w is not None:
-            raise InvalidArgumentError("w: applies to method='vandermonde' only")
+            raise InvalidArgumentError("`w`: applies to `method` 'vandermonde' only")
         return design_drift_gain_sdp(c, **sdp_options)
-    raise InvalidArgumentError(f"method: expected 'vandermonde' or 'sdp', got {method!r}")
+    raise InvalidArgumentError(f"`method`: expected 'vandermonde' or 'sdp', got {method!r}")

@@ -43,7 +43,7 @@ PLACEMENTS: tuple[str, ...] = ("powers", "multiple")
 def _check_placement(placement: str) -> str:
     p = str(placement).lower()
     if p not in PLACEMENTS:
-        raise InvalidArgumentError(f"placement: expected one of {list(PLACEMENTS)}, got {placement!r}")
+        raise InvalidArgumentError(f"`placement`: expected one of {list(PLACEMENTS)}, got {placement!r}")
     return p
 
 
@@ -70,7 +70,7 @@ def high_gain_roots(r: int, theta: float, placement: Placement = "powers") -> Ar
     ndarray, shape (r,)
     """
     r_ = _check_order(r)
-    th = positive("theta", theta)
+    th = positive("`theta`", theta)
     if _check_placement(placement) == "powers":
         return -(th ** np.arange(1, r_ + 1, dtype=float))
     return -np.full(r_, th)
@@ -98,7 +98,7 @@ def high_gain_coefficients(r: int, theta: float, placement: Placement = "powers"
     ndarray, shape (r,)
     """
     r_ = _check_order(r)
-    th = positive("theta", theta)
+    th = positive("`theta`", theta)
     if _check_placement(placement) == "multiple":
         return np.array([math.comb(r_, i) * th**i for i in range(1, r_ + 1)])
     coeffs = [1.0]
@@ -123,7 +123,7 @@ class HighGain:
     placement: Placement = "powers"
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "theta", positive("theta", self.theta))
+        object.__setattr__(self, "theta", positive("`theta`", self.theta))
         object.__setattr__(self, "placement", _check_placement(self.placement))
 
     def roots(self, r: Sequence[int]) -> Array:
@@ -176,7 +176,7 @@ def resolve_gain(k: ArrayLike | HighGain, r: Sequence[int]) -> tuple[Array, High
     """
     if isinstance(k, HighGain):
         return k.vector(r), k
-    kv = as_vector("k", k)
+    kv = as_vector("`k`", k)
     if kv.size != sum(r):
-        raise DimensionError(f"k: expected {sum(r)} entries (Σ r_j for r = {tuple(r)}), got {kv.size}")
+        raise DimensionError(f"`k`: expected {sum(r)} entries (Σ r_j for r = {tuple(r)}), got {kv.size}")
     return kv, None

@@ -362,8 +362,8 @@ class SetValuedDesign(CertificateMixin):
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
-        """Plain-Python view (the ``"design"`` of ``nlobs design setvalued --json``; ``"L_tilde"`` and ``"gain"``
-        hold the same gain)."""
+        """Plain-Python view (the ``"design"`` of the JSON report of ``nlobs design setvalued``; ``"L_tilde"``
+        and ``"gain"`` hold the same gain)."""
         return {
             "objective": self.objective.value, "L_tilde": self.gain.tolist(), "gain": self.gain.tolist(),
             "P": self.P.tolist(), "lambda": self.lam, "lambda_eff": self.lam_eff, "kappa": self.kappa, "q": self.q,

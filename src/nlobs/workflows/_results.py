@@ -76,17 +76,17 @@ def explain_divergence(exc: SimulationDiverged | StudyFailed, fastest: float, dt
     of (9a)). A smaller step is advised only where ``dt |λ|`` exceeds the RK4 stability limit (then it
     is known to be needed); otherwise the message says that the step resolves the gain and the cause is
     the high-gain transient (peaking) taking the estimate out of the region, and names
-    ``--saturation on`` when the run had it off.
+    ``saturation`` when the run had it off.
     """
     ratio = dt * fastest
     if ratio > RK4_REAL_LIMIT:
         detail = (f"dt·|λ|max = {ratio:.3g} > {RK4_REAL_LIMIT} for the gain's fastest pole |λ| = {fastest:.4g}: RK4 is "
-                  f"unstable at this step, use --dt below {RK4_REAL_LIMIT / fastest:.3g}")
+                  f"unstable at this step, use `dt` below {RK4_REAL_LIMIT / fastest:.3g}")
     else:
-        detail = (f"the step resolves the gain (dt·|λ|max = {ratio:.3g} ≤ {RK4_REAL_LIMIT}), so a smaller --dt is not "
+        detail = (f"the step resolves the gain (dt·|λ|max = {ratio:.3g} ≤ {RK4_REAL_LIMIT}), so a smaller `dt` is not "
                   "known to help; the high-gain transient (peaking) took the estimate out of the region where the "
-                  "design was checked" + ("" if saturation else " (--saturation is off; --saturation on saturates "
-                                                                "the observer outside the region)"))
+                  "design was checked" + ("" if saturation else " (`saturation` is off; with it on, the observer is "
+                                                                "saturated outside the region)"))
     if isinstance(exc, SimulationDiverged):
         return SimulationDiverged(exc.time, exc.which, exc.state, detail)
     return StudyFailed(f"{exc}; {detail}")

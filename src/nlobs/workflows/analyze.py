@@ -11,9 +11,9 @@ behind the command (a file, a shipped name or a model; the region as numbers).
 
 Where the point and the region come from (:func:`analyze_model`, as ``nlobs simulate`` reads a file):
 
-* the region: the given box (``--box``), else the file's ``[simulation] box``, else ``[−1, 1]ⁿ``;
-* ``x0``: the given one (``--x0``), else the file's ``[simulation] x0``, else zeros;
-* ``u0``: the given one (``--u0``), else the file's ``[input_signals]`` at ``t = 0``, else zero.
+* the region: the given ``box``, else the file's ``[simulation] box``, else ``[−1, 1]ⁿ``;
+* ``x0``: the given one, else the file's ``[simulation] x0``, else zeros;
+* ``u0``: the given one, else the file's ``[input_signals]`` at ``t = 0``, else zero.
 
 The report says which (``region_source``, ``x0_source``, ``u0_source``). Where ``F(x0, u0)``,
 ``h(x0, u0)`` or one of their Jacobians ``A, B, C, D`` is not finite (the model is not defined
@@ -135,9 +135,9 @@ def _nonfinite_message(bad: Sequence[NonFinite], x: Sequence[float], u: Sequence
     """The one sentence of the report: which quantities, which entries, the point, why and what to do."""
     parts = [b.describe() for b in bad]
     what = parts[0] if len(parts) == 1 else ", ".join(parts[:-1]) + " and " + parts[-1]
-    hint = {GIVEN: "choose --x0 inside the model's domain",
-            X0_FILE: "the file's [simulation] x0 is outside the model's domain; give --x0 inside it"}.get(
-        x0_source, "give --x0 or [simulation] x0 inside the model's domain")
+    hint = {GIVEN: "choose `x0` inside the model's domain",
+            X0_FILE: "the file's [simulation] x0 is outside the model's domain; give `x0` inside it"}.get(
+        x0_source, "give `x0` or [simulation] x0 inside the model's domain")
     return (f"{what} {'is' if len(bad) == 1 else 'are'} not finite at x0={[float(v) for v in x]}, "
             f"u0={[float(v) for v in u]}: the model is not defined or not differentiable there; {hint}")
 
@@ -270,8 +270,8 @@ def analyze(
            "region": REGION_DEFAULT if region is None else GIVEN, **(sources or {})}
     if model.m == 0:
         src["u0"] = "no inputs"
-    x = tuple(float(v) for v in (np.zeros(model.n) if x0 is None else as_vector("x0", x0, model.n)))
-    u = tuple(float(v) for v in (np.zeros(model.m) if u0 is None else as_vector("u0", u0, model.m)))
+    x = tuple(float(v) for v in (np.zeros(model.n) if x0 is None else as_vector("`x0`", x0, model.n)))
+    u = tuple(float(v) for v in (np.zeros(model.m) if u0 is None else as_vector("`u0`", u0, model.m)))
     lin: LinearReport | None = None
     err: str | None = None
     bad: tuple[NonFinite, ...] = ()
@@ -363,7 +363,7 @@ def analyze_model(model: str | Path | Model, *, x0: Sequence[float] | None = Non
         (:func:`~nlobs.workflows.inputs.box_from_numbers`); default the file's ``[simulation] box``,
         else ``[−1, 1]ⁿ``.
     symbolic_budget : float or None
-        Seconds for the optional symbolic parts (``--symbolic-budget``; ``None``: unlimited). A part
+        Seconds for the optional symbolic parts (``None``: unlimited). A part
         that does not finish is evaluated numerically and named in the report's ``numeric_parts``.
 
     Raises
@@ -390,7 +390,7 @@ def analyze_model(model: str | Path | Model, *, x0: Sequence[float] | None = Non
             try:
                 _require_evaluable(m, file_box)
             except BoxError as exc:
-                raise BoxError(f"{REGION_FILE}: {exc}; give --box to analyse another region") from None
+                raise BoxError(f"{REGION_FILE}: {exc}; give `box` to analyse another region") from None
             region, sources["region"] = file_box, REGION_FILE
         elif region is not None:
             _require_evaluable(m, region)

@@ -1,4 +1,5 @@
-"""The files of ``nlobs simulate MODEL --out DIR``: the JSON report, three figures, the trajectories.
+"""The files of :func:`~nlobs.workflows.compare.compare_observers` in its ``out`` folder: the JSON report, three
+figures, the trajectories.
 
 * ``compare.json`` — :meth:`~nlobs.workflows.compare.ComparisonReport.to_dict`;
 * ``states.png`` — run 0: every state, true (black) and each observer's estimate, and every output

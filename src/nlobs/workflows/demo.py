@@ -248,12 +248,12 @@ def gnss_ins_demo(config: DemoConfig = DemoConfig(), out: str | Path | None = Pa
         try:
             prepare_output_dir(folder)
         except OSError as exc:
-            raise OutputError(f"--out {folder}: {exc.strerror or exc}") from exc
+            raise OutputError(f"`out` {folder}: {exc.strerror or exc}") from exc
     try:
         result = run_demo(config, folder, progress=bool(progress))
         files = list(result.figures.values())
         if folder is not None:
             files.append(write_json(result, folder / "results.json"))
     except OSError as exc:
-        raise OutputError(f"--out {folder}: {exc.strerror or exc}") from exc
+        raise OutputError(f"`out` {folder}: {exc.strerror or exc}") from exc
     return DemoReport(result, tuple(files))

@@ -79,7 +79,7 @@ class CascadeSimulation:
         State ``[x, w]`` and estimate ``[x̂, ŵ]``.
     coverage : Coverage
         The hypotheses of Theorem 1 checked along the run: the gain satisfies it with the file's
-        constants, exact measurement (a ``--simulate`` run is noise-free).
+        constants, exact measurement (a ``simulate`` run is noise-free).
     certified : bool
         Theorem 1 holds for the gain *and* the coverage covers the run.
     """
@@ -154,7 +154,7 @@ class CascadeWorkflowReport:
         return out
 
     def to_dict(self) -> dict[str, Any]:
-        """``{"design": …, "simulation": …}``: what ``nlobs design cascade --json`` prints.
+        """``{"design": …, "simulation": …}``: the JSON report of ``nlobs design cascade``.
 
         ``simulation`` (present only when one ran) has ``final_error_norm``, ``initial_error_norm``,
         ``max_error_norm``, ``files``, ``states``, ``final_error`` and ``rms_error_second_half`` (per
@@ -235,7 +235,7 @@ def design_cascade_observer(
         from nlobs.systems.modelfile import load_scenario
 
         if not cm.path:
-            raise InvalidArgumentError("method 'h2': give the noise model (the cascade was not read from a file)")
+            raise InvalidArgumentError("`method` 'h2': give the `noise` model (the cascade was not read from a file)")
         noise, notes = cascade_noise_model(cm, load_scenario(cm.path))
     design = design_cascade(cm, gamma=gamma, method=method, gain_bound=gain_bound, noise=noise, noise_notes=notes)
     if design.certificate is None:

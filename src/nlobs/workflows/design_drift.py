@@ -12,7 +12,7 @@ For a continuous-time input-affine model that is drift-observable with multi-ind
 * :func:`simulate_drift` — that design simulated against its plant, with the bound (3.2), as a
   :class:`DriftSimulation`;
 * :func:`design_drift_observer` — the command ``nlobs design drift``: one call, one frozen
-  :class:`DriftWorkflowReport` whose ``to_dict()`` is what ``--json`` prints and ``summary()``
+  :class:`DriftWorkflowReport` whose ``to_dict()`` is the JSON report and ``summary()``
   what the text output prints, with its :class:`~nlobs.workflows.verdict.Verdict`.
 """
 
@@ -293,7 +293,7 @@ class DriftWorkflowReport:
         return out
 
     def to_dict(self) -> dict[str, Any]:
-        """``{"design": …, "simulation": …}``: what ``nlobs design drift --json`` prints.
+        """``{"design": …, "simulation": …}``: the JSON report of ``nlobs design drift``.
 
         ``simulation`` (present only when one ran) has ``final_error_norm``,
         ``initial_error_norm``, ``max_error_norm`` (largest over a batch), ``files``,
@@ -371,10 +371,10 @@ def design_drift_observer(
         How :attr:`DriftWorkflowReport.message` names the model (default: ``model`` as given, or
         the model's name).
     w_max : float
-        Largest ``w`` the search of Remark 2.11's smallest ``w`` tries (``--w-max``).
+        Largest ``w`` the search of Remark 2.11's smallest ``w`` tries.
     saturation : bool
-        Simulate the observer saturated on the region (default, ``--saturation on``; the same as (3.1)
-        while the estimate is in the region) or (3.1) as printed (``--saturation off``).
+        Simulate the observer saturated on the region (``True``, the default; the same as (3.1)
+        while the estimate is in the region) or (3.1) as printed (``False``).
 
     Returns
     -------
@@ -403,19 +403,19 @@ def design_drift_observer(
     """
     label = model_label(model) if name is None else str(name)
     if method not in METHODS:
-        raise InvalidArgumentError(f"method: expected 'vandermonde' or 'sdp', got {method!r}")
+        raise InvalidArgumentError(f"`method`: expected 'vandermonde' or 'sdp', got {method!r}")
     pb = problem(model, box=box, label=label)  # the model file is read once, here
     m = symbolic_model(pb.model)
-    # α, μ, γ checked (and named as the options) before the Lipschitz sampling and the design
+    # α, μ, γ checked (and named as the parameters) before the Lipschitz sampling and the design
     if alpha is not None:
-        riccati_constant("--alpha", alpha)
+        riccati_constant("`alpha`", alpha)
     if mu is not None:
-        riccati_constant("--mu", mu, allow_zero=True)
+        riccati_constant("`mu`", mu, allow_zero=True)
     if gamma is not None:
-        riccati_constant("--gamma", gamma, allow_zero=True)
+        riccati_constant("`gamma`", gamma, allow_zero=True)
     # the simulation's vectors, size and output folder are checked before the design (which can take long)
     resolved = checked_request(simulate, m)
-    w_max = riccati_constant("--w-max", w_max)
+    w_max = riccati_constant("`w_max`", w_max)
     design = DRIFT.design(pb, s=s, alpha=alpha, mu=mu, gamma=gamma, gain_method=method, w=w, w_max=w_max)
     rep = design.report
     if not design.usable:

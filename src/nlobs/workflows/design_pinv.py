@@ -10,7 +10,7 @@ is ``x̂̇ = f(x̂) + g(x̂) u + Q⁺(x̂) K (y − h(x̂))`` (7) with the gain 
   keeps that observer (:attr:`PinvDesignReport.observer`);
 * :func:`simulate_pinv` — simulates a model with that observer (or builds one the same way);
 * :func:`design_pinv_observer` — the command ``nlobs design pinv``: one call, one frozen
-  :class:`PinvWorkflowReport` whose ``to_dict()`` is what ``--json`` prints and ``summary()``
+  :class:`PinvWorkflowReport` whose ``to_dict()`` is the JSON report and ``summary()``
   what the text output prints; the simulation uses the report's own observer.
 """
 
@@ -168,7 +168,7 @@ class PinvWorkflowReport:
         return out
 
     def to_dict(self) -> dict[str, Any]:
-        """``{"design": …, "simulation": …}``: what ``nlobs design pinv --json`` prints.
+        """``{"design": …, "simulation": …}``: the JSON report of ``nlobs design pinv``.
 
         ``simulation`` (present only when one ran) has ``final_error_norm``,
         ``initial_error_norm``, ``max_error_norm`` (largest over a batch), ``files`` and the monitor's
@@ -221,8 +221,8 @@ def design_pinv_observer(
         Simulate the observer the design built (the same object, :attr:`PinvDesignReport.observer`)
         and write the plot and trajectories to ``simulate.out``.
     saturation : bool, optional
-        Simulate the observer saturated on the region (``--saturation on``; the same as (7) while the
-        estimate is in the region) or (7) as printed (``--saturation off``). Default: on when ``box`` is
+        Simulate the observer saturated on the region (``True``; the same as (7) while the
+        estimate is in the region) or (7) as printed (``False``). Default: on when ``box`` is
         given, off on the default ``[−1, 1]ⁿ`` — the saturated form is right only while the *state* is in
         the region (Khalil's argument, :mod:`nlobs.observers.pinv`), which a region nobody chose need not
         hold: the README's ``isidori-146`` run leaves ``[−1, 1]⁴`` (``x4``) and ends with ‖e‖ = 13.8
@@ -250,7 +250,7 @@ def design_pinv_observer(
         The simulation stopped with another nlobs error; the cause is chained.
     """
     if placement not in PLACEMENTS:
-        raise InvalidArgumentError(f"placement: expected 'powers' or 'multiple', got {placement!r}")
+        raise InvalidArgumentError(f"`placement`: expected 'powers' or 'multiple', got {placement!r}")
     pb = problem(model, box=box)  # the model file is read once, here
     m = symbolic_model(pb.model)
     # the simulation's vectors, size and output folder are checked before the design (which can take long)

@@ -22,7 +22,8 @@ from nlobs.workflows.verdict import Verdict
 
 __all__ = ["EXPORTABLE", "ExportReport", "export_model_observer"]
 
-#: The observers ``nlobs export --observer`` designs and writes (the registry's methods with a C generator).
+#: The ``observer`` values of :func:`export_model_observer` (``nlobs export``): the registry's methods with a C
+#: generator.
 EXPORTABLE: tuple[str, ...] = names(exported=True)
 LANGUAGES: tuple[str, ...] = ("c",)
 
@@ -118,7 +119,7 @@ def _method_design(method: Any, pb: Any, options: dict[str, Any], saturation: bo
         options = {**options, "saturation": (True if method.name == "drift" else given_region)
                    if saturation is None else saturation}
     elif saturation is not None:
-        raise InvalidArgumentError(f"saturation does not apply to the {method.name} observer")
+        raise InvalidArgumentError(f"`saturation` does not apply to the {method.name} observer")
     design = method.design(pb, **options)
     where = pb.region.describe() if method.uses_region else ""
     title = {"drift": f"Dalla Mora, Germani & Manes, Theorem 3.1 on {where}",
@@ -176,16 +177,17 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
     from nlobs.methods.registry import get
 
     if lang not in LANGUAGES:
-        raise InvalidArgumentError(f"lang: expected one of {', '.join(LANGUAGES)}, got {lang!r}")
+        raise InvalidArgumentError(f"`lang`: expected one of {', '.join(LANGUAGES)}, got {lang!r}")
     if observer not in EXPORTABLE:
-        raise InvalidArgumentError(f"observer: expected one of {', '.join(EXPORTABLE)}, got {observer!r}")
+        raise InvalidArgumentError(f"`observer`: expected one of {', '.join(EXPORTABLE)}, got {observer!r}")
     method = get(observer)
     unknown = sorted(set(options) - set(method.options))
     if unknown:
-        raise InvalidArgumentError(f"{', '.join(unknown)}: not a design option of the {observer} observer "
+        named = ", ".join(f"`{u}`" for u in unknown)  # the keywords given: the command line's flags where it has them
+        raise InvalidArgumentError(f"{named}: not a design option of the {observer} observer "
                                    f"(it takes {', '.join(sorted(method.options)) or 'none'})")
     if box is not None and not method.uses_region:
-        raise InvalidArgumentError(f"box does not apply to the {observer} observer")
+        raise InvalidArgumentError(f"`box` does not apply to the {observer} observer")
     if observer == "gnss-ins":  # the demo's flight, not a model file
         pb: Any = str(model)
         name = "gnss-ins"

@@ -257,18 +257,18 @@ def gnss_ins_monte_carlo(*, flights: int = 1000, duration: float = 60.0, seed: i
         The noise-optimal gain failed its certificate.
     """
     t0 = time.perf_counter()
-    runs = as_count("flights", flights, minimum=1)
+    runs = as_count("`flights`", flights, minimum=1)
     given = [name for name, v in (("executor", executor), ("workers", workers), ("scheduler", scheduler))
              if v is not None]
     if len(given) > 1:
-        raise InvalidArgumentError(f"{' and '.join(given)}: give one (where the flights run)")
+        raise InvalidArgumentError(f"{' and '.join(f'`{g}`' for g in given)}: give one (where the flights run)")
     if batch is not None:
-        as_count("batch", batch, minimum=1)
+        as_count("`batch`", batch, minimum=1)
     if chunk is not None:
-        as_count("chunk", chunk, minimum=1)
-    as_count("seed", seed)
+        as_count("`chunk`", chunk, minimum=1)
+    as_count("`seed`", seed)
     if trajectories and out is None:
-        raise InvalidArgumentError("trajectories: saving them needs an output folder (out)")
+        raise InvalidArgumentError("`trajectories`: saving them needs an output folder (`out`)")
     study = GnssInsStudy(DEMO_NOISE, duration=duration, flight_seed=flight_seed, gains=gains,
                          attitude_error_deg=attitude_error_deg, position_error_m=position_error_m)
     study = study.solved()  # the noise-optimal gain solved once, here: the same bits on every worker
@@ -277,7 +277,7 @@ def gnss_ins_monte_carlo(*, flights: int = 1000, duration: float = 60.0, seed: i
         try:
             prepare_output_dir(folder)
         except OSError as exc:
-            raise OutputError(f"--out {folder}: {exc.strerror or exc}") from exc
+            raise OutputError(f"`out` {folder}: {exc.strerror or exc}") from exc
     runs_folder = None if folder is None else folder / RUNS_FOLDER
     with cluster(workers=workers, scheduler=scheduler) as client:
         result = monte_carlo(study, runs, seed=seed, batch=batch, chunk=chunk,
@@ -298,6 +298,6 @@ def gnss_ins_monte_carlo(*, flights: int = 1000, duration: float = 60.0, seed: i
         try:
             fig = _figure(report, folder / FIGURE)
         except OSError as exc:
-            raise OutputError(f"--out {folder}: {exc.strerror or exc}") from exc
+            raise OutputError(f"`out` {folder}: {exc.strerror or exc}") from exc
         report = GnssInsStudyReport(study, result, fig, time.perf_counter() - t0, verdict, message)
     return report

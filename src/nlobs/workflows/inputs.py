@@ -44,7 +44,7 @@ __all__ = [
 ]
 
 
-#: Most bytes the trajectories of one ``--simulate`` may hold (time, state, estimate, output, sample flags).
+#: Most bytes the trajectories of one :class:`SimulationRequest` may hold (time, state, estimate, output, sample flags).
 MAX_SIMULATION_BYTES = 2 * 1024**3
 
 
@@ -75,17 +75,17 @@ def _finite_vector(name: str, value: ArrayLike | None) -> Array | None:
     return readonly(v, owned=True)
 
 
-def _option(option: str, value: float) -> float:
-    """A positive, finite ``--duration`` / ``--dt`` (the message names the option)."""
+def _option(name: str, value: float) -> float:
+    """A positive, finite ``duration`` / ``dt`` (the message names the parameter, ``name``)."""
     try:
-        return positive(option, value)
+        return positive(name, value)
     except NlobsError as exc:
         raise type(exc)(f"{exc} (a positive number of seconds)") from None
 
 
 @dataclass(frozen=True, eq=False)
 class SimulationRequest:
-    """A simulation of a designed observer against its plant (what ``--simulate`` asks for).
+    """A simulation of a designed observer against its plant (the ``simulate`` of the design workflows).
 
     Parameters
     ----------
@@ -113,16 +113,16 @@ class SimulationRequest:
     out: Path | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "x0", _finite_vector("x0", self.x0))
-        object.__setattr__(self, "x_hat0", _finite_vector("x_hat0", self.x_hat0))
-        object.__setattr__(self, "u", _finite_vector("u", self.u))
-        object.__setattr__(self, "duration", _option("--duration", self.duration))
-        object.__setattr__(self, "dt", _option("--dt", self.dt))
+        object.__setattr__(self, "x0", _finite_vector("`x0`", self.x0))
+        object.__setattr__(self, "x_hat0", _finite_vector("`x_hat0`", self.x_hat0))
+        object.__setattr__(self, "u", _finite_vector("`u`", self.u))
+        object.__setattr__(self, "duration", _option("`duration`", self.duration))
+        object.__setattr__(self, "dt", _option("`dt`", self.dt))
         steps = self.steps
         if steps > MAX_SIMULATION_STEPS:
             raise InvalidArgumentError(
-                f"--duration {self.duration:g} / --dt {self.dt:g} is {steps:.3g} RK4 steps; at most "
-                f"{MAX_SIMULATION_STEPS:.0e} are simulated (raise --dt or shorten --duration)")
+                f"`duration` {self.duration:g} / `dt` {self.dt:g} is {steps:.3g} RK4 steps; at most "
+                f"{MAX_SIMULATION_STEPS:.0e} are simulated (raise `dt` or shorten `duration`)")
         if self.out is not None:
             object.__setattr__(self, "out", Path(self.out))
 
@@ -149,12 +149,12 @@ class SimulationRequest:
         size = self.memory_bytes(n, p)
         if size > MAX_SIMULATION_BYTES:
             raise InvalidArgumentError(
-                f"--duration {self.duration:g} / --dt {self.dt:g}: {self.steps} steps of model {model} need about "
+                f"`duration` {self.duration:g} / `dt` {self.dt:g}: {self.steps} steps of model {model} need about "
                 f"{size / 1024**3:.3g} GiB of trajectories; at most {MAX_SIMULATION_BYTES / 1024**3:g} GiB "
-                "(raise --dt or shorten --duration)")
+                "(raise `dt` or shorten `duration`)")
         x_hat0 = np.zeros(n) if self.x_hat0 is None else self.x_hat0
         u = np.zeros(m) if self.u is None else self.u
-        for name, v, size in (("x0", self.x0, n), ("x_hat0", x_hat0, n), ("u", u, m)):
+        for name, v, size in (("`x0`", self.x0, n), ("`x_hat0`", x_hat0, n), ("`u`", u, m)):
             if v.size != size:
                 raise DimensionError(f"{name}: expected {size} numbers for model {model}, got {v.size}")
         return self.x0, x_hat0, u

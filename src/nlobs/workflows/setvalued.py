@@ -622,29 +622,29 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
 
     m = load_setvalued_model(model)
     if sum(x is not None for x in (executor, workers, scheduler)) > 1:
-        raise InvalidArgumentError("--workers and --scheduler (or an executor): give one (workers start a local "
+        raise InvalidArgumentError("`workers` and `scheduler` (or an `executor`): give one (workers start a local "
                                    "cluster, a scheduler address uses a running one)")
     if trajectories and out is None:
-        raise InvalidArgumentError("--trajectories: saving them needs an output folder (--out)")
+        raise InvalidArgumentError("`trajectories`: saving them needs an output folder (`out`)")
     width = min(SetValuedBaselineStudy.default_batch if batch is None else max(int(batch), 1), max(int(runs), 1))
     elements = width * (steps + 1) * m.system.n
     need = STUDY_BYTES_PER_ELEMENT * elements
     if elements > MAX_BATCH or need > MAX_STUDY_BYTES:
         raise InvalidArgumentError(
-            f"--batch {width} x --steps {steps}: too large for one batch: about {need / 1024**3:.3g} GiB "
+            f"`batch` {width} x `steps` {steps}: too large for one batch: about {need / 1024**3:.3g} GiB "
             f"({STUDY_BYTES_PER_ELEMENT} bytes per run, step and state, n = {m.system.n}); at most "
-            f"{MAX_STUDY_BYTES / 1024**3:g} GiB (lower --batch or --steps; --runs may be any number)")
+            f"{MAX_STUDY_BYTES / 1024**3:g} GiB (lower `batch` or `steps`; `runs` may be any number)")
     if int(runs) * SUMMARY_BYTES_PER_RUN > MAX_STUDY_BYTES:
         raise InvalidArgumentError(
-            f"--runs {runs}: the per-run summaries alone would take about "
+            f"`runs` {runs}: the per-run summaries alone would take about "
             f"{int(runs) * SUMMARY_BYTES_PER_RUN / 1024**3:.3g} GiB ({SUMMARY_BYTES_PER_RUN} bytes per run); at most "
-            f"{MAX_STUDY_BYTES / 1024**3:g} GiB (split the study: the same --seed and --batch with more runs keep "
+            f"{MAX_STUDY_BYTES / 1024**3:g} GiB (split the study: the same `seed` and `batch` with more runs keep "
             "the first runs' numbers)")
     if out is not None:
         try:
             prepare_output_dir(out)
         except OSError as exc:
-            raise OutputError(f"--out {out}: {exc.strerror or exc}") from exc
+            raise OutputError(f"`out` {out}: {exc.strerror or exc}") from exc
     rep = design_setvalued_observer(m, objective=objective, samples=samples, seed=0)
     rep = dataclasses.replace(rep, model=str(model) if not isinstance(model, DiscreteUIModel) else rep.model,
                               message=rep.message.replace(rep.model, str(model), 1)
@@ -713,7 +713,7 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
         "objective": d.objective.value,
         "rho": d.rho,
         "rho_meaning": ("ℓ2 gain bound ρ of Definition 5.9 (hinf design)" if d.rho is not None else
-                        "null: the radius design certifies no ℓ2 gain (use --objective hinf, needs γ ≥ 0)"),
+                        "null: the radius design certifies no ℓ2 gain (the hinf objective gives one, needs γ ≥ 0)"),
         "contraction_factor": math.sqrt(d.lam_eff),
         "containment_rate_state": res.rate_state, "containment_rate_input": res.rate_input,
         "first_violation_step": res.first_violation_step,
@@ -756,7 +756,7 @@ def simulate_setvalued_observer(model: str | Path | DiscreteUIModel, *, runs: in
             figures.append(plot_trajectories(study.batch, folder / f"{s.name}-{unknown_input}-run0.png",
                                              title=f"{s.name}, {unknown_input} d, run 0"))
         except OSError as exc:
-            raise OutputError(f"--out {out}: {exc}") from exc
+            raise OutputError(f"`out` {out}: {exc}") from exc
     out_data["figures"] = [str(f) for f in figures]
     # the report's study: every run's containment; its trajectories and errors are the first batch's
     study = dataclasses.replace(study, containment=res)
