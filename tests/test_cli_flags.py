@@ -106,10 +106,8 @@ def test_the_command_line_prints_the_flag() -> None:
 
 # methods/comparison.py is converted after this mechanism (its `runs` check still says plain "runs"): these two
 # pass, and must then lose their marker, once it names `runs` in backticks.
-_COMPARISON_PENDING = pytest.mark.xfail(strict=True, reason="methods/comparison.py still names runs without backticks")
 
 
-@_COMPARISON_PENDING
 def test_compare_observers_names_runs() -> None:
     from nlobs.workflows.compare import compare_observers
 
@@ -118,7 +116,6 @@ def test_compare_observers_names_runs() -> None:
     assert "`runs`" in str(info.value) and "--runs" not in str(info.value)
 
 
-@_COMPARISON_PENDING
 def test_simulate_prints_runs_as_its_flag() -> None:
     res = runner.invoke(app, ["simulate", "pendulum", "--runs", "0"])
     assert res.exit_code == 2 and res.stderr.count("\n") == 1 and "`" not in res.stderr, res.output
@@ -159,11 +156,9 @@ FLAG = re.compile(r"[\"'( ]--[a-z][a-z0-9-]+")
 #: lines that may hold one (a line is allowed when it contains one of them), or ``ALL`` for a whole file.
 ALL = ("",)
 ALLOWED: dict[str, tuple[str, ...]] = {
-    # Not converted yet (their owner converts them next, with this mechanism; then replace ALL by the product
-    # output that stays, e.g. the command lines the advice prints for the user to type):
-    "methods/comparison.py": ALL,
-    "methods/advice.py": ALL,
-    # Product output meant to be typed as a command may keep its flags; none in the other files today.
+    # Product output meant to be typed as a command keeps its flags: the command lines nlobs advise prints.
+    "methods/advice.py": ('return f"--box=', 'return "--box="', 'cmd = f"nlobs design drift {target}',
+                          'cmd = f"nlobs design pinv {target}', 'f"nlobs simulate {target} --observer'),
 }
 
 

@@ -294,7 +294,7 @@ def test_compare_backend_c_gives_the_python_numbers() -> None:
         assert oa.skipped is None and ob.skipped is None
         assert np.allclose(ob.rms_error_all, oa.rms_error_all, rtol=1e-9, atol=0) and "generated C" in ob.description
         assert np.allclose(ob.result.x_hat, oa.result.x_hat, rtol=0, atol=1e-11 * np.abs(oa.result.x_hat).max())
-    with pytest.raises(InvalidArgumentError, match="--backend"):
+    with pytest.raises(InvalidArgumentError, match="`backend`"):
         compare_observers("pendulum", backend="fortran", **kw)
 
 

@@ -32,7 +32,7 @@ the zeros, with a margin of 5 % of the remaining interval), and the analyses run
 A verdict above is about the *theorems*: a high-gain observer whose hypotheses hold can still fail
 once its output is sampled and noisy (a continuous high-gain design fed held samples at a rate
 below its bandwidth diverges; a large gain amplifies the sensor noise). ``check=True``
-(``nlobs advise --check``) runs every applicable observer nlobs can simulate and an EKF on a few
+(``check`` of ``nlobs advise``) runs every applicable observer nlobs can simulate and an EKF on a few
 noisy Monte Carlo runs under the file's sensors (:func:`nlobs.methods.comparison.compare_observers`)
 and ranks an observer that diverged or never converged below the Kalman filters, with the measured
 numbers as its evidence (and, for the drift observer, its fastest error pole against the sampling
@@ -89,7 +89,7 @@ METHODS: tuple[str, ...] = ("cascade", "setvalued", "drift", "pinv", "ekf-ukf", 
 MARGIN = 0.05
 #: Largest ``n`` whose subsets are searched for a cascade structure (2ⁿ subsets).
 CASCADE_MAX_N = 12
-#: Default decay rate α of (2.17) and of the Luenberger poles (``nlobs design drift --alpha``).
+#: Default decay rate α of (2.17) and of the Luenberger poles (the ``alpha`` of ``nlobs design drift``).
 DEFAULT_ALPHA = 1.0
 
 
@@ -270,7 +270,7 @@ def _sampling_note(observer: Any, model: str | Path, time_unit: str) -> str:
     ts = 1.0 / min(g.rate for g in sensors)
     return (f" (the gain's fastest error pole is {lam:.3g} per {time_unit} and the output is sampled every "
             f"{ts:.3g} {time_unit}: |λ|·Ts = {lam * ts:.2g}; a continuous high-gain design fed held samples needs "
-            "|λ|·Ts well below 1: a faster sensor, or a smaller gain (--alpha, a smaller region))")
+            "|λ|·Ts well below 1: a faster sensor, or a smaller gain (a smaller α of the design, a smaller region))")
 
 
 @dataclass(frozen=True)
@@ -370,7 +370,7 @@ class AdviceReport:
             for name, why in self.check.demoted.items():
                 lines.append(f"  checked: {name} ranked below the Kalman filters: {why}")
         elif not short and self.recommended in _SIMULATED:
-            lines.append("  not checked under the file's sensors (a verdict of the theorems): nlobs advise --check "
+            lines.append("  not checked under the file's sensors (a verdict of the theorems): nlobs advise `check` "
                          "runs the observers and an EKF on noisy runs first")
         if self.recommended is None:
             lines.append(f"  recommended: none — {self.message}")
@@ -507,7 +507,7 @@ def cascade_structure(model: SymbolicModel) -> CascadeStructure | None:
 def _input_bound(scenario: Any) -> tuple[float, str]:
     """``μ``: the largest ``‖u(t)‖`` of the file's input signals over its run, by the one rule of every command."""
     if getattr(scenario, "input_signals", None) is None:
-        return 0.0, "no [input_signals] in the file (μ = 0: give --mu for your inputs)"
+        return 0.0, "no [input_signals] in the file (μ = 0: give the drift design your inputs' bound μ)"
     pb = problem(scenario)
     return pb.mu, f"{pb.sources['mu']} = {pb.mu:.4g}"
 
@@ -572,7 +572,7 @@ def _drift(target: str, geo: GeometryReport | None, geo_err: str | None, fields:
                                 ", no input") + " (Theorem 3.1's Lipschitz premises are checked there only)",
                                 tuple(ev), params, cmd, region=where, rank=2)
         return MethodAdvice("drift", title, "local", f"drift-observable on the region, but s ≰ r: (2.17) holds only "
-                            f"for a small input bound, here μ = {mu:.4g} (lower --mu, or try --method sdp)", tuple(ev),
+                            f"for a small input bound, here μ = {mu:.4g} (a smaller μ, or the SDP gain method)", tuple(ev),
                             params, cmd, region=where, rank=5)
     local = _local_drift_box(fields, det, region, x0)
     if local is not None:
@@ -812,7 +812,7 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
         if not is_file:
             raise InvalidArgumentError("check: needs a model file (its sensors and inputs)")
         if isinstance(runs, bool) or not isinstance(runs, int) or runs < 1:
-            raise InvalidArgumentError(f"--runs: expected a positive integer, got {runs!r}")
+            raise InvalidArgumentError(f"`runs`: expected a positive integer, got {runs!r}")
         methods, sensor_check = _sensor_check(model, methods, region if region is not None else reg0, runs, progress)
     usable = sorted((mm for mm in methods if mm.usable), key=lambda mm: mm.rank)
     best = usable[0] if usable else None

@@ -339,7 +339,7 @@ def _vector(name: str, value: ArrayLike | None, n: int) -> Array | None:
     if value is None:
         return None
     v = np.asarray(value, dtype=float).reshape(-1)
-    if v.size == 1 and n > 1 and name == "initial_error_std":
+    if v.size == 1 and n > 1 and name == "`initial_error_std`":
         v = np.full(n, float(v[0]))
     if v.shape != (n,):
         raise DimensionError(f"{name}: expected {n} numbers (one per state), got {v.size}")
@@ -354,8 +354,8 @@ def _sensor_override(model: Any, rate: float | None, noise_std: float | Sequence
         return current
     if rate is None:
         if not current or len({g.rate for g in current}) != 1:
-            raise InvalidArgumentError("--noise-std without --rate: the model's sensors do not have one common rate; "
-                                       "give --rate too")
+            raise InvalidArgumentError("`noise_std` without `rate`: the model's sensors do not have one common rate; "
+                                       "give `rate` too")
         rate = current[0].rate
     return (MeasurementGroup("sensor", tuple(model.outputs), rate=rate,
                              noise_std=0.0 if noise_std is None else noise_std),)
@@ -368,33 +368,33 @@ def _setup(scenario: Scenario, label: str, *, runs: int | None, duration: float 
     model = scenario.model
     d = scenario.defaults
     n = model.n
-    runs_ = as_count("runs", runs if runs is not None else (d.runs or 20), minimum=1)
-    dur = positive("duration", duration if duration is not None else (d.duration or 10.0))
+    runs_ = as_count("`runs`", runs if runs is not None else (d.runs or 20), minimum=1)
+    dur = positive("`duration`", duration if duration is not None else (d.duration or 10.0))
     if model.time.is_discrete:
         step = float(model.time.dt)  # type: ignore[attr-defined]
         if dt is not None and abs(dt - step) > 1e-9 * step:
-            raise InvalidArgumentError(f"dt: the model is discrete with dt = {step:g} s; got --dt {dt:g}")
+            raise InvalidArgumentError(f"`dt`: the model is discrete with dt = {step:g} s; got `dt` {dt:g}")
     else:
-        step = positive("dt", dt if dt is not None else (d.dt or 1e-3))
+        step = positive("`dt`", dt if dt is not None else (d.dt or 1e-3))
     steps = math.ceil(dur / step - 1e-9)
     if steps > MAX_SIMULATION_STEPS:
-        raise InvalidArgumentError(f"--duration {dur:g} / --dt {step:g} is {steps:.3g} steps; at most "
-                                   f"{MAX_SIMULATION_STEPS:.0e} (raise --dt or shorten --duration)")
+        raise InvalidArgumentError(f"`duration` {dur:g} / `dt` {step:g} is {steps:.3g} steps; at most "
+                                   f"{MAX_SIMULATION_STEPS:.0e} (raise `dt` or shorten `duration`)")
     settle_ = settle if settle is not None else (
         d.settle if d.settle is not None and d.settle < dur else 0.25 * dur)  # the file's, unless past a shorter run
-    settle_ = positive("settle", settle_, allow_zero=True)
+    settle_ = positive("`settle`", settle_, allow_zero=True)
     if settle_ >= dur:
-        raise InvalidArgumentError(f"settle: {settle_:g} s is not before the end of the run ({dur:g} s)")
-    x0_ = _vector("x0", x0, n)
+        raise InvalidArgumentError(f"`settle`: {settle_:g} s is not before the end of the run ({dur:g} s)")
+    x0_ = _vector("`x0`", x0, n)
     if x0_ is None:
         x0_ = d.x0 if d.x0 is not None else np.zeros(n)
-    std = _vector("initial_error_std", initial_error_std, n)
-    xh = _vector("x_hat0", x_hat0, n)
+    std = _vector("`initial_error_std`", initial_error_std, n)
+    xh = _vector("`x_hat0`", x_hat0, n)
     if std is None:
         std = d.initial_error_std if d.initial_error_std is not None else None
     if xh is not None:
         x_hat = np.broadcast_to(xh, (runs_, n)).copy()
-        given = _vector("initial_error_std", initial_error_std, n) if initial_error_std is not None else None
+        given = _vector("`initial_error_std`", initial_error_std, n) if initial_error_std is not None else None
         p0_std = given if given is not None else np.maximum(np.abs(xh - x0_), 1e-3 * np.maximum(1.0, np.abs(x0_)))
         init_text = f"x̂0 = {xh.tolist()} in every run" + (
             f" (filters' P0 = diag(std²), std = {given.tolist()})" if given is not None else "")
@@ -416,7 +416,7 @@ def _setup(scenario: Scenario, label: str, *, runs: int | None, duration: float 
     pb = dataclasses.replace(pb, sources={**pb.sources, **_sources(d, box, x0, duration)})
     save_every = max(1, steps // SAVED_POINTS)
     if runs_ * (steps // save_every + 1) * max(n, model.p) > MAX_SAVED_VALUES:
-        raise InvalidArgumentError(f"--runs {runs_}: {runs_} runs × {steps // save_every + 1} saved times × "
+        raise InvalidArgumentError(f"`runs` {runs_}: {runs_} runs × {steps // save_every + 1} saved times × "
                                    f"{max(n, model.p)} values exceed {MAX_SAVED_VALUES:.0e}; use fewer runs")
     describe = {
         "sensors": "; ".join(_describe_sensor(g, scenario.time_unit) for g in sensors) if sensors else
@@ -466,7 +466,7 @@ def _input(scenario: Scenario, inputs: Any) -> tuple[Any, str]:
         current = dict(zip(sig.names, sig.signals)) if sig is not None else {}
         for name, spec in dict(inputs).items():
             if name not in model.inputs:
-                raise UnknownNameError(f"--input {name}: not an input of the model (inputs: {', '.join(model.inputs)})")
+                raise UnknownNameError(f"`inputs` {name}: not an input of the model (inputs: {', '.join(model.inputs)})")
             current[name] = spec if not isinstance(spec, str) else parse_signal_spec(spec, base_dir=base)
         sig = InputSignals(tuple(model.inputs), tuple(current.get(k, Constant(0.0)) for k in model.inputs))
     if sig is None:
@@ -641,18 +641,18 @@ def compare_observers(
     chosen = tuple(OBSERVERS if observers is None else observers)
     for o in chosen:
         if o not in OBSERVERS:
-            raise UnknownNameError(f"--observer: unknown observer {o!r} (known: {', '.join(OBSERVERS)})")
+            raise UnknownNameError(f"`observers`: unknown observer {o!r} (known: {', '.join(OBSERVERS)})")
     if len(set(chosen)) != len(chosen):
-        raise InvalidArgumentError(f"--observer: {', '.join(chosen)} names an observer twice")
-    alpha = positive("alpha", alpha)
+        raise InvalidArgumentError(f"`observers`: {', '.join(chosen)} names an observer twice")
+    alpha = positive("`alpha`", alpha)
     if backend not in BACKENDS:
-        raise InvalidArgumentError(f"--backend: expected one of {', '.join(BACKENDS)}, got {backend!r}")
+        raise InvalidArgumentError(f"`backend`: expected one of {', '.join(BACKENDS)}, got {backend!r}")
     options = _all_options(chosen, alpha, filter_q, design_options)
     s = _setup(scenario, label, runs=runs, duration=duration, dt=dt, seed=seed, x0=x0, x_hat0=x_hat0,
                initial_error_std=initial_error_std, box=box, settle=settle, rate=rate, noise_std=noise_std,
                inputs=inputs, process_noise=process_noise)
     if sum(v is not None for v in (executor, workers, scheduler)) > 1:
-        raise InvalidArgumentError("--workers and --scheduler (or an executor): give one (workers start a local "
+        raise InvalidArgumentError("`workers` and `scheduler` (or an `executor`): give one (workers start a local "
                                    "cluster, a scheduler address uses a running one)")
     outcomes: dict[str, ObserverOutcome] = {}
     if executor is None and workers is None and scheduler is None:
@@ -676,6 +676,11 @@ def _compiled(obs: Any, desc: str) -> tuple[Any, str]:
     if type(obs).__name__ not in supported():
         return obs, desc
     return compile_observer(obs), desc + "; generated C"
+
+
+#: The options a comparison itself gives each method (the caller's design_options come on top).
+_DEFAULT_KEYS: dict[str, set[str]] = {"drift": {"on_singular"}, "luenberger": {"alpha"}, "ekf": {"filter_q", "p0_std"},
+                                      "ukf": {"filter_q", "p0_std"}}
 
 
 def _all_options(chosen: Sequence[str], alpha: float, filter_q: ArrayLike | None,
@@ -717,6 +722,11 @@ def _design(name: str, s: _Setup, options: Mapping[str, Any]) -> Design | str:
         design = method.design(s.problem, **options)
     except (ModelError, AssumptionViolated, DesignError) as exc:
         return str(exc)
+    except InvalidArgumentError as exc:
+        given = set(options) - _DEFAULT_KEYS.get(name, set())
+        if any(f"`{k}`" in str(exc) for k in given):  # a design option the caller gave: named with its method
+            raise InvalidArgumentError(f"`design_options` {name}: {str(exc).replace('`', '')}") from exc
+        raise
     if not design.usable:
         return "; ".join(design.failed)
     return design
