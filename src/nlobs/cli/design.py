@@ -47,7 +47,7 @@ from nlobs.errors import (
 )
 
 if TYPE_CHECKING:  # the workflows' inputs load SymPy and SciPy: imported inside the commands
-    from nlobs.workflows.inputs import SimulationRequest, SymbolicModel
+    from nlobs.workflows.inputs import SimulationRequest
 
 # Options shared by both commands (one definition each).
 Box_ = Annotated[str | None, typer.Option(
@@ -65,17 +65,6 @@ Saturation_ = Annotated[str, typer.Option(
     "the same observer while the estimate is in the region); 'off': as printed in the paper.")]
 
 
-def _symbolic(model: str) -> "SymbolicModel":
-    from nlobs.workflows.inputs import symbolic_model
-
-    try:
-        return symbolic_model(model)
-    except ModelFileError as exc:
-        fail(str(exc))
-    except NlobsError as exc:
-        fail(f"{model}: {exc}")
-
-
 def _ints(option: str, text: str | None) -> list[int] | None:
     vals = parse_floats(option, text)
     if vals is None:
@@ -85,9 +74,10 @@ def _ints(option: str, text: str | None) -> list[int] | None:
     return [int(v) for v in vals]
 
 
-def _request(m: "SymbolicModel", simulate: bool, x0: str | None, xhat0: str | None, u: str | None, duration: float,
+def _request(simulate: bool, x0: str | None, xhat0: str | None, u: str | None, duration: float,
              dt: float, out: Path | None) -> "SimulationRequest | None":
-    """The simulation asked for by ``--simulate`` (``None`` without it), its vectors checked against the model."""
+    """The simulation asked for by ``--simulate`` (``None`` without it); the workflow checks its vectors against
+    the model it reads (the model file is read once, by the workflow)."""
     if not simulate:
         return None
     from nlobs.workflows.inputs import SimulationRequest
@@ -95,11 +85,8 @@ def _request(m: "SymbolicModel", simulate: bool, x0: str | None, xhat0: str | No
     if x0 is None:
         fail("--simulate needs --x0 (the initial plant state)")
     x0v = parse_floats("--x0", x0)
-    xh = parse_floats("--xhat0", xhat0) if xhat0 is not None else [0.0] * m.n
-    uv = parse_floats("--u", u) if u is not None else [0.0] * m.m
-    for name, v, size in (("--x0", x0v, m.n), ("--xhat0", xh, m.n), ("--u", uv, m.m)):
-        if v is None or len(v) != size:
-            fail(f"{name}: expected {size} numbers for model {m.name}, got {0 if v is None else len(v)}")
+    xh = parse_floats("--xhat0", xhat0) if xhat0 is not None else None
+    uv = parse_floats("--u", u) if u is not None else None
     try:
         return SimulationRequest(x0v, xh, uv, duration=duration, dt=dt, out=out)  # type: ignore[arg-type]
     except NlobsError as exc:
@@ -161,13 +148,12 @@ def drift_cmd(
     """
     from nlobs.workflows.design_drift import METHODS, design_drift_observer
 
-    m = _symbolic(model)
     if method not in METHODS:
         fail(f"--method: expected 'vandermonde' or 'sdp', got {method!r}")
     region = box_numbers("--box", box)
     sat = on_off("--saturation", saturation)
     multi_index = _ints("--s", s)
-    request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
+    request = _request(simulate, x0, xhat0, u, duration, dt, out)
     try:
         report = design_drift_observer(model, s=multi_index, alpha=alpha, mu=mu, gamma=gamma, method=method, w=w,
                                        box=region, simulate=request, name=model, w_max=w_max,
@@ -205,13 +191,12 @@ def pinv_cmd(
     """Design Röbenack's Moore–Penrose observer (7), (17) and check A1, A5."""
     from nlobs.workflows.design_pinv import PLACEMENTS, design_pinv_observer
 
-    m = _symbolic(model)
     if placement not in PLACEMENTS:
         fail(f"--placement: expected 'powers' or 'multiple', got {placement!r}")
     region = box_numbers("--box", box)
     sat = None if saturation is None else on_off("--saturation", saturation)
     kv = parse_floats("--k", k)
-    request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
+    request = _request(simulate, x0, xhat0, u, duration, dt, out)
     try:
         report = design_pinv_observer(model, k=kv, theta=theta, placement=placement, box=region,  # type: ignore[arg-type]
                                       simulate=request, saturation=sat)
@@ -250,10 +235,9 @@ def cascade_cmd(
     """
     from nlobs.workflows.design_cascade import METHODS, design_cascade_observer
 
-    m = _symbolic(model)
     if method is not None and method not in METHODS:
         fail(f"--method: expected 'lmi', 'placement' or 'h2', got {method!r}")
-    request = _request(m, simulate, x0, xhat0, u, duration, dt, out)
+    request = _request(simulate, x0, xhat0, u, duration, dt, out)
     try:
         report = design_cascade_observer(model, gamma=gamma, method=method, gain_bound=gain_bound, simulate=request,
                                          name=model)
