@@ -430,7 +430,7 @@ class CascadeMethod:
         if why is not None:
             raise AssumptionViolated(why)
         assert problem.path is not None
-        cm = load_cascade(problem.path)
+        cm = problem.scenario.cascade or load_cascade(problem.path)  # read with the file, when it was
         kind = gain_method or cm.method or "lmi"
         if kind == "h2":  # the gain for the file's own sensors and process noise
             noise, notes = cascade_noise_model(cm, problem.scenario)

@@ -183,23 +183,29 @@ def parse_model(text: str, *, source: str = "<string>") -> Model:
 
 def _model(src: Source, data: Mapping[str, Any]) -> Model:
     """The model of a parsed model file (the TOML is read once per file by its caller)."""
+    return _model_and_cascade(src, data)[0]
+
+
+def _model_and_cascade(src: Source, data: Mapping[str, Any]) -> tuple[Model, Any]:
+    """The model of a parsed model file and, for a ``[cascade]`` table, its :class:`CascadeModel` (else ``None``)."""
     name, time = check_header(src, data)
     has_dyn, has_lin = "dynamics" in data, "linear" in data
     if "cascade" in data:  # the interconnection of Grip, Saberi & Johansen: the plant [x, w] of (1) / (2)+(1b)
         from nlobs.systems.cascade_file import build_cascade
 
         try:
-            return build_cascade(src, data, name, time).plant
+            cm = build_cascade(src, data, name, time)
         except ModelFileError:
             raise
         except NlobsError as exc:
             raise src.error(f"[cascade]: {exc}", key="cascade") from None
+        return cm.plant, cm
     if has_dyn == has_lin:
         raise src.error("a model needs exactly one of the tables [dynamics] or [linear]", key="dynamics" if has_dyn else None)
     try:
         if has_lin:
-            return _linear(src, data, name, time)
-        return _nonlinear(src, data, name, time)
+            return _linear(src, data, name, time), None
+        return _nonlinear(src, data, name, time), None
     except ModelFileError:
         raise
     except NlobsError as exc:  # a validation error from the model constructors: on the line of the key it names
@@ -679,7 +685,7 @@ def parse_scenario(text: str, *, source: str = "<string>", base_dir: str | Path 
     """Parse model-file text into a :class:`~nlobs.systems.scenario.Scenario` (see :func:`load_scenario`)."""
     src = Source(source, text)
     data = read_toml(src, text)  # once: the model and the scenario's tables come from the same parse
-    model = _model(src, data)
+    model, cascade = _model_and_cascade(src, data)
     params = read_parameters(src, data) if isinstance(model, SymbolicModel) else {}
     psyms = {k: sp.Symbol(k, real=True) for k in params}
     for key in SCENARIO_TABLES:
@@ -690,7 +696,7 @@ def parse_scenario(text: str, *, source: str = "<string>", base_dir: str | Path 
     signals = _input_signals(src, data, model, params, base_dir)
     q = _process_noise(src, data["process_noise"], model.n, params, psyms) if "process_noise" in data else None
     defaults = _run_defaults(src, data.get("simulation", {}), model.n, params, psyms)
-    return Scenario(model, sensors, signals, q, units, defaults, source, frozenset(data))
+    return Scenario(model, sensors, signals, q, units, defaults, source, frozenset(data), cascade)
 
 
 def _units(src: Source, table: Mapping[str, Any], model: Model) -> dict[str, str]:

@@ -96,6 +96,8 @@ class Scenario:
     tables : frozenset of str
         The model file's top-level tables and keys (``"cascade"``, ``"unknown_inputs"``, …; empty for a
         model given in Python), so that a command asks the file once.
+    cascade : CascadeModel or None
+        The file's ``[cascade]`` table, read with the rest (:mod:`nlobs.systems.cascade_file`).
     """
 
     model: SymbolicModel | LinearSystem
@@ -106,6 +108,7 @@ class Scenario:
     defaults: RunDefaults = field(default_factory=RunDefaults)
     path: str = ""
     tables: frozenset[str] = frozenset()
+    cascade: Any = None
 
     @property
     def time_unit(self) -> str:
