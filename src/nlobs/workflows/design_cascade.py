@@ -1,25 +1,13 @@
-r"""``nlobs design cascade``: the cascade/feedback observer of Grip, Saberi & Johansen for a model file.
+r"""``nlobs design cascade``: the cascade/feedback observer of Grip, Saberi & Johansen for a model file, simulated.
 
-A model file with a ``[cascade]`` table (:mod:`nlobs.systems.cascade_file`) describes a nonlinear
-subsystem Σ₁ (1a) (or Σ₁* (2)) whose output ``z`` is not measured, driving a linear Σ₂ (1b), and the
-injection ``g`` of an observer for Σ₁ (3)/(16). This workflow
-
-1. checks Assumption 4 item by item (:func:`nlobs.linear.assumption4.check_assumption4`); when a
-   required item fails no gain exists (verdict ``NO_OBSERVER``);
-2. designs ``K = [K_w; K_z]`` with LMI (14) (:func:`nlobs.synthesis.cascade_gain.design_cascade_gain`,
-   ``‖H‖∞ < γ`` for ``H(s) = (sI − 𝔄 + Kℭ)⁻¹𝔅_d`` (13) of the extended system (8c)), or by pole
-   placement (:func:`~nlobs.synthesis.cascade_gain.place_cascade_gain`) for the very small ``γ`` of
-   Theorem 1, or (``method="h2"``) as the gain with the smallest noise-to-error H2 norm under LMI (14)
-   (:func:`nlobs.synthesis.mixed_h2.design_h2_gain`) for the noise the file declares
-   (:func:`cascade_noise_model`: its ``[sensors.NAME]`` tables and ``[process_noise]``);
-3. re-verifies the gain independently of the design: the spectrum of ``𝔄 − Kℭ`` and ``‖H‖∞`` by
-   :func:`nlobs.linear.hinf_norm` with the grid safeguard;
-4. with ``[cascade.lyapunov]`` (``α₃, α₄, L₁, L₂`` of Assumptions 1–3) compares ``‖H‖∞`` with
-   Theorem 1's ``γ = 4α₃/(4L₂² + α₄²L₁²)`` (best scaling of ``V``: ``α₃/(α₄L₁L₂)``), or Theorem 1'
-   in the feedback case; without it the gain is only "H∞ gain verified", not certified by Theorem 1;
-5. optionally simulates the plant (1) with the observer (9)–(10) / (17)–(18) and reports the error
-   and the certificate monitor's coverage (:func:`nlobs.simulate.coverage.monitor`): a run is
-   ``certified`` only when Theorem 1 holds for the gain *and* the monitor covers the run.
+The design — Assumption 4 item by item, the gain of LMI (14), pole placement or the smallest
+noise-to-error H2 norm, its re-verification, Theorem 1 with the file's ``[cascade.lyapunov]`` — is
+:func:`nlobs.methods.cascade.design_cascade` (the method every command uses). This command adds the
+verdict (``NO_OBSERVER`` when Assumption 4 fails, ``FAILED`` when the design is infeasible), the
+``design`` object of :func:`nlobs.methods.cascade.cascade_design`, and optionally a simulation of the
+plant (1) with the observer (9)–(10) / (17)–(18), with the error and the certificate monitor's coverage
+(:func:`nlobs.simulate.coverage.monitor`): a run is ``certified`` only when Theorem 1 holds for the gain
+*and* the monitor covers the run.
 """
 
 from __future__ import annotations

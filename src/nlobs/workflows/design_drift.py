@@ -1,19 +1,12 @@
-r"""``nlobs design drift``: design, verify and simulate the observer (3.1) of Dalla Mora, Germani & Manes.
+r"""``nlobs design drift``: the observer (3.1) of Dalla Mora, Germani & Manes, its report and a simulation.
 
-For a continuous-time input-affine model that is drift-observable with multi-index ``s``
-(Def. 2.3) the observer is (3.1), ``x̂̇ = f(x̂) + g(x̂) u + Q_s(x̂)⁻¹ K (y − h(x̂))``
-(:class:`nlobs.observers.drift.DriftObserver`). This module puts the pieces together:
-
-* :func:`design_drift_report` — structure on a region (``s``, the observation relative degree
-  ``r``, drift-observability, ``s ≤ r``), ``F_{s,r}`` (2.12) and ``H_{s,r}`` (2.11), the sampled
-  Lipschitz constants (:func:`nlobs.geometry.lipschitz.lipschitz_estimates`), the gain of (2.17)
-  (Remark 2.11 or the SDP, :mod:`nlobs.synthesis.drift_gain`) and the constants ``κ₁``, ``κ₂`` of
-  (3.17) (:mod:`nlobs.synthesis.drift_bounds`), as a :class:`DriftDesignReport` with a verdict;
-* :func:`simulate_drift` — that design simulated against its plant, with the bound (3.2), as a
-  :class:`DriftSimulation`;
-* :func:`design_drift_observer` — the command ``nlobs design drift``: one call, one frozen
-  :class:`DriftWorkflowReport` whose ``to_dict()`` is the JSON report and ``summary()``
-  what the text output prints, with its :class:`~nlobs.workflows.verdict.Verdict`.
+The design and its report are :data:`nlobs.methods.drift.DRIFT` and
+:func:`nlobs.methods.drift.design_drift_report` (the method every command uses: the region, ``α`` and
+``μ`` by the one rule of :mod:`nlobs.methods.problem`). This module adds :func:`simulate_drift` (that
+design simulated against its plant, with the bound (3.2), as a :class:`DriftSimulation`) and
+:func:`design_drift_observer`, the command ``nlobs design drift``: one call, one frozen
+:class:`DriftWorkflowReport` whose ``to_dict()`` is the JSON report and ``summary()`` what the text
+output prints, with its :class:`~nlobs.workflows.verdict.Verdict`.
 """
 
 from __future__ import annotations

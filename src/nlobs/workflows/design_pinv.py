@@ -1,17 +1,11 @@
-r"""``nlobs design pinv``: design, check and simulate Röbenack's Moore–Penrose observer (7), (17).
+r"""``nlobs design pinv``: Röbenack's Moore–Penrose observer (7), (17), its report and a simulation.
 
-For a continuous-time input-affine model with observation relative degree ``r`` (A1) the observer
-is ``x̂̇ = f(x̂) + g(x̂) u + Q⁺(x̂) K (y − h(x̂))`` (7) with the gain field (17)
-(:class:`nlobs.observers.pinv.PinvObserver`) and ``K`` from a high-gain placement of the roots of
-(10) (:class:`nlobs.synthesis.pinv_gain.HighGain`).
-
-* :func:`design_pinv_report` — builds the observer once (checking A1 and A5 on the region) and
-  reports its structure, ``Q⁺`` (25), the gain field and ``k``; the :class:`PinvDesignReport`
-  keeps that observer (:attr:`PinvDesignReport.observer`);
-* :func:`simulate_pinv` — simulates a model with that observer (or builds one the same way);
-* :func:`design_pinv_observer` — the command ``nlobs design pinv``: one call, one frozen
-  :class:`PinvWorkflowReport` whose ``to_dict()`` is the JSON report and ``summary()``
-  what the text output prints; the simulation uses the report's own observer.
+The design and its report are :data:`nlobs.methods.pinv.PINV` and
+:func:`nlobs.methods.pinv.design_pinv_report` (the method every command uses). This module adds
+:func:`simulate_pinv` (a model simulated with that observer) and :func:`design_pinv_observer`, the
+command ``nlobs design pinv``: one call, one frozen :class:`PinvWorkflowReport` whose ``to_dict()`` is
+the JSON report and ``summary()`` what the text output prints; the simulation uses the design's own
+observer.
 """
 
 from __future__ import annotations
