@@ -141,12 +141,29 @@ class Design:
             "description": self.description,
         }
 
+    def defaults_text(self) -> str:
+        """The parameters that have a source, each with it: ``"μ = 10.3 (max ‖u(t)‖ of [input_signals] over [0,
+        10]); region = [-2, 2] × [-3, 3] ([simulation] box)"`` (empty when none has one)."""
+        return "; ".join(f"{_symbol(k)} = {_fmt_param(k, self.parameters[k])} ({src})"
+                         for k, src in self.sources.items() if k in self.parameters)
+
     def summary(self) -> str:
         """The parameters with their sources, and the verdict, as text."""
         params = ", ".join(f"{k} = {_fmt(v)}" + (f" ({self.sources[k]})" if k in self.sources else "")
                            for k, v in self.parameters.items())
         return "\n".join([f"{self.method}: {self.description}", f"  parameters: {params}", f"  {self.status}",
                           *(f"  warning: {w}" for w in self.warnings)])
+
+
+def _symbol(name: str) -> str:
+    return {"mu": "μ", "alpha": "α", "gamma": "γ", "theta": "θ"}.get(name, name)
+
+
+def _fmt_param(name: str, v: Any) -> str:
+    v = _plain(v)
+    if name == "region" and isinstance(v, list) and all(isinstance(p, list) and len(p) == 2 for p in v):
+        return " × ".join(f"[{a:g}, {b:g}]" for a, b in v)
+    return _fmt(v)
 
 
 def _fmt(v: Any) -> str:

@@ -293,6 +293,8 @@ class ComparisonReport:
                 lines.append(f"  {name}: skipped: {o.skipped}")
                 continue
             lines.append(f"  {name}: {o.description}")
+            if o.design is not None and o.design.defaults_text():
+                lines.append(f"    from the model file: {o.design.defaults_text()}")
             lines += [f"    warning: {w}" for w in (o.design.warnings if o.design is not None else ())]
             if o.diverged_runs:
                 shown = ", ".join(f"run {d.run} at t = {d.time:.4g} {self.time_unit} ({d.reason})"

@@ -330,7 +330,7 @@ class PinvMethod:
             "region": [[float(a), float(b)] for a, b in zip(problem.region.lower, problem.region.upper)],
             "k": list(rep.k), "theta": rep.theta, "placement": rep.placement, "saturation": saturation}
         sources = {"region": problem.sources.get("region", "given"),
-                   "theta": "given" if theta is not None or k is not None else "default"}
+                   "theta": "given" if k is not None or (theta is not None and theta != DEFAULT_THETA) else "default"}
         exact, what = problem.exact
         where = problem.region.describe()
         hyps = (Premise("exact measurement and model", exact, f"{what} (Corollary 4.1 assumes an exact output)"),

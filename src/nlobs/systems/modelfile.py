@@ -446,9 +446,9 @@ def load_discrete_ui_model(path: str | Path) -> DiscreteUIModel:
 
 def parse_discrete_ui(text: str, *, source: str = "<string>", base_dir: str | Path | None = None) -> DiscreteUIModel:
     """Parse the text of a model file with unknown inputs (see :func:`load_discrete_ui`)."""
-    model = parse_model(text, source=source)
     src = Source(source, text)
-    data = read_toml(src, text)
+    data = read_toml(src, text)  # once: the model and the unknown-input tables come from the same parse
+    model = _model(src, data)
     if not isinstance(model.time, Discrete):
         raise src.error("a model with unknown inputs needs time = \"discrete\"", key="time", text="time")
     for key in ("unknown_inputs", "noise", "initial", "function_class"):

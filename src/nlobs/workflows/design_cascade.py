@@ -158,6 +158,9 @@ class CascadeWorkflowReport:
 
     def summary(self) -> str:
         lines = [self.design.summary()]
+        if self.method_design is not None:
+            lines.append(f"  from the model file: {self.method_design.defaults_text() or 'nothing (every value given)'}; "
+                         f"{self.method_design.status}")
         sim, req = self.simulation, self.request
         if sim is not None and req is not None:
             d = self._simulation_dict()

@@ -303,8 +303,11 @@ class DriftWorkflowReport:
         return data
 
     def summary(self) -> str:
-        """The design report, then the simulation line and a ``wrote <file>`` line per file."""
+        """The design report, where its defaults came from, then the simulation line and a ``wrote <file>`` line per file."""
         lines = [self.design.summary()]
+        if self.method_design is not None:
+            lines.append(f"  from the model file: {self.method_design.defaults_text() or 'nothing (every value given)'}; "
+                         f"{self.method_design.status}")
         sim, req = self.simulation, self.request
         if sim is not None and req is not None:
             alpha = self.design.certificate.constants.alpha

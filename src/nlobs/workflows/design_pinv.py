@@ -176,8 +176,11 @@ class PinvWorkflowReport:
         return data
 
     def summary(self) -> str:
-        """The design report, then the simulation line and a ``wrote <file>`` line per file."""
+        """The design report, where its defaults came from, then the simulation line and a ``wrote <file>`` line per file."""
         lines = [self.design.summary()]
+        if self.method_design is not None:
+            lines.append(f"  from the model file: {self.method_design.defaults_text() or 'nothing (every value given)'}; "
+                         f"{self.method_design.status}")
         if self.simulation is not None and self.request is not None:
             line = error_line(error_summary(self.simulation, self.files), self.request.duration, self.request.dt)
             if self.coverage is not None:

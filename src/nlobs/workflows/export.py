@@ -88,6 +88,8 @@ class ExportReport:
 def _certificate_text(design: Any, title: str) -> str:
     """What the header's comment block says the design rests on: the method, its certificate, its premises."""
     lines = [title, design.description]
+    if design.defaults_text():
+        lines.append(f"defaults: {design.defaults_text()}")
     if design.certificate is not None:
         lines.append(design.certificate.summary())
     lines += [f"{p.name}: {'passed' if p.passed else 'FAILED'}: {p.evidence}" for p in design.premises]
