@@ -16,7 +16,8 @@ import pytest
 from nlobs.errors import InvalidArgumentError, NumericalError
 from nlobs.export import compile_observer
 from nlobs.export.compiler import compile_object
-from nlobs.export.gnss_ins import compile_gnss_ins, generate_gnss_ins, gnss_ins_codec
+from nlobs.export.compiled import compile_gnss_ins
+from nlobs.export.gnss_ins import generate_gnss_ins, gnss_ins_codec
 from nlobs.export.program import render
 from nlobs.navigation import metrics as M
 from nlobs.navigation.gains import NOISE_OPTIMAL_GAMMA, PAPER_GAMMA, noise_optimal_gains, paper_gains

@@ -40,7 +40,7 @@ from nlobs.export.program import CProgram, nlobs_version, render
 from nlobs.observers.base import DeferredEstimate, Diagnosing
 from nlobs.systems.timebase import TimeBase
 
-__all__ = ["CompiledCorrectingObserver", "CompiledObserver", "compile_observer", "load_library"]
+__all__ = ["CompiledCorrectingObserver", "CompiledObserver", "compile_gnss_ins", "compile_observer", "load_library"]
 
 # pointers travel as plain addresses (``ndarray.ctypes.data``): ctypes' typed-pointer casts cost microseconds
 _D = _B = _I = ctypes.c_void_p
@@ -444,3 +444,19 @@ def _with_diagnostics(base: type[CompiledObserver]) -> type[CompiledObserver]:
                                         "__doc__": f"A {base.__name__.lstrip('_')} that records the Python "
                                                    "observer's diagnostics."})
     return cls
+
+
+def compile_gnss_ins(observer: Any, *, imu_period: float, prefix: str | None = None, compiler: Any = None,
+                     notes: tuple[tuple[str, str], ...] = ()) -> Any:
+    """:func:`~nlobs.export.compiled.compile_observer` of observer (24) for a given nominal IMU period.
+
+    Parameters
+    ----------
+    observer : GnssInsObserver or ScheduledGnssInsObserver
+    imu_period : float
+        ``h₀`` [s] (see :func:`nlobs.export.gnss_ins.generate_gnss_ins`).
+    prefix, compiler, notes
+        As :func:`~nlobs.export.compiled.compile_observer`.
+    """
+    return compile_observer(observer, prefix=prefix, compiler=compiler, notes=notes,
+                            options={"imu_period": imu_period})

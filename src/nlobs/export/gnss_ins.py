@@ -51,7 +51,7 @@ from nlobs.export.cprint import c_double, comment, matrix_literal
 from nlobs.export.pieces import matrix_note
 from nlobs.export.program import CProgram, StateCodec
 
-__all__ = ["DEFAULT_IMU_PERIOD", "IMU_PERIOD_RTOL", "compile_gnss_ins", "generate_gnss_ins", "gnss_ins_codec"]
+__all__ = ["DEFAULT_IMU_PERIOD", "IMU_PERIOD_RTOL", "generate_gnss_ins", "gnss_ins_codec"]
 
 #: The nominal IMU period when neither the call nor the observer gives one: the paper's 100 Hz.
 DEFAULT_IMU_PERIOD = 0.01
@@ -624,21 +624,3 @@ def _notes(observer: Any, base: Any, modes: tuple[Any, ...], times: tuple[float,
         lam = np.linalg.eigvalsh(np.asarray(base.Gamma, dtype=float))
         notes.append(("Gamma eigenvalues", ", ".join(f"{v:.17g}" for v in lam)))
     return tuple(notes)
-
-
-def compile_gnss_ins(observer: Any, *, imu_period: float, prefix: str | None = None, compiler: Any = None,
-                     notes: tuple[tuple[str, str], ...] = ()) -> Any:
-    """:func:`~nlobs.export.compiled.compile_observer` of observer (24) for a given nominal IMU period.
-
-    Parameters
-    ----------
-    observer : GnssInsObserver or ScheduledGnssInsObserver
-    imu_period : float
-        ``h₀`` [s] (see :func:`generate_gnss_ins`).
-    prefix, compiler, notes
-        As :func:`~nlobs.export.compiled.compile_observer`.
-    """
-    from nlobs.export.compiled import compile_observer
-
-    return compile_observer(observer, prefix=prefix, compiler=compiler, notes=notes,
-                            options={"imu_period": imu_period})
