@@ -213,7 +213,7 @@ static void {P}_estimate_(const double *z, double *xhat)
 
 
 def design_notes(design: Any) -> tuple[tuple[str, str], ...]:
-    """Header lines for the certificate of a :class:`~nlobs.workflows.design_cascade.CascadeDesign`.
+    """Header lines for the certificate of a :class:`~nlobs.methods.cascade.CascadeDesign`.
 
     Parameters
     ----------

@@ -76,6 +76,11 @@ class Design:
         The method's full design report (what ``nlobs design`` prints), when it has one.
     warnings : tuple of str
         What a user should know before trusting a run (e.g. states a filter cannot see).
+    theorem : str
+        What the certificate rests on, with the paper and its numbers (``"Dalla Mora, Germani & Manes,
+        Theorem 3.1 on [-1, 1] × [-1, 1]"``); empty for a method without one.
+    details : tuple of str
+        More lines for a generated module's header (a bound's constants, the gain's notes).
     """
 
     method: str
@@ -92,6 +97,8 @@ class Design:
     coverage_extras: Mapping[str, Any] = field(default_factory=dict)
     report: Any = field(default=None, repr=False)
     warnings: tuple[str, ...] = ()
+    theorem: str = ""
+    details: tuple[str, ...] = ()
 
     @property
     def usable(self) -> bool:

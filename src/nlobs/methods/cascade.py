@@ -492,9 +492,13 @@ def cascade_design(d: CascadeDesign, problem: Problem | None = None, *, gamma_gi
     parameters = {"gamma": d.gamma, "gain_method": d.method, "theorem1_gamma": t1.bound, "hinf_H": t1.hinf_H}
     sources = {"gamma": "given" if gamma_given else ("[cascade] gamma" if cm.gamma is not None else "default"),
                "gain_method": "given" if gain_method_given else ("[cascade] method" if cm.method else "default")}
+    from nlobs.export.cascade import design_notes
+
     return Design("cascade", d.observer(), d.certificate, tuple(premises), unchecked, parameters, sources, desc,
                   gain=K, failed=failed, hypotheses=hyps,
-                  coverage_extras={"hinf_H": t1.hinf_H, "theorem1_gamma": t1.bound}, report=d)
+                  coverage_extras={"hinf_H": t1.hinf_H, "theorem1_gamma": t1.bound}, report=d,
+                  theorem="Grip, Saberi & Johansen, LMI (14) and Theorem 1",
+                  details=tuple(f"{k}: {v}" for k, v in design_notes(d)))
 
 
 #: The cascade method of the registry.

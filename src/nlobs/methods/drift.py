@@ -403,7 +403,8 @@ class DriftMethod:
         return Design(self.name, rep.observer(on_singular=on_singular, saturation=saturation), cert, premises, (),
                       parameters, sources, desc, gain=cert.gain, failed=failed, hypotheses=tuple(hyps),
                       coverage_extras={"region": where, "mu": cert.constants.mu}, report=rep,
-                      warnings=tuple(rep.warnings))
+                      warnings=tuple(rep.warnings), theorem=f"Dalla Mora, Germani & Manes, Theorem 3.1 on {where}",
+                      details=(f"bound (3.2): {rep.bound.describe()}",))
 
 
 #: The drift method of the registry.

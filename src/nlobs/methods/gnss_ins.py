@@ -247,9 +247,12 @@ class GnssInsMethod:
             f"; attitude gain {schedule.describe()}" if schedule is not None else "")
         parameters = {"gamma": cert.gamma, "imu_period": 1.0 / config.imu_rate_hz,
                       "gnss_period": 1.0 / config.gnss_rate_hz}
+        details = ((f"attitude gain: {schedule.describe()}",) if schedule is not None else ()) + (
+            f"IMU period {parameters['imu_period']:g} s (the module refuses another step length)",)
         return Design(self.name, obs, cert, tuple(cert.checks), (), parameters, {"gamma": "default"}, desc,
                       gain=cert.gain, failed=() if cert.verified else ("the gain's certificate failed",),
-                      report=schedule)
+                      report=schedule, theorem="Grip, Fossen, Johansen & Saberi (24), the demo's noise-optimal "
+                                               "certified gains", details=details)
 
 
 #: The GNSS/INS method of the registry.

@@ -119,7 +119,7 @@ class LuenbergerMethod:
         parameters: dict[str, Any] = {"alpha": a, "gamma": LUENBERGER_GAMMA, "x0": x0.tolist(), "u0": u0.tolist()}
         sources = {"alpha": "given" if alpha is not None else "default", "x0": problem.sources.get("x0", "given")}
         return Design(self.name, obs, cert, premises, (), parameters, sources, desc, gain=L, failed=failed,
-                      hypotheses=hyps, report=cert)
+                      hypotheses=hyps, report=cert, theorem="Grip, Saberi & Johansen, LMIs (14), (15)")
 
 
 #: The Luenberger method of the registry.

@@ -340,7 +340,8 @@ class PinvMethod:
             f" (θ = {rep.theta:g}, {rep.placement})" if rep.theta is not None else " (given)")
         return Design(self.name, obs, None, premises, unchecked, parameters, sources, desc,
                       gain=np.asarray(rep.k, dtype=float), failed=tuple(failed), hypotheses=hyps,
-                      coverage_extras={"region": where}, report=rep)
+                      coverage_extras={"region": where}, report=rep,
+                      theorem=f"Röbenack, Theorem 4.1 / Corollary 4.1 on {where}")
 
 
 #: The Moore–Penrose method of the registry.

@@ -258,7 +258,9 @@ class SetValuedMethod:
                       "steady_radius": d.steady_radius}
         return Design(self.name, SetValuedObserver(m.system, d), d, tuple(d.checks), (), parameters,
                       {"objective": "given" if objective != "radius" else "default"}, description,
-                      gain=d.gain, failed=failed, report=rep)
+                      gain=d.gain, failed=failed, report=rep,
+                      theorem="Khajenejad & Yong, observer (10)-(15), Algorithm 1, with nlobs's sound design and radius "
+                              "recursion")
 
 
 #: The set-valued method of the registry.

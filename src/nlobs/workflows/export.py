@@ -94,18 +94,7 @@ def _certificate_text(design: Any, title: str) -> str:
         lines.append(design.certificate.summary())
     lines += [f"{p.name}: {'passed' if p.passed else 'FAILED'}: {p.evidence}" for p in design.premises]
     lines += [f"{u}: not checked" for u in design.unchecked]
-    report = design.report
-    if design.method == "drift":
-        lines.append(f"bound (3.2): {report.bound.describe()}")
-    elif design.method == "cascade":
-        from nlobs.export.cascade import design_notes
-
-        lines += [f"{k}: {v}" for k, v in design_notes(report)]
-    elif design.method == "gnss-ins":
-        if report is not None:
-            lines.append(f"attitude gain: {report.describe()}")
-        lines.append(f"IMU period {design.parameters['imu_period']:g} s (the module refuses another step length)")
-    return "\n".join(lines)
+    return "\n".join([*lines, *design.details])
 
 
 def _method_design(method: Any, pb: Any, options: dict[str, Any], saturation: bool | None) -> tuple[Any, bool, str, str, Any]:
@@ -123,15 +112,7 @@ def _method_design(method: Any, pb: Any, options: dict[str, Any], saturation: bo
     elif saturation is not None:
         raise InvalidArgumentError(f"`saturation` does not apply to the {method.name} observer")
     design = method.design(pb, **options)
-    where = pb.region.describe() if method.uses_region else ""
-    title = {"drift": f"Dalla Mora, Germani & Manes, Theorem 3.1 on {where}",
-             "pinv": f"Röbenack, Theorem 4.1 / Corollary 4.1 on {where}",
-             "cascade": "Grip, Saberi & Johansen, LMI (14) and Theorem 1",
-             "luenberger": "Grip, Saberi & Johansen, LMIs (14), (15)",
-             "setvalued": "Khajenejad & Yong, observer (10)-(15), Algorithm 1, with nlobs's sound design and radius "
-                          "recursion",
-             "gnss-ins": "Grip, Fossen, Johansen & Saberi (24), the demo's noise-optimal certified gains"}.get(
-                 method.name, method.title)
+    title = design.theorem or method.title
     why_not = "" if design.certified else design.status
     return design.observer, design.certified, _certificate_text(design, title), why_not, design
 
