@@ -179,6 +179,7 @@ def test_an_unobservable_model_skips_the_designs_that_need_observability_and_war
     code, s = _json(["simulate", str(p), "--json"])
     assert code == 0, s
     obs = s["observers"]
+    assert s["unobservable"] == ["R"]
     assert "unobservable direction: R" in obs["drift"]["skipped"]
     # Röbenack's observer needs A1 (a defined relative degree), not observability: its zero dynamics are unobservable
     assert "relative degree" in obs["pinv"]["skipped"]

@@ -229,6 +229,9 @@ class ComparisonReport:
         The model file's tables the runs were made from (not part of :meth:`to_dict`).
     plant : Any
         The compiled plant that was simulated (not part of :meth:`to_dict`).
+    unobservable : tuple of str
+        The directions the outputs cannot see (:func:`nlobs.geometry.unobservable.unobservable_directions`:
+        a state's name, or a combination of states); empty for an observable model.
     """
 
     model: str
@@ -248,6 +251,7 @@ class ComparisonReport:
     message: str
     scenario: Scenario | None = None
     plant: Any = None
+    unobservable: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -255,6 +259,7 @@ class ComparisonReport:
             "seed": self.seed, "duration": self.duration, "dt": self.dt, "settle": self.settle,
             "time_unit": self.time_unit, "x0": list(self.x0),
             "setup": dict(self.setup), "observers": {k: v.to_dict() for k, v in self.observers.items()},
+            "unobservable": list(self.unobservable),
             "files": [str(f) for f in self.files],
         }
 
@@ -772,6 +777,12 @@ def _failed(name: str, desc: str, s: _Setup, reason: str) -> ObserverOutcome:
                            run_rms=np.full(s.runs, np.nan))
 
 
+def _unobservable(s: _Setup) -> tuple[str, ...]:
+    """The unobservable directions of the comparison's model (computed once per problem; the designs ask it too)."""
+    u = s.problem.observability
+    return tuple(u.directions) if u is not None and u.rank is not None and not u.observable else ()
+
+
 def _report(s: _Setup, outcomes: dict[str, ObserverOutcome], files: tuple[Path, ...]) -> ComparisonReport:
     ran = [o for o in outcomes.values() if o.skipped is None]
     if not ran:
@@ -787,5 +798,5 @@ def _report(s: _Setup, outcomes: dict[str, ObserverOutcome], files: tuple[Path, 
         runs=s.runs, seed=s.seed, duration=s.duration, dt=s.dt, settle=s.settle,
         time_unit=s.scenario.time_unit, x0=tuple(float(v) for v in s.x0),
         setup=s.describe, observers=outcomes, files=files, verdict=verdict, message=msg, scenario=s.scenario,
-        plant=s.plant)
+        plant=s.plant, unobservable=_unobservable(s))
 

@@ -70,6 +70,9 @@ def states_figure(report: ComparisonReport, scenario: Scenario, plant: Any = Non
             xh = o.result.x_hat[0, :, i]
             ax.plot(t, np.where(np.isfinite(xh), xh, np.nan), ls="--", lw=1.2, color=colors[o.name], label=o.name)
         ax.set_ylabel(scenario.label(name))
+        if name in report.unobservable:
+            ax.set_title(f"{name} is not observable from the outputs: every estimate of it runs open loop",
+                         fontsize="small", loc="left")
         lo, hi = np.nanmin(x[:, i]), np.nanmax(x[:, i])
         pad = 0.5 * max(hi - lo, 1e-9) + 1e-9
         ax.set_ylim(lo - pad, hi + pad)  # estimates that run away do not flatten the truth
