@@ -729,8 +729,11 @@ def _design(name: str, s: _Setup, options: Mapping[str, Any]) -> Design | str:
         design = method.design(s.problem, **options)
     except (ModelError, AssumptionViolated, DesignError) as exc:
         return str(exc)
-    except InvalidArgumentError as exc:
+    except NlobsError as exc:  # a bad option (the design's own failures are caught above)
         given = set(options) - _DEFAULT_KEYS.get(name, set())
+        text = str(exc).replace("`", "")
+        if any(text.startswith((f"{k}:", f"{k.rpartition('_')[2]}:")) for k in given):  # a design option given
+            raise InvalidArgumentError(f"`design_options` {name}: {text}") from exc
         if any(f"`{k}`" in str(exc) for k in given):  # a design option the caller gave: named with its method
             raise InvalidArgumentError(f"`design_options` {name}: {str(exc).replace('`', '')}") from exc
         raise
