@@ -50,6 +50,9 @@ def _inputs(values: list[str] | None) -> dict[str, str] | None:
 
 def _value(text: str) -> object:
     """A design option's value: a number, numbers separated by commas, or a word (``sdp``, ``powers``)."""
+    word = text.strip().lower()
+    if word in ("on", "true", "yes", "off", "false", "no"):
+        return word in ("on", "true", "yes")
     parts = [p.strip() for p in text.split(",")]
     try:
         nums: list[float | int] = [int(p) if p.lstrip("+-").isdigit() else float(p) for p in parts]
@@ -105,7 +108,7 @@ def compare_cmd(
         "--process-noise", help="Process-noise std per state [unit/√s] (replaces [process_noise]).")] = None,
     filter_q: Annotated[str | None, typer.Option(
         "--filter-q", help="EKF/UKF process-noise std per state (default: the process noise).")] = None,
-    alpha: Annotated[float, typer.Option(help="Luenberger gain: poles left of −alpha.")] = 1.0,
+    alpha: Annotated[float | None, typer.Option(help="Luenberger gain: poles left of −alpha (default 1).")] = None,
     option: Annotated[list[str] | None, typer.Option(
         "--option", help="A method's design option, METHOD.KEY=VALUE, repeatable (e.g. drift.mu=2, drift.alpha=0.5, "
                          "pinv.theta=3, cascade.gamma=0.5, ekf.filter_q=0.01,0.01): the options of nlobs design and "

@@ -79,6 +79,8 @@ def export_cmd(
     from nlobs.cli.compare import design_options
 
     for key, value in (design_options([f"{observer}.{o}" for o in option or ()]) or {}).get(observer, {}).items():
+        if key in ("saturation", "prefix", "box", "lang", "out", "observer", "model"):
+            fail(f"--option {key}: give it as --{key}")
         if key in options:
             fail(f"--option {key}: given twice (also as its own flag)")
         options[key] = value

@@ -558,7 +558,7 @@ def compare_observers(
     inputs: Mapping[str, Any] | None = None,
     process_noise: ArrayLike | None = None,
     filter_q: ArrayLike | None = None,
-    alpha: float = 1.0,
+    alpha: float | None = None,
     design_options: Mapping[str, Mapping[str, Any]] | None = None,
     progress: bool | None = None,
     name: str | None = None,
@@ -601,8 +601,8 @@ def compare_observers(
         Per-state standard deviations or an ``(n, n)`` covariance, replacing ``[process_noise]``.
     filter_q : array_like, optional
         The Kalman filters' ``Q`` (std per state or covariance), instead of the process noise.
-    alpha : float
-        Decay rate of the Luenberger gain's region ``Re λ < −α``.
+    alpha : float, optional
+        Decay rate of the Luenberger gain's region ``Re λ < −α`` (default: the method's, 1).
     design_options : mapping of str to mapping, optional
         Design options per method, by name (``{"drift": {"mu": 2.0}, "pinv": {"theta": 3.0}}``): each
         method's own options (:attr:`~nlobs.methods.base.Method.options`), over the comparison's defaults.
@@ -651,7 +651,7 @@ def compare_observers(
             raise UnknownNameError(f"`observers`: unknown observer {o!r} (known: {', '.join(OBSERVERS)})")
     if len(set(chosen)) != len(chosen):
         raise InvalidArgumentError(f"`observers`: {', '.join(chosen)} names an observer twice")
-    alpha = positive("`alpha`", alpha)
+    alpha = None if alpha is None else positive("`alpha`", alpha)
     if backend not in BACKENDS:
         raise InvalidArgumentError(f"`backend`: expected one of {', '.join(BACKENDS)}, got {backend!r}")
     options = _all_options(chosen, alpha, filter_q, design_options)
@@ -700,7 +700,7 @@ def _all_options(chosen: Sequence[str], alpha: float, filter_q: ArrayLike | None
                                    f"compared ({', '.join(chosen)})")
     out: dict[str, dict[str, Any]] = {}
     for name in chosen:
-        base: dict[str, Any] = {"drift": {"on_singular": "nan"}, "luenberger": {"alpha": alpha},
+        base: dict[str, Any] = {"drift": {"on_singular": "nan"}, "luenberger": {} if alpha is None else {"alpha": alpha},
                                 "ekf": {"filter_q": filter_q}, "ukf": {"filter_q": filter_q}}.get(name, {})
         extra = dict(given.get(name, {}))
         method = get_method(name)
@@ -737,6 +737,11 @@ def _design(name: str, s: _Setup, options: Mapping[str, Any]) -> Design | str:
         if any(f"`{k}`" in str(exc) for k in given):  # a design option the caller gave: named with its method
             raise InvalidArgumentError(f"`design_options` {name}: {str(exc).replace('`', '')}") from exc
         raise
+    except (TypeError, ValueError) as exc:  # a value the method could not even read (NumPy's conversions)
+        given = set(options) - _DEFAULT_KEYS.get(name, set())
+        if not given:
+            raise
+        raise InvalidArgumentError(f"`design_options` {name}: {', '.join(sorted(given))}: {exc}") from exc
     if not design.usable:
         return "; ".join(design.failed)
     return design

@@ -25,7 +25,7 @@ import numpy as np
 from nlobs._typing import Array
 from nlobs._validate import positive, readonly
 from nlobs.checks import Check, CheckKind
-from nlobs.errors import AssumptionViolated, DesignInfeasible, ModelError, NlobsError
+from nlobs.errors import InvalidArgumentError, AssumptionViolated, DesignInfeasible, ModelError, NlobsError
 from nlobs.geometry.checks import check_drift_observability, check_s_le_r, default_multi_index
 from nlobs.geometry.lipschitz import LipschitzEstimates, lipschitz_estimates
 from nlobs.geometry.observability import (
@@ -366,6 +366,8 @@ class DriftMethod:
         AssumptionViolated, DesignInfeasible
             As :func:`design_drift_report`.
         """
+        if not isinstance(saturation, bool):
+            raise InvalidArgumentError(f"`saturation`: expected on or off (a bool), got {saturation!r}")
         why = self.applies(problem)
         if why is not None:
             # no observer (3.1) for this model: an unobservable model is an assumption that fails, not bad input

@@ -137,13 +137,25 @@ class KalmanMethod:
         n = model.n
         R = measurement_covariance(model, problem.sensors)
         if filter_q is not None:
-            Q, q_text = noise_matrix("filter_q", filter_q, n), "given"
+            try:
+                Q, q_text = noise_matrix("`filter_q`", np.asarray(filter_q, dtype=float), n), "given"
+            except (TypeError, ValueError) as exc:
+                if isinstance(exc, NlobsError):
+                    raise
+                raise InvalidArgumentError(f"`filter_q`: expected numbers, got {filter_q!r}") from None
         elif problem.process_noise is not None and np.any(problem.process_noise):
             Q, q_text = np.asarray(problem.process_noise, dtype=float), "the process noise"
         else:
             Q, q_text = DEFAULT_FILTER_Q * np.eye(n), f"{DEFAULT_FILTER_Q:g} I (no process noise given)"
-        std = np.maximum(0.1 * np.maximum(1.0, np.abs(problem.x0)), 0.0) if p0_std is None else \
-            np.broadcast_to(np.asarray(p0_std, dtype=float), (n,))
+        file_std = problem.scenario.defaults.initial_error_std
+        default_std = np.asarray(file_std, dtype=float) if file_std is not None else 0.1 * np.maximum(
+            1.0, np.abs(problem.x0))
+        try:
+            std = default_std if p0_std is None else np.broadcast_to(np.asarray(p0_std, dtype=float), (n,))
+        except (TypeError, ValueError):
+            raise InvalidArgumentError(f"`p0_std`: expected {n} standard deviations (or one), got {p0_std!r}") from None
+        if not np.all(np.isfinite(std)) or np.any(std <= 0):
+            raise InvalidArgumentError(f"`p0_std`: expected {n} finite, positive standard deviations, got {std.tolist()}")
         P0 = np.diag(std**2)
         cls = EKFObserver if self.name == "ekf" else UKFObserver
         plant = model.compile() if isinstance(model, SymbolicModel) else model

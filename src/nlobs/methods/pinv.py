@@ -26,7 +26,7 @@ import sympy as sp
 from numpy.typing import ArrayLike
 
 from nlobs.checks import Check, CheckKind
-from nlobs.errors import ModelError
+from nlobs.errors import InvalidArgumentError, ModelError
 from nlobs.geometry.checks import observability_rank
 from nlobs.geometry.lie import lie_derivative
 from nlobs.geometry.region import Box
@@ -307,6 +307,8 @@ class PinvMethod:
         AssumptionViolated
             A1 fails on the region (no ``Q⁺`` exists).
         """
+        if not isinstance(saturation, bool):
+            raise InvalidArgumentError(f"`saturation`: expected on or off (a bool), got {saturation!r}")
         why = self.applies(problem)
         if why is not None:
             raise ModelError(why)
@@ -328,7 +330,7 @@ class PinvMethod:
             obs = obs.with_saturation(obs.region)
         parameters: dict[str, Any] = {
             "region": [[float(a), float(b)] for a, b in zip(problem.region.lower, problem.region.upper)],
-            "k": list(rep.k), "theta": rep.theta, "placement": rep.placement, "saturation": saturation}
+            "k": list(rep.k), "theta": rep.theta, "placement": rep.placement}
         sources = {"region": problem.sources.get("region", "given"),
                    "theta": "given" if k is not None or (theta is not None and theta != DEFAULT_THETA) else "default"}
         exact, what = problem.exact

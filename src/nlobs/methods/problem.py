@@ -194,7 +194,10 @@ def input_bound(u: Any, duration: float, m: int) -> float:
         return 0.0
     if not callable(u):
         return float(np.linalg.norm(np.asarray(u, dtype=float)))
-    ts = np.linspace(0.0, float(duration), INPUT_BOUND_SAMPLES)
+    # evenly spaced instants, and as many at the golden-ratio sequence: a periodic input cannot alias to ~0 on both
+    k = np.arange(INPUT_BOUND_SAMPLES - 1)
+    ts = np.concatenate([np.linspace(0.0, float(duration), INPUT_BOUND_SAMPLES),
+                         float(duration) * np.mod(0.5 + k * 0.6180339887498949, 1.0)])
     values = np.stack([np.asarray(u(float(t)), dtype=float).reshape(m) for t in ts])
     return float(np.max(np.linalg.norm(values, axis=-1)))
 

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from nlobs._io import with_schema
-from nlobs.errors import InvalidArgumentError
+from nlobs.errors import InvalidArgumentError, NlobsError
 from nlobs.methods.registry import names
 from nlobs.workflows.verdict import Verdict
 
@@ -177,7 +177,14 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
     else:
         pb = problem(model, box=box)
         name = pb.model.name
-    obs, certified, text, why, design = _method_design(method, pb, dict(options), saturation)
+    try:
+        obs, certified, text, why, design = _method_design(method, pb, dict(options), saturation)
+    except NlobsError:
+        raise
+    except (TypeError, ValueError) as exc:  # a given option's value the method could not read
+        if not options:
+            raise
+        raise InvalidArgumentError(f"{', '.join(sorted(options))}: {exc}") from exc
     notes = (("certificate", ("verified" if certified else "NOT CERTIFIED") + (f" ({why})" if why else "")),
              ("certified on", text))
     c_options = {"imu_period": design.parameters["imu_period"]} if observer == "gnss-ins" else None
