@@ -10,7 +10,9 @@
   ``setvalued.py``);
 * :class:`EKF` and :class:`UKF` — the extended (Jazwinski) and unscented (Särkkä; Julier & Uhlmann)
   Kalman filters for any plant, continuous-discrete or discrete (``ekf.py``, ``ukf.py``, their shared
-  state and correction in ``gaussian.py``).
+  state and correction in ``gaussian.py``);
+* :class:`OutputPredictor` — any continuous observer on sampled outputs, with the inter-sample output
+  predictor of Karafyllis & Kravaris (2009) (``sampled.py``).
 """
 
 from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
@@ -22,6 +24,7 @@ from nlobs.observers.kalman import GaussianState, UnknownInputEKF, joseph_update
 from nlobs.observers.lipschitz import DiscreteLipschitzObserver
 from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
 from nlobs.observers.pinv import AssumptionWarning, ByrnesIsidoriObserver, PinvObserver
+from nlobs.observers.sampled import OutputPredictor, with_predictor
 from nlobs.observers.setvalued import (
     GivenGain,
     Radii,
@@ -49,6 +52,7 @@ __all__ = [
     "GivenGain",
     "LuenbergerObserver",
     "Observer",
+    "OutputPredictor",
     "PinvObserver",
     "Radii",
     "RadiusRecursion",
@@ -61,4 +65,5 @@ __all__ = [
     "input_error_map",
     "joseph_update",
     "sound_radii",
+    "with_predictor",
 ]

@@ -11,6 +11,8 @@ The hypotheses:
 
 * :class:`InRegion` — the state (``which="state"``) or the estimate (``"estimate"``) inside a box;
 * :class:`InputBound` — ``‖u(t)‖ ≤ μ``;
+* :class:`InputRange` — each input channel within ``[lower, upper]`` (the input range a Jacobian box was
+  estimated on);
 * :class:`Condition` — a condition evaluated at every saved instant of every run as a margin
   (``≥ 0``: holds), e.g. the function class of a set-valued design on the pairs ``(x_k, x̂_k)`` the
   runs visit (Khajenejad & Yong, Definition 2.6), or a floating-point round-off bound;
@@ -35,7 +37,7 @@ from nlobs._typing import Array
 from nlobs.errors import InvalidArgumentError
 from nlobs.simulate.result import SimulationResult
 
-__all__ = ["Condition", "Coverage", "InRegion", "InputBound", "Premise", "Violation", "monitor"]
+__all__ = ["Condition", "Coverage", "InRegion", "InputBound", "InputRange", "Premise", "Violation", "monitor"]
 
 
 @dataclass(frozen=True)
@@ -148,6 +150,48 @@ class InputBound:
 
 
 @dataclass(frozen=True)
+class InputRange:
+    """Each channel of the known input within ``[lower, upper]`` (where a design's Jacobian bounds hold).
+
+    Parameters
+    ----------
+    lower, upper : array, shape (m,)
+        The range per channel.
+    names : tuple of str
+        The input names (for the detail of a violation).
+    rtol : float
+        Relative tolerance (of the range's scale).
+    """
+
+    lower: Array
+    upper: Array
+    names: tuple[str, ...] = ()
+    rtol: float = 1e-9
+
+    @property
+    def name(self) -> str:
+        return "input in the range " + " × ".join(f"[{a:.4g}, {b:.4g}]" for a, b in zip(self.lower, self.upper))
+
+    def first(self, result: SimulationResult, u: Array | None) -> tuple[Array, list[str]]:
+        nruns = max(1, result.n_runs)
+        times = np.full(nruns, math.nan)
+        details = [""] * nruns
+        lo, hi = np.asarray(self.lower, dtype=float), np.asarray(self.upper, dtype=float)
+        if u is None or u.size == 0 or lo.size == 0:
+            return times, details
+        tol = self.rtol * np.maximum(1.0, np.maximum(np.abs(lo), np.abs(hi)))
+        uu = u if u.ndim == 3 else np.broadcast_to(u, (nruns, *u.shape[-2:]))
+        out = ((uu < lo - tol) | (uu > hi + tol)).any(axis=-1)
+        for i in np.flatnonzero(out.any(axis=-1)):
+            k = int(np.argmax(out[i]))
+            j = int(np.argmax((uu[i, k] < lo - tol) | (uu[i, k] > hi + tol)))
+            name = self.names[j] if j < len(self.names) else f"u[{j}]"
+            times[i] = result.t[k]
+            details[i] = f"{name} = {uu[i, k, j]:.4g} outside [{lo[j]:.4g}, {hi[j]:.4g}]"
+        return times, details
+
+
+@dataclass(frozen=True)
 class Premise:
     """A hypothesis the whole set-up satisfies or not (``holds=False``: every run violates it, from t0).
 
@@ -203,7 +247,7 @@ class Condition:
         return times, details
 
 
-Hypothesis = InRegion | InputBound | Condition | Premise
+Hypothesis = InRegion | InputBound | InputRange | Condition | Premise
 
 
 @dataclass(frozen=True, eq=False)
@@ -305,9 +349,9 @@ def monitor(result: SimulationResult, hypotheses: Sequence[Hypothesis], *,
             if not h.holds:
                 failed.append(f"{h.name}: {h.reason}" if h.reason else h.name)
             continue
-        if not isinstance(h, (InRegion, InputBound, Condition)):
+        if not isinstance(h, (InRegion, InputBound, InputRange, Condition)):
             raise InvalidArgumentError(
-                f"hypotheses: expected InRegion, InputBound, Condition or Premise, got {type(h).__name__}")
+                f"hypotheses: expected InRegion, InputBound, InputRange, Condition or Premise, got {type(h).__name__}")
         times, details = h.first(result, u_arr)
         for i in np.flatnonzero(np.isfinite(times)):
             if times[i] < first_t[i]:

@@ -1,0 +1,239 @@
+"""Sampled outputs: the inter-sample output predictor, the sampling budget and the mean-square bound.
+
+Independent sources: the exact one-period map of a linear error system with the predictor (a matrix
+exponential, SciPy), closed forms of scalar systems, and Monte Carlo simulation.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scipy.linalg as sl
+
+from nlobs.errors import InvalidArgumentError, NonFiniteError
+from nlobs.geometry.jacobian_box import MARGIN, jacobian_box
+from nlobs.geometry.region import Box
+from nlobs.observers import LuenbergerObserver, OutputPredictor
+from nlobs.simulate import simulate
+from nlobs.simulate.sampling import MeasurementGroup
+from nlobs.synthesis.sampled_data import GroupNoise, sampled_data_bound, verify_sampled_data_bound
+from nlobs.synthesis.thau_gain import certified_decay, certify_thau_gain, design_thau_gain, verify_thau_gain
+from nlobs.systems import LinearSystem
+
+A = np.array([[0.0, 1.0], [-2.0, -0.3]])
+B = np.array([[0.0], [1.0]])
+C = np.array([[1.0, 0.0]])
+L = np.array([[6.0], [20.0]])
+
+
+def _one_period(A_: np.ndarray, C_: np.ndarray, L_: np.ndarray, T: float) -> np.ndarray:
+    """``e(t_k + T) = M e(t_k)`` for the predictor: ``ė = (A − LC)e + Lδ``, ``δ̇ = CAe``, ``δ(t_k) = 0``."""
+    n, p = A_.shape[0], C_.shape[0]
+    big = np.block([[A_ - L_ @ C_, L_], [C_ @ A_, np.zeros((p, p))]])
+    return sl.expm(big * T)[:n, :n]
+
+
+def _exact_limit(A_: np.ndarray, C_: np.ndarray, L_: np.ndarray) -> float:
+    """The first period at which the exact one-period map stops contracting (a fine scan)."""
+    for T in np.linspace(1e-3, 5.0, 5000):
+        if max(abs(np.linalg.eigvals(_one_period(A_, C_, L_, T)))) >= 1:
+            return float(T)
+    return math.inf
+
+
+def _lyapunov_bound(A_: np.ndarray, C_: np.ndarray, L_: np.ndarray, T: float, R: float = 0.0,
+                    process: np.ndarray | None = None, p0: np.ndarray | None = None):
+    Acl = A_ - L_ @ C_
+    P = sl.solve_continuous_lyapunov(Acl.T, -np.eye(A_.shape[0]))
+    alpha = certified_decay(P, L_, [(A_, C_)])
+    w, V = np.linalg.eigh(P)
+    ell = float(np.linalg.norm(C_ @ A_ @ (V / np.sqrt(w)) @ V.T, 2))
+    q = 0.0
+    if process is not None:
+        S = (V * np.sqrt(w)) @ V.T
+        q = float(np.linalg.norm(S @ L_ @ C_ @ np.sqrt(process), "fro") ** 2)
+    g = GroupNoise("s", (0,), T, np.array([[R]]), ell, q)
+    return sampled_data_bound(P, L_, alpha, [g], process=process, p0=p0)
+
+
+# ------------------------------------------------------------------ the predictor
+def test_the_predictor_converges_where_the_held_sample_leaves_an_error_of_order_T() -> None:
+    sys_ = LinearSystem(A, B, C)
+    obs = LuenbergerObserver(sys_, L)
+    u = lambda t: np.array([np.sin(t)])  # noqa: E731
+    out = {}
+    for T in (0.05, 0.2):
+        group = MeasurementGroup("s", outputs=[0], rate=1 / T, noise_std=0.0)
+        for name, o in (("hold", obs), ("predictor", OutputPredictor(obs, sys_))):
+            r = simulate(sys_, o, np.array([1.0, 0.0]), np.zeros(2), duration=10.0, dt=0.005, u=u,
+                         measurements=[group])
+            out[name, T] = float(np.abs(r.x_hat - r.x)[-200:].max())
+    assert out["predictor", 0.05] < 1e-8 and out["predictor", 0.2] < 1e-5
+    assert out["hold", 0.05] > 1e-2 and out["hold", 0.2] > 3 * out["hold", 0.05]  # grows with T
+
+
+def test_the_predictor_contracts_by_the_exact_one_period_map() -> None:
+    """Noise-free, no input: the error at the samples follows e_{k+1} = M(T) e_k, M from a matrix exponential."""
+    sys_ = LinearSystem(A, B, C)
+    T, dt = 0.2, 0.001
+    r = simulate(sys_, OutputPredictor(LuenbergerObserver(sys_, L), sys_), np.array([1.0, -0.5]), np.zeros(2),
+                 duration=1.0, dt=dt, u=np.zeros(1), measurements=[MeasurementGroup("s", outputs=[0], rate=1 / T, noise_std=0.0)])
+    e = r.x_hat - r.x
+    k = int(round(T / dt))
+    M = _one_period(A, C, L, T)
+    for j in range(4):
+        assert np.allclose(e[(j + 1) * k], M @ e[j * k], rtol=1e-7, atol=1e-10)
+
+
+def test_a_missing_sample_keeps_the_prediction_running() -> None:
+    sys_ = LinearSystem(A, B, C)
+    pred = OutputPredictor(LuenbergerObserver(sys_, L), sys_)
+    z = pred.init(np.array([[0.3, 0.1]]))
+    z1 = pred.correct(0.0, z, np.zeros((1, 1)), np.array([[np.nan]]), np.array([True]))
+    assert np.array_equal(z1, z)
+    z2 = pred.correct(0.0, z, np.zeros((1, 1)), np.array([[0.7]]), np.array([True]))
+    assert z2[0, -1] == 0.7 and np.array_equal(z2[0, :2], z[0, :2])
+
+
+def test_the_predictor_refuses_a_filter_and_a_discrete_observer() -> None:
+    from nlobs.observers import EKF
+
+    sys_ = LinearSystem(A, B, C)
+    with pytest.raises(InvalidArgumentError, match="corrects at samples"):
+        OutputPredictor(EKF(sys_, Q=np.eye(2), R=np.eye(1), P0=np.eye(2)), sys_)
+    from nlobs.systems import Discrete
+
+    disc = LinearSystem(np.eye(2) * 0.5, B, C, time=Discrete(0.1))
+    with pytest.raises(InvalidArgumentError, match="discrete"):
+        OutputPredictor(LuenbergerObserver(disc, np.array([[0.1], [0.1]])), disc)
+
+
+# ------------------------------------------------------------------ the sampling budget
+@pytest.mark.parametrize("seed", range(6))
+def test_t_max_is_below_the_exact_limit_of_the_one_period_map(seed: int) -> None:
+    """The certificate is sufficient: at T_max the exact sampled error system still contracts."""
+    rng = np.random.default_rng(seed)
+    n = 3
+    A_ = rng.normal(size=(n, n))
+    C_ = rng.normal(size=(1, n))
+    poles = -rng.uniform(0.5, 3.0, n)
+    import scipy.signal as ss
+
+    L_ = ss.place_poles(A_.T, C_.T, poles).gain_matrix.T
+    b = _lyapunov_bound(A_, C_, L_, 0.0)
+    t_max = b.t_max[0]
+    assert 0 < t_max < _exact_limit(A_, C_, L_)
+    assert max(abs(np.linalg.eigvals(_one_period(A_, C_, L_, t_max)))) < 1
+
+
+def test_the_budget_decides_and_says_by_how_much() -> None:
+    ok = _lyapunov_bound(A, C, L, 0.005)
+    assert ok.verified and ok.budget == pytest.approx(0.005 / ok.t_max[0])
+    bad = _lyapunov_bound(A, C, L, 0.05)
+    assert not bad.verified and bad.budget > 1
+    assert bad.violation() == f"s: T = 0.05 > T_max = {bad.t_max[0]:.4g}"
+    assert math.isinf(bad.rms_bound())
+
+
+def test_multi_rate_groups_share_the_budget() -> None:
+    P, K = np.eye(2), np.eye(2)
+    g1 = GroupNoise("fast", (0,), 0.01, np.zeros((1, 1)), 1.0)
+    g2 = GroupNoise("slow", (1,), 0.2, np.zeros((1, 1)), 1.0)
+    b = sampled_data_bound(P, K, 1.0, [g1, g2])
+    assert b.t_max == (1.0, 1.0) and b.budget == pytest.approx(0.21) and b.verified
+    b2 = sampled_data_bound(P, K, 1.0, [g1, GroupNoise("slow", (1,), 0.995, np.zeros((1, 1)), 1.0)])
+    assert not b2.verified and "budget" in b2.violation() and "slow" in b2.violation()
+
+
+def test_verify_recomputes_every_number_and_catches_a_tampered_matrix() -> None:
+    b = _lyapunov_bound(A, C, L, 0.005, R=1e-4, process=np.diag([0.0, 1e-3]), p0=np.eye(2) * 0.01)
+    v = verify_sampled_data_bound(b)
+    for name in ("budget", "a", "sigma", "N", "lam_min", "v0"):
+        assert getattr(v, name) == pytest.approx(getattr(b, name), rel=1e-12)
+    import dataclasses
+
+    tampered = verify_sampled_data_bound(dataclasses.replace(b, P=b.P * np.array([[1.0, 0.0], [0.0, -1.0]])))
+    assert not tampered.verified and any(c.name == "P ≻ 0" for c in tampered.failed_checks)
+
+
+def test_the_mean_square_bound_holds_in_simulation() -> None:
+    """Noisy samples and process noise: the measured RMS after settling stays below the certified bound."""
+    sys_ = LinearSystem(A, B, C)
+    T, std, q = 0.005, 0.01, 1e-3
+    proc = np.diag([0.0, q])
+    p0 = np.diag([0.1, 0.1]) ** 2
+    b = _lyapunov_bound(A, C, L, T, R=std**2, process=proc, p0=p0)
+    assert b.verified
+    runs = 40
+    rng = np.random.default_rng(3)
+    x0 = np.zeros((runs, 2))
+    xh0 = x0 + rng.normal(size=(runs, 2)) * 0.1
+    r = simulate(sys_, OutputPredictor(LuenbergerObserver(sys_, L), sys_), x0, xh0, duration=6.0, dt=0.001,
+                 u=np.zeros(1), measurements=[MeasurementGroup("s", outputs=[0], rate=1 / T, noise_std=std)], process_noise=proc,
+                 seed=1)
+    e = r.x_hat - r.x
+    after = r.t >= 2.0
+    rms = math.sqrt(float(np.mean(np.sum(e[:, after] ** 2, axis=-1))))
+    bound = b.rms_after(2.0, p0)
+    assert 0 < rms < bound
+    # and the bound is not vacuous here: within two orders of magnitude
+    assert bound < 100 * rms
+
+
+@pytest.mark.parametrize("bad", [dict(period=-0.1), dict(period=math.nan), dict(ell=math.inf), dict(q=-1.0)])
+def test_bad_group_values_are_typed_errors(bad: dict) -> None:
+    kw = dict(name="g", index=(0,), period=0.1, R=np.zeros((1, 1)), ell=1.0, q=0.0) | bad
+    with pytest.raises(InvalidArgumentError):
+        GroupNoise(**kw)
+
+
+def test_bad_bound_inputs_are_typed_errors() -> None:
+    g = GroupNoise("g", (0,), 0.1, np.zeros((1, 1)), 1.0)
+    with pytest.raises(InvalidArgumentError, match="alpha"):
+        sampled_data_bound(np.eye(1), np.ones((1, 1)), 0.0, [g])
+    with pytest.raises(InvalidArgumentError, match="P"):
+        sampled_data_bound(np.full((1, 1), np.nan), np.ones((1, 1)), 1.0, [g])
+    with pytest.raises(InvalidArgumentError, match="two groups"):
+        sampled_data_bound(np.eye(1), np.ones((1, 1)), 1.0, [g, g])
+
+
+# ------------------------------------------------------------------ the Thau gain and the Jacobian box
+def test_certified_decay_of_a_scalar_system_is_its_closed_form() -> None:
+    # ė = (a − l c) e: decay l c − a for any P > 0
+    assert certified_decay(np.array([[3.0]]), np.array([[5.0]]), [(np.array([[1.0]]), np.array([[2.0]]))]) == \
+        pytest.approx(9.0)
+    # two vertices: the worst one decides
+    v = [(np.array([[1.0]]), np.array([[1.0]])), (np.array([[-1.0]]), np.array([[1.0]]))]
+    assert certified_decay(np.eye(1), np.array([[2.0]]), v) == pytest.approx(1.0)
+
+
+def test_the_vertex_design_is_reverified_and_a_tampered_gain_fails() -> None:
+    verts = [(np.array([[0.0, 1.0], [a, -0.2]]), np.array([[1.0, 0.0]])) for a in (-3.0, 1.0)]
+    cert = design_thau_gain(verts, 0.5, R=np.eye(1) * 1e-4)
+    assert cert.verified and cert.decay >= 0.5 * (1 - 1e-6)
+    for A_, C_ in verts:  # every vertex closed loop is Hurwitz with the certified margin
+        assert np.max(np.linalg.eigvals(A_ - cert.gain @ C_).real) <= -cert.decay + 1e-9
+    import dataclasses
+
+    bad = verify_thau_gain(dataclasses.replace(cert, gain=np.zeros_like(cert.gain)))
+    assert not bad.verified and bad.decay < 0
+    given = certify_thau_gain(verts, cert.gain, 0.25)
+    assert given.verified and given.decay >= 0.25 * (1 - 1e-6)
+    with pytest.raises(Exception, match="decay"):
+        certify_thau_gain(verts, np.zeros((2, 1)), 0.25)
+
+
+def test_the_jacobian_box_of_a_sine_and_its_vertices() -> None:
+    box = jacobian_box(lambda x, u: np.cos(x)[:, :, None], Box([0.0], [math.pi]), [], [], samples=2000)
+    width = 2.0
+    assert box.lower[0, 0] == pytest.approx(-1 - MARGIN * width, abs=1e-6)
+    assert box.upper[0, 0] == pytest.approx(1 + MARGIN * width, abs=1e-6)
+    assert box.varying == ((0, 0),) and box.n_vertices == 2
+    assert sorted(float(v[0, 0]) for v in box.vertices()) == [box.lower[0, 0], box.upper[0, 0]]
+
+
+def test_an_infinite_jacobian_on_the_region_is_a_typed_error() -> None:
+    with pytest.raises(NonFiniteError, match="Lipschitz constant there is infinite"):
+        jacobian_box(lambda x, u: (0.5 / np.sqrt(x))[:, :, None], Box([0.0], [1.0]), [], [])
