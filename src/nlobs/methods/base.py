@@ -81,6 +81,9 @@ class Design:
         Theorem 3.1 on [-1, 1] × [-1, 1]"``); empty for a method without one.
     details : tuple of str
         More lines for a generated module's header (a bound's constants, the gain's notes).
+    bound : SampledDataBound or None
+        What the certificate guarantees under the problem's sensors and noise: the sampling budget and the
+        mean-square error bound (:mod:`nlobs.synthesis.sampled_data`); ``None`` when the method states none.
     """
 
     method: str
@@ -99,6 +102,7 @@ class Design:
     warnings: tuple[str, ...] = ()
     theorem: str = ""
     details: tuple[str, ...] = ()
+    bound: Any = None
 
     @property
     def usable(self) -> bool:
@@ -146,6 +150,7 @@ class Design:
             "failed": list(self.failed),
             "warnings": list(self.warnings),
             "description": self.description,
+            "sampled": None if self.bound is None else self.bound.to_dict(),
         }
 
     def defaults_text(self) -> str:

@@ -153,8 +153,11 @@ class ObserverOutcome:
         For a certified design, ``None`` for a method without a certificate: ``verified``,
         ``covers_run`` (every run inside every hypothesis, :mod:`nlobs.simulate.coverage`),
         ``covered_fraction``, ``violations`` (the first per run: ``run``, ``hypothesis``, ``time``,
-        ``detail``), ``reasons`` (why runs are not covered), ``hypotheses`` (what was checked), and for
-        ``drift`` the ``region`` and ``mu``.
+        ``detail``), ``reasons`` (why runs are not covered), ``hypotheses`` (what was checked), for
+        ``drift`` the ``region`` and ``mu``, and for a design with a bound under the sensors ``rms_bound``
+        (the certified RMS of ``‖e‖`` after the settling time, for these runs' initial errors; ``None`` when
+        the bound is not verified) and ``sampling`` (``budget`` Σ T/T_max and per group ``name``, ``period``,
+        ``T_max``).
     run_rms : ndarray, shape (runs,)
         RMS of ``‖e‖`` after the settling time, per run (NaN for a diverged run): the box plot.
     result : SimulationResult or None
@@ -266,16 +269,19 @@ class ComparisonReport:
     def table(self) -> tuple[str, list[str], list[list[str]]]:
         """Title, column heads and rows of the comparison table the CLI prints."""
         heads = ["observer", *(f"RMS {s}" + (f" [{u}]" if u else "") for s, u in zip(self.states, self.units)),
-                 "RMS ‖e‖", "final ‖e‖", f"t_conv [{self.time_unit}]", "diverged", "µs/step", "certificate"]
+                 "RMS ‖e‖", "certified ≤", "final ‖e‖", f"t_conv [{self.time_unit}]", "diverged", "µs/step",
+                 "certificate"]
         rows = []
         for name, o in self.observers.items():
             if o.skipped is not None:
-                rows.append([name, *(["—"] * (len(self.states) + 5)), "skipped"])
+                rows.append([name, *(["—"] * (len(self.states) + 6)), "skipped"])
                 continue
             cert = "—" if o.certificate is None else (
                 "covers run" if o.certificate.get("covers_run") else
                 ("verified, not covering the run" if o.certificate.get("verified") else "failed"))
-            rows.append([name, *(_num(v) for v in o.rms_error), _num(o.rms_error_norm), _num(o.final_error_norm),
+            bound = None if o.certificate is None else o.certificate.get("rms_bound")
+            rows.append([name, *(_num(v) for v in o.rms_error), _num(o.rms_error_norm),
+                         "—" if bound is None else _num(float(bound)), _num(o.final_error_norm),
                          _num(o.convergence_time), f"{len(o.diverged_runs)}/{self.runs}", _num(o.cost_per_step_us),
                          cert])
         tu = self.time_unit
@@ -489,6 +495,7 @@ class _Cert:
     verified: bool
     hypotheses: tuple[Any, ...]
     extras: Mapping[str, Any]
+    bound: Any = None
 
 
 # ----------------------------------------------------------------------------- metrics
@@ -535,8 +542,21 @@ def _outcome(name: str, desc: str, res: SimulationResult, s: _Setup, cert: _Cert
                        "covered_fraction": cov.covered_fraction, "reasons": list(cov.reasons),
                        "violations": [v.to_dict() for v in cov.violations],
                        "hypotheses": list(cov.hypotheses), **cert.extras}
+        if cert.bound is not None:
+            certificate.update(_bound_entries(cert.bound, s))
     return ObserverOutcome(name, None, desc, rms, rms_all, rms_norm, rms_norm_all, final, conv_time, tuple(diverged),
                            float(res.info.get("cost_per_step_us", math.nan)), certificate, run_rms, res)
+
+
+def _bound_entries(bound: Any, s: _Setup) -> dict[str, Any]:
+    """``rms_bound`` (the certified RMS after the settling time for these runs' initial errors) and ``sampling``."""
+    e0 = np.asarray(s.x_hat0, dtype=float) - np.asarray(s.x0, dtype=float)
+    second = np.einsum("ri,rj->ij", e0, e0) / e0.shape[0]  # the runs' E[e0 e0ᵀ]: the bound is linear in it
+    value = bound.rms_after(s.settle, second)
+    return {"rms_bound": value if math.isfinite(value) else None,
+            "sampling": {"budget": bound.budget,
+                         "groups": [{"name": g.name, "period": g.period, "T_max": t}
+                                    for g, t in zip(bound.groups, bound.t_max)]}}
 
 
 # ----------------------------------------------------------------------------- the command
@@ -754,7 +774,7 @@ def _run_one(name: str, s: _Setup, options: Mapping[str, Any], progress: bool | 
         return ObserverOutcome(name, design)
     obs, desc = design.observer, design.description
     cert = None if design.certificate is None else _Cert(design.verified, design.hypotheses,
-                                                           design.coverage_extras)
+                                                           design.coverage_extras, design.bound)
     if backend == "c":
         obs, desc = _compiled(obs, desc)
     x0 = np.broadcast_to(s.x0, (s.runs, s.scenario.model.n))

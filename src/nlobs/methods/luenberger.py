@@ -7,11 +7,21 @@ model, the copy of the plant with constant output injection ``x̂̇ = f(x̂, u) 
 linearisation at the problem's ``x0`` and ``u(0)``, which certifies nothing about the nonlinear plant.
 ``L`` is the analytic centre of LMIs (14), (15) with the poles of ``A − LC`` left of ``−α`` at
 ``γ = γn =`` :data:`LUENBERGER_GAMMA` (:func:`nlobs.synthesis.observer_gain.design_observer_gain`),
-re-verified in NumPy whichever solver found it (Clarabel, then SCS).
+re-verified in NumPy whichever solver found it (Clarabel, then SCS). This is ``tuning="decay"``, the default
+without ``[sensors]``.
+
+With ``[sensors]`` the default is ``tuning="sensors"``: the Thau observer (the same copy of the plant) with the
+gain of the vertex LMIs of the Jacobian box on the region (:mod:`nlobs.synthesis.thau_gain`), which certify
+the nonlinear error on the region itself, at the decay rate whose certified RMS bound under the file's sensor
+periods and noise is smallest (:mod:`nlobs.methods.sensor_design`, :mod:`nlobs.synthesis.sampled_data`). The
+observer then runs on the samples through the inter-sample output predictor of Karafyllis & Kravaris
+(``sampling="predictor"``, :mod:`nlobs.observers.sampled`); ``sampling="hold"`` injects the held sample
+(zero-order hold, which no sampling certificate covers).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,7 +29,7 @@ import numpy as np
 
 from nlobs._validate import positive
 from nlobs.checks import Check, CheckKind
-from nlobs.errors import DesignError, DesignInfeasible
+from nlobs.errors import DesignError, DesignInfeasible, InvalidArgumentError
 from nlobs.methods.base import Design
 from nlobs.methods.problem import Problem
 from nlobs.simulate.coverage import Premise
@@ -52,7 +62,7 @@ class LuenbergerMethod:
     name: str = "luenberger"
     title: str = "Luenberger gain of LMIs (14), (15) (Grip, Saberi & Johansen)"
     uses_region: bool = False
-    options: frozenset[str] = frozenset({"alpha"})
+    options: frozenset[str] = frozenset({"alpha", "tuning", "sampling"})
 
     def applies(self, problem: Problem) -> str | None:
         if problem.model.time.is_discrete:
@@ -60,8 +70,20 @@ class LuenbergerMethod:
                     "model")
         return None
 
-    def design(self, problem: Problem, *, alpha: float | None = None) -> Design:
-        """The gain of LMIs (14), (15) for the model (linear) or its linearisation at ``x0``, ``u(0)``.
+    def design(self, problem: Problem, *, alpha: float | None = None, tuning: str | None = None,
+               sampling: str | None = None) -> Design:
+        """The gain for the sensors (``tuning="sensors"``) or of LMIs (14), (15) (``"decay"``) (module docstring).
+
+        Parameters
+        ----------
+        problem : Problem
+            The model, its region, sensors and noise.
+        alpha : float, optional
+            The decay rate (default: chosen for the sensors; ``1`` with ``tuning="decay"``).
+        tuning : {"sensors", "decay"}, optional
+            Default ``"sensors"`` when the problem has sensors, else ``"decay"``.
+        sampling : {"predictor", "hold"}, optional
+            How a sampled output enters the observer (default ``"predictor"``).
 
         Raises
         ------
@@ -70,15 +92,79 @@ class LuenbergerMethod:
         DesignInfeasible
             No gain from either solver (the message says why).
         """
-        from nlobs.errors import ModelError
+        tuning_ = _choice("`tuning`", tuning, ("sensors", "decay"), "sensors" if problem.sensors else "decay")
+        sampling_ = _choice("`sampling`", sampling, ("predictor", "hold"), "predictor")
+        why = self.applies(problem)
+        if why is not None:
+            from nlobs.errors import ModelError
+
+            raise ModelError(why)
+        if tuning_ == "sensors":
+            try:
+                return self._for_sensors(problem, alpha, sampling_)
+            except DesignInfeasible as exc:
+                d = self._decay(problem, alpha, sampling_)
+                note = f"no gain certified under the sensors: {exc}"
+                return dataclasses.replace(
+                    d, warnings=(*d.warnings, note),
+                    hypotheses=(*d.hypotheses, Premise("certified under the sensors", False, str(exc))),
+                    parameters={**d.parameters, "tuning": "decay"},
+                    sources={**d.sources, "tuning": "the design for the sensors failed"})
+        return self._decay(problem, alpha, sampling_)
+
+    def _for_sensors(self, problem: Problem, alpha: float | None, sampling: str) -> Design:
+        """The Thau gain of the vertex LMIs chosen for the sensors (module docstring)."""
+        from nlobs.methods.sensor_design import sampling_hypotheses, tune_thau
         from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
+        from nlobs.observers.sampled import with_predictor
+
+        a = None if alpha is None else positive("`alpha`", alpha)
+        tuned = tune_thau(problem, alpha=a)
+        cert, bound = tuned.certificate, tuned.certificate.bound
+        model = problem.model
+        linear = isinstance(model, LinearSystem)
+        plant = model if linear else model.compile()
+        L = cert.gain
+        inner = LuenbergerObserver(model, L) if linear else ConstantGainObserver(plant, L)
+        predicted = sampling == "predictor" and bool(problem.sensors)
+        obs = with_predictor(inner, plant, predicted)
+        box = tuned.box
+        premises = (
+            Check.verdict("Jacobian bounds on the region", True,
+                          f"∂F/∂x, ∂h/∂x sampled at {box.samples} points of {problem.region.describe()} and the "
+                          f"input range, each varying entry widened 5 %: {len(box.varying)} varying entries, "
+                          f"{box.n_vertices} vertices", kind=CheckKind.FUNCTION_CLASS, method="sampled",
+                          key="jacobian_box"),
+            *bound.checks)
+        hyps = sampling_hypotheses(problem, bound if predicted or not problem.sensors else None,
+                                   what="a held sample (sampling=hold)")
+        tmax = {g.name: t for g, t in zip(bound.groups, bound.t_max)}
+        rms = bound.rms_after(problem.settle)
+        desc = (("Luenberger observer" if linear else "Thau observer: copy of the plant + L (y − h(x̂))")
+                + f", L of the vertex LMIs on the region ({box.n_vertices} vertices) at α = {tuned.alpha:.4g}, chosen "
+                "for the sensors" + (" (output predictor between samples)" if predicted else
+                                     " (held samples)" if problem.sensors else "")
+                + f"; certified RMS ≤ {rms:.4g} after t = {problem.settle:g}")
+        parameters: dict[str, Any] = {"alpha": tuned.alpha, "decay": cert.continuous.decay, "tuning": "sensors",
+                                      "sampling": sampling, "T_max": tmax, "rms_bound": rms}
+        sources = {"alpha": "given" if alpha is not None else
+                   f"the smallest certified RMS bound of {len(tuned.candidates)} decay rates",
+                   "tuning": "default with [sensors]" if problem.sensors else "given"}
+        return Design(self.name, obs, cert, premises, (), parameters, sources, desc, gain=L,
+                      failed=() if cert.verified else tuple(c.summary() for c in cert.failed_checks),
+                      hypotheses=hyps, report=cert, bound=bound,
+                      theorem="vertex LMIs of the Jacobian box (Zemouche, Boutayeb & Bara 2008) with the sampled-data "
+                              "bound of the inter-sample predictor (Karafyllis & Kravaris 2009; Fridman 2014)",
+                      details=tuple(bound.summary().splitlines()))
+
+    def _decay(self, problem: Problem, alpha: float | None, sampling: str) -> Design:
+        """The gain of LMIs (14), (15) for the model (linear) or its linearisation at ``x0``, ``u(0)``."""
+        from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
+        from nlobs.observers.sampled import with_predictor
         from nlobs.synthesis.observer_gain import design_observer_gain
         from nlobs.synthesis.regions import HalfPlane
         from nlobs.systems.linearize import linearize
 
-        why = self.applies(problem)
-        if why is not None:
-            raise ModelError(why)
         a = DEFAULT_ALPHA if alpha is None else positive("`alpha`", alpha)
         model = problem.model
         linear = isinstance(model, LinearSystem)
@@ -97,7 +183,9 @@ class LuenbergerMethod:
             raise DesignInfeasible(f"no gain of LMIs (14), (15) with Re λ < −{a:g} for {where}: {failure}")
         L = cert.gain
         plant = model if linear else model.compile()
-        obs = LuenbergerObserver(lin, L) if linear else ConstantGainObserver(plant, L)
+        predicted = sampling == "predictor" and bool(problem.sensors)
+        obs = with_predictor(LuenbergerObserver(lin, L) if linear else ConstantGainObserver(plant, L), plant,
+                             predicted)
         poles = np.linalg.eigvals(lin.A - L @ lin.C)
         where = "the linear model" if linear else f"the linearisation at x0 = {x0.tolist()}, u = {u0.tolist()}"
         premises = (Check.verdict("the plant is the linear model the certificate is for", linear,
@@ -109,17 +197,31 @@ class LuenbergerMethod:
         hyps = (Premise("the plant is the linear model the certificate is for", linear,
                         f"the certificate is for {where}; the plant is nonlinear"),
                 Premise("continuous measurement", not problem.sensors,
-                        "the output is sampled and held (the certificate assumes a continuous output)"),
+                        "the output is sampled (the certificate assumes a continuous output; tuning=sensors "
+                        "states one for sampled outputs)"),
                 Premise("exact measurement and model", exact,
                         f"{what} (the certificate bounds the decay of the error, not its noise floor)"))
         desc = (("Luenberger observer" if linear else "copy of the plant + L (y − h(x̂))")
                 + f", L of LMIs (14), (15) for {'the model' if linear else 'the linearisation at x0'} "
                 f"(Re λ < −{a:g}, analytic centre at γ = γn = {LUENBERGER_GAMMA:g}); poles of A − LC: "
                 + ", ".join(f"{complex(p).real:.3g}{complex(p).imag:+.3g}j" for p in poles))
+        if predicted:
+            desc += "; output predictor between samples"
         parameters: dict[str, Any] = {"alpha": a, "gamma": LUENBERGER_GAMMA, "x0": x0.tolist(), "u0": u0.tolist()}
+        if problem.sensors:
+            parameters.update(tuning="decay", sampling=sampling)
         sources = {"alpha": "given" if alpha is not None else "default", "x0": problem.sources.get("x0", "given")}
         return Design(self.name, obs, cert, premises, (), parameters, sources, desc, gain=L, failed=failed,
                       hypotheses=hyps, report=cert, theorem="Grip, Saberi & Johansen, LMIs (14), (15)")
+
+
+def _choice(name: str, value: str | None, allowed: tuple[str, ...], default: str) -> str:
+    if value is None:
+        return default
+    v = str(value).strip().lower()
+    if v not in allowed:
+        raise InvalidArgumentError(f"{name}: expected one of {', '.join(allowed)}, got {value!r}")
+    return v
 
 
 #: The Luenberger method of the registry.

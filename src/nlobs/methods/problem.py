@@ -51,6 +51,7 @@ __all__ = [
     "as_region",
     "box_from_numbers",
     "input_bound",
+    "input_range",
     "model_label",
     "problem",
     "symbolic_model",
@@ -173,6 +174,15 @@ def model_label(model: str | Path | Any) -> str:
     return str(getattr(model, "name", type(model).__name__))
 
 
+def _input_samples(u: Any, duration: float, m: int) -> Array:
+    """``u(t)`` at :data:`INPUT_BOUND_SAMPLES` evenly spaced instants of ``[0, T]`` and as many of the golden-ratio
+    sequence (a periodic input cannot alias to ~0 on both), shape ``(2 INPUT_BOUND_SAMPLES − 1, m)``."""
+    k = np.arange(INPUT_BOUND_SAMPLES - 1)
+    ts = np.concatenate([np.linspace(0.0, float(duration), INPUT_BOUND_SAMPLES),
+                         float(duration) * np.mod(0.5 + k * 0.6180339887498949, 1.0)])
+    return np.stack([np.asarray(u(float(t)), dtype=float).reshape(m) for t in ts])
+
+
 def input_bound(u: Any, duration: float, m: int) -> float:
     """``μ`` of (2.17): the largest ``‖u(t)‖`` at :data:`INPUT_BOUND_SAMPLES` instants of ``[0, duration]``.
 
@@ -194,12 +204,33 @@ def input_bound(u: Any, duration: float, m: int) -> float:
         return 0.0
     if not callable(u):
         return float(np.linalg.norm(np.asarray(u, dtype=float)))
-    # evenly spaced instants, and as many at the golden-ratio sequence: a periodic input cannot alias to ~0 on both
-    k = np.arange(INPUT_BOUND_SAMPLES - 1)
-    ts = np.concatenate([np.linspace(0.0, float(duration), INPUT_BOUND_SAMPLES),
-                         float(duration) * np.mod(0.5 + k * 0.6180339887498949, 1.0)])
-    values = np.stack([np.asarray(u(float(t)), dtype=float).reshape(m) for t in ts])
+    values = _input_samples(u, duration, m)
     return float(np.max(np.linalg.norm(values, axis=-1)))
+
+
+def input_range(u: Any, duration: float, m: int) -> tuple[Array, Array]:
+    """The smallest and largest value of each input channel at the instants of :func:`input_bound`.
+
+    Parameters
+    ----------
+    u : callable, array_like or None
+        The known input (as :func:`input_bound`).
+    duration : float
+        The horizon ``T``.
+    m : int
+        Number of inputs.
+
+    Returns
+    -------
+    lower, upper : ndarray, shape (m,)
+    """
+    if not m or u is None:
+        return np.zeros(m), np.zeros(m)
+    if not callable(u):
+        v = np.asarray(u, dtype=float).reshape(m)
+        return v.copy(), v.copy()
+    values = _input_samples(u, duration, m)
+    return values.min(axis=0), values.max(axis=0)
 
 
 def _vector(name: str, value: ArrayLike, n: int) -> Array:
@@ -279,6 +310,26 @@ class Problem:
         q = self.process_noise is not None and bool(np.any(self.process_noise))
         what = [w for w, on in (("measurement noise or bias", noisy), ("process noise", q)) if on]
         return not what, " and ".join(what)
+
+    @cached_property
+    def input_range(self) -> tuple[Array, Array]:
+        """Per input channel, the smallest and largest ``u(t)`` on ``[0, T]`` (:func:`input_range`)."""
+        return input_range(self.u, self.duration, self.model.m)
+
+    @property
+    def p0(self) -> Array | None:
+        """``diag(initial_error_std²)`` of the file's ``[simulation]`` (``None`` without one)."""
+        std = self.scenario.defaults.initial_error_std
+        if std is None:
+            return None
+        s = np.broadcast_to(np.asarray(std, dtype=float).reshape(-1), (self.model.n,))
+        return np.diag(s**2)
+
+    @property
+    def settle(self) -> float:
+        """The time after which errors are reported: ``[simulation] settle``, else a quarter of the horizon."""
+        s = self.scenario.defaults.settle
+        return float(s) if s is not None else self.duration / 4
 
     @cached_property
     def observability(self) -> Any:

@@ -1,0 +1,379 @@
+r"""Designs under the problem's sensors: the Jacobian box, the sensor groups of the bound, the gain chosen for them.
+
+The pieces every method needs to state what its certificate still guarantees when the output is sampled
+and noisy (:mod:`nlobs.synthesis.sampled_data`):
+
+* :func:`error_box` — the entrywise bounds of ``(∂F/∂x, ∂h/∂x)`` on the region × the input range
+  (:mod:`nlobs.geometry.jacobian_box`), whose vertices carry the Lyapunov inequality (1);
+* :func:`output_rate_box` — those of the Jacobian of ``L_F h`` (``∂h/∂x · F``), the rate the inter-sample
+  predictor integrates: its Lipschitz constants ``ℓ_j``;
+* :func:`sensor_groups` — each measurement group as :class:`~nlobs.synthesis.sampled_data.GroupNoise`
+  (period, noise covariance, bias, ``ℓ_j``, the process noise its outputs see between samples);
+* :func:`sampling_hypotheses` — what a run must satisfy for the bound to cover it: the state and the
+  estimate in the region, the input in its range, every group's longest gap between samples (its period, or
+  an outage and one period) within the sampling budget;
+* :func:`tune_thau` — the Thau/Luenberger gain chosen for the sensors: the decay rate ``α`` of the vertex
+  LMIs (:mod:`nlobs.synthesis.thau_gain`) that makes the certified RMS bound after the settling time smallest
+  (the trade-off of speed against noise amplification made explicit; Ahrens & Khalil, Automatica 45(4), 2009,
+  for high-gain observers).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from nlobs._typing import Array
+from nlobs.errors import DesignInfeasible, InvalidArgumentError
+from nlobs.geometry.jacobian_box import JacobianBox, jacobian_box
+from nlobs.methods.problem import Problem
+from nlobs.simulate.coverage import InputRange, InRegion, Premise
+from nlobs.synthesis.sampled_data import GroupNoise, SampledDataBound, SampledDesignCertificate, sampled_data_bound
+
+__all__ = ["SensorTuning", "error_box", "longest_gap", "output_indices", "output_rate_box", "sampling_hypotheses",
+           "sensor_groups", "tune_thau"]
+
+#: Vertex count above which a Lipschitz constant is bounded through the box's radius instead of its vertices.
+MAX_NORM_VERTICES = 4096
+#: Relative step of the central differences of a nonlinear ``∂h/∂x`` (Hessians).
+FD_STEP = 1e-6
+
+
+def _plant(problem: Problem) -> Any:
+    model = problem.model
+    return model if hasattr(model, "rhs_jacobian_x") else model.compile()
+
+
+def error_box(problem: Problem, plant: Any | None = None) -> JacobianBox:
+    """Entrywise bounds of ``[∂F/∂x; ∂h/∂x]`` (``(n + p) × n``) on the problem's region × input range.
+
+    Parameters
+    ----------
+    problem : Problem
+        The region and the input range.
+    plant : PlantModel, optional
+        The compiled model (default: compiled from the problem).
+
+    Raises
+    ------
+    NonFiniteError
+        A Jacobian is not finite on the region.
+    """
+    plant = _plant(problem) if plant is None else plant
+    n, p = problem.model.n, problem.model.p
+
+    def jac(x: Array, u: Array) -> Array:
+        JF = np.broadcast_to(plant.rhs_jacobian_x(0.0, x, u), (x.shape[0], n, n))
+        JH = np.broadcast_to(plant.output_jacobian_x(0.0, x, u), (x.shape[0], p, n))
+        return np.concatenate([JF, JH], axis=1)
+
+    lo, hi = problem.input_range
+    return jacobian_box(jac, problem.region, lo, hi)
+
+
+def _rate_jacobian(plant: Any, n: int, p: int, linear_h: bool):
+    """``x, u ↦ ∂(∂h/∂x · F)/∂x``: ``C ∂F/∂x`` for a linear output, central differences otherwise."""
+
+    def jac(x: Array, u: Array) -> Array:
+        JF = np.broadcast_to(plant.rhs_jacobian_x(0.0, x, u), (x.shape[0], n, n))
+        JH = np.broadcast_to(plant.output_jacobian_x(0.0, x, u), (x.shape[0], p, n))
+        out = np.einsum("...ij,...jk->...ik", JH, JF)
+        if linear_h:
+            return out
+        F = plant.rhs(0.0, x, u)
+        for k in range(n):  # (∂/∂x_k of ∂h/∂x) · F: the Hessian term
+            step = FD_STEP * np.maximum(1.0, np.abs(x[:, k]))
+            xp, xm = x.copy(), x.copy()
+            xp[:, k] += step
+            xm[:, k] -= step
+            dH = (np.broadcast_to(plant.output_jacobian_x(0.0, xp, u), JH.shape)
+                  - np.broadcast_to(plant.output_jacobian_x(0.0, xm, u), JH.shape)) / (2 * step[:, None, None])
+            out[:, :, k] += np.einsum("...ij,...j->...i", dH, F)
+        return out
+
+    return jac
+
+
+def output_rate_box(problem: Problem, box: JacobianBox, plant: Any | None = None) -> JacobianBox:
+    """Entrywise bounds of the Jacobian of ``L_F h = ∂h/∂x · F`` (``p × n``) on the region × input range.
+
+    Parameters
+    ----------
+    problem : Problem
+        The region and the input range.
+    box : JacobianBox
+        The problem's :func:`error_box` (its ``∂h/∂x`` rows say whether the output is linear).
+    plant : PlantModel, optional
+        The compiled model.
+    """
+    plant = _plant(problem) if plant is None else plant
+    n, p = problem.model.n, problem.model.p
+    linear_h = not np.any(box.upper[n:] > box.lower[n:])
+    lo, hi = problem.input_range
+    return jacobian_box(_rate_jacobian(plant, n, p, linear_h), problem.region, lo, hi)
+
+
+def output_indices(problem: Problem, outputs: Sequence[int | str]) -> tuple[int, ...]:
+    """The indices of a group's outputs (names or indices) in the model's outputs.
+
+    Parameters
+    ----------
+    problem : Problem
+        The model.
+    outputs : sequence of int or str
+        A measurement group's outputs.
+    """
+    names = list(problem.model.outputs)
+    out = []
+    for o in outputs:
+        if isinstance(o, str):
+            if o not in names:
+                raise InvalidArgumentError(f"sensor output {o!r}: not an output of the model ({names})")
+            out.append(names.index(o))
+        else:
+            out.append(int(o))
+    return tuple(out)
+
+
+def _sub(box: JacobianBox, rows: Sequence[int]) -> JacobianBox:
+    r = list(rows)
+    return JacobianBox(box.lower[r], box.upper[r], box.samples)
+
+
+def _largest_norm(box: JacobianBox, right: Array, left: Array | None = None, norm: Any = 2) -> float:
+    """``max ‖left · G · right‖`` (spectral, or ``norm="fro"``) over the box: at its vertices (a norm is convex),
+    or the centre's plus a bound of the radius when the vertices are too many."""
+    L = np.eye(box.lower.shape[0]) if left is None else left
+    if box.n_vertices <= MAX_NORM_VERTICES:
+        return max(float(np.linalg.norm(L @ G @ right, norm)) for G in box.vertices())
+    rad = (box.upper - box.lower) / 2
+    return float(np.linalg.norm(L @ box.center @ right, norm)
+                 + np.linalg.norm(L, 2) * np.linalg.norm(rad, "fro") * np.linalg.norm(right, 2))
+
+
+def _sqrt_psd(M: Array) -> Array:
+    w, V = np.linalg.eigh((M + M.T) / 2)
+    return (V * np.sqrt(np.clip(w, 0, None))) @ V.T
+
+
+def _ito_drift(problem: Problem, plant: Any, rows: Sequence[int], W2: Array) -> float:
+    """``sup ‖½ tr(∇²h_j W Wᵀ)‖`` on sampled points of the region (0 for a linear output or no process noise)."""
+    from nlobs.geometry.jacobian_box import sample_points
+
+    if not np.any(W2):
+        return 0.0
+    n, p = problem.model.n, problem.model.p
+    lo, hi = problem.input_range
+    x, u = sample_points(problem.region, lo, hi, 512, seed=1)
+    acc = np.zeros((x.shape[0], len(rows)))
+    for k in range(n):
+        step = FD_STEP * np.maximum(1.0, np.abs(x[:, k]))
+        xp, xm = x.copy(), x.copy()
+        xp[:, k] += step
+        xm[:, k] -= step
+        dH = (np.broadcast_to(plant.output_jacobian_x(0.0, xp, u), (x.shape[0], p, n))
+              - np.broadcast_to(plant.output_jacobian_x(0.0, xm, u), (x.shape[0], p, n))) / (2 * step[:, None, None])
+        acc += 0.5 * np.einsum("sij,j->si", dH[:, list(rows), :], W2[:, k])  # Σ_l ∂²h/∂x_l∂x_k W2_lk
+    return float(np.max(np.linalg.norm(acc, axis=-1)))
+
+
+def sensor_groups(problem: Problem, P: Array, K: Array, box: JacobianBox, rate_box: JacobianBox,
+                  plant: Any | None = None) -> tuple[GroupNoise, ...]:
+    """The problem's measurement groups as the bound sees them, for a design's ``P`` and ``K``.
+
+    Parameters
+    ----------
+    problem : Problem
+        Its sensors and process noise.
+    P : ndarray, shape (n, n)
+        The Lyapunov matrix of the design's (1).
+    K : ndarray, shape (n, p)
+        The output-injection gain.
+    box : JacobianBox
+        :func:`error_box` (its ``∂h/∂x`` rows).
+    rate_box : JacobianBox
+        :func:`output_rate_box`.
+    plant : PlantModel, optional
+        The compiled model (for a nonlinear output's Itô term).
+    """
+    n = problem.model.n
+    w, V = np.linalg.eigh((P + P.T) / 2)
+    Si = (V / np.sqrt(w)) @ V.T
+    S = (V * np.sqrt(w)) @ V.T
+    W2 = np.zeros((n, n)) if problem.process_noise is None else np.asarray(problem.process_noise, dtype=float)
+    Wh = _sqrt_psd(W2)
+    linear_h = not np.any(box.upper[n:] > box.lower[n:])
+    out = []
+    for g in problem.sensors:
+        idx = output_indices(problem, g.outputs)
+        ell = _largest_norm(_sub(rate_box, idx), Si)
+        H = _sub(JacobianBox(box.lower[n:], box.upper[n:], box.samples), idx)
+        Kj = K[:, list(idx)]
+        q = _largest_norm(H, Wh, S @ Kj, "fro") ** 2 if np.any(W2) else 0.0
+        bias = np.broadcast_to(np.asarray(g.bias, dtype=float), (len(idx),)).copy()
+        if not linear_h and np.any(W2):
+            drift = _ito_drift(problem, _plant(problem) if plant is None else plant, idx, W2) / g.rate
+            bias = np.abs(bias) + drift / math.sqrt(len(idx))
+        out.append(GroupNoise(g.name, idx, longest_gap(g), np.asarray(g.covariance, dtype=float), ell, q, bias))
+    return tuple(out)
+
+
+def longest_gap(group: Any) -> float:
+    """The longest time between two samples of a measurement group: its period, or an outage and one period.
+
+    The bound of :mod:`nlobs.synthesis.sampled_data` needs only ``t − t_k ≤ T_j`` (not periodic samples), so a
+    group's ``T_j`` is its longest gap: a certificate for it covers the outages too.
+
+    Parameters
+    ----------
+    group : MeasurementGroup
+        Its ``rate`` and ``outages``.
+    """
+    period = 1.0 / float(group.rate)
+    return max([period, *((b - a) + period for a, b in group.outages)])
+
+
+def sampling_hypotheses(problem: Problem, bound: SampledDataBound | None, *, what: str = "the bound") -> tuple[Any, ...]:
+    """What a run must satisfy for ``bound`` to cover it (module docstring).
+
+    Parameters
+    ----------
+    problem : Problem
+        The region, the input range, the sensors.
+    bound : SampledDataBound or None
+        The design's bound (``None``: the method states none under sampling, a failed premise when sampled).
+    what : str
+        How the premise names what rests on the sampling (``"Theorem 3.1"``).
+    """
+    region = problem.region
+    lo, hi = problem.input_range
+    out: list[Any] = [InRegion(region.lower, region.upper, "state", region.describe()),
+                      InRegion(region.lower, region.upper, "estimate", region.describe())]
+    if problem.model.m:
+        out.append(InputRange(lo, hi, tuple(problem.model.inputs)))
+    if not problem.sensors:
+        return tuple(out)
+    if bound is None:
+        out.append(Premise("sampled with period ≤ T_max", False,
+                           f"the output is sampled and held; {what} states no sampling period it survives"))
+        return tuple(out)
+    parts = []
+    for sensor, g, tm in zip(problem.sensors, bound.groups, bound.t_max):
+        what = "T" if g.period <= 1.0 / sensor.rate * (1 + 1e-12) else "longest gap (an outage)"
+        parts.append(f"{g.name}: {what} = {g.period:.4g} {'≤' if g.period <= tm else '>'} T_max = {tm:.4g}")
+    holds = bound.budget < 1
+    out.append(Premise(f"sampled with period ≤ T_max ({'; '.join(parts)}; budget Σ T/T_max = {bound.budget:.3g})",
+                       holds, "" if holds else (bound.violation() or "")))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class SensorTuning:
+    """The Thau/Luenberger gain chosen for the sensors (:func:`tune_thau`).
+
+    Attributes
+    ----------
+    certificate : SampledDesignCertificate
+        The chosen gain's certificate and its bound.
+    alpha : float
+        The decay rate it was designed for.
+    candidates : tuple of (float, str)
+        Every ``α`` tried with its outcome (the RMS bound, or why not).
+    box : JacobianBox
+        The Jacobian box of the vertex LMIs.
+    rms_bound : float
+        The certified RMS bound after the settling time, for the problem's initial error.
+    """
+
+    certificate: SampledDesignCertificate
+    alpha: float
+    candidates: tuple[tuple[float, str], ...]
+    box: JacobianBox
+    rms_bound: float
+
+
+def _alphas(box: JacobianBox, n: int, problem: Problem) -> tuple[float, ...]:
+    A = box.center[:n]
+    rho = float(np.max(np.abs(np.linalg.eigvals(A)))) if A.size else 0.0
+    rho = max(rho, float(np.linalg.norm(A, 2)) / 10, 1e-3)
+    periods = [1.0 / g.rate for g in problem.sensors]
+    top = 10 * rho if not periods else min(10 * rho, 0.5 / max(periods))
+    bottom = min(rho / 30, top / 30)
+    return tuple(float(a) for a in np.geomspace(bottom, top, 13))
+
+
+def tune_thau(problem: Problem, *, alpha: float | None = None) -> SensorTuning:
+    """The Thau gain of the vertex LMIs whose certified RMS bound under the sensors is smallest.
+
+    Parameters
+    ----------
+    problem : Problem
+        The model, region, input range, sensors, process noise, initial error and settling time.
+    alpha : float, optional
+        Design at this decay rate only (default: the best of a grid spanning the plant's rates).
+
+    Returns
+    -------
+    SensorTuning
+
+    Raises
+    ------
+    DesignInfeasible
+        No ``α`` gives a verified bound; the message says what fails and by how much (the vertex LMIs,
+        or the sampling budget with its ``T`` and ``T_max``).
+    NonFiniteError
+        A Jacobian is not finite on the region.
+    """
+    from nlobs.methods.kalman import measurement_covariance
+    from nlobs.synthesis.thau_gain import design_thau_gain
+
+    plant = _plant(problem)
+    n = problem.model.n
+    box = error_box(problem, plant)
+    if box.n_vertices > 1024:
+        raise DesignInfeasible(f"the Jacobian of the model varies in {len(box.varying)} entries on the region "
+                               f"{problem.region.describe()}: 2^{len(box.varying)} vertices exceed the vertex LMIs' "
+                               "limit of 1024; give a smaller region (box)")
+    rate = output_rate_box(problem, box, plant)
+    pairs = [(V[:n], V[n:]) for V in box.vertices()]
+    R = measurement_covariance(problem.model, problem.sensors) if problem.sensors else None
+    W2 = problem.process_noise
+    p0, settle = problem.p0, problem.settle
+    tried: list[tuple[float, str]] = []
+    best: tuple[float, float, SampledDesignCertificate] | None = None
+    closest: tuple[float, str] | None = None
+    grid = (float(alpha),) if alpha is not None else _alphas(box, n, problem)
+    for a, objective in ((a, o) for a in grid for o in ("noise", "sampling")):
+        try:
+            cert = design_thau_gain(pairs, a, R=R, process=W2, objective=objective)
+        except DesignInfeasible as exc:
+            tried.append((a, f"{objective}: infeasible ({exc})"))
+            continue
+        if not cert.verified:
+            tried.append((a, f"{objective}: the vertex LMIs failed their re-verification: "
+                             + "; ".join(c.evidence for c in cert.failed_checks)))
+            continue
+        groups = sensor_groups(problem, cert.P, cert.gain, box, rate, plant)
+        bound = sampled_data_bound(cert.P, cert.gain, cert.decay, groups, process=W2, p0=p0)
+        if not bound.verified:
+            why = bound.violation() or "the bound failed"
+            tried.append((a, f"{objective}: {why}"))
+            if closest is None or bound.budget < closest[0]:
+                closest = (bound.budget, why)
+            continue
+        value = bound.rms_after(settle)
+        tried.append((a, f"{objective}: RMS bound {value:.4g}"))
+        if best is None or value < best[0]:
+            best = (value, a, SampledDesignCertificate(cert, bound))
+    if best is None:
+        if closest is not None:
+            raise DesignInfeasible(f"no gain of the vertex LMIs keeps its certificate under the sensors: at best "
+                                   f"{closest[1]}")
+        raise DesignInfeasible(f"the vertex LMIs on the region {problem.region.describe()} "
+                               f"({len(pairs)} vertices) have no solution at any decay rate tried "
+                               f"(α = {tried[0][0]:.3g} … {tried[-1][0]:.3g}); give a smaller region (box)")
+    return SensorTuning(best[2], best[1], tuple(tried), box, best[0])
