@@ -14,6 +14,9 @@ r"""Observer → :class:`~nlobs.export.program.CProgram`: one generator per obse
   above ``cond_limit``), the Tikhonov form and the saturated form;
 * :class:`~nlobs.observers.cascade.CascadeObserver` — Grip, Saberi & Johansen (9)–(10) / (17)–(18), in
   :mod:`nlobs.export.cascade`.
+* :class:`~nlobs.observers.sampled.OutputPredictor` — any of the continuous observers above run on sampled
+  outputs through the inter-sample output predictor of Karafyllis & Kravaris (2009), in
+  :mod:`nlobs.export.predictor`.
 
 Every symbolic part goes through :func:`nlobs.export.cprint.emit_assignments` (SymPy's C99 printer
 with common subexpressions); the fixed parts (RK4, the solve, the saturated forms) are this module's
@@ -440,7 +443,8 @@ def _generators() -> dict[str, Any]:
             "GnssInsObserver": _lazy("nlobs.export.gnss_ins", "generate_gnss_ins"),
             "ScheduledGnssInsObserver": _lazy("nlobs.export.gnss_ins", "generate_gnss_ins"),
             "SetValuedObserver": _lazy("nlobs.export.setvalued", "generate_setvalued"),
-            "CascadeObserver": _lazy("nlobs.export.cascade", "generate_cascade")}
+            "CascadeObserver": _lazy("nlobs.export.cascade", "generate_cascade"),
+            "OutputPredictor": _lazy("nlobs.export.predictor", "generate_predictor")}
 
 
 #: Observer classes whose generator takes options (``generate(..., options=)``).
