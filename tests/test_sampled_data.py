@@ -237,3 +237,72 @@ def test_the_jacobian_box_of_a_sine_and_its_vertices() -> None:
 def test_an_infinite_jacobian_on_the_region_is_a_typed_error() -> None:
     with pytest.raises(NonFiniteError, match="Lipschitz constant there is infinite"):
         jacobian_box(lambda x, u: (0.5 / np.sqrt(x))[:, :, None], Box([0.0], [1.0]), [], [])
+
+
+# ------------------------------------------------------------------ the clock-dependent certificate
+def _clock(T: float, alpha: float, R: float = 0.0, process: np.ndarray | None = None, segments: int = 4):
+    from nlobs.synthesis.sampled_clock import ClockGroup, clock_certificate
+
+    g = ClockGroup("s", (0,), T, T, np.array([[R]]), np.zeros(1))
+    return clock_certificate([(A - L @ C, C @ A)], L, alpha, [g], process=process, H=[C],
+                             p0=np.eye(2) * 0.01, settle=2.0, segments=segments)
+
+
+def test_the_clock_certificate_reaches_far_longer_periods_than_the_small_gain_bound() -> None:
+    small_gain = _lyapunov_bound(A, C, L, 0.0).t_max[0]
+    cert = _clock(0.1, 0.5)
+    assert cert.verified and cert.t_max == (0.1,)
+    assert 0.1 > 5 * small_gain
+
+
+@pytest.mark.parametrize("T", [0.05, 0.1, 0.2])
+def test_a_clock_certificate_for_gaps_up_to_T_implies_every_periodic_sampling_below_T_contracts(T: float) -> None:
+    """What it claims (decay for every gap ≤ T) forces ρ(M(T')) ≤ e^{−αT'} for the exact one-period map."""
+    cert = _clock(T, 0.1)
+    assert cert.verified
+    for Tp in np.linspace(T / 20, T, 20):
+        rho = max(abs(np.linalg.eigvals(_one_period(A, C, L, Tp))))
+        # V decays like e^{-2αt}, |e|² ≤ V ≤ λ_max |e|²: the spectral radius of the map is at most e^{-αT'}
+        assert rho <= math.exp(-cert.alpha * Tp) + 1e-9
+
+
+def test_the_clock_certificate_is_infeasible_where_the_exact_map_expands() -> None:
+    from nlobs.errors import DesignInfeasible
+
+    T_bad = next(T for T in np.linspace(0.1, 3, 300) if max(abs(np.linalg.eigvals(_one_period(A, C, L, T)))) > 1)
+    with pytest.raises(DesignInfeasible, match="clock-dependent"):
+        _clock(float(T_bad), 0.01)
+
+
+def test_the_clock_certificate_is_reverified_and_a_tampered_one_fails() -> None:
+    import dataclasses
+
+    from nlobs.synthesis.sampled_clock import verify_clock_certificate
+
+    cert = _clock(0.1, 0.5, R=1e-4, process=np.diag([0.0, 1e-3]))
+    again = verify_clock_certificate(cert)
+    assert again.verified and again.c == pytest.approx(cert.c) and again.jumps == pytest.approx(cert.jumps)
+    worse = verify_clock_certificate(dataclasses.replace(cert, alpha=cert.alpha * 20))
+    assert not worse.verified and any("(F)" in c.name for c in worse.failed_checks)
+    leak = cert.P0.copy()
+    leak[0, 2] = leak[2, 0] = 0.5
+    broken = verify_clock_certificate(dataclasses.replace(cert, P0=leak, nodes=(leak, *cert.nodes[1:])))
+    assert not broken.verified and any("structure" in c.name for c in broken.failed_checks)
+
+
+def test_the_clock_bound_holds_in_simulation() -> None:
+    sys_ = LinearSystem(A, B, C)
+    T, std, proc = 0.1, 0.01, np.diag([0.0, 1e-3])
+    cert = _clock(T, 0.5, R=std**2, process=proc)
+    runs = 40
+    rng = np.random.default_rng(5)
+    x0 = np.zeros((runs, 2))
+    xh0 = x0 + rng.normal(size=(runs, 2)) * 0.1
+    r = simulate(sys_, OutputPredictor(LuenbergerObserver(sys_, L), sys_), x0, xh0, duration=6.0, dt=0.001,
+                 u=np.zeros(1), measurements=[MeasurementGroup("s", outputs=[0], rate=1 / T, noise_std=std)],
+                 process_noise=proc, seed=2)
+    e = r.x_hat - r.x
+    after = r.t >= 2.0
+    rms = math.sqrt(float(np.mean(np.sum(e[:, after] ** 2, axis=-1))))
+    bound = cert.rms_after(2.0, np.eye(2) * 0.01)
+    assert 0 < rms < bound < 100 * rms

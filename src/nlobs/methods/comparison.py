@@ -555,7 +555,7 @@ def _bound_entries(bound: Any, s: _Setup) -> dict[str, Any]:
     value = bound.rms_after(s.settle, second)
     return {"rms_bound": value if math.isfinite(value) else None,
             "sampling": {"budget": bound.budget,
-                         "groups": [{"name": g.name, "period": g.period, "T_max": t}
+                         "groups": [{"name": g.name, "period": g.gap, "T_max": t}
                                     for g, t in zip(bound.groups, bound.t_max)]}}
 
 

@@ -148,7 +148,7 @@ class LuenbergerMethod:
         parameters: dict[str, Any] = {"alpha": tuned.alpha, "decay": cert.continuous.decay, "tuning": "sensors",
                                       "sampling": sampling, "T_max": tmax, "rms_bound": rms}
         sources = {"alpha": "given" if alpha is not None else
-                   f"the smallest certified RMS bound of {len(tuned.candidates)} decay rates",
+                   f"the smallest certified RMS bound of {len({a for a, _ in tuned.candidates})} decay rates",
                    "tuning": "default with [sensors]" if problem.sensors else "given"}
         return Design(self.name, obs, cert, premises, (), parameters, sources, desc, gain=L,
                       failed=() if cert.verified else tuple(c.summary() for c in cert.failed_checks),

@@ -20,6 +20,7 @@ and noisy (:mod:`nlobs.synthesis.sampled_data`):
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -34,11 +35,15 @@ from nlobs.methods.problem import Problem
 from nlobs.simulate.coverage import InputRange, InRegion, Premise
 from nlobs.synthesis.sampled_data import GroupNoise, SampledDataBound, SampledDesignCertificate, sampled_data_bound
 
-__all__ = ["SensorTuning", "error_box", "longest_gap", "output_indices", "output_rate_box", "sampling_hypotheses",
+__all__ = ["SensorTuning", "clock_sensor_groups", "clock_vertices", "error_box", "longest_gap", "output_indices", "output_rate_box", "sampling_hypotheses",
            "sensor_groups", "tune_thau"]
 
 #: Vertex count above which a Lipschitz constant is bounded through the box's radius instead of its vertices.
 MAX_NORM_VERTICES = 4096
+#: Fractions of a gain's certified decay rate asked of its clock-dependent certificate, in turn.
+CLOCK_DECAY_FRACTIONS = (0.5, 0.1)
+#: Decay rates tried by :func:`tune_thau` (a geometric grid spanning the plant's rates).
+ALPHA_GRID = 9
 #: Relative step of the central differences of a nonlinear ``∂h/∂x`` (Hessians).
 FD_STEP = 1e-6
 
@@ -263,12 +268,58 @@ def sampling_hypotheses(problem: Problem, bound: SampledDataBound | None, *, wha
         return tuple(out)
     parts = []
     for sensor, g, tm in zip(problem.sensors, bound.groups, bound.t_max):
-        what = "T" if g.period <= 1.0 / sensor.rate * (1 + 1e-12) else "longest gap (an outage)"
-        parts.append(f"{g.name}: {what} = {g.period:.4g} {'≤' if g.period <= tm else '>'} T_max = {tm:.4g}")
-    holds = bound.budget < 1
-    out.append(Premise(f"sampled with period ≤ T_max ({'; '.join(parts)}; budget Σ T/T_max = {bound.budget:.3g})",
-                       holds, "" if holds else (bound.violation() or "")))
+        what = "T" if g.gap <= 1.0 / sensor.rate * (1 + 1e-12) else "longest gap (an outage)"
+        parts.append(f"{g.name}: {what} = {g.gap:.4g} {'≤' if g.gap <= tm * (1 + 1e-12) else '>'} T_max = {tm:.4g}")
+    holds = bool(bound.verified)
+    how = f"; budget Σ T/T_max = {bound.budget:.3g}" if isinstance(bound, SampledDataBound) else \
+        " (clock-dependent certificate for these gaps)"
+    out.append(Premise(f"sampled with period ≤ T_max ({'; '.join(parts)}{how})", holds,
+                       "" if holds else (bound.violation() or "")))
     return tuple(out)
+
+
+def clock_sensor_groups(problem: Problem) -> tuple[Any, ...]:
+    """The problem's measurement groups as :class:`~nlobs.synthesis.sampled_clock.ClockGroup` (gap, period, noise).
+
+    Parameters
+    ----------
+    problem : Problem
+        Its sensors.
+    """
+    from nlobs.synthesis.sampled_clock import ClockGroup
+
+    return tuple(ClockGroup(g.name, output_indices(problem, g.outputs), longest_gap(g), 1.0 / g.rate,
+                            np.asarray(g.covariance, dtype=float),
+                            np.broadcast_to(np.asarray(g.bias, dtype=float), (len(g.outputs),)))
+                 for g in problem.sensors)
+
+
+def clock_vertices(pairs: Sequence[tuple[Array, Array]], rate: JacobianBox, K: Array,
+                   linear_h: bool, limit: int = 256) -> list[tuple[Array, Array]] | None:
+    """The vertices ``(M, G)`` of the hybrid error system (:mod:`nlobs.synthesis.sampled_clock`) for a gain ``K``.
+
+    A linear output: ``M = J_F − K C`` and ``G = C J_F`` at the same vertex of the Jacobian box (one mean-value
+    matrix drives both); otherwise every pair of a vertex of the box and one of the rate box (``None`` beyond
+    ``limit`` pairs).
+
+    Parameters
+    ----------
+    pairs : sequence of (A_v, C_v)
+        The vertices of the Jacobian box.
+    rate : JacobianBox
+        The box of the Jacobian of ``L_F h``.
+    K : ndarray, shape (n, p)
+        The gain.
+    linear_h : bool
+        Whether ``∂h/∂x`` is constant.
+    limit : int
+        The most pairs.
+    """
+    if linear_h:
+        return [(A - K @ C, C @ A) for A, C in pairs]
+    if len(pairs) * rate.n_vertices > limit:
+        return None
+    return [(A - K @ C, G) for A, C in pairs for G in rate.vertices()]
 
 
 @dataclass(frozen=True)
@@ -303,7 +354,7 @@ def _alphas(box: JacobianBox, n: int, problem: Problem) -> tuple[float, ...]:
     periods = [1.0 / g.rate for g in problem.sensors]
     top = 10 * rho if not periods else min(10 * rho, 0.5 / max(periods))
     bottom = min(rho / 30, top / 30)
-    return tuple(float(a) for a in np.geomspace(bottom, top, 13))
+    return tuple(float(a) for a in np.geomspace(bottom, top, ALPHA_GRID))
 
 
 def tune_thau(problem: Problem, *, alpha: float | None = None) -> SensorTuning:
@@ -329,6 +380,7 @@ def tune_thau(problem: Problem, *, alpha: float | None = None) -> SensorTuning:
         A Jacobian is not finite on the region.
     """
     from nlobs.methods.kalman import measurement_covariance
+    from nlobs.synthesis.sampled_clock import clock_certificate
     from nlobs.synthesis.thau_gain import design_thau_gain
 
     plant = _plant(problem)
@@ -340,16 +392,20 @@ def tune_thau(problem: Problem, *, alpha: float | None = None) -> SensorTuning:
                                "limit of 1024; give a smaller region (box)")
     rate = output_rate_box(problem, box, plant)
     pairs = [(V[:n], V[n:]) for V in box.vertices()]
+    rate_vertices = list(rate.vertices()) if rate.n_vertices <= 256 else []
     R = measurement_covariance(problem.model, problem.sensors) if problem.sensors else None
     W2 = problem.process_noise
     p0, settle = problem.p0, problem.settle
+    linear_h = not np.any(box.upper[n:] > box.lower[n:])
+    clock_groups = clock_sensor_groups(problem) if problem.sensors and len(problem.sensors) <= 3 else ()
+    h_vertices = list(itertools.islice(JacobianBox(box.lower[n:], box.upper[n:], box.samples).vertices(), 64))
     tried: list[tuple[float, str]] = []
     best: tuple[float, float, SampledDesignCertificate] | None = None
     closest: tuple[float, str] | None = None
     grid = (float(alpha),) if alpha is not None else _alphas(box, n, problem)
     for a, objective in ((a, o) for a in grid for o in ("noise", "sampling")):
         try:
-            cert = design_thau_gain(pairs, a, R=R, process=W2, objective=objective)
+            cert = design_thau_gain(pairs, a, R=R, process=W2, objective=objective, rate_vertices=rate_vertices)
         except DesignInfeasible as exc:
             tried.append((a, f"{objective}: infeasible ({exc})"))
             continue
@@ -359,16 +415,37 @@ def tune_thau(problem: Problem, *, alpha: float | None = None) -> SensorTuning:
             continue
         groups = sensor_groups(problem, cert.P, cert.gain, box, rate, plant)
         bound = sampled_data_bound(cert.P, cert.gain, cert.decay, groups, process=W2, p0=p0)
-        if not bound.verified:
+        if bound.verified:
+            value = bound.rms_after(settle)
+            tried.append((a, f"{objective}: RMS bound {value:.4g}"))
+            if best is None or value < best[0]:
+                best = (value, a, SampledDesignCertificate(cert, bound))
+        else:
             why = bound.violation() or "the bound failed"
             tried.append((a, f"{objective}: {why}"))
             if closest is None or bound.budget < closest[0]:
                 closest = (bound.budget, why)
-            continue
-        value = bound.rms_after(settle)
-        tried.append((a, f"{objective}: RMS bound {value:.4g}"))
-        if best is None or value < best[0]:
-            best = (value, a, SampledDesignCertificate(cert, bound))
+        if objective == "noise" and clock_groups:
+            verts = clock_vertices(pairs, rate, cert.gain, linear_h)
+            if verts is None:
+                continue
+            clock = None
+            for fraction in CLOCK_DECAY_FRACTIONS:  # the sampling costs decay: ask half of it, else a tenth
+                try:
+                    clock = clock_certificate(verts, cert.gain, fraction * cert.decay, clock_groups, process=W2,
+                                              H=h_vertices, p0=p0, settle=settle)
+                    break
+                except DesignInfeasible as exc:
+                    tried.append((a, f"clock: {exc}"))
+            if clock is None:
+                continue
+            if clock.verified:
+                value = clock.rms_after(settle)
+                tried.append((a, f"clock: RMS bound {value:.4g}"))
+                if best is None or value < best[0]:
+                    best = (value, a, SampledDesignCertificate(cert, clock))
+            else:
+                tried.append((a, f"clock: {clock.violation()}"))
     if best is None:
         if closest is not None:
             raise DesignInfeasible(f"no gain of the vertex LMIs keeps its certificate under the sensors: at best "

@@ -142,6 +142,11 @@ class GroupNoise:
             raise InvalidArgumentError(f"sensor group {self.name!r}: bias: non-finite entries")
         object.__setattr__(self, "bias", b)
 
+    @property
+    def gap(self) -> float:
+        """The longest time between two samples (the ``period`` of the bound)."""
+        return self.period
+
 
 @dataclass(frozen=True, eq=False)
 class SampledDataBound(CertificateMixin):

@@ -185,6 +185,7 @@ def _sqrt_psd(M: Array) -> Array:
 
 def design_thau_gain(vertices: Sequence[tuple[ArrayLike, ArrayLike]], alpha: float, *, R: ArrayLike | None = None,
                      process: ArrayLike | None = None, objective: str = "noise",
+                     rate_vertices: Sequence[ArrayLike] = (),
                      solver: Solver | str = Solver.CLARABEL) -> ThauGainCertificate:
     """The gain of (V) at decay ``α`` with the smallest noise terms, or the smallest ``‖P^{1/2}L‖`` (module docstring).
 
@@ -202,6 +203,9 @@ def design_thau_gain(vertices: Sequence[tuple[ArrayLike, ArrayLike]], alpha: flo
         ``"noise"``: minimise ``tr(R Lᵀ P L)/α + tr(P W Wᵀ)``; ``"sampling"``: minimise ``‖P^{1/2} L‖₂²`` (with
         ``P ⪰ I``), which makes the longest sampling period of the bound of :mod:`nlobs.synthesis.sampled_data`,
         ``α / (‖P^{1/2}L‖ ℓ)``, large (a slow gain for sparse or interrupted samples).
+    rate_vertices : sequence of array_like, shape (p, n)
+        With ``objective="sampling"``: the vertices ``G_v`` of the Jacobian box of ``L_F h``; ``P ⪰ G_vᵀG_v`` then
+        makes ``ℓ = max_v ‖G_v P^{−1/2}‖ ≤ 1``, so that the minimised ``‖P^{1/2}L‖`` is ``α / T_max`` itself.
     solver : Solver or str
         Clarabel (default) or SCS.
 
@@ -235,6 +239,9 @@ def design_thau_gain(vertices: Sequence[tuple[ArrayLike, ArrayLike]], alpha: flo
     if objective == "sampling":
         k2 = cp.Variable(nonneg=True)
         cons.append(cp.bmat([[k2 * np.eye(p), Y.T], [Y, P]]) >> 0)
+        for G in rate_vertices:
+            Gm = np.asarray(G, dtype=float)
+            cons.append(P >> Gm.T @ Gm)
         obj = cp.Minimize(k2 + 1e-6 * noise)
     else:
         obj = cp.Minimize(noise)
