@@ -35,7 +35,7 @@ from nlobs.methods.problem import Problem
 from nlobs.simulate.coverage import InputRange, InRegion, Premise
 from nlobs.synthesis.sampled_data import GroupNoise, SampledDataBound, SampledDesignCertificate, sampled_data_bound
 
-__all__ = ["SensorTuning", "clock_sensor_groups", "clock_vertices", "error_box", "longest_gap", "output_indices", "output_rate_box", "sampling_hypotheses",
+__all__ = ["SensorTuning", "clock_sensor_groups", "clock_triples", "error_box", "longest_gap", "output_indices", "output_rate_box", "sampling_hypotheses",
            "sensor_groups", "tune_thau"]
 
 #: Vertex count above which a Lipschitz constant is bounded through the box's radius instead of its vertices.
@@ -294,13 +294,13 @@ def clock_sensor_groups(problem: Problem) -> tuple[Any, ...]:
                  for g in problem.sensors)
 
 
-def clock_vertices(pairs: Sequence[tuple[Array, Array]], rate: JacobianBox, K: Array,
-                   linear_h: bool, limit: int = 256) -> list[tuple[Array, Array]] | None:
-    """The vertices ``(M, G)`` of the hybrid error system (:mod:`nlobs.synthesis.sampled_clock`) for a gain ``K``.
+def clock_triples(pairs: Sequence[tuple[Array, Array]], rate: JacobianBox, linear_h: bool,
+                  limit: int = 256) -> list[tuple[Array, Array, Array]] | None:
+    """The vertices ``(A, C, G)`` of the hybrid error system (:mod:`nlobs.synthesis.sampled_clock`): closed loop
+    ``A − K C``, predictor error rate ``G``.
 
-    A linear output: ``M = J_F − K C`` and ``G = C J_F`` at the same vertex of the Jacobian box (one mean-value
-    matrix drives both); otherwise every pair of a vertex of the box and one of the rate box (``None`` beyond
-    ``limit`` pairs).
+    A linear output: ``G = C A`` at the same vertex of the Jacobian box (one mean-value matrix drives both);
+    otherwise every pair of a vertex of the box and one of the rate box (``None`` beyond ``limit`` pairs).
 
     Parameters
     ----------
@@ -308,18 +308,16 @@ def clock_vertices(pairs: Sequence[tuple[Array, Array]], rate: JacobianBox, K: A
         The vertices of the Jacobian box.
     rate : JacobianBox
         The box of the Jacobian of ``L_F h``.
-    K : ndarray, shape (n, p)
-        The gain.
     linear_h : bool
         Whether ``∂h/∂x`` is constant.
     limit : int
-        The most pairs.
+        The most vertices.
     """
     if linear_h:
-        return [(A - K @ C, C @ A) for A, C in pairs]
+        return [(A, C, C @ A) for A, C in pairs]
     if len(pairs) * rate.n_vertices > limit:
         return None
-    return [(A - K @ C, G) for A, C in pairs for G in rate.vertices()]
+    return [(A, C, G) for A, C in pairs for G in rate.vertices()]
 
 
 @dataclass(frozen=True)
@@ -380,8 +378,8 @@ def tune_thau(problem: Problem, *, alpha: float | None = None) -> SensorTuning:
         A Jacobian is not finite on the region.
     """
     from nlobs.methods.kalman import measurement_covariance
-    from nlobs.synthesis.sampled_clock import clock_certificate
-    from nlobs.synthesis.thau_gain import design_thau_gain
+    from nlobs.synthesis.sampled_clock import ClockSDP
+    from nlobs.synthesis.thau_gain import VertexLMIs
 
     plant = _plant(problem)
     n = problem.model.n
@@ -403,9 +401,13 @@ def tune_thau(problem: Problem, *, alpha: float | None = None) -> SensorTuning:
     best: tuple[float, float, SampledDesignCertificate] | None = None
     closest: tuple[float, str] | None = None
     grid = (float(alpha),) if alpha is not None else _alphas(box, n, problem)
+    lmis = {o: VertexLMIs(pairs, R=R, process=W2, objective=o, rate_vertices=rate_vertices)
+            for o in ("noise", "sampling")}
+    triples = clock_triples(pairs, rate, linear_h) if clock_groups else None
+    sdp = ClockSDP(triples, clock_groups, process=W2, H=h_vertices, p0=p0, settle=settle) if triples else None
     for a, objective in ((a, o) for a in grid for o in ("noise", "sampling")):
         try:
-            cert = design_thau_gain(pairs, a, R=R, process=W2, objective=objective, rate_vertices=rate_vertices)
+            cert = lmis[objective].solve(a)
         except DesignInfeasible as exc:
             tried.append((a, f"{objective}: infeasible ({exc})"))
             continue
@@ -425,15 +427,11 @@ def tune_thau(problem: Problem, *, alpha: float | None = None) -> SensorTuning:
             tried.append((a, f"{objective}: {why}"))
             if closest is None or bound.budget < closest[0]:
                 closest = (bound.budget, why)
-        if objective == "noise" and clock_groups:
-            verts = clock_vertices(pairs, rate, cert.gain, linear_h)
-            if verts is None:
-                continue
+        if objective == "noise" and sdp is not None:
             clock = None
             for fraction in CLOCK_DECAY_FRACTIONS:  # the sampling costs decay: ask half of it, else a tenth
                 try:
-                    clock = clock_certificate(verts, cert.gain, fraction * cert.decay, clock_groups, process=W2,
-                                              H=h_vertices, p0=p0, settle=settle)
+                    clock = sdp.solve(cert.gain, fraction * cert.decay)
                     break
                 except DesignInfeasible as exc:
                     tried.append((a, f"clock: {exc}"))

@@ -66,7 +66,7 @@ from nlobs.errors import DesignInfeasible, InvalidArgumentError
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.synthesis.lmi import Solver, as_solver, solve, symmetrise
 
-__all__ = ["ClockCertificate", "ClockGroup", "clock_certificate", "verify_clock_certificate"]
+__all__ = ["ClockCertificate", "ClockGroup", "ClockSDP", "clock_certificate", "verify_clock_certificate"]
 
 #: Margin asked of the SDP's inequalities (relative to the scale of ``P``) so that they survive re-verification.
 MARGIN = 1e-7
@@ -444,98 +444,150 @@ def clock_certificate(vertices: Sequence[tuple[ArrayLike, ArrayLike]], K: ArrayL
     InvalidArgumentError
         Malformed matrices, too many groups.
     """
-    import cvxpy as cp
-
     Km = np.asarray(K, dtype=float)
     if Km.ndim != 2 or not np.all(np.isfinite(Km)):
         raise InvalidArgumentError("K: expected a finite 2-D array")
     n, p = Km.shape
-    N = n + p
-    verts = []
+    triples = []
     for M, G in vertices:
         Mm, Gm = np.asarray(M, dtype=float), np.asarray(G, dtype=float)
         if Mm.shape != (n, n) or Gm.shape != (p, n) or not (np.all(np.isfinite(Mm)) and np.all(np.isfinite(Gm))):
             raise InvalidArgumentError(f"vertices: expected finite ({n}, {n}) and ({p}, {n}) pairs")
-        verts.append((Mm, Gm))
-    if not verts:
-        raise InvalidArgumentError("vertices: none given")
-    groups = tuple(groups)
-    m = len(groups)
-    if m > MAX_GROUPS:
-        raise InvalidArgumentError(f"groups: {m} > {MAX_GROUPS} sensor groups (2^m clock corners)")
-    seen = [i for g in groups for i in g.index]
-    if len(set(seen)) != len(seen) or any(not 0 <= i < p for i in seen) or len(seen) != p:
-        raise InvalidArgumentError(f"groups: every one of the {p} outputs must be in exactly one group")
-    a = float(alpha)
-    if not (math.isfinite(a) and a > 0):
-        raise InvalidArgumentError(f"alpha: expected a positive finite number, got {alpha!r}")
-    W2 = np.zeros((n, n)) if process is None else np.asarray(process, dtype=float)
-    Hs = [np.asarray(h, dtype=float) for h in H] or [np.zeros((p, n))]
-    S0 = None if p0 is None else np.asarray(p0, dtype=float)
-    blocks = _blocks(n, groups)
+        triples.append((Mm, np.zeros((p, n)), Gm))  # M = A − K C with C = 0: the closed loop as given
+    return ClockSDP(triples, groups, process=process, H=H, p0=p0, settle=settle, segments=segments,
+                    solver=solver).solve(Km, alpha)
 
-    def sym_block(size: int) -> Any:
-        return cp.Variable((size, size), symmetric=True)
 
-    # P0 = blockdiag(P_ee, P_11, …, P_mm) in ξ's order (groups may interleave outputs: place by index)
-    place = np.zeros((N, N))
-    P0_parts = [sym_block(len(b)) for b in blocks]
+class ClockSDP:
+    """(F), (J) and the bound (B) compiled once for the vertices ``(A_v, C_v, G_v)`` of an error system whose
+    closed loop is ``M_v = A_v − K C_v``; solved for any gain ``K`` and decay ``α`` (CVXPY parameters: a tuning
+    re-solves without re-canonicalising).
 
-    def embed(block: Any, rows: list[int], cols: list[int]) -> Any:
-        Er = np.zeros((N, len(rows)))
-        Er[rows, range(len(rows))] = 1.0
-        Ec = np.zeros((N, len(cols)))
-        Ec[cols, range(len(cols))] = 1.0
-        return Er @ block @ Ec.T
+    Parameters
+    ----------
+    triples : sequence of (A, C, G)
+        ``A`` (``n × n``), ``C`` (``p × n``), ``G`` (``p × n``) at each vertex.
+    groups, process, H, p0, settle, segments, solver
+        As :func:`clock_certificate`.
+    """
 
-    P0 = sum((embed(Pb, b, b) for Pb, b in zip(P0_parts, blocks)), place)
-    D: list[Any] = []
-    nodes: list[Any] = []
-    if m == 1 and segments > 1:
-        nodes = [P0, *(sym_block(N) for _ in range(segments))]
-    else:
-        for j in range(m):
-            rows = blocks[0] + blocks[j + 1]
-            D.append(embed(sym_block(len(rows)), rows, rows))
-    E = np.zeros((N, N))
-    E[:n, :n] = np.eye(n)
-    eps = MARGIN * np.eye(N)
-    cons = []
-    W = _sqrt_psd(W2)
-    cvar = cp.Variable(nonneg=True)
-    flows, jumps, points = _points(P0, D, nodes, groups)
-    for Pc in points:
-        cons.append(symmetrise(Pc) >> E + eps)
-        if np.any(W2):
-            for Hv in Hs:
-                X = _noise_map(W, Hv)
-                cons.append(cp.trace(Pc @ (X @ X.T)) <= cvar)
-    for Pc, dP in flows:
-        for M, G in verts:
-            F = _flow(M, G, Km)
-            cons.append(symmetrise(dP + F.T @ Pc + Pc @ F + 2 * a * Pc) << -eps)
-    for j, after, before in jumps:
-        J = _reset(N, blocks[j + 1])
-        cons.append(symmetrise(J.T @ after @ J - before) << -eps)
-    jump_terms = [cp.trace(P0_parts[j + 1] @ (g.R + np.outer(g.bias, g.bias))) / (1 - math.exp(-2 * a * g.period))
-                  for j, g in enumerate(groups)]
-    transient = 0.0 if S0 is None else math.exp(-2 * a * max(settle, 0.0)) * cp.trace(P0_parts[0] @ S0)
-    obj = cp.Minimize(cvar / (2 * a) + sum(jump_terms, 0.0) + transient + 1e-9 * cp.trace(P0))
-    result = solve(cp.Problem(obj, cons), as_solver(solver))
-    if not result.status.has_solution or P0_parts[0].value is None:
-        raise DesignInfeasible(f"no clock-dependent Lyapunov function at α = {a:.4g} for the gaps "
-                               + ", ".join(f"{g.name} ≤ {g.gap:.4g}" for g in groups) + f": {result.raw_status}")
-    P0v = np.zeros((N, N))
-    for Pb, b in zip(P0_parts, blocks):
-        v = np.asarray(Pb.value)
-        P0v[np.ix_(b, b)] = (v + v.T) / 2
+    def __init__(self, triples: Sequence[tuple[ArrayLike, ArrayLike, ArrayLike]], groups: Sequence[ClockGroup], *,
+                 process: ArrayLike | None = None, H: Sequence[ArrayLike] = (), p0: ArrayLike | None = None,
+                 settle: float = 0.0, segments: int = 4, solver: Solver | str = Solver.CLARABEL) -> None:
+        import cvxpy as cp
 
-    def value(x: Any) -> Array:
-        v = np.asarray(x.value, dtype=float)
-        return (v + v.T) / 2
+        trip = [tuple(np.asarray(v, dtype=float) for v in t) for t in triples]
+        if not trip:
+            raise InvalidArgumentError("vertices: none given")
+        n, p = trip[0][0].shape[0], trip[0][1].shape[0]
+        if any(A.shape != (n, n) or C.shape != (p, n) or G.shape != (p, n) or
+               not (np.all(np.isfinite(A)) and np.all(np.isfinite(C)) and np.all(np.isfinite(G)))
+               for A, C, G in trip):
+            raise InvalidArgumentError(f"vertices: expected finite ({n}, {n}), ({p}, {n}), ({p}, {n}) matrices")
+        groups = tuple(groups)
+        m = len(groups)
+        if m > MAX_GROUPS:
+            raise InvalidArgumentError(f"groups: {m} > {MAX_GROUPS} sensor groups (2^m clock corners)")
+        seen = [i for g in groups for i in g.index]
+        if len(set(seen)) != len(seen) or any(not 0 <= i < p for i in seen) or len(seen) != p:
+            raise InvalidArgumentError(f"groups: every one of the {p} outputs must be in exactly one group")
+        N = n + p
+        self.n, self.p, self.triples, self.groups = n, p, trip, groups
+        self.W2 = np.zeros((n, n)) if process is None else np.asarray(process, dtype=float)
+        self.Hs = [np.asarray(h, dtype=float) for h in H] or [np.zeros((p, n))]
+        self.S0 = None if p0 is None else np.asarray(p0, dtype=float)
+        self.settle = float(settle)
+        self.solver = as_solver(solver)
+        blocks = _blocks(n, groups)
+        self.blocks = blocks
+        self.K = Kp = cp.Parameter((n, p))
+        self.alpha = cp.Parameter(nonneg=True)
+        self.inv2a = cp.Parameter(nonneg=True)
+        self.jw = [cp.Parameter(nonneg=True) for _ in groups]
+        self.tw = cp.Parameter(nonneg=True)
 
-    Dv = tuple(value(d) for d in D)
-    nv = (P0v, *(value(x) for x in nodes[1:])) if nodes else ()
-    cert = ClockCertificate(Km, P0v, Dv, nv, a, tuple(verts), groups, W2, tuple(Hs), S0, float(settle),
-                            result.solver, (), 0.0, (), 0.0)
-    return verify_clock_certificate(cert)
+        def sym_block(size: int) -> Any:
+            return cp.Variable((size, size), symmetric=True)
+
+        def embed(block: Any, rows: list[int]) -> Any:
+            Er = np.zeros((N, len(rows)))
+            Er[rows, range(len(rows))] = 1.0
+            return Er @ block @ Er.T
+
+        self.P0_parts = [sym_block(len(b)) for b in blocks]
+        P0 = sum((embed(Pb, b) for Pb, b in zip(self.P0_parts, blocks)), np.zeros((N, N)))
+        D: list[Any] = []
+        nodes: list[Any] = []
+        if m == 1 and segments > 1:
+            nodes = [P0, *(sym_block(N) for _ in range(segments))]
+        else:
+            D = [embed(sym_block(len(blocks[0]) + len(blocks[j + 1])), blocks[0] + blocks[j + 1]) for j in range(m)]
+        self.D, self.nodes = D, nodes
+        E = np.zeros((N, N))
+        E[:n, :n] = np.eye(n)
+        eps = MARGIN * np.eye(N)
+        cons = []
+        W = _sqrt_psd(self.W2)
+        cvar = cp.Variable(nonneg=True)
+        flows, jumps, points = _points(P0, D, nodes, groups)
+        for Pc in points:
+            cons.append(symmetrise(Pc) >> E + eps)
+            if np.any(self.W2):
+                for Hv in self.Hs:
+                    X = _noise_map(W, Hv)
+                    cons.append(cp.trace(Pc @ (X @ X.T)) <= cvar)
+        for A, C, G in trip:
+            F = cp.bmat([[A - Kp @ C, Kp], [G, np.zeros((p, p))]])
+            for Pc, dP in flows:
+                cons.append(symmetrise(dP + F.T @ Pc + Pc @ F + 2 * self.alpha * Pc) << -eps)
+        for j, after, before in jumps:
+            J = _reset(N, blocks[j + 1])
+            cons.append(symmetrise(J.T @ after @ J - before) << -eps)
+        jump_terms = [w * cp.trace(self.P0_parts[j + 1] @ (g.R + np.outer(g.bias, g.bias)))
+                      for j, (w, g) in enumerate(zip(self.jw, groups))]
+        transient = 0.0 if self.S0 is None else self.tw * cp.trace(self.P0_parts[0] @ self.S0)
+        obj = cp.Minimize(self.inv2a * cvar + sum(jump_terms, 0.0) + transient + 1e-9 * cp.trace(P0))
+        self.problem = cp.Problem(obj, cons)
+
+    def solve(self, K: ArrayLike, alpha: float) -> ClockCertificate:
+        """The certificate for gain ``K`` at decay ``alpha`` (raises :class:`DesignInfeasible` without one).
+
+        Parameters
+        ----------
+        K : array_like, shape (n, p)
+            The output injection.
+        alpha : float
+            The decay rate, ``> 0``.
+        """
+        n, p = self.n, self.p
+        Km = np.asarray(K, dtype=float)
+        if Km.shape != (n, p) or not np.all(np.isfinite(Km)):
+            raise InvalidArgumentError(f"K: expected a finite ({n}, {p}) array")
+        a = float(alpha)
+        if not (math.isfinite(a) and a > 0):
+            raise InvalidArgumentError(f"alpha: expected a positive finite number, got {alpha!r}")
+        self.K.value, self.alpha.value, self.inv2a.value = Km, a, 1.0 / (2 * a)
+        for w, g in zip(self.jw, self.groups):
+            w.value = 1.0 / (1 - math.exp(-2 * a * g.period))
+        self.tw.value = math.exp(-2 * a * max(self.settle, 0.0))
+        result = solve(self.problem, self.solver)
+        if not result.status.has_solution or self.P0_parts[0].value is None:
+            raise DesignInfeasible(f"no clock-dependent Lyapunov function at α = {a:.4g} for the gaps "
+                                   + ", ".join(f"{g.name} ≤ {g.gap:.4g}" for g in self.groups)
+                                   + f": {result.raw_status}")
+        N = n + p
+        P0v = np.zeros((N, N))
+        for Pb, b in zip(self.P0_parts, self.blocks):
+            v = np.asarray(Pb.value)
+            P0v[np.ix_(b, b)] = (v + v.T) / 2
+
+        def value(x: Any) -> Array:
+            v = np.asarray(x.value, dtype=float)
+            return (v + v.T) / 2
+
+        Dv = tuple(value(d) for d in self.D)
+        nv = (P0v, *(value(x) for x in self.nodes[1:])) if self.nodes else ()
+        verts = tuple((A - Km @ C, G) for A, C, G in self.triples)
+        cert = ClockCertificate(Km, P0v, Dv, nv, a, verts, self.groups, self.W2, tuple(self.Hs), self.S0,
+                                self.settle, result.solver, (), 0.0, (), 0.0)
+        return verify_clock_certificate(cert)

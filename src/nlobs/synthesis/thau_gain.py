@@ -40,7 +40,7 @@ from nlobs.errors import DesignInfeasible, InvalidArgumentError
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.synthesis.lmi import Solver, as_solver, solve, symmetrise
 
-__all__ = ["ThauGainCertificate", "certified_decay", "certify_thau_gain", "design_thau_gain", "verify_thau_gain"]
+__all__ = ["ThauGainCertificate", "VertexLMIs", "certified_decay", "certify_thau_gain", "design_thau_gain", "verify_thau_gain"]
 
 #: Most vertices the LMIs (V) are written at (``2^k`` for ``k`` varying Jacobian entries).
 MAX_VERTICES = 1024
@@ -220,38 +220,72 @@ def design_thau_gain(vertices: Sequence[tuple[ArrayLike, ArrayLike]], alpha: flo
     """
     if objective not in ("noise", "sampling"):
         raise InvalidArgumentError(f"objective: expected 'noise' or 'sampling', got {objective!r}")
-    import cvxpy as cp
+    return VertexLMIs(vertices, R=R, process=process, objective=objective, rate_vertices=rate_vertices,
+                      solver=solver).solve(alpha)
 
-    pairs = _pairs(vertices)
-    n, p = pairs[0][0].shape[0], pairs[0][1].shape[0]
-    a = float(alpha)
-    if not (math.isfinite(a) and a > 0):
-        raise InvalidArgumentError(f"alpha: expected a positive finite number, got {alpha!r}")
-    Rm, Wm = _objective_parts(n, p, R, process)
-    Rh = _sqrt_psd(Rm)
-    P = cp.Variable((n, n), symmetric=True)
-    Y = cp.Variable((n, p))
-    Z = cp.Variable((p, p), symmetric=True)
-    cons = [P >> np.eye(n), cp.bmat([[Z, Rh @ Y.T], [Y @ Rh, P]]) >> 0]
-    for A, C in pairs:
-        cons.append(symmetrise(A.T @ P + P @ A - C.T @ Y.T - Y @ C + 2 * a * P) << 0)
-    noise = cp.trace(Z) / a + cp.trace(P @ Wm) + 1e-9 * cp.trace(P)
-    if objective == "sampling":
-        k2 = cp.Variable(nonneg=True)
-        cons.append(cp.bmat([[k2 * np.eye(p), Y.T], [Y, P]]) >> 0)
-        for G in rate_vertices:
-            Gm = np.asarray(G, dtype=float)
-            cons.append(P >> Gm.T @ Gm)
-        obj = cp.Minimize(k2 + 1e-6 * noise)
-    else:
-        obj = cp.Minimize(noise)
-    result = solve(cp.Problem(obj, cons), as_solver(solver))
-    if not result.status.has_solution or P.value is None or Y.value is None:
-        raise DesignInfeasible(f"(V) at {len(pairs)} vertices with decay α = {a:g}: {result.raw_status}")
-    Pv = (np.asarray(P.value) + np.asarray(P.value).T) / 2
-    L = np.linalg.solve(Pv, np.asarray(Y.value))
-    decay, checks = _checks(Pv, L, pairs, a)
-    return ThauGainCertificate(L, Pv, a, decay, pairs, result.solver, checks)
+
+class VertexLMIs:
+    """(V) and its objective compiled once, solved for any ``α`` (a CVXPY parameter: the α grid of a tuning
+    re-solves without re-canonicalising).
+
+    Parameters
+    ----------
+    vertices, R, process, objective, rate_vertices, solver
+        As :func:`design_thau_gain`.
+    """
+
+    def __init__(self, vertices: Sequence[tuple[ArrayLike, ArrayLike]], *, R: ArrayLike | None = None,
+                 process: ArrayLike | None = None, objective: str = "noise", rate_vertices: Sequence[ArrayLike] = (),
+                 solver: Solver | str = Solver.CLARABEL) -> None:
+        import cvxpy as cp
+
+        if objective not in ("noise", "sampling"):
+            raise InvalidArgumentError(f"objective: expected 'noise' or 'sampling', got {objective!r}")
+        self.pairs = pairs = _pairs(vertices)
+        n, p = pairs[0][0].shape[0], pairs[0][1].shape[0]
+        Rm, Wm = _objective_parts(n, p, R, process)
+        Rh = _sqrt_psd(Rm)
+        self.solver = as_solver(solver)
+        self.alpha = cp.Parameter(nonneg=True)
+        self.inv_alpha = cp.Parameter(nonneg=True)
+        self.P = P = cp.Variable((n, n), symmetric=True)
+        self.Y = Y = cp.Variable((n, p))
+        Z = cp.Variable((p, p), symmetric=True)
+        cons = [P >> np.eye(n), cp.bmat([[Z, Rh @ Y.T], [Y @ Rh, P]]) >> 0]
+        for A, C in pairs:
+            cons.append(symmetrise(A.T @ P + P @ A - C.T @ Y.T - Y @ C + 2 * self.alpha * P) << 0)
+        noise = self.inv_alpha * cp.trace(Z) + cp.trace(P @ Wm) + 1e-9 * cp.trace(P)
+        if objective == "sampling":
+            k2 = cp.Variable(nonneg=True)
+            cons.append(cp.bmat([[k2 * np.eye(p), Y.T], [Y, P]]) >> 0)
+            for G in rate_vertices:
+                Gm = np.asarray(G, dtype=float)
+                cons.append(P >> Gm.T @ Gm)
+            obj = cp.Minimize(k2 + 1e-6 * noise)
+        else:
+            obj = cp.Minimize(noise)
+        self.problem = cp.Problem(obj, cons)
+
+    def solve(self, alpha: float) -> ThauGainCertificate:
+        """The gain of (V) at decay ``alpha`` (raises :class:`DesignInfeasible` without one).
+
+        Parameters
+        ----------
+        alpha : float
+            The decay rate, ``> 0``.
+        """
+        a = float(alpha)
+        if not (math.isfinite(a) and a > 0):
+            raise InvalidArgumentError(f"alpha: expected a positive finite number, got {alpha!r}")
+        self.alpha.value, self.inv_alpha.value = a, 1.0 / a
+        result = solve(self.problem, self.solver)
+        P, Y = self.P, self.Y
+        if not result.status.has_solution or P.value is None or Y.value is None:
+            raise DesignInfeasible(f"(V) at {len(self.pairs)} vertices with decay α = {a:g}: {result.raw_status}")
+        Pv = (np.asarray(P.value) + np.asarray(P.value).T) / 2
+        L = np.linalg.solve(Pv, np.asarray(Y.value))
+        decay, checks = _checks(Pv, L, self.pairs, a)
+        return ThauGainCertificate(L, Pv, a, decay, self.pairs, result.solver, checks)
 
 
 def certify_thau_gain(vertices: Sequence[tuple[ArrayLike, ArrayLike]], L: ArrayLike, alpha: float, *,
