@@ -13,7 +13,9 @@ The observer protocol and the observers
     (7), (17)), :class:`SetValuedObserver` (Khajenejad & Yong, (10)–(15)),
     :class:`DiscreteLipschitzObserver`, :class:`UnknownInputEKF`, :class:`EKF` and :class:`UKF` (any plant),
     :class:`GnssInsObserver` (Grip, Saberi & Johansen, (22)/(24)), :class:`ScheduledGnssInsObserver` (the same
-    with a scheduled attitude gain Γ(t)) and the navigation :class:`ExtendedKalmanFilter`.
+    with a scheduled attitude gain Γ(t)) and the navigation :class:`ExtendedKalmanFilter`; for sampled
+    outputs :class:`OutputPredictor` (any continuous observer with the inter-sample output predictor of
+    Karafyllis & Kravaris) and :class:`ImpulsiveObserver` (Raff & Allgöwer).
 The loops and the result
     :func:`simulate` (plant and observer together: the simulation subpackage ``nlobs.simulate``,
     which called is its loop), :func:`run_observer` (an observer on recorded measurements),
@@ -62,8 +64,10 @@ if TYPE_CHECKING:
         DiscreteLipschitzObserver,
         DriftObserver,
         EKF,
+        ImpulsiveObserver,
         LuenbergerObserver,
         Observer,
+        OutputPredictor,
         PinvObserver,
         SetValuedObserver,
         UKF,
@@ -112,8 +116,9 @@ _LAZY: dict[str, str] = {
     "GnssInsObserver": "nlobs.navigation.gnss_ins",
     "ScheduledGnssInsObserver": "nlobs.navigation.schedule",
     **dict.fromkeys(("ByrnesIsidoriObserver", "CascadeObserver", "ConstantGainObserver", "CorrectingObserver",
-                     "DiscreteLipschitzObserver", "DriftObserver", "EKF", "LuenbergerObserver", "Observer",
-                     "PinvObserver", "SetValuedObserver", "UKF", "UnknownInputEKF"), "nlobs.observers"),
+                     "DiscreteLipschitzObserver", "DriftObserver", "EKF", "ImpulsiveObserver", "LuenbergerObserver",
+                     "Observer", "OutputPredictor", "PinvObserver", "SetValuedObserver", "UKF", "UnknownInputEKF"),
+                    "nlobs.observers"),
     **dict.fromkeys(("SimulationResult", "run_observer", "monte_carlo"), "nlobs.simulate"),
     "simulate": "nlobs.simulate",
     **dict.fromkeys(("Certificate", "design_cascade_gain", "design_discrete_lipschitz_gain", "design_drift_gain",

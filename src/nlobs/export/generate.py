@@ -17,6 +17,9 @@ r"""Observer → :class:`~nlobs.export.program.CProgram`: one generator per obse
 * :class:`~nlobs.observers.sampled.OutputPredictor` — any of the continuous observers above run on sampled
   outputs through the inter-sample output predictor of Karafyllis & Kravaris (2009), in
   :mod:`nlobs.export.predictor`.
+* :class:`~nlobs.observers.impulsive.ImpulsiveObserver` — Raff & Allgöwer's impulsive observer, the model
+  ``F(x̂, u)`` between samples and the jump ``x̂ ← x̂ + L_J (y_J − h_J(x̂))`` at each (a correcting module), in
+  :mod:`nlobs.export.impulsive`.
 
 Every symbolic part goes through :func:`nlobs.export.cprint.emit_assignments` (SymPy's C99 printer
 with common subexpressions); the fixed parts (RK4, the solve, the saturated forms) are this module's
@@ -444,7 +447,8 @@ def _generators() -> dict[str, Any]:
             "ScheduledGnssInsObserver": _lazy("nlobs.export.gnss_ins", "generate_gnss_ins"),
             "SetValuedObserver": _lazy("nlobs.export.setvalued", "generate_setvalued"),
             "CascadeObserver": _lazy("nlobs.export.cascade", "generate_cascade"),
-            "OutputPredictor": _lazy("nlobs.export.predictor", "generate_predictor")}
+            "OutputPredictor": _lazy("nlobs.export.predictor", "generate_predictor"),
+            "ImpulsiveObserver": _lazy("nlobs.export.impulsive", "generate_impulsive")}
 
 
 #: Observer classes whose generator takes options (``generate(..., options=)``).

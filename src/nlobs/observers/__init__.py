@@ -12,7 +12,9 @@
   Kalman filters for any plant, continuous-discrete or discrete (``ekf.py``, ``ukf.py``, their shared
   state and correction in ``gaussian.py``);
 * :class:`OutputPredictor` — any continuous observer on sampled outputs, with the inter-sample output
-  predictor of Karafyllis & Kravaris (2009) (``sampled.py``).
+  predictor of Karafyllis & Kravaris (2009) (``sampled.py``);
+* :class:`ImpulsiveObserver` — the copy of the plant corrected by a jump at each sample (Raff & Allgöwer
+  2007) (``impulsive.py``).
 """
 
 from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
@@ -20,6 +22,7 @@ from nlobs.observers.cascade import CascadeObserver
 from nlobs.observers.drift import DriftObserver, SingularObservabilityError
 from nlobs.observers.ekf import EKF
 from nlobs.observers.gaussian import FilterState
+from nlobs.observers.impulsive import ImpulsiveObserver
 from nlobs.observers.kalman import GaussianState, UnknownInputEKF, joseph_update
 from nlobs.observers.lipschitz import DiscreteLipschitzObserver
 from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
@@ -50,6 +53,7 @@ __all__ = [
     "FilterState",
     "GaussianState",
     "GivenGain",
+    "ImpulsiveObserver",
     "LuenbergerObserver",
     "Observer",
     "OutputPredictor",
