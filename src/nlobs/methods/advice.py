@@ -262,6 +262,7 @@ def _sampling_note(observer: Any, model: str | Path, time_unit: str) -> str:
     from nlobs.systems.brunovsky import brunovsky
 
     sensors = load_scenario(model).sensors
+    observer = getattr(observer, "observer", observer)  # the observer inside an output predictor
     K = getattr(observer, "K", None)
     if not sensors or K is None:
         return ""
@@ -269,7 +270,7 @@ def _sampling_note(observer: Any, model: str | Path, time_unit: str) -> str:
     lam = float(np.max(np.abs(np.linalg.eigvals(A - np.asarray(K) @ C))))
     ts = 1.0 / min(g.rate for g in sensors)
     return (f" (the gain's fastest error pole is {lam:.3g} per {time_unit} and the output is sampled every "
-            f"{ts:.3g} {time_unit}: |λ|·Ts = {lam * ts:.2g}; a continuous high-gain design fed held samples needs "
+            f"{ts:.3g} {time_unit}: |λ|·Ts = {lam * ts:.2g}; a continuous high-gain design fed samples needs "
             "|λ|·Ts well below 1: a faster sensor, or a smaller gain (a smaller α of the design, a smaller region))")
 
 

@@ -36,6 +36,7 @@ from nlobs.linear.assumption4 import Assumption4Report, check_assumption4, exten
 from nlobs.linear.norms import hinf_norm
 from nlobs.methods.base import Design
 from nlobs.methods.problem import Problem
+from nlobs.methods.sensor_design import on_samples, sampling_form
 from nlobs.observers.cascade import CascadeObserver
 from nlobs.simulate.coverage import Premise
 from nlobs.synthesis.cascade_bounds import (
@@ -400,7 +401,7 @@ class CascadeMethod:
     name: str = "cascade"
     title: str = "cascade/feedback observer (Grip, Saberi & Johansen (9)–(10), (17)–(18))"
     uses_region: bool = False
-    options: frozenset[str] = frozenset({"gamma", "gain_method", "gain_bound"})
+    options: frozenset[str] = frozenset({"gamma", "gain_method", "gain_bound", "sampling"})
 
     def applies(self, problem: Problem) -> str | None:
         from nlobs.systems.cascade_file import has_cascade
@@ -414,7 +415,7 @@ class CascadeMethod:
         return None
 
     def design(self, problem: Problem, *, gamma: float | None = None, gain_method: str | None = None,
-               gain_bound: float | None = None) -> Design:
+               gain_bound: float | None = None, sampling: str | None = None) -> Design:
         """The design of :func:`design_cascade` for the problem's ``[cascade]`` table.
 
         Raises
@@ -426,6 +427,7 @@ class CascadeMethod:
         """
         from nlobs.systems.cascade_file import load_cascade
 
+        form = sampling_form(sampling)
         why = self.applies(problem)
         if why is not None:
             raise AssumptionViolated(why)
@@ -441,11 +443,12 @@ class CascadeMethod:
             if not d.assumption4.holds:
                 raise AssumptionViolated(d.failure)
             raise DesignInfeasible(d.failure)
-        return cascade_design(d, problem, gamma_given=gamma is not None, gain_method_given=gain_method is not None)
+        return cascade_design(d, problem, gamma_given=gamma is not None, gain_method_given=gain_method is not None,
+                              sampling=form)
 
 
 def cascade_design(d: CascadeDesign, problem: Problem | None = None, *, gamma_given: bool = False,
-                   gain_method_given: bool = False) -> Design:
+                   gain_method_given: bool = False, sampling: str = "predictor") -> Design:
     """The :class:`~nlobs.methods.base.Design` of a cascade design that has a gain (what every command reports).
 
     Parameters
@@ -457,6 +460,8 @@ def cascade_design(d: CascadeDesign, problem: Problem | None = None, *, gamma_gi
         exact, continuous measurement of Theorem 1).
     gamma_given, gain_method_given : bool
         Whether ``γ`` and the gain method were given (else they are the file's, or the defaults).
+    sampling : {"predictor", "hold"}
+        With sensors, how the sampled output enters the observer (:func:`~nlobs.methods.sensor_design.on_samples`).
 
     Returns
     -------
@@ -480,9 +485,11 @@ def cascade_design(d: CascadeDesign, problem: Problem | None = None, *, gamma_gi
     hyps = (Premise(f"{t1.theorem}: ‖H‖∞ below its γ", t1.holds,
                     "no [cascade.lyapunov] constants" if t1.bound is None else
                     f"‖H‖∞ = {t1.hinf_H:.4g} ≥ γ = {t1.bound:.4g}"),
-            Premise("continuous measurement", not sensors,
-                    "the output is sampled and held (Theorem 1 assumes a continuous output)"),
             Premise("exact measurement and model", exact, f"{what} (Theorem 1 is for an exact output and model)"))
+    obs = d.observer()
+    if problem is not None and sensors:
+        obs, lacking = on_samples(obs, problem, sampling, "Theorem 1")
+        hyps += lacking
     K = d.certificate.gain
     how = {"lmi": "LMI (14)", "h2": "the smallest noise-to-error H2 norm under LMI (14)"}.get(d.method,
                                                                                               "pole placement")
@@ -494,7 +501,7 @@ def cascade_design(d: CascadeDesign, problem: Problem | None = None, *, gamma_gi
                "gain_method": "given" if gain_method_given else ("[cascade] method" if cm.method else "default")}
     from nlobs.export.cascade import design_notes
 
-    return Design("cascade", d.observer(), d.certificate, tuple(premises), unchecked, parameters, sources, desc,
+    return Design("cascade", obs, d.certificate, tuple(premises), unchecked, parameters, sources, desc,
                   gain=K, failed=failed, hypotheses=hyps,
                   coverage_extras={"hinf_H": t1.hinf_H, "theorem1_gamma": t1.bound}, report=d,
                   theorem="Grip, Saberi & Johansen, LMI (14) and Theorem 1",

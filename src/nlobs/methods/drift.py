@@ -37,6 +37,7 @@ from nlobs.geometry.observability import (
 from nlobs.geometry.region import Box
 from nlobs.methods.base import Design
 from nlobs.methods.problem import Problem
+from nlobs.methods.sensor_design import on_samples, sampling_form
 from nlobs.observers.drift import COND_LIMIT, DriftObserver
 from nlobs.simulate.coverage import InputBound, InRegion, Premise
 from nlobs.synthesis.drift_bounds import ErrorBoundConstants, error_bound_constants
@@ -339,7 +340,7 @@ class DriftMethod:
     name: str = "drift"
     title: str = "drift observer (Dalla Mora, Germani & Manes (3.1))"
     uses_region: bool = True
-    options: frozenset[str] = frozenset({"s", "alpha", "mu", "gamma", "gain_method", "w", "w_max", "saturation",
+    options: frozenset[str] = frozenset({"s", "alpha", "mu", "gamma", "gain_method", "w", "w_max", "saturation", "sampling",
                                          "on_singular", "samples", "seed", "objective"})
 
     def applies(self, problem: Problem) -> str | None:
@@ -356,7 +357,7 @@ class DriftMethod:
     def design(self, problem: Problem, *, s: Sequence[int] | None = None, alpha: float | None = None,
                mu: float | None = None, gamma: float | None = None, gain_method: str = "vandermonde",
                w: float | None = None, w_max: float = 1e5, saturation: bool = False, on_singular: str = "raise",
-               samples: int = 2000, seed: int = 0, objective: str = "min_gain") -> Design:
+               samples: int = 2000, seed: int = 0, objective: str = "min_gain", sampling: str | None = None) -> Design:
         """The design (3.1) for the problem (the options as :func:`design_drift_report`).
 
         Raises
@@ -368,6 +369,7 @@ class DriftMethod:
         """
         if not isinstance(saturation, bool):
             raise InvalidArgumentError(f"`saturation`: expected on or off (a bool), got {saturation!r}")
+        form = sampling_form(sampling)
         why = self.applies(problem)
         if why is not None:
             # no observer (3.1) for this model: an unobservable model is an assumption that fails, not bad input
@@ -402,7 +404,12 @@ class DriftMethod:
         w_txt = f"w = {cert.w:.4g}" if getattr(cert, "w", None) is not None else "the SDP"
         desc = (f"(3.1), s = {list(rep.s)}, K of {'Remark 2.11' if gain_method == 'vandermonde' else 'the SDP'} "
                 f"({w_txt}), α = {cert.constants.alpha:g}, μ = {cert.constants.mu:.4g}, γ = {rep.gamma:.4g} on {where}")
-        return Design(self.name, rep.observer(on_singular=on_singular, saturation=saturation), cert, premises, (),
+        obs, lacking = on_samples(rep.observer(on_singular=on_singular, saturation=saturation), problem, form,
+                                  "Theorem 3.1")
+        hyps += lacking
+        if problem.sensors:
+            parameters["sampling"] = form
+        return Design(self.name, obs, cert, premises, (),
                       parameters, sources, desc, gain=cert.gain, failed=failed, hypotheses=tuple(hyps),
                       coverage_extras={"region": where, "mu": cert.constants.mu}, report=rep,
                       warnings=tuple(rep.warnings), theorem=f"Dalla Mora, Germani & Manes, Theorem 3.1 on {where}",

@@ -15,8 +15,10 @@ gain of the vertex LMIs of the Jacobian box on the region (:mod:`nlobs.synthesis
 the nonlinear error on the region itself, at the decay rate whose certified RMS bound under the file's sensor
 periods and noise is smallest (:mod:`nlobs.methods.sensor_design`, :mod:`nlobs.synthesis.sampled_data`). The
 observer then runs on the samples through the inter-sample output predictor of Karafyllis & Kravaris
-(``sampling="predictor"``, :mod:`nlobs.observers.sampled`); ``sampling="hold"`` injects the held sample
-(zero-order hold, which no sampling certificate covers).
+(``sampling="predictor"``, :mod:`nlobs.observers.sampled`), or is the impulsive observer of Raff & Allgöwer that
+jumps at each sample (``"impulsive"``, :mod:`nlobs.observers.impulsive`, for sensors slow against the plant);
+by default the one with the smaller certified bound. ``sampling="hold"`` injects the held sample (zero-order
+hold, which no sampling certificate covers).
 """
 
 from __future__ import annotations
@@ -82,8 +84,10 @@ class LuenbergerMethod:
             The decay rate (default: chosen for the sensors; ``1`` with ``tuning="decay"``).
         tuning : {"sensors", "decay"}, optional
             Default ``"sensors"`` when the problem has sensors, else ``"decay"``.
-        sampling : {"predictor", "hold"}, optional
-            How a sampled output enters the observer (default ``"predictor"``).
+        sampling : {"auto", "predictor", "impulsive", "hold"}, optional
+            How a sampled output enters the observer: through the inter-sample output predictor, by the jumps of
+            the impulsive observer (``tuning="sensors"``, one sensor group), or held; default ``"auto"``: the
+            smaller certified bound of the first two (the predictor with ``tuning="decay"``).
 
         Raises
         ------
@@ -93,12 +97,15 @@ class LuenbergerMethod:
             No gain from either solver (the message says why).
         """
         tuning_ = _choice("`tuning`", tuning, ("sensors", "decay"), "sensors" if problem.sensors else "decay")
-        sampling_ = _choice("`sampling`", sampling, ("predictor", "hold"), "predictor")
+        sampling_ = _choice("`sampling`", sampling, ("auto", "predictor", "impulsive", "hold"), "auto")
         why = self.applies(problem)
         if why is not None:
             from nlobs.errors import ModelError
 
             raise ModelError(why)
+        if sampling_ == "impulsive" and tuning_ != "sensors":
+            raise InvalidArgumentError("`sampling`: the impulsive observer has its own gain: use it with "
+                                       "tuning=sensors")
         if tuning_ == "sensors":
             try:
                 return self._for_sensors(problem, alpha, sampling_)
@@ -115,19 +122,25 @@ class LuenbergerMethod:
     def _for_sensors(self, problem: Problem, alpha: float | None, sampling: str) -> Design:
         """The Thau gain of the vertex LMIs chosen for the sensors (module docstring)."""
         from nlobs.methods.sensor_design import sampling_hypotheses, tune_thau
+        from nlobs.observers.impulsive import ImpulsiveObserver
         from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
         from nlobs.observers.sampled import with_predictor
 
         a = None if alpha is None else positive("`alpha`", alpha)
-        tuned = tune_thau(problem, alpha=a)
-        cert, bound = tuned.certificate, tuned.certificate.bound
+        tuned = tune_thau(problem, alpha=a, sampling={"auto": None, "hold": "predictor"}.get(sampling, sampling))
+        impulsive = tuned.sampling == "impulsive"
+        cert = tuned.certificate
+        bound = cert if impulsive else cert.bound
         model = problem.model
         linear = isinstance(model, LinearSystem)
         plant = model if linear else model.compile()
         L = cert.gain
-        inner = LuenbergerObserver(model, L) if linear else ConstantGainObserver(plant, L)
-        predicted = sampling == "predictor" and bool(problem.sensors)
-        obs = with_predictor(inner, plant, predicted)
+        predicted = not impulsive and sampling != "hold" and bool(problem.sensors)
+        if impulsive:
+            obs = ImpulsiveObserver(plant, L)
+        else:
+            inner = LuenbergerObserver(model, L) if linear else ConstantGainObserver(plant, L)
+            obs = with_predictor(inner, plant, predicted)
         box = tuned.box
         premises = (
             Check.verdict("Jacobian bounds on the region", True,
@@ -136,25 +149,38 @@ class LuenbergerMethod:
                           f"{box.n_vertices} vertices", kind=CheckKind.FUNCTION_CLASS, method="sampled",
                           key="jacobian_box"),
             *bound.checks)
-        hyps = sampling_hypotheses(problem, bound if predicted or not problem.sensors else None,
+        hyps = sampling_hypotheses(problem, bound if impulsive or predicted or not problem.sensors else None,
                                    what="a held sample (sampling=hold)")
         tmax = {g.name: t for g, t in zip(bound.groups, bound.t_max)}
         rms = bound.rms_after(problem.settle)
-        desc = (("Luenberger observer" if linear else "Thau observer: copy of the plant + L (y − h(x̂))")
-                + f", L of the vertex LMIs on the region ({box.n_vertices} vertices) at α = {tuned.alpha:.4g}, chosen "
-                "for the sensors" + (" (output predictor between samples)" if predicted else
-                                     " (held samples)" if problem.sensors else "")
-                + f"; certified RMS ≤ {rms:.4g} after t = {problem.settle:g}")
-        parameters: dict[str, Any] = {"alpha": tuned.alpha, "decay": cert.continuous.decay, "tuning": "sensors",
-                                      "sampling": sampling, "T_max": tmax, "rms_bound": rms}
+        if impulsive:
+            desc = ("impulsive Thau observer (Raff & Allgöwer): copy of the plant between samples, x̂ += L (y − h(x̂)) "
+                    f"at each sample, L and P(τ) of the clock-dependent LMIs on the region ({box.n_vertices} "
+                    f"vertices) at α = {tuned.alpha:.4g}, chosen for the sensors")
+        else:
+            desc = (("Luenberger observer" if linear else "Thau observer: copy of the plant + L (y − h(x̂))")
+                    + f", L of the vertex LMIs on the region ({box.n_vertices} vertices) at α = {tuned.alpha:.4g}, "
+                    "chosen for the sensors" + (" (output predictor between samples)" if predicted else
+                                                " (held samples)" if problem.sensors else ""))
+        desc += f"; certified RMS ≤ {rms:.4g} after t = {problem.settle:g}"
+        decay = cert.alpha if impulsive else cert.continuous.decay
+        parameters: dict[str, Any] = {"alpha": tuned.alpha, "decay": decay, "tuning": "sensors",
+                                      "sampling": "impulsive" if impulsive else ("hold" if sampling == "hold" else
+                                                                                 "predictor"),
+                                      "T_max": tmax, "rms_bound": rms}
         sources = {"alpha": "given" if alpha is not None else
                    f"the smallest certified RMS bound of {len({a for a, _ in tuned.candidates})} decay rates",
-                   "tuning": "default with [sensors]" if problem.sensors else "given"}
+                   "tuning": "default with [sensors]" if problem.sensors else "given",
+                   "sampling": "given" if sampling != "auto" else "the smaller certified bound of the output "
+                                                                   "predictor and the impulsive observer"}
         return Design(self.name, obs, cert, premises, (), parameters, sources, desc, gain=L,
                       failed=() if cert.verified else tuple(c.summary() for c in cert.failed_checks),
                       hypotheses=hyps, report=cert, bound=bound,
-                      theorem="vertex LMIs of the Jacobian box (Zemouche, Boutayeb & Bara 2008) with the sampled-data "
-                              "bound of the inter-sample predictor (Karafyllis & Kravaris 2009; Fridman 2014)",
+                      theorem=("clock-dependent LMIs of the impulsive observer's hybrid error system (Raff & "
+                               "Allgöwer 2007; Briat 2013) on the Jacobian box" if impulsive else
+                               "vertex LMIs of the Jacobian box (Zemouche, Boutayeb & Bara 2008) with the sampled-"
+                               "data bound of the inter-sample predictor (Karafyllis & Kravaris 2009; Fridman 2014; "
+                               "Briat 2013)"),
                       details=tuple(bound.summary().splitlines()))
 
     def _decay(self, problem: Problem, alpha: float | None, sampling: str) -> Design:
@@ -183,7 +209,7 @@ class LuenbergerMethod:
             raise DesignInfeasible(f"no gain of LMIs (14), (15) with Re λ < −{a:g} for {where}: {failure}")
         L = cert.gain
         plant = model if linear else model.compile()
-        predicted = sampling == "predictor" and bool(problem.sensors)
+        predicted = sampling != "hold" and bool(problem.sensors)  # the impulsive form needs its own gain
         obs = with_predictor(LuenbergerObserver(lin, L) if linear else ConstantGainObserver(plant, L), plant,
                              predicted)
         poles = np.linalg.eigvals(lin.A - L @ lin.C)
@@ -209,7 +235,7 @@ class LuenbergerMethod:
             desc += "; output predictor between samples"
         parameters: dict[str, Any] = {"alpha": a, "gamma": LUENBERGER_GAMMA, "x0": x0.tolist(), "u0": u0.tolist()}
         if problem.sensors:
-            parameters.update(tuning="decay", sampling=sampling)
+            parameters.update(tuning="decay", sampling="predictor" if predicted else "hold")
         sources = {"alpha": "given" if alpha is not None else "default", "x0": problem.sources.get("x0", "given")}
         return Design(self.name, obs, cert, premises, (), parameters, sources, desc, gain=L, failed=failed,
                       hypotheses=hyps, report=cert, theorem="Grip, Saberi & Johansen, LMIs (14), (15)")

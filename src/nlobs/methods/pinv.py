@@ -32,6 +32,7 @@ from nlobs.geometry.lie import lie_derivative
 from nlobs.geometry.region import Box
 from nlobs.methods.base import Design
 from nlobs.methods.problem import Problem
+from nlobs.methods.sensor_design import on_samples, sampling_form
 from nlobs.observers.pinv import AssumptionWarning, PinvObserver
 from nlobs.simulate.coverage import InRegion, Premise
 from nlobs.synthesis.pinv_gain import DEFAULT_THETA, PLACEMENTS, HighGain, Placement
@@ -285,7 +286,7 @@ class PinvMethod:
     name: str = "pinv"
     title: str = "Moore–Penrose observer (Röbenack (7), (17))"
     uses_region: bool = True
-    options: frozenset[str] = frozenset({"k", "theta", "placement", "saturation", "pinv"})
+    options: frozenset[str] = frozenset({"k", "theta", "placement", "saturation", "pinv", "sampling"})
 
     def applies(self, problem: Problem) -> str | None:
         model = problem.model
@@ -297,7 +298,7 @@ class PinvMethod:
 
     def design(self, problem: Problem, *, k: ArrayLike | None = None, theta: float | None = None,
                placement: Placement = "powers", saturation: bool = False,
-               pinv: Literal["symbolic", "numeric"] = "symbolic") -> Design:
+               pinv: Literal["symbolic", "numeric"] = "symbolic", sampling: str | None = None) -> Design:
         """The design (7), (17) for the problem (the options as :func:`design_pinv_report`).
 
         Raises
@@ -309,6 +310,7 @@ class PinvMethod:
         """
         if not isinstance(saturation, bool):
             raise InvalidArgumentError(f"`saturation`: expected on or off (a bool), got {saturation!r}")
+        form = sampling_form(sampling)
         why = self.applies(problem)
         if why is not None:
             raise ModelError(why)
@@ -340,6 +342,10 @@ class PinvMethod:
                 InRegion(problem.region.lower, problem.region.upper, "estimate", where))
         desc = f"(7) with l(x) = Q⁺(x) k (17), k = {[round(v, 6) for v in rep.k]}" + (
             f" (θ = {rep.theta:g}, {rep.placement})" if rep.theta is not None else " (given)")
+        obs, lacking = on_samples(obs, problem, form, "Corollary 4.1")
+        hyps += lacking
+        if problem.sensors:
+            parameters["sampling"] = form
         return Design(self.name, obs, None, premises, unchecked, parameters, sources, desc,
                       gain=np.asarray(rep.k, dtype=float), failed=tuple(failed), hypotheses=hyps,
                       coverage_extras={"region": where}, report=rep,

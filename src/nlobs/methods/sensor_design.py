@@ -29,13 +29,13 @@ from typing import Any
 import numpy as np
 
 from nlobs._typing import Array
-from nlobs.errors import DesignInfeasible, InvalidArgumentError
+from nlobs.errors import DesignInfeasible, InvalidArgumentError, NonFiniteError
 from nlobs.geometry.jacobian_box import JacobianBox, jacobian_box
 from nlobs.methods.problem import Problem
 from nlobs.simulate.coverage import InputRange, InRegion, Premise
 from nlobs.synthesis.sampled_data import GroupNoise, SampledDataBound, SampledDesignCertificate, sampled_data_bound
 
-__all__ = ["SensorTuning", "clock_sensor_groups", "clock_triples", "error_box", "longest_gap", "output_indices", "output_rate_box", "sampling_hypotheses",
+__all__ = ["SensorTuning", "clock_sensor_groups", "input_range", "on_samples", "sampling_form", "clock_triples", "error_box", "longest_gap", "output_indices", "output_rate_box", "sampling_hypotheses",
            "sensor_groups", "tune_thau"]
 
 #: Vertex count above which a Lipschitz constant is bounded through the box's radius instead of its vertices.
@@ -46,6 +46,25 @@ CLOCK_DECAY_FRACTIONS = (0.5, 0.1)
 ALPHA_GRID = 9
 #: Relative step of the central differences of a nonlinear ``∂h/∂x`` (Hessians).
 FD_STEP = 1e-6
+
+
+#: Relative widening of the input's sampled range (its instants may miss its extremes).
+INPUT_MARGIN = 0.01
+
+
+def input_range(problem: Problem) -> tuple[Array, Array]:
+    """The problem's input range (:attr:`~nlobs.methods.problem.Problem.input_range`, sampled at instants that may
+    miss an extreme) widened by :data:`INPUT_MARGIN` of its width on each side: where the Jacobian boxes are
+    estimated and what the monitor checks.
+
+    Parameters
+    ----------
+    problem : Problem
+        Its known input and horizon.
+    """
+    lo, hi = problem.input_range
+    width = np.maximum(hi - lo, 1e-9 * np.maximum(1.0, np.maximum(np.abs(lo), np.abs(hi))))
+    return lo - INPUT_MARGIN * width, hi + INPUT_MARGIN * width
 
 
 def _plant(problem: Problem) -> Any:
@@ -76,7 +95,7 @@ def error_box(problem: Problem, plant: Any | None = None) -> JacobianBox:
         JH = np.broadcast_to(plant.output_jacobian_x(0.0, x, u), (x.shape[0], p, n))
         return np.concatenate([JF, JH], axis=1)
 
-    lo, hi = problem.input_range
+    lo, hi = input_range(problem)
     return jacobian_box(jac, problem.region, lo, hi)
 
 
@@ -118,7 +137,7 @@ def output_rate_box(problem: Problem, box: JacobianBox, plant: Any | None = None
     plant = _plant(problem) if plant is None else plant
     n, p = problem.model.n, problem.model.p
     linear_h = not np.any(box.upper[n:] > box.lower[n:])
-    lo, hi = problem.input_range
+    lo, hi = input_range(problem)
     return jacobian_box(_rate_jacobian(plant, n, p, linear_h), problem.region, lo, hi)
 
 
@@ -172,7 +191,7 @@ def _ito_drift(problem: Problem, plant: Any, rows: Sequence[int], W2: Array) -> 
     if not np.any(W2):
         return 0.0
     n, p = problem.model.n, problem.model.p
-    lo, hi = problem.input_range
+    lo, hi = input_range(problem)
     x, u = sample_points(problem.region, lo, hi, 512, seed=1)
     acc = np.zeros((x.shape[0], len(rows)))
     for k in range(n):
@@ -255,7 +274,7 @@ def sampling_hypotheses(problem: Problem, bound: SampledDataBound | None, *, wha
         How the premise names what rests on the sampling (``"Theorem 3.1"``).
     """
     region = problem.region
-    lo, hi = problem.input_range
+    lo, hi = input_range(problem)
     out: list[Any] = [InRegion(region.lower, region.upper, "state", region.describe()),
                       InRegion(region.lower, region.upper, "estimate", region.describe())]
     if problem.model.m:
@@ -320,14 +339,61 @@ def clock_triples(pairs: Sequence[tuple[Array, Array]], rate: JacobianBox, linea
     return [(A, C, G) for A, C in pairs for G in rate.vertices()]
 
 
+def sampling_form(value: str | None) -> str:
+    """``"predictor"`` (default) or ``"hold"``: how a method without a sampling certificate meets sampled outputs.
+
+    Parameters
+    ----------
+    value : str or None
+        The ``sampling`` option given.
+    """
+    if value is None:
+        return "predictor"
+    v = str(value).strip().lower()
+    if v not in ("predictor", "hold"):
+        raise InvalidArgumentError(f"`sampling`: expected predictor or hold, got {value!r}")
+    return v
+
+
+def on_samples(observer: Any, problem: Problem, sampling: str, theorem: str) -> tuple[Any, tuple[Any, ...]]:
+    """A continuous observer for the problem's sensors, and the premise its certificate lacks under them.
+
+    With sensors, the observer runs through the output predictor (``sampling="predictor"``) or on held samples
+    (``"hold"``); its theorem assumes a continuous output and nlobs computes no sampling period it survives yet,
+    so the premise "sampled with period ≤ T_max" fails with that reason. Without sensors: the observer itself,
+    no premise.
+
+    Parameters
+    ----------
+    observer : Observer
+        The continuous observer of the design.
+    problem : Problem
+        Its sensors and model.
+    sampling : {"predictor", "hold"}
+        From :func:`sampling_form`.
+    theorem : str
+        What the certificate rests on (``"Theorem 3.1"``).
+    """
+    from nlobs.observers.sampled import with_predictor
+
+    if not problem.sensors:
+        return observer, ()
+    plant = _plant(problem)
+    wrapped = with_predictor(observer, plant, sampling == "predictor")
+    how = "through the output predictor" if sampling == "predictor" else "held"
+    return wrapped, (Premise("sampled with period ≤ T_max", False,
+                             f"the output is sampled ({how}); {theorem} assumes a continuous output and its "
+                             "sampling period is not computed for this method"),)
+
+
 @dataclass(frozen=True)
 class SensorTuning:
     """The Thau/Luenberger gain chosen for the sensors (:func:`tune_thau`).
 
     Attributes
     ----------
-    certificate : SampledDesignCertificate
-        The chosen gain's certificate and its bound.
+    certificate : SampledDesignCertificate or ImpulsiveCertificate
+        The chosen gain's certificate and its bound (the predictor), or the impulsive observer's.
     alpha : float
         The decay rate it was designed for.
     candidates : tuple of (float, str)
@@ -344,6 +410,11 @@ class SensorTuning:
     box: JacobianBox
     rms_bound: float
 
+    @property
+    def sampling(self) -> str:
+        """``"impulsive"`` when the impulsive observer won, else ``"predictor"``."""
+        return "impulsive" if type(self.certificate).__name__ == "ImpulsiveCertificate" else "predictor"
+
 
 def _alphas(box: JacobianBox, n: int, problem: Problem) -> tuple[float, ...]:
     A = box.center[:n]
@@ -355,7 +426,7 @@ def _alphas(box: JacobianBox, n: int, problem: Problem) -> tuple[float, ...]:
     return tuple(float(a) for a in np.geomspace(bottom, top, ALPHA_GRID))
 
 
-def tune_thau(problem: Problem, *, alpha: float | None = None) -> SensorTuning:
+def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | None = None) -> SensorTuning:
     """The Thau gain of the vertex LMIs whose certified RMS bound under the sensors is smallest.
 
     Parameters
@@ -364,6 +435,9 @@ def tune_thau(problem: Problem, *, alpha: float | None = None) -> SensorTuning:
         The model, region, input range, sensors, process noise, initial error and settling time.
     alpha : float, optional
         Design at this decay rate only (default: the best of a grid spanning the plant's rates).
+    sampling : {"predictor", "impulsive"}, optional
+        Only the continuous gain run through the output predictor (its small-gain or clock-dependent bound), or
+        only the impulsive observer (one sensor group); default: both, the smaller bound wins.
 
     Returns
     -------
@@ -373,9 +447,7 @@ def tune_thau(problem: Problem, *, alpha: float | None = None) -> SensorTuning:
     ------
     DesignInfeasible
         No ``α`` gives a verified bound; the message says what fails and by how much (the vertex LMIs,
-        or the sampling budget with its ``T`` and ``T_max``).
-    NonFiniteError
-        A Jacobian is not finite on the region.
+        the sampling budget with its ``T`` and ``T_max``, a Jacobian that is not finite on the region).
     """
     from nlobs.methods.kalman import measurement_covariance
     from nlobs.synthesis.sampled_clock import ClockSDP
@@ -383,7 +455,10 @@ def tune_thau(problem: Problem, *, alpha: float | None = None) -> SensorTuning:
 
     plant = _plant(problem)
     n = problem.model.n
-    box = error_box(problem, plant)
+    try:
+        box = error_box(problem, plant)
+    except NonFiniteError as exc:  # no certificate on this region: a design failure with its reason, not bad input
+        raise DesignInfeasible(str(exc)) from exc
     if box.n_vertices > 1024:
         raise DesignInfeasible(f"the Jacobian of the model varies in {len(box.varying)} entries on the region "
                                f"{problem.region.describe()}: 2^{len(box.varying)} vertices exceed the vertex LMIs' "
@@ -398,14 +473,14 @@ def tune_thau(problem: Problem, *, alpha: float | None = None) -> SensorTuning:
     clock_groups = clock_sensor_groups(problem) if problem.sensors and len(problem.sensors) <= 3 else ()
     h_vertices = list(itertools.islice(JacobianBox(box.lower[n:], box.upper[n:], box.samples).vertices(), 64))
     tried: list[tuple[float, str]] = []
-    best: tuple[float, float, SampledDesignCertificate] | None = None
+    best: tuple[float, float, Any] | None = None
     closest: tuple[float, str] | None = None
     grid = (float(alpha),) if alpha is not None else _alphas(box, n, problem)
     lmis = {o: VertexLMIs(pairs, R=R, process=W2, objective=o, rate_vertices=rate_vertices)
             for o in ("noise", "sampling")}
     triples = clock_triples(pairs, rate, linear_h) if clock_groups else None
     sdp = ClockSDP(triples, clock_groups, process=W2, H=h_vertices, p0=p0, settle=settle) if triples else None
-    for a, objective in ((a, o) for a in grid for o in ("noise", "sampling")):
+    for a, objective in ((a, o) for a in grid for o in ("noise", "sampling") if sampling != "impulsive"):
         try:
             cert = lmis[objective].solve(a)
         except DesignInfeasible as exc:
@@ -444,6 +519,23 @@ def tune_thau(problem: Problem, *, alpha: float | None = None) -> SensorTuning:
                     best = (value, a, SampledDesignCertificate(cert, clock))
             else:
                 tried.append((a, f"clock: {clock.violation()}"))
+    if sampling in (None, "impulsive") and problem.sensors and len(clock_groups) == 1:
+        from nlobs.synthesis.impulsive_gain import ImpulsiveSDP
+
+        imp = ImpulsiveSDP([A for A, _ in pairs], h_vertices, clock_groups[0], process=W2, p0=p0, settle=settle)
+        for a in grid:
+            try:
+                icert = imp.solve(a)
+            except DesignInfeasible as exc:
+                tried.append((a, f"impulsive: {exc}"))
+                continue
+            if not icert.verified:
+                tried.append((a, f"impulsive: {icert.violation()}"))
+                continue
+            value = icert.rms_after(settle)
+            tried.append((a, f"impulsive: RMS bound {value:.4g}"))
+            if best is None or value < best[0]:
+                best = (value, a, icert)
     if best is None:
         if closest is not None:
             raise DesignInfeasible(f"no gain of the vertex LMIs keeps its certificate under the sensors: at best "

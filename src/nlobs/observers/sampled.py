@@ -98,15 +98,18 @@ class OutputPredictor(ToControl):
                                            f"{type(self.plant).__name__} has none")
         if len(self.plant.states) != int(obs.n_x):
             raise InvalidArgumentError(f"plant: {len(self.plant.states)} states, the observer estimates {obs.n_x}")
-        z0 = obs.init(np.zeros(int(obs.n_x)))
-        if not isinstance(z0, np.ndarray) or z0.ndim != 1:
-            raise InvalidArgumentError(f"observer: the state of {type(obs).__name__} is not an array; the output "
-                                       "predictor wraps observers whose state is an array")
+        size = getattr(obs, "n_z", None)
+        if not isinstance(size, (int, np.integer)):  # no declared size: the state of an initial estimate
+            z0 = obs.init(np.zeros(int(obs.n_x)))
+            if not isinstance(z0, np.ndarray) or z0.ndim != 1:
+                raise InvalidArgumentError(f"observer: the state of {type(obs).__name__} is not an array; the output "
+                                           "predictor wraps observers whose state is an array")
+            size = z0.size
+        size = int(size)
         inner = getattr(obs, "state_names", None)
-        names = tuple(inner) if inner is not None and len(inner) == z0.size else tuple(f"z[{i}]" for i in
-                                                                                        range(z0.size))
+        names = tuple(inner) if inner is not None and len(inner) == size else tuple(f"z[{i}]" for i in range(size))
         object.__setattr__(self, "time", obs.time)
-        object.__setattr__(self, "n_inner", int(z0.size))
+        object.__setattr__(self, "n_inner", size)
         object.__setattr__(self, "state_names", names + tuple(f"w[{o}]" for o in self.plant.outputs))
         if not self.name:
             object.__setattr__(self, "name", f"{getattr(obs, 'name', type(obs).__name__)} + predictor")
