@@ -445,3 +445,15 @@ def test_on_the_cartpole_the_certificate_covers_the_runs_and_bounds_their_rms() 
     assert o.certificate["sampling"]["groups"][0]["T_max"] >= 0.02
     # and it is an observer worth running: within 2× the EKF on the same runs
     assert o.rms_error_norm < 2 * rep.observers["ekf"].rms_error_norm
+
+
+def test_the_local_search_finds_an_extreme_the_samples_miss() -> None:
+    """∂F/∂x = −(x−0.37)² − (y−0.61)² peaks at 0 inside the box: 64 samples stay below, the search reaches it."""
+    def jac(x, u):
+        return (-(x[:, 0] - 0.37) ** 2 - (x[:, 1] - 0.61) ** 2)[:, None, None]
+
+    region = Box([0.0, 0.0], [1.0, 1.0])
+    raw = jacobian_box(jac, region, [], [], samples=64, margin=0.0, refine=False)
+    found = jacobian_box(jac, region, [], [], samples=64, margin=0.0)
+    assert raw.upper[0, 0] < -1e-4
+    assert found.upper[0, 0] == pytest.approx(0.0, abs=1e-8) and found.lower[0, 0] == raw.lower[0, 0]

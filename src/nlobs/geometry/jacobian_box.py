@@ -9,8 +9,9 @@ holds for every such ``J̄`` when it holds at the ``2^k`` vertices of the box, `
 
 :func:`jacobian_box` estimates the bounds from the Jacobian at sampled points of the region and of the
 input range (every corner of the region when ``n ≤`` :data:`CORNER_LIMIT`, its centre, and seeded uniform
-points), each varying entry's interval enlarged by :data:`MARGIN` of its width on both sides. A sampled
-bound is an estimate, not a proof: a design that rests on it says so in its premises.
+points), each varying entry's extremes then pushed further by a bounded local search (L-BFGS-B) from its best
+samples, and its interval enlarged by :data:`MARGIN` of its width on both sides. A sampled bound is an
+estimate, not a proof: a design that rests on it says so in its premises.
 """
 
 from __future__ import annotations
@@ -28,6 +29,8 @@ from nlobs.geometry.region import Box
 
 __all__ = ["CORNER_LIMIT", "JacobianBox", "MARGIN", "jacobian_box", "sample_points"]
 
+#: Iterations of the local search that refines each varying entry's sampled extremes.
+REFINE_ITERATIONS = 60
 #: Relative enlargement of each varying entry's sampled interval (both sides).
 MARGIN = 0.05
 #: The corners of the region are sampled when ``n`` is at most this.
@@ -110,8 +113,38 @@ def sample_points(region: Box, u_lower: ArrayLike, u_upper: ArrayLike, samples: 
     return x, u
 
 
+def _refine(jac: Callable[[Array, Array], Array], J: Array, x: Array, u: Array, region: Box, u_lower: ArrayLike,
+            u_upper: ArrayLike, lo: Array, hi: Array) -> tuple[Array, Array]:
+    """Each varying entry's extremes pushed further by a bounded local search (L-BFGS-B) from its best samples."""
+    from scipy.optimize import minimize
+
+    n = x.shape[1]
+    lo_u = np.asarray(u_lower, dtype=float).reshape(-1)
+    hi_u = np.asarray(u_upper, dtype=float).reshape(-1)
+    bounds = [*zip(region.lower, region.upper), *zip(lo_u, hi_u)]
+    lo, hi = lo.copy(), hi.copy()
+    varying = np.argwhere(hi - lo > CONSTANT_RTOL * np.maximum(np.maximum(np.abs(lo), np.abs(hi)), 1e-300))
+    for i, j in varying:
+        for sign, k in ((1.0, int(np.argmin(J[:, i, j]))), (-1.0, int(np.argmax(J[:, i, j])))):
+            def entry(v: Array, i: int = int(i), j: int = int(j), sign: float = sign) -> float:
+                with np.errstate(all="ignore"):
+                    value = float(np.asarray(jac(v[None, :n], v[None, n:]), dtype=float).reshape(-1, *J.shape[1:])
+                                  [0, i, j])
+                return sign * value if np.isfinite(value) else np.inf
+
+            start = np.concatenate([x[k], u[k]])
+            try:
+                res = minimize(entry, start, method="L-BFGS-B", bounds=bounds, options={"maxiter": REFINE_ITERATIONS})
+            except (ValueError, FloatingPointError):
+                continue
+            if np.isfinite(res.fun):
+                value = sign * float(res.fun)
+                lo[i, j], hi[i, j] = min(lo[i, j], value), max(hi[i, j], value)
+    return lo, hi
+
+
 def jacobian_box(jac: Callable[[Array, Array], Array], region: Box, u_lower: ArrayLike, u_upper: ArrayLike, *,
-                 samples: int = 4096, seed: int = 0, margin: float = MARGIN) -> JacobianBox:
+                 samples: int = 4096, seed: int = 0, margin: float = MARGIN, refine: bool = True) -> JacobianBox:
     """Entrywise bounds of ``jac(x, u)`` on region × input range, from sampled points (module docstring).
 
     Parameters
@@ -128,6 +161,8 @@ def jacobian_box(jac: Callable[[Array, Array], Array], region: Box, u_lower: Arr
         Seed of the uniform points.
     margin : float
         Relative enlargement of each varying entry's interval.
+    refine : bool
+        Push each varying entry's sampled extremes further by a bounded local search from its best sample.
 
     Returns
     -------
@@ -151,6 +186,8 @@ def jacobian_box(jac: Callable[[Array, Array], Array], region: Box, u_lower: Arr
         raise NonFiniteError(f"the Jacobian is not finite at x = {np.round(x[k], 6).tolist()} of the region "
                              f"{region.describe()}: a Lipschitz constant there is infinite; shrink the region (box)")
     lo, hi = J.min(axis=0), J.max(axis=0)
+    if refine:
+        lo, hi = _refine(jac, J, x, u, region, u_lower, u_upper, lo, hi)
     width = hi - lo
     scale = np.maximum(np.abs(lo), np.abs(hi))
     constant = width <= CONSTANT_RTOL * np.maximum(scale, 1e-300)
