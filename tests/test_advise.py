@@ -63,9 +63,16 @@ def test_chemostat_default_box_contains_the_monod_pole() -> None:
 
 
 def test_two_tank_drift_with_det_qs() -> None:
+    """The theorems make drift applicable; under the file's 10 Hz level sensor only the Luenberger/Thau design
+    has a certificate (its bound), so it is recommended and drift says why it has none."""
     rep = advise_model("two-tank")
-    assert rep.recommended == "drift"
-    assert rep.command == "nlobs design drift two-tank --box=1,12 --alpha 1 --mu 6"
+    assert rep.recommended == "luenberger"
+    assert rep.command == "nlobs simulate two-tank --observer luenberger,ekf,ukf"
+    assert rep.design is not None and rep.design.bound is not None and rep.design.bound.verified
+    assert any(e.startswith("certified under the file's sensors: RMS ‖e‖ ≤") for e in rep.method("luenberger").evidence)
+    drift = rep.method("drift")
+    assert drift.command == "nlobs design drift two-tank --box=1,12 --alpha 1 --mu 6"
+    assert any(e.startswith("no certificate under the file's sensors: the output is sampled") for e in drift.evidence)
     p = _params("two-tank")
     # det Q_s = −a1 √(2 g0) / (2 A2 √h1), smallest in modulus at h1 = 12
     want = p["a1"] * math.sqrt(2 * p["g0"]) / (2 * p["A2"] * math.sqrt(12.0))
@@ -84,7 +91,7 @@ def test_two_tank_box_through_the_square_roots() -> None:
 
 def test_cartpole_drift_constant_det_and_cascade_structure() -> None:
     rep = advise_model("cartpole")
-    assert rep.recommended == "drift"
+    assert rep.recommended == "luenberger"  # the one certificate under the 50 Hz encoders
     assert "det Q_s = 1 (constant)" in rep.method("drift").evidence
     assert rep.method("drift").parameters["mu"] == pytest.approx(1.0)  # sine amplitude 1 N
     cs = cascade_structure(symbolic_model("cartpole"))
@@ -157,9 +164,9 @@ def test_json_keys_and_analyze_keeps_its_keys() -> None:
     assert res.exit_code == 0
     an = json.loads(res.stdout)
     assert {"kind", "linearization", "observation_relative_degree", "drift_observable", "a1", "advice"} <= set(an)
-    assert an["advice"]["recommended"] == "drift"
+    assert an["advice"]["recommended"] == "luenberger"
     text = runner.invoke(app, ["analyze", "two-tank"]).stdout
-    assert "recommended: drift observer" in text and "$ nlobs design drift two-tank" in text
+    assert "recommended: Luenberger" in text and "$ nlobs simulate two-tank --observer luenberger,ekf,ukf" in text
 
 
 PEND_SENSED = '''name = "pend"
@@ -198,9 +205,11 @@ def test_check_ranks_a_high_gain_design_fed_slow_samples_below_the_kalman_filter
     f = tmp_path / "pend5.toml"
     f.write_text(PEND_SENSED.replace("RATE", "5.0"))
     plain = advise_model(str(f))
-    assert plain.recommended == "drift" and plain.check is None
+    # under the 5 Hz encoder only the Luenberger/Thau design keeps a certificate: it is recommended
+    assert plain.recommended == "luenberger" and plain.check is None
+    assert any("no certificate under the file's sensors" in e for e in plain.method("drift").evidence)
     rep = advise_model(str(f), check=True, runs=2, progress=False)
-    assert rep.recommended == "ekf-ukf" and "drift" in rep.check.demoted
+    assert rep.recommended == "luenberger" and "drift" in rep.check.demoted and "luenberger" not in rep.check.demoted
     out = rep.check.outcomes
     assert out["drift"]["diverged"] == 2
     assert math.isfinite(out["ekf"]["convergence_time"])
@@ -217,7 +226,7 @@ def test_check_ranks_a_high_gain_design_fed_slow_samples_below_the_kalman_filter
     res = runner.invoke(app, ["advise", str(f), "--check", "--runs", "2", "--json"])
     assert res.exit_code == 0, res.output
     data = json.loads(res.stdout)
-    assert data["recommended"] == "ekf-ukf" and set(data["check"]["demoted"]) >= {"drift"}
+    assert data["recommended"] == "luenberger" and set(data["check"]["demoted"]) >= {"drift"}
     assert runner.invoke(app, ["advise", str(f), "--check", "--runs", "0"]).exit_code == 2
 
 

@@ -42,6 +42,7 @@ keeps its rank with a note on noise amplification.
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from itertools import combinations
@@ -208,7 +209,6 @@ class SensorCheck:
 def _sensor_check(model: str | Path, methods: Sequence[MethodAdvice], region: Box, runs: int,
                   progress: bool | None) -> tuple[tuple[MethodAdvice, ...], SensorCheck]:
     """Run the applicable observers and an EKF under the file's sensors; demote those that fail there."""
-    import dataclasses
     import math
 
     from nlobs.methods.comparison import compare_observers
@@ -808,6 +808,9 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
         luen,
         *_registered(target, scenario, is_file),
     )
+    designs: dict[str, Any] = {}
+    if scenario is not None and is_file and scenario.sensors:
+        methods, designs = _rank_by_bound(methods, scenario, region, reg0, src)
     sensor_check = None
     if check:
         if not is_file:
@@ -828,7 +831,9 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
         if cmp and not _same(best_region(best, region), reg0):
             cmp += f" {box_option(best_region(best, region))}"
     design, design_error = None, ""
-    if best is not None and scenario is not None:
+    if best is not None and best.method in designs:
+        design = designs[best.method]
+    elif best is not None and scenario is not None:
         design, design_error = _recommended_design(best, scenario, region, reg0, src)
     return AdviceReport(m.name, target, reg0 if isinstance(m, SymbolicModel) else None, src,
                         region if isinstance(m, SymbolicModel) else None, sing, methods,
@@ -862,6 +867,51 @@ def _registered(target: str, scenario: Any, is_file: bool) -> tuple[MethodAdvice
         cmd = f"nlobs simulate {target} --observer {e.name},ekf,ukf" if e.simulated and is_file else None
         out.append(MethodAdvice(e.name, title, "yes", "applies (by the method's own check)", (), {}, cmd, rank=20))
     return tuple(out)
+
+
+#: Rank of a method certified under the file's sensors (ahead of every other; the smaller bound first).
+CERTIFIED_RANK = -1000
+
+
+def _rank_by_bound(methods: Sequence[MethodAdvice], scenario: Any, region: Box, reg0: Box,
+                   src: str) -> tuple[tuple[MethodAdvice, ...], dict[str, Any]]:
+    """With ``[sensors]``: the simulated methods whose certificate states an RMS bound under the file's sensors and
+    noise (:mod:`nlobs.methods.sensor_design`) ranked ahead of every other, the smaller bound first; the others keep
+    the theorems' order, with why their certificate does not survive the sensors in their evidence (``check``
+    measures them under the sensors and ranks those that fail below the Kalman filters)."""
+    ranked = []
+    bounds: list[tuple[float, str]] = []
+    designs: dict[str, Any] = {}
+    for m in methods:
+        if m.method not in _SIMULATED or not m.usable:
+            ranked.append(m)
+            continue
+        design, error = _recommended_design(m, scenario, region, reg0, src)
+        if design is None:
+            ranked.append(dataclasses.replace(m, evidence=(*m.evidence, f"no design for the file's sensors: {error}")))
+            continue
+        designs[m.method] = design
+        bound = design.bound
+        pb = problem(scenario)
+        if bound is not None and bound.verified and design.usable and design.verified:
+            value = bound.rms_after(pb.settle)
+            bounds.append((value, m.method))
+            tmax = "; ".join(f"{g.name}: T = {g.gap:.3g} ≤ T_max = {t:.3g}" for g, t in zip(bound.groups, bound.t_max))
+            params = {k: v for k, v in design.parameters.items() if k in ("alpha", "tuning", "sampling")}
+            ranked.append(dataclasses.replace(
+                m, applicable="yes", parameters=params or m.parameters,
+                reason=f"certified under the file's sensors ({design.theorem})",
+                evidence=(*m.evidence, f"certified under the file's sensors: RMS ‖e‖ ≤ {value:.4g} after t = "
+                          f"{pb.settle:g} ({tmax})")))
+        else:
+            why = next((h.reason for h in design.hypotheses if getattr(h, "holds", True) is False
+                        and "sampled" in getattr(h, "name", "")), "") or "; ".join(design.warnings) or \
+                "its certificate states no bound under sampled, noisy outputs"
+            ranked.append(dataclasses.replace(m, evidence=(*m.evidence, f"no certificate under the file's sensors: {why}")))
+    order = {name: i for i, (_, name) in enumerate(sorted(bounds))}
+    out = tuple(dataclasses.replace(m, rank=CERTIFIED_RANK + order[m.method]) if m.method in order else m
+                for m in ranked)
+    return out, designs
 
 
 def _recommended_design(best: MethodAdvice, scenario: Any, region: Box, reg0: Box, src: str) -> tuple[Any, str]:
