@@ -7,7 +7,8 @@ figures, the trajectories.
 * ``error_norms.png`` — ``‖x̂ − x‖`` of all observers on one log axis: the median over the runs and
   the band between the 10th and 90th percentiles;
 * ``rms_boxplot.png`` — a box plot over the Monte Carlo runs of each observer's RMS ``‖e‖`` after the
-  settling time;
+  settling time, with the certified bound of a design under the sensors as a dashed mark (also a dashed line
+  on ``error_norms.png``);
 * ``<observer>.npz`` — each observer's :class:`~nlobs.simulate.result.SimulationResult`;
 * ``trajectories.csv`` — run 0 on the saved grid: ``t``, the true states, the outputs held by the
   sensors, and each observer's estimates.
@@ -119,6 +120,10 @@ def error_figure(report: ComparisonReport) -> Any:
                     label=f"{o.name} (median of {int(ok.sum())} runs)")
         ax.fill_between(r.t, np.where(q10 > 0, q10, np.nan), np.where(q90 > 0, q90, np.nan), color=colors[o.name],
                         alpha=0.15, lw=0)
+        bound = _bound(o)
+        if bound is not None:
+            ax.hlines(bound, report.settle, r.t[-1], color=colors[o.name], ls="--", lw=1.0,
+                      label=f"{o.name}: certified RMS bound {bound:.3g} (after the settling time)")
     ax.axvline(report.settle, color="grey", ls=":", lw=1.0,
                label=f"settling time {report.settle:g} {report.time_unit}")
     units = {u for u in report.units if u}
@@ -129,6 +134,13 @@ def error_figure(report: ComparisonReport) -> Any:
     ax.legend(loc="best", fontsize="small")
     ax.set_title(f"{report.model}: estimation error of every observer (band: 10–90 % of the runs)", fontsize="medium")
     return fig
+
+
+def _bound(outcome: Any) -> float | None:
+    """The certified RMS bound of an observer's run under the sensors (``certificate.rms_bound``), if any."""
+    cert = outcome.certificate or {}
+    value = cert.get("rms_bound")
+    return float(value) if value is not None and np.isfinite(value) else None
 
 
 def boxplot_figure(report: ComparisonReport) -> Any:
@@ -146,6 +158,15 @@ def boxplot_figure(report: ComparisonReport) -> Any:
         for box, o in zip(parts["boxes"], ran):
             box.set_facecolor(colors[o.name])
             box.set_alpha(0.6)
+        marked = False
+        for i, o in enumerate(ran, start=1):
+            bound = _bound(o)
+            if bound is not None:
+                ax.plot([i - 0.3, i + 0.3], [bound, bound], color="black", ls="--", lw=1.2,
+                        label=None if marked else "certified bound on the RMS ‖e‖")
+                marked = True
+        if marked:
+            ax.legend(loc="best", fontsize="small")
         if all(np.all(d > 0) for d in data):
             ax.set_yscale("log")
     units = {u for u in report.units if u}
