@@ -369,7 +369,9 @@ class DriftMethod:
         """
         if not isinstance(saturation, bool):
             raise InvalidArgumentError(f"`saturation`: expected on or off (a bool), got {saturation!r}")
-        form = sampling_form(sampling)
+        # held by default: with the predictor its high gain (|λ|·T ≫ 1 at the shipped sensors) diverges where the
+        # held sample stays bounded (cart-pole, ball and beam); sampling=predictor asks for it
+        form = sampling_form(sampling, "hold")
         why = self.applies(problem)
         if why is not None:
             # no observer (3.1) for this model: an unobservable model is an assumption that fails, not bad input

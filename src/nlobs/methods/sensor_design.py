@@ -339,16 +339,18 @@ def clock_triples(pairs: Sequence[tuple[Array, Array]], rate: JacobianBox, linea
     return [(A, C, G) for A, C in pairs for G in rate.vertices()]
 
 
-def sampling_form(value: str | None) -> str:
-    """``"predictor"`` (default) or ``"hold"``: how a method without a sampling certificate meets sampled outputs.
+def sampling_form(value: str | None, default: str = "predictor") -> str:
+    """``"predictor"`` or ``"hold"``: how a method without a sampling certificate meets sampled outputs.
 
     Parameters
     ----------
     value : str or None
         The ``sampling`` option given.
+    default : str
+        The method's default (the drift observer holds: its high gains destabilise the predictor's loop).
     """
     if value is None:
-        return "predictor"
+        return default
     v = str(value).strip().lower()
     if v not in ("predictor", "hold"):
         raise InvalidArgumentError(f"`sampling`: expected predictor or hold, got {value!r}")
