@@ -480,7 +480,10 @@ def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | N
     grid = (float(alpha),) if alpha is not None else _alphas(box, n, problem)
     lmis = {o: VertexLMIs(pairs, R=R, process=W2, objective=o, rate_vertices=rate_vertices)
             for o in ("noise", "sampling")}
-    triples = clock_triples(pairs, rate, linear_h) if clock_groups else None
+    # a nonlinear output sees the process noise's Itô drift ½ tr(∇²h W Wᵀ) between samples, which (B) leaves out:
+    # the clock-dependent certificate is for a linear output or an exact model (the small-gain bound counts it)
+    exact_model = W2 is None or not np.any(W2)
+    triples = clock_triples(pairs, rate, linear_h) if clock_groups and (linear_h or exact_model) else None
     sdp = ClockSDP(triples, clock_groups, process=W2, H=h_vertices, p0=p0, settle=settle) if triples else None
     for a, objective in ((a, o) for a in grid for o in ("noise", "sampling") if sampling != "impulsive"):
         try:
