@@ -898,8 +898,12 @@ def _rank_by_bound(methods: Sequence[MethodAdvice], scenario: Any, region: Box, 
             bounds.append((value, m.method))
             tmax = "; ".join(f"{g.name}: T = {g.gap:.3g} ≤ T_max = {t:.3g}" for g, t in zip(bound.groups, bound.t_max))
             params = {k: v for k, v in design.parameters.items() if k in ("alpha", "tuning", "sampling")}
+            title = m.title
+            if m.method == "luenberger":
+                title = (f"Luenberger / Thau gain chosen for the file's sensors on "
+                         f"{pb.region.describe()} ({design.parameters.get('sampling', '')})")
             ranked.append(dataclasses.replace(
-                m, applicable="yes", parameters=params or m.parameters,
+                m, title=title, applicable="yes", parameters=params or m.parameters,
                 reason=f"certified under the file's sensors ({design.theorem})",
                 evidence=(*m.evidence, f"certified under the file's sensors: RMS ‖e‖ ≤ {value:.4g} after t = "
                           f"{pb.settle:g} ({tmax})")))
