@@ -33,6 +33,7 @@ from nlobs.errors import DesignInfeasible, InvalidArgumentError, NonFiniteError
 from nlobs.geometry.jacobian_box import JacobianBox, jacobian_box
 from nlobs.methods.problem import Problem
 from nlobs.simulate.coverage import InputRange, InRegion, Premise
+from nlobs.synthesis.lmi import psd_sqrt
 from nlobs.synthesis.sampled_data import GroupNoise, SampledDataBound, SampledDesignCertificate, sampled_data_bound
 
 __all__ = ["SensorTuning", "clock_sensor_groups", "input_range", "on_samples", "sampling_form", "clock_triples", "error_box", "longest_gap", "output_indices", "output_rate_box", "sampling_hypotheses",
@@ -179,10 +180,6 @@ def _largest_norm(box: JacobianBox, right: Array, left: Array | None = None, nor
                  + np.linalg.norm(L, 2) * np.linalg.norm(rad, "fro") * np.linalg.norm(right, 2))
 
 
-def _sqrt_psd(M: Array) -> Array:
-    w, V = np.linalg.eigh((M + M.T) / 2)
-    return (V * np.sqrt(np.clip(w, 0, None))) @ V.T
-
 
 def _ito_drift(problem: Problem, plant: Any, rows: Sequence[int], W2: Array) -> float:
     """``sup ‖½ tr(∇²h_j W Wᵀ)‖`` on sampled points of the region (0 for a linear output or no process noise)."""
@@ -229,7 +226,7 @@ def sensor_groups(problem: Problem, P: Array, K: Array, box: JacobianBox, rate_b
     Si = (V / np.sqrt(w)) @ V.T
     S = (V * np.sqrt(w)) @ V.T
     W2 = np.zeros((n, n)) if problem.process_noise is None else np.asarray(problem.process_noise, dtype=float)
-    Wh = _sqrt_psd(W2)
+    Wh = psd_sqrt(W2)
     linear_h = not np.any(box.upper[n:] > box.lower[n:])
     out = []
     for g in problem.sensors:

@@ -44,7 +44,7 @@ from nlobs._typing import Array
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import DesignInfeasible, InvalidArgumentError
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
-from nlobs.synthesis.lmi import Solver, as_solver, solve, symmetrise
+from nlobs.synthesis.lmi import Solver, as_solver, psd_sqrt, solve, symmetrise
 from nlobs.synthesis.sampled_clock import MARGIN, ClockGroup
 
 __all__ = ["ImpulsiveCertificate", "ImpulsiveSDP", "design_impulsive_gain", "verify_impulsive_gain"]
@@ -54,10 +54,6 @@ def _times(group: ClockGroup, segments: int) -> tuple[float, ...]:
     ts = tuple(float(v) for v in np.linspace(0.0, group.period, segments + 1))
     return ts + ((float(group.gap),) if group.gap > group.period * (1 + 1e-12) else ())
 
-
-def _sqrt_psd(M: Array) -> Array:
-    w, V = np.linalg.eigh((M + M.T) / 2)
-    return (V * np.sqrt(np.clip(w, 0, None))) @ V.T
 
 
 @dataclass(frozen=True, eq=False)
@@ -223,7 +219,7 @@ def _checks(nodes: Sequence[Array], times: Sequence[float], L: Array, alpha: flo
 
 def _numbers(nodes: Sequence[Array], times: Sequence[float], L: Array, group: ClockGroup, process: Array,
              p0: Array | None) -> tuple[float, float, float]:
-    W = _sqrt_psd(process)
+    W = psd_sqrt(process)
     c = max(float(np.trace(W.T @ P @ W)) for P in nodes) if np.any(process) else 0.0
     cols = list(group.index)
     Lj = L[:, cols]
@@ -324,10 +320,10 @@ class ImpulsiveSDP:
         self.jw = cp.Parameter(nonneg=True)
         self.tw = cp.Parameter(nonneg=True)
         eps = MARGIN * np.eye(n)
-        W = _sqrt_psd(self.W2)
+        W = psd_sqrt(self.W2)
         R = np.zeros((p, p))  # R in the model's output order
         R[np.ix_(list(group.index), list(group.index))] = group.R
-        Rh = _sqrt_psd(R)
+        Rh = psd_sqrt(R)
         cons = [Z >> 0, cp.bmat([[Z, Rh @ Y.T], [Y @ Rh, nodes[0]]]) >> 0]
         for P in nodes:
             cons.append(symmetrise(P) >> np.eye(n) + eps)

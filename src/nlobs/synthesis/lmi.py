@@ -28,6 +28,7 @@ from numpy.typing import NDArray
 from nlobs.errors import InvalidArgumentError
 
 __all__ = [
+    "psd_sqrt",
     "Solver",
     "SolveStatus",
     "SolveResult",
@@ -223,6 +224,24 @@ def bmat(rows: Sequence[Sequence[Any]]) -> Any:
     if any(is_expression(b) for row in rows for b in row):
         return cp.bmat([list(row) for row in rows])
     return np.block([[np.asarray(b, dtype=float) for b in row] for row in rows])
+
+
+def psd_sqrt(M: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The symmetric square root of a positive semidefinite matrix (its symmetric part; eigenvalues clipped at 0).
+
+    Parameters
+    ----------
+    M : array_like, shape (k, k)
+        A numeric square matrix.
+
+    Returns
+    -------
+    ndarray, shape (k, k)
+        ``S = Sᵀ ⪰ 0`` with ``S S = (M + Mᵀ)/2`` where that is positive semidefinite.
+    """
+    A = np.asarray(M, dtype=float)
+    w, V = np.linalg.eigh((A + A.T) / 2)
+    return (V * np.sqrt(np.clip(w, 0, None))) @ V.T
 
 
 def max_eig(M: NDArray[np.float64]) -> float:

@@ -64,7 +64,7 @@ from nlobs._typing import Array
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import DesignInfeasible, InvalidArgumentError
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
-from nlobs.synthesis.lmi import Solver, as_solver, solve, symmetrise
+from nlobs.synthesis.lmi import Solver, as_solver, psd_sqrt, solve, symmetrise
 
 __all__ = ["ClockCertificate", "ClockGroup", "ClockSDP", "clock_certificate", "verify_clock_certificate"]
 
@@ -288,10 +288,6 @@ def _noise_map(W: Array, H: Array) -> Array:
     return np.vstack([W, H @ W])
 
 
-def _sqrt_psd(M: Array) -> Array:
-    w, V = np.linalg.eigh((M + M.T) / 2)
-    return (V * np.sqrt(np.clip(w, 0, None))) @ V.T
-
 
 # ------------------------------------------------------------------ the conditions at corners and nodes
 def _points(P0: Any, D: Sequence[Any], nodes: Sequence[Any], groups: Sequence[ClockGroup]
@@ -371,7 +367,7 @@ def _numbers(P0: Array, D: Sequence[Array], nodes: Sequence[Array], n: int, grou
              process: Array, H: Sequence[Array], p0: Array | None) -> tuple[float, tuple[float, ...], float]:
     """``c``, the jump terms and ``v0`` of (B)."""
     blocks = _blocks(n, groups)
-    W = _sqrt_psd(process)
+    W = psd_sqrt(process)
     c = 0.0
     if np.any(process):
         for Pc in _points(P0, D, nodes, groups)[2]:
@@ -527,7 +523,7 @@ class ClockSDP:
         E[:n, :n] = np.eye(n)
         eps = MARGIN * np.eye(N)
         cons = []
-        W = _sqrt_psd(self.W2)
+        W = psd_sqrt(self.W2)
         cvar = cp.Variable(nonneg=True)
         flows, jumps, points = _points(P0, D, nodes, groups)
         for Pc in points:

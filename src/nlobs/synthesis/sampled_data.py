@@ -72,6 +72,7 @@ from nlobs._typing import Array
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import InvalidArgumentError
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
+from nlobs.synthesis.lmi import psd_sqrt
 
 __all__ = ["GroupNoise", "SampledDataBound", "SampledDesignCertificate", "sampled_data_bound",
            "verify_sampled_data_bound"]
@@ -296,16 +297,11 @@ class SampledDataBound(CertificateMixin):
         return "; ".join(f"{c.name}: {c.evidence}" for c in self.failed_checks)
 
 
-def _sqrtm(P: Array) -> Array:
-    w, V = np.linalg.eigh(P)
-    return (V * np.sqrt(np.clip(w, 0, None))) @ V.T
-
-
 def _numbers(P: Array, K: Array, alpha: float, groups: Sequence[GroupNoise], process: Array,
              p0: Array | None) -> tuple[float, Array, list[float], list[float], float, Array, float, float]:
     """λ_min, √P, κ_j, T_max,j, the budget, the noise terms q̃_j, ``tr(WᵀPW)`` and ``v0``."""
     lam = float(np.linalg.eigvalsh(P)[0]) if P.size else math.inf
-    S = _sqrtm(P)
+    S = psd_sqrt(P)
     kappa, tmax, noise = [], [], []
     for g in groups:
         Kj = K[:, list(g.index)]

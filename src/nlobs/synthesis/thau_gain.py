@@ -38,7 +38,7 @@ from nlobs._typing import Array
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import DesignInfeasible, InvalidArgumentError
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
-from nlobs.synthesis.lmi import Solver, as_solver, solve, symmetrise
+from nlobs.synthesis.lmi import Solver, as_solver, psd_sqrt, solve, symmetrise
 
 __all__ = ["ThauGainCertificate", "VertexLMIs", "certified_decay", "certify_thau_gain", "design_thau_gain", "verify_thau_gain"]
 
@@ -178,10 +178,6 @@ def _objective_parts(n: int, p: int, R: ArrayLike | None, process: ArrayLike | N
     return Rm, (Wm + Wm.T) / 2
 
 
-def _sqrt_psd(M: Array) -> Array:
-    w, V = np.linalg.eigh((M + M.T) / 2)
-    return (V * np.sqrt(np.clip(w, 0, None))) @ V.T
-
 
 def design_thau_gain(vertices: Sequence[tuple[ArrayLike, ArrayLike]], alpha: float, *, R: ArrayLike | None = None,
                      process: ArrayLike | None = None, objective: str = "noise",
@@ -244,7 +240,7 @@ class VertexLMIs:
         self.pairs = pairs = _pairs(vertices)
         n, p = pairs[0][0].shape[0], pairs[0][1].shape[0]
         Rm, Wm = _objective_parts(n, p, R, process)
-        Rh = _sqrt_psd(Rm)
+        Rh = psd_sqrt(Rm)
         self.solver = as_solver(solver)
         self.alpha = cp.Parameter(nonneg=True)
         self.inv_alpha = cp.Parameter(nonneg=True)
