@@ -457,3 +457,70 @@ def test_the_local_search_finds_an_extreme_the_samples_miss() -> None:
     found = jacobian_box(jac, region, [], [], samples=64, margin=0.0)
     assert raw.upper[0, 0] < -1e-4
     assert found.upper[0, 0] == pytest.approx(0.0, abs=1e-8) and found.lower[0, 0] == raw.lower[0, 0]
+
+
+# ------------------------------------------------------------------ the parallelotope of shared functions
+def _chemostat_jacobian(x: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """∂F/∂x of the chemostat Ẋ = μ(S)X − DX, Ṡ = −μ(S)X/Y + D(4 − S), μ = 0.5 S/(0.2 + S), Y = 0.5 (closed form)."""
+    X, S, D = x[:, 0], x[:, 1], u[:, 0]
+    mu, dmu = 0.5 * S / (0.2 + S), 0.1 / (0.2 + S) ** 2
+    return np.stack([np.stack([mu - D, X * dmu], -1), np.stack([-mu / 0.5, -D - X * dmu / 0.5], -1)], -2)
+
+
+def _coefficients(box, M: np.ndarray) -> np.ndarray:
+    E = box.basis.reshape(box.basis.shape[0], -1)
+    c, res, *_ = np.linalg.lstsq(E.T, (M - box.offset).reshape(-1), rcond=None)
+    assert np.allclose(E.T @ c, (M - box.offset).reshape(-1), atol=1e-9)  # M is in the parallelotope's plane
+    return c
+
+
+def test_shared_functions_give_a_parallelotope_that_keeps_the_mass_balance() -> None:
+    """Four varying entries made of three functions (μ, Xμ', D): 8 vertices instead of 16, every one inside the
+    entrywise box (up to its own 5 % margin), and every one keeps the mass balance ∂(Ẋ + YṠ)/∂X = −D < 0 that
+    the box's vertices break."""
+    region = Box([0.05, 0.01], [4.0, 4.0])
+    box = jacobian_box(_chemostat_jacobian, region, [0.2], [0.3])
+    plain = jacobian_box(_chemostat_jacobian, region, [0.2], [0.3], reduce=False)
+    assert box.basis is not None and box.n_vertices == 8 and plain.n_vertices == 16
+    tol = MARGIN * (plain.upper - plain.lower) + 1e-9
+    for V in box.vertices():
+        assert np.all(V >= plain.lower - tol) and np.all(V <= plain.upper + tol)
+        assert V[0, 0] + 0.5 * V[1, 0] < -0.19  # −D, D ≥ 0.2 less the margins
+    assert max(V[0, 0] + 0.5 * V[1, 0] for V in plain.vertices()) > 0.25
+
+
+def test_every_mean_value_matrix_lies_in_the_parallelotope() -> None:
+    """F(x̂) − F(x) = J̄ (x̂ − x), J̄ = ∫₀¹ ∂F/∂x(x + s(x̂ − x)) ds (Gauss–Legendre, 20 nodes): on 500 random pairs
+    of the region and inputs, J̄'s coefficients are within the parallelotope's bounds."""
+    region = Box([0.05, 0.01], [4.0, 4.0])
+    box = jacobian_box(_chemostat_jacobian, region, [0.2], [0.3])
+    rng = np.random.default_rng(7)
+    s, w = np.polynomial.legendre.leggauss(20)
+    s, w = (s + 1) / 2, w / 2
+    for _ in range(500):
+        x, xh = region.sample(1, rng)[0], region.sample(1, rng)[0]
+        u = np.array([0.2 + 0.1 * rng.random()])
+        pts = x + s[:, None] * (xh - x)
+        Jbar = np.tensordot(w, _chemostat_jacobian(pts, np.repeat(u[None], len(s), 0)), axes=1)
+        c = _coefficients(box, Jbar)
+        assert np.all(c >= box.coef_lower - 1e-9) and np.all(c <= box.coef_upper + 1e-9)
+
+
+def test_independent_entries_keep_the_box() -> None:
+    box = jacobian_box(lambda x, u: np.stack([np.cos(x[:, 0]), np.sin(x[:, 1])], -1)[:, None, :],
+                       Box([0.0, 0.0], [1.0, 1.0]), [], [])
+    assert box.basis is None and box.n_vertices == 4
+
+
+def test_the_chemostat_design_for_its_analyser_is_certified() -> None:
+    """With the parallelotope the shipped chemostat (substrate every 6 min, the file's whole region) gets a gain
+    whose certificate is re-verified, at a decay rate below the smallest dilution rate (the mass balance's
+    decay, which no output injection changes)."""
+    from nlobs.methods.problem import problem
+    from nlobs.methods.sensor_design import tune_thau
+
+    tuned = tune_thau(problem("chemostat"))
+    assert tuned.box.n_vertices == 8
+    assert tuned.certificate.verified
+    assert 0.15 < tuned.alpha < 0.2 * 1.01
+    assert math.isfinite(tuned.rms_bound) and tuned.rms_bound < 0.1

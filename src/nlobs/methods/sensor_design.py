@@ -45,6 +45,8 @@ MAX_NORM_VERTICES = 4096
 CLOCK_DECAY_FRACTIONS = (0.5, 0.1)
 #: Decay rates tried by :func:`tune_thau` (a geometric grid spanning the plant's rates).
 ALPHA_GRID = 9
+#: Geometric bisections of :func:`tune_thau` between the fastest feasible decay of the grid and the next.
+FRONTIER_STEPS = 3
 #: Relative step of the central differences of a nonlinear ``∂h/∂x`` (Hessians).
 FD_STEP = 1e-6
 
@@ -164,11 +166,6 @@ def output_indices(problem: Problem, outputs: Sequence[int | str]) -> tuple[int,
     return tuple(out)
 
 
-def _sub(box: JacobianBox, rows: Sequence[int]) -> JacobianBox:
-    r = list(rows)
-    return JacobianBox(box.lower[r], box.upper[r], box.samples)
-
-
 def _largest_norm(box: JacobianBox, right: Array, left: Array | None = None, norm: Any = 2) -> float:
     """``max ‖left · G · right‖`` (spectral, or ``norm="fro"``) over the box: at its vertices (a norm is convex),
     or the centre's plus a bound of the radius when the vertices are too many."""
@@ -231,8 +228,8 @@ def sensor_groups(problem: Problem, P: Array, K: Array, box: JacobianBox, rate_b
     out = []
     for g in problem.sensors:
         idx = output_indices(problem, g.outputs)
-        ell = _largest_norm(_sub(rate_box, idx), Si)
-        H = _sub(JacobianBox(box.lower[n:], box.upper[n:], box.samples), idx)
+        ell = _largest_norm(rate_box.rows(idx), Si)
+        H = box.rows([n + i for i in idx])
         Kj = K[:, list(idx)]
         q = _largest_norm(H, Wh, S @ Kj, "fro") ** 2 if np.any(W2) else 0.0
         bias = np.broadcast_to(np.asarray(g.bias, dtype=float), (len(idx),)).copy()
@@ -470,7 +467,7 @@ def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | N
     p0, settle = problem.p0, problem.settle
     linear_h = not np.any(box.upper[n:] > box.lower[n:])
     clock_groups = clock_sensor_groups(problem) if problem.sensors and len(problem.sensors) <= 3 else ()
-    h_vertices = list(itertools.islice(JacobianBox(box.lower[n:], box.upper[n:], box.samples).vertices(), 64))
+    h_vertices = list(itertools.islice(box.rows(range(n, n + problem.model.p)).vertices(), 64))
     tried: list[tuple[float, str]] = []
     best: tuple[float, float, Any] | None = None
     closest: tuple[float, str] | None = None
@@ -482,62 +479,87 @@ def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | N
     exact_model = W2 is None or not np.any(W2)
     triples = clock_triples(pairs, rate, linear_h) if clock_groups and (linear_h or exact_model) else None
     sdp = ClockSDP(triples, clock_groups, process=W2, H=h_vertices, p0=p0, settle=settle) if triples else None
-    for a, objective in ((a, o) for a in grid for o in ("noise", "sampling") if sampling != "impulsive"):
-        try:
-            cert = lmis[objective].solve(a)
-        except DesignInfeasible as exc:
-            tried.append((a, f"{objective}: infeasible ({exc})"))
-            continue
-        if not cert.verified:
-            tried.append((a, f"{objective}: the vertex LMIs failed their re-verification: "
-                             + "; ".join(c.evidence for c in cert.failed_checks)))
-            continue
-        groups = sensor_groups(problem, cert.P, cert.gain, box, rate, plant)
-        bound = sampled_data_bound(cert.P, cert.gain, cert.decay, groups, process=W2, p0=p0)
-        if bound.verified:
-            value = bound.rms_after(settle)
-            tried.append((a, f"{objective}: RMS bound {value:.4g}"))
-            if best is None or value < best[0]:
-                best = (value, a, SampledDesignCertificate(cert, bound))
-        else:
-            why = bound.violation() or "the bound failed"
-            tried.append((a, f"{objective}: {why}"))
-            if closest is None or bound.budget < closest[0]:
-                closest = (bound.budget, why)
-        if objective == "noise" and sdp is not None:
-            clock = None
-            for fraction in CLOCK_DECAY_FRACTIONS:  # the sampling costs decay: ask half of it, else a tenth
-                try:
-                    clock = sdp.solve(cert.gain, fraction * cert.decay)
-                    break
-                except DesignInfeasible as exc:
-                    tried.append((a, f"clock: {exc}"))
-            if clock is None:
+    def predictor(a: float) -> bool:
+        """The continuous gains at ``α = a`` through the predictor; whether the vertex LMIs were feasible."""
+        nonlocal best, closest
+        feasible = False
+        for objective in ("noise", "sampling"):
+            try:
+                cert = lmis[objective].solve(a)
+            except DesignInfeasible as exc:
+                tried.append((a, f"{objective}: infeasible ({exc})"))
                 continue
-            if clock.verified:
-                value = clock.rms_after(settle)
-                tried.append((a, f"clock: RMS bound {value:.4g}"))
+            feasible = True
+            if not cert.verified:
+                tried.append((a, f"{objective}: the vertex LMIs failed their re-verification: "
+                                 + "; ".join(c.evidence for c in cert.failed_checks)))
+                continue
+            groups = sensor_groups(problem, cert.P, cert.gain, box, rate, plant)
+            bound = sampled_data_bound(cert.P, cert.gain, cert.decay, groups, process=W2, p0=p0)
+            if bound.verified:
+                value = bound.rms_after(settle)
+                tried.append((a, f"{objective}: RMS bound {value:.4g}"))
                 if best is None or value < best[0]:
-                    best = (value, a, SampledDesignCertificate(cert, clock))
+                    best = (value, a, SampledDesignCertificate(cert, bound))
             else:
-                tried.append((a, f"clock: {clock.violation()}"))
+                why = bound.violation() or "the bound failed"
+                tried.append((a, f"{objective}: {why}"))
+                if closest is None or bound.budget < closest[0]:
+                    closest = (bound.budget, why)
+            if objective == "noise" and sdp is not None:
+                clock = None
+                for fraction in CLOCK_DECAY_FRACTIONS:  # the sampling costs decay: ask half of it, else a tenth
+                    try:
+                        clock = sdp.solve(cert.gain, fraction * cert.decay)
+                        break
+                    except DesignInfeasible as exc:
+                        tried.append((a, f"clock: {exc}"))
+                if clock is None:
+                    continue
+                if clock.verified:
+                    value = clock.rms_after(settle)
+                    tried.append((a, f"clock: RMS bound {value:.4g}"))
+                    if best is None or value < best[0]:
+                        best = (value, a, SampledDesignCertificate(cert, clock))
+                else:
+                    tried.append((a, f"clock: {clock.violation()}"))
+        return feasible
+
+    imp = None
     if sampling in (None, "impulsive") and problem.sensors and len(clock_groups) == 1:
         from nlobs.synthesis.impulsive_gain import ImpulsiveSDP
 
         imp = ImpulsiveSDP([A for A, _ in pairs], h_vertices, clock_groups[0], process=W2, p0=p0, settle=settle)
-        for a in grid:
-            try:
-                icert = imp.solve(a)
-            except DesignInfeasible as exc:
-                tried.append((a, f"impulsive: {exc}"))
-                continue
-            if not icert.verified:
-                tried.append((a, f"impulsive: {icert.violation()}"))
-                continue
-            value = icert.rms_after(settle)
-            tried.append((a, f"impulsive: RMS bound {value:.4g}"))
-            if best is None or value < best[0]:
-                best = (value, a, icert)
+
+    def impulsive(a: float) -> bool:
+        """The impulsive observer at ``α = a``; whether its LMIs were feasible."""
+        nonlocal best
+        try:
+            icert = imp.solve(a)
+        except DesignInfeasible as exc:
+            tried.append((a, f"impulsive: {exc}"))
+            return False
+        if not icert.verified:
+            tried.append((a, f"impulsive: {icert.violation()}"))
+            return True
+        value = icert.rms_after(settle)
+        tried.append((a, f"impulsive: RMS bound {value:.4g}"))
+        if best is None or value < best[0]:
+            best = (value, a, icert)
+        return True
+
+    forms = ([predictor] if sampling != "impulsive" else []) + ([impulsive] if imp is not None else [])
+    for form in forms:  # the LMIs feasible at α are feasible below it: up the grid to the first infeasible α
+        fastest = None
+        for k, a in enumerate(grid):
+            if not form(a):
+                break
+            fastest = k
+        if alpha is None and fastest is not None and fastest + 1 < len(grid):  # bisect up to the frontier
+            lo_a, hi_a = grid[fastest], grid[fastest + 1]
+            for _ in range(FRONTIER_STEPS):
+                mid = math.sqrt(lo_a * hi_a)
+                lo_a, hi_a = (mid, hi_a) if form(mid) else (lo_a, mid)
     if best is None:
         if closest is not None:
             raise DesignInfeasible(f"no gain of the vertex LMIs keeps its certificate under the sensors: at best "
