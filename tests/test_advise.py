@@ -34,10 +34,15 @@ def _min_det(report, method: str = "drift") -> float:
 
 
 def test_chemostat_pinv_with_det_qs_and_mu_from_the_file() -> None:
+    """Under the file's analyser (every 6 min) only the Luenberger/Thau gain chosen for the sensors is certified
+    on the file's region (the parallelotope of μ, Xμ' and D keeps the mass balance): it is recommended, ahead of
+    the Moore–Penrose observer the theorems rank first without sensors."""
     rep = advise_model("chemostat")
-    assert rep.verdict is Verdict.OK and rep.recommended == "pinv"
+    assert rep.verdict is Verdict.OK and rep.recommended == "luenberger"
     assert rep.box_source == "file [simulation] box" and rep.singular == ()
-    assert rep.command == "nlobs design pinv chemostat --box=0.05,4,0.01,4 --theta 2"
+    assert rep.command == "nlobs simulate chemostat --observer luenberger,ekf,ukf"
+    assert rep.design is not None and rep.design.bound is not None and rep.design.bound.verified
+    assert rep.method("pinv").command == "nlobs design pinv chemostat --box=0.05,4,0.01,4 --theta 2"
     # det Q_s by hand: h = S, L_f h = −μmax S X / ((K_s + S) Yxs) → det Q_s = μmax S / ((K_s + S) Yxs),
     # smallest on the box at its corner S = 0.01
     p = _params("chemostat")
@@ -47,11 +52,15 @@ def test_chemostat_pinv_with_det_qs_and_mu_from_the_file() -> None:
     assert drift.applicable == "local" and "s ≰ r" in drift.reason and drift.region == "[0.05, 4] × [0.01, 4]"
     assert drift.parameters["mu"] == pytest.approx(0.3)  # the step 0.3 → 0.2 of [input_signals]
     assert rep.method("pinv").applicable == "local" and "not checked" in rep.method("pinv").reason
-    assert rep.compare_command == "nlobs simulate chemostat --observer pinv,ekf,ukf"
+    assert rep.compare_command == "nlobs simulate chemostat --observer luenberger,ekf,ukf"
 
 
 def test_chemostat_default_box_contains_the_monod_pole() -> None:
+    """On [−1, 1] (negative biomass and substrate) no gain is certified under the sensors: the theorems' order
+    stands and the Moore–Penrose command carries the box."""
     rep = advise_model("chemostat", box=[-1, 1])
+    assert rep.recommended == "pinv"
+    assert any("T = 0.1 > T_max" in e for e in rep.method("luenberger").evidence)
     k_s = _params("chemostat")["K_s"]
     poles = [s for s in rep.singular if s.kind == "pole"]
     assert len(poles) == 1 and poles[0].state == "S"
@@ -113,11 +122,18 @@ def test_rossler_ekf_local_drift_and_cascade_structure() -> None:
 
 
 def test_cascade_table_is_recommended(tmp_path: Path) -> None:
+    """A [cascade] table ranks the cascade observer first among the uncertified; under the file's analyser the
+    Luenberger/Thau gain chosen for the sensors is certified and goes ahead of it, and says so."""
     rep = advise_model("chemostat-analyser")  # the shipped [cascade] file: Σ1 (chemostat) → Σ2 (analyser lag)
-    assert rep.recommended == "cascade" and rep.command == "nlobs design cascade chemostat-analyser"
+    assert rep.recommended == "luenberger"
+    ranked = sorted((m for m in rep.methods if m.usable), key=lambda m: m.rank)
+    assert [m.method for m in ranked[:2]] == ["luenberger", "cascade"]
+    assert rep.method("cascade").command == "nlobs design cascade chemostat-analyser"
+    assert any(e.startswith("certified under the file's sensors: RMS ‖e‖ ≤") for e in rep.method("luenberger").evidence)
+    assert any(e.startswith("no certificate under the file's sensors") for e in rep.method("cascade").evidence)
     res = runner.invoke(app, ["advise", "chemostat-analyser", "--json"])
     assert res.exit_code == 0
-    assert json.loads(res.stdout)["command"] == "nlobs design cascade chemostat-analyser"
+    assert json.loads(res.stdout)["command"] == "nlobs simulate chemostat-analyser --observer luenberger,ekf,ukf"
     # a [cascade] table next to [dynamics] describes the plant twice: one line, exit 2
     f = tmp_path / "ross-cascade.toml"
     f.write_text(shipped_models()["rossler"].read_text() + '\n[cascade]\nform = "cascade"\n')

@@ -892,18 +892,24 @@ def _rank_by_bound(methods: Sequence[MethodAdvice], scenario: Any, region: Box, 
             continue
         designs[m.method] = design
         bound = design.bound
-        pb = problem(scenario)
+        given = _design_box(m, region, reg0, src)
+        pb = problem(scenario, box=given)
         if bound is not None and bound.verified and design.usable and design.verified:
             value = bound.rms_after(pb.settle)
             bounds.append((value, m.method))
             tmax = "; ".join(f"{g.name}: T = {g.gap:.3g} ≤ T_max = {t:.3g}" for g, t in zip(bound.groups, bound.t_max))
             params = {k: v for k, v in design.parameters.items() if k in ("alpha", "tuning", "sampling")}
+            command = m.command
+            if given is not None:  # the command designs on the same region as the certificate
+                params["box"] = _box_list(given)
+                if command and "--box" not in command:
+                    command = f"{command} {box_option(given)}"
             title = m.title
             if m.method == "luenberger":
                 title = (f"Luenberger / Thau gain chosen for the file's sensors on "
                          f"{pb.region.describe()} ({design.parameters.get('sampling', '')})")
             ranked.append(dataclasses.replace(
-                m, title=title, applicable="yes", parameters=params or m.parameters,
+                m, title=title, applicable="yes", parameters=params or m.parameters, command=command,
                 reason=f"certified under the file's sensors ({design.theorem})",
                 evidence=(*m.evidence, f"certified under the file's sensors: RMS ‖e‖ ≤ {value:.4g} after t = "
                           f"{pb.settle:g} ({tmax})")))
@@ -918,6 +924,17 @@ def _rank_by_bound(methods: Sequence[MethodAdvice], scenario: Any, region: Box, 
     return out, designs
 
 
+def _design_box(best: MethodAdvice, region: Box, reg0: Box, src: str) -> Box | None:
+    """The box the design of a method is made on when it is not the file's (``None``: the file's, or none used)."""
+    from nlobs.methods.registry import get, names
+
+    name = "ekf" if best.method == "ekf-ukf" else best.method
+    if name not in names() or not get(name).uses_region:
+        return None
+    box = best_region(best, region)
+    return None if _same(box, reg0) and src != "given" else box
+
+
 def _recommended_design(best: MethodAdvice, scenario: Any, region: Box, reg0: Box, src: str) -> tuple[Any, str]:
     """The registry's design of the recommended method, on the region the advice recommends (or the file's)."""
     from nlobs.methods.registry import get, names
@@ -926,8 +943,7 @@ def _recommended_design(best: MethodAdvice, scenario: Any, region: Box, reg0: Bo
     if name not in names():
         return None, ""
     method = get(name)
-    box = best_region(best, region) if method.uses_region else None
-    given = None if box is None or (_same(box, reg0) and src != "given") else box
+    given = _design_box(best, region, reg0, src)
     try:
         pb = problem(scenario, box=given)
         why = method.applies(pb)

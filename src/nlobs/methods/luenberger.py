@@ -63,7 +63,7 @@ class LuenbergerMethod:
 
     name: str = "luenberger"
     title: str = "Luenberger gain of LMIs (14), (15) (Grip, Saberi & Johansen)"
-    uses_region: bool = False
+    uses_region: bool = True  # the design for the sensors (the vertex LMIs) is made on the region
     options: frozenset[str] = frozenset({"alpha", "tuning", "sampling"})
 
     def applies(self, problem: Problem) -> str | None:
