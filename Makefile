@@ -17,8 +17,11 @@ $(STAMP): pyproject.toml | $(BIN)/python
 demo: $(STAMP)
 	$(BIN)/nlobs demo gnss-ins --out out/gnss-ins
 
+# the tests in parallel, one worker per core (pytest-xdist), each single-threaded in BLAS (no oversubscription)
+TEST_WORKERS ?= auto
 test: $(STAMP)
-	MPLBACKEND=Agg $(BIN)/python -m pytest -q -p no:cacheprovider
+	MPLBACKEND=Agg OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 \
+	  $(BIN)/python -m pytest -q -p no:cacheprovider -n $(TEST_WORKERS)
 
 # the declared minimum version of every dependency, in a second venv, against .venv (.ci/min_versions.py)
 test-min: $(STAMP)
