@@ -258,3 +258,16 @@ def test_check_keeps_an_observer_that_converges_and_notes_noise_only_above_the_f
     ratio = luen["rms_error_norm"] / rep.check.outcomes["ekf"]["rms_error_norm"]
     assert 1 < ratio < CHECK_RMS_FACTOR and "note" not in luen
     assert not any("amplifies the sensor noise" in e for e in rep.method("luenberger").evidence)
+
+
+def test_a_certified_design_on_a_given_box_prints_commands_on_that_box() -> None:
+    """A box given to advise: the certificate is for it, so both printed commands carry it (else `simulate` would
+    design on the file's region, another observer than the one advised)."""
+    rep = advise_model("cstr", box=[0.62, 0.88, 3.9, 5.5])
+    assert rep.recommended == "luenberger"
+    assert rep.design is not None and rep.design.bound is not None and rep.design.bound.verified
+    want = "nlobs simulate cstr --observer luenberger,ekf,ukf --box=0.62,0.88,3.9,5.5"
+    assert rep.command == want and rep.compare_command == want
+    res = runner.invoke(app, want.split()[1:] + ["--runs", "2", "--duration", "12"])
+    assert res.exit_code == 0, res.output
+    assert "covers run" in res.output and "[0.62, 0.88] × [3.9, 5.5]" in res.output

@@ -828,8 +828,8 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
         verdict, msg = Verdict.OK, ""
         sim = best.method if best.method in _SIMULATED and best.method != "cascade" else None
         cmp = f"nlobs simulate {target} --observer {sim},ekf,ukf" if sim and is_file else None
-        if cmp and not _same(best_region(best, region), reg0):
-            cmp += f" {box_option(best_region(best, region))}"
+        if cmp and (not _same(best_region(best, region), reg0) or _design_box(best, region, reg0, src) is not None):
+            cmp += f" {box_option(best_region(best, region))}"  # the region the recommended design is made on
     design, design_error = None, ""
     if best is not None and best.method in designs:
         design = designs[best.method]
@@ -901,9 +901,9 @@ def _rank_by_bound(methods: Sequence[MethodAdvice], scenario: Any, region: Box, 
             params = {k: v for k, v in design.parameters.items() if k in ("alpha", "tuning", "sampling")}
             command = m.command
             if given is not None:  # the command designs on the same region as the certificate
-                params["box"] = _box_list(given)
-                if command and "--box" not in command:
+                if command and "box" not in m.parameters:  # a command built without the region: give it
                     command = f"{command} {box_option(given)}"
+                params["box"] = _box_list(given)
             title = m.title
             if m.method == "luenberger":
                 title = (f"Luenberger / Thau gain chosen for the file's sensors on "
