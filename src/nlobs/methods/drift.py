@@ -37,7 +37,7 @@ from nlobs.geometry.observability import (
 from nlobs.geometry.region import Box
 from nlobs.methods.base import Design
 from nlobs.methods.problem import Problem
-from nlobs.methods.sensor_design import on_samples, sampling_form
+from nlobs.methods.sensor_design import drift_sampling_bound, on_samples, sampling_form
 from nlobs.observers.drift import COND_LIMIT, DriftObserver
 from nlobs.simulate.coverage import InputBound, InRegion, Premise
 from nlobs.synthesis.drift_bounds import ErrorBoundConstants, error_bound_constants
@@ -369,9 +369,6 @@ class DriftMethod:
         """
         if not isinstance(saturation, bool):
             raise InvalidArgumentError(f"`saturation`: expected on or off (a bool), got {saturation!r}")
-        # held by default: with the predictor its high gain (|λ|·T ≫ 1 at the shipped sensors) diverges where the
-        # held sample stays bounded (cart-pole, ball and beam); sampling=predictor asks for it
-        form = sampling_form(sampling, "hold")
         why = self.applies(problem)
         if why is not None:
             # no observer (3.1) for this model: an unobservable model is an assumption that fails, not bad input
@@ -406,16 +403,24 @@ class DriftMethod:
         w_txt = f"w = {cert.w:.4g}" if getattr(cert, "w", None) is not None else "the SDP"
         desc = (f"(3.1), s = {list(rep.s)}, K of {'Remark 2.11' if gain_method == 'vandermonde' else 'the SDP'} "
                 f"({w_txt}), α = {cert.constants.alpha:g}, μ = {cert.constants.mu:.4g}, γ = {rep.gamma:.4g} on {where}")
+        # the sampling budget of (2.17)'s own (K, P) through the predictor; where it holds the predictor is the
+        # certified form, else the held sample by default: the predictor's loop with a high gain (|λ|·T ≫ 1 at
+        # the shipped sensors) diverges where the held sample stays bounded (cart-pole, ball and beam)
+        bound = drift_sampling_bound(problem, rep)
+        form = sampling_form(sampling, "predictor" if bound is not None and bound.verified else "hold")
         obs, lacking = on_samples(rep.observer(on_singular=on_singular, saturation=saturation), problem, form,
-                                  "Theorem 3.1")
+                                  "Theorem 3.1", bound)
         hyps += lacking
         if problem.sensors:
             parameters["sampling"] = form
+            if bound is not None:
+                parameters["T_max"] = {g.name: t for g, t in zip(bound.groups, bound.t_max)}
         return Design(self.name, obs, cert, premises, (),
                       parameters, sources, desc, gain=cert.gain, failed=failed, hypotheses=tuple(hyps),
                       coverage_extras={"region": where, "mu": cert.constants.mu}, report=rep,
                       warnings=tuple(rep.warnings), theorem=f"Dalla Mora, Germani & Manes, Theorem 3.1 on {where}",
-                      details=(f"bound (3.2): {rep.bound.describe()}",))
+                      details=(f"bound (3.2): {rep.bound.describe()}",
+                               *(() if bound is None else bound.summary().splitlines())))
 
 
 #: The drift method of the registry.

@@ -36,7 +36,7 @@ from nlobs.simulate.coverage import InputRange, InRegion, Premise
 from nlobs.synthesis.lmi import psd_sqrt
 from nlobs.synthesis.sampled_data import GroupNoise, SampledDataBound, SampledDesignCertificate, sampled_data_bound
 
-__all__ = ["SensorTuning", "clock_sensor_groups", "input_range", "on_samples", "sampling_form", "clock_triples", "error_box", "longest_gap", "output_indices", "output_rate_box", "sampling_hypotheses",
+__all__ = ["SensorTuning", "clock_sensor_groups", "drift_sampling_bound", "input_range", "on_samples", "sampling_form", "clock_triples", "error_box", "longest_gap", "output_indices", "output_rate_box", "sampling_hypotheses",
            "sensor_groups", "tune_thau"]
 
 #: Vertex count above which a Lipschitz constant is bounded through the box's radius instead of its vertices.
@@ -351,7 +351,8 @@ def sampling_form(value: str | None, default: str = "predictor") -> str:
     return v
 
 
-def on_samples(observer: Any, problem: Problem, sampling: str, theorem: str) -> tuple[Any, tuple[Any, ...]]:
+def on_samples(observer: Any, problem: Problem, sampling: str, theorem: str,
+               bound: SampledDataBound | None = None) -> tuple[Any, tuple[Any, ...]]:
     """A continuous observer for the problem's sensors, and the premise its certificate lacks under them.
 
     With sensors, the observer runs through the output predictor (``sampling="predictor"``) or on held samples
@@ -369,6 +370,9 @@ def on_samples(observer: Any, problem: Problem, sampling: str, theorem: str) -> 
         From :func:`sampling_form`.
     theorem : str
         What the certificate rests on (``"Theorem 3.1"``).
+    bound : SampledDataBound, optional
+        The method's sampling budget through the predictor (:func:`drift_sampling_bound`): the premise is then
+        "sampled with period ≤ T_max" against it (failing for a held sample).
     """
     from nlobs.observers.sampled import with_predictor
 
@@ -376,6 +380,13 @@ def on_samples(observer: Any, problem: Problem, sampling: str, theorem: str) -> 
         return observer, ()
     plant = _plant(problem)
     wrapped = with_predictor(observer, plant, sampling == "predictor")
+    if bound is not None:
+        if sampling == "predictor":
+            return wrapped, tuple(h for h in sampling_hypotheses(problem, bound) if isinstance(h, Premise))
+        there = bound.violation() or "it holds: sampling=predictor"
+        return wrapped, (Premise("sampled with period ≤ T_max", False,
+                                 f"the output is sampled and held; {theorem}'s sampling period is computed for the "
+                                 f"output predictor ({there})"),)
     how = "through the output predictor" if sampling == "predictor" else "held"
     return wrapped, (Premise("sampled with period ≤ T_max", False,
                              f"the output is sampled ({how}); {theorem} assumes a continuous output and its "
@@ -568,3 +579,60 @@ def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | N
                                f"({len(pairs)} vertices) have no solution at any decay rate tried "
                                f"(α = {tried[0][0]:.3g} … {tried[-1][0]:.3g}); give a smaller region (box)")
     return SensorTuning(best[2], best[1], tuple(tried), box, best[0])
+
+
+def drift_sampling_bound(problem: Problem, report: Any) -> SampledDataBound | None:
+    r"""The sampling budget (3) of the drift-observability observer (3.1) for the problem's sensors, or ``None``.
+
+    In ``z = Φ_s(x)`` the observer (3.1) injects ``K (y − h(x̂))`` with a constant ``K``, and the proof of
+    Theorem 3.1 (Dalla Mora, Germani & Manes) shows that ``V = e_zᵀ P⁻¹ e_z`` decays at ``2α`` for the pair
+    ``(K, P)`` of (2.17): the inequality (1) of :mod:`nlobs.synthesis.sampled_data` with Lyapunov matrix ``P⁻¹``.
+    Through the output predictor, group ``j``'s discrepancy grows at ``L_F h_j(x̂) − L_F h_j(x)``. For an output with
+    ``s_j ≥ 2`` and relative degree ``r_j ≥ 2`` that is exactly ``z_{j,2}`` (``L_g h_j = 0``), so
+    ``ℓ_j = ‖(C_s A_s)_j P^{1/2}‖₂`` in closed form; otherwise ``ℓ_j`` is bounded through the region:
+    ``sup ‖∂L_F h_j/∂x‖ · γ_{Φ⁻¹} · ‖P^{1/2}‖`` (sampled). ``T_max,j = α/(κ_j ℓ_j)`` with ``κ_j = ‖P^{-1/2}K_j‖``.
+
+    The bound is stated for convergence (the budget (3)); its noise terms count the measurement noise only (the
+    process noise enters ``z`` through the state-dependent ``Q_s(x) W`` and an Itô drift of ``Φ_s``, not
+    bounded here), so it is not a mean-square bound of a noisy run.
+
+    Parameters
+    ----------
+    problem : Problem
+        Its sensors and region.
+    report : DriftReport
+        The design (its certificate of (2.17), ``s``, ``r``, Lipschitz constants).
+
+    Returns
+    -------
+    SampledDataBound or None
+        ``None`` without sensors or when the certificate of (2.17) failed.
+    """
+    from nlobs.systems.brunovsky import brunovsky
+
+    cert = report.certificate
+    if not problem.sensors or not cert.verified:
+        return None
+    P = (np.asarray(cert.P, dtype=float) + np.asarray(cert.P, dtype=float).T) / 2
+    K = np.asarray(cert.gain, dtype=float)
+    S = psd_sqrt(P)
+    A_s, _, C_s = brunovsky(report.s)
+    rows = C_s @ A_s
+    s, r = tuple(report.s), tuple(report.r)
+    plant, box, rate = None, None, None
+    groups = []
+    for g in problem.sensors:
+        idx = output_indices(problem, g.outputs)
+        exact = all(s[j] >= 2 and r[j] is not None and r[j] >= 2 for j in idx)
+        if exact:
+            ell = float(np.linalg.norm(rows[list(idx)] @ S, 2))
+        else:
+            if rate is None:
+                plant = _plant(problem)
+                box = error_box(problem, plant)
+                rate = output_rate_box(problem, box, plant)
+            sup = _largest_norm(rate.rows(idx), np.eye(problem.model.n))
+            ell = sup * float(report.bound.gamma_phi_inv) * float(np.linalg.norm(S, 2))
+        bias = np.broadcast_to(np.asarray(g.bias, dtype=float), (len(idx),)).copy()
+        groups.append(GroupNoise(g.name, idx, longest_gap(g), np.asarray(g.covariance, dtype=float), ell, 0.0, bias))
+    return sampled_data_bound(np.linalg.inv(P), K, float(cert.constants.alpha), groups)
