@@ -524,3 +524,62 @@ def test_the_chemostat_design_for_its_analyser_is_certified() -> None:
     assert tuned.certificate.verified
     assert 0.15 < tuned.alpha < 0.2 * 1.01
     assert math.isfinite(tuned.rms_bound) and tuned.rms_bound < 0.1
+
+
+@pytest.mark.parametrize("T", [0.2, 0.5])
+def test_the_impulsive_iss_gain_is_above_the_worst_bounded_noise(T: float) -> None:
+    """(I) against the exact worst case of |v_k| ≤ 1: e(t_k + τ) = e^{Aτ} Σ_i M^i L v_{k−i}, M = (I − LC)e^{AT}; for
+    a direction d and τ the signs v = sign(dᵀ e^{Aτ} M^i L) reach Σ_i |dᵀ e^{Aτ} M^i L| (SciPy expm), which the gain
+    must bound for every d and τ, and not by more than the Lyapunov function's conservatism (100×)."""
+    cert = _impulsive(T, 0.2)
+    gamma = cert.iss_gain
+    L_ = cert.gain
+    M = (np.eye(2) - L_ @ C) @ sl.expm(A * T)
+    powers = [np.eye(2)]
+    for _ in range(400):
+        powers.append(M @ powers[-1])
+    worst = 0.0
+    for tau in np.linspace(0.0, T, 11):
+        E = sl.expm(A * tau)
+        terms = np.array([(E @ Mi @ L_)[:, 0] for Mi in powers])  # (i, n)
+        for th in np.linspace(0, math.pi, 181):
+            d = np.array([math.cos(th), math.sin(th)])
+            worst = max(worst, float(np.sum(np.abs(terms @ d))))
+    assert worst <= gamma < 100 * worst
+    assert cert.ultimate_bound(0.01) == pytest.approx(0.01 * gamma)
+    with pytest.raises(InvalidArgumentError):
+        cert.ultimate_bound(-1.0)
+    assert cert.to_dict()["iss_gain"] == pytest.approx(gamma)
+
+
+def test_the_small_gain_iss_bound_is_above_the_worst_bounded_noise() -> None:
+    """The predictor's exact hybrid error system, [ė; δ̇] = [[A − LC, L], [CA, 0]] [e; δ], δ(t_k) = v_k: the signs
+    of v reach sup_{d,τ} |dᵀΦ_eδ(τ)| + Σ_i |dᵀΦ_ee(τ) Φ_ee(T)^i Φ_eδ(T)| (SciPy expm), which
+    :meth:`SampledDataBound.ultimate_bound` must bound."""
+    T = 0.01
+    bound = _lyapunov_bound(A, C, L, T)
+    assert bound.verified
+    big = np.block([[A - L @ C, L], [C @ A, np.zeros((1, 1))]])
+
+    def flow(t: float) -> tuple[np.ndarray, np.ndarray]:
+        E = sl.expm(big * t)
+        return E[:2, :2], E[:2, 2:]
+
+    Mee, Med = flow(T)
+    powers = [np.eye(2)]
+    for _ in range(3000):
+        powers.append(Mee @ powers[-1])
+    tail = np.array([(Mi @ Med)[:, 0] for Mi in powers])
+    worst = 0.0
+    for tau in np.linspace(0.0, T, 6):
+        Fee, Fed = flow(tau)
+        terms = tail @ Fee.T
+        for th in np.linspace(0, math.pi, 91):
+            d = np.array([math.cos(th), math.sin(th)])
+            worst = max(worst, abs(float(d @ Fed[:, 0])) + float(np.sum(np.abs(terms @ d))))
+    gamma = bound.iss_gain
+    assert worst <= gamma < 1000 * worst
+    assert bound.ultimate_bound(0.5) == pytest.approx(0.5 * gamma, rel=1e-6)
+    assert bound.to_dict()["iss_gain"] == pytest.approx(gamma)
+    with pytest.raises(InvalidArgumentError):
+        bound.ultimate_bound(float("nan"))

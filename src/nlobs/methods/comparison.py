@@ -553,8 +553,9 @@ def _bound_entries(bound: Any, s: _Setup) -> dict[str, Any]:
     e0 = np.asarray(s.x_hat0, dtype=float) - np.asarray(s.x0, dtype=float)
     second = np.einsum("ri,rj->ij", e0, e0) / e0.shape[0]  # the runs' E[e0 e0ᵀ]: the bound is linear in it
     value = bound.rms_after(s.settle, second)
+    iss = getattr(bound, "iss_gain", None) if bound.verified else None  # limsup |e| ≤ iss_gain · v̄, bounded noise
     return {"rms_bound": value if math.isfinite(value) else None,
-            "sampling": {"budget": bound.budget,
+            "sampling": {"budget": bound.budget, "iss_gain": iss if iss is not None and math.isfinite(iss) else None,
                          "groups": [{"name": g.name, "period": g.gap, "T_max": t}
                                     for g, t in zip(bound.groups, bound.t_max)]}}
 

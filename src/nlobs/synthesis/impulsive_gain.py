@@ -26,6 +26,12 @@ zero mean), the process noise at most ``c = max_k tr(Wᵀ P_k W)`` per unit time
     E|e(t)|^2 \le e^{-2\alpha t}\operatorname{tr}(P(T_0)\Sigma_0) + \frac{c}{2\alpha}
         + \frac{\operatorname{tr}(L^\top P_0 L R)}{1 - e^{-2\alpha T_0}} . \qquad (B)
 
+Bounded noise (input-to-state): with no process noise and every sample's noise ``|v| ≤ v̄`` (a bias included),
+Young's inequality on the jump gives ``V⁺ ≤ (1+ε) V⁻ + (1+1/ε) ‖P_0^{1/2}L‖² v̄²`` and the flow
+``V⁻ ≤ e^{−2αT_0} V⁺`` of the previous sample; the best ``ε`` and ``P ⪰ I`` (``|e|² ≤ V``) give
+
+.. math:: \limsup_{t\to\infty} |e(t)| \le \frac{‖P_0^{1/2} L‖_2}{1 - e^{-\alpha T_0}}\, \bar v . \qquad (I)
+
 :func:`design_impulsive_gain` finds ``L`` and ``P`` making (B) after the settling time smallest (an SDP);
 :func:`verify_impulsive_gain` recomputes every block and number in NumPy.
 """
@@ -158,6 +164,27 @@ class ImpulsiveCertificate(CertificateMixin):
         """The RMS bound after :attr:`settle`."""
         return self.rms_after(self.settle)
 
+    @property
+    def iss_gain(self) -> float:
+        """``γ`` of (I): ``limsup |e| ≤ γ v̄`` for sample noise bounded by ``v̄`` and no process noise."""
+        if not self.verified:
+            return math.inf
+        Lj = self.gain[:, list(self.group.index)]
+        return float(np.linalg.norm(psd_sqrt(self.nodes[0]) @ Lj, 2)) / (1 - math.exp(-self.alpha * self.group.period))
+
+    def ultimate_bound(self, noise_bound: float) -> float:
+        """(I): the ultimate bound on ``|e|`` when every sample's noise (bias included) has norm ``≤ noise_bound``.
+
+        Parameters
+        ----------
+        noise_bound : float
+            ``v̄ ≥ 0``.
+        """
+        v = float(noise_bound)
+        if not math.isfinite(v) or v < 0:
+            raise InvalidArgumentError(f"`noise_bound`: expected a non-negative finite number, got {noise_bound!r}")
+        return self.iss_gain * v
+
     def _p_first(self) -> Array:
         """``P(T_0)``: the first sample at ``t = 0`` is a jump from it."""
         return self.nodes[self.times.index(min(self.times, key=lambda t: abs(t - self.group.period)))]
@@ -170,7 +197,7 @@ class ImpulsiveCertificate(CertificateMixin):
         """The gain, the decay, the noise terms and the checks."""
         lines = [f"impulsive observer: L = {np.round(self.gain, 6).tolist()}, α = {self.alpha:.4g}, samples every "
                  f"{self.group.period:.4g} (gaps ≤ {self.group.gap:.4g}); RMS bound after t = {self.settle:g}: "
-                 f"{self.rms_bound:.4g}"]
+                 f"{self.rms_bound:.4g}; bounded noise |v| ≤ v̄: limsup |e| ≤ {self.iss_gain:.4g} v̄"]
         lines += [f"  [{'ok' if c.passed else 'FAIL'}] {c.name}: {c.evidence}" for c in self.checks]
         return "\n".join(lines)
 
@@ -178,6 +205,7 @@ class ImpulsiveCertificate(CertificateMixin):
         """Plain-Python view."""
         return {"kind": "impulsive", "gain": self.gain.tolist(), "alpha": self.alpha, "c": self.c, "jump": self.jump,
                 "v0": self.v0, "settle": self.settle, "rms_bound": self.rms_bound if self.verified else None,
+                "iss_gain": self.iss_gain if self.verified else None,
                 "groups": [{"name": self.group.name, "gap": self.group.gap, "period": self.group.period}],
                 "verified": self.verified, "checks": checks_dict(self.checks)}
 

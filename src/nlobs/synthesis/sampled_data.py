@@ -53,7 +53,9 @@ error: no convergence, and (3) does not apply.
 
 :func:`sampled_data_bound` computes ``T_{max,j}``, the budget, and the mean-square bound (2) with ``η`` and
 ``ε_j`` chosen to make it smallest (``ε_j ∝`` the square root of group ``j``'s noise term, a one-dimensional
-search for their sum, a grid in ``η``); :func:`verify_sampled_data_bound` recomputes every number from the
+search for their sum, a grid in ``η``); for sample noise bounded by ``v̄_j`` and no process noise the same steps with
+``|P^{1/2}K_j v_j|² ≤ κ_j² v̄_j²`` give the ultimate bound ``limsup |e|² ≤ N_v/(σ λ_min(P))`` (input-to-state,
+:meth:`SampledDataBound.ultimate_bound`); :func:`verify_sampled_data_bound` recomputes every number from the
 stored matrices with NumPy (no solver is involved at all; the continuous certificate behind ``α`` is the
 design's own, re-verified there).
 """
@@ -221,6 +223,34 @@ class SampledDataBound(CertificateMixin):
             return math.inf
         return self.N / (self.sigma * self.lam_min)
 
+    def ultimate_bound(self, noise_bounds: float | Sequence[float]) -> float:
+        """``limsup |e|`` when every sample of group ``j`` has noise (bias included) of norm ``≤ v̄_j`` and there is
+        no process noise: (2) with ``|P^{1/2}K_j v_j|² ≤ κ_j² v̄_j²`` for the noise terms, ``η`` and ``ε_j``
+        chosen anew for them (input-to-state; ``inf`` when the budget is spent).
+
+        Parameters
+        ----------
+        noise_bounds : float or sequence of float
+            ``v̄_j`` per group (one number: every group).
+        """
+        v = np.broadcast_to(np.asarray(noise_bounds, dtype=float), (len(self.groups),))
+        if not np.all(np.isfinite(v)) or np.any(v < 0):
+            raise InvalidArgumentError(f"`noise_bounds`: expected non-negative finite numbers, got {noise_bounds!r}")
+        if not self.verified:
+            return math.inf
+        noise = np.array([k * k * float(b) ** 2 for k, b in zip(self.kappa, v)])
+        if not np.any(noise):
+            return 0.0
+        eta, eps = _best(self.alpha, self.kappa, self.groups, noise, 0.0)
+        _, sigma, N = _terms(self.alpha, self.kappa, self.groups, noise, 0.0, eta, eps)
+        return math.sqrt(N / (sigma * self.lam_min)) if sigma > 0 else math.inf
+
+    @property
+    def iss_gain(self) -> float:
+        """``γ`` with ``limsup |e| ≤ γ v̄`` when every group's sample noise is bounded by ``v̄``
+        (:meth:`ultimate_bound` at ``v̄ = 1``; the bound is linear in a common ``v̄``)."""
+        return self.ultimate_bound(1.0)
+
     def ms_bound(self, t: float | ArrayLike) -> Array:
         """The bound (2) on ``E|e(t)|²`` at the times ``t`` (``inf`` when not verified).
 
@@ -267,7 +297,8 @@ class SampledDataBound(CertificateMixin):
         for g, k, tm in zip(self.groups, self.kappa, self.t_max):
             lines.append(f"  {g.name}: T = {g.period:.4g}, T_max = {tm:.4g} (κ = {k:.4g}, ℓ = {g.ell:.4g})")
         lines.append(f"  budget Σ T/T_max = {self.budget:.4g}; σ = {self.sigma:.4g}; N = {self.N:.4g}; "
-                     f"ultimate RMS bound {math.sqrt(self.ultimate_ms) if self.verified else math.inf:.4g}")
+                     f"ultimate RMS bound {math.sqrt(self.ultimate_ms) if self.verified else math.inf:.4g}; bounded "
+                     f"noise |v| ≤ v̄: limsup |e| ≤ {self.iss_gain:.4g} v̄")
         lines += [f"  [{'ok' if c.passed else 'FAIL'}] {c.name}: {c.evidence}" for c in self.checks]
         return "\n".join(lines)
 
@@ -276,6 +307,7 @@ class SampledDataBound(CertificateMixin):
         return {"alpha": self.alpha, "eta": self.eta, "lam_min": self.lam_min, "budget": self.budget,
                 "a": self.a, "sigma": self.sigma, "N": self.N, "v0": self.v0,
                 "ultimate_rms_bound": math.sqrt(self.ultimate_ms) if self.verified else None,
+                "iss_gain": self.iss_gain if self.verified else None,
                 "groups": [{"name": g.name, "period": g.period, "T_max": tm, "kappa": k, "ell": g.ell, "q": g.q,
                             "eps": e} for g, tm, k, e in zip(self.groups, self.t_max, self.kappa, self.eps)],
                 "verified": self.verified, "checks": checks_dict(self.checks)}
