@@ -110,3 +110,23 @@ def test_the_cartpole_drift_gain_needs_a_period_far_below_its_encoders() -> None
     assert bound is not None and not bound.verified
     assert bound.t_max[0] < 1e-4
     assert "encoders: T = 0.02 > T_max" in (bound.violation() or "")
+
+
+def test_a_diverged_run_names_the_causes_it_shows(tmp_path: Path) -> None:
+    """Samples every 0.4 s held into a drift gain with poles −4.2 and −8.5, integrated at dt = 0.4: the runs blow
+    up, and the report names what it saw before: the estimate leaving the region, T above T_max and dt·|λ| above
+    RK4's limit 2.785 (8.46 · 0.4 = 3.38)."""
+    from nlobs.methods.comparison import compare_observers
+
+    f = tmp_path / "osc-slow.toml"
+    f.write_text(OSC.format(rate=2.5).replace("dt = 0.001", "dt = 0.4").replace("duration = 4.0", "duration = 40.0"))
+    rep = compare_observers(str(f), observers=["drift"], runs=2, progress=False)
+    o = rep.observers["drift"]
+    assert len(o.diverged_runs) == 2
+    causes = " | ".join(o.diverged_runs[0].causes)
+    assert "the estimate left the region" in causes
+    assert "enc: T = 0.4 > T_max" in causes
+    lam = max(abs(v) for v in get("drift").design(problem(str(f))).certificate.eigenvalues)
+    assert f"dt·|λ|max = {0.4 * lam:.3g} > 2.785" in causes
+    assert o.to_dict()["diverged_runs"][0]["causes"] == list(o.diverged_runs[0].causes)
+    assert "seen before run" in rep.summary()

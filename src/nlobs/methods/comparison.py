@@ -121,14 +121,18 @@ class DivergedRun:
         First time the error was non-finite or too large (``nan`` when the batch stopped with an error).
     reason : str
         What happened, e.g. ``"non-finite estimate"``.
+    causes : tuple of str
+        What the run shows before (:func:`divergence_causes`): the estimate leaving the region, a sampling period
+        above ``T_max``, a step above RK4's limit for the gain's fastest pole, ``Q_s(x̂)`` near singular.
     """
 
     run: int
     time: float
     reason: str
+    causes: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
-        return {"run": self.run, "time": self.time, "reason": self.reason}
+        return {"run": self.run, "time": self.time, "reason": self.reason, "causes": list(self.causes)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -312,6 +316,9 @@ class ComparisonReport:
                                   for d in o.diverged_runs[:5])
                 more = f" and {len(o.diverged_runs) - 5} more" if len(o.diverged_runs) > 5 else ""
                 lines.append(f"    diverged: {shown}{more}")
+                first = o.diverged_runs[0]
+                if first.causes:
+                    lines.append(f"    seen before run {first.run} diverged: " + "; ".join(first.causes))
             if o.certificate is not None and o.certificate.get("reasons"):
                 lines.append("    certificate: " + "; ".join(o.certificate["reasons"]))
         lines += [f"wrote {f}" for f in self.files]
@@ -499,7 +506,88 @@ class _Cert:
 
 
 # ----------------------------------------------------------------------------- metrics
-def _outcome(name: str, desc: str, res: SimulationResult, s: _Setup, cert: _Cert | None) -> ObserverOutcome:
+#: A drift observer's ``Q_s(x̂)`` counts as near singular above this condition number.
+NEAR_SINGULAR = 1e8
+
+
+def _fastest_pole(design: Design) -> float | None:
+    """``max |λ|`` of the observer's error dynamics where its design states them (``A_s − K C_s``, the roots
+    of (10)); ``None`` otherwise."""
+    for holder, attr in ((design.certificate, "eigenvalues"), (design.report, "roots")):
+        lam = getattr(holder, attr, None)
+        if lam is not None and np.size(lam):
+            return float(np.max(np.abs(np.asarray(lam))))
+    return None
+
+
+def _q_s(observer: Any) -> Any:
+    """The drift observer inside ``observer`` (the predictor wraps it), whose ``Q_s(x̂)`` can be evaluated."""
+    for _ in range(3):
+        if hasattr(observer, "jacobian_Q"):
+            return observer
+        observer = getattr(observer, "observer", None)
+    return None
+
+
+def divergence_causes(design: Design, dt: float, t: Array, x_hat: Array, states: Sequence[str]) -> tuple[str, ...]:
+    """What a diverged run shows before its estimate blew up, as far as the design can see it.
+
+    Parameters
+    ----------
+    design : Design
+        The observer's design (its region, sampling premise, gain).
+    dt : float
+        The integration step.
+    t : ndarray, shape (K,)
+        The saved instants up to the divergence.
+    x_hat : ndarray, shape (K, n)
+        The run's estimate at them.
+    states : sequence of str
+        The state names.
+
+    Returns
+    -------
+    tuple of str
+        The estimate leaving the region (when and which component), the sampling premise that fails, ``dt·|λ|``
+        above RK4's limit, ``Q_s(x̂)`` near singular at the last finite estimate.
+    """
+    from nlobs.simulate.coverage import InRegion, Premise
+    from nlobs.simulate.integrators import RK4_REAL_LIMIT
+
+    out = []
+    finite = np.all(np.isfinite(x_hat), axis=-1)
+    for h in design.hypotheses:
+        if isinstance(h, InRegion) and h.which != "state":
+            lo, hi = np.asarray(h.lower, dtype=float), np.asarray(h.upper, dtype=float)
+            outside = finite & ~np.all((x_hat >= lo) & (x_hat <= hi), axis=-1)
+            if outside.any():
+                j = int(np.argmax(outside))
+                c = int(np.argmax((x_hat[j] < lo) | (x_hat[j] > hi)))
+                out.append(f"the estimate left the region {h.region} at t = {t[j]:.4g} "
+                           f"({states[c]} = {x_hat[j, c]:.4g} outside [{lo[c]:.4g}, {hi[c]:.4g}])")
+            break
+    for h in design.hypotheses:
+        if isinstance(h, Premise) and not h.holds and h.name.startswith("sampled with period"):
+            out.append(f"the sampling period is above what the certificate survives ({h.reason})")
+    fastest = _fastest_pole(design)
+    if fastest is not None and dt * fastest > RK4_REAL_LIMIT:
+        out.append(f"dt·|λ|max = {dt * fastest:.3g} > {RK4_REAL_LIMIT} for the gain's fastest pole |λ| = {fastest:.4g}: "
+                   f"RK4 is unstable at this step (`dt` below {RK4_REAL_LIMIT / fastest:.3g})")
+    drift = _q_s(design.observer)
+    if drift is not None and finite.any():
+        last = x_hat[int(np.flatnonzero(finite)[-1])]
+        try:
+            with np.errstate(all="ignore"):
+                cond = float(np.linalg.cond(np.asarray(drift.jacobian_Q(last), dtype=float)))
+        except (NlobsError, ValueError, np.linalg.LinAlgError):
+            cond = math.inf
+        if not cond < NEAR_SINGULAR:
+            out.append(f"Q_s(x̂) near singular at the last finite estimate (condition number {cond:.3g})")
+    return tuple(out)
+
+
+def _outcome(name: str, desc: str, res: SimulationResult, s: _Setup, cert: _Cert | None,
+             design: Design | None = None) -> ObserverOutcome:
     x, xh, t = res.x, res.x_hat, res.t
     assert x is not None
     with np.errstate(all="ignore"):
@@ -511,7 +599,9 @@ def _outcome(name: str, desc: str, res: SimulationResult, s: _Setup, cert: _Cert
     for i in np.flatnonzero(bad_t.any(axis=-1)):
         k = int(np.argmax(bad_t[i]))
         reason = "non-finite estimate" if not np.isfinite(en[i, k]) else f"‖e‖ > {BLOWUP:.0e} (1 + max‖x‖)"
-        diverged.append(DivergedRun(int(i), float(t[k]), reason))
+        causes = divergence_causes(design, s.dt, t[: k + 1], xh[i, : k + 1], s.scenario.model.states) \
+            if design is not None else ()
+        diverged.append(DivergedRun(int(i), float(t[k]), reason, causes))
     ok = ~bad_t.any(axis=-1)
     after = t >= s.settle - 1e-12
     run_rms = np.full(s.runs, np.nan)
@@ -791,7 +881,7 @@ def _run_one(name: str, s: _Setup, options: Mapping[str, Any], progress: bool | 
         if isinstance(exc, (InvalidArgumentError, DimensionError)) and "rate" in str(exc):
             raise
         return dataclasses.replace(_failed(name, desc, s, f"stopped: {exc}"), design=design)
-    return dataclasses.replace(_outcome(name, desc, res, s, cert), observer=obs, design=design)
+    return dataclasses.replace(_outcome(name, desc, res, s, cert, design), observer=obs, design=design)
 
 
 def _run_task(s: _Setup, name: str, options: Mapping[str, Any], backend: str) -> ObserverOutcome:

@@ -36,6 +36,10 @@ JointField = Callable[[float, tuple[Array, ...]], tuple[Array, ...]]
 
 _IVP_METHODS = ("RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA")
 
+#: RK4 is stable for ``h λ`` on the negative real axis down to ``−2.785`` (the root of
+#: ``1 + z + z²/2 + z³/6 + z⁴/24 = ±1``): a linear mode with ``h |λ|`` above it blows up at step ``h``.
+RK4_REAL_LIMIT = 2.785
+
 
 @dataclass(frozen=True)
 class RK4:

@@ -12,6 +12,7 @@ from nlobs._io import prepare_output_dir
 from nlobs._typing import Array
 from nlobs.errors import NlobsError, OutputError, SimulationDiverged, StudyFailed
 from nlobs.simulate.result import SimulationResult
+from nlobs.simulate.integrators import RK4_REAL_LIMIT
 
 if TYPE_CHECKING:
     from nlobs.systems.symbolic import SymbolicModel
@@ -64,8 +65,6 @@ def run_study(run: Callable[[], T]) -> T:
         raise StudyFailed(str(exc)) from exc
 
 
-#: RK4 is stable for ``h λ`` on the negative real axis down to ``−2.785`` (the root of ``1 + z + z²/2 + z³/6 + z⁴/24 = ±1``).
-RK4_REAL_LIMIT = 2.785
 
 
 def explain_divergence(exc: SimulationDiverged | StudyFailed, fastest: float, dt: float,
