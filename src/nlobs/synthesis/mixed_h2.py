@@ -69,7 +69,7 @@ from nlobs.checks import Check, CheckKind
 from nlobs.errors import DesignInfeasible, DimensionError, InvalidArgumentError, NumericalError
 from nlobs.linear.norms import h2_norm, hinf_norm
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict, complex_pairs
-from nlobs.synthesis.lmi import Solver, as_solver, bmat, solve, symmetrise
+from nlobs.synthesis.lmi import Solver, as_solver, bmat, psd_sqrt, solve, symmetrise
 from nlobs.synthesis.observer_gain import (
     GainBound,
     RegionArg,
@@ -183,9 +183,9 @@ class NoiseModel:
 
     def inputs(self, K: NDArray[np.float64]) -> NDArray[np.float64]:
         """``B̂(K) = [B_w W^{1/2}, −K V^{1/2}]``: the noise input matrix of the error dynamics."""
-        cols = [-K @ _sqrtm_psd(self.measurement)]
+        cols = [-K @ psd_sqrt(self.measurement)]
         if self.process_input is not None and self.process is not None:
-            cols.insert(0, self.process_input @ _sqrtm_psd(self.process))
+            cols.insert(0, self.process_input @ psd_sqrt(self.process))
         return np.hstack(cols)
 
     def to_dict(self) -> dict[str, Any]:
@@ -202,12 +202,6 @@ def _require_psd(name: str, M: NDArray[np.float64]) -> None:
     lam = float(np.linalg.eigvalsh(M)[0]) if M.size else 0.0
     if lam < -1e-12 * max(1.0, float(np.max(np.abs(M)))):
         raise InvalidArgumentError(f"{name}: an intensity must be positive semidefinite (smallest eigenvalue {lam:.3g})")
-
-
-def _sqrtm_psd(M: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Symmetric square root of a positive semidefinite matrix (eigenvalues clipped at 0)."""
-    lam, U = np.linalg.eigh(M)
-    return (U * np.sqrt(np.clip(lam, 0.0, None))) @ U.T
 
 
 def h2_error_norm(A: ArrayLike, C: ArrayLike, K: ArrayLike, noise: NoiseModel) -> float:
@@ -480,9 +474,9 @@ def _convex_design(d: Any, noise: NoiseModel, gamma: float, margin: float, solve
     PF = P @ d.A - X @ d.C
     cons = list(f.constraints)
     cons.append(symmetrise(PF + PF.T + Lz.T @ Lz) << -margin * np.eye(n))
-    cols = [-X @ _sqrtm_psd(noise.measurement)]
+    cols = [-X @ psd_sqrt(noise.measurement)]
     if noise.process_input is not None and noise.process is not None:
-        cols.insert(0, P @ (noise.process_input @ _sqrtm_psd(noise.process)))
+        cols.insert(0, P @ (noise.process_input @ psd_sqrt(noise.process)))
     PB = cp.hstack(cols)
     q = PB.shape[1]
     Z = cp.Variable((q, q), symmetric=True, name="Z")
