@@ -43,6 +43,9 @@ def test_chemostat_pinv_with_det_qs_and_mu_from_the_file() -> None:
     assert rep.command == "nlobs simulate chemostat --observer luenberger,ekf,ukf"
     assert rep.design is not None and rep.design.bound is not None and rep.design.bound.verified
     assert rep.method("pinv").command == "nlobs design pinv chemostat --box=0.05,4,0.01,4 --theta 2"
+    # (2.17) has no solution on the region (s ≰ r, μ = 0.3): the command would fail, so none is printed
+    drift_ = rep.method("drift")
+    assert drift_.command is None and not drift_.usable and "its design fails on the region: (2.17)" in drift_.reason
     # det Q_s by hand: h = S, L_f h = −μmax S X / ((K_s + S) Yxs) → det Q_s = μmax S / ((K_s + S) Yxs),
     # smallest on the box at its corner S = 0.01
     p = _params("chemostat")

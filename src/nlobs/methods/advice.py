@@ -887,8 +887,12 @@ def _rank_by_bound(methods: Sequence[MethodAdvice], scenario: Any, region: Box, 
             ranked.append(m)
             continue
         design, error = _recommended_design(m, scenario, region, reg0, src)
-        if design is None:
-            ranked.append(dataclasses.replace(m, evidence=(*m.evidence, f"no design for the file's sensors: {error}")))
+        if design is None:  # its command would fail: not printed, and the method not recommended
+            if error:  # the theorems' verdict stands; no command, since it would fail
+                ranked.append(dataclasses.replace(m, command=None,
+                                                  reason=f"{m.reason}; but its design fails on the region: {error}"))
+            else:
+                ranked.append(m)
             continue
         designs[m.method] = design
         bound = design.bound
