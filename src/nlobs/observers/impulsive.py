@@ -17,23 +17,20 @@ is missing: that output is not corrected.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from nlobs._typing import Array, BoolArray
-from nlobs._validate import as_batch, as_matrix
 from nlobs.errors import InvalidArgumentError
-from nlobs.observers.base import ToControl
-from nlobs.systems.timebase import TimeBase
+from nlobs.observers.luenberger import _PlantCopy
 
 __all__ = ["ImpulsiveObserver"]
 
 
 @dataclass(frozen=True, eq=False)
-class ImpulsiveObserver(ToControl):
+class ImpulsiveObserver(_PlantCopy):
     """The impulsive Thau observer (module docstring).
 
     Parameters
@@ -56,35 +53,11 @@ class ImpulsiveObserver(ToControl):
     plant: Any
     L: Array
     name: str = "Thau (impulsive)"
-    time: TimeBase = field(init=False)
-    state_names: tuple[str, ...] = field(init=False)
 
     def __post_init__(self) -> None:
-        for attr in ("rhs", "output", "states", "outputs", "time"):
-            if not hasattr(self.plant, attr):
-                raise InvalidArgumentError(f"plant: expected a PlantModel; {type(self.plant).__name__} has no {attr!r}")
+        super().__post_init__()
         if self.plant.time.is_discrete:
             raise InvalidArgumentError("plant: the impulsive observer is for a continuous-time model")
-        n, p = len(self.plant.states), len(self.plant.outputs)
-        gain = as_matrix("L", self.L, (n, p))
-        gain.setflags(write=False)
-        object.__setattr__(self, "L", gain)
-        object.__setattr__(self, "time", self.plant.time)
-        object.__setattr__(self, "state_names", tuple(f"{s}_hat" for s in self.plant.states))
-
-    @property
-    def n_x(self) -> int:
-        """Estimate dimension (``n``)."""
-        return int(self.L.shape[0])
-
-    @property
-    def n_z(self) -> int:
-        """Observer state dimension (``n``)."""
-        return int(self.L.shape[0])
-
-    def init(self, x_hat0: ArrayLike) -> Array:
-        """``z0 = x̂0``, shape ``(..., n)``."""
-        return np.array(as_batch("x_hat0", x_hat0, self.n_x), dtype=float)
 
     def rhs(self, t: float, z: Array, u: Array, y: Array) -> Array:
         """``F(x̂, u)``: the model between samples (``y`` is not used; samples enter in :meth:`correct`)."""
@@ -114,6 +87,3 @@ class ImpulsiveObserver(ToControl):
         innovation = np.where(fresh & np.isfinite(innovation), innovation, 0.0)
         return z + innovation @ self.L.T
 
-    def estimate(self, z: Array) -> Array:
-        """The estimate is the state, ``x̂ = z``."""
-        return z

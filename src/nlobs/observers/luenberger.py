@@ -101,7 +101,50 @@ class LuenbergerObserver(ToControl):
 
 
 @dataclass(frozen=True, eq=False)
-class ConstantGainObserver(ToControl):
+class _PlantCopy(ToControl):
+    """What a copy of a plant with an output-injection gain ``L`` shares: its state is the estimate (``x̂ = z``), the
+    plant and ``L`` are checked once, the time base is the plant's (:class:`ConstantGainObserver`,
+    :class:`~nlobs.observers.impulsive.ImpulsiveObserver`)."""
+
+    plant: Any
+    L: Array
+    name: str = ""
+    time: TimeBase = field(init=False)
+    state_names: tuple[str, ...] = field(init=False)
+
+    def __post_init__(self) -> None:
+        for attr in ("rhs", "output", "states", "outputs", "time"):
+            if not hasattr(self.plant, attr):
+                raise InvalidArgumentError(f"plant: expected a PlantModel (time, states, outputs, rhs, output); "
+                                           f"{type(self.plant).__name__} has no {attr!r}")
+        n, p = len(self.plant.states), len(self.plant.outputs)
+        gain = as_matrix("L", self.L, (n, p))
+        gain.setflags(write=False)
+        object.__setattr__(self, "L", gain)
+        object.__setattr__(self, "time", self.plant.time)
+        object.__setattr__(self, "state_names", tuple(f"{s}_hat" for s in self.plant.states))
+
+    @property
+    def n_z(self) -> int:
+        """Observer state dimension (``n``)."""
+        return int(self.L.shape[0])
+
+    @property
+    def n_x(self) -> int:
+        """Estimate dimension (``n``)."""
+        return int(self.L.shape[0])
+
+    def init(self, x_hat0: ArrayLike) -> Array:
+        """Observer state from the initial estimate (``z0 = x̂0``), shape ``(..., n)``."""
+        return np.array(as_batch("x_hat0", x_hat0, self.n_x), dtype=float)
+
+    def estimate(self, z: Array) -> Array:
+        """The estimate is the observer state, ``x̂ = z``."""
+        return z
+
+
+@dataclass(frozen=True, eq=False)
+class ConstantGainObserver(_PlantCopy):
     r"""A copy of a nonlinear plant with constant output injection (Thau, 1973):
 
     .. math:: \dot z = f(z, u) + L\,(y - h(z, u)), \qquad \hat x = z
@@ -125,40 +168,11 @@ class ConstantGainObserver(ToControl):
     plant: Any
     L: Array
     name: str = "Luenberger (constant gain)"
-    time: TimeBase = field(init=False)
-    state_names: tuple[str, ...] = field(init=False)
 
     def __post_init__(self) -> None:
-        for attr in ("rhs", "output", "states", "outputs", "time"):
-            if not hasattr(self.plant, attr):
-                raise InvalidArgumentError(f"plant: expected a PlantModel (time, states, outputs, rhs, output); "
-                                           f"{type(self.plant).__name__} has no {attr!r}")
-        n, p = len(self.plant.states), len(self.plant.outputs)
-        gain = as_matrix("L", self.L, (n, p))
-        gain.setflags(write=False)
-        object.__setattr__(self, "L", gain)
-        object.__setattr__(self, "time", self.plant.time)
-        object.__setattr__(self, "state_names", tuple(f"{s}_hat" for s in self.plant.states))
-        object.__setattr__(self, "_LT", np.ascontiguousarray(gain.T))
-
-    @property
-    def n_z(self) -> int:
-        """Observer state dimension (``n``)."""
-        return int(self.L.shape[0])
-
-    @property
-    def n_x(self) -> int:
-        """Estimate dimension (``n``)."""
-        return int(self.L.shape[0])
-
-    def init(self, x_hat0: ArrayLike) -> Array:
-        """Observer state from the initial estimate (``z0 = x̂0``), shape ``(..., n)``."""
-        return np.array(as_batch("x_hat0", x_hat0, self.n_x), dtype=float)
+        super().__post_init__()
+        object.__setattr__(self, "_LT", np.ascontiguousarray(self.L.T))
 
     def rhs(self, t: float, z: Array, u: Array, y: Array) -> Array:
         """``ż`` (continuous) or ``z⁺`` (discrete) for batches, shape ``(..., n)``."""
         return self.plant.rhs(t, z, u) + (y - self.plant.output(t, z, u)) @ self._LT  # type: ignore[attr-defined]
-
-    def estimate(self, z: Array) -> Array:
-        """The estimate is the observer state, ``x̂ = z``."""
-        return z

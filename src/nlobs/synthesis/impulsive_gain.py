@@ -47,6 +47,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nlobs._typing import Array
+from nlobs._validate import positive
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import DesignInfeasible, InvalidArgumentError
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
@@ -382,9 +383,7 @@ class ImpulsiveSDP:
         alpha : float
             The decay rate, ``> 0``.
         """
-        a = float(alpha)
-        if not (math.isfinite(a) and a > 0):
-            raise InvalidArgumentError(f"alpha: expected a positive finite number, got {alpha!r}")
+        a = positive("alpha", alpha)
         g = self.group
         self.alpha.value, self.inv2a.value = a, 1.0 / (2 * a)
         self.jw.value = 1.0 / (1 - math.exp(-2 * a * g.period))

@@ -61,6 +61,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nlobs._typing import Array
+from nlobs._validate import positive
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import DesignInfeasible, InvalidArgumentError
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
@@ -559,9 +560,7 @@ class ClockSDP:
         Km = np.asarray(K, dtype=float)
         if Km.shape != (n, p) or not np.all(np.isfinite(Km)):
             raise InvalidArgumentError(f"K: expected a finite ({n}, {p}) array")
-        a = float(alpha)
-        if not (math.isfinite(a) and a > 0):
-            raise InvalidArgumentError(f"alpha: expected a positive finite number, got {alpha!r}")
+        a = positive("alpha", alpha)
         self.K.value, self.alpha.value, self.inv2a.value = Km, a, 1.0 / (2 * a)
         for w, g in zip(self.jw, self.groups):
             w.value = 1.0 / (1 - math.exp(-2 * a * g.period))

@@ -35,6 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from nlobs._typing import Array
+from nlobs._validate import positive
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import DesignInfeasible, InvalidArgumentError
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
@@ -270,9 +271,7 @@ class VertexLMIs:
         alpha : float
             The decay rate, ``> 0``.
         """
-        a = float(alpha)
-        if not (math.isfinite(a) and a > 0):
-            raise InvalidArgumentError(f"alpha: expected a positive finite number, got {alpha!r}")
+        a = positive("alpha", alpha)
         self.alpha.value, self.inv_alpha.value = a, 1.0 / a
         result = solve(self.problem, self.solver)
         P, Y = self.P, self.Y
@@ -316,9 +315,7 @@ def certify_thau_gain(vertices: Sequence[tuple[ArrayLike, ArrayLike]], L: ArrayL
     Lm = np.asarray(L, dtype=float)
     if Lm.shape != (n, p) or not np.all(np.isfinite(Lm)):
         raise InvalidArgumentError(f"L: expected a finite ({n}, {p}) matrix, got shape {Lm.shape}")
-    a = float(alpha)
-    if not (math.isfinite(a) and a > 0):
-        raise InvalidArgumentError(f"alpha: expected a positive finite number, got {alpha!r}")
+    a = positive("alpha", alpha)
     Rm, Wm = _objective_parts(n, p, R, process)
     P = cp.Variable((n, n), symmetric=True)
     cons = [P >> np.eye(n)]
