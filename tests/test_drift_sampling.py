@@ -80,6 +80,13 @@ def test_the_drift_budget_is_below_the_exact_limit_and_recomputes(tmp_path: Path
     kappa = np.linalg.norm((V / np.sqrt(w)) @ V.T @ K, 2)
     assert t_max == pytest.approx(d.report.certificate.constants.alpha / (kappa * ell), rel=1e-9)
     assert verify_sampled_data_bound(bound).verified
+    # (1) itself: the bound's Lyapunov matrix (P⁻¹ of (2.17)) makes V decay at 2α along the exact error system of
+    # this linear plant in z = x, ė = (A_s − K C_s + B_s ℓᵀ) e, ℓ = (−1, −0.5) (P itself does not: λ_max > 0)
+    Acl = np.array([[0.0, 1.0], [0.0, 0.0]]) - K @ C + np.array([[0.0], [1.0]]) @ np.array([[-1.0, -0.5]])
+    alpha = d.report.certificate.constants.alpha
+    lyap = bound.P @ Acl + Acl.T @ bound.P + 2 * alpha * bound.P
+    assert np.linalg.eigvalsh(lyap)[-1] < 0
+    assert np.linalg.eigvalsh(P @ Acl + Acl.T @ P + 2 * alpha * P)[-1] > 0
 
 
 def test_a_fast_sensor_makes_the_predictor_the_certified_default(tmp_path: Path) -> None:
@@ -114,8 +121,8 @@ def test_the_cartpole_drift_gain_needs_a_period_far_below_its_encoders() -> None
 
 def test_a_diverged_run_names_the_causes_it_shows(tmp_path: Path) -> None:
     """Samples every 0.4 s held into a drift gain with poles −4.2 and −8.5, integrated at dt = 0.4: the runs blow
-    up, and the report names what it saw before: the estimate leaving the region, T above T_max and dt·|λ| above
-    RK4's limit 2.785 (8.46 · 0.4 = 3.38)."""
+    up, and the report names what it saw before: the estimate leaving the region, T above T_max and dt·λ outside
+    RK4's stability region (−8.46 · 0.4 = −3.38 < −2.785 on the real axis)."""
     from nlobs.methods.comparison import compare_observers
 
     f = tmp_path / "osc-slow.toml"
@@ -126,7 +133,20 @@ def test_a_diverged_run_names_the_causes_it_shows(tmp_path: Path) -> None:
     causes = " | ".join(o.diverged_runs[0].causes)
     assert "the estimate left the region" in causes
     assert "enc: T = 0.4 > T_max" in causes
-    lam = max(abs(v) for v in get("drift").design(problem(str(f))).certificate.eigenvalues)
-    assert f"dt·|λ|max = {0.4 * lam:.3g} > 2.785" in causes
+    lam = min(v.real for v in get("drift").design(problem(str(f))).certificate.eigenvalues)  # −2w, real
+    assert f"dt·λ = {0.4 * lam:.3g} is outside RK4's stability region" in causes
+    assert f"`dt` below {2.785 / abs(lam):.3g}" in causes  # the real-axis limit, found by bisection of |R| = 1
     assert o.to_dict()["diverged_runs"][0]["causes"] == list(o.diverged_runs[0].causes)
     assert "seen before run" in rep.summary()
+
+
+def test_rk4_stability_region_against_its_closed_form_edges() -> None:
+    """RK4's stability region meets the negative real axis at −2.7853 and the imaginary axis at ±2√2 (the roots of
+    |R(z)| = 1 there): a complex pole is judged by |R(dt·λ)|, not by dt·|λ| against the real-axis limit."""
+    from nlobs.methods.comparison import _rk4_growth, _stable_step
+
+    assert _rk4_growth(np.array(-2.784)) < 1 < _rk4_growth(np.array(-2.786))
+    r = 2 * math.sqrt(2)
+    assert _rk4_growth(np.array(1j * (r - 1e-3))) <= 1 < _rk4_growth(np.array(1j * (r + 1e-3)))
+    assert _stable_step(-1.0 + 0j, 10.0) == pytest.approx(2.78529, abs=1e-5)
+    assert _stable_step(1j, 10.0) == pytest.approx(r, abs=1e-6)  # 2.83 > 2.785: the real-axis rule would be wrong

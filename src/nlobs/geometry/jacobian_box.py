@@ -12,7 +12,9 @@ balance: ``∂Ẋ/∂X = μ(S) − D`` and ``∂Ṡ/∂X = −μ(S)/Y`` share ``
 for ``r`` fixed matrices ``E_k`` (the principal directions of the sampled Jacobians, found by an SVD), and
 ``J̄`` lies in the parallelotope ``{M₀ + Σ c_k E_k : c_k ∈ [lo_k, hi_k]}`` of the coefficients' bounds: ``2^r``
 vertices instead of ``2^k``, and the correlations between entries kept (a box lets ``μ − D`` be at its top
-while ``−μ/Y`` is at its bottom; the parallelotope does not). :func:`jacobian_box` uses it when ``r < k``.
+while ``−μ/Y`` is at its bottom; the parallelotope does not). :func:`jacobian_box` uses it when ``r < k`` and
+the parallelotope, its coefficients widened by the margin (or by a half, a quarter of it, or not at all), stays
+inside the widened entrywise box: never more conservative than the box.
 
 :func:`jacobian_box` estimates the bounds from the Jacobian at sampled points of the region and of the
 input range (every corner of the region when ``n ≤`` :data:`CORNER_LIMIT`, its centre, and seeded uniform
@@ -163,6 +165,9 @@ RANK_RTOL = 1e-9
 HULL_DIMENSIONS = 6
 #: The thinnest this many candidate directions are combined into parallelotopes.
 CANDIDATES = 24
+#: A parallelotope is tried only with at most this many vertices and this many candidate sets of directions.
+MAX_VERTICES = 1024
+MAX_COMBINATIONS = 20000
 
 
 def _refine(jac: Callable[[Array, Array], Array], features: Callable[[Array], Array], F: Array, x: Array, u: Array,
@@ -225,6 +230,8 @@ def _normals(C: Array, entries: Array, lo: Array, hi: Array) -> Array | None:
     A = A[:max(CANDIDATES, len(units))]
     proj = C @ A.T
     pmin, pmax = proj.min(axis=0), proj.max(axis=0)
+    if 2**r > MAX_VERTICES or math.comb(len(A), r) > MAX_COMBINATIONS:
+        return None  # too many vertices for the LMIs, or too many candidate sets to try: the box
     tol = 1e-9 * np.maximum(np.abs(lo) + np.abs(hi), 1e-300)
     best, chosen = np.inf, None
     for idx in itertools.combinations(range(len(A)), r):
@@ -261,8 +268,9 @@ def _directions(J: Array, varying: Array, lo: Array, hi: Array) -> tuple[Array, 
     if r >= int(varying.sum()) or r == 0:
         return None
     V = Vt[:r]
-    residual = D - (D @ V.T) @ V  # every sample within rounding of the subspace, or no parallelotope
-    if float(np.max(np.abs(residual))) > 1e-8 * scale:
+    residual = D - (D @ V.T) @ V  # every sample of every entry within rounding of the subspace, or no parallelotope
+    width = D.max(axis=0) - D.min(axis=0)
+    if np.any(np.max(np.abs(residual), axis=0) > 1e-8 * np.maximum(width, 1e-300) + 1e-14 * scale):
         return None
     cells = np.flatnonzero(varying.reshape(-1))
     A = _normals(D @ V.T, V[:, cells].T, lo.reshape(-1)[cells] - mean[cells], hi.reshape(-1)[cells] - mean[cells])
@@ -340,12 +348,14 @@ def jacobian_box(jac: Callable[[Array, Array], Array], region: Box, u_lower: Arr
     reduced = _directions(J, varying, box.lower, box.upper) if reduce else None
     if reduced is None:
         return box
-    # the refined coefficients' parallelotope inside the widened box, else the box
+    # the refined coefficients' parallelotope, widened by the margin or less, inside the widened box; else the box
     tight = _parallelotope(jac, J, x, u, region, u_lower, u_upper, reduced, 0.0, refine)
-    slack = 1e-9 * scale
-    if not (np.all(tight.lower >= box.lower - slack) and np.all(tight.upper <= box.upper + slack)):
-        return box
-    return _widened(tight, margin)
+    slack = 1e-9 * np.maximum(scale, 1e-300)
+    for fraction in (1.0, 0.5, 0.25, 0.0):
+        shape = _widened(tight, fraction * margin)
+        if np.all(shape.lower >= box.lower - slack) and np.all(shape.upper <= box.upper + slack):
+            return shape
+    return box
 
 
 def _parallelotope(jac: Callable[[Array, Array], Array], J: Array, x: Array, u: Array, region: Box,

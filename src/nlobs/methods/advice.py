@@ -834,7 +834,7 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
     if best is not None and best.method in designs:
         design = designs[best.method]
     elif best is not None and scenario is not None:
-        design, design_error = _recommended_design(best, scenario, region, reg0, src)
+        design, design_error, _ = _recommended_design(best, scenario, region, reg0, src)
     return AdviceReport(m.name, target, reg0 if isinstance(m, SymbolicModel) else None, src,
                         region if isinstance(m, SymbolicModel) else None, sing, methods,
                         None if best is None else best.method, cmp, verdict, msg, sensor_check, design, design_error)
@@ -886,13 +886,14 @@ def _rank_by_bound(methods: Sequence[MethodAdvice], scenario: Any, region: Box, 
         if m.method not in _SIMULATED or not m.usable:
             ranked.append(m)
             continue
-        design, error = _recommended_design(m, scenario, region, reg0, src)
+        design, error, fails = _recommended_design(m, scenario, region, reg0, src)
         if design is None:  # its command would fail: not printed, and the method not recommended
-            if error:  # the theorems' verdict stands; no command, since it would fail
+            if fails:  # the theorems' verdict stands; no command, since it would fail
                 ranked.append(dataclasses.replace(m, command=None,
                                                   reason=f"{m.reason}; but its design fails on the region: {error}"))
             else:
-                ranked.append(m)
+                ranked.append(dataclasses.replace(m, evidence=(*m.evidence, f"no design for the file's sensors: {error}"))
+                              if error else m)
             continue
         designs[m.method] = design
         bound = design.bound
@@ -939,23 +940,29 @@ def _design_box(best: MethodAdvice, region: Box, reg0: Box, src: str) -> Box | N
     return None if _same(box, reg0) and src != "given" else box
 
 
-def _recommended_design(best: MethodAdvice, scenario: Any, region: Box, reg0: Box, src: str) -> tuple[Any, str]:
-    """The registry's design of the recommended method, on the region the advice recommends (or the file's)."""
+def _recommended_design(best: MethodAdvice, scenario: Any, region: Box, reg0: Box,
+                        src: str) -> tuple[Any, str, bool]:
+    """The registry's design of the recommended method, on the region the advice recommends (or the file's): the
+    design, or why not, and whether the design itself has no solution there (the method does not apply, an
+    assumption fails, or it is infeasible: its command would fail)."""
+    from nlobs.errors import AssumptionViolated, DesignInfeasible
     from nlobs.methods.registry import get, names
 
     name = "ekf" if best.method == "ekf-ukf" else best.method
     if name not in names():
-        return None, ""
+        return None, "", False
     method = get(name)
     given = _design_box(best, region, reg0, src)
     try:
         pb = problem(scenario, box=given)
         why = method.applies(pb)
         if why is not None:
-            return None, why
-        return method.design(pb), ""
+            return None, why, True
+        return method.design(pb), "", False
+    except (AssumptionViolated, DesignInfeasible, ModelError) as exc:
+        return None, str(exc), True
     except NlobsError as exc:
-        return None, str(exc)
+        return None, str(exc), False
 
 
 def best_region(advice: MethodAdvice, region: Box) -> Box:

@@ -123,7 +123,7 @@ class DivergedRun:
         What happened, e.g. ``"non-finite estimate"``.
     causes : tuple of str
         What the run shows before (:func:`divergence_causes`): the estimate leaving the region, a sampling period
-        above ``T_max``, a step above RK4's limit for the gain's fastest pole, ``Q_s(x̂)`` near singular.
+        above ``T_max``, a step outside RK4's stability region for a pole of the gain, ``Q_s(x̂)`` near singular.
     """
 
     run: int
@@ -510,14 +510,29 @@ class _Cert:
 NEAR_SINGULAR = 1e8
 
 
-def _fastest_pole(design: Design) -> float | None:
-    """``max |λ|`` of the observer's error dynamics where its design states them (``A_s − K C_s``, the roots
+def _poles(design: Design) -> Array | None:
+    """The eigenvalues of the observer's error dynamics where its design states them (``A_s − K C_s``, the roots
     of (10)); ``None`` otherwise."""
     for holder, attr in ((design.certificate, "eigenvalues"), (design.report, "roots")):
         lam = getattr(holder, attr, None)
         if lam is not None and np.size(lam):
-            return float(np.max(np.abs(np.asarray(lam))))
+            return np.asarray(lam, dtype=complex).ravel()
     return None
+
+
+def _rk4_growth(z: Array) -> Array:
+    """``|R(z)|``, ``R(z) = 1 + z + z²/2 + z³/6 + z⁴/24``: RK4's amplification of the mode ``e^{λt}`` over one step
+    ``z = dt·λ`` (above 1: the step is outside its stability region)."""
+    return np.abs(1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24)
+
+
+def _stable_step(lam: complex, dt: float) -> float:
+    """The largest step below ``dt`` that keeps ``dt·λ`` in RK4's stability region (bisection)."""
+    lo, hi = 0.0, float(dt)
+    for _ in range(60):
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if _rk4_growth(np.asarray(mid * lam)) <= 1 else (lo, mid)
+    return lo
 
 
 def _q_s(observer: Any) -> Any:
@@ -548,8 +563,9 @@ def divergence_causes(design: Design, dt: float, t: Array, x_hat: Array, states:
     Returns
     -------
     tuple of str
-        The estimate leaving the region (when and which component), the sampling premise that fails, ``dt·|λ|``
-        above RK4's limit, ``Q_s(x̂)`` near singular at the last finite estimate.
+        The estimate leaving the region (when and which component), the sampling premise that fails, ``dt·λ``
+        outside RK4's stability region for a pole of the gain, ``Q_s(x̂)`` near singular at the last finite
+        estimate.
     """
     from nlobs.simulate.coverage import InRegion, Premise
     from nlobs.simulate.integrators import RK4_REAL_LIMIT
@@ -569,10 +585,16 @@ def divergence_causes(design: Design, dt: float, t: Array, x_hat: Array, states:
     for h in design.hypotheses:
         if isinstance(h, Premise) and not h.holds and h.name.startswith("sampled with period"):
             out.append(f"the sampling period is above what the certificate survives ({h.reason})")
-    fastest = _fastest_pole(design)
-    if fastest is not None and dt * fastest > RK4_REAL_LIMIT:
-        out.append(f"dt·|λ|max = {dt * fastest:.3g} > {RK4_REAL_LIMIT} for the gain's fastest pole |λ| = {fastest:.4g}: "
-                   f"RK4 is unstable at this step (`dt` below {RK4_REAL_LIMIT / fastest:.3g})")
+    poles = _poles(design)
+    if poles is not None:
+        growth = _rk4_growth(dt * poles)
+        k = int(np.argmax(growth))
+        if growth[k] > 1:
+            lam = complex(poles[k])
+            shown = f"{lam.real:.4g}" if abs(lam.imag) <= 1e-12 * abs(lam) else f"{lam:.4g}"
+            out.append(f"dt·λ = {dt * lam.real:.3g}{'' if lam.imag == 0 else f' {dt * lam.imag:+.3g}j'} is outside RK4's "
+                       f"stability region for the gain's pole λ = {shown} (|R(dt·λ)| = {growth[k]:.3g} > 1; for a "
+                       f"real pole, dt·|λ| > {RK4_REAL_LIMIT}): `dt` below {_stable_step(lam, dt):.3g}")
     drift = _q_s(design.observer)
     if drift is not None and finite.any():
         last = x_hat[int(np.flatnonzero(finite)[-1])]

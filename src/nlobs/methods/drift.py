@@ -420,7 +420,11 @@ class DriftMethod:
                       coverage_extras={"region": where, "mu": cert.constants.mu}, report=rep,
                       warnings=tuple(rep.warnings), theorem=f"Dalla Mora, Germani & Manes, Theorem 3.1 on {where}",
                       details=(f"bound (3.2): {rep.bound.describe()}",
-                               *(() if bound is None else bound.summary().splitlines())))
+                               *(() if bound is None else (
+                                   "sampling budget (3) in z = Φ_s(x), V = e_zᵀP⁻¹e_z of (2.17): " + "; ".join(
+                                       f"{g.name}: T = {g.period:.4g}, T_max = {t:.4g}"
+                                       for g, t in zip(bound.groups, bound.t_max))
+                                   + f" (Σ T/T_max = {bound.budget:.3g})",))))
 
 
 #: The drift method of the registry.

@@ -20,7 +20,6 @@ and noisy (:mod:`nlobs.synthesis.sampled_data`):
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -50,6 +49,11 @@ FRONTIER_STEPS = 3
 #: Relative step of the central differences of a nonlinear ``∂h/∂x`` (Hessians).
 FD_STEP = 1e-6
 
+
+#: The clock-dependent and impulsive certificates are tried with at most this many vertices of ``∂h/∂x``.
+MAX_H_VERTICES = 64
+#: The drift observer's sampling budget is not computed when ``cn(P)`` of (2.17) exceeds this (double precision).
+MAX_DRIFT_CONDITION = 1e10
 
 #: Relative widening of the input's sampled range (its instants may miss its extremes).
 INPUT_MARGIN = 0.01
@@ -478,7 +482,9 @@ def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | N
     p0, settle = problem.p0, problem.settle
     linear_h = not np.any(box.upper[n:] > box.lower[n:])
     clock_groups = clock_sensor_groups(problem) if problem.sensors and len(problem.sensors) <= 3 else ()
-    h_vertices = list(itertools.islice(box.rows(range(n, n + problem.model.p)).vertices(), 64))
+    h_box = box.rows(range(n, n + problem.model.p))
+    # the clock-dependent and impulsive certificates take every vertex of ∂h/∂x, or are not tried
+    h_vertices = list(h_box.vertices()) if h_box.n_vertices <= MAX_H_VERTICES else None
     tried: list[tuple[float, str]] = []
     best: tuple[float, float, Any] | None = None
     closest: tuple[float, str] | None = None
@@ -489,16 +495,20 @@ def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | N
     # the clock-dependent certificate is for a linear output or an exact model (the small-gain bound counts it)
     exact_model = W2 is None or not np.any(W2)
     triples = clock_triples(pairs, rate, linear_h) if clock_groups and (linear_h or exact_model) else None
-    sdp = ClockSDP(triples, clock_groups, process=W2, H=h_vertices, p0=p0, settle=settle) if triples else None
-    def predictor(a: float) -> bool:
-        """The continuous gains at ``α = a`` through the predictor; whether the vertex LMIs were feasible."""
+    sdp = ClockSDP(triples, clock_groups, process=W2, H=h_vertices, p0=p0, settle=settle) \
+        if triples and h_vertices is not None else None
+    def predictor(a: float) -> bool | None:
+        """The continuous gains at ``α = a`` through the predictor; whether the vertex LMIs were feasible (``None``:
+        the solver failed without claiming infeasibility)."""
         nonlocal best, closest
-        feasible = False
+        feasible: bool | None = False
         for objective in ("noise", "sampling"):
             try:
                 cert = lmis[objective].solve(a)
             except DesignInfeasible as exc:
                 tried.append((a, f"{objective}: infeasible ({exc})"))
+                if not exc.constraint and feasible is False:
+                    feasible = None
                 continue
             feasible = True
             if not cert.verified:
@@ -537,19 +547,19 @@ def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | N
         return feasible
 
     imp = None
-    if sampling in (None, "impulsive") and problem.sensors and len(clock_groups) == 1:
+    if sampling in (None, "impulsive") and problem.sensors and len(clock_groups) == 1 and h_vertices is not None:
         from nlobs.synthesis.impulsive_gain import ImpulsiveSDP
 
         imp = ImpulsiveSDP([A for A, _ in pairs], h_vertices, clock_groups[0], process=W2, p0=p0, settle=settle)
 
-    def impulsive(a: float) -> bool:
-        """The impulsive observer at ``α = a``; whether its LMIs were feasible."""
+    def impulsive(a: float) -> bool | None:
+        """The impulsive observer at ``α = a``; whether its LMIs were feasible (``None``: the solver failed)."""
         nonlocal best
         try:
             icert = imp.solve(a)
         except DesignInfeasible as exc:
             tried.append((a, f"impulsive: {exc}"))
-            return False
+            return False if exc.constraint else None
         if not icert.verified:
             tried.append((a, f"impulsive: {icert.violation()}"))
             return True
@@ -563,9 +573,11 @@ def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | N
     for form in forms:  # the LMIs feasible at α are feasible below it: up the grid to the first infeasible α
         fastest = None
         for k, a in enumerate(grid):
-            if not form(a):
+            outcome = form(a)
+            if outcome is False:  # the solver claims infeasibility; a solver failure goes on to the next α
                 break
-            fastest = k
+            if outcome:
+                fastest = k
         if alpha is None and fastest is not None and fastest + 1 < len(grid):  # bisect up to the frontier
             lo_a, hi_a = grid[fastest], grid[fastest + 1]
             for _ in range(FRONTIER_STEPS):
@@ -606,7 +618,9 @@ def drift_sampling_bound(problem: Problem, report: Any) -> SampledDataBound | No
     Returns
     -------
     SampledDataBound or None
-        ``None`` without sensors or when the certificate of (2.17) failed.
+        ``None`` without sensors, when the certificate of (2.17) failed, when ``cn(P)`` exceeds
+        :data:`MAX_DRIFT_CONDITION` (the inverse would carry no digits) or when the output's rate has no Lipschitz
+        constant on the region.
     """
     from nlobs.systems.brunovsky import brunovsky
 
@@ -614,6 +628,8 @@ def drift_sampling_bound(problem: Problem, report: Any) -> SampledDataBound | No
     if not problem.sensors or not cert.verified:
         return None
     P = (np.asarray(cert.P, dtype=float) + np.asarray(cert.P, dtype=float).T) / 2
+    if not np.linalg.cond(P) < MAX_DRIFT_CONDITION:  # P⁻¹ and P^{1/2} would carry no digits (high gains)
+        return None
     K = np.asarray(cert.gain, dtype=float)
     S = psd_sqrt(P)
     A_s, _, C_s = brunovsky(report.s)
@@ -629,8 +645,11 @@ def drift_sampling_bound(problem: Problem, report: Any) -> SampledDataBound | No
         else:
             if rate is None:
                 plant = _plant(problem)
-                box = error_box(problem, plant)
-                rate = output_rate_box(problem, box, plant)
+                try:
+                    box = error_box(problem, plant)
+                    rate = output_rate_box(problem, box, plant)
+                except NonFiniteError:  # no Lipschitz constant of the output's rate on the region: no budget
+                    return None
             sup = _largest_norm(rate.rows(idx), np.eye(problem.model.n))
             ell = sup * float(report.bound.gamma_phi_inv) * float(np.linalg.norm(S, 2))
         bias = np.broadcast_to(np.asarray(g.bias, dtype=float), (len(idx),)).copy()

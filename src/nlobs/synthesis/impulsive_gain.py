@@ -391,7 +391,8 @@ class ImpulsiveSDP:
         result = solve(self.problem, self.solver)
         if not result.status.has_solution or self.Y.value is None:
             raise DesignInfeasible(f"no impulsive gain at α = {a:.4g} for samples every {g.period:.4g} "
-                                   f"(gaps ≤ {g.gap:.4g}): {result.raw_status}")
+                                   f"(gaps ≤ {g.gap:.4g}): {result.raw_status}",
+                                   constraint="flow and jump LMIs" if result.status.is_infeasible else "")
         vals = tuple((np.asarray(P.value) + np.asarray(P.value).T) / 2 for P in self.nodes)
         L = np.linalg.solve(vals[0], np.asarray(self.Y.value))
         cert = ImpulsiveCertificate(L, vals, self.times, a, self.As, self.Cs, g, self.W2, self.S0, self.settle,

@@ -276,7 +276,8 @@ class VertexLMIs:
         result = solve(self.problem, self.solver)
         P, Y = self.P, self.Y
         if not result.status.has_solution or P.value is None or Y.value is None:
-            raise DesignInfeasible(f"(V) at {len(self.pairs)} vertices with decay α = {a:g}: {result.raw_status}")
+            raise DesignInfeasible(f"(V) at {len(self.pairs)} vertices with decay α = {a:g}: {result.raw_status}",
+                                   constraint="(V)" if result.status.is_infeasible else "")
         Pv = (np.asarray(P.value) + np.asarray(P.value).T) / 2
         L = np.linalg.solve(Pv, np.asarray(Y.value))
         decay, checks = _checks(Pv, L, self.pairs, a)
