@@ -45,6 +45,10 @@ at least its nominal period ``T_j^0`` apart. Hence
     E|e(t)|^2 \le E V(t) \le e^{-2\alpha t}\,\operatorname{tr}(P_{0,ee}\Sigma_0) + \frac{c}{2\alpha}
         + \sum_j \frac{\operatorname{tr}(P_{0,jj}(R_j + b_j b_j^\top))}{1 - e^{-2\alpha T_j^0}} . \qquad (B)
 
+Bounded noise (input-to-state): with no process noise and ``|v_{j,k}| ≤ v̄_j``, a sample adds at most
+``λ_max(P_{0,jj}) v̄_j²`` to ``V`` (the same reset, no cross term), so ``limsup |e|² ≤ Σ_j λ_max(P_{0,jj}) v̄_j² /
+(1 − e^{−2αT_j^0})`` (:meth:`ClockCertificate.ultimate_bound`).
+
 :func:`clock_certificate` finds ``P_0, D_j`` making (B) smallest (an SDP); :func:`verify_clock_certificate`
 recomputes every block of (F), (J) and the positivity at every corner and vertex, and the numbers of (B), in NumPy.
 """
@@ -220,6 +224,33 @@ class ClockCertificate(CertificateMixin):
         """The RMS bound after :attr:`settle` for :attr:`p0`."""
         return self.rms_after(self.settle)
 
+    def ultimate_bound(self, noise_bounds: float | Sequence[float]) -> float:
+        """``limsup |e|`` when every sample of group ``j`` has noise (bias included) of norm ``≤ v̄_j`` and there is no
+        process noise: (B) with ``λ_max(P_{0,jj}) v̄_j²`` for ``tr(P_{0,jj}(R_j + b_j b_jᵀ))`` (a sample adds at most
+        that to ``V``; module docstring), ``inf`` when not verified.
+
+        Parameters
+        ----------
+        noise_bounds : float or sequence of float
+            ``v̄_j`` per group (one number: every group).
+        """
+        v = np.broadcast_to(np.asarray(noise_bounds, dtype=float), (len(self.groups),))
+        if not np.all(np.isfinite(v)) or np.any(v < 0):
+            raise InvalidArgumentError(f"`noise_bounds`: expected non-negative finite numbers, got {noise_bounds!r}")
+        if not self.verified:
+            return math.inf
+        n = self.gain.shape[0]
+        total = 0.0
+        for b, g, vj in zip(_blocks(n, self.groups)[1:], self.groups, v):
+            lam = float(np.linalg.eigvalsh(self.P0[np.ix_(b, b)])[-1])
+            total += lam * float(vj) ** 2 / (1 - math.exp(-2 * self.alpha * g.period))
+        return math.sqrt(total)
+
+    @property
+    def iss_gain(self) -> float:
+        """``γ`` with ``limsup |e| ≤ γ v̄`` for sample noise bounded by ``v̄`` in every group and no process noise."""
+        return self.ultimate_bound(1.0)
+
     @property
     def t_max(self) -> tuple[float, ...]:
         """The longest gap per group the certificate covers (its ``T_j``)."""
@@ -242,7 +273,8 @@ class ClockCertificate(CertificateMixin):
                  f"{len(self.groups)} sensor group(s)"]
         for g, j in zip(self.groups, self.jumps):
             lines.append(f"  {g.name}: gaps ≤ {g.gap:.4g}, period {g.period:.4g}, noise per sample {j:.4g}")
-        lines.append(f"  process noise c = {self.c:.4g}; RMS bound after t = {self.settle:g}: {self.rms_bound:.4g}")
+        lines.append(f"  process noise c = {self.c:.4g}; RMS bound after t = {self.settle:g}: {self.rms_bound:.4g}; "
+                     f"bounded noise |v| ≤ v̄ and no process noise: limsup |e| ≤ {self.iss_gain:.4g} v̄")
         lines += [f"  [{'ok' if c.passed else 'FAIL'}] {c.name}: {c.evidence}" for c in self.checks]
         return "\n".join(lines)
 
@@ -250,6 +282,7 @@ class ClockCertificate(CertificateMixin):
         """Plain-Python view."""
         return {"kind": "clock", "alpha": self.alpha, "c": self.c, "v0": self.v0, "settle": self.settle,
                 "rms_bound": self.rms_bound if self.verified else None,
+                "iss_gain": self.iss_gain if self.verified else None,
                 "groups": [{"name": g.name, "gap": g.gap, "period": g.period, "jump": j}
                            for g, j in zip(self.groups, self.jumps)],
                 "vertices": len(self.vertices), "verified": self.verified, "checks": checks_dict(self.checks)}
