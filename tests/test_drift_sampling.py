@@ -150,3 +150,17 @@ def test_rk4_stability_region_against_its_closed_form_edges() -> None:
     assert _rk4_growth(np.array(1j * (r - 1e-3))) <= 1 < _rk4_growth(np.array(1j * (r + 1e-3)))
     assert _stable_step(-1.0 + 0j, 10.0) == pytest.approx(2.78529, abs=1e-5)
     assert _stable_step(1j, 10.0) == pytest.approx(r, abs=1e-6)  # 2.83 > 2.785: the real-axis rule would be wrong
+
+
+def test_design_drift_prints_the_budget_under_the_files_sensors(tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from nlobs.cli import app
+
+    res = CliRunner().invoke(app, ["design", "drift", _osc(tmp_path, 1000.0)])
+    assert res.exit_code == 0, res.output
+    line = next(ln for ln in res.output.splitlines() if "under the file's sensors" in ln)
+    assert "(predictor)" in line and "enc: T = 0.001, T_max = " in line
+    res = CliRunner().invoke(app, ["design", "drift", _osc(tmp_path, 10.0)])
+    line = next(ln for ln in res.output.splitlines() if "under the file's sensors" in ln)
+    assert "(hold)" in line and "enc: T = 0.1 > T_max" in line

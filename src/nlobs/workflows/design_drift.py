@@ -308,6 +308,13 @@ class DriftWorkflowReport:
         if self.method_design is not None:
             lines.append(f"  from the model file: {self.method_design.defaults_text() or 'nothing (every value given)'}; "
                          f"{self.method_design.status}")
+            sampled = [d for d in self.method_design.details if d.startswith("sampling budget")]
+            premise = next((h for h in self.method_design.hypotheses
+                            if getattr(h, "name", "").startswith("sampled with period")), None)
+            if sampled or premise is not None:  # the file's sensors: what the certificate says of their sampling
+                how = self.method_design.parameters.get("sampling", "")
+                lines.append(f"  under the file's sensors ({how}): " + "; ".join(
+                    [*sampled, *([] if premise is None or premise.holds else [premise.reason])]))
         sim, req = self.simulation, self.request
         if sim is not None and req is not None:
             alpha = self.design.certificate.constants.alpha
