@@ -93,3 +93,14 @@ def test_atomic_write_gives_the_mode_a_plain_open_would(tmp_path: Path) -> None:
         assert atomic.stat().st_mode & 0o777 == 0o600
     finally:
         os.umask(old)
+
+
+def test_one_of_normalises_defaults_and_names_every_choice() -> None:
+    from nlobs._validate import one_of
+
+    assert one_of("`sampling`", " Hold ", ("predictor", "hold")) == "hold"
+    assert one_of("`sampling`", None, ("predictor", "hold"), "predictor") == "predictor"
+    with pytest.raises(InvalidArgumentError, match=r"`sampling`: expected one of predictor, hold, got 'sideways'"):
+        one_of("`sampling`", "sideways", ("predictor", "hold"))
+    with pytest.raises(InvalidArgumentError):
+        one_of("`sampling`", None, ("predictor", "hold"))  # no default: None is not a choice

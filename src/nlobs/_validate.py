@@ -219,6 +219,19 @@ def positive(name: str, value: float, *, allow_zero: bool = False) -> float:
     return v
 
 
+def one_of(name: str, value: Any, allowed: Sequence[str], default: str | None = None) -> str:
+    """``value`` as one of the words ``allowed`` (stripped, lower case); ``default`` when ``value`` is ``None``.
+
+    Raises :class:`~nlobs.errors.InvalidArgumentError` naming ``name`` and every allowed word.
+    """
+    if value is None and default is not None:
+        return default
+    v = str(value).strip().lower()
+    if v not in allowed:
+        raise InvalidArgumentError(f"{name}: expected one of {', '.join(allowed)}, got {value!r}")
+    return v
+
+
 def in_range(name: str, value: float, lo: float, hi: float, *, lo_open: bool = False, hi_open: bool = True) -> float:
     """Return ``value`` as a finite float in the interval from ``lo`` to ``hi``.
 

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from nlobs._validate import positive
+from nlobs._validate import one_of, positive
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import DesignError, DesignInfeasible, InvalidArgumentError
 from nlobs.methods.base import Design
@@ -96,8 +96,8 @@ class LuenbergerMethod:
         DesignInfeasible
             No gain from either solver (the message says why).
         """
-        tuning_ = _choice("`tuning`", tuning, ("sensors", "decay"), "sensors" if problem.sensors else "decay")
-        sampling_ = _choice("`sampling`", sampling, ("auto", "predictor", "impulsive", "hold"), "auto")
+        tuning_ = one_of("`tuning`", tuning, ("sensors", "decay"), "sensors" if problem.sensors else "decay")
+        sampling_ = one_of("`sampling`", sampling, ("auto", "predictor", "impulsive", "hold"), "auto")
         why = self.applies(problem)
         if why is not None:
             from nlobs.errors import ModelError
@@ -239,15 +239,6 @@ class LuenbergerMethod:
         sources = {"alpha": "given" if alpha is not None else "default", "x0": problem.sources.get("x0", "given")}
         return Design(self.name, obs, cert, premises, (), parameters, sources, desc, gain=L, failed=failed,
                       hypotheses=hyps, report=cert, theorem="Grip, Saberi & Johansen, LMIs (14), (15)")
-
-
-def _choice(name: str, value: str | None, allowed: tuple[str, ...], default: str) -> str:
-    if value is None:
-        return default
-    v = str(value).strip().lower()
-    if v not in allowed:
-        raise InvalidArgumentError(f"{name}: expected one of {', '.join(allowed)}, got {value!r}")
-    return v
 
 
 #: The Luenberger method of the registry.

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from nlobs._typing import Array
+from nlobs._validate import one_of
 from nlobs.errors import DesignInfeasible, InvalidArgumentError, NonFiniteError
 from nlobs.geometry.jacobian_box import JacobianBox, jacobian_box
 from nlobs.methods.problem import Problem
@@ -347,12 +348,7 @@ def sampling_form(value: str | None, default: str = "predictor") -> str:
     default : str
         The method's default (the drift observer holds: its high gains destabilise the predictor's loop).
     """
-    if value is None:
-        return default
-    v = str(value).strip().lower()
-    if v not in ("predictor", "hold"):
-        raise InvalidArgumentError(f"`sampling`: expected predictor or hold, got {value!r}")
-    return v
+    return one_of("`sampling`", value, ("predictor", "hold"), default)
 
 
 def on_samples(observer: Any, problem: Problem, sampling: str, theorem: str,
