@@ -493,10 +493,18 @@ def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | N
     triples = clock_triples(pairs, rate, linear_h) if clock_groups and (linear_h or exact_model) else None
     sdp = ClockSDP(triples, clock_groups, process=W2, H=h_vertices, p0=p0, settle=settle) \
         if triples and h_vertices is not None else None
+    def consider(a: float, label: str, bound: Any, certificate: Any) -> None:
+        """A verified candidate: its certified RMS bound after the settling time, kept if the smallest so far."""
+        nonlocal best
+        value = bound.rms_after(settle)
+        tried.append((a, f"{label}: RMS bound {value:.4g}"))
+        if best is None or value < best[0]:
+            best = (value, a, certificate)
+
     def predictor(a: float) -> bool | None:
         """The continuous gains at ``α = a`` through the predictor; whether the vertex LMIs were feasible (``None``:
         the solver failed without claiming infeasibility)."""
-        nonlocal best, closest
+        nonlocal closest
         feasible: bool | None = False
         for objective in ("noise", "sampling"):
             try:
@@ -514,10 +522,7 @@ def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | N
             groups = sensor_groups(problem, cert.P, cert.gain, box, rate, plant)
             bound = sampled_data_bound(cert.P, cert.gain, cert.decay, groups, process=W2, p0=p0)
             if bound.verified:
-                value = bound.rms_after(settle)
-                tried.append((a, f"{objective}: RMS bound {value:.4g}"))
-                if best is None or value < best[0]:
-                    best = (value, a, SampledDesignCertificate(cert, bound))
+                consider(a, objective, bound, SampledDesignCertificate(cert, bound))
             else:
                 why = bound.violation() or "the bound failed"
                 tried.append((a, f"{objective}: {why}"))
@@ -534,10 +539,7 @@ def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | N
                 if clock is None:
                     continue
                 if clock.verified:
-                    value = clock.rms_after(settle)
-                    tried.append((a, f"clock: RMS bound {value:.4g}"))
-                    if best is None or value < best[0]:
-                        best = (value, a, SampledDesignCertificate(cert, clock))
+                    consider(a, "clock", clock, SampledDesignCertificate(cert, clock))
                 else:
                     tried.append((a, f"clock: {clock.violation()}"))
         return feasible
@@ -550,7 +552,6 @@ def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | N
 
     def impulsive(a: float) -> bool | None:
         """The impulsive observer at ``α = a``; whether its LMIs were feasible (``None``: the solver failed)."""
-        nonlocal best
         try:
             icert = imp.solve(a)
         except DesignInfeasible as exc:
@@ -559,10 +560,7 @@ def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | N
         if not icert.verified:
             tried.append((a, f"impulsive: {icert.violation()}"))
             return True
-        value = icert.rms_after(settle)
-        tried.append((a, f"impulsive: RMS bound {value:.4g}"))
-        if best is None or value < best[0]:
-            best = (value, a, icert)
+        consider(a, "impulsive", icert, icert)
         return True
 
     forms = ([predictor] if sampling != "impulsive" else []) + ([impulsive] if imp is not None else [])

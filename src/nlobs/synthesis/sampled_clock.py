@@ -70,6 +70,7 @@ from nlobs.checks import Check, CheckKind
 from nlobs.errors import DesignInfeasible, InvalidArgumentError
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.synthesis.lmi import Solver, as_solver, psd_sqrt, solve, symmetrise
+from nlobs.synthesis.sampled_data import as_noise_bounds
 
 __all__ = ["ClockCertificate", "ClockGroup", "ClockSDP", "clock_certificate", "verify_clock_certificate"]
 
@@ -234,9 +235,7 @@ class ClockCertificate(CertificateMixin):
         noise_bounds : float or sequence of float
             ``v̄_j`` per group (one number: every group).
         """
-        v = np.broadcast_to(np.asarray(noise_bounds, dtype=float), (len(self.groups),))
-        if not np.all(np.isfinite(v)) or np.any(v < 0):
-            raise InvalidArgumentError(f"`noise_bounds`: expected non-negative finite numbers, got {noise_bounds!r}")
+        v = as_noise_bounds(noise_bounds, len(self.groups))
         if not self.verified:
             return math.inf
         n = self.gain.shape[0]

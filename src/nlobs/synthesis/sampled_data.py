@@ -76,11 +76,30 @@ from nlobs.errors import InvalidArgumentError
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.synthesis.lmi import psd_sqrt
 
-__all__ = ["GroupNoise", "SampledDataBound", "SampledDesignCertificate", "sampled_data_bound",
+__all__ = ["GroupNoise", "SampledDataBound", "SampledDesignCertificate", "as_noise_bounds", "sampled_data_bound",
            "verify_sampled_data_bound"]
 
 #: The grid of ``η`` searched for the smallest bound (2).
 ETA_GRID = tuple(float(v) for v in np.geomspace(1e-3, 1e3, 61))
+
+
+def as_noise_bounds(value: float | Sequence[float], groups: int) -> Array:
+    """``v̄_j`` of the bounded-noise (input-to-state) bounds, one per sensor group: non-negative and finite.
+
+    Parameters
+    ----------
+    value : float or sequence of float
+        One bound per group, or one for every group.
+    groups : int
+        How many groups.
+    """
+    try:
+        v = np.broadcast_to(np.asarray(value, dtype=float), (groups,))
+    except (TypeError, ValueError):
+        raise InvalidArgumentError(f"`noise_bounds`: expected {groups} non-negative numbers, got {value!r}") from None
+    if not np.all(np.isfinite(v)) or np.any(v < 0):
+        raise InvalidArgumentError(f"`noise_bounds`: expected non-negative finite numbers, got {value!r}")
+    return v
 
 
 def _finite_positive(name: str, value: float, *, zero: bool = False) -> float:
@@ -233,9 +252,7 @@ class SampledDataBound(CertificateMixin):
         noise_bounds : float or sequence of float
             ``v̄_j`` per group (one number: every group).
         """
-        v = np.broadcast_to(np.asarray(noise_bounds, dtype=float), (len(self.groups),))
-        if not np.all(np.isfinite(v)) or np.any(v < 0):
-            raise InvalidArgumentError(f"`noise_bounds`: expected non-negative finite numbers, got {noise_bounds!r}")
+        v = as_noise_bounds(noise_bounds, len(self.groups))
         if not self.verified:
             return math.inf
         noise = np.array([k * k * float(b) ** 2 for k, b in zip(self.kappa, v)])
