@@ -3,7 +3,7 @@
 The compiled observer runs through the same recorded-data loop (:func:`nlobs.navigation.run.run_navigation`)
 and, for one flight, entirely in C (``run_record``); both equal the Python observer to 1e-12, relative
 and norm-wise per quantity (position, velocity, projected and raw attitude), for the paper's gains,
-the noise-optimal gains, the scheduled attitude gain, a full (non-diagonal) Γ and a position-only receiver.
+the noise-optimal gains, the scheduled attitude gain, the scheduled attitude and translational gains, a full (non-diagonal) Γ and a position-only receiver.
 """
 
 from __future__ import annotations
@@ -20,12 +20,13 @@ from nlobs.export.compiled import compile_gnss_ins
 from nlobs.export.gnss_ins import generate_gnss_ins, gnss_ins_codec
 from nlobs.export.program import render
 from nlobs.navigation import metrics as M
-from nlobs.navigation.gains import NOISE_OPTIMAL_GAMMA, PAPER_GAMMA, noise_optimal_gains, paper_gains
+from nlobs.navigation.gains import NOISE_OPTIMAL_GAMMA, PAPER_GAMMA, axis_gain, noise_optimal_gains, paper_gains
 from nlobs.navigation.gnss_ins import GnssInsObserver
 from nlobs.navigation.run import run_navigation
 from nlobs.navigation.schedule import ScheduledGnssInsObserver, noise_scheduled_gain
 from nlobs.navigation.sensors import drop_fixes, generate_sensors
 from nlobs.navigation.so3 import rot_z
+from nlobs.navigation.translation_schedule import kalman_scheduled_gain
 from nlobs.workflows.demo import DEMO_NOISE
 
 RTOL = 1e-12
@@ -49,6 +50,13 @@ def _observer(kind: str, flight, K_opt):  # type: ignore[no-untyped-def]
         base = GnssInsObserver(K_opt, NOISE_OPTIMAL_GAMMA, flight.m_n, flight.g_n)
         return ScheduledGnssInsObserver(base, noise_scheduled_gain(DEMO_NOISE, flight.m_n, flight.g_n,
                                                                    initial=float(NOISE_OPTIMAL_GAMMA[0, 0])))
+    if kind == "k-scheduled":  # the demo's default: K(t) and Γ(t) scheduled, switch times interleaved
+        base = GnssInsObserver(K_opt, NOISE_OPTIMAL_GAMMA, flight.m_n, flight.g_n)
+        ks = kalman_scheduled_gain(DEMO_NOISE, axis_gain(K_opt), imu_rate_hz=RATE, gnss_rate_hz=5.0)
+        assert len(ks.gains) > 3
+        return ScheduledGnssInsObserver(base, noise_scheduled_gain(DEMO_NOISE, flight.m_n, flight.g_n,
+                                                                   initial=float(NOISE_OPTIMAL_GAMMA[0, 0])),
+                                        gain_schedule=ks)
     if kind == "full-gamma":  # a non-diagonal Γ: the eigenvector path of the injection
         Q = rot_z(0.3) @ np.array([[1.0, 0.0, 0.0], [0.0, np.cos(0.4), -np.sin(0.4)], [0.0, np.sin(0.4), np.cos(0.4)]])
         return GnssInsObserver(paper_gains(), Q @ np.diag([5.0, 0.3, 0.2]) @ Q.T, flight.m_n, flight.g_n)
@@ -60,7 +68,7 @@ def _observer(kind: str, flight, K_opt):  # type: ignore[no-untyped-def]
     raise AssertionError(kind)
 
 
-KINDS = ("paper", "noise-optimal", "scheduled", "full-gamma", "hold", "position-only")
+KINDS = ("paper", "noise-optimal", "scheduled", "k-scheduled", "full-gamma", "hold", "position-only")
 
 
 def _data(make_traj, position_only: bool, batch: int | None = None):  # type: ignore[no-untyped-def]
@@ -95,7 +103,7 @@ def test_compiled_observer_equals_python_along_a_noisy_flight(kind, flight, make
     assert M.attitude_error_deg(c)[..., -1] < 5.0  # it converged from 60°: the comparison is not of a divergence
 
 
-@pytest.mark.parametrize("kind", ("paper", "scheduled", "position-only"))
+@pytest.mark.parametrize("kind", ("paper", "scheduled", "k-scheduled", "position-only"))
 def test_compiled_observer_equals_python_on_a_batch_of_flights(kind, flight, make_traj, noise_optimal_K):
     obs = _observer(kind, flight, noise_optimal_K)
     traj, data = _data(make_traj, obs.position_only, batch=3)
@@ -110,7 +118,7 @@ def test_compiled_observer_equals_python_on_a_batch_of_flights(kind, flight, mak
     _check_equal(c, py)
 
 
-@pytest.mark.parametrize("kind", ("paper", "scheduled", "full-gamma", "position-only"))
+@pytest.mark.parametrize("kind", ("paper", "scheduled", "k-scheduled", "full-gamma", "position-only"))
 def test_run_record_in_c_equals_the_python_run(kind, flight, make_traj, noise_optimal_K):
     obs = _observer(kind, flight, noise_optimal_K)
     traj, data = _data(make_traj, obs.position_only)

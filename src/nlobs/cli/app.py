@@ -194,6 +194,11 @@ def demo_cmd(
         help="Attitude gain of the noise-optimal observer: 'scheduled' (its default: Γ(t) = γ(t) I from 0.5 I "
              "down to the steady-state gain set by the gyro and magnetometer noise) or 'constant' (0.5 I).")
     ] = None,
+    translation_gain: Annotated[str | None, typer.Option(
+        help="Gain K of the noise-optimal observer's position and velocity: 'scheduled' (its default: certified "
+             "Kalman–Bucy levels from the first fix's uncertainty down to the noise-optimal K) or 'constant' "
+             "(the noise-optimal K throughout).")
+    ] = None,
     position_only: Annotated[bool, typer.Option(help="GNSS position only (Sec. 5.2, C = [I 0]).")] = False,
     ekf: Annotated[bool, typer.Option(help="Also run the EKF baseline.")] = True,
     backend: Annotated[str, typer.Option(
@@ -207,7 +212,8 @@ def demo_cmd(
         fail(f"unknown demo {name!r} (known: {', '.join(DEMOS)})")
     try:
         config = DemoConfig(seed=seed, duration=duration, yaw_error_deg=yaw_error, gains=gains,
-                            attitude_gain=attitude_gain, position_only=position_only, ekf=ekf, backend=backend)
+                            attitude_gain=attitude_gain, translation_gain=translation_gain,
+                            position_only=position_only, ekf=ekf, backend=backend)
     except NlobsError as exc:
         fail(str(exc))
     try:

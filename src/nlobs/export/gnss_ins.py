@@ -65,7 +65,7 @@ def _parts(observer: Any) -> tuple[Any, tuple[Any, ...], tuple[float, ...]]:
     """The base observer, its modes (one for a constant Γ) and the switch times."""
     kind = type(observer).__name__
     if kind == "ScheduledGnssInsObserver":
-        return observer.base, tuple(observer.modes), tuple(float(t) for t in observer.schedule.times)
+        return observer.base, tuple(observer.modes), tuple(float(t) for t in observer.switch_times)
     if kind == "GnssInsObserver":
         return observer, (observer,), ()
     raise InvalidArgumentError(f"generate_gnss_ins: expected a GnssInsObserver or ScheduledGnssInsObserver, got {kind}")
@@ -249,7 +249,20 @@ def generate_gnss_ins(observer: Any, prefix: str, *, imu_period: float | None = 
     has, skip = 18 + ny, 19 + ny
     nz = skip + 1
     nc = nb * nb + nb
-    phi, t1, t2 = _flow_constants(base, h0)
+    gains: list[Any] = []          # the distinct gains K of the modes, in order of first use
+    kmode: list[int] = []
+    for m in modes:
+        j = next((i for i, G in enumerate(gains) if np.array_equal(G.K, m.K)), None)
+        if j is None:
+            gains.append(m)
+            j = len(gains) - 1
+        kmode.append(j)
+    phi, t1, t2 = [], [], []
+    for m in gains:
+        f0, f1, f2 = _flow_constants(m, h0)
+        phi += f0
+        t1 += f1
+        t2 += f2
     N = len(modes)
     gam, Vs, hasV, Gam = [], [], [], []
     for m in modes:
@@ -259,15 +272,15 @@ def generate_gnss_ins(observer: Any, prefix: str, *, imu_period: float | None = 
         Vs += list(np.eye(3).ravel()) if k.V is None else list(k.V)
         Gam += [float(x) for x in np.asarray(m.Gamma, dtype=float).ravel()]
     k0 = base._scalar
-    K = np.asarray(base.K, dtype=float)
+    K = np.concatenate([np.asarray(m.K, dtype=float).ravel() for m in gains])
     body = "".join([
         "/* nominal IMU period h0 and the accepted deviation |h - h0| */\n",
         f"static const double {P}_h0 = {c_double(h0)};\n",
         f"static const double {P}_htol = {c_double(IMU_PERIOD_RTOL * h0)};\n",
-        f"/* linear sub-flow over h0/2: [flow 0 (no fix yet), flow 1 (with a fix)] x 3 axes x ({nb}x{nb} Phi, {nb} d);"
-        f" and F Phi, F^2 Phi / 2 */\n",
+        f"/* linear sub-flow over h0/2, per gain K: [flow 0 (no fix yet), flow 1 (with a fix)] x 3 axes x "
+        f"({nb}x{nb} Phi, {nb} d); and F Phi, F^2 Phi / 2 */\n",
         static_array(f"{P}_phi", phi), static_array(f"{P}_t1", t1), static_array(f"{P}_t2", t2),
-        f"/* m^n, S(m^n), S(m^n)^2, g^n, K (row-major, 9 x {ny}) */\n",
+        f"/* m^n, S(m^n), S(m^n)^2, g^n, the gains K (row-major, 9 x {ny} each) */\n",
         static_array(f"{P}_mn", k0.m_n), static_array(f"{P}_Sn", k0.Sn), static_array(f"{P}_Sn2", k0.Sn2),
         static_array(f"{P}_gn", base.g_n), static_array(f"{P}_K", K),
         "/* attitude gain per mode: eigenvalues, eigenvectors V (row-major; unused where hasV is 0: "
@@ -275,6 +288,8 @@ def generate_gnss_ins(observer: Any, prefix: str, *, imu_period: float | None = 
         f"#define {up}_NMODES {N}\n",
         static_array(f"{P}_gam", gam), static_array(f"{P}_V", Vs), static_array(f"{P}_hasV", hasV, "int"), static_array(f"{P}_Gam", Gam),
         static_array(f"{P}_switch", times if times else [0.0]),
+        "/* the gain K of each mode (an index into K and the flows) */\n",
+        static_array(f"{P}_kmode", kmode, "int"),
         f"""
 /* the mode in force at t: the number of switch times <= t + 1e-9 */
 static int {P}_mode(double t)
@@ -336,7 +351,7 @@ static int {P}_step_(double t, double *z, const double *u, const double *y, doub
     mode = {P}_mode(t);
     g = {P}_gam + 3 * mode;
     V = {P}_V + 9 * mode;
-    i = z[{has}] != 0.0 ? 1 : 0;
+    i = 2 * {P}_kmode[mode] + (z[{has}] != 0.0 ? 1 : 0);
     fl = {P}_phi + {3 * nc} * i;
     dl = hh - 0.5 * {P}_h0;
     if (dl != 0.0) {{
@@ -460,7 +475,9 @@ static int {P}_step_(double t, double *z, const double *u, const double *y, doub
 /* the right-hand side of (24a)-(24d) and of the measurement predictor, Gamma = Gamma(t) */
 static int {P}_rhs_(double t, const double *z, const double *u, const double *y, double *dz)
 {{
-    const double *G = {P}_Gam + 9 * {P}_mode(t);
+    const int mode = {P}_mode(t);
+    const double *G = {P}_Gam + 9 * mode;
+    const double *Km = {P}_K + {9 * ny} * {P}_kmode[mode];
     const double *R = z + 9;
     const double w0 = u[0], w1 = u[1], w2 = u[2], a0 = u[3], a1 = u[4], a2 = u[5], m0 = u[6], m1 = u[7], m2 = u[8];
     const double act = z[{has}] != 0.0 ? 1.0 : 0.0;
@@ -508,7 +525,7 @@ static int {P}_rhs_(double t, const double *z, const double *u, const double *y,
     for (i = 0; i < 9; ++i) {{
         double acc = 0.0;
         for (j = 0; j < {ny}; ++j) {{
-            acc += e[j] * {P}_K[{ny} * i + j];
+            acc += e[j] * Km[{ny} * i + j];
         }}
         inj[i] = acc;
     }}
@@ -607,8 +624,8 @@ def _notes(observer: Any, base: Any, modes: tuple[Any, ...], times: tuple[float,
         ("step", "Strang split C(h/2) A(h/2) B(h) A(h/2) C(h/2), exact sub-flows"),
         ("IMU period", f"h0 = {h0:.17g} s; |h - h0| <= {IMU_PERIOD_RTOL:g} h0, else status 1"),
         ("intersample", str(base.intersample)),
-        ("gain K", matrix_note(base.K)),
-        ("rho(A - K C)", f"{base._rho:.6g} 1/s"),
+        ("gain K", matrix_note(modes[-1].K)),
+        ("rho(A - K C)", f"{modes[-1]._rho:.6g} 1/s"),
         ("m_n", matrix_note(base.m_n)),
         ("g_n", matrix_note(base.g_n)),
     ]
@@ -619,6 +636,8 @@ def _notes(observer: Any, base: Any, modes: tuple[Any, ...], times: tuple[float,
                                       f"max lambda_max = {sch.largest_eigenvalue:.17g}"))
         notes.append(("switch times", ", ".join(f"{t:.17g}" for t in times) + " s (mode = number of "
                                       "switch times <= t + 1e-9)"))
+        if observer.gain_schedule is not None:
+            notes.append(("K(t)", comment(observer.gain_schedule.describe() + " (per axis; gain K above is the last)")))
     else:
         notes.append(("Gamma", matrix_note(base.Gamma)))
         lam = np.linalg.eigvalsh(np.asarray(base.Gamma, dtype=float))

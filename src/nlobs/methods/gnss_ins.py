@@ -2,8 +2,10 @@ r"""The GNSS/INS observer (24) of Grip, Saberi & Johansen (Sec. 5) as a method: 
 
 :class:`DemoConfig` holds the options of the GNSS/INS example (gains, attitude gain, sensor rates and
 noise); :func:`demo_observer` builds its observer (24) — by default with the certified gain of the
-smallest noise-to-error H2 norm under LMI (14) at γ = 50 and the attitude gain Γ(t) scheduled from
-the sensor noise (:func:`~nlobs.navigation.schedule.noise_scheduled_gain`). :data:`GNSS_INS` is the
+smallest noise-to-error H2 norm under LMI (14) at γ = 50, reached through the Kalman–Bucy levels of
+the first seconds (:func:`~nlobs.navigation.translation_schedule.kalman_scheduled_gain`, every level
+certified by LMI (14)), and the attitude gain Γ(t) scheduled from the sensor noise
+(:func:`~nlobs.navigation.schedule.noise_scheduled_gain`). :data:`GNSS_INS` is the
 method of the registry: the demo's observer, exported as ``observer="gnss-ins"`` (``nlobs export``).
 """
 
@@ -20,10 +22,11 @@ from nlobs.navigation.gains import NOISE_OPTIMAL_GAMMA, PAPER_GAMMA, design_gain
 from nlobs.navigation.gnss_ins import GnssInsObserver
 from nlobs.navigation.schedule import AttitudeGainSchedule, ScheduledGnssInsObserver, noise_scheduled_gain
 from nlobs.navigation.sensors import SensorNoise
+from nlobs.navigation.translation_schedule import GainScheduleCertificate, certify_gain_schedule, kalman_scheduled_gain
 from nlobs.synthesis.mixed_h2 import MixedH2Certificate
 
-__all__ = ["ATTITUDE_GAINS", "BACKENDS", "DEMO_NOISE", "GAINS", "GNSS_INS", "MAX_IMU_SAMPLES", "DemoConfig",
-           "GnssInsMethod", "demo_observer"]
+__all__ = ["ATTITUDE_GAINS", "BACKENDS", "DEMO_NOISE", "GAINS", "GNSS_INS", "MAX_IMU_SAMPLES", "TRANSLATION_GAINS",
+           "DemoConfig", "GnssInsMethod", "demo_observer"]
 
 
 #: Sensor noise of the demo: a consumer-grade IMU and a standalone GNSS receiver.
@@ -41,6 +44,8 @@ GAINS = ("noise-optimal", "paper", "designed")
 
 #: The attitude-gain choices of the noise-optimal observer (:attr:`DemoConfig.attitude_gain`).
 ATTITUDE_GAINS = ("scheduled", "constant")
+#: The translational-gain choices of the noise-optimal observer (:attr:`DemoConfig.translation_gain`).
+TRANSLATION_GAINS = ("scheduled", "constant")
 #: Where the observers (24) run: NumPy/Python floats, or their generated C.
 BACKENDS = ("python", "c")
 
@@ -75,6 +80,12 @@ class DemoConfig:
         (:data:`~nlobs.navigation.gains.NOISE_OPTIMAL_GAMMA` throughout). ``None``: the default of
         ``gains``; the paper's and the designed gains use the paper's constant Γ, so only ``None`` is
         accepted with them.
+    translation_gain : str or None
+        The gain ``K`` of (24a)–(24c) of the noise-optimal observer: ``"scheduled"`` (its default: the
+        Kalman–Bucy levels from the first fix's uncertainty down to the noise-optimal ``K``,
+        :func:`~nlobs.navigation.translation_schedule.kalman_scheduled_gain`) or ``"constant"`` (the
+        noise-optimal ``K`` throughout). ``None``: the default of ``gains``; only ``None`` with the
+        paper's and the designed gains.
     position_only : bool
         GNSS position only (Sec. 5.2, C = [I 0]); the gain is then designed by nlobs.
     ekf : bool
@@ -94,6 +105,7 @@ class DemoConfig:
     converge_deg: float = 5.0
     gains: str = "noise-optimal"
     attitude_gain: str | None = None
+    translation_gain: str | None = None
     position_only: bool = False
     ekf: bool = True
     backend: str = "python"
@@ -123,11 +135,23 @@ class DemoConfig:
             if self.gains != "noise-optimal":
                 raise InvalidArgumentError(
                     f"`attitude_gain`: applies to `gains` 'noise-optimal' (the {self.gains!r} gains use the paper's Γ)")
+        if self.translation_gain is not None:
+            if self.translation_gain not in TRANSLATION_GAINS:
+                raise InvalidArgumentError(f"`translation_gain`: expected one of "
+                                           f"{', '.join(map(repr, TRANSLATION_GAINS))}, got {self.translation_gain!r}")
+            if self.gains != "noise-optimal":
+                raise InvalidArgumentError(
+                    f"`translation_gain`: applies to `gains` 'noise-optimal' (the {self.gains!r} gains are constant)")
 
     @property
     def scheduled(self) -> bool:
         """Whether the observer's attitude gain is scheduled (the noise-optimal default)."""
         return self.gains == "noise-optimal" and self.attitude_gain in (None, "scheduled")
+
+    @property
+    def translation_scheduled(self) -> bool:
+        """Whether the observer's gain ``K`` is scheduled (the noise-optimal default)."""
+        return self.gains == "noise-optimal" and self.translation_gain in (None, "scheduled")
 
 
 def paper_observer(config: DemoConfig, flight: Any) -> GnssInsObserver:
@@ -149,8 +173,9 @@ def paper_observer(config: DemoConfig, flight: Any) -> GnssInsObserver:
 
 
 def demo_observer(config: DemoConfig, flight: Any, start_s: float = 0.0) -> tuple[
-        GnssInsObserver | ScheduledGnssInsObserver, MixedH2Certificate | None, AttitudeGainSchedule | None]:
-    """The demo's observer (24) for ``config`` and ``flight``, with the noise-optimal gain's certificate and Γ(t).
+        GnssInsObserver | ScheduledGnssInsObserver, MixedH2Certificate | None, AttitudeGainSchedule | None,
+        GainScheduleCertificate | None]:
+    """The demo's observer (24) for ``config`` and ``flight``: the noise-optimal gain's certificate, Γ(t) and K(t).
 
     Parameters
     ----------
@@ -159,19 +184,23 @@ def demo_observer(config: DemoConfig, flight: Any, start_s: float = 0.0) -> tupl
     flight : Flight
         The flight (its ``m_n``, ``g_n``).
     start_s : float
-        The first time stamp of the data (the schedule of Γ starts there).
+        The first time stamp of the data (the schedules of Γ and K start there).
 
     Returns
     -------
-    (observer, certificate or None, schedule or None)
+    (observer, certificate or None, schedule or None, gain-schedule certificate or None)
+        The noise-optimal gain's certificate, the attitude gain's schedule, and the certificate of
+        the translational gain's schedule (:func:`~nlobs.navigation.translation_schedule.certify_gain_schedule`;
+        its modes' gains are ``observer.gain_schedule``).
 
     Raises
     ------
     DesignInfeasible
-        The noise-optimal gain failed its certificate.
+        The noise-optimal gain, or a mode of the translational gain's schedule, failed its certificate.
     """
     cert: MixedH2Certificate | None = None
     schedule: AttitudeGainSchedule | None = None
+    gain_cert: GainScheduleCertificate | None = None
     observer: GnssInsObserver | ScheduledGnssInsObserver
     if config.gains == "noise-optimal":
         K, cert = noise_optimal_gains(config.noise, imu_rate_hz=config.imu_rate_hz, gnss_rate_hz=config.gnss_rate_hz,
@@ -183,13 +212,25 @@ def demo_observer(config: DemoConfig, flight: Any, start_s: float = 0.0) -> tupl
         if config.scheduled:
             schedule = noise_scheduled_gain(config.noise, flight.m_n, flight.g_n, initial=NOISE_OPTIMAL_GAMMA[0, 0],
                                             start_s=start_s)
+        if config.translation_scheduled:
+            ks = kalman_scheduled_gain(config.noise, cert.gain, imu_rate_hz=config.imu_rate_hz,
+                                       gnss_rate_hz=config.gnss_rate_hz, position_only=config.position_only,
+                                       start_s=start_s)
+            gain_cert = certify_gain_schedule(ks, gamma=cert.gamma)
+            if not gain_cert.verified:  # never run an uncertified mode
+                raise DesignInfeasible("the translational gain schedule failed its certificate: "
+                                       + "; ".join(ch.summary() for ch in gain_cert.failed_checks),
+                                       constraint="certificate")
+            observer = ScheduledGnssInsObserver(observer, schedule or AttitudeGainSchedule.constant(NOISE_OPTIMAL_GAMMA),
+                                                gain_schedule=ks)
+        elif schedule is not None:
             observer = ScheduledGnssInsObserver(observer, schedule)
     elif config.gains == "paper":
         observer = paper_observer(config, flight)
     else:
         K, _ = design_gains(position_only=config.position_only)
         observer = GnssInsObserver(K, PAPER_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
-    return observer, cert, schedule
+    return observer, cert, schedule, gain_cert
 
 
 @dataclass(frozen=True)
@@ -241,13 +282,17 @@ class GnssInsMethod:
         if why is not None:
             raise AssumptionViolated(why)
         config = DemoConfig()
-        obs, cert, schedule = demo_observer(config, traffic_pattern(seed=config.seed))
+        obs, cert, schedule, gain_cert = demo_observer(config, traffic_pattern(seed=config.seed))
         assert cert is not None
+        ks = getattr(obs, "gain_schedule", None)
         desc = "observer (24) with the demo's noise-optimal certified gains" + (
-            f"; attitude gain {schedule.describe()}" if schedule is not None else "")
+            f"; attitude gain {schedule.describe()}" if schedule is not None else "") + (
+            f"; translational gain {ks.describe()}" if ks is not None else "")
         parameters = {"gamma": cert.gamma, "imu_period": 1.0 / config.imu_rate_hz,
                       "gnss_period": 1.0 / config.gnss_rate_hz}
         details = ((f"attitude gain: {schedule.describe()}",) if schedule is not None else ()) + (
+            (f"translational gain K_pp: {ks.describe()} (every mode LMI (14), switching growth of W "
+             f"≤ {gain_cert.growth:.3g})",) if ks is not None and gain_cert is not None else ()) + (
             f"IMU period {parameters['imu_period']:g} s (the module refuses another step length)",)
         return Design(self.name, obs, cert, tuple(cert.checks), (), parameters, {"gamma": "default"}, desc,
                       gain=cert.gain, failed=() if cert.verified else ("the gain's certificate failed",),

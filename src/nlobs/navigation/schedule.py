@@ -51,7 +51,9 @@ from nlobs._typing import Array, BoolArray
 from nlobs._validate import as_symmetric, as_vector, positive, readonly
 from nlobs.errors import InvalidArgumentError, NonFiniteError
 from nlobs.navigation.gnss_ins import GnssInsObserver, GnssInsState
+from nlobs.navigation.gains import kron_gain
 from nlobs.navigation.sensors import SensorNoise
+from nlobs.navigation.translation_schedule import TranslationGainSchedule
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
 from nlobs.observers.base import ToControl
 
@@ -175,24 +177,32 @@ class ScheduledGnssInsObserver(ToControl):
     Parameters
     ----------
     base : GnssInsObserver
-        ``K``, ``mⁿ``, ``gⁿ`` and the options; its own ``Gamma`` is ignored.
+        ``K``, ``mⁿ``, ``gⁿ`` and the options; its own ``Gamma`` is ignored (and its ``K`` too when
+        ``gain_schedule`` is given).
     schedule : AttitudeGainSchedule
         ``Γ(t)``.
     name : str
         Label of the results (default ``"observer"``).
+    gain_schedule : TranslationGainSchedule or None
+        ``K(t)`` of (24a)–(24c) (:mod:`nlobs.navigation.translation_schedule`); ``None``: ``base.K``
+        throughout. The modes are then the intervals between the switch times of both schedules.
 
     Raises
     ------
     InvalidArgumentError
         ``base`` is not a :class:`~nlobs.navigation.gnss_ins.GnssInsObserver` or ``schedule`` not
-        an :class:`AttitudeGainSchedule`.
+        an :class:`AttitudeGainSchedule`, ``gain_schedule`` not a
+        :class:`~nlobs.navigation.translation_schedule.TranslationGainSchedule`, or its gains do not
+        fit the receiver.
     """
 
     base: GnssInsObserver
     schedule: AttitudeGainSchedule
     name: str = "observer"
+    gain_schedule: TranslationGainSchedule | None = None
     time: TimeBase = field(default=CONTINUOUS, init=False)
     modes: tuple[GnssInsObserver, ...] = field(init=False, repr=False, compare=False)
+    switch_times: tuple[float, ...] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if not isinstance(self.base, GnssInsObserver):
@@ -200,8 +210,26 @@ class ScheduledGnssInsObserver(ToControl):
         if not isinstance(self.schedule, AttitudeGainSchedule):
             raise InvalidArgumentError(
                 f"schedule: expected an AttitudeGainSchedule, got {type(self.schedule).__name__}")
-        object.__setattr__(self, "modes", tuple(replace(self.base, Gamma=G, name=self.name)
-                                                for G in self.schedule.gains))
+        ks = self.gain_schedule
+        if ks is None:
+            object.__setattr__(self, "modes", tuple(replace(self.base, Gamma=G, name=self.name)
+                                                    for G in self.schedule.gains))
+            object.__setattr__(self, "switch_times", self.schedule.times)
+            return
+        if not isinstance(ks, TranslationGainSchedule):
+            raise InvalidArgumentError(
+                f"gain_schedule: expected a TranslationGainSchedule, got {type(ks).__name__}")
+        if ks.final.shape[1] != (1 if self.base.position_only else 2):
+            raise InvalidArgumentError(
+                f"gain_schedule: per-axis gains of shape {ks.final.shape} do not fit a "
+                f"{'position-only' if self.base.position_only else 'position and velocity'} receiver")
+        times = tuple(sorted(set(self.schedule.times) | set(ks.times)))
+        starts = (-math.inf,) + times
+        gains = tuple(kron_gain(K) for K in ks.gains)
+        object.__setattr__(self, "modes", tuple(
+            replace(self.base, K=gains[ks.index(t)], Gamma=self.schedule.gains[self.schedule.index(t)], name=self.name)
+            for t in starts))
+        object.__setattr__(self, "switch_times", times)
 
     # ---------------------------------------------------------------- protocol
     @property
@@ -211,8 +239,8 @@ class ScheduledGnssInsObserver(ToControl):
 
     @property
     def K(self) -> Array:
-        """The gain of (24a)–(24c), the same in every mode."""
-        return self.base.K
+        """The gain of (24a)–(24c) that holds for good (the last mode's; ``base.K`` without a gain schedule)."""
+        return self.modes[-1].K
 
     @property
     def position_only(self) -> bool:
@@ -220,8 +248,8 @@ class ScheduledGnssInsObserver(ToControl):
         return self.base.position_only
 
     def mode(self, t: float) -> GnssInsObserver:
-        """The constant-``Γ`` observer in force at ``t``."""
-        return self.modes[self.schedule.index(t)]
+        """The constant-gain observer in force at ``t`` (the number of switch times ``≤ t``, to 1 ns)."""
+        return self.modes[bisect_right(self.switch_times, float(t) + _TIME_TOL_S)]
 
     def init(self, x_hat0: ArrayLike) -> GnssInsState:
         """See :meth:`GnssInsObserver.init <nlobs.navigation.gnss_ins.GnssInsObserver.init>`."""
@@ -240,7 +268,7 @@ class ScheduledGnssInsObserver(ToControl):
         return self.mode(t).step(t, z, u, y, h)
 
     def correct(self, t: float, z: GnssInsState, u: Array, y: Array, fresh: BoolArray) -> GnssInsState:
-        """Take a GNSS fix (independent of ``Γ``)."""
+        """Take a GNSS fix (independent of ``Γ`` and ``K``: the fix is held, the gains act in :meth:`rhs`)."""
         return self.modes[0].correct(t, z, u, y, fresh)
 
     def estimate(self, z: GnssInsState) -> Array:

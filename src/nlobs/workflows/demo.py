@@ -3,8 +3,9 @@
 Simulates a light-aircraft traffic-pattern flight with exact inertial signals,
 samples the IMU (+ magnetometer) at 100 Hz and GNSS position/velocity at 5 Hz
 with noise, runs the interconnected observer (24) — by default with the noise-optimal gains
-(the certified K with the smallest noise-to-error H2 norm under LMI (14) at γ = 50, and the
-attitude gain Γ(t) = γ(t) I scheduled from 0.5 I down to the steady-state gain set by the gyro and
+(the certified K with the smallest noise-to-error H2 norm under LMI (14) at γ = 50, reached through
+the certified Kalman–Bucy levels of the first seconds, :func:`~nlobs.navigation.translation_schedule.kalman_scheduled_gain`,
+and the attitude gain Γ(t) = γ(t) I scheduled from 0.5 I down to the steady-state gain set by the gyro and
 magnetometer noise, :func:`~nlobs.navigation.schedule.noise_scheduled_gain`) and beside it with the paper's gains and Γ = diag(20, 0.2, 0.2) — and the EKF
 baseline on the same data from the same wrong initial attitude (60° in yaw by default), and
 reports accuracy after convergence, convergence time and cost per step, with figures like the
@@ -27,6 +28,7 @@ from nlobs.navigation.metrics import summary_dict
 from nlobs.navigation.plots import plot_navigation
 from nlobs.navigation.run import run_navigation
 from nlobs.navigation.schedule import AttitudeGainSchedule
+from nlobs.navigation.translation_schedule import GainScheduleCertificate, TranslationGainSchedule
 from nlobs.navigation.sensors import generate_sensors
 from nlobs.navigation.so3 import rot_z
 from nlobs.navigation.trajectory import traffic_pattern
@@ -63,6 +65,8 @@ class DemoResult:
     observer_paper: SimulationResult | None = None
     certificate: MixedH2Certificate | None = None
     schedule: AttitudeGainSchedule | None = None
+    gain_schedule: GainScheduleCertificate | None = None
+    observer_gain_schedule: TranslationGainSchedule | None = None
 
     def metrics(self, which: str) -> dict[str, Any]:
         """The table row of ``"observer"``, ``"observer_paper"`` or ``"ekf"`` (RMS after that filter's own convergence)."""
@@ -84,27 +88,37 @@ class DemoResult:
                 "converge_deg": c.converge_deg,
                 "gains": c.gains,
                 "attitude_gain": "scheduled" if c.scheduled else "constant",
+                "translation_gain": "scheduled" if c.translation_scheduled else "constant",
                 "position_only": c.position_only,
                 "backend": c.backend,
             },
             "observer": self.metrics("observer"),
             "observer_paper": None if self.observer_paper is None else self.metrics("observer_paper"),
             "ekf": None if self.ekf is None else self.metrics("ekf"),
-            "gain_certificate": None if self.certificate is None else _certificate_dict(self.certificate, self.schedule),
+            "gain_certificate": None if self.certificate is None else _certificate_dict(
+                self.certificate, self.schedule, self.observer_gain_schedule, self.gain_schedule),
             "figures": {k: str(v) for k, v in self.figures.items()},
         }
 
 
-def _certificate_dict(c: MixedH2Certificate, schedule: AttitudeGainSchedule | None) -> dict[str, Any]:
-    """The JSON summary of the noise-optimal gain's certificate (per axis) and of its attitude gain.
+def _certificate_dict(c: MixedH2Certificate, schedule: AttitudeGainSchedule | None,
+                      ks: TranslationGainSchedule | None, ks_cert: GainScheduleCertificate | None) -> dict[str, Any]:
+    """The JSON summary of the noise-optimal gain's certificate (per axis) and of its attitude and translational gains.
 
     ``attitude_gain`` is the diagonal of the (first) Γ; ``attitude_gain_schedule`` the whole
-    schedule (``None`` for a constant Γ).
+    schedule (``None`` for a constant Γ); ``translation_gain_schedule`` the per-axis ``K`` of each
+    mode with its switch times, the modes' LMI (14) verdicts and the switching growth (``None`` for a
+    constant ``K``).
     """
+    kd: dict[str, Any] | None = None
+    if ks is not None and ks_cert is not None:
+        kd = {**ks.to_dict(), "verified": ks_cert.verified, "growth": ks_cert.growth,
+              "modes_hinf_H": [m.hinf_H for m in ks_cert.modes]}
     G0 = NOISE_OPTIMAL_GAMMA if schedule is None else schedule.gains[0]
     return {"verified": c.verified, "gamma": c.gamma, "hinf_H": c.hinf_H, "h2": c.h2, "h2_kalman": c.h2_kalman,
             "gain_per_axis": np.asarray(c.gain).tolist(), "attitude_gain": np.diag(G0).tolist(),
             "attitude_gain_schedule": None if schedule is None else schedule.to_dict(),
+            "translation_gain_schedule": kd,
             "failed_checks": [ch.name for ch in c.failed_checks]}
 
 
@@ -115,7 +129,7 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
     traj = flight.sample(config.imu_rate_hz)
     data = generate_sensors(traj, imu_rate_hz=config.imu_rate_hz, gnss_rate_hz=config.gnss_rate_hz,
                             noise=config.noise, seed=config.seed, position_only=config.position_only)
-    observer, cert, schedule = demo_observer(config, flight, float(traj.t[0]))
+    observer, cert, schedule, gain_cert = demo_observer(config, flight, float(traj.t[0]))
     R0 = rot_z(np.deg2rad(config.yaw_error_deg)) @ traj.R[0]
     p0 = data.p_gnss[0] if np.all(np.isfinite(data.p_gnss[0])) else traj.p[0]
     v0 = data.v_gnss[0] if data.v_gnss is not None and np.all(np.isfinite(data.v_gnss[0])) else np.zeros(3)
@@ -135,7 +149,8 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
         figures = plot_navigation(obs_res, Path(out_dir), compare=ekf_res, prefix="gnss_ins",
                                   labels=(_label(config), "EKF") if ekf_res is not None else None)
     return DemoResult(config, obs_res, ekf_res, figures, float(traj.t[-1]), observer_paper=paper_res,
-                      certificate=cert, schedule=schedule)
+                      certificate=cert, schedule=schedule, gain_schedule=gain_cert,
+                      observer_gain_schedule=getattr(observer, "gain_schedule", None))
 
 
 def _backend(config: DemoConfig) -> Any:
@@ -153,8 +168,9 @@ _LABELS = {"noise-optimal": "observer, noise-optimal gains", "paper": "observer,
 
 def _label(config: DemoConfig) -> str:
     """The observer's label in the table and the figures."""
-    if config.gains == "noise-optimal" and not config.scheduled:
-        return "observer, noise-optimal gains, constant Γ"
+    constant = [w for w, sched in (("Γ", config.scheduled), ("K", config.translation_scheduled)) if not sched]
+    if config.gains == "noise-optimal" and constant:
+        return "observer, noise-optimal gains, constant " + " and ".join(constant)
     return _LABELS[config.gains]
 
 
