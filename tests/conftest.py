@@ -55,3 +55,42 @@ def flight() -> Flight:
 def pattern() -> Flight:
     """The whole traffic pattern of seed 0 (take-off to landing, ≈ 370 s)."""
     return _flight(0, None)
+
+
+def _predictor_worst_case(A: np.ndarray, C: np.ndarray, L: np.ndarray, T: float) -> float:
+    """``sup limsup |e|`` over sample noise ``|v_k| ≤ 1`` of the output predictor's exact hybrid error system.
+
+    ``[ė; δ̇] = [[A − LC, L], [CA, 0]] [e; δ]``, ``δ(t_k) = v_k`` (one output, period ``T``): the signs of
+    ``v_k`` reach ``sup_{d,τ} |dᵀΦ_eδ(τ)| + Σ_i |dᵀΦ_ee(τ) Φ_ee(T)^i Φ_eδ(T)|`` (SciPy's expm; two states,
+    directions ``d`` on a half circle, six instants ``τ`` in a period).
+    """
+    import math
+
+    import scipy.linalg as sl
+
+    n = A.shape[0]
+    big = np.block([[A - L @ C, L], [C @ A, np.zeros((1, 1))]])
+
+    def flow(t: float) -> tuple[np.ndarray, np.ndarray]:
+        E = sl.expm(big * t)
+        return E[:n, :n], E[:n, n:]
+
+    Mee, Med = flow(T)
+    powers = [np.eye(n)]
+    for _ in range(3000):
+        powers.append(Mee @ powers[-1])
+    tail = np.array([(Mi @ Med)[:, 0] for Mi in powers])
+    worst = 0.0
+    for tau in np.linspace(0.0, T, 6):
+        Fee, Fed = flow(tau)
+        terms = tail @ Fee.T
+        for th in np.linspace(0, math.pi, 91):
+            d = np.array([math.cos(th), math.sin(th)])
+            worst = max(worst, abs(float(d @ Fed[:, 0])) + float(np.sum(np.abs(terms @ d))))
+    return worst
+
+
+@pytest.fixture(scope="session")
+def predictor_worst_case() -> Callable[[np.ndarray, np.ndarray, np.ndarray, float], float]:
+    """The exact worst case of bounded sample noise through the output predictor (:func:`_predictor_worst_case`)."""
+    return _predictor_worst_case

@@ -110,3 +110,27 @@ def test_h2_without_sensors_is_a_clear_error(tmp_path: Path):
         design_cascade(load_cascade(MODEL), method="h2")
     res = CliRunner().invoke(app, ["design", "cascade", MODEL, "--method", "kalman"])
     assert res.exit_code == 2 and "expected 'lmi', 'placement' or 'h2'" in res.stderr
+
+
+def test_with_sensors_and_no_method_the_gain_is_chosen_for_them(tmp_path: Path):
+    # the shipped file names method = "placement"; without it the default is the H2 gain for its sensors,
+    # and without [sensors] it stays LMI (14)
+    from nlobs.methods.problem import problem
+    from nlobs.methods.registry import get
+
+    text = resolve_model(MODEL).read_text().replace('method = "placement"', "")
+    f = tmp_path / "ca.toml"
+    f.write_text(text)
+    d = get("cascade").design(problem(str(f)))
+    assert d.parameters["gain_method"] == "h2" and d.sources["gain_method"] == "default with [sensors]"
+    cm = load_cascade(str(f))
+    noise, _ = cascade_noise_model(cm, load_scenario(str(f)))
+    s2 = cm.sigma2
+    ext = extended_system(s2.A, s2.B_z, s2.C, s2.D_z)
+    lmi = design_cascade(cm, gamma=1.0, method="lmi")
+    assert _h2(ext.A, ext.C, d.gain, noise) < _h2(ext.A, ext.C, lmi.certificate.gain, noise)
+    start = text.index("[sensors.analyser]")
+    g = tmp_path / "ca-nosensors.toml"
+    g.write_text(text[:start] + text[text.index("[input_signals]"):])
+    d0 = get("cascade").design(problem(str(g)))
+    assert d0.parameters["gain_method"] == "lmi" and d0.sources["gain_method"] == "default"

@@ -164,3 +164,56 @@ def test_design_drift_prints_the_budget_under_the_files_sensors(tmp_path: Path) 
     res = CliRunner().invoke(app, ["design", "drift", _osc(tmp_path, 10.0)])
     line = next(ln for ln in res.output.splitlines() if "under the file's sensors" in ln)
     assert "(hold)" in line and "enc: T = 0.1 > T_max" in line
+
+
+def test_the_drift_bounded_noise_bound_in_x_is_above_the_exact_worst_case(tmp_path: Path,
+                                                                          predictor_worst_case) -> None:
+    # the oscillator in z = x (Φ = (h, L_f h) = (x1, x2)): the exact hybrid error system of the predictor,
+    # ė = (A − K C) e − K δ, δ̇ = −C A e, δ(t_k) = v_k, against the certificate's limsup |e| ≤ iss_gain · v̄
+    pb = problem(_osc(tmp_path, 1000.0))
+    d = get("drift").design(pb)
+    b = d.bound
+    assert b is not None and b.verified and not b.process_noise
+    K = np.asarray(d.report.certificate.gain)
+    assert b.gamma_phi_inv >= 1.0 - 1e-9  # the identity map, estimated by sampling the region
+    assert b.iss_gain == pytest.approx(b.gamma_phi_inv * b.inner.iss_gain, rel=1e-12)
+    worst = predictor_worst_case(A, C, K, 0.001)
+    assert worst <= b.iss_gain < 1e4 * worst
+    assert b.ultimate_bound(0.25) == pytest.approx(0.25 * b.iss_gain, rel=1e-6)
+    # the mean-square bound from an initial second moment in x: λmax(P) γ_Φ² trace(p0) in z
+    p0 = np.diag([0.01, 0.02])
+    inner = b.inner
+    v0 = np.linalg.eigvalsh(inner.P)[-1] * b.gamma_phi**2 * 0.03
+    ms = (math.exp(-inner.sigma * 2.0) * v0 + inner.N / inner.sigma) / inner.lam_min
+    assert b.rms_after(2.0, p0) == pytest.approx(b.gamma_phi_inv * math.sqrt(ms), rel=1e-12)
+    assert d.to_dict()["sampled"]["iss_gain"] == pytest.approx(b.iss_gain)
+    assert any("limsup |e| ≤" in line and "in x" in line for line in d.details)
+
+
+def test_with_process_noise_the_drift_bound_states_no_mean_square_bound(tmp_path: Path) -> None:
+    f = tmp_path / "osc-q.toml"
+    f.write_text(OSC.format(rate=1000.0) + '\n[process_noise]\nstd = [0.0, 0.01]\n')
+    d = get("drift").design(problem(str(f)))
+    assert d.bound is not None and d.bound.process_noise
+    assert math.isinf(d.bound.rms_after(1.0)) and math.isfinite(d.bound.iss_gain)
+    assert any("process noise is not counted" in line for line in d.details)
+    # held samples: the budget is the predictor's, no bound is read in x
+    held = get("drift").design(problem(str(f)), sampling="hold")
+    assert held.bound is None
+
+
+def test_a_mapped_bound_refuses_bad_constants(tmp_path: Path) -> None:
+    from nlobs.errors import InvalidArgumentError, NonFiniteError
+    from nlobs.synthesis.mapped_bound import MappedBound
+
+    d = get("drift").design(problem(_osc(tmp_path, 1000.0)))
+    inner = d.bound.inner
+    for bad in (0.0, -1.0, math.inf, math.nan):
+        with pytest.raises((InvalidArgumentError, NonFiniteError)):
+            MappedBound(inner, bad, 1.0, False)
+        with pytest.raises((InvalidArgumentError, NonFiniteError)):
+            MappedBound(inner, 1.0, bad, False)
+    with pytest.raises(InvalidArgumentError, match="SampledDataBound"):
+        MappedBound("bound", 1.0, 1.0, False)  # type: ignore[arg-type]
+    with pytest.raises(InvalidArgumentError, match="p0"):
+        d.bound.rms_after(1.0, np.full((2, 2), math.nan))

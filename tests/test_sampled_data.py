@@ -553,46 +553,22 @@ def test_the_impulsive_iss_gain_is_above_the_worst_bounded_noise(T: float) -> No
     assert cert.to_dict()["iss_gain"] == pytest.approx(gamma)
 
 
-def _predictor_worst_case(T: float) -> float:
-    """The predictor's exact hybrid error system, [ė; δ̇] = [[A − LC, L], [CA, 0]] [e; δ], δ(t_k) = v_k: the signs
-    of |v_k| ≤ 1 reach sup_{d,τ} |dᵀΦ_eδ(τ)| + Σ_i |dᵀΦ_ee(τ) Φ_ee(T)^i Φ_eδ(T)| (SciPy expm)."""
-    big = np.block([[A - L @ C, L], [C @ A, np.zeros((1, 1))]])
-
-    def flow(t: float) -> tuple[np.ndarray, np.ndarray]:
-        E = sl.expm(big * t)
-        return E[:2, :2], E[:2, 2:]
-
-    Mee, Med = flow(T)
-    powers = [np.eye(2)]
-    for _ in range(3000):
-        powers.append(Mee @ powers[-1])
-    tail = np.array([(Mi @ Med)[:, 0] for Mi in powers])
-    worst = 0.0
-    for tau in np.linspace(0.0, T, 6):
-        Fee, Fed = flow(tau)
-        terms = tail @ Fee.T
-        for th in np.linspace(0, math.pi, 91):
-            d = np.array([math.cos(th), math.sin(th)])
-            worst = max(worst, abs(float(d @ Fed[:, 0])) + float(np.sum(np.abs(terms @ d))))
-    return worst
-
-
 @pytest.mark.parametrize("T", [0.05, 0.2])
-def test_the_clock_iss_bound_is_above_the_worst_bounded_noise(T: float) -> None:
+def test_the_clock_iss_bound_is_above_the_worst_bounded_noise(T: float, predictor_worst_case) -> None:
     cert = _clock(T, 0.1)
     assert cert.verified
-    worst = _predictor_worst_case(T)
+    worst = predictor_worst_case(A, C, L, T)
     assert worst <= cert.iss_gain < 100 * worst
     assert cert.ultimate_bound(0.5) == pytest.approx(0.5 * cert.iss_gain)
     assert cert.to_dict()["iss_gain"] == pytest.approx(cert.iss_gain)
 
 
-def test_the_small_gain_iss_bound_is_above_the_worst_bounded_noise() -> None:
+def test_the_small_gain_iss_bound_is_above_the_worst_bounded_noise(predictor_worst_case) -> None:
     """:meth:`SampledDataBound.ultimate_bound` against the exact worst case of the predictor's error system."""
     T = 0.01
     bound = _lyapunov_bound(A, C, L, T)
     assert bound.verified
-    worst = _predictor_worst_case(T)
+    worst = predictor_worst_case(A, C, L, T)
     gamma = bound.iss_gain
     assert worst <= gamma < 1000 * worst
     assert bound.ultimate_bound(0.5) == pytest.approx(0.5 * gamma, rel=1e-6)

@@ -43,6 +43,7 @@ keeps its rank with a note on noise amplification.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from itertools import combinations
@@ -899,8 +900,9 @@ def _rank_by_bound(methods: Sequence[MethodAdvice], scenario: Any, region: Box, 
         bound = design.bound
         given = _design_box(m, region, reg0, src)
         pb = problem(scenario, box=given)
-        if bound is not None and bound.verified and design.usable and design.verified:
-            value = bound.rms_after(pb.settle)
+        value = (bound.rms_after(pb.settle) if bound is not None and bound.verified and design.usable
+                 and design.verified else math.inf)
+        if math.isfinite(value):  # a bound that counts the file's noise (drift's counts no process noise)
             bounds.append((value, m.method))
             tmax = "; ".join(f"{g.name}: T = {g.gap:.3g} ≤ T_max = {t:.3g}" for g, t in zip(bound.groups, bound.t_max))
             params = {k: v for k, v in design.parameters.items() if k in ("alpha", "tuning", "sampling")}

@@ -380,8 +380,9 @@ def design_cascade(cascade: CascadeModel, *, gamma: float | None = None, method:
 class CascadeMethod:
     """The cascade/feedback observer (9)–(10) / (17)–(18) of Grip, Saberi & Johansen, from a ``[cascade]`` table.
 
-    Defaults: the file's ``[cascade]`` ``gamma`` and ``method`` (else ``γ = 1``, LMI (14)); for
-    ``method = "h2"`` the noise of the file's ``[sensors]`` and ``[process_noise]``
+    Defaults: the file's ``[cascade]`` ``gamma`` and ``method`` (else ``γ = 1``, and the gain chosen for the
+    file's sensors when it has ``[sensors]``: ``method = "h2"``, the smallest noise-to-error H2 norm under
+    LMI (14); LMI (14) alone without sensors); for ``method = "h2"`` the noise of the file's ``[sensors]`` and ``[process_noise]``
     (:func:`cascade_noise_model`). Premises: Assumption 4 and the re-verified gain (``𝔄 − Kℭ``
     Hurwitz, ``‖H‖∞ < γ``); Theorem 1 (or 1') with the file's ``[cascade.lyapunov]`` constants, not
     checked without them.
@@ -433,7 +434,7 @@ class CascadeMethod:
             raise AssumptionViolated(why)
         assert problem.path is not None
         cm = problem.scenario.cascade or load_cascade(problem.path)  # read with the file, when it was
-        kind = gain_method or cm.method or "lmi"
+        kind = gain_method or cm.method or ("h2" if problem.sensors else "lmi")  # with sensors: chosen for them
         if kind == "h2":  # the gain for the file's own sensors and process noise
             noise, notes = cascade_noise_model(cm, problem.scenario)
             d = design_cascade(cm, gamma=gamma, method=kind, gain_bound=gain_bound, noise=noise, noise_notes=notes)
@@ -498,7 +499,8 @@ def cascade_design(d: CascadeDesign, problem: Problem | None = None, *, gamma_gi
             f"{d.gamma:g}); {d.status}")
     parameters = {"gamma": d.gamma, "gain_method": d.method, "theorem1_gamma": t1.bound, "hinf_H": t1.hinf_H}
     sources = {"gamma": "given" if gamma_given else ("[cascade] gamma" if cm.gamma is not None else "default"),
-               "gain_method": "given" if gain_method_given else ("[cascade] method" if cm.method else "default")}
+               "gain_method": "given" if gain_method_given else ("[cascade] method" if cm.method else
+                                                                 "default with [sensors]" if sensors else "default")}
     from nlobs.export.cascade import design_notes
 
     return Design("cascade", obs, d.certificate, tuple(premises), unchecked, parameters, sources, desc,

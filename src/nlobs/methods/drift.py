@@ -42,6 +42,7 @@ from nlobs.observers.drift import COND_LIMIT, DriftObserver
 from nlobs.simulate.coverage import InputBound, InRegion, Premise
 from nlobs.synthesis.drift_bounds import ErrorBoundConstants, error_bound_constants
 from nlobs.synthesis.drift_gain import DriftGainCertificate, RiccatiConstants, design_drift_gain, require_sdp_size
+from nlobs.synthesis.mapped_bound import MappedBound
 from nlobs.systems.symbolic import SymbolicModel
 
 __all__ = ["DEFAULT_ALPHA", "DRIFT", "METHODS", "DriftDesignReport", "DriftMethod", "design_drift_report"]
@@ -411,12 +412,16 @@ class DriftMethod:
         obs, lacking = on_samples(rep.observer(on_singular=on_singular, saturation=saturation), problem, form,
                                   "Theorem 3.1", bound)
         hyps += lacking
+        in_x = None
         if problem.sensors:
             parameters["sampling"] = form
             if bound is not None:
                 parameters["T_max"] = {g.name: t for g, t in zip(bound.groups, bound.t_max)}
+                if form == "predictor":  # the budget is the predictor's: read it in x for that form only
+                    q = problem.process_noise is not None and bool(np.any(problem.process_noise))
+                    in_x = MappedBound(bound, rep.bound.gamma_phi, rep.bound.gamma_phi_inv, process_noise=q)
         return Design(self.name, obs, cert, premises, (),
-                      parameters, sources, desc, gain=cert.gain, failed=failed, hypotheses=tuple(hyps),
+                      parameters, sources, desc, gain=cert.gain, failed=failed, hypotheses=tuple(hyps), bound=in_x,
                       coverage_extras={"region": where, "mu": cert.constants.mu}, report=rep,
                       warnings=tuple(rep.warnings), theorem=f"Dalla Mora, Germani & Manes, Theorem 3.1 on {where}",
                       details=(f"bound (3.2): {rep.bound.describe()}",
@@ -424,7 +429,12 @@ class DriftMethod:
                                    "sampling budget (3) in z = Φ_s(x), V = e_zᵀP⁻¹e_z of (2.17): " + "; ".join(
                                        f"{g.name}: T = {g.period:.4g}, T_max = {t:.4g}"
                                        for g, t in zip(bound.groups, bound.t_max))
-                                   + f" (Σ T/T_max = {bound.budget:.3g})",))))
+                                   + f" (Σ T/T_max = {bound.budget:.3g})",)),
+                               *(() if in_x is None or not in_x.verified else (
+                                   f"bounded measurement noise |v| ≤ v̄, no process noise: limsup |e| ≤ "
+                                   f"{in_x.iss_gain:.4g} v̄ in x (γ_Φ⁻¹ = {in_x.gamma_phi_inv:.4g} times the bound in z)"
+                                   + ("" if not in_x.process_noise else "; the file's process noise is not counted: "
+                                      "no mean-square bound"),))))
 
 
 #: The drift method of the registry.
