@@ -58,6 +58,7 @@ __all__ = [
     "CascadeDesign",
     "CascadeMethod",
     "Theorem1Check",
+    "default_gain_method",
     "cascade_design",
     "cascade_noise_model",
     "design_cascade",
@@ -434,7 +435,7 @@ class CascadeMethod:
             raise AssumptionViolated(why)
         assert problem.path is not None
         cm = problem.scenario.cascade or load_cascade(problem.path)  # read with the file, when it was
-        kind = gain_method or cm.method or ("h2" if problem.sensors else "lmi")  # with sensors: chosen for them
+        kind = gain_method or default_gain_method(cm, bool(problem.sensors))
         if kind == "h2":  # the gain for the file's own sensors and process noise
             noise, notes = cascade_noise_model(cm, problem.scenario)
             d = design_cascade(cm, gamma=gamma, method=kind, gain_bound=gain_bound, noise=noise, noise_notes=notes)
@@ -446,6 +447,24 @@ class CascadeMethod:
             raise DesignInfeasible(d.failure)
         return cascade_design(d, problem, gamma_given=gamma is not None, gain_method_given=gain_method is not None,
                               sampling=form)
+
+
+def default_gain_method(cm: CascadeModel, sensors: bool) -> str:
+    """The gain method a cascade file gets when none is given: its ``[cascade] method``, else the H2 gain for its
+    sensors (``"h2"``) when it has ``[sensors]``, else LMI (14) (``"lmi"``). Every command uses this rule.
+
+    Parameters
+    ----------
+    cm : CascadeModel
+        The file's cascade (its ``method``).
+    sensors : bool
+        Whether the file has ``[sensors]``.
+
+    Returns
+    -------
+    str
+    """
+    return cm.method or ("h2" if sensors else "lmi")
 
 
 def cascade_design(d: CascadeDesign, problem: Problem | None = None, *, gamma_given: bool = False,
@@ -483,31 +502,73 @@ def cascade_design(d: CascadeDesign, problem: Problem | None = None, *, gamma_gi
                                     + "; ".join(k.summary() for k in d.checks if not k.passed),)
     exact, what = problem.exact if problem is not None else (True, "")
     sensors = problem.sensors if problem is not None else ()
-    hyps = (Premise(f"{t1.theorem}: ‖H‖∞ below its γ", t1.holds,
-                    "no [cascade.lyapunov] constants" if t1.bound is None else
-                    f"‖H‖∞ = {t1.hinf_H:.4g} ≥ γ = {t1.bound:.4g}"),
-            Premise("exact measurement and model", exact, f"{what} (Theorem 1 is for an exact output and model)"))
+    hyps: tuple[Any, ...] = (
+        Premise(f"{t1.theorem}: ‖H‖∞ below its γ", t1.holds,
+                "no [cascade.lyapunov] constants" if t1.bound is None else
+                f"‖H‖∞ = {t1.hinf_H:.4g} ≥ γ = {t1.bound:.4g}"),
+        Premise("exact measurement and model", exact, f"{what} (Theorem 1 is for an exact output and model)"))
     obs = d.observer()
+    sampled, why_not, theorem = None, "", "Grip, Saberi & Johansen, LMI (14) and Theorem 1"
     if problem is not None and sensors:
-        obs, lacking = on_samples(obs, problem, sampling, "Theorem 1")
-        hyps += lacking
+        if sampling == "predictor" and d.verified:
+            from nlobs.methods.cascade_sampling import cascade_sampling_bound
+
+            sampled, why_not = cascade_sampling_bound(problem, d)
+        if sampled is not None:  # the augmented plant's certificate replaces Theorem 1 on the region, under the sensors
+            from nlobs.methods.sensor_design import sampling_hypotheses
+
+            obs, _ = on_samples(obs, problem, sampling, "Theorem 1")
+            premises = (*premises, Check.verdict(
+                "Jacobian bounds of the augmented plant on the region", True,
+                f"∂F_a/∂χ, ∂y/∂χ sampled on {problem.region.describe()} and the input range, each varying entry "
+                f"widened 5 %: {len(sampled.continuous.vertices)} vertices", kind=CheckKind.FUNCTION_CLASS,
+                method="sampled", key="jacobian_box"), *sampled.checks)
+            unchecked = ()
+            hyps = sampling_hypotheses(problem, sampled.bound)
+            theorem = ("the cascade observer as the Thau observer of its augmented plant (x, w, z): vertex LMIs of "
+                       "the Jacobian box (Zemouche, Boutayeb & Bara 2008) with the sampled-data bound of the "
+                       "inter-sample predictor (Karafyllis & Kravaris 2009)")
+        else:
+            obs, lacking = on_samples(obs, problem, sampling, "Theorem 1", reason=why_not)
+            hyps += lacking
     K = d.certificate.gain
     how = {"lmi": "LMI (14)", "h2": "the smallest noise-to-error H2 norm under LMI (14)"}.get(d.method,
                                                                                               "pole placement")
     desc = (f"{'(17)–(18)' if cm.feedback else '(9)–(10)'} with Σ1's injection g of the file, K = "
             f"{[round(float(v), 5) for v in np.asarray(K).ravel()]} by {how} (‖H‖∞ = {t1.hinf_H:.4g} < γ = "
             f"{d.gamma:g}); {d.status}")
-    parameters = {"gamma": d.gamma, "gain_method": d.method, "theorem1_gamma": t1.bound, "hinf_H": t1.hinf_H}
+    parameters: dict[str, Any] = {"gamma": d.gamma, "gain_method": d.method, "theorem1_gamma": t1.bound,
+                                  "hinf_H": t1.hinf_H}
+    bound = None
+    if sampled is not None and problem is not None:
+        from nlobs.methods.cascade_sampling import plant_map
+        from nlobs.synthesis.mapped_bound import MappedBound
+
+        M = plant_map(d)  # χ̃₀ = M x̃₀; the plant's error is a part of the augmented one
+        bound = MappedBound(sampled.bound, float(np.linalg.norm(M, 2)), 1.0, False, into=M)
+        rms = bound.rms_after(problem.settle, problem.p0) if problem.p0 is not None else \
+            sampled.bound.rms_after(problem.settle)
+        parameters.update({"sampling": sampling, "decay": sampled.continuous.decay,
+                           "T_max": {g.name: t for g, t in zip(bound.groups, bound.t_max)},
+                           "rms_bound": rms if math.isfinite(rms) else None})
+        desc += (f"; certified under the sensors through the predictor (augmented plant, decay "
+                 f"{sampled.continuous.decay:.4g}): RMS ≤ {rms:.4g} after t = {problem.settle:g}")
+    elif sensors:
+        parameters["sampling"] = sampling
     sources = {"gamma": "given" if gamma_given else ("[cascade] gamma" if cm.gamma is not None else "default"),
                "gain_method": "given" if gain_method_given else ("[cascade] method" if cm.method else
                                                                  "default with [sensors]" if sensors else "default")}
     from nlobs.export.cascade import design_notes
 
+    details = tuple(f"{k}: {v}" for k, v in design_notes(d))
+    if bound is not None:
+        details += tuple(bound.summary().splitlines())
+    elif why_not and sensors:
+        details += (f"no certificate under the sensors: {why_not}",)
     return Design("cascade", obs, d.certificate, tuple(premises), unchecked, parameters, sources, desc,
                   gain=K, failed=failed, hypotheses=hyps,
                   coverage_extras={"hinf_H": t1.hinf_H, "theorem1_gamma": t1.bound}, report=d,
-                  theorem="Grip, Saberi & Johansen, LMI (14) and Theorem 1",
-                  details=tuple(f"{k}: {v}" for k, v in design_notes(d)))
+                  theorem=theorem, details=details, bound=bound)
 
 
 #: The cascade method of the registry.

@@ -36,7 +36,7 @@ from nlobs.simulate.coverage import InputRange, InRegion, Premise
 from nlobs.synthesis.lmi import psd_sqrt
 from nlobs.synthesis.sampled_data import GroupNoise, SampledDataBound, SampledDesignCertificate, sampled_data_bound
 
-__all__ = ["SensorTuning", "clock_sensor_groups", "drift_sampling_bound", "input_range", "on_samples", "sampling_form", "clock_triples", "error_box", "longest_gap", "output_indices", "output_rate_box", "sampling_hypotheses",
+__all__ = ["SensorTuning", "alpha_grid", "rate_jacobian", "clock_sensor_groups", "drift_sampling_bound", "input_range", "on_samples", "sampling_form", "clock_triples", "error_box", "longest_gap", "output_indices", "output_rate_box", "sampling_hypotheses",
            "sensor_groups", "tune_thau"]
 
 #: Vertex count above which a Lipschitz constant is bounded through the box's radius instead of its vertices.
@@ -107,8 +107,23 @@ def error_box(problem: Problem, plant: Any | None = None) -> JacobianBox:
     return jacobian_box(jac, problem.region, lo, hi)
 
 
-def _rate_jacobian(plant: Any, n: int, p: int, linear_h: bool):
-    """``x, u ↦ ∂(∂h/∂x · F)/∂x``: ``C ∂F/∂x`` for a linear output, central differences otherwise."""
+def rate_jacobian(plant: Any, n: int, p: int, linear_h: bool) -> Any:
+    """``x, u ↦ ∂(∂h/∂x · F)/∂x``: ``C ∂F/∂x`` for a linear output, central differences otherwise.
+
+    Parameters
+    ----------
+    plant : PlantModel
+        The compiled model (``rhs``, ``rhs_jacobian_x``, ``output_jacobian_x``).
+    n, p : int
+        States and outputs.
+    linear_h : bool
+        Whether ``∂h/∂x`` is constant (no Hessian term).
+
+    Returns
+    -------
+    callable
+        ``jac(x, u)`` for batches, shape ``(N, p, n)``.
+    """
 
     def jac(x: Array, u: Array) -> Array:
         JF = np.broadcast_to(plant.rhs_jacobian_x(0.0, x, u), (x.shape[0], n, n))
@@ -146,7 +161,7 @@ def output_rate_box(problem: Problem, box: JacobianBox, plant: Any | None = None
     n, p = problem.model.n, problem.model.p
     linear_h = not np.any(box.upper[n:] > box.lower[n:])
     lo, hi = input_range(problem)
-    return jacobian_box(_rate_jacobian(plant, n, p, linear_h), problem.region, lo, hi)
+    return jacobian_box(rate_jacobian(plant, n, p, linear_h), problem.region, lo, hi)
 
 
 def output_indices(problem: Problem, outputs: Sequence[int | str]) -> tuple[int, ...]:
@@ -352,7 +367,7 @@ def sampling_form(value: str | None, default: str = "predictor") -> str:
 
 
 def on_samples(observer: Any, problem: Problem, sampling: str, theorem: str,
-               bound: SampledDataBound | None = None) -> tuple[Any, tuple[Any, ...]]:
+               bound: SampledDataBound | None = None, reason: str = "") -> tuple[Any, tuple[Any, ...]]:
     """A continuous observer for the problem's sensors, and the premise its certificate lacks under them.
 
     With sensors, the observer runs through the output predictor (``sampling="predictor"``) or on held samples
@@ -373,6 +388,8 @@ def on_samples(observer: Any, problem: Problem, sampling: str, theorem: str,
     bound : SampledDataBound, optional
         The method's sampling budget through the predictor (:func:`drift_sampling_bound`): the premise is then
         "sampled with period ≤ T_max" against it (failing for a held sample).
+    reason : str, optional
+        Without a bound: why none was computed for this design (else "not computed for this method").
     """
     from nlobs.observers.sampled import with_predictor
 
@@ -390,7 +407,8 @@ def on_samples(observer: Any, problem: Problem, sampling: str, theorem: str,
     how = "through the output predictor" if sampling == "predictor" else "held"
     return wrapped, (Premise("sampled with period ≤ T_max", False,
                              f"the output is sampled ({how}); {theorem} assumes a continuous output and its "
-                             "sampling period is not computed for this method"),)
+                             + (f"certificate under the sensors fails: {reason}" if reason else
+                                "sampling period is not computed for this method")),)
 
 
 @dataclass(frozen=True)
@@ -423,7 +441,24 @@ class SensorTuning:
         return "impulsive" if type(self.certificate).__name__ == "ImpulsiveCertificate" else "predictor"
 
 
-def _alphas(box: JacobianBox, n: int, problem: Problem) -> tuple[float, ...]:
+def alpha_grid(box: JacobianBox, n: int, problem: Problem) -> tuple[float, ...]:
+    """The decay rates tried for a certificate on ``box``: a geometric grid of :data:`ALPHA_GRID` rates from a
+    thirtieth of the plant's rate scale up to ten times it, below half the fastest sensor's rate.
+
+    Parameters
+    ----------
+    box : JacobianBox
+        The error box (its centre's first ``n`` rows: ``∂F/∂x``).
+    n : int
+        The number of states.
+    problem : Problem
+        Its sensors.
+
+    Returns
+    -------
+    tuple of float
+        Increasing decay rates.
+    """
     A = box.center[:n]
     rho = float(np.max(np.abs(np.linalg.eigvals(A)))) if A.size else 0.0
     rho = max(rho, float(np.linalg.norm(A, 2)) / 10, 1e-3)
@@ -484,7 +519,7 @@ def tune_thau(problem: Problem, *, alpha: float | None = None, sampling: str | N
     tried: list[tuple[float, str]] = []
     best: tuple[float, float, Any] | None = None
     closest: tuple[float, str] | None = None
-    grid = (float(alpha),) if alpha is not None else _alphas(box, n, problem)
+    grid = (float(alpha),) if alpha is not None else alpha_grid(box, n, problem)
     lmis = {o: VertexLMIs(pairs, R=R, process=W2, objective=o, rate_vertices=rate_vertices)
             for o in ("noise", "sampling")}
     # a nonlinear output sees the process noise's Itô drift ½ tr(∇²h W Wᵀ) between samples, which (B) leaves out:

@@ -1,4 +1,4 @@
-r"""A sampled-data bound stated in coordinates ``z = Φ(x)``, read in the plant's coordinates ``x``.
+r"""A sampled-data bound stated in other coordinates ``z = Φ(x)``, read in the plant's coordinates ``x``.
 
 The drift-observability observer of Dalla Mora, Germani & Manes is certified in the coordinates
 ``z = Φ_s(x)`` of its observability map: the sampling budget of :mod:`nlobs.synthesis.sampled_data`
@@ -17,6 +17,11 @@ while the plant and the estimate stay in the region (a premise the coverage moni
 * the mean-square bound after a settling time, only when the run has no process noise (``inf``
   otherwise), from the initial second moment in ``x``:
   ``E e_zᵀP_z e_z ≤ λmax(P_z) γ_Φ² E|e_x|²``.
+
+A linear map is the exact special case: the cascade observer of Grip, Saberi & Johansen is certified in the
+coordinates ``χ = (x, w, z)`` of its augmented plant (:mod:`nlobs.methods.cascade_sampling`), where the initial
+error is ``χ̃₀ = M x̃₀`` and ``x̃`` is a part of ``χ̃`` (``γ_Φ⁻¹ = 1``); with ``into = M`` the initial term is
+``E χ̃₀ᵀ P χ̃₀ = tr(P M E[x̃₀x̃₀ᵀ] Mᵀ)`` exactly, and the bound there counts the process noise.
 """
 
 from __future__ import annotations
@@ -48,7 +53,10 @@ class MappedBound:
     gamma_phi, gamma_phi_inv : float
         Lipschitz constants of ``Φ`` and ``Φ⁻¹`` on the region (positive, finite).
     process_noise : bool
-        Whether the runs it is read for have process noise (then no mean-square bound is stated).
+        Whether the runs it is read for have process noise the bound in ``z`` does not count (then no
+        mean-square bound is stated).
+    into : array_like, shape (n_z, n_x), optional
+        A linear map of the initial error into ``z`` (then used exactly, instead of ``γ_Φ``).
 
     Raises
     ------
@@ -62,6 +70,7 @@ class MappedBound:
     gamma_phi: float
     gamma_phi_inv: float
     process_noise: bool
+    into: Any = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.inner, SampledDataBound):
@@ -69,6 +78,12 @@ class MappedBound:
         object.__setattr__(self, "gamma_phi", positive("gamma_phi", self.gamma_phi))
         object.__setattr__(self, "gamma_phi_inv", positive("gamma_phi_inv", self.gamma_phi_inv))
         object.__setattr__(self, "process_noise", bool(self.process_noise))
+        if self.into is not None:
+            M = np.asarray(self.into, dtype=float)
+            nz = self.inner.P.shape[0]
+            if M.ndim != 2 or M.shape[0] != nz or not np.all(np.isfinite(M)):
+                raise InvalidArgumentError(f"into: expected a finite ({nz}, n) matrix, got shape {M.shape}")
+            object.__setattr__(self, "into", M)
 
     # what the sampling premise and the reports read, as the bound in z has them
     @property
@@ -134,8 +149,13 @@ class MappedBound:
         m = np.asarray(p0, dtype=float)
         if m.ndim != 2 or m.shape[0] != m.shape[1] or not np.all(np.isfinite(m)):
             raise InvalidArgumentError(f"p0: expected a finite square matrix, got shape {m.shape}")
-        # E e_zᵀ P e_z ≤ λmax(P) E|e_z|² ≤ λmax(P) γ_Φ² trace E[e_x e_xᵀ]
-        v0 = float(np.linalg.eigvalsh(b.P)[-1]) * self.gamma_phi ** 2 * float(np.trace(m))
+        if self.into is not None:  # χ̃₀ = M x̃₀: E χ̃₀ᵀ P χ̃₀ = tr(P M E[x̃₀x̃₀ᵀ] Mᵀ)
+            if m.shape[0] != self.into.shape[1]:
+                raise InvalidArgumentError(f"p0: expected shape ({self.into.shape[1]}, {self.into.shape[1]}), "
+                                           f"got {m.shape}")
+            v0 = float(np.trace(b.P @ self.into @ m @ self.into.T))
+        else:  # E e_zᵀ P e_z ≤ λmax(P) E|e_z|² ≤ λmax(P) γ_Φ² trace E[e_x e_xᵀ]
+            v0 = float(np.linalg.eigvalsh(b.P)[-1]) * self.gamma_phi ** 2 * float(np.trace(m))
         ms = (math.exp(-b.sigma * max(float(settle), 0.0)) * v0 + b.N / b.sigma) / b.lam_min
         return self.gamma_phi_inv * math.sqrt(ms)
 
@@ -145,8 +165,8 @@ class MappedBound:
                 f"measurement noise |v| ≤ v̄, no process noise: limsup |e_x| ≤ {self.iss_gain:.4g} v̄")
 
     def to_dict(self) -> dict[str, Any]:
-        """The bound in ``z`` (``in_z``) and, in ``x``, ``gamma_phi``, ``gamma_phi_inv``, ``iss_gain``."""
+        """The bound in ``z`` (``inner``) and, in ``x``, ``gamma_phi``, ``gamma_phi_inv``, ``iss_gain``."""
         iss = self.iss_gain
-        return {"in_z": self.inner.to_dict(), "gamma_phi": self.gamma_phi, "gamma_phi_inv": self.gamma_phi_inv,
+        return {"inner": self.inner.to_dict(), "gamma_phi": self.gamma_phi, "gamma_phi_inv": self.gamma_phi_inv,
                 "iss_gain": iss if self.verified and math.isfinite(iss) else None,
                 "process_noise": self.process_noise, "verified": self.verified, "budget": self.budget}

@@ -52,7 +52,7 @@ and the offending text.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -139,6 +139,9 @@ class CascadeModel:
         The file's default ``γ`` (``‖H‖∞ < γ``), ``None`` when not given.
     parameters : mapping of str to float
     path : str
+    expressions : tuple of (tuple of sympy.Expr) or None
+        Σ₁'s ``f``, ``h`` and ``g`` as parsed (over the symbols of the states, ``z``, inputs and parameters,
+        each ``sympy.Symbol(name, real=True)``); ``None`` for a model built otherwise.
     """
 
     name: str
@@ -151,6 +154,8 @@ class CascadeModel:
     path: str = ""
     method: str | None = None
     gamma: float | None = None
+    expressions: tuple[tuple[Any, ...], tuple[Any, ...], tuple[Any, ...]] | None = field(
+        default=None, repr=False, compare=False)
 
     @property
     def feedback(self) -> bool:
@@ -336,7 +341,8 @@ def build_cascade(src: Any, data: Mapping[str, Any], name: str, time: TimeBase) 
     if gamma is not None and gamma <= 0:
         raise src.table_error(_T, "gamma", "[cascade].gamma must be positive (‖H‖∞ < γ)", repr(tab["gamma"]))
     plant = _plant(x_names, w_names, inputs, y_names, f, h, A, Bu, Bz, C, Du, Dz, params, time, name)
-    return CascadeModel(name, str(form), sigma1, sigma2, plant, lyap, dict(params), src.path, method, gamma)
+    return CascadeModel(name, str(form), sigma1, sigma2, plant, lyap, dict(params), src.path, method, gamma,
+                        expressions=(tuple(f), tuple(h), tuple(g)))
 
 
 def _names(src: Any, table: str, tab: Mapping[str, Any], key: str) -> list[str]:

@@ -12,6 +12,7 @@ plant (1) with the observer (9)–(10) / (17)–(18), with the error and the cer
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -35,6 +36,7 @@ from nlobs.methods.cascade import (
     Theorem1Check,
     cascade_design,
     cascade_noise_model,
+    default_gain_method,
     design_cascade,
 )
 from nlobs.workflows._results import checked_request, error_line, error_summary, run_study, write_result
@@ -159,8 +161,19 @@ class CascadeWorkflowReport:
     def summary(self) -> str:
         lines = [self.design.summary()]
         if self.method_design is not None:
-            lines.append(f"  from the model file: {self.method_design.defaults_text() or 'nothing (every value given)'}; "
-                         f"{self.method_design.status}")
+            md = self.method_design
+            lines.append(f"  from the model file: {md.defaults_text() or 'nothing (every value given)'}; "
+                         f"{md.status}")
+            if md.bound is not None:
+                p = md.parameters
+                lines.append(f"  under the file's sensors ({p.get('sampling')}): certified on the region, "
+                             f"RMS ≤ {p.get('rms_bound', math.nan):.4g} after the settling time; " + "; ".join(
+                                 f"{g.name}: T = {g.gap:.4g} ≤ T_max = {t:.4g}"
+                                 for g, t in zip(md.bound.groups, md.bound.t_max)))
+            else:
+                why = next((d for d in md.details if d.startswith("no certificate under the sensors")), None)
+                if why:
+                    lines.append(f"  {why}")
         sim, req = self.simulation, self.request
         if sim is not None and req is not None:
             d = self._simulation_dict()
@@ -222,13 +235,21 @@ def design_cascade_observer(
     label = (model_label(model) if not isinstance(model, CascadeModel) else cm.name) if name is None else str(name)
     resolved = checked_request(simulate, cm.plant)
     notes: tuple[str, ...] = ()
-    if (method or cm.method) == "h2" and noise is None:
+    scenario = None
+    if cm.path:  # the file's sensors choose the default gain and give the certificate under them
+        from nlobs.errors import ModelFileError
         from nlobs.systems.modelfile import load_scenario
 
-        if not cm.path:
+        try:
+            scenario = load_scenario(cm.path)
+        except ModelFileError:  # a cascade parsed from text: no file to read sensors from
+            scenario = None
+    kind = method or default_gain_method(cm, bool(scenario is not None and scenario.sensors))
+    if kind == "h2" and noise is None:
+        if scenario is None:
             raise InvalidArgumentError("`method` 'h2': give the `noise` model (the cascade was not read from a file)")
-        noise, notes = cascade_noise_model(cm, load_scenario(cm.path))
-    design = design_cascade(cm, gamma=gamma, method=method, gain_bound=gain_bound, noise=noise, noise_notes=notes)
+        noise, notes = cascade_noise_model(cm, scenario)
+    design = design_cascade(cm, gamma=gamma, method=kind, gain_bound=gain_bound, noise=noise, noise_notes=notes)
     if design.certificate is None:
         verdict = Verdict.NO_OBSERVER if not design.assumption4.holds else Verdict.FAILED
         return CascadeWorkflowReport(design, None, simulate, (), verdict, f"{label}: no gain: {design.failure}")
@@ -236,7 +257,12 @@ def design_cascade_observer(
         return CascadeWorkflowReport(design, None, simulate, (), Verdict.FAILED,
                                      f"{label}: the gain fails its re-verification: "
                                      + "; ".join(k.summary() for k in design.checks if not k.passed))
-    unified = cascade_design(design, gamma_given=gamma is not None, gain_method_given=method is not None)
+    pb = None
+    if scenario is not None and scenario.sensors:  # the certificate under the file's sensors, as every command's
+        from nlobs.methods.problem import problem
+
+        pb = problem(scenario)
+    unified = cascade_design(design, pb, gamma_given=gamma is not None, gain_method_given=method is not None)
     if simulate is None:
         return CascadeWorkflowReport(design, None, None, (), Verdict.OK, "", unified)
     assert resolved is not None
