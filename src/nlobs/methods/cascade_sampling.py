@@ -38,7 +38,6 @@ decay rates and keeps the smallest certified RMS bound after the settling time.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -46,12 +45,12 @@ import numpy as np
 import sympy as sp
 
 from nlobs._typing import Array
-from nlobs.errors import DesignInfeasible, NlobsError, NonFiniteError
+from nlobs.errors import DesignInfeasible, NonFiniteError
 from nlobs.geometry.jacobian_box import JacobianBox, jacobian_box
 from nlobs.geometry.region import Box
 from nlobs.methods.problem import Problem
 from nlobs.methods.sensor_design import alpha_grid, error_box, input_range, rate_jacobian, sensor_groups
-from nlobs.synthesis.sampled_data import SampledDesignCertificate, sampled_data_bound
+from nlobs.synthesis.sampled_data import SampledDesignCertificate
 from nlobs.systems.symbolic import SymbolicModel
 
 __all__ = ["AugmentedCascade", "augmented_cascade", "cascade_sampling_bound", "plant_map"]
@@ -232,8 +231,8 @@ def cascade_sampling_bound(problem: Problem, design: Any) -> tuple[SampledDesign
         after the settling time, with its sampled-data bound (``certificate.bound``); ``None`` and the reason
         when the construction does not apply or no decay rate gives a verified bound.
     """
+    from nlobs.methods.given_gain import certify_given_gain
     from nlobs.methods.kalman import measurement_covariance
-    from nlobs.synthesis.thau_gain import certify_thau_gain
 
     if not problem.sensors:
         return None, "no [sensors]"
@@ -252,35 +251,6 @@ def cascade_sampling_bound(problem: Problem, design: Any) -> tuple[SampledDesign
                       f"2^{len(box.varying)} vertices exceed the vertex LMIs' limit of 1024")
     n = aug.model.n
     pairs = [(V[:n], V[n:]) for V in box.vertices()]
-    R = measurement_covariance(problem.model, problem.sensors)
-    W2, settle = aug.process_noise, problem.settle
-    best: tuple[float, SampledDesignCertificate] | None = None
-    grid = alpha_grid(box, n, problem)
-    worst = max(float(np.max(np.linalg.eigvals(A - aug.gain @ C).real)) for A, C in pairs)
-    last = (f"the vertex LMIs (V) of the augmented plant (x, w, z) on the region ({len(pairs)} vertices) have no "
-            f"Lyapunov matrix for the cascade gain at any decay rate tried (α = {grid[0]:.3g} … {grid[-1]:.3g})"
-            + (f"; at a vertex A_v − L C_v has an eigenvalue with real part {worst:.3g} > 0: give a smaller region"
-               if worst >= 0 else ""))
-    feasible = False
-    for a in grid:
-        try:
-            cert = certify_thau_gain(pairs, aug.gain, a, R=R, process=W2)
-        except (DesignInfeasible, NlobsError):
-            if feasible:  # (V) feasible at α is feasible below it: the frontier is passed
-                break
-            continue
-        feasible = True
-        if not cert.verified:
-            last = "(V) failed its re-verification: " + "; ".join(c.summary() for c in cert.failed_checks)
-            continue
-        groups = sensor_groups(view, cert.P, cert.gain, box, rate, plant)  # type: ignore[arg-type]
-        bound = sampled_data_bound(cert.P, cert.gain, cert.decay, groups, process=W2, p0=aug.p0)
-        if not bound.verified:
-            last = bound.violation() or "the sampled-data bound failed"
-            continue
-        value = bound.rms_after(settle)
-        if math.isfinite(value) and (best is None or value < best[0]):
-            best = (value, SampledDesignCertificate(cert, bound))
-    if best is None:
-        return None, last
-    return best[1], ""
+    return certify_given_gain(view, pairs, box, rate, plant, gain=aug.gain, grid=alpha_grid(box, n, problem),
+                              settle=problem.settle, R=measurement_covariance(problem.model, problem.sensors),
+                              process=aug.process_noise, p0=aug.p0)

@@ -16,6 +16,8 @@ is ``x̂̇ = f(x̂) + g(x̂) u + Q⁺(x̂) K (y − h(x̂))`` (7) with the gain 
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -26,7 +28,7 @@ import sympy as sp
 from numpy.typing import ArrayLike
 
 from nlobs.checks import Check, CheckKind
-from nlobs.errors import InvalidArgumentError, ModelError
+from nlobs.errors import InvalidArgumentError, ModelError, NlobsError
 from nlobs.geometry.checks import observability_rank
 from nlobs.geometry.lie import lie_derivative
 from nlobs.geometry.region import Box
@@ -36,9 +38,12 @@ from nlobs.methods.sensor_design import on_samples, sampling_form
 from nlobs.observers.pinv import AssumptionWarning, PinvObserver
 from nlobs.simulate.coverage import InRegion, Premise
 from nlobs.synthesis.pinv_gain import DEFAULT_THETA, PLACEMENTS, HighGain, Placement
+
+#: The values of ``θ`` tried for the sensors (:meth:`PinvMethod.design` with ``[sensors]`` and no ``θ`` given).
+THETA_GRID = (0.25, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 8.0)
 from nlobs.systems.symbolic import SymbolicModel
 
-__all__ = ["PINV", "PLACEMENTS", "PinvDesignReport", "PinvMethod", "design_pinv_report"]
+__all__ = ["PINV", "PLACEMENTS", "THETA_GRID", "PinvDesignReport", "PinvMethod", "design_pinv_report"]
 
 
 def build_pinv_observer(
@@ -267,9 +272,12 @@ class PinvMethod:
     """Röbenack's Moore–Penrose observer (7) with the gain field ``l(x) = Q⁺(x) k`` (17).
 
     Defaults: the problem's region, the high-gain placement of (10) with ``θ`` =
-    :data:`~nlobs.synthesis.pinv_gain.DEFAULT_THETA`. Premises of Corollary 4.1 checked on the
+    :data:`~nlobs.synthesis.pinv_gain.DEFAULT_THETA`; with ``[sensors]`` (and neither ``θ`` nor ``k`` given, through
+    the predictor) the ``θ`` of :data:`THETA_GRID` with the smallest certified RMS bound under them
+    (:mod:`nlobs.methods.pinv_sampling`), else the default. Premises of Corollary 4.1 checked on the
     region: A1 and A5 (sampled), and ``Σ r_j < n``; A2, A3, A4 and A6 are global conditions nobody
-    checks, so the design is never certified.
+    checks, so Corollary 4.1 never certifies the design; under sensors the vertex LMIs of its gain field
+    on the region do, where they hold (a local certificate of its own).
 
     Attributes
     ----------
@@ -314,6 +322,31 @@ class PinvMethod:
         why = self.applies(problem)
         if why is not None:
             raise ModelError(why)
+        if problem.sensors and k is None and theta is None and form == "predictor" and not saturation:
+            return self._for_sensors(problem, placement, pinv)
+        return self._design(problem, k, theta, placement, saturation, pinv, form)
+
+    def _for_sensors(self, problem: Problem, placement: Placement, pinv: Literal["symbolic", "numeric"]) -> Design:
+        """``θ`` of :data:`THETA_GRID` with the smallest certified RMS bound under the sensors (else the default)."""
+        designs = []
+        for th in THETA_GRID:
+            try:
+                designs.append(self._design(problem, None, th, placement, False, pinv, "predictor"))
+            except NlobsError:  # A1 may fail for no θ (it does not involve θ); a θ whose roots fail is skipped
+                continue
+        certified = [d for d in designs if d.bound is not None and math.isfinite(d.parameters.get("rms_bound", math.inf))]
+        if certified:
+            best = min(certified, key=lambda d: d.parameters["rms_bound"])
+            how = f"the smallest certified RMS bound of {len(designs)} values of θ ({len(certified)} certified)"
+        else:
+            best = next((d for d in designs if d.parameters.get("theta") == DEFAULT_THETA), None) or \
+                self._design(problem, None, None, placement, False, pinv, "predictor")
+            how = f"default (no θ of {THETA_GRID[0]:g} … {THETA_GRID[-1]:g} is certified under the sensors)"
+        return dataclasses.replace(best, sources={**best.sources, "theta": how})
+
+    def _design(self, problem: Problem, k: ArrayLike | None, theta: float | None, placement: Placement,
+                saturation: bool, pinv: Literal["symbolic", "numeric"], form: str) -> Design:
+        """The design at one ``θ`` (or ``k``), with its certificate under the sensors where it holds."""
         model = problem.model
         assert isinstance(model, SymbolicModel)
         th = DEFAULT_THETA if theta is None else theta
@@ -342,14 +375,40 @@ class PinvMethod:
                 InRegion(problem.region.lower, problem.region.upper, "estimate", where))
         desc = f"(7) with l(x) = Q⁺(x) k (17), k = {[round(v, 6) for v in rep.k]}" + (
             f" (θ = {rep.theta:g}, {rep.placement})" if rep.theta is not None else " (given)")
-        obs, lacking = on_samples(obs, problem, form, "Corollary 4.1")
-        hyps += lacking
+        sampled, why_not, box_check = None, "", None
+        if problem.sensors and form == "predictor" and not failed:
+            from nlobs.methods.pinv_sampling import pinv_sampling_bound
+
+            sampled, why_not, box_check = pinv_sampling_bound(problem, obs)
+        theorem = f"Röbenack, Theorem 4.1 / Corollary 4.1 on {where}"
+        details: tuple[str, ...] = ()
+        bound = None
+        if sampled is not None:  # the vertex LMIs on the region replace Corollary 4.1's global conditions there
+            from nlobs.methods.sensor_design import sampling_hypotheses
+
+            obs, _ = on_samples(obs, problem, form, "Corollary 4.1")
+            bound = sampled.bound
+            assert box_check is not None
+            premises = (*premises, box_check, *sampled.checks)
+            unchecked = ()
+            hyps = sampling_hypotheses(problem, bound)
+            rms = bound.rms_after(problem.settle)
+            parameters.update({"decay": sampled.continuous.decay, "rms_bound": rms,
+                               "T_max": {g.name: t for g, t in zip(bound.groups, bound.t_max)}})
+            desc += f"; certified under the sensors on {where} (vertex LMIs of the gain field): RMS ≤ {rms:.4g}"
+            theorem = ("vertex LMIs of the Jacobian and gain-field boxes on the region (Zemouche, Boutayeb & Bara "
+                       "2008) with the sampled-data bound of the inter-sample predictor (Karafyllis & Kravaris 2009)")
+            details = tuple(bound.summary().splitlines())
+        else:
+            obs, lacking = on_samples(obs, problem, form, "Corollary 4.1", reason=why_not)
+            hyps += lacking
+            if why_not and problem.sensors:
+                details = (f"no certificate under the sensors: {why_not}",)
         if problem.sensors:
             parameters["sampling"] = form
-        return Design(self.name, obs, None, premises, unchecked, parameters, sources, desc,
+        return Design(self.name, obs, sampled, premises, unchecked, parameters, sources, desc,
                       gain=np.asarray(rep.k, dtype=float), failed=tuple(failed), hypotheses=hyps,
-                      coverage_extras={"region": where}, report=rep,
-                      theorem=f"Röbenack, Theorem 4.1 / Corollary 4.1 on {where}")
+                      coverage_extras={"region": where}, report=rep, theorem=theorem, details=details, bound=bound)
 
 
 #: The Moore–Penrose method of the registry.
