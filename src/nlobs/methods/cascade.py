@@ -23,6 +23,7 @@ injection ``g`` of an observer for Σ₁ (3)/(16). :func:`design_cascade`
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -31,7 +32,7 @@ import numpy as np
 
 from nlobs._validate import positive
 from nlobs.checks import Check, CheckKind
-from nlobs.errors import AssumptionViolated, DesignError, DesignInfeasible, InvalidArgumentError
+from nlobs.errors import AssumptionViolated, DesignError, DesignInfeasible, InvalidArgumentError, NlobsError
 from nlobs.linear.assumption4 import Assumption4Report, check_assumption4, extended_system
 from nlobs.linear.norms import hinf_norm
 from nlobs.methods.base import Design
@@ -58,7 +59,9 @@ __all__ = [
     "CascadeDesign",
     "CascadeMethod",
     "Theorem1Check",
+    "SENSOR_METHODS",
     "default_gain_method",
+    "gain_for_sensors",
     "cascade_design",
     "cascade_noise_model",
     "design_cascade",
@@ -435,18 +438,77 @@ class CascadeMethod:
             raise AssumptionViolated(why)
         assert problem.path is not None
         cm = problem.scenario.cascade or load_cascade(problem.path)  # read with the file, when it was
-        kind = gain_method or default_gain_method(cm, bool(problem.sensors))
-        if kind == "h2":  # the gain for the file's own sensors and process noise
-            noise, notes = cascade_noise_model(cm, problem.scenario)
-            d = design_cascade(cm, gamma=gamma, method=kind, gain_bound=gain_bound, noise=noise, noise_notes=notes)
+        chosen = None
+        if gain_method is None and cm.method is None and problem.sensors and form == "predictor":
+            chosen = gain_for_sensors(cm, problem, gamma=gamma, gain_bound=gain_bound)
+        if chosen is not None:
+            d = chosen
         else:
-            d = design_cascade(cm, gamma=gamma, method=kind, gain_bound=gain_bound)
+            kind = gain_method or default_gain_method(cm, bool(problem.sensors))
+            d = _design_with(cm, problem, kind, gamma, gain_bound)
         if d.certificate is None:
             if not d.assumption4.holds:
                 raise AssumptionViolated(d.failure)
             raise DesignInfeasible(d.failure)
-        return cascade_design(d, problem, gamma_given=gamma is not None, gain_method_given=gain_method is not None,
-                              sampling=form)
+        out = cascade_design(d, problem, gamma_given=gamma is not None, gain_method_given=gain_method is not None,
+                             sampling=form)
+        if chosen is not None and out.bound is not None:
+            out = dataclasses.replace(out, sources={**out.sources, "gain_method": (
+                f"the smallest certified RMS bound under the file's sensors of {', '.join(SENSOR_METHODS)}")})
+        return out
+
+
+def _design_with(cm: CascadeModel, problem: Problem, kind: str, gamma: float | None,
+                 gain_bound: float | None) -> CascadeDesign:
+    """:func:`design_cascade` with ``kind``; the H2 gain with the file's own sensors and process noise."""
+    if kind == "h2":
+        noise, notes = cascade_noise_model(cm, problem.scenario)
+        return design_cascade(cm, gamma=gamma, method=kind, gain_bound=gain_bound, noise=noise, noise_notes=notes)
+    return design_cascade(cm, gamma=gamma, method=kind, gain_bound=gain_bound)
+
+
+def gain_for_sensors(cm: CascadeModel, problem: Problem, *, gamma: float | None = None,
+                     gain_bound: float | None = None) -> CascadeDesign | None:
+    """The cascade gain with the smallest certified RMS bound under the problem's sensors, or ``None``.
+
+    Each gain method of :data:`SENSOR_METHODS` is designed at ``γ`` and certified through the predictor
+    (:func:`~nlobs.methods.cascade_sampling.cascade_sampling_bound`); the smallest bound after the settling time
+    wins. ``None`` when no method's gain is certified (the caller keeps :func:`default_gain_method`'s).
+
+    Parameters
+    ----------
+    cm : CascadeModel
+        The file's cascade.
+    problem : Problem
+        Its sensors, noise, region and settling time.
+    gamma, gain_bound : float, optional
+        As :func:`design_cascade`.
+
+    Returns
+    -------
+    CascadeDesign or None
+    """
+    from nlobs.methods.cascade_sampling import cascade_sampling_bound
+
+    best: tuple[float, CascadeDesign] | None = None
+    for kind in SENSOR_METHODS:
+        try:
+            d = _design_with(cm, problem, kind, gamma, gain_bound)
+        except NlobsError:
+            continue
+        if d.certificate is None or not d.verified:
+            continue
+        cert, _ = cascade_sampling_bound(problem, d)
+        if cert is None:
+            continue
+        value = cert.bound.rms_after(problem.settle)
+        if math.isfinite(value) and (best is None or value < best[0]):
+            best = (value, d)
+    return None if best is None else best[1]
+
+
+#: The gain methods compared under the file's sensors (:func:`gain_for_sensors`).
+SENSOR_METHODS = ("h2", "placement", "lmi")
 
 
 def default_gain_method(cm: CascadeModel, sensors: bool) -> str:

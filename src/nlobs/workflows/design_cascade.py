@@ -12,6 +12,7 @@ plant (1) with the observer (9)–(10) / (17)–(18), with the error and the cer
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,8 +37,10 @@ from nlobs.methods.cascade import (
     Theorem1Check,
     cascade_design,
     cascade_noise_model,
+    SENSOR_METHODS,
     default_gain_method,
     design_cascade,
+    gain_for_sensors,
 )
 from nlobs.workflows._results import checked_request, error_line, error_summary, run_study, write_result
 from nlobs.workflows.inputs import SimulationRequest, model_label, model_units
@@ -244,12 +247,24 @@ def design_cascade_observer(
             scenario = load_scenario(cm.path)
         except ModelFileError:  # a cascade parsed from text: no file to read sensors from
             scenario = None
+    pb = None
+    if scenario is not None and scenario.sensors:  # the certificate under the file's sensors, as every command's
+        from nlobs.methods.problem import problem
+
+        pb = problem(scenario)
+    chosen = None
+    if method is None and cm.method is None and pb is not None and noise is None:  # the rule of every command
+        chosen = gain_for_sensors(cm, pb, gamma=gamma, gain_bound=gain_bound)
     kind = method or default_gain_method(cm, bool(scenario is not None and scenario.sensors))
-    if kind == "h2" and noise is None:
-        if scenario is None:
-            raise InvalidArgumentError("`method` 'h2': give the `noise` model (the cascade was not read from a file)")
-        noise, notes = cascade_noise_model(cm, scenario)
-    design = design_cascade(cm, gamma=gamma, method=kind, gain_bound=gain_bound, noise=noise, noise_notes=notes)
+    if chosen is not None:
+        design = chosen
+    else:
+        if kind == "h2" and noise is None:
+            if scenario is None:
+                raise InvalidArgumentError("`method` 'h2': give the `noise` model (the cascade was not read from a "
+                                           "file)")
+            noise, notes = cascade_noise_model(cm, scenario)
+        design = design_cascade(cm, gamma=gamma, method=kind, gain_bound=gain_bound, noise=noise, noise_notes=notes)
     if design.certificate is None:
         verdict = Verdict.NO_OBSERVER if not design.assumption4.holds else Verdict.FAILED
         return CascadeWorkflowReport(design, None, simulate, (), verdict, f"{label}: no gain: {design.failure}")
@@ -257,12 +272,10 @@ def design_cascade_observer(
         return CascadeWorkflowReport(design, None, simulate, (), Verdict.FAILED,
                                      f"{label}: the gain fails its re-verification: "
                                      + "; ".join(k.summary() for k in design.checks if not k.passed))
-    pb = None
-    if scenario is not None and scenario.sensors:  # the certificate under the file's sensors, as every command's
-        from nlobs.methods.problem import problem
-
-        pb = problem(scenario)
     unified = cascade_design(design, pb, gamma_given=gamma is not None, gain_method_given=method is not None)
+    if chosen is not None and unified.bound is not None:
+        unified = dataclasses.replace(unified, sources={**unified.sources, "gain_method": (
+            f"the smallest certified RMS bound under the file's sensors of {', '.join(SENSOR_METHODS)}")})
     if simulate is None:
         return CascadeWorkflowReport(design, None, None, (), Verdict.OK, "", unified)
     assert resolved is not None
