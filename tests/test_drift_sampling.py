@@ -190,16 +190,42 @@ def test_the_drift_bounded_noise_bound_in_x_is_above_the_exact_worst_case(tmp_pa
     assert any("limsup |e| ≤" in line and "in x" in line for line in d.details)
 
 
-def test_with_process_noise_the_drift_bound_states_no_mean_square_bound(tmp_path: Path) -> None:
+def test_with_process_noise_the_drift_bound_counts_it_and_its_runs_stay_below(tmp_path: Path) -> None:
+    from nlobs.methods.comparison import compare_observers
+    from nlobs.methods.sensor_design import drift_process_noise
+
     f = tmp_path / "osc-q.toml"
     f.write_text(OSC.format(rate=1000.0) + '\n[process_noise]\nstd = [0.0, 0.01]\n')
-    d = get("drift").design(problem(str(f)))
-    assert d.bound is not None and d.bound.process_noise
-    assert math.isinf(d.bound.rms_after(1.0)) and math.isfinite(d.bound.iss_gain)
-    assert any("process noise is not counted" in line for line in d.details)
+    pb = problem(str(f))
+    d = get("drift").design(pb)
+    assert d.bound is not None and d.bound.verified and not d.bound.process_noise
+    # z = x here (Φ = (x1, x2)): Q_s = I, no Itô drift, and the intensity is W itself: c = λ_max(W) = 1e-4
+    c, beta, _ = drift_process_noise(pb, d.report)
+    assert c == pytest.approx(1e-4 * 1.05, rel=1e-9) and beta == 0.0
+    quiet = get("drift").design(problem(_osc(tmp_path, 1000.0)))
+    assert d.bound.rms_after(1.0) > quiet.bound.rms_after(1.0)
+    assert any("the file's noise: RMS ≤" in line for line in d.details)
+    rep = compare_observers(str(f), observers=["drift"], runs=6, progress=False)
+    o = rep.observers["drift"]
+    assert o.certificate["verified"] and o.certificate["covered_fraction"] == 1.0
+    assert o.rms_error_norm <= o.certificate["rms_bound"]
     # held samples: the budget is the predictor's, no bound is read in x
-    held = get("drift").design(problem(str(f)), sampling="hold")
+    held = get("drift").design(pb, sampling="hold")
     assert held.bound is None
+
+
+def test_the_ito_drift_of_a_nonlinear_observability_map_is_bounded(tmp_path: Path) -> None:
+    # y = x1 + 0.2 x1³: Φ = (h, L_f h), ∂²h/∂x1² = 1.2 x1, so d_1 = ½ · 1.2 x1 · W_11 (|x1| ≤ 3: 1.8 W_11)
+    from nlobs.methods.sensor_design import drift_process_noise
+
+    text = OSC.format(rate=1000.0).replace('h = ["x1"]', 'h = ["x1 + 0.2*x1**3"]')
+    f = tmp_path / "osc-cubic.toml"
+    f.write_text(text + '\n[process_noise]\nstd = [0.01, 0.0]\n')
+    pb = problem(str(f))
+    d = get("drift").design(pb)
+    c, beta, per = drift_process_noise(pb, d.report)
+    assert per[0] == pytest.approx(0.5 * 1.2 * 3.0 * 1e-4 * 1.05, rel=1e-6)
+    assert beta >= per[0]
 
 
 def test_a_mapped_bound_refuses_bad_constants(tmp_path: Path) -> None:

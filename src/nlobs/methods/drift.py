@@ -418,8 +418,9 @@ class DriftMethod:
             if bound is not None:
                 parameters["T_max"] = {g.name: t for g, t in zip(bound.groups, bound.t_max)}
                 if form == "predictor":  # the budget is the predictor's: read it in x for that form only
-                    q = problem.process_noise is not None and bool(np.any(problem.process_noise))
-                    in_x = MappedBound(bound, rep.bound.gamma_phi, rep.bound.gamma_phi_inv, process_noise=q)
+                    in_x = MappedBound(bound, rep.bound.gamma_phi, rep.bound.gamma_phi_inv, process_noise=False)
+                    if in_x.verified:  # the bound counts the sensors' and the process noise: no exact output assumed
+                        hyps = [h for h in hyps if getattr(h, "name", "") != "exact measurement and model"]
         return Design(self.name, obs, cert, premises, (),
                       parameters, sources, desc, gain=cert.gain, failed=failed, hypotheses=tuple(hyps), bound=in_x,
                       coverage_extras={"region": where, "mu": cert.constants.mu}, report=rep,
@@ -432,9 +433,9 @@ class DriftMethod:
                                    + f" (Σ T/T_max = {bound.budget:.3g})",)),
                                *(() if in_x is None or not in_x.verified else (
                                    f"bounded measurement noise |v| ≤ v̄, no process noise: limsup |e| ≤ "
-                                   f"{in_x.iss_gain:.4g} v̄ in x (γ_Φ⁻¹ = {in_x.gamma_phi_inv:.4g} times the bound in z)"
-                                   + ("" if not in_x.process_noise else "; the file's process noise is not counted: "
-                                      "no mean-square bound"),))))
+                                   f"{in_x.iss_gain:.4g} v̄ in x (γ_Φ⁻¹ = {in_x.gamma_phi_inv:.4g} times the bound in z); "
+                                   f"the file's noise: RMS ≤ {in_x.rms_after(problem.settle):.4g} after t = "
+                                   f"{problem.settle:g}",))))
 
 
 #: The drift method of the registry.

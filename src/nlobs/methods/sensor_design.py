@@ -36,7 +36,7 @@ from nlobs.simulate.coverage import InputRange, InRegion, Premise
 from nlobs.synthesis.lmi import psd_sqrt
 from nlobs.synthesis.sampled_data import GroupNoise, SampledDataBound, SampledDesignCertificate, sampled_data_bound
 
-__all__ = ["SensorTuning", "alpha_grid", "rate_jacobian", "clock_sensor_groups", "drift_sampling_bound", "input_range", "on_samples", "sampling_form", "clock_triples", "error_box", "longest_gap", "output_indices", "output_rate_box", "sampling_hypotheses",
+__all__ = ["SensorTuning", "alpha_grid", "drift_process_noise", "rate_jacobian", "clock_sensor_groups", "drift_sampling_bound", "input_range", "on_samples", "sampling_form", "clock_triples", "error_box", "longest_gap", "output_indices", "output_rate_box", "sampling_hypotheses",
            "sensor_groups", "tune_thau"]
 
 #: Vertex count above which a Lipschitz constant is bounded through the box's radius instead of its vertices.
@@ -633,9 +633,11 @@ def drift_sampling_bound(problem: Problem, report: Any) -> SampledDataBound | No
     ``ℓ_j = ‖(C_s A_s)_j P^{1/2}‖₂`` in closed form; otherwise ``ℓ_j`` is bounded through the region:
     ``sup ‖∂L_F h_j/∂x‖ · γ_{Φ⁻¹} · ‖P^{1/2}‖`` (sampled). ``T_max,j = α/(κ_j ℓ_j)`` with ``κ_j = ‖P^{-1/2}K_j‖``.
 
-    The bound is stated for convergence (the budget (3)); its noise terms count the measurement noise only (the
-    process noise enters ``z`` through the state-dependent ``Q_s(x) W`` and an Itô drift of ``Φ_s``, not
-    bounded here), so it is not a mean-square bound of a noisy run.
+    The process noise ``W`` of the file reaches ``z`` as ``Q_s(x) W Q_s(x)ᵀ`` (``Q_s = ∂Φ_s/∂x``) and an Itô drift
+    ``d_i = ½ tr(∇²Φ_{s,i} W)`` (:func:`drift_process_noise`): the bound takes ``c I`` with ``c`` the largest
+    eigenvalue of the first on the region, ``|d| ≤ β`` as its drift term, and for each group the process noise and
+    the drift its outputs ``y_j = z_{j,1}`` see between samples (its ``q_j`` and a bias ``β_j T_j``), all sampled
+    on the region and widened 5 %.
 
     Parameters
     ----------
@@ -683,4 +685,71 @@ def drift_sampling_bound(problem: Problem, report: Any) -> SampledDataBound | No
             ell = sup * float(report.bound.gamma_phi_inv) * float(np.linalg.norm(S, 2))
         bias = np.broadcast_to(np.asarray(g.bias, dtype=float), (len(idx),)).copy()
         groups.append(GroupNoise(g.name, idx, longest_gap(g), np.asarray(g.covariance, dtype=float), ell, 0.0, bias))
-    return sampled_data_bound(np.linalg.inv(P), K, float(cert.constants.alpha), groups)
+    W = problem.process_noise
+    if W is None or not np.any(W):
+        return sampled_data_bound(np.linalg.inv(P), K, float(cert.constants.alpha), groups)
+    try:
+        c, beta, beta_y = drift_process_noise(problem, report)
+    except NonFiniteError:
+        return None
+    Pb = np.linalg.inv(P)
+    Sb = psd_sqrt(Pb)
+    starts = np.cumsum((0, *s[:-1]))  # y_j = z_{j,1}: the first coordinate of block j
+    noisy = []
+    for g in groups:
+        rows = [int(starts[j]) for j in g.index]
+        Kj = K[:, list(g.index)]
+        q = c * float(np.linalg.norm(Sb @ Kj @ np.eye(K.shape[0])[rows], "fro")) ** 2
+        bias = np.abs(g.bias) + float(max(beta_y[r] for r in rows)) * g.period / math.sqrt(len(rows))
+        noisy.append(GroupNoise(g.name, g.index, g.period, g.R, g.ell, q, bias))
+    return sampled_data_bound(Pb, K, float(cert.constants.alpha), noisy, process=c * np.eye(K.shape[0]), drift=beta)
+
+
+def drift_process_noise(problem: Problem, report: Any) -> tuple[float, float, Array]:
+    """The process noise of the problem in the drift observer's coordinates ``z = Φ_s(x)``, on the region.
+
+    Itô's formula gives ``dz = (…) dt + Q_s(x) W^{1/2} dβ + d(x) dt`` with ``d_i = ½ tr(∇²Φ_{s,i}(x) W)``.
+
+    Parameters
+    ----------
+    problem : Problem
+        Its region and process noise ``W``.
+    report : DriftDesignReport
+        Its ``fields`` and multi-index ``s``.
+
+    Returns
+    -------
+    c : float
+        The largest eigenvalue of ``Q_s W Q_sᵀ`` on the region (sampled, widened 5 %): ``c I`` bounds the intensity.
+    beta : float
+        The largest ``|d(x)|`` (sampled, widened 5 %).
+    beta_coords : ndarray, shape (n,)
+        The largest ``|d_i(x)|`` per coordinate (widened 5 %).
+
+    Raises
+    ------
+    NonFiniteError
+        ``Q_s`` or the Hessians are not finite on the region.
+    """
+    import sympy as sp
+
+    from nlobs.geometry.jacobian_box import MARGIN, sample_points
+    from nlobs.geometry.observability import observability_map
+    from nlobs.systems.codegen import compile_matrix
+
+    F = report.fields
+    W = np.asarray(problem.process_noise, dtype=float)
+    Phi = sp.Matrix(observability_map(F, report.s))
+    x = sp.Matrix(F.x)
+    J = Phi.jacobian(x)
+    Wm = sp.Matrix(W.shape[0], W.shape[1], [sp.Float(float(v)) for v in W.ravel()])
+    d = sp.Matrix([sp.Rational(1, 2) * (sp.hessian(Phi[i], x) * Wm).trace() for i in range(Phi.shape[0])])
+    lo, hi = input_range(problem)
+    pts, _ = sample_points(problem.region, lo, hi, 2048, seed=2)
+    Jv = np.broadcast_to(compile_matrix(J, (tuple(F.x),))(pts), (pts.shape[0], *J.shape))
+    dv = np.broadcast_to(compile_matrix(d, (tuple(F.x),), vector=True)(pts), (pts.shape[0], d.shape[0]))
+    if not (np.all(np.isfinite(Jv)) and np.all(np.isfinite(dv))):
+        raise NonFiniteError("Q_s or ∇²Φ_s is not finite on the region")
+    c = float(np.max(np.linalg.eigvalsh(np.einsum("sij,jk,slk->sil", Jv, W, Jv)))) * (1 + MARGIN)
+    beta = float(np.max(np.linalg.norm(dv, axis=-1))) * (1 + MARGIN)
+    return c, beta, np.max(np.abs(dv), axis=0) * (1 + MARGIN)

@@ -12,11 +12,10 @@ while the plant and the estimate stay in the region (a premise the coverage moni
 :class:`MappedBound` carries those two constants with the bound in ``z`` and states, in ``x``:
 
 * the bounded-noise bound (input-to-state): ``limsup |e_x| ≤ γ_Φ⁻¹ · ultimate_bound_z(v̄)``, for
-  measurement noise ``|v_j| ≤ v̄_j`` and no process noise (the bound in ``z`` counts no process
-  noise: it enters ``z`` through ``Q_s(x)`` and an Itô term of ``Φ_s``, not bounded here);
-* the mean-square bound after a settling time, only when the run has no process noise (``inf``
-  otherwise), from the initial second moment in ``x``:
-  ``E e_zᵀP_z e_z ≤ λmax(P_z) γ_Φ² E|e_x|²``.
+  measurement noise ``|v_j| ≤ v̄_j`` and no process noise;
+* the mean-square bound after a settling time, from the initial second moment in ``x``:
+  ``E e_zᵀP_z e_z ≤ λmax(P_z) γ_Φ² E|e_x|²`` — unless the runs have process noise the bound in ``z`` does not
+  count (``process_noise``; the drift observer's counts it, :func:`~nlobs.methods.sensor_design.drift_process_noise`).
 
 A linear map is the exact special case: the cascade observer of Grip, Saberi & Johansen is certified in the
 coordinates ``χ = (x, w, z)`` of its augmented plant (:mod:`nlobs.methods.cascade_sampling`), where the initial

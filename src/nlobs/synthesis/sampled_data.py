@@ -38,8 +38,10 @@ give ``E 𝒲̇ ≤ −σ E𝒲 + N`` with
     N = \sum_j \frac{\operatorname{tr}(K_j^\top P K_j R_j) + |P^{1/2}K_j b_j|^2 + T_j\, q_j}{\varepsilon_j}
         + \operatorname{tr}(W^\top P W),
 
-``q_j`` the largest ``‖P^{1/2}K_j (∂h_j/∂x) W‖_F²`` on the region and ``b_j`` a sensor bias. Hence, while the
-state and the estimate stay in the region,
+``q_j`` the largest ``‖P^{1/2}K_j (∂h_j/∂x) W‖_F²`` on the region and ``b_j`` a sensor bias. An error that
+also carries a bounded drift ``d`` (``|d| ≤ β``: the Itô term of a change of coordinates, the drift observer's
+``½ tr(∇²Φ_s W Wᵀ)``) adds ``2eᵀPd ≤ ε_d V + λ_max(P) β² / ε_d``: one more ``ε`` in ``a`` and one more term in ``N``,
+chosen with the others (the ``drift`` argument). Hence, while the state and the estimate stay in the region,
 
 .. math:: E|e(t)|^2 \le \frac{e^{-\sigma t}\,\operatorname{tr}(P\Sigma_0) + N/\sigma}{\lambda_{\min}(P)} . \qquad (2)
 
@@ -210,6 +212,9 @@ class SampledDataBound(CertificateMixin):
         ``tr(P Σ0)`` (0 without ``p0``).
     checks : tuple of Check
         ``P ≻ 0``, the budget (3) ``< 1``, ``σ > 0``, each recomputed in NumPy.
+    drift : float
+        ``β``: a bound of the error's drift ``|d|`` (module docstring; 0 for none). ``eps`` then has one more
+        entry, its ``ε_d``.
     """
 
     P: Array
@@ -229,6 +234,7 @@ class SampledDataBound(CertificateMixin):
     lam_min: float
     v0: float
     checks: tuple[Check, ...]
+    drift: float = 0.0
 
     @property
     def solver(self) -> None:
@@ -347,8 +353,10 @@ class SampledDataBound(CertificateMixin):
 
 
 def _numbers(P: Array, K: Array, alpha: float, groups: Sequence[GroupNoise], process: Array,
-             p0: Array | None) -> tuple[float, Array, list[float], list[float], float, Array, float, float]:
-    """λ_min, √P, κ_j, T_max,j, the budget, the noise terms q̃_j, ``tr(WᵀPW)`` and ``v0``."""
+             p0: Array | None, drift: float = 0.0) -> tuple[float, Array, list[float], list[float], float, Array,
+                                                             float, float]:
+    """λ_min, √P, κ_j, T_max,j, the budget, the noise terms q̃_j (and ``λ_max(P) β²`` of a drift), ``tr(WᵀPW)``,
+    ``v0``."""
     lam = float(np.linalg.eigvalsh(P)[0]) if P.size else math.inf
     S = psd_sqrt(P)
     kappa, tmax, noise = [], [], []
@@ -360,6 +368,8 @@ def _numbers(P: Array, K: Array, alpha: float, groups: Sequence[GroupNoise], pro
         M = Kj.T @ P @ Kj
         noise.append(float(np.trace(M @ g.R)) + float(g.bias @ M @ g.bias) + g.period * g.q)
     budget = sum(g.period / tm for g, tm in zip(groups, tmax) if math.isfinite(tm))
+    if drift > 0:  # 2eᵀPd ≤ ε_d V + λ_max(P) β² / ε_d: one more Young term
+        noise.append(float(np.linalg.eigvalsh(P)[-1]) * drift * drift)
     proc = float(np.trace(P @ process))
     v0 = float(np.trace(P @ p0)) if p0 is not None else 0.0
     return lam, S, kappa, tmax, budget, np.asarray(noise), proc, v0
@@ -384,7 +394,7 @@ def _best(alpha: float, kappa: Sequence[float], groups: Sequence[GroupNoise], no
     roots = np.sqrt(np.clip(noise, 0, None))
     total = float(roots.sum())
     weights = roots / total if total > 0 else np.zeros_like(roots)
-    best: tuple[float, float, tuple[float, ...]] = (math.inf, ETA_GRID[0], tuple(0.0 for _ in groups))
+    best: tuple[float, float, tuple[float, ...]] = (math.inf, ETA_GRID[0], tuple(0.0 for _ in noise))
     s = sum(k * g.ell * g.period for k, g in zip(kappa, groups))
     for eta in ETA_GRID:
         c = 2 * alpha - 2 * math.sqrt(1 + eta) * s
@@ -419,7 +429,8 @@ def _checks(lam: float, budget: float, a: float, sigma: float, groups: Sequence[
 
 
 def sampled_data_bound(P: ArrayLike, K: ArrayLike, alpha: float, groups: Sequence[GroupNoise], *,
-                       process: ArrayLike | None = None, p0: ArrayLike | None = None) -> SampledDataBound:
+                       process: ArrayLike | None = None, p0: ArrayLike | None = None,
+                       drift: float = 0.0) -> SampledDataBound:
     """The sampling budget (3) and the mean-square bound (2) for a design's ``P``, ``K`` and ``α``.
 
     Parameters
@@ -436,6 +447,8 @@ def sampled_data_bound(P: ArrayLike, K: ArrayLike, alpha: float, groups: Sequenc
         ``W Wᵀ`` (default: no process noise).
     p0 : array_like, shape (n, n), optional
         Covariance of the initial error, for the transient of (2).
+    drift : float, optional
+        ``β ≥ 0``, a bound of a drift ``d`` of the error (module docstring; default 0: none).
 
     Returns
     -------
@@ -465,11 +478,14 @@ def sampled_data_bound(P: ArrayLike, K: ArrayLike, alpha: float, groups: Sequenc
         seen.update(g.index)
     W = np.zeros((n, n)) if process is None else _psd("process", process, n)
     S0 = None if p0 is None else _psd("p0", p0, n)
-    lam, _, kappa, tmax, budget, noise, proc, v0 = _numbers(Pm, Km, a0, groups, W, S0)
-    eta, eps = _best(a0, kappa, groups, noise, proc) if budget < 1 and lam > 0 else (ETA_GRID[0], (0.0,) * len(groups))
+    beta = float(drift)
+    if not (math.isfinite(beta) and beta >= 0):
+        raise InvalidArgumentError(f"drift: expected a finite bound ≥ 0, got {drift!r}")
+    lam, _, kappa, tmax, budget, noise, proc, v0 = _numbers(Pm, Km, a0, groups, W, S0, beta)
+    eta, eps = _best(a0, kappa, groups, noise, proc) if budget < 1 and lam > 0 else (ETA_GRID[0], (0.0,) * len(noise))
     a, sigma, N = _terms(a0, kappa, groups, noise, proc, eta, eps)
     return SampledDataBound(Pm, Km, a0, tuple(groups), W, S0, eta, eps, tuple(kappa), tuple(tmax), budget, a, sigma,
-                            N, lam, v0, _checks(lam, budget, a, sigma, groups, tmax))
+                            N, lam, v0, _checks(lam, budget, a, sigma, groups, tmax), beta)
 
 
 def verify_sampled_data_bound(bound: SampledDataBound) -> SampledDataBound:
@@ -486,11 +502,11 @@ def verify_sampled_data_bound(bound: SampledDataBound) -> SampledDataBound:
         The same inputs with the recomputed ``κ_j``, ``T_{max,j}``, budget, ``a``, ``σ``, ``N`` and checks.
     """
     lam, _, kappa, tmax, budget, noise, proc, v0 = _numbers(bound.P, bound.gain, bound.alpha, bound.groups,
-                                                            bound.process, bound.p0)
+                                                            bound.process, bound.p0, bound.drift)
     a, sigma, N = _terms(bound.alpha, kappa, bound.groups, noise, proc, bound.eta, bound.eps)
     return SampledDataBound(bound.P, bound.gain, bound.alpha, bound.groups, bound.process, bound.p0, bound.eta,
                             bound.eps, tuple(kappa), tuple(tmax), budget, a, sigma, N, lam, v0,
-                            _checks(lam, budget, a, sigma, bound.groups, tmax))
+                            _checks(lam, budget, a, sigma, bound.groups, tmax), bound.drift)
 
 
 @dataclass(frozen=True, eq=False)
