@@ -53,7 +53,7 @@ from nlobs.errors import InvalidArgumentError, NonFiniteError
 from nlobs.navigation.gnss_ins import GnssInsObserver, GnssInsState
 from nlobs.navigation.gains import kron_gain
 from nlobs.navigation.sensors import SensorNoise
-from nlobs.navigation.translation_schedule import TranslationGainSchedule
+from nlobs.navigation.translation_schedule import TranslationGainSchedule, switch_times
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
 from nlobs.observers.base import ToControl
 
@@ -112,18 +112,8 @@ class AttitudeGainSchedule:
             if lam <= 0.0:
                 raise InvalidArgumentError(f"gains[{k}]: must be positive definite (smallest eigenvalue {lam:.3g})")
             gains.append(readonly(M))
-        times = tuple(float(t) for t in self.times)
-        if len(times) != len(gains) - 1:
-            raise InvalidArgumentError(
-                f"times: {len(gains)} gains need {len(gains) - 1} switch times, got {len(times)}")
-        for k, t in enumerate(times):
-            if not math.isfinite(t):
-                raise NonFiniteError(f"times[{k}]: must be finite, got {t!r}")
-            if k and t <= times[k - 1]:
-                raise InvalidArgumentError(
-                    f"times: switch times must increase strictly (times[{k}] = {t:g} s after {times[k - 1]:g} s)")
         object.__setattr__(self, "gains", tuple(gains))
-        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "times", switch_times(self.times, len(gains)))
 
     @classmethod
     def constant(cls, gain: ArrayLike | float) -> AttitudeGainSchedule:

@@ -57,7 +57,7 @@ from nlobs.synthesis.lmi import Solver
 from nlobs.synthesis.observer_gain import verify_observer_gain
 
 __all__ = ["GainScheduleCertificate", "TranslationGainSchedule", "certify_gain_schedule",
-           "kalman_bucy_covariance", "kalman_scheduled_gain"]
+           "kalman_bucy_covariance", "kalman_scheduled_gain", "switch_times"]
 
 #: Step [s] of the exact covariance propagation of :func:`kalman_bucy_covariance`.
 RICCATI_STEP_S = 0.01
@@ -65,6 +65,39 @@ RICCATI_STEP_S = 0.01
 HORIZON_S = 600.0
 #: Switch times are compared with the loop's time stamps to this many seconds (as the attitude schedule).
 _TIME_TOL_S = 1e-9
+
+
+def switch_times(times: Any, modes: int) -> tuple[float, ...]:
+    """The ``modes − 1`` switch times of a piecewise-constant schedule, checked: finite, strictly increasing.
+
+    Parameters
+    ----------
+    times : sequence of float
+        The switch times [s].
+    modes : int
+        The number of modes (gains).
+
+    Returns
+    -------
+    tuple of float
+
+    Raises
+    ------
+    InvalidArgumentError
+        Not ``modes − 1`` times, or not strictly increasing.
+    NonFiniteError
+        A time that is not finite.
+    """
+    out = tuple(float(t) for t in times)
+    if len(out) != modes - 1:
+        raise InvalidArgumentError(f"times: {modes} gains need {modes - 1} switch times, got {len(out)}")
+    for k, t in enumerate(out):
+        if not math.isfinite(t):
+            raise NonFiniteError(f"times[{k}]: must be finite, got {t!r}")
+        if k and t <= out[k - 1]:
+            raise InvalidArgumentError(
+                f"times: switch times must increase strictly (times[{k}] = {t:g} s after {out[k - 1]:g} s)")
+    return out
 
 
 @dataclass(frozen=True)
@@ -103,17 +136,8 @@ class TranslationGainSchedule:
         if p not in (1, 2):
             raise InvalidArgumentError(f"gains[0]: expected a 3×2 or 3×1 per-axis gain, got shape {first.shape}")
         gains = tuple(readonly(as_matrix(f"gains[{k}]", G, (3, p))) for k, G in enumerate(raw))
-        times = tuple(float(t) for t in self.times)
-        if len(times) != len(gains) - 1:
-            raise InvalidArgumentError(f"times: {len(gains)} gains need {len(gains) - 1} switch times, got {len(times)}")
-        for k, t in enumerate(times):
-            if not math.isfinite(t):
-                raise NonFiniteError(f"times[{k}]: must be finite, got {t!r}")
-            if k and t <= times[k - 1]:
-                raise InvalidArgumentError(
-                    f"times: switch times must increase strictly (times[{k}] = {t:g} s after {times[k - 1]:g} s)")
         object.__setattr__(self, "gains", gains)
-        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "times", switch_times(self.times, len(gains)))
 
     @classmethod
     def constant(cls, gain: ArrayLike) -> TranslationGainSchedule:
