@@ -21,7 +21,10 @@ builds add ``-Wall -Wextra -Werror -pedantic`` (the tests compile every generate
 Cache. A library is stored as ``<cache>/<sha256 of compiler, flags and source>.so`` (``cache``:
 ``NLOBS_CACHE``, else ``$XDG_CACHE_HOME/nlobs/c``, else ``~/.cache/nlobs/c``), written atomically:
 compiling the same source again costs nothing, and two processes building one source at once each
-leave a complete file.
+leave a complete file. The cache is private: created with mode 0700, and refused (:class:`CompilerError`)
+when it belongs to another user or its group or others may write to it, since a library planted there
+would be loaded and run. Each library is stored with the SHA-256 of its bytes (``<key>.sha256``, written
+after the library); a library whose digest is missing or differs is built again, never loaded.
 """
 
 from __future__ import annotations
@@ -146,6 +149,33 @@ def cache_dir() -> Path:
     return Path(base) / "nlobs" / "c"
 
 
+def _digest(path: Path) -> str:
+    """SHA-256 of a file's bytes (hex)."""
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 16), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _require_private(folder: Path) -> None:
+    """Refuse a cache folder another user could write a library into (POSIX; elsewhere nothing to check).
+
+    Raises
+    ------
+    CompilerError
+        The folder is not owned by this user, or is writable by its group or by others.
+    """
+    if os.name != "posix":
+        return
+    st = folder.stat()
+    if st.st_uid != os.getuid() or st.st_mode & 0o022:
+        who = "not owned by this user" if st.st_uid != os.getuid() else \
+            f"writable by other users (mode {st.st_mode & 0o777:o})"
+        raise CompilerError(f"{folder}: the compiled-code cache is {who}; nlobs loads no library from it: make it "
+                            "private (chmod 700) or set NLOBS_CACHE to a private folder")
+
+
 def _run(compiler: Compiler, args: list[str], what: str) -> None:
     cmd = [*compiler.command, *args]
     try:
@@ -227,10 +257,16 @@ def build_shared(source: str, *, headers: dict[str, str] | None = None, strict: 
         key.update(b"\0")
     folder = cache_dir()
     target = folder / f"{key.hexdigest()[:32]}.so"
-    if target.is_file():
-        return target
+    stamp = target.with_suffix(".sha256")
     try:
-        folder.mkdir(parents=True, exist_ok=True)
+        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"{folder}: cannot write the compiled-code cache ({exc.strerror or exc}); "
+                          "set NLOBS_CACHE to a writable folder") from None
+    _require_private(folder)
+    if target.is_file() and stamp.is_file() and _digest(target) == stamp.read_text(encoding="ascii").strip():
+        return target  # built here before, unchanged since (else it is built again)
+    try:
         tmp = Path(tempfile.mkdtemp(prefix=".build-", dir=folder))
     except OSError as exc:
         raise OutputError(f"{folder}: cannot write the compiled-code cache ({exc.strerror or exc}); "
@@ -242,7 +278,10 @@ def build_shared(source: str, *, headers: dict[str, str] | None = None, strict: 
         src.write_text(source, encoding="utf-8")
         out = tmp / "module.so"
         _run(cc, [*flags, str(src), "-o", str(out), "-lm"], "the generated module")
+        digest = tmp / "module.sha256"
+        digest.write_text(_digest(out) + "\n", encoding="ascii")
         os.replace(out, target)
+        os.replace(digest, stamp)  # the digest last: a library without its digest is never loaded
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return target
