@@ -289,3 +289,30 @@ def test_model_file_errors_name_their_line(tmp_path: Path, body: str, line: int,
     p = tmp_path / "m.toml"
     p.write_text(body, encoding="utf-8")
     _one_line_error(runner.invoke(app, ["analyze", str(p)]), f"{p}:{line}: {reason}")
+
+
+# ----------------------------------------------------------------------------- second hardening round
+def test_hostile_numbers_end_in_one_line(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # each was a traceback (exit 1): pi**999 and (10*x1)**400 in a model, θ = 1e300, 99999999999 runs,
+    # a 300-character --out, a non-real constant
+    for f, needle in ((["x2", "-pi**999*x1"], "power out of range"), (["x2", "-(10*x1)**400"], "power out of range"),
+                      (["x2", "-asin(2)*x1"], "non-real constant")):
+        _one_line_error(runner.invoke(app, ["analyze", _model(tmp_path, f)]), needle)
+    _one_line_error(runner.invoke(app, ["design", "pinv", "pendulum", "--theta", "1e300"]), "beyond double precision",
+                    "take θ below")
+    _one_line_error(runner.invoke(app, ["simulate", "compare", "pendulum", "--observer", "ekf", "--runs", "99999999999"]),
+                    "--runs 99999999999", "use fewer runs")
+    long = tmp_path / ("a" * 300)
+    _one_line_error(runner.invoke(app, ["simulate", "compare", "pendulum", "--runs", "2", "--out", str(long)]),
+                    "File name too long")
+
+
+def test_an_integer_parameter_beyond_a_double_is_a_model_file_error(tmp_path: Path) -> None:
+    p = tmp_path / "big.toml"
+    p.write_text('name = "m"\ntime = "continuous"\nstates = ["x1", "x2"]\noutputs = ["y"]\n'
+                 f"parameters = {{ a = {10**400} }}\n\n[dynamics]\nf = [\"x2\", \"-a*x1\"]\nh = [\"x1\"]\n",
+                 encoding="utf-8")
+    _one_line_error(runner.invoke(app, ["analyze", str(p)]), "integer too large")
+    p.write_text(p.read_text().replace(str(10**400), "99999999999999999999999"), encoding="utf-8")  # above int64
+    res = runner.invoke(app, ["analyze", str(p)])
+    assert res.exit_code == 0 and "Traceback" not in res.output, res.output

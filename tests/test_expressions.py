@@ -75,3 +75,48 @@ def test_expression_error_is_a_model_error_and_value_error() -> None:
 def test_non_string_is_rejected() -> None:
     with pytest.raises(ExpressionError, match="must be a string"):
         parse_expression(3, SYMS)  # type: ignore[arg-type]
+
+
+@pytest.fixture()
+def deadline():
+    """Fail, rather than hang, when a parse runs past 10 s (the old parser took minutes on nested powers)."""
+    import signal
+
+    def boom(signum, frame):  # type: ignore[no-untyped-def]
+        raise TimeoutError("parse ran past 10 s")
+
+    old = signal.signal(signal.SIGALRM, boom)
+    signal.alarm(10)
+    yield
+    signal.alarm(0)
+    signal.signal(signal.SIGALRM, old)
+
+
+@pytest.mark.parametrize(("text", "match"), [
+    ("(((3*x1)**999)**999)**999", r"power out of range \(about 10\^477"),  # SymPy writes (3x)**999 as 3**999 x**999
+    ("(10*x1)**400", r"power out of range \(about 10\^400"),
+    ("(2**299*x1)**999", "power out of range"),
+    ("pi**999*x1", r"power out of range \(about 10\^497"),
+    ("exp(1000)*x1", r"constant out of range \(about 10\^434"),
+    ("exp(exp(10))", r"constant out of range \(about 10\^9566"),
+    ("1e200*1e200*x1", "product of numbers out of range"),
+])
+def test_constants_are_bounded_before_sympy_makes_them(text: str, match: str, deadline: None) -> None:
+    with pytest.raises(ExpressionError, match=match):
+        parse_expression(text, SYMS)
+
+
+@pytest.mark.parametrize("text", ["asin(2)*x1", "acos(-2)", "(-8)**(1/3)*x1", "(-2)**0.5", "sqrt(-1)", "log(-1)"])
+def test_non_real_constants_are_refused(text: str) -> None:
+    # before: accepted, and (-8)**(1/3)*x1 evaluated to 1.0 at x1 = 1 (the imaginary part dropped)
+    with pytest.raises(ExpressionError, match="non-real constant"):
+        parse_expression(text, SYMS)
+
+
+@pytest.mark.parametrize(("text", "value"), [
+    ("-(8**(1/3))*x1", -2.0), ("(-8)**3*x1", -512.0), ("exp(690)*x1", math.exp(690)), ("pi**200*pi**200*x1", math.pi**400),
+    ("(x1 + x2)**3", 8.0), ("x1**999", 1.0),
+])
+def test_large_but_representable_constants_still_parse(text: str, value: float) -> None:
+    got = float(parse_expression(text, SYMS).subs({SYMS["x1"]: 1.0, SYMS["x2"]: 1.0}))
+    assert got == pytest.approx(value, rel=1e-12)

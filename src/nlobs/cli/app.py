@@ -54,7 +54,9 @@ class _NlobsApp(typer.Typer):
     Click turns ``KeyboardInterrupt`` into "Aborted!" and exit 1, and SIGTERM's default action
     kills the process without running any cleanup; both signals raise :class:`_Interrupted`
     instead, a ``BaseException`` that nothing in nlobs catches, so every ``finally`` and every
-    atomic write's cleanup runs before the exit. The previous handlers are restored afterwards.
+    atomic write's cleanup runs before the exit. The previous handlers are restored afterwards. A
+    ``MemoryError`` that no size check foresaw ends in one line and exit 2 (the commands refuse the
+    sizes they can estimate before allocating).
     """
 
     def __call__(self, *args: Any, **kwargs: Any) -> Any:
@@ -64,6 +66,11 @@ class _NlobsApp(typer.Typer):
                 previous[sig] = signal.signal(sig, _interrupt)
         try:
             return super().__call__(*args, **kwargs)
+        except MemoryError:  # e.g. --runs 99999999999: NumPy cannot allocate the runs' arrays
+            sys.stderr.write("nlobs: error: not enough memory for this request (fewer runs, a shorter duration or a "
+                             "larger step would fit); nothing was written half-way\n")
+            sys.stderr.flush()
+            raise SystemExit(2) from None
         except _Interrupted as exc:
             name = signal.Signals(exc.signum).name
             sys.stderr.write(f"nlobs: interrupted by {name}; the files already written are complete, "

@@ -400,6 +400,11 @@ def _setup(scenario: Scenario, label: str, *, runs: int | None, duration: float 
     if steps > MAX_SIMULATION_STEPS:
         raise InvalidArgumentError(f"`duration` {dur:g} / `dt` {step:g} is {steps:.3g} steps; at most "
                                    f"{MAX_SIMULATION_STEPS:.0e} (raise `dt` or shorten `duration`)")
+    save_every = max(1, steps // SAVED_POINTS)
+    if runs_ * (steps // save_every + 1) * max(n, model.p) > MAX_SAVED_VALUES:
+        raise InvalidArgumentError(f"`runs` {runs_}: {runs_} runs × {steps // save_every + 1} saved times × "
+                                   f"{max(n, model.p)} values exceed {MAX_SAVED_VALUES:.0e}; use fewer runs")
+    # ^ before anything is allocated per run (99999999999 runs: refused, not a MemoryError)
     settle_ = settle if settle is not None else (
         d.settle if d.settle is not None and d.settle < dur else 0.25 * dur)  # the file's, unless past a shorter run
     settle_ = positive("`settle`", settle_, allow_zero=True)
@@ -434,10 +439,6 @@ def _setup(scenario: Scenario, label: str, *, runs: int | None, duration: float 
     pb = problem(scenario, box=region, x0=x0_, duration=dur, u=u if inputs else None,
                  u_source="the given inputs" if inputs else None, sensors=sensors, process_noise=q, label=label)
     pb = dataclasses.replace(pb, sources={**pb.sources, **_sources(d, box, x0, duration)})
-    save_every = max(1, steps // SAVED_POINTS)
-    if runs_ * (steps // save_every + 1) * max(n, model.p) > MAX_SAVED_VALUES:
-        raise InvalidArgumentError(f"`runs` {runs_}: {runs_} runs × {steps // save_every + 1} saved times × "
-                                   f"{max(n, model.p)} values exceed {MAX_SAVED_VALUES:.0e}; use fewer runs")
     describe = {
         "sensors": "; ".join(_describe_sensor(g, scenario.time_unit) for g in sensors) if sensors else
                    "exact, continuous measurement of every output (no [sensors] table)",

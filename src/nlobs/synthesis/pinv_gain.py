@@ -99,7 +99,14 @@ def high_gain_coefficients(r: int, theta: float, placement: Placement = "powers"
     """
     r_ = _check_order(r)
     th = positive("`theta`", theta)
-    if _check_placement(placement) == "multiple":
+    multiple = _check_placement(placement) == "multiple"
+    # the largest coefficient: C(r, r/2) θ^r (multiple root) or θ^{r(r+1)/2} (roots −θ^i), beyond doubles above 1e300
+    top = r_ * math.log10(th) + math.log10(math.comb(r_, r_ // 2)) if multiple else r_ * (r_ + 1) / 2 * math.log10(th)
+    if top > 300:
+        limit = 10 ** (300 / r_ if multiple else 600 / (r_ * (r_ + 1)))
+        raise InvalidArgumentError(f"`theta`: θ = {th:g} makes the gain coefficients of (10) about 10^{top:.0f} for a "
+                                   f"block of size {r_} (beyond double precision); take θ below about {limit:.3g}")
+    if multiple:
         return np.array([math.comb(r_, i) * th**i for i in range(1, r_ + 1)])
     coeffs = [1.0]
     for i in range(1, r_ + 1):  # multiply by (λ + θ^i)

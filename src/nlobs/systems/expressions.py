@@ -188,6 +188,46 @@ def _size(v: sp.Expr) -> tuple[float, float]:
     return (0.0, 0.0)
 
 
+def _const_size(v: sp.Expr) -> float:
+    """An upper bound of ``log10`` of the largest magnitude SymPy makes of the constants in ``v`` (and of their
+    reciprocals): a number's digits; a constant expression (``pi``, ``E``, ``exp(3)``, ``pi**7``) evaluated to 15
+    digits; a product adds its factors' sizes, a sum takes the largest term's plus ``log10`` of the number of
+    terms, a power with a number for exponent multiplies its base's size by it (what SymPy's expansion of
+    ``(3*x)**999`` into ``3**999 * x**999`` would create). Symbols and their functions count 0 (their values are the
+    run's business)."""
+    if v.is_Number:
+        return max(_size(v))
+    if not v.free_symbols:  # evaluated in SymPy's floats, whose exponent does not overflow (exp(1000) is 10^434)
+        try:
+            n = sp.N(v, 15)
+            if n == 0 or n.has(sp.zoo, sp.oo, -sp.oo, sp.nan):  # a non-finite one is refused by name at the end
+                return 0.0
+            lg = float(sp.N(sp.log(abs(n), 10), 15))
+        except (TypeError, ValueError, OverflowError, ZeroDivisionError):
+            return math.inf
+        return abs(lg) if math.isfinite(lg) else math.inf
+    if v.is_Mul:
+        return float(sum(_const_size(f) for f in v.args))
+    if v.is_Add:
+        return max(_const_size(t) for t in v.args) + math.log10(len(v.args))
+    if v.is_Pow and v.exp.is_Number:
+        return abs(float(v.exp)) * _const_size(v.base)
+    return 0.0
+
+
+def _non_real(v: sp.Expr) -> bool:
+    """Whether ``v``, a constant (no free symbols), has a non-zero imaginary part (``asin(2)``, ``(-8)**(1/3)``)."""
+    if v.free_symbols or v.is_Number:
+        return False
+    if v.is_real is True:
+        return False
+    try:
+        z = complex(sp.N(v, 15))
+    except (TypeError, ValueError, OverflowError, ZeroDivisionError):
+        return True
+    return abs(z.imag) > 1e-12 * max(1.0, abs(z.real))
+
+
 def _out_of_range(what: str, size: float) -> str:
     return f"{what} out of range (about 10^{size:.0f}; the limit is 10^{MAX_DIGITS})"
 
@@ -205,9 +245,18 @@ class _Walker:
         return ExpressionError(self.src, self._segment(node), reason)
 
     def _number(self, node: ast.AST, value: sp.Expr) -> sp.Expr:
-        """``value``, checked against :data:`MAX_DIGITS` when it is a number."""
-        if value.is_Number and max(_size(value)) >= MAX_DIGITS:
-            raise self._fail(node, _out_of_range("number", max(_size(value))))
+        """``value``, checked against :data:`MAX_DIGITS` when it is a number, and when it is a constant expression
+        (``pi**999``, ``exp(1000)``) against the same bound and for a non-real value (``asin(2)``)."""
+        if value.is_Number:
+            if max(_size(value)) >= MAX_DIGITS:
+                raise self._fail(node, _out_of_range("number", max(_size(value))))
+        elif not value.free_symbols:
+            size = _const_size(value)
+            if size >= MAX_DIGITS:
+                raise self._fail(node, _out_of_range("constant", size))
+            if _non_real(value):
+                raise self._fail(node, "non-real constant (e.g. asin of a number above 1, or an odd root of a "
+                                       "negative number: write -(8**(1/3)) for the real root)")
         return value
 
     def visit(self, node: ast.AST, depth: int) -> sp.Expr:
@@ -286,6 +335,7 @@ class _Walker:
             factors.append(sp.Pow(v, -1) if isinstance(op, ast.Div) else v)
         sizes = [_size(f) for f in factors if f.is_Number]
         size = max(sum(s[0] for s in sizes), sum(s[1] for s in sizes)) if sizes else 0.0
+        size = max(size, sum(_const_size(f) for f in factors if not f.is_Number))
         if size >= MAX_DIGITS:  # estimated before SymPy multiplies the numbers out
             raise self._fail(node, _out_of_range("product of numbers", size))
         return self._number(node, sp.Mul(*factors))
@@ -296,10 +346,14 @@ class _Walker:
             e = abs(float(exp))
             if e > MAX_EXPONENT:
                 raise self._fail(node, f"exponent larger than {MAX_EXPONENT} in magnitude")
-            size = e * max(_size(base)) if base.is_Number else 0.0
+            size = e * _const_size(base)  # (3*x)**999 is 3**999 * x**999 once SymPy distributes it
             if size >= MAX_DIGITS:  # estimated before SymPy computes the power
                 raise self._fail(node, _out_of_range("power", size))
-        return self._number(node, base**exp)
+        value = base**exp
+        if value.has(sp.I) or (base.is_Number and base.is_negative and exp.is_Number and not exp.is_Integer):
+            raise self._fail(node, "non-real constant (an even or fractional root of a negative number: write "
+                                   "-(8**(1/3)) for the real cube root)")
+        return self._number(node, value)
 
 
 # ---------------------------------------------------------------------- values given to the Python API

@@ -17,6 +17,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import math
+
 import numpy as np
 
 from nlobs._io import read_regular_text
@@ -445,9 +447,14 @@ def read_parameters(src: Source, data: Mapping[str, Any]) -> dict[str, float]:
         why = name_problem(k)
         if why is not None:
             raise src.error(f"parameter name is not a valid name ({why})", key="parameters", text=k)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
-            raise src.error(f"parameter '{k}' must be a finite number", key="parameters", string=k, text=repr(v))
-        out[k] = float(v)
+        try:  # an integer beyond a double (or beyond int64, which NumPy refuses) is not a finite number
+            f = float(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else math.nan
+        except OverflowError:
+            f = math.inf
+        if not math.isfinite(f):
+            raise src.error(f"parameter '{k}' must be a finite number", key="parameters", string=k,
+                            text=repr(v)[:60])
+        out[k] = f
     return out
 
 

@@ -36,7 +36,10 @@ def prepare_out(out: Path | None) -> None:
     """
     if out is None:
         return
-    existed = out.is_dir()
+    try:
+        existed = out.is_dir()
+    except OSError:  # a name too long for the file system: is_dir() raises instead of answering
+        existed = False
     try:
         prepare_output_dir(out)
     except OSError as exc:
