@@ -313,3 +313,19 @@ def test_slycot_answer_that_does_not_reproduce_is_rejected(monkeypatch) -> None:
 
     monkeypatch.setattr(norms_mod, "_slycot_module", lambda: Fake)
     assert hinf_norm(A, B, C, D, method="slycot") == pytest.approx(own, rel=1e-12)
+
+
+@pytest.mark.parametrize(("A", "C", "hidden"), [
+    (np.diag([-1e6, -1e-6]), np.array([[1.0, 1.0]]), []),  # was called unobservable: xGEBAL shrank C's column
+    (np.diag([-1e6, -1e-6, -3.0]), np.array([[1.0, 1.0, 0.0]]), [-3.0]),
+])
+def test_widely_scaled_modes_are_judged_as_the_reference_does(A, C, hidden) -> None:  # type: ignore[no-untyped-def]
+    from nlobs.linear.observability import unobservable_modes
+
+    # PBH by hand: rank [λI − A; C] = n at every eigenvalue except the hidden ones (C's entry there is 0)
+    for lam in np.diag(A):
+        s = np.linalg.svd(np.vstack([lam * np.eye(A.shape[0]) - A, C]), compute_uv=False)
+        assert (s[-1] < 1e-12) == (lam in hidden)
+    np.testing.assert_allclose(np.sort(unobservable_modes(A, C).real), hidden)
+    np.testing.assert_allclose(np.sort(unobservable_modes(A, C, method="pbh").real), hidden)
+    assert is_observable(A, C) == (not hidden)

@@ -67,7 +67,8 @@ def _is_strictly_stable(A: NDArray, discrete: bool) -> bool:
     return bool(np.max(lam.real) < 0.0)
 
 
-def _balance(A: NDArray, B: NDArray, C: NDArray) -> tuple[NDArray, NDArray, NDArray]:
+def _balance(A: NDArray, B: NDArray, C: NDArray, scaling: list[NDArray] | None = None) -> tuple[NDArray, NDArray,
+                                                                                                  NDArray]:
     """Diagonal state similarity ``(T⁻¹AT, T⁻¹B, CT)`` balancing ``[A B; C 0]``.
 
     Osborne/Parlett–Reinsch iteration (as in LAPACK ``xGEBAL`` and SLICOT
@@ -79,12 +80,16 @@ def _balance(A: NDArray, B: NDArray, C: NDArray) -> tuple[NDArray, NDArray, NDAr
     observer ``A − KC`` with ``‖K‖ ~ 1e10``) gives a Hamiltonian pencil whose QZ
     backward error, relative to its largest entries, swamps its small ones: the
     computed spectrum loses its Hamiltonian symmetry and imaginary-axis
-    eigenvalues (level crossings) are missed, so ``‖G‖∞`` is under-estimated.
+    eigenvalues (level crossings) are missed, so ``‖G‖∞`` is under-estimated. ``scaling``, when given,
+    receives ``t`` (``T = diag(t)``).
     """
     n = A.shape[0]
     A = A.copy()
     B = B.copy()
     C = C.copy()
+    t = np.ones(n)
+    if scaling is not None:
+        scaling.append(t)
     if n == 0:
         return A, B, C
     radix = 2.0
@@ -99,6 +104,7 @@ def _balance(A: NDArray, B: NDArray, C: NDArray) -> tuple[NDArray, NDArray, NDAr
             f = radix ** round(0.5 * math.log2(r / c))
             if f != 1.0 and c * f + r / f < 0.95 * (c + r):
                 converged = False
+                t[i] *= f
                 A[:, i] *= f
                 C[:, i] *= f
                 A[i, :] /= f

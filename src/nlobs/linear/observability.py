@@ -35,6 +35,8 @@ functions", SIAM J. Sci. Comput. 15 (1994) 36–61.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import functools
 import math
 
@@ -185,14 +187,16 @@ def _unobservable_eigs(A: NDArray, C: NDArray, rtol: float, method: str = "auto"
     if n == 0:
         return np.zeros(0, dtype=complex)
     fast = method != "pbh"
-    A, C, kA, tol, scale = _prepare(A, C, rtol, fast=fast)
+    A0, C0 = A, C
+    scaling: list[NDArray] = []
+    A, C, kA, tol, scale = _prepare(A, C, rtol, fast=fast, scaling=scaling)
     if C.shape[0] == 0 or scale == 0.0:
         lam0 = np.asarray(scipy.linalg.eigvals(A), dtype=complex)
         return np.ldexp(lam0.real, kA) + 1j * np.ldexp(lam0.imag, kA)
     if fast:
         if _observable_by_staircase(A, C, tol / scale):
             return np.zeros(0, dtype=complex)
-        out = _batched_pbh(A, C, tol, scale)
+        out = _batched_pbh(A, C, tol, scale, lambda: _reference(A0, C0, rtol), scaling[0])
     else:
         out = _per_cluster_pbh(A, C, tol, scale)
     z = np.concatenate(out) if out else np.zeros(0, dtype=complex)
@@ -200,7 +204,8 @@ def _unobservable_eigs(A: NDArray, C: NDArray, rtol: float, method: str = "auto"
     return np.ldexp(z.real, kA) + 1j * np.ldexp(z.imag, kA)
 
 
-def _prepare(A: NDArray, C: NDArray, rtol: float, *, fast: bool) -> tuple[NDArray, NDArray, int, float, float]:
+def _prepare(A: NDArray, C: NDArray, rtol: float, *, fast: bool,
+             scaling: list[NDArray] | None = None) -> tuple[NDArray, NDArray, int, float, float]:
     """The scaled, balanced realisation the rank decisions are made on, with its tolerance.
 
     ``A`` and ``C`` are each scaled by a power of 2 to a largest entry in ``[0.5, 1)`` and the
@@ -209,7 +214,8 @@ def _prepare(A: NDArray, C: NDArray, rtol: float, *, fast: bool) -> tuple[NDArra
     output coordinates, with zero columns, are left alone), the reference with the
     Osborne iteration of :func:`nlobs.linear.norms._balance`.
     Returns ``(A, C, kA, tol, scale)``: the modes of the original ``A`` are ``2^kA`` times those
-    of the returned one.
+    of the returned one. ``scaling``, when given, receives the balancing diagonal ``d`` (the returned pair is
+    ``(D⁻¹AD, CD)`` of the power-of-2-scaled one).
     """
     n = A.shape[0]
     kA = _exponent(A)
@@ -224,8 +230,10 @@ def _prepare(A: NDArray, C: NDArray, rtol: float, *, fast: bool) -> tuple[NDArra
         d = np.asarray(sc[:n], dtype=float) if info == 0 else np.ones(n)
         A = (A / d[:, None]) * d[None, :]
         C = C * d[None, :]
+        if scaling is not None:
+            scaling.append(d)
     else:
-        A, _, C = _balance(A, np.zeros((n, 0)), C)
+        A, _, C = _balance(A, np.zeros((n, 0)), C, scaling)
     scale = math.sqrt(float(np.vdot(A, A)) + float(np.vdot(C, C)))
     tol = max(rtol * scale, n * _EPS * scale)
     return A, C, kA, tol, scale
@@ -358,7 +366,16 @@ def _cluster_modes(A: NDArray, C: NDArray, pts: NDArray, ctol: float, tol: float
     return [_unobservable_in_subspace(T[:k, :k], C @ Zs[:, :k], tol)]
 
 
-def _batched_pbh(A: NDArray, C: NDArray, tol: float, scale: float) -> list[NDArray]:
+def _reference(A: NDArray, C: NDArray, rtol: float) -> tuple[NDArray, NDArray, NDArray, float, float]:
+    """The reference's pair (Osborne-balanced), its balancing ``t``, tolerance and cluster tolerance."""
+    t: list[NDArray] = []
+    Ao, Co, _, tol, scale = _prepare(A, C, rtol, fast=False, scaling=t)
+    return Ao, Co, t[0], tol, 1e-4 * float(np.linalg.norm(Ao)) + _EPS * scale
+
+
+def _batched_pbh(A: NDArray, C: NDArray, tol: float, scale: float,
+                 reference: Callable[[], tuple[NDArray, NDArray, NDArray, float, float]] | None = None,
+                 d: NDArray | None = None) -> list[NDArray]:
     """The PBH test at every eigenvalue from one eigendecomposition, ``O(n³)``.
 
     For a simple, isolated eigenvalue ``λ`` the invariant subspace of the reference test is
@@ -368,6 +385,13 @@ def _batched_pbh(A: NDArray, C: NDArray, tol: float, scale: float) -> list[NDArr
     reference treatment, an ordered Schur form per cluster (the single linkage as the connected
     components of the ``|λᵢ − λⱼ| ≤ ctol`` graph), and so does the whole pair when an isolated
     eigenvalue is too ill conditioned for its separation (left eigenvectors give the condition).
+
+    A mode found unobservable is confirmed in the reference's coordinates (``reference``, computed only then):
+    ``xGEBAL`` balances ``[[A, 0], [C, 0]]`` and may shrink a state's column of ``C`` far below the rank tolerance
+    (``A = diag(−1e6, −1e−6)``, ``C = [1, 1]``: to 1.8e−12), which makes an observed mode look hidden, where the
+    reference's balancing leaves it. An isolated mode's eigenvector ``v`` (here, ``D`` = ``diag(d)``) is the
+    reference's ``T⁻¹ D v`` with the same ``C v``: its residual there is ``‖C v‖ / ‖T⁻¹ D v‖``; a cluster is
+    decided again by the reference's own test.
     """
     lam, W, V = scipy.linalg.eig(A, left=True, right=True, check_finite=False)
     normA = float(np.linalg.norm(A))
@@ -385,10 +409,23 @@ def _batched_pbh(A: NDArray, C: NDArray, tol: float, scale: float) -> list[NDArr
     kappa = 1.0 / np.maximum(np.abs(np.sum(W.conj() * V, axis=0)), 1e-300)
     if np.any(single & (1e3 * kappa * _EPS * scale >= 0.5 * gap)):
         return _per_cluster_pbh(A, C, tol, scale)
-    res = np.linalg.norm(C @ V, axis=0) / np.linalg.norm(V, axis=0)
-    out: list[NDArray] = [lam[single & (res <= tol)].astype(complex)]
+    CV = np.linalg.norm(C @ V, axis=0)
+    res = CV / np.linalg.norm(V, axis=0)
+    hidden = single & (res <= tol)
+    ref = None
+    if reference is not None and d is not None and np.any(hidden):
+        ref = reference()
+        Ao, Co, t, tol_o, _ = ref
+        vo = (d / t)[:, None] * V[:, hidden]
+        hidden[np.flatnonzero(hidden)] = CV[hidden] / np.maximum(np.linalg.norm(vo, axis=0), 1e-300) <= tol_o
+    out: list[NDArray] = [lam[hidden].astype(complex)]
     for comp in np.flatnonzero(sizes > 1):
-        out.extend(_cluster_modes(A, C, lam[labels == comp], ctol, tol))
+        pts = lam[labels == comp]
+        modes = _cluster_modes(A, C, pts, ctol, tol)
+        if reference is not None and any(m.size for m in modes):
+            ref = ref or reference()
+            modes = _cluster_modes(ref[0], ref[1], pts, ref[4], ref[3])
+        out.extend(modes)
     return out
 
 
