@@ -316,3 +316,25 @@ def test_an_integer_parameter_beyond_a_double_is_a_model_file_error(tmp_path: Pa
     p.write_text(p.read_text().replace(str(10**400), "99999999999999999999999"), encoding="utf-8")  # above int64
     res = runner.invoke(app, ["analyze", str(p)])
     assert res.exit_code == 0 and "Traceback" not in res.output, res.output
+
+
+def test_a_step_longer_than_the_run_is_refused() -> None:
+    # before: ran, exit 0, and reported an RMS of 917 for an error that decays
+    _one_line_error(runner.invoke(app, ["simulate", "compare", "pendulum", "--runs", "2", "--dt", "10",
+                                        "--duration", "1"]), "--dt 10 is longer than --duration 1")
+    _one_line_error(runner.invoke(app, ["design", "drift", "pendulum", "--simulate", "--x0", "0.1,0", "--dt", "10",
+                                        "--duration", "1"]), "longer than")
+
+
+def test_the_python_api_refuses_a_step_longer_than_the_run() -> None:
+    import nlobs
+    from nlobs.errors import InvalidArgumentError
+    from nlobs.methods.problem import problem
+    from nlobs.methods.registry import get
+
+    pb = problem("pendulum")
+    obs = get("luenberger").design(pb).observer
+    with pytest.raises(InvalidArgumentError, match="longer than the duration"):
+        nlobs.simulate(pb.model.compile(), obs, [0.1, 0.0], [0.0, 0.0], duration=1.0, dt=10.0, u=[0.0])
+    res = nlobs.simulate(pb.model.compile(), obs, [0.1, 0.0], [0.0, 0.0], duration=1.0, dt=1.0, u=[0.0])  # one step
+    assert res.t[-1] == pytest.approx(1.0)

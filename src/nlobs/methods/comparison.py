@@ -396,6 +396,9 @@ def _setup(scenario: Scenario, label: str, *, runs: int | None, duration: float 
             raise InvalidArgumentError(f"`dt`: the model is discrete with dt = {step:g} s; got `dt` {dt:g}")
     else:
         step = positive("`dt`", dt if dt is not None else (d.dt or 1e-3))
+    if step > dur * (1 + 1e-12):  # one step past the end of the run: every number would be of the wrong time
+        raise InvalidArgumentError(f"`dt` {step:g} is longer than `duration` {dur:g}: the one step would end past the "
+                                   "run (take `dt` at most `duration`)")
     steps = math.ceil(dur / step - 1e-9)
     if steps > MAX_SIMULATION_STEPS:
         raise InvalidArgumentError(f"`duration` {dur:g} / `dt` {step:g} is {steps:.3g} steps; at most "

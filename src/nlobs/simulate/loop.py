@@ -613,6 +613,9 @@ def simulate(
     if isinstance(save_every, bool) or not isinstance(save_every, (int, np.integer)) or save_every < 1:
         raise InvalidArgumentError(f"save_every: expected a positive integer, got {save_every!r}")
     steps_needed = duration / step
+    if step > duration * (1 + 1e-12):  # one step past the end: a result at t0 + dt > t0 + duration
+        raise InvalidArgumentError(f"dt: {step:g} s is longer than the duration {duration:g} s (the one step would end "
+                                   "past the run); take dt at most the duration")
     if not steps_needed <= MAX_STEPS:  # also an overflow to inf
         raise InvalidArgumentError(
             f"dt: duration={duration:g} s with dt={step:g} s needs {steps_needed:.4g} steps, more than "

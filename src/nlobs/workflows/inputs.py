@@ -118,6 +118,9 @@ class SimulationRequest:
         object.__setattr__(self, "u", _finite_vector("`u`", self.u))
         object.__setattr__(self, "duration", _option("`duration`", self.duration))
         object.__setattr__(self, "dt", _option("`dt`", self.dt))
+        if self.dt > self.duration * (1 + 1e-12):
+            raise InvalidArgumentError(f"`dt` {self.dt:g} is longer than `duration` {self.duration:g}: the one step would "
+                                       "end past the run (take `dt` at most `duration`)")
         steps = self.steps
         if steps > MAX_SIMULATION_STEPS:
             raise InvalidArgumentError(
