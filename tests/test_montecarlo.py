@@ -113,6 +113,38 @@ def test_resume_skips_finished_chunks_and_refuses_another_study(study: SetValued
         monte_carlo(study, 120, seed=5, chunk=30, out=out, resume=False)
 
 
+def test_damaged_chunks_are_computed_again(study: SetValuedStudy, tmp_path: Path) -> None:
+    # before: a truncated, empty or garbage chunk ended in a BadZipFile traceback, a chunk missing a key in a
+    # KeyError, and a chunk with the right `runs` field and 10 of its 30 rows was accepted as all of them
+    out = tmp_path / "mc"
+    ref = monte_carlo(study, 120, seed=5, chunk=30, out=out)
+    good = chunk_path(out, 1).read_bytes()
+
+    def damaged(kind: str) -> bytes:
+        with np.load(chunk_path(out, 1)) as f:
+            data = {k: f[k] for k in f.files}
+        if kind == "short":  # 10 of 30 rows, the rest of the file consistent
+            data = {k: (v[:10] if k.startswith("summary__") else v) for k, v in data.items()}
+        elif kind == "missing":
+            data.pop(next(k for k in data if k.startswith("summary__")))
+        elif kind == "altered":
+            k = next(k for k in data if k.startswith("summary__") and data[k].dtype.kind == "f")
+            data[k] = data[k] + 1.0
+        import io
+
+        buf = io.BytesIO()
+        np.savez(buf, **data)
+        return buf.getvalue()
+
+    for content in (good[: len(good) // 2], b"", b"not a zip file at all", damaged("short"), damaged("missing"),
+                    damaged("altered")):
+        chunk_path(out, 1).write_bytes(content)
+        again = monte_carlo(study, 120, seed=5, chunk=30, out=out)
+        assert again.resumed_chunks == 3  # the damaged one is computed again
+        _same(ref, again)
+        assert chunk_path(out, 1).read_bytes() == good  # and written anew, bit for bit
+
+
 def test_bad_arguments(study: SetValuedStudy, tmp_path: Path) -> None:
     with pytest.raises(InvalidArgumentError, match="runs"):
         monte_carlo(study, 0)

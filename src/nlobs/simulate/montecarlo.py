@@ -284,23 +284,51 @@ def _open_folder(out: Path, manifest: dict[str, Any], resume: bool) -> None:
         raise OutputError(f"{mf}: cannot write ({exc.strerror or exc})") from exc
 
 
-def _read_chunk(path: Path, start: int, stop: int) -> dict[str, Array] | None:
-    """A finished chunk's summaries, or ``None`` when the file is absent or not the expected chunk."""
+def _chunk_digest(data: dict[str, Array]) -> str:
+    """SHA-256 of a chunk's arrays: each name, dtype, shape and bytes, in name order (``digest`` itself left out)."""
+    h = hashlib.sha256()
+    for k in sorted(data):
+        if k == "digest":
+            continue
+        a = np.ascontiguousarray(data[k])
+        h.update(f"{k}\0{a.dtype.str}\0{a.shape}\0".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def _read_chunk(path: Path, start: int, stop: int, trajectories: bool = False) -> dict[str, Array] | None:
+    """A finished chunk's summaries, or ``None`` when the file is absent or not exactly the chunk it was written as.
+
+    The file must open (a truncated, empty or garbage file does not), hold ``runs = [start, stop]``, summaries (and,
+    when asked, trajectories) of ``stop − start`` rows each, and the digest written with it; anything else is
+    computed again (and the file written anew).
+    """
     if not path.is_file():
         return None
     try:
-        with np.load(path) as f:
-            if list(f["runs"]) != [start, stop]:
-                return None
-            return {k[len("summary__"):]: f[k] for k in f.files if k.startswith("summary__")}
-    except (OSError, ValueError, KeyError, EOFError):
+        with np.load(path, allow_pickle=False) as f:
+            data = {k: f[k] for k in f.files}
+    except Exception:  # noqa: BLE001 - a damaged file of any kind (BadZipFile, EOFError, ValueError, OSError…)
         return None
+    runs = data.get("runs")
+    if runs is None or runs.shape != (2,) or list(runs) != [start, stop] or "digest" not in data:
+        return None
+    if str(data["digest"]) != _chunk_digest(data):
+        return None
+    summ = {k[len("summary__"):]: v for k, v in data.items() if k.startswith("summary__")}
+    rows = [v for k, v in data.items() if k.startswith("summary__") or (trajectories and k.startswith("trajectory__"))]
+    if not summ or any(v.ndim == 0 or v.shape[0] != stop - start for v in rows):
+        return None
+    if trajectories and not any(k.startswith("trajectory__") for k in data):
+        return None
+    return summ
 
 
 def _write_chunk(path: Path, start: int, stop: int, summ: dict[str, Array], traj: dict[str, Array]) -> None:
     data = {"runs": np.array([start, stop])}
     data.update({"summary__" + k: v for k, v in summ.items()})
     data.update({"trajectory__" + k: v for k, v in traj.items()})
+    data["digest"] = np.array(_chunk_digest(data))
     try:
         atomic_write(path, lambda fh: np.savez(fh, **data))
     except OSError as exc:
@@ -389,7 +417,7 @@ def monte_carlo(study: Study, runs: int, *, seed: int = 0, batch: int | None = N
     if folder is not None:
         _open_folder(folder, _manifest(study, runs_, seed_, batch_, chunk_, trajectories), resume)
         for c, (a, b) in enumerate(bounds):
-            results[c] = _read_chunk(chunk_path(folder, c), a, b)
+            results[c] = _read_chunk(chunk_path(folder, c), a, b, trajectories)
             resumed += results[c] is not None
     todo = [c for c in range(n_chunks) if results[c] is None]
     kind, workers = describe(executor)
