@@ -141,3 +141,32 @@ def test_bad_inputs_get_typed_errors() -> None:
     with pytest.raises(DesignInfeasible, match="detectable"):
         design_h2_gain([[1.0, 0.0], [0.0, 1.0]], [[1.0, 0.0]], [[1.0], [1.0]], gamma=10.0,
                        noise=NoiseModel(np.eye(1)))
+
+
+def test_the_kalman_infimum_of_the_gnss_axis_is_the_limit_of_the_regularised_filters() -> None:
+    # before: one regularised value, 0.16804, printed as the infimum; the limit (SciPy's CARE with z's process
+    # noise shrinking: 0.167631, 0.167458, 0.167441 at 1e-10, 1e-12, 1e-14) is 0.167439
+    import scipy.linalg as sl
+
+    from nlobs.methods.gnss_ins import DEMO_NOISE
+    from nlobs.navigation.gains import axis_noise_model, axis_system, noise_optimal_gains
+
+    A, _, C = (np.asarray(x) for x in axis_system(False))
+    m = axis_noise_model(DEMO_NOISE, imu_rate_hz=100, gnss_rate_hz=5)
+    Bw, W, V = m.process_input, m.process, m.measurement
+
+    def h2(qz: float) -> float:
+        P = sl.solve_continuous_are(A.T, C.T, Bw @ W @ Bw.T + np.diag([0, 0, qz]), V)
+        K = P @ C.T @ np.linalg.inv(V)
+        F = A - K @ C
+        B = np.hstack([Bw @ np.sqrt(W), -K @ sl.sqrtm(V).real])
+        X = sl.solve_continuous_lyapunov(F, -B @ B.T)
+        return float(np.sqrt(np.trace(m.error_weight @ X @ m.error_weight.T)))
+
+    seq = [h2(q) for q in (1e-12, 1e-14, 1e-16)]
+    assert seq[0] > seq[1] > seq[2]
+    _, cert = noise_optimal_gains(DEMO_NOISE, imu_rate_hz=100, gnss_rate_hz=5)
+    assert cert.kalman_regularised
+    assert cert.h2_kalman == pytest.approx(0.167439, abs=2e-6)
+    assert seq[2] >= cert.h2_kalman - 1e-6 and seq[2] - cert.h2_kalman < 5e-6
+    assert cert.h2 / cert.h2_kalman - 1 == pytest.approx(0.038, abs=5e-4)

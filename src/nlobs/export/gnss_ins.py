@@ -1,4 +1,4 @@
-r"""The GNSS/INS observer (24) of Grip, Fossen, Johansen & Saberi as C: the fused split step, ported.
+r"""The GNSS/INS observer (24) of Grip, Saberi & Johansen as C: the fused split step, ported.
 
 :func:`generate_gnss_ins` makes the :class:`~nlobs.export.program.CProgram` of a
 :class:`~nlobs.navigation.gnss_ins.GnssInsObserver` or a
@@ -604,7 +604,7 @@ static void {P}_estimate_(const double *z, double *xhat)
 """])
     notes = _notes(observer, base, modes, times, h0, po)
     title = ("Scheduled GNSS/INS observer (24)" if times or type(observer).__name__ == "ScheduledGnssInsObserver"
-             else "GNSS/INS observer (24)") + " of Grip, Fossen, Johansen & Saberi, split step"
+             else "GNSS/INS observer (24)") + " of Grip, Saberi & Johansen, split step"
     return CProgram(prefix=P, title=title, n_z=nz, n_x=15, n_u=9, n_y=ny, discrete=False, body=body,
                     correcting=True, own_step=True, own_init=True, own_estimate=True, notes=notes,
                     codec=gnss_ins_codec(po),

@@ -254,7 +254,7 @@ class GnssInsMethod:
     """
 
     name: str = "gnss-ins"
-    title: str = "GNSS/INS observer (Grip, Fossen, Johansen & Saberi (24)), the demo's certified gains"
+    title: str = "GNSS/INS observer (Grip, Saberi & Johansen (24)), the demo's certified gains"
     uses_region: bool = False
     options: frozenset[str] = frozenset()
 
@@ -296,7 +296,7 @@ class GnssInsMethod:
             f"IMU period {parameters['imu_period']:g} s (the module refuses another step length)",)
         return Design(self.name, obs, cert, tuple(cert.checks), (), parameters, {"gamma": "default"}, desc,
                       gain=cert.gain, failed=() if cert.verified else ("the gain's certificate failed",),
-                      report=schedule, theorem="Grip, Fossen, Johansen & Saberi (24), the demo's noise-optimal "
+                      report=schedule, theorem="Grip, Saberi & Johansen (24), the demo's noise-optimal "
                                                "certified gains", details=details)
 
 

@@ -60,7 +60,7 @@ REGISTRY: tuple[Entry, ...] = (
     Entry("setvalued", "nlobs.methods.setvalued", "SETVALUED",
           "Khajenejad & Yong (10)–(15), Algorithm 1, a discrete model with [unknown_inputs]", simulated=False),
     Entry("gnss-ins", "nlobs.methods.gnss_ins", "GNSS_INS",
-          "Grip, Fossen, Johansen & Saberi (24), the demo's flight (MODEL is gnss-ins)", simulated=False),
+          "Grip, Saberi & Johansen (24), the demo's flight (MODEL is gnss-ins)", simulated=False),
 )
 
 

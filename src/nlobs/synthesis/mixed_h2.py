@@ -340,6 +340,29 @@ def kalman_bucy_gain(A: ArrayLike, C: ArrayLike, noise: NoiseModel, *,
                            "((A, C) detectable and (A, B_w) stabilisable are needed)", constraint="Kalman–Bucy")
 
 
+def _kalman_infimum(A: NDArray[np.float64], C: NDArray[np.float64], noise: NoiseModel, h2_first: float,
+                    K_first: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
+    """The infimum of ``‖T‖₂`` over gains when the Kalman–Bucy filter needs a regularisation (not attained).
+
+    The regularised filter's norm at relative regularisations ``ρ = 1e−10, 1e−12, 1e−14`` falls like ``√ρ`` (the
+    slow mode's gain is ``√(ρ/V)``: its variance term ``ρ/(2k)`` and its noise term ``k V/2`` both scale so);
+    Richardson's step with ratio ``√100 = 10`` on the last two gives the limit. Falls back to the first value
+    when a smaller regularisation has no stabilising solution.
+    """
+    values, gain = [], K_first
+    for rho in (1e-10, 1e-12, 1e-14):
+        try:
+            K, _ = kalman_bucy_gain(A, C, noise, regularise=rho)
+        except DesignInfeasible:
+            break
+        values.append(_h2(A, C, K, noise))
+        gain = K
+    if len(values) < 2 or not all(math.isfinite(v) for v in values):
+        return h2_first, K_first
+    a, b = values[-2], values[-1]
+    return max(b - (a - b) / 9.0, 0.0), gain
+
+
 # --------------------------------------------------------------------------- certificate
 
 
@@ -367,7 +390,8 @@ class MixedH2Certificate(CertificateMixin):
     refined : bool
         Whether the returned gain is the refined one.
     h2_kalman : float
-        ``‖T‖₂`` of the Kalman–Bucy gain (:func:`kalman_bucy_gain`): the unconstrained infimum.
+        ``‖T‖₂`` of the Kalman–Bucy gain (:func:`kalman_bucy_gain`): the unconstrained infimum (when the filter
+        needs a regularisation, the limit as it vanishes, :func:`_kalman_infimum`; approached, not attained).
     hinf_kalman : float
         ``‖H‖∞`` of the Kalman–Bucy gain: the ``γ`` that gain would need in (14) (``inf`` if
         its closed loop is not Hurwitz).
@@ -665,6 +689,8 @@ def _certificate(d: Any, noise: NoiseModel, K: NDArray[np.float64], gamma: float
     try:
         Kk, reg = kalman_bucy_gain(d.A, d.C, noise)
         h2k = _h2(d.A, d.C, Kk, noise)
+        if reg:  # the infimum is not attained: its limit as the regularisation vanishes
+            h2k, Kk = _kalman_infimum(d.A, d.C, noise, h2k, Kk)
         hk = float(hinf_norm(d.A - Kk @ d.C, d.Bd, np.eye(n), np.zeros((n, d.Bd.shape[1]))))
     except DesignInfeasible:
         h2k, hk, reg = math.nan, math.nan, False
