@@ -324,3 +324,15 @@ def test_saturation_branches():
     zero = np.zeros((*x1.shape, 0))
     assert _rel(cobs.rhs(0.0, z, zero, y), obs.rhs(0.0, z, zero, y)) <= RTOL
     assert np.any(np.abs(x1 - 1.25) < 0.2) and np.any(np.abs(obs.z_hat(z)) > 2.0)
+
+
+def test_an_uncertified_cascade_header_does_not_say_certified_on_theorem_1(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    # before: "certified on: Grip, Saberi & Johansen, LMI (14) and Theorem 1" for a pole placement without
+    # [cascade.lyapunov], whose status is "H∞ gain verified"
+    from nlobs.workflows.export import export_model_observer
+
+    rep = export_model_observer("chemostat-analyser", observer="cascade", out=tmp_path)
+    header = rep.files[0].read_text(encoding="utf-8")
+    assert not rep.certified and "NOT CERTIFIED" in header
+    assert "certified on" not in header and "and Theorem 1" not in header
+    assert "rests on" in header and "LMI (14) only" in header

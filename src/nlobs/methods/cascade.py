@@ -570,7 +570,10 @@ def cascade_design(d: CascadeDesign, problem: Problem | None = None, *, gamma_gi
                 f"‖H‖∞ = {t1.hinf_H:.4g} ≥ γ = {t1.bound:.4g}"),
         Premise("exact measurement and model", exact, f"{what} (Theorem 1 is for an exact output and model)"))
     obs = d.observer()
-    sampled, why_not, theorem = None, "", "Grip, Saberi & Johansen, LMI (14) and Theorem 1"
+    theorem = ("Grip, Saberi & Johansen, LMI (14) and Theorem 1" if t1.bound is not None else
+               "Grip, Saberi & Johansen, LMI (14) only (‖H‖∞ < γ verified; Theorem 1 needs the [cascade.lyapunov] "
+               "constants)")
+    sampled, why_not = None, ""
     if problem is not None and sensors:
         if sampling == "predictor" and d.verified:
             from nlobs.methods.cascade_sampling import cascade_sampling_bound

@@ -186,7 +186,7 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
             raise
         raise InvalidArgumentError(f"{', '.join(sorted(options))}: {exc}") from exc
     notes = (("certificate", ("verified" if certified else "NOT CERTIFIED") + (f" ({why})" if why else "")),
-             ("certified on", text))
+             ("certified on" if certified else "rests on", text))
     c_options = {"imu_period": design.parameters["imu_period"]} if observer == "gnss-ins" else None
     res = export_observer(obs, out, prefix=prefix or f"{name}_{observer}", notes=notes, options=c_options)
     verdict = Verdict.OK if certified else Verdict.FAILED
