@@ -235,3 +235,28 @@ def test_scaled_sdp_falls_back_to_theta_1_when_the_w_search_fails_verification(m
     c = RiccatiConstants((2,), _F_ends((2,)), 1.0, 1.0, 1.0)
     cert = design_drift_gain_sdp(c)  # scaling="auto": θ = 1 is still tried
     assert cert.verified and cert.scaling == 1.0
+
+
+def test_the_largest_mu_row_is_the_gain_bounds_and_the_other_reading_of_remark_2_11() -> None:
+    # reproduce dallamora2000: "largest μ (SDP) = 0.976" is under ‖K̃‖ ≤ 1e6; (2.17) still holds at μ = 0.99
+    # with a larger gain bound. Remark 2.11's eigenvalues −i·w give the smallest w 4.03; the other reading, −wⁱ, 3.14
+    from nlobs.papers.dallamora2000 import brunovsky_triple
+    from nlobs.synthesis.drift_gain import RiccatiConstants, design_drift_gain_sdp, riccati_lhs, smallest_w
+
+    c = RiccatiConstants((2,), np.eye(2), 1.0, 0.99, 1.0)
+    with pytest.raises(DesignInfeasible):
+        design_drift_gain_sdp(c, kappa_max=1e6, scaling=None)
+    assert design_drift_gain_sdp(c, kappa_max=1e8, scaling=None).verified
+    c1 = RiccatiConstants((2,), brunovsky_triple((2,))[1], 1.0, 1.0, 1.0)
+    assert smallest_w(c1).w == pytest.approx(4.03, abs=0.01)
+
+    def holds(w: float) -> bool:  # the pair of eigenvalues −w, −w², P = (VᵀV)⁻¹, checked with NumPy's eigvalsh
+        lam = np.array([-w, -w * w])
+        K = np.array([[-lam.sum()], [lam.prod()]])
+        V = np.array([[x, 1.0] for x in lam])
+        L = riccati_lhs(c1, K, np.linalg.inv(V.T @ V))
+        return bool(np.linalg.eigvalsh((L + L.T) / 2)[-1] < 0)
+
+    ws = np.geomspace(1.05, 100.0, 20000)
+    first = next(w for w in ws if holds(w))
+    assert first == pytest.approx(3.14, abs=0.01)

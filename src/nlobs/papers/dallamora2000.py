@@ -359,7 +359,8 @@ def rows() -> list[ReproRow]:
     out.append(ReproRow("Remark 2.11: P(w) = (V_sᵀV_s)⁻¹ solves (2.17) for w large; s = (2), α = μ = γ = 1: smallest w",
                         "w large enough", _r(w1.w),
                         f"bracket ({w1.bracket[0]:.5g}, {w1.bracket[1]:.5g}); λ_max(D L D) = {w1.certificate.lhs_max_eig_scaled:.3g}, "
-                        f"cn(P) = {w1.certificate.cond_P:.4g}, ‖K‖ = {w1.certificate.gain_norm:.4g}"))
+                        f"cn(P) = {w1.certificate.cond_P:.4g}, ‖K‖ = {w1.certificate.gain_norm:.4g}; the eigenvalues "
+                        "−i·w (i = 1 … s_j), nlobs's reading of the remark's text (the other reading, −wⁱ, gives 3.14)"))
     sdp1 = design_drift_gain_sdp(c1)
     out.append(ReproRow("SDP design (LMI in S = P⁻¹, Y = SK), same constants: ‖K‖, cn(P)", None,
                         [_r(sdp1.gain_norm), _r(sdp1.cond_P)],
@@ -376,7 +377,8 @@ def rows() -> list[ReproRow]:
     mu_s = _largest_mu((2,), np.eye(2), 1.0, 1.0, sdp=True)
     out.append(ReproRow("Thm 2.7: s ≰ r (s = 2, r = 1, F = I₂), α = γ = 1: (2.17) solvable for μ below a bound μ̄ > 0",
                         "μ̄ > 0 exists", [_r(mu_v, 3), _r(mu_s, 3)],
-                        "largest μ found by bisection: [Vandermonde (w ≤ 1e4), SDP]; neither works at μ = 1"))
+                        "largest μ found by bisection: [Vandermonde (w ≤ 1e4), SDP under nlobs's gain bound ‖K̃‖ ≤ 1e6]; "
+                        "with ‖K̃‖ ≤ 1e8 (2.17) still holds at μ = 0.99 (cn(P) = 4.9e4); neither works at μ = 1"))
     mimo = example_model("duffing-actuator")
     out.append(ReproRow("(2.13) Q_s g = F_{s,r} H_{s,r} (duffing-actuator, s = (3, 1))", "identity",
                         _r(_structure_residual(mimo, s31, MIMO_REGION), 3), "max |residual| at 200 sampled points"))
