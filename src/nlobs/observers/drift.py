@@ -61,8 +61,9 @@ covers, the two observers coincide. Outside ``B`` (where the certificate says no
 applies: with the state ``x ∈ B`` the error ``e = Φ_s(x) − z`` obeys ``ė = (A_s − K C_s) e +
 B_s (L_s(x) − L_s(σ)) + F (H(x) − H(σ)) u``, a Hurwitz linear system driven by a perturbation that is
 bounded on all of ℝⁿ (``x, σ ∈ B``, compact) and, ``σ`` and ``x`` both in ``B``, bounded by the constants
-sampled there — the nonlinearity can no longer feed the peak, so ``e`` stays bounded and decays at the
-rate of ``A_s − K C_s`` until ``x̂`` re-enters ``B``. What it does not remove is the peak of the linear
+sampled there — the nonlinearity can no longer feed the peak, so ``e`` stays bounded (input-to-state: its
+size is set by that perturbation, reached at the rate of ``A_s − K C_s``) until ``x̂`` re-enters ``B``; the
+argument shows boundedness, not decay, outside ``B``. What it does not remove is the peak of the linear
 part itself, nor a crossing of the set where ``Q_s(x̂)`` is singular during the transient (reported as
 for (3.1)); its effect is measured, not proved: ``benchmarks/peaking.py``, ``docs/drift.md``.
 :meth:`DriftObserver.saturated_estimate` gives ``sat(x̂)`` (in ``B``); the estimate stays ``x̂`` so that
