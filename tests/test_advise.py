@@ -274,3 +274,26 @@ def test_a_certified_design_on_a_given_box_prints_commands_on_that_box() -> None
     res = runner.invoke(app, want.split()[1:] + ["--runs", "2", "--duration", "12"])
     assert res.exit_code == 0, res.output
     assert "covers run" in res.output and "[0.62, 0.88] × [3.9, 5.5]" in res.output
+
+
+def test_an_unknown_input_that_hides_a_state_is_named_beside_the_filters() -> None:
+    # khajenejad-6-2: A = [[-0.42, 1], [-0.6, 0]], G = [1, -0.65]ᵀ, C = [0, 1], H = 0. From x = e1 the unknown input
+    # d = -0.6/0.65 keeps x2 = 0 at the next step: x1 moves, the output never sees it (V* = span(e1))
+    import numpy as np
+
+    from nlobs.methods.advice import _unknown_input_hidden
+    from nlobs.systems.modelfile import load_model
+
+    A = np.array([[-0.42, 1.0], [-0.6, 0.0]])
+    G = np.array([[1.0], [-0.65]])
+    C = np.array([[0.0, 1.0]])
+    # by hand: x = e1 with d chosen so that C(A x + G d) = 0 and C x = 0 stays: A e1 + G d = (-0.42 + d, -0.6 - 0.65 d)
+    d = -0.6 / 0.65
+    nxt = A @ np.array([1.0, 0.0]) + G[:, 0] * d
+    assert abs(C @ np.array([1.0, 0.0])) == 0 and abs(nxt[1]) < 1e-12  # stays in span(e1), unseen
+    assert _unknown_input_hidden("khajenejad-6-2", frozenset({"unknown_inputs"}), load_model("khajenejad-6-2")) == ("x1",)
+    rep = advise_model("khajenejad-6-2")
+    named = {m.method: m for m in rep.methods}
+    for key in ("ekf-ukf", "luenberger"):
+        assert any("unknown input can move x1" in e for e in named[key].evidence), named[key].evidence
+    assert not any("unknown input can move" in e for m in advise_model("khajenejad-6-1").methods for e in m.evidence)

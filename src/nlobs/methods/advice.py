@@ -694,6 +694,34 @@ def _cascade(target: str, model: Model, tables: frozenset[str]) -> MethodAdvice:
                         "table to use the Grip–Saberi–Johansen observer", (cs.describe(),), cs.to_dict())
 
 
+def _unknown_input_hidden(target: str, tables: frozenset[str], model: Model) -> tuple[str, ...]:
+    """The states the file's unknown input moves without a trace in the output (the weakly unobservable subspace
+    ``V*`` of ``(A, G, C, H)``: ``V_{k+1} = {x : ∃ d, A x + G d ∈ V_k, C x + H d = 0}``, ``V_0 = ℝⁿ``), named by
+    the states with a component in it; empty without ``[unknown_inputs]`` or when ``V* = {0}``."""
+    if "unknown_inputs" not in tables:
+        return ()
+    import scipy.linalg
+
+    try:
+        s = load_discrete_ui_model(target).system
+    except NlobsError:
+        return ()
+    A, G, C, H = (np.asarray(x, dtype=float) for x in (s.A, s.G, s.C, s.H))
+    n = A.shape[0]
+    V = np.eye(n)
+    for _ in range(n + 1):
+        M = np.block([[(np.eye(n) - V @ np.linalg.pinv(V)) @ A, (np.eye(n) - V @ np.linalg.pinv(V)) @ G], [C, H]])
+        N = scipy.linalg.null_space(M, rcond=1e-10)
+        Vn = scipy.linalg.orth(N[:n, :]) if N.size else np.zeros((n, 0))
+        if Vn.shape[1] == V.shape[1]:
+            break
+        V = Vn
+    if V.shape[1] == 0:
+        return ()
+    names = list(getattr(model, "states", ())) or [f"x{i + 1}" for i in range(n)]
+    return tuple(nm for nm, row in zip(names, V) if np.max(np.abs(row)) > 1e-8)
+
+
 def _setvalued(target: str, tables: frozenset[str], model: Model) -> MethodAdvice:
     from nlobs.linear.zeros import is_strongly_detectable
 
@@ -800,6 +828,13 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
     elif isinstance(m, LinearSystem):
         unobs = linear_unobservable_directions(m.A, m.C, m.states)
     luen, kal = _linear_part(target, m, x_lin, u_lin, geo, geo_err, unobs)
+    hidden = _unknown_input_hidden(target, tables, m)
+    if hidden:  # the filters' and the Luenberger observer's models leave the unknown input out: say what it hides
+        note = (f"the file's unknown input can move {', '.join(hidden)} without changing the output (the weakly "
+                "unobservable subspace of (A, G, C, H)): no observer recovers "
+                f"{'it' if len(hidden) == 1 else 'them'}, and this estimate is biased by the unknown input")
+        kal = dataclasses.replace(kal, evidence=(*kal.evidence, note))
+        luen = dataclasses.replace(luen, evidence=(*luen.evidence, note))
     methods = (
         _cascade(target, m, tables),
         _setvalued(target, tables, m),
