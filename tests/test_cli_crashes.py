@@ -338,3 +338,11 @@ def test_the_python_api_refuses_a_step_longer_than_the_run() -> None:
         nlobs.simulate(pb.model.compile(), obs, [0.1, 0.0], [0.0, 0.0], duration=1.0, dt=10.0, u=[0.0])
     res = nlobs.simulate(pb.model.compile(), obs, [0.1, 0.0], [0.0, 0.0], duration=1.0, dt=1.0, u=[0.0])  # one step
     assert res.t[-1] == pytest.approx(1.0)
+
+
+def test_a_box_beyond_1e100_is_refused_not_called_a_rank_failure() -> None:
+    # before: --box ±1e300 said "A1 fails … (σ_min = 1, scaled 0); det Q = 1"
+    _one_line_error(runner.invoke(app, ["design", "pinv", "pendulum", "--box", "-1e300,1e300"]),
+                    "--box", "larger than 1e+100")
+    res = runner.invoke(app, ["design", "pinv", "pendulum", "--box", "-1e50,1e50"])
+    assert "A1 (independent dL_f^k h): σ_min(Q) ≥ 1" in res.stdout

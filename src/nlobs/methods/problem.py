@@ -23,6 +23,8 @@ them. It loads no solver, observer or simulation.
 
 from __future__ import annotations
 
+import math
+
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -69,6 +71,11 @@ class BoxError(InvalidArgumentError):
     """A region given as numbers is malformed (the message does not name the parameter: its caller prefixes it)."""
 
 
+#: The largest bound of a region given as numbers (``--box``): beyond it the sampled rank and Lipschitz checks,
+#: which scale each state by the region's size, lose every digit (a box of ±1e300 called A1 failed with det Q = 1).
+MAX_BOX_BOUND = 1e100
+
+
 def box_from_numbers(values: Sequence[float], n: int) -> Box:
     """A box from ``lo, hi`` (the same interval for every state) or ``2n`` numbers ``lo1, hi1, lo2, hi2, ...``.
 
@@ -86,9 +93,14 @@ def box_from_numbers(values: Sequence[float], n: int) -> Box:
     Raises
     ------
     BoxError
-        Not 2 or ``2n`` numbers, or an invalid box (non-finite, ``lo > hi``).
+        Not 2 or ``2n`` numbers, or an invalid box (non-finite, ``lo > hi``, a bound above
+        :data:`MAX_BOX_BOUND` in magnitude).
     """
     vals = [float(v) for v in values]
+    big = [v for v in vals if math.isfinite(v) and abs(v) > MAX_BOX_BOUND]
+    if big:  # the sampled checks scale by the region: such a box has no meaning and no digits left
+        raise BoxError(f"a bound {big[0]:g} is larger than {MAX_BOX_BOUND:g} in magnitude; give the region the states "
+                       "really visit")
     if len(vals) == 2:
         vals = vals * n
     if len(vals) != 2 * n:
