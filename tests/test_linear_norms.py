@@ -18,6 +18,7 @@ import math
 
 import control
 import numpy as np
+import scipy.linalg
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -276,3 +277,17 @@ def test_grid_safeguard_edge_cases() -> None:
     assert hinf_grid_peak([[0.5]], [[1.0]], [[1.0]], [[0.0]], discrete=True) == pytest.approx(2.0, rel=1e-9)
     with pytest.raises(InvalidArgumentError, match="points: expected an integer ≥ 2"):
         hinf_grid_peak([[-1.0]], [[1.0]], [[1.0]], [[0.0]], points=1)
+
+
+@pytest.mark.parametrize("s", [1e-150, 1e-75, 1e100, 1e150])
+def test_h2_norm_of_a_scaled_system_scales_exactly(s: float) -> None:
+    # before: 0 for the 1e-150-scaled system (its Gramian underflowed); ‖G‖₂ scales with the product of B's and C's
+    from nlobs.linear.norms import h2_norm
+
+    A = np.array([[-1.0, 0.5], [0.0, -2.0]])
+    B = np.array([[1.0], [2.0]])
+    C = np.array([[1.0, 3.0]])
+    ref = h2_norm(A, B, C, np.zeros((1, 1)))
+    X = scipy.linalg.solve_continuous_lyapunov(A, -B @ B.T)  # the controllability Gramian, SciPy
+    assert ref == pytest.approx(float(np.sqrt(np.trace(C @ X @ C.T))), rel=1e-12)
+    assert h2_norm(A, B * s, C * s, np.zeros((1, 1))) == pytest.approx(ref * s * s, rel=1e-12)

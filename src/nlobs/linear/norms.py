@@ -917,6 +917,10 @@ def h2_norm(A: ArrayLike | Any, B: ArrayLike | None = None, C: ArrayLike | None 
     A_ = (A_ / sc[:, None]) * sc[None, :]
     B_ = B_ / sc[:, None]
     C_ = C_ * sc[None, :]
+    # B and C each scaled by a power of 2 to a largest entry near 1 (G scales by the product, exactly): a
+    # 1e−150-sized system's Gramian would underflow (its norm came out 0), a 1e+150 one overflow
+    kb, kc = _pow2(B_), _pow2(C_)
+    B_, C_ = np.ldexp(B_, -kb), np.ldexp(C_, -kc)
     if m <= p:
         # observability Gramian: trace(Bᵀ Q B)
         Acheck, R = A_.T, C_.T @ C_
@@ -933,7 +937,19 @@ def h2_norm(A: ArrayLike | Any, B: ArrayLike | None = None, C: ArrayLike | None 
             P = scipy.linalg.solve_continuous_lyapunov(Acheck, -R)
         G, val = P, float(np.trace(C_ @ P @ C_.T))
     _check_gramian(Acheck, R, G, val, discrete)
-    total = val + dd
+    if dd == 0.0:
+        out = math.ldexp(math.sqrt(max(val, 0.0)), kb + kc) if math.isfinite(val) else math.inf
+        return out if math.isfinite(out) else math.inf
+    try:
+        total = math.ldexp(val, 2 * (kb + kc)) + dd
+    except OverflowError:
+        return math.inf
     if not math.isfinite(total):
         return math.inf
     return math.sqrt(total)
+
+
+def _pow2(M: NDArray) -> int:
+    """``k`` with the largest ``|M_ij|`` in ``[0.5, 1)·2^k`` (0 for an empty or zero matrix)."""
+    big = float(np.abs(M).max()) if M.size else 0.0
+    return math.frexp(big)[1] if big > 0.0 and math.isfinite(big) else 0
