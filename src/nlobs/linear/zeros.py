@@ -27,10 +27,13 @@ Definition 2.1 and Remark 2.2 (strong detectability).
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
+import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs.checks import Check, CheckKind
@@ -63,6 +66,10 @@ class InvariantZeros:
         ``min(n + p, n + m)``.
     n, m, p : int
         Dimensions of the system.
+    spread : float
+        The largest relative difference between these zeros and those computed from the dual system
+        ``(Aᵀ, Cᵀ, Bᵀ, Dᵀ)`` (the same zeros in exact arithmetic); ``inf`` when the two count differently. A
+        large spread says the zeros are ill-conditioned in this realisation (:attr:`ill_conditioned`).
     """
 
     zeros: NDArray[np.complex128]
@@ -70,6 +77,12 @@ class InvariantZeros:
     n: int = 0
     m: int = 0
     p: int = 0
+    spread: float = 0.0
+
+    @property
+    def ill_conditioned(self) -> bool:
+        """The primal and dual computations differ by more than :data:`ZERO_SPREAD_TOL` (relative)."""
+        return not self.spread <= ZERO_SPREAD_TOL
 
     @property
     def left_invertible(self) -> bool:
@@ -80,6 +93,10 @@ class InvariantZeros:
     def right_invertible(self) -> bool:
         """Normal rank ``n + p``."""
         return self.normal_rank == self.n + self.p
+
+
+#: Relative gap between the primal and the dual computation of the zeros above which they are called ill-conditioned.
+ZERO_SPREAD_TOL = 1e-6
 
 
 def _exponent(M: NDArray) -> int:
@@ -196,6 +213,20 @@ def invariant_zeros(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | Non
     """
     A_, B_, C_, D_ = _check_abcd(A, B, C, D)
     n, m, p = A_.shape[0], B_.shape[1], C_.shape[0]
+    z, normal_rank = _zeros(A_, B_, C_, D_)
+    zd, _ = _zeros(A_.T, C_.T, B_.T, D_.T)  # the dual system has the same zeros: their gap measures the conditioning
+    if z.size != zd.size:
+        spread = math.inf
+    elif z.size == 0:
+        spread = 0.0
+    else:
+        spread = float(np.max(np.abs(z - zd) / np.maximum(np.abs(z), 1e-300)))
+    z.setflags(write=False)
+    return InvariantZeros(zeros=z, normal_rank=normal_rank, n=n, m=m, p=p, spread=spread)
+
+
+def _zeros(A_: NDArray, B_: NDArray, C_: NDArray, D_: NDArray) -> tuple[NDArray, int]:
+    """The finite zeros (sorted) and the normal rank of one realisation (:func:`invariant_zeros`'s algorithm)."""
     # Exact power-of-2 equivalence diag(α I, β) R(z) diag(I, γ) and a diagonal state
     # similarity (Parlett–Reinsch balancing of [A B; C 0]) before any rank decision: the zeros
     # become α z and the normal rank is unchanged, while the tolerance below, relative to
@@ -233,9 +264,25 @@ def invariant_zeros(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | Non
     # exact conjugate symmetry for real data: snap tiny imaginary parts
     small = np.abs(z.imag) <= 1e3 * _EPS * np.maximum(np.abs(z), 1.0)
     z = np.where(small, z.real + 0j, z)
+    z = _conjugate_pairs(z)
     z = z[np.lexsort((z.imag, z.real))] if z.size else z
-    z.setflags(write=False)
-    return InvariantZeros(zeros=z, normal_rank=normal_rank, n=n, m=m, p=p)
+    return z, normal_rank
+
+
+def _conjugate_pairs(z: NDArray) -> NDArray:
+    """Each ``Im > 0`` zero and its nearest ``Im < 0`` partner replaced by the exact conjugate pair of their mean
+    (real data has conjugate zeros; rounding otherwise orders the two of a pair by the last bit of their real
+    parts, differently in two realisations of one system)."""
+    up, dn = np.flatnonzero(z.imag > 0), np.flatnonzero(z.imag < 0)
+    if up.size == 0 or up.size != dn.size:
+        return z
+    z = z.copy()
+    cost = np.abs(z[up][:, None] - np.conj(z[dn])[None, :])
+    r, c = scipy.optimize.linear_sum_assignment(cost)
+    for i, j in zip(up[r], dn[c]):
+        mean = 0.5 * (z[i] + np.conj(z[j]))
+        z[i], z[j] = mean, np.conj(mean)
+    return z
 
 
 def is_left_invertible(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | None = None) -> bool:
