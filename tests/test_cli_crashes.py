@@ -346,3 +346,12 @@ def test_a_box_beyond_1e100_is_refused_not_called_a_rank_failure() -> None:
                     "--box", "larger than 1e+100")
     res = runner.invoke(app, ["design", "pinv", "pendulum", "--box", "-1e50,1e50"])
     assert "A1 (independent dL_f^k h): σ_min(Q) ≥ 1" in res.stdout
+
+
+@pytest.mark.parametrize(("args", "needle"), [
+    (["analyze"], "Missing argument 'model'"), (["bogus"], "No such command 'bogus'"),
+    (["simulate", "compare", "pendulum", "--runs", "x"], "Invalid value for '--runs'"),
+])
+def test_usage_errors_are_one_line(args: list[str], needle: str) -> None:
+    # before: click's four lines (usage, a hint, a blank line, the error)
+    _one_line_error(runner.invoke(app, args), needle, "--help")

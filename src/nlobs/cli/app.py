@@ -82,6 +82,25 @@ class _NlobsApp(typer.Typer):
                 signal.signal(sig, handler)
 
 
+def _usage_in_one_line(self: Any, file: Any = None) -> None:
+    """A usage error (a missing argument, an unknown command or option) as one line: ``nlobs: error: … (see …)``."""
+    hint = f" (see '{self.ctx.command_path} --help')" if getattr(self, "ctx", None) is not None else ""
+    sys.stderr.write(f"nlobs: error: {self.format_message()}{hint}\n")
+    sys.stderr.flush()
+
+
+def _one_line_usage_errors() -> None:
+    """Click prints a usage error in four lines (usage, a hint, a blank, the error); nlobs prints every error in one."""
+    for name in ("typer._click.exceptions", "click.exceptions"):  # typer ≥ 0.26 bundles its own click
+        try:
+            module = __import__(name, fromlist=["UsageError"])
+        except ImportError:
+            continue
+        module.UsageError.show = _usage_in_one_line
+
+
+_one_line_usage_errors()
+
 app = _NlobsApp(
     name="nlobs",
     help="Design, certify and simulate nonlinear state observers.",
