@@ -355,3 +355,12 @@ def test_a_box_beyond_1e100_is_refused_not_called_a_rank_failure() -> None:
 def test_usage_errors_are_one_line(args: list[str], needle: str) -> None:
     # before: click's four lines (usage, a hint, a blank line, the error)
     _one_line_error(runner.invoke(app, args), needle, "--help")
+
+
+def test_warnings_print_one_line_without_generated_source() -> None:
+    # before: a NumPy RuntimeWarning inside a compiled model printed "<lambdifygenerated-3>:2: …" and the source line
+    from nlobs.cli.app import _warning_line
+
+    text = _warning_line("overflow encountered in exp", RuntimeWarning, "<lambdifygenerated-3>", 2, "return exp(x1)")
+    assert text == "nlobs: warning: RuntimeWarning: overflow encountered in exp\n"
+    assert _warning_line("m", UserWarning, "/x/y/z.py", 7) == "nlobs: warning: UserWarning: m (z.py:7)\n"

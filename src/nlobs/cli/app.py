@@ -15,6 +15,7 @@ import json
 import signal
 import sys
 import threading
+import warnings
 from types import FrameType
 from typing import Any
 from pathlib import Path
@@ -60,6 +61,7 @@ class _NlobsApp(typer.Typer):
     """
 
     def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        warnings.formatwarning = _warning_line  # one line, never the generated source line of a compiled model
         previous: dict[int, Any] = {}
         if threading.current_thread() is threading.main_thread():
             for sig in (signal.SIGINT, signal.SIGTERM):
@@ -80,6 +82,12 @@ class _NlobsApp(typer.Typer):
         finally:
             for sig, handler in previous.items():
                 signal.signal(sig, handler)
+
+
+def _warning_line(message: Any, category: type[Warning], filename: str, lineno: int, line: str | None = None) -> str:
+    """A warning as one line (NumPy's RuntimeWarnings in a compiled model printed its generated source line)."""
+    where = "" if filename.startswith("<") else f" ({Path(filename).name}:{lineno})"
+    return f"nlobs: warning: {category.__name__}: {message}{where}\n"
 
 
 def _usage_in_one_line(self: Any, file: Any = None) -> None:
