@@ -53,7 +53,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from nlobs.errors import InvalidArgumentError, ModelError, ModelFileError, NlobsError
+from nlobs.errors import ExpressionTooLarge, InvalidArgumentError, ModelError, ModelFileError, NlobsError
 from nlobs.geometry.budget import DEFAULT_SYMBOLIC_BUDGET
 from nlobs.geometry.checks import SYMBOLIC_DET_MAX_N
 from nlobs.geometry.lie import tidy
@@ -816,7 +816,7 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
             fields = AffineFields.from_model(m)
             geo = geometry if geometry is not None and _same(geometry.region, region) else geometry_report(
                 m, region, symbolic_budget=symbolic_budget)
-        except ModelError as exc:
+        except (ModelError, ExpressionTooLarge) as exc:  # the other methods' advice still stands
             geo_err, fields = str(exc), None
     else:
         geo_err = "a linear model"

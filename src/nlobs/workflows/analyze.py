@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from nlobs._validate import as_vector
-from nlobs.errors import DimensionError, ModelError, ModelFileError, NonFiniteError, NumericalError
+from nlobs.errors import DimensionError, ExpressionTooLarge, ModelError, ModelFileError, NonFiniteError, NumericalError
 from nlobs.geometry.budget import DEFAULT_SYMBOLIC_BUDGET
 from nlobs.geometry.checks import codistribution_function
 from nlobs.geometry.observability import AffineFields
@@ -287,7 +287,7 @@ def analyze(
     geo_err: str | None = None
     try:
         geo = geometry_report(model, region, symbolic_budget=symbolic_budget)
-    except ModelError as exc:
+    except (ModelError, ExpressionTooLarge) as exc:  # the rest of the report still stands
         geo_err = str(exc)
     return NonlinearReport(
         name=model.name,
