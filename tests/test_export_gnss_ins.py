@@ -235,3 +235,11 @@ def test_c_init_and_raw_estimate_match_the_python_observer(kind, flight, noise_o
     getattr(lib, f"{P}_estimate")(z.ctypes.data_as(ptr), est.ctypes.data_as(ptr))
     np.testing.assert_array_equal(est, obs.raw_estimate(obs.init(x0)))
     np.testing.assert_array_equal(cobs.raw_estimate(z), est)
+
+
+def test_the_header_attributes_observer_24_to_its_authors(flight, noise_optimal_K) -> None:  # type: ignore[no-untyped-def]
+    # before: "of Grip, Fossen, Johansen & Saberi" in every generated header; observer (24) is Grip, Saberi & Johansen's
+    prog = generate_gnss_ins(_observer("paper", flight, noise_optimal_K), "gi")
+    header, source = render(prog, "test")
+    for text in (header, source):
+        assert "Grip, Saberi & Johansen" in text and "Fossen" not in text
