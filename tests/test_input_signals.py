@@ -474,7 +474,7 @@ def test_tables_from_toml() -> None:
     ({"kind": "expression", "expression": "y"}, "undeclared name"),
     ({"kind": "constant", "value": True}, "expected a number"),
     ({"kind": "constant", "value": [1]}, "expected a number"),
-    ({"kind": "constant", "value": "acos(2)"}, "expected a number, got 'acos\\(2\\)'"),
+    ({"kind": "constant", "value": "acos(2)"}, "'acos\\(2\\)' is not a number .*non-real constant"),
     ({"kind": "sine", "amplitude": 1, "frequency": -1}, "Sine.frequency: must be positive"),
     ({"kind": "piecewise", "times": [0, 0], "values": [1, 2]}, "strictly increasing"),
     ({"kind": "piecewise", "times": "0,1", "values": [1, 2]}, "expected a list of numbers"),

@@ -120,9 +120,10 @@ def test_analysis_refuses_entries_that_overflow(tmp_path) -> None:
 def test_analyze_refuses_boxes_that_overflow() -> None:
     # the Liénard form of van der Pol with y = x1: dh = (1, 0), d L_f h = (0, 1), rank 2 = n
     assert analyze_model("vanderpol-lienard", box=[-2.0, 2.0]).to_dict()["observability_rank"] == 2
-    with pytest.raises(BoxError, match="overflows double precision"):
+    # a bound beyond 1e100 is refused before anything is evaluated (the second hardening round)
+    with pytest.raises(BoxError, match="larger than 1e\\+100"):
         analyze_model("vanderpol-lienard", box=[-1e308, 1e308])  # was rank 0
-    with pytest.raises(BoxError, match="is not finite"):
+    with pytest.raises(BoxError, match="larger than 1e\\+100"):
         analyze_model("vanderpol-lienard", box=[-1e200, 1e200])  # was rank 0
     res = runner.invoke(app, ["analyze", "pendulum", "--box=-1e308,1e308"])
     assert res.exit_code == 2

@@ -11,6 +11,7 @@ previous complete ones or the new complete ones, never half-written, and no temp
 # No ``from __future__ import annotations``: typer reads the annotations of every command's parameters when the
 # app starts, and evaluated ones spare it compiling and evaluating each string again (twice per command).
 
+import importlib
 import json
 import signal
 import sys
@@ -101,7 +102,7 @@ def _one_line_usage_errors() -> None:
     """Click prints a usage error in four lines (usage, a hint, a blank, the error); nlobs prints every error in one."""
     for name in ("typer._click.exceptions", "click.exceptions"):  # typer ≥ 0.26 bundles its own click
         try:
-            module = __import__(name, fromlist=["UsageError"])
+            module = importlib.import_module(name)
         except ImportError:
             continue
         module.UsageError.show = _usage_in_one_line

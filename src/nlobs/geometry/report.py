@@ -151,6 +151,22 @@ IN_PROCESS_GAIN_SIZE = 400
 MAX_GEOMETRY_STATES = 50
 
 
+def too_many_states(n: int) -> str:
+    """Why the symbolic analyses are not attempted for ``n`` states (above :data:`MAX_GEOMETRY_STATES`).
+
+    Parameters
+    ----------
+    n : int
+        The number of states.
+
+    Returns
+    -------
+    str
+    """
+    return (f"{n} states: the Lie-derivative analysis is done up to {MAX_GEOMETRY_STATES} states (the size of "
+            "L_f^k h grows with every k)")
+
+
 def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: int = 0,
                     symbolic_budget: float | None = DEFAULT_SYMBOLIC_BUDGET) -> GeometryReport:
     """Run the symbolic analyses of Dalla Mora–Germani–Manes and Röbenack on a continuous-time input-affine model.
@@ -169,8 +185,7 @@ def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: in
         More than :data:`MAX_GEOMETRY_STATES` states, or a Lie derivative beyond the polynomial-size limit.
     """
     if model.n > MAX_GEOMETRY_STATES:  # before any Lie derivative: their size grows with every order
-        raise ExpressionTooLarge(f"{model.n} states: the Lie-derivative analysis is done up to {MAX_GEOMETRY_STATES} "
-                                 "states (the size of L_f^k h grows with every k)")
+        raise ExpressionTooLarge(too_many_states(model.n))
     fields = AffineFields.from_model(model)
     reg = region or Box.unit(fields.n)
     if reg.n != fields.n:

@@ -53,13 +53,13 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from nlobs.errors import ExpressionTooLarge, InvalidArgumentError, ModelError, ModelFileError, NlobsError
+from nlobs.errors import InvalidArgumentError, ModelError, ModelFileError, NlobsError
 from nlobs.geometry.budget import DEFAULT_SYMBOLIC_BUDGET
 from nlobs.geometry.checks import SYMBOLIC_DET_MAX_N
 from nlobs.geometry.lie import tidy
 from nlobs.geometry.observability import AffineFields, observability_jacobian
 from nlobs.geometry.region import Box, format_point
-from nlobs.geometry.report import GeometryReport, geometry_report
+from nlobs.geometry.report import MAX_GEOMETRY_STATES, GeometryReport, geometry_report, too_many_states
 from nlobs.geometry.unobservable import Unobservability, linear_unobservable_directions, unobservable_directions
 from nlobs.geometry.singularities import (
     Singularity,
@@ -814,9 +814,11 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
     if isinstance(m, SymbolicModel):
         try:
             fields = AffineFields.from_model(m)
+            if m.n > MAX_GEOMETRY_STATES:  # not attempted: the other methods' advice still stands
+                raise ModelError(too_many_states(m.n))
             geo = geometry if geometry is not None and _same(geometry.region, region) else geometry_report(
                 m, region, symbolic_budget=symbolic_budget)
-        except (ModelError, ExpressionTooLarge) as exc:  # the other methods' advice still stands
+        except ModelError as exc:
             geo_err, fields = str(exc), None
     else:
         geo_err = "a linear model"

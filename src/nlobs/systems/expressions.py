@@ -199,10 +199,10 @@ def _const_size(v: sp.Expr) -> float:
         return max(_size(v))
     if not v.free_symbols:  # evaluated in SymPy's floats, whose exponent does not overflow (exp(1000) is 10^434)
         try:
-            n = sp.N(v, 15)
+            n = v.evalf(15)
             if n == 0 or n.has(sp.zoo, sp.oo, -sp.oo, sp.nan):  # a non-finite one is refused by name at the end
                 return 0.0
-            lg = float(sp.N(sp.log(abs(n), 10), 15))
+            lg = float(sp.log(abs(n), 10).evalf(15))
         except (TypeError, ValueError, OverflowError, ZeroDivisionError):
             return math.inf
         return abs(lg) if math.isfinite(lg) else math.inf
@@ -222,7 +222,7 @@ def _non_real(v: sp.Expr) -> bool:
     if v.is_real is True:
         return False
     try:
-        z = complex(sp.N(v, 15))
+        z = complex(v.evalf(15))
     except (TypeError, ValueError, OverflowError, ZeroDivisionError):
         return True
     return abs(z.imag) > 1e-12 * max(1.0, abs(z.real))

@@ -31,12 +31,12 @@ from typing import Any
 import numpy as np
 
 from nlobs._validate import as_vector
-from nlobs.errors import DimensionError, ExpressionTooLarge, ModelError, ModelFileError, NonFiniteError, NumericalError
+from nlobs.errors import DimensionError, ModelError, ModelFileError, NonFiniteError, NumericalError
 from nlobs.geometry.budget import DEFAULT_SYMBOLIC_BUDGET
 from nlobs.geometry.checks import codistribution_function
 from nlobs.geometry.observability import AffineFields
 from nlobs.geometry.region import Box, format_point
-from nlobs.geometry.report import GeometryReport, geometry_report
+from nlobs.geometry.report import MAX_GEOMETRY_STATES, GeometryReport, geometry_report, too_many_states
 from nlobs.linear import LinearReport, analyze_linear
 from nlobs.systems.linear import LinearSystem
 from nlobs.systems.modelfile import Model, load_model, load_scenario, model_file_tables
@@ -285,10 +285,13 @@ def analyze(
         err = str(exc)
     geo: GeometryReport | None = None
     geo_err: str | None = None
-    try:
-        geo = geometry_report(model, region, symbolic_budget=symbolic_budget)
-    except (ModelError, ExpressionTooLarge) as exc:  # the rest of the report still stands
-        geo_err = str(exc)
+    if model.n > MAX_GEOMETRY_STATES:  # not attempted: the linearisation and the rest of the report still stand
+        geo_err = too_many_states(model.n)
+    else:
+        try:
+            geo = geometry_report(model, region, symbolic_budget=symbolic_budget)
+        except ModelError as exc:
+            geo_err = str(exc)
     return NonlinearReport(
         name=model.name,
         time=str(model.time).split(" ")[0],
