@@ -27,7 +27,6 @@ Definition 2.1 and Remark 2.2 (strong detectability).
 
 from __future__ import annotations
 
-import math
 
 from dataclasses import dataclass
 
