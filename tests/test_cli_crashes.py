@@ -29,6 +29,17 @@ def _model(tmp_path: Path, f: list[str], *, states: tuple[str, str] = ("x1", "x2
     return str(p)
 
 
+def _chain(tmp_path: Path, n: int, extra: str = "") -> Path:
+    """A chain of ``n`` integrators ``ẋ_i = x_{i+1}`` (plus ``extra`` with ``{i}``), ``ẋ_n = −x1 + u``, ``y = x1``."""
+    p = tmp_path / "chain.toml"
+    states = ", ".join(f'"x{i}"' for i in range(1, n + 1))
+    f = ", ".join(f'"x{i + 1}{extra.format(i=i)}"' for i in range(1, n)) + ', "-x1"'
+    g = ", ".join('["0"]' for _ in range(n - 1)) + ', ["1"]'
+    p.write_text(f'name = "chain"\ntime = "continuous"\nstates = [{states}]\ninputs = ["u"]\noutputs = ["y"]\n'
+                 f'[dynamics]\nf = [{f}]\ng = [{g}]\nh = ["x1"]\n', encoding="utf-8")
+    return p
+
+
 def _one_line_error(res, *needles: str) -> str:  # type: ignore[no-untyped-def]
     """The run exited 2 with exactly one ``nlobs: error:`` line naming every needle, and no traceback."""
     assert res.exception is None or isinstance(res.exception, SystemExit), repr(res.exception)
@@ -158,12 +169,7 @@ def test_simulation_memory_estimate_is_refused_before_the_design(tmp_path: Path,
                                                                  monkeypatch: pytest.MonkeyPatch) -> None:
     # a chain of 14 integrators: 1e7 steps (within the step bound) of t, x, x̂ (14 each), y: about 2.24 GiB
     n = 14
-    p = tmp_path / "chain.toml"
-    states = ", ".join(f'"x{i}"' for i in range(1, n + 1))
-    f = ", ".join(f'"x{i + 1}"' for i in range(1, n)) + ', "-x1"'
-    g = ", ".join('["0"]' for _ in range(n - 1)) + ', ["1"]'
-    p.write_text(f'name = "chain"\ntime = "continuous"\nstates = [{states}]\ninputs = ["u"]\noutputs = ["y"]\n'
-                 f'[dynamics]\nf = [{f}]\ng = [{g}]\nh = ["x1"]\n', encoding="utf-8")
+    p = _chain(tmp_path, n)
     _no_design(monkeypatch)
     res = runner.invoke(app, ["design", "pinv", str(p), "--simulate", "--x0", ",".join(["0"] * n),
                               "--duration", "1e7", "--dt", "1"])
@@ -368,13 +374,7 @@ def test_warnings_print_one_line_without_generated_source() -> None:
 
 def test_a_large_model_is_analysed_without_its_lie_derivatives(tmp_path: Path) -> None:
     # before: a 300-state model did not finish in 900 s; a 20-state cubic chain ended in an error after 24 s
-    n = 60
-    p = tmp_path / "chain.toml"
-    states = ", ".join(f'"x{i}"' for i in range(1, n + 1))
-    f = ", ".join(f'"x{i + 1} - 0.1*x{i}**3"' for i in range(1, n)) + ', "-x1"'
-    g = ", ".join('["0"]' for _ in range(n - 1)) + ', ["1"]'
-    p.write_text(f'name = "chain"\ntime = "continuous"\nstates = [{states}]\ninputs = ["u"]\noutputs = ["y"]\n'
-                 f'[dynamics]\nf = [{f}]\ng = [{g}]\nh = ["x1"]\n', encoding="utf-8")
+    p = _chain(tmp_path, 60, " - 0.1*x{i}**3")
     res = runner.invoke(app, ["analyze", str(p), "--json"])
     assert res.exit_code == 0, res.output
     data = json.loads(res.stdout)

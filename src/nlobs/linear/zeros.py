@@ -32,11 +32,11 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs.checks import Check, CheckKind
 from nlobs.linear.norms import _balance, _check_abcd
+from nlobs.linear.observability import _conjugate_symmetric
 from nlobs.linear.stability import BOUNDARY_TOL, strictly_inside
 
 __all__ = [
@@ -242,25 +242,9 @@ def _zeros(A_: NDArray, B_: NDArray, C_: NDArray, D_: NDArray) -> tuple[NDArray,
     # exact conjugate symmetry for real data: snap tiny imaginary parts
     small = np.abs(z.imag) <= 1e3 * _EPS * np.maximum(np.abs(z), 1.0)
     z = np.where(small, z.real + 0j, z)
-    z = _conjugate_pairs(z)
+    z = _conjugate_symmetric(z, 0.0)  # exact pairs: their order no longer flips with the last bit of the real parts
     z = z[np.lexsort((z.imag, z.real))] if z.size else z
     return z, normal_rank
-
-
-def _conjugate_pairs(z: NDArray) -> NDArray:
-    """Each ``Im > 0`` zero and its nearest ``Im < 0`` partner replaced by the exact conjugate pair of their mean
-    (real data has conjugate zeros; rounding otherwise orders the two of a pair by the last bit of their real
-    parts, differently in two realisations of one system)."""
-    up, dn = np.flatnonzero(z.imag > 0), np.flatnonzero(z.imag < 0)
-    if up.size == 0 or up.size != dn.size:
-        return z
-    z = z.copy()
-    cost = np.abs(z[up][:, None] - np.conj(z[dn])[None, :])
-    r, c = scipy.optimize.linear_sum_assignment(cost)
-    for i, j in zip(up[r], dn[c]):
-        mean = 0.5 * (z[i] + np.conj(z[j]))
-        z[i], z[j] = mean, np.conj(mean)
-    return z
 
 
 def is_left_invertible(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | None = None) -> bool:
