@@ -23,7 +23,6 @@ injection ``g`` of an observer for Σ₁ (3)/(16). :func:`design_cascade`
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -442,7 +441,7 @@ class CascadeMethod:
         if gain_method is None and cm.method is None and problem.sensors and form == "predictor":
             chosen = gain_for_sensors(cm, problem, gamma=gamma, gain_bound=gain_bound)
         if chosen is not None:
-            d = chosen
+            d = chosen[0]
         else:
             kind = gain_method or default_gain_method(cm, bool(problem.sensors))
             d = _design_with(cm, problem, kind, gamma, gain_bound)
@@ -450,12 +449,8 @@ class CascadeMethod:
             if not d.assumption4.holds:
                 raise AssumptionViolated(d.failure)
             raise DesignInfeasible(d.failure)
-        out = cascade_design(d, problem, gamma_given=gamma is not None, gain_method_given=gain_method is not None,
-                             sampling=form)
-        if chosen is not None and out.bound is not None:
-            out = dataclasses.replace(out, sources={**out.sources, "gain_method": (
-                f"the smallest certified RMS bound under the file's sensors of {', '.join(SENSOR_METHODS)}")})
-        return out
+        return cascade_design(d, problem, gamma_given=gamma is not None, gain_method_given=gain_method is not None,
+                              sampling=form, chosen=None if chosen is None else chosen[1])
 
 
 def _design_with(cm: CascadeModel, problem: Problem, kind: str, gamma: float | None,
@@ -468,7 +463,7 @@ def _design_with(cm: CascadeModel, problem: Problem, kind: str, gamma: float | N
 
 
 def gain_for_sensors(cm: CascadeModel, problem: Problem, *, gamma: float | None = None,
-                     gain_bound: float | None = None) -> CascadeDesign | None:
+                     gain_bound: float | None = None) -> tuple[CascadeDesign, Any] | None:
     """The cascade gain with the smallest certified RMS bound under the problem's sensors, or ``None``.
 
     Each gain method of :data:`SENSOR_METHODS` is designed at ``γ`` and certified through the predictor
@@ -486,11 +481,12 @@ def gain_for_sensors(cm: CascadeModel, problem: Problem, *, gamma: float | None 
 
     Returns
     -------
-    CascadeDesign or None
+    (CascadeDesign, SampledDesignCertificate) or None
+        The design and its certificate under the sensors (for :func:`cascade_design`'s ``chosen``).
     """
     from nlobs.methods.cascade_sampling import cascade_sampling_bound
 
-    best: tuple[float, CascadeDesign] | None = None
+    best: tuple[float, CascadeDesign, Any] | None = None
     for kind in SENSOR_METHODS:
         try:
             d = _design_with(cm, problem, kind, gamma, gain_bound)
@@ -503,8 +499,8 @@ def gain_for_sensors(cm: CascadeModel, problem: Problem, *, gamma: float | None 
             continue
         value = cert.bound.rms_after(problem.settle)
         if math.isfinite(value) and (best is None or value < best[0]):
-            best = (value, d)
-    return None if best is None else best[1]
+            best = (value, d, cert)
+    return None if best is None else (best[1], best[2])
 
 
 #: The gain methods compared under the file's sensors (:func:`gain_for_sensors`).
@@ -530,7 +526,7 @@ def default_gain_method(cm: CascadeModel, sensors: bool) -> str:
 
 
 def cascade_design(d: CascadeDesign, problem: Problem | None = None, *, gamma_given: bool = False,
-                   gain_method_given: bool = False, sampling: str = "predictor") -> Design:
+                   gain_method_given: bool = False, sampling: str = "predictor", chosen: Any = None) -> Design:
     """The :class:`~nlobs.methods.base.Design` of a cascade design that has a gain (what every command reports).
 
     Parameters
@@ -544,6 +540,9 @@ def cascade_design(d: CascadeDesign, problem: Problem | None = None, *, gamma_gi
         Whether ``γ`` and the gain method were given (else they are the file's, or the defaults).
     sampling : {"predictor", "hold"}
         With sensors, how the sampled output enters the observer (:func:`~nlobs.methods.sensor_design.on_samples`).
+    chosen : SampledDesignCertificate, optional
+        The certificate under the sensors :func:`gain_for_sensors` chose ``d`` by (not computed again; the
+        gain method's source says so).
 
     Returns
     -------
@@ -578,7 +577,7 @@ def cascade_design(d: CascadeDesign, problem: Problem | None = None, *, gamma_gi
         if sampling == "predictor" and d.verified:
             from nlobs.methods.cascade_sampling import cascade_sampling_bound
 
-            sampled, why_not = cascade_sampling_bound(problem, d)
+            sampled, why_not = (chosen, "") if chosen is not None else cascade_sampling_bound(problem, d)
         if sampled is not None:  # the augmented plant's certificate replaces Theorem 1 on the region, under the sensors
             from nlobs.methods.sensor_design import sampling_hypotheses
 
@@ -623,6 +622,9 @@ def cascade_design(d: CascadeDesign, problem: Problem | None = None, *, gamma_gi
     sources = {"gamma": "given" if gamma_given else ("[cascade] gamma" if cm.gamma is not None else "default"),
                "gain_method": "given" if gain_method_given else ("[cascade] method" if cm.method else
                                                                  "default with [sensors]" if sensors else "default")}
+    if chosen is not None and bound is not None:
+        sources["gain_method"] = ("the smallest certified RMS bound under the file's sensors of "
+                                  + ", ".join(SENSOR_METHODS))
     from nlobs.export.cascade import design_notes
 
     details = tuple(f"{k}: {v}" for k, v in design_notes(d))

@@ -128,20 +128,18 @@ class DemoConfig:
             raise InvalidArgumentError(f"`gains`: expected one of {', '.join(map(repr, GAINS))}, got {self.gains!r}")
         if self.backend not in BACKENDS:
             raise InvalidArgumentError(f"`backend`: expected one of {', '.join(map(repr, BACKENDS))}, got {self.backend!r}")
-        if self.attitude_gain is not None:
-            if self.attitude_gain not in ATTITUDE_GAINS:
-                raise InvalidArgumentError(f"`attitude_gain`: expected one of {', '.join(map(repr, ATTITUDE_GAINS))}, "
-                                           f"got {self.attitude_gain!r}")
-            if self.gains != "noise-optimal":
-                raise InvalidArgumentError(
-                    f"`attitude_gain`: applies to `gains` 'noise-optimal' (the {self.gains!r} gains use the paper's Γ)")
-        if self.translation_gain is not None:
-            if self.translation_gain not in TRANSLATION_GAINS:
-                raise InvalidArgumentError(f"`translation_gain`: expected one of "
-                                           f"{', '.join(map(repr, TRANSLATION_GAINS))}, got {self.translation_gain!r}")
-            if self.gains != "noise-optimal":
-                raise InvalidArgumentError(
-                    f"`translation_gain`: applies to `gains` 'noise-optimal' (the {self.gains!r} gains are constant)")
+        self._noise_optimal_option("attitude_gain", ATTITUDE_GAINS, "use the paper's Γ")
+        self._noise_optimal_option("translation_gain", TRANSLATION_GAINS, "are constant")
+
+    def _noise_optimal_option(self, name: str, allowed: tuple[str, ...], others: str) -> None:
+        """An option of the noise-optimal observer only: one of ``allowed``, or ``None``."""
+        value = getattr(self, name)
+        if value is None:
+            return
+        if value not in allowed:
+            raise InvalidArgumentError(f"`{name}`: expected one of {', '.join(map(repr, allowed))}, got {value!r}")
+        if self.gains != "noise-optimal":
+            raise InvalidArgumentError(f"`{name}`: applies to `gains` 'noise-optimal' (the {self.gains!r} gains {others})")
 
     @property
     def scheduled(self) -> bool:

@@ -155,8 +155,7 @@ class MappedBound:
             v0 = float(np.trace(b.P @ self.into @ m @ self.into.T))
         else:  # E e_zᵀ P e_z ≤ λmax(P) E|e_z|² ≤ λmax(P) γ_Φ² trace E[e_x e_xᵀ]
             v0 = float(np.linalg.eigvalsh(b.P)[-1]) * self.gamma_phi ** 2 * float(np.trace(m))
-        ms = (math.exp(-b.sigma * max(float(settle), 0.0)) * v0 + b.N / b.sigma) / b.lam_min
-        return self.gamma_phi_inv * math.sqrt(ms)
+        return self.gamma_phi_inv * b.rms_from(settle, v0)
 
     def summary(self) -> str:
         """The bound in ``z`` and the constants that read it in ``x``."""

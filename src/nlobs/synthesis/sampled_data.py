@@ -312,6 +312,20 @@ class SampledDataBound(CertificateMixin):
         if not self.verified:
             return math.inf
         v0 = self.v0 if p0 is None else float(np.trace(self.P @ _psd("p0", p0, self.P.shape[0])))
+        return self.rms_from(settle, v0)
+
+    def rms_from(self, settle: float, v0: float) -> float:
+        """The bound (2) on ``√E|e(t)|²`` for ``t ≥ settle`` from the initial ``E V(e0) ≤ v0`` (``inf`` when not verified).
+
+        Parameters
+        ----------
+        settle : float
+            The time after which the RMS is taken.
+        v0 : float
+            A bound of ``E e0ᵀ P e0``.
+        """
+        if not self.verified:
+            return math.inf
         return math.sqrt((math.exp(-self.sigma * max(float(settle), 0.0)) * v0 + self.N / self.sigma) / self.lam_min)
 
     def summary(self) -> str:

@@ -12,7 +12,6 @@ plant (1) with the observer (9)–(10) / (17)–(18), with the error and the cer
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,7 +36,6 @@ from nlobs.methods.cascade import (
     Theorem1Check,
     cascade_design,
     cascade_noise_model,
-    SENSOR_METHODS,
     default_gain_method,
     design_cascade,
     gain_for_sensors,
@@ -257,7 +255,7 @@ def design_cascade_observer(
         chosen = gain_for_sensors(cm, pb, gamma=gamma, gain_bound=gain_bound)
     kind = method or default_gain_method(cm, bool(scenario is not None and scenario.sensors))
     if chosen is not None:
-        design = chosen
+        design = chosen[0]
     else:
         if kind == "h2" and noise is None:
             if scenario is None:
@@ -272,10 +270,8 @@ def design_cascade_observer(
         return CascadeWorkflowReport(design, None, simulate, (), Verdict.FAILED,
                                      f"{label}: the gain fails its re-verification: "
                                      + "; ".join(k.summary() for k in design.checks if not k.passed))
-    unified = cascade_design(design, pb, gamma_given=gamma is not None, gain_method_given=method is not None)
-    if chosen is not None and unified.bound is not None:
-        unified = dataclasses.replace(unified, sources={**unified.sources, "gain_method": (
-            f"the smallest certified RMS bound under the file's sensors of {', '.join(SENSOR_METHODS)}")})
+    unified = cascade_design(design, pb, gamma_given=gamma is not None, gain_method_given=method is not None,
+                             chosen=None if chosen is None else chosen[1])
     if simulate is None:
         return CascadeWorkflowReport(design, None, None, (), Verdict.OK, "", unified)
     assert resolved is not None
