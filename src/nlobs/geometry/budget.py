@@ -1,77 +1,75 @@
-"""A wall-clock budget for the optional symbolic steps of the geometric analysis.
+"""A budget of counted work for the optional symbolic steps of the geometric analysis.
 
-Some exact results are worth having only when SymPy finds them quickly: the Moore–Penrose gain
-field ``l(x) = Q⁺(x) k`` of Röbenack (17) of a 9-state polynomial chain has entries of tens of
-thousands of terms, and one ``factor`` or ``simplify`` call cannot be interrupted from Python (a
-thread cannot be stopped). :func:`run_bounded` therefore runs such a step in a child Python process
-(``python -m nlobs.geometry._worker``, arguments and result pickled through its pipes) and kills it
-when its time is up; the child also limits its own CPU time, so it ends even when this process is
-killed first. A step predicted small runs in this process (no start-up cost, identical results).
+Some exact results are worth having only when they are cheap: the Moore–Penrose gain field
+``l(x) = Q⁺(x) k`` of Röbenack (17) of a 9-state polynomial chain has entries of tens of thousands of
+terms. Whether such a step is done must not depend on the machine or its load (the same model file
+gets the same report everywhere), so the budget counts *work*, never the clock: a step charges the
+term operations it is about to do (a product of polynomials with ``a`` and ``b`` terms costs ``a·b``)
+and stops, before doing them, when they would exceed what is left. The budget is stated in seconds,
+the work a typical machine does in that time (:data:`TERM_OPERATIONS_PER_SECOND`), so that
+``--symbolic-budget 5`` reads as before; the count alone decides.
 """
 
 from __future__ import annotations
 
-import os
-import pickle
-import subprocess
-import sys
-import time
-from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any
+from dataclasses import dataclass
 
 #: Default seconds, in all, of the optional symbolic steps of ``nlobs analyze`` (its ``symbolic_budget``).
 DEFAULT_SYMBOLIC_BUDGET = 5.0
 
-#: The functions a child process may run (module, name): nothing else is imported there.
-ALLOWED_STEPS = frozenset({("nlobs.geometry.pinv", "gain_job")})
+#: Term operations a second of the budget buys: a round figure, fixed, so that every machine draws the same line.
+#: Measured on the polynomial and Duffing chains of ``benchmarks/analyze_scale.py`` (the exact inverse of ``Q`` and
+#: the cancelled, factored entries of ``Q⁻¹ k``, in CPU time on an idle 2-core machine): 1.4–3.1 × 10⁵ a second.
+TERM_OPERATIONS_PER_SECOND = 200_000
+
+#: Work charged for a step whose cost is not counted term by term (a ``simplify`` of an expression predicted
+#: small): its predicted size (expression-tree nodes) times this.
+OPERATIONS_PER_NODE = 100
+
+
+class OutOfBudget(Exception):
+    """The next symbolic step would use more work than is left in the :class:`SymbolicBudget`."""
 
 
 @dataclass
 class SymbolicBudget:
-    """Seconds left for optional symbolic steps (``None``: unlimited, every step in this process)."""
+    """Term operations left for the optional symbolic steps (``seconds=None``: unlimited).
+
+    Parameters
+    ----------
+    seconds : float or None
+        The budget in seconds of a typical machine (:data:`TERM_OPERATIONS_PER_SECOND` operations each).
+    used : int
+        Term operations charged so far.
+    """
 
     seconds: float | None = DEFAULT_SYMBOLIC_BUDGET
-    start: float = field(default_factory=time.monotonic)
+    used: int = 0
 
-    def remaining(self) -> float | None:
+    @property
+    def limit(self) -> int | None:
+        """The budget in term operations (``None``: unlimited)."""
         if self.seconds is None:
             return None
-        return max(0.0, float(self.seconds) - (time.monotonic() - self.start))
+        return int(float(self.seconds) * TERM_OPERATIONS_PER_SECOND)
 
+    def charge(self, operations: int, what: str) -> None:
+        """Count ``operations`` for ``what``, or raise :class:`OutOfBudget` (counting nothing) when they do not fit.
 
-def run_bounded(module: str, name: str, args: tuple[Any, ...], budget: SymbolicBudget, *,
-                in_process: bool = False) -> tuple[bool, Any]:
-    """``(True, result)`` of ``module.name(*args)``, or ``(False, reason)`` when the budget ran out first.
+        Parameters
+        ----------
+        operations : int
+            Term operations the step is about to do.
+        what : str
+            The step, for the reason the report prints.
 
-    ``in_process`` (a step predicted small) or an unlimited budget runs it here; otherwise in a child
-    process that is killed at the deadline. An error in the child counts as not finished (its reason
-    says so); this process's state is never touched by the child.
-    """
-    if (module, name) not in ALLOWED_STEPS:
-        raise ValueError(f"run_bounded: {module}.{name} is not an allowed step")
-    left = budget.remaining()
-    if in_process or left is None:
-        import importlib
-
-        return True, getattr(importlib.import_module(module), name)(*args)
-    if left < 0.05:
-        return False, "no time left in the symbolic budget"
-    src = str(Path(__file__).resolve().parents[2])
-    env = dict(os.environ)
-    env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
-    payload = pickle.dumps((module, name, args, left), protocol=pickle.HIGHEST_PROTOCOL)
-    proc = subprocess.Popen([sys.executable, "-m", "nlobs.geometry._worker"], stdin=subprocess.PIPE,
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env)
-    try:
-        out, _ = proc.communicate(payload, timeout=left)
-    except subprocess.TimeoutExpired:
-        return False, f"did not finish within the symbolic budget ({budget.seconds:g} s)"
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
-    if proc.returncode != 0:
-        return False, f"the symbolic step failed (exit status {proc.returncode})"
-    ok, value = pickle.loads(out)  # noqa: S301 - written by our own child process
-    return (True, value) if ok else (False, f"the symbolic step failed: {value}")
+        Raises
+        ------
+        OutOfBudget
+            When ``used + operations`` exceeds :attr:`limit`.
+        """
+        limit = self.limit
+        if limit is not None and self.used + int(operations) > limit:
+            raise OutOfBudget(f"{what} needs more than the symbolic budget ({self.seconds:g} s, "
+                              f"{limit:,} term operations; {self.used:,} used)")
+        self.used += int(operations)

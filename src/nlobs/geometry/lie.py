@@ -1,11 +1,11 @@
 """Lie derivatives, covector Lie derivatives and Lie brackets (SymPy).
 
-Notation of seeds 002 (2.1) and 003 (Sec. 2), for vector fields ``f, g`` and a
+Notation of Dalla Mora, Germani & Manes (2.1) and Röbenack (Sec. 2), for vector fields ``f, g`` and a
 scalar function ``φ`` on an open set of ``ℝⁿ`` with coordinates ``x``::
 
-    L_f φ      = ⟨dφ, f⟩ = (∂φ/∂x) f                         (002: 2.1)
+    L_f φ      = ⟨dφ, f⟩ = (∂φ/∂x) f                         (Dalla Mora et al. (2.1))
     L_f^{k+1} φ = L_f (L_f^k φ),   L_f^0 φ = φ
-    [f, g]     = (∂g/∂x) f − (∂f/∂x) g                        (003: Sec. 2)
+    [f, g]     = (∂g/∂x) f − (∂f/∂x) g                        (Röbenack, Sec. 2)
     (L_f ω)ᵢ   = Σⱼ fⱼ ∂ωᵢ/∂xⱼ + Σⱼ ωⱼ ∂fⱼ/∂xᵢ                  (ω a covector field, a row)
 
 so that ``L_f dφ = d(L_f φ)`` (tested). Expressions are not simplified here:

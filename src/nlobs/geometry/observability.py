@@ -1,4 +1,4 @@
-"""Observability maps, observation relative degrees and the Brunovsky form (seeds 002, 003).
+"""Observability maps, observation relative degrees and the Brunovsky form (Dalla Mora, Germani & Manes; Röbenack).
 
 For an input-affine model ``ẋ = f(x) + g(x) u``, ``y = h(x)`` with ``q`` outputs
 (Dalla Mora, Germani & Manes (1.1), Röbenack (1)):

@@ -15,7 +15,9 @@ from typing import Any
 import sympy as sp
 
 from nlobs.errors import DimensionError
-from nlobs.geometry.lie import simplify_bounded, tidy
+from nlobs.geometry.budget import OPERATIONS_PER_NODE, SymbolicBudget
+from nlobs.geometry.exact_inverse import exact_inverse
+from nlobs.geometry.lie import derivative_size, simplify_bounded, tidy
 from nlobs.systems.expressions import as_sympy_expr, as_sympy_matrix
 
 
@@ -69,21 +71,57 @@ def gain_strings(field_: sp.MatrixBase, q: int) -> tuple[Any, ...]:
     return tuple(tuple(str(e) for e in field_.row(i)) for i in range(field_.shape[0]))
 
 
-def gain_job(Q: sp.MatrixBase, r: Sequence[int], q: int) -> tuple[tuple[Any, ...], sp.ImmutableMatrix | None]:
+#: Work charged per pair of terms (numerator × denominator) for cancelling and factoring an entry of ``Q⁻¹ k``:
+#: SymPy's dense multivariate gcd and factorisation cost about this many sparse products per pair (measured on the
+#: polynomial and Duffing chains of ``benchmarks/analyze_scale.py``, where they are nearly all of the step's time).
+CANCEL_FACTOR_WEIGHT = 500
+
+
+def gain_within(Q: sp.MatrixBase, r: Sequence[int], q: int,
+                budget: SymbolicBudget) -> tuple[tuple[Any, ...], sp.ImmutableMatrix | None]:
     """The symbolic gain field ``l(x) = Q⁺(x) K`` (17) as the report prints it, and ``Q⁺`` when it was built.
 
-    A square ``Q`` with rational entries (Σ r_j = n: ``Q⁺ = Q⁻¹``) is inverted over the field of rational
-    functions (SymPy's ``DomainMatrix``), not through ``Qᵀ (Q Qᵀ)⁻¹`` of expressions — the same rational
-    functions, so the same factored text, at a fraction of the cost; otherwise :func:`symbolic_pinv`. The step :func:`~nlobs.geometry.budget.run_bounded`
-    runs within the symbolic budget.
+    A square ``Q`` of rational functions over ℚ (Σ r_j = n: ``Q⁺ = Q⁻¹``) is inverted exactly by
+    :func:`~nlobs.geometry.exact_inverse.exact_inverse`, every step of it counted against ``budget``, and each
+    entry of ``Q⁻¹ K`` is cancelled and factored, charged :data:`CANCEL_FACTOR_WEIGHT` per pair of terms of
+    its numerator and denominator.
+    Otherwise (several outputs with Σ r_j < n, a transcendental entry) ``Q⁺ = Qᵀ (Q Qᵀ)⁻¹`` by
+    :func:`symbolic_pinv`, charged in advance by the predicted size of ``Q``
+    (:data:`~nlobs.geometry.budget.OPERATIONS_PER_NODE` per node of :func:`~nlobs.geometry.lie.derivative_size`).
+
+    Parameters
+    ----------
+    Q : sympy.Matrix
+        The reduced observability matrix (13), ``Σ r_j × n``.
+    r : sequence of int
+        The observation relative degrees.
+    q : int
+        The number of outputs.
+    budget : SymbolicBudget
+        The work the step may use; the same model stops at the same step on every machine.
+
+    Returns
+    -------
+    tuple
+        The printed field (one string per state for one output, else rows of ``q`` strings) and ``Q⁺`` (``None``
+        when ``Q`` was inverted exactly).
+
+    Raises
+    ------
+    OutOfBudget
+        When the work would exceed ``budget``.
     """
     Qm = sp.Matrix(as_sympy_matrix("Q", Q))
-    if Qm.shape[0] == Qm.shape[1] and all(e.is_rational_function() for e in Qm):
-        from sympy.polys.matrices import DomainMatrix
-
-        X = DomainMatrix.from_Matrix(Qm).to_field().inv().to_Matrix()  # Q⁻¹ over the rational functions
-        field_ = (X * block_gain(r, gain_symbols(r))).applyfunc(tidy)
-        return gain_strings(field_, q), None
+    inverse = exact_inverse(Qm, budget)
+    if inverse is not None:
+        K = block_gain(r, gain_symbols(r))
+        pairs = sum(len(x) for row in inverse.X for x in row) * len(inverse.d)  # each row of K holds one k_j
+        budget.charge(CANCEL_FACTOR_WEIGHT * pairs, "cancelling and factoring the entries of Q⁻¹ k")
+        den = inverse.d.as_expr()
+        entries = [[tidy(sum((x.as_expr() * kk for x, kk in zip(inverse.X[i], K.col(c)) if x), sp.Integer(0)) / den)
+                    for c in range(K.shape[1])] for i in range(Qm.shape[0])]
+        return gain_strings(sp.Matrix(entries), q), None
+    budget.charge(sum(derivative_size(e) for e in Qm) * OPERATIONS_PER_NODE, "the symbolic Q⁺ = Qᵀ (Q Qᵀ)⁻¹")
     Qp = symbolic_pinv(Qm)
     return gain_strings(pinv_gain_field(Qp, r), q), Qp
 

@@ -1,6 +1,6 @@
 """Regions of the state space and the evidence-backed tests run on them.
 
-The differential-geometric conditions of seeds 002 and 003 are stated on a set
+The differential-geometric conditions of Dalla Mora, Germani & Manes and of Röbenack are stated on a set
 ``Ω`` ("``L_g L_f^k h(x) = 0`` for all ``x ∈ Ω``", "``Q_s`` nonsingular in ``Ω``").
 nlobs decides them by a symbolic test where SymPy can prove it, backed by
 evaluation at seeded random points of a :class:`Box`; every verdict carries its

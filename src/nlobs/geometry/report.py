@@ -22,10 +22,9 @@ from nlobs.geometry.checks import (
     observability_rank_evidence,
 )
 from nlobs.geometry.observability import AffineFields, observation_relative_degree, reduced_observability_matrix
-from nlobs.geometry.budget import DEFAULT_SYMBOLIC_BUDGET, SymbolicBudget, run_bounded
+from nlobs.geometry.budget import DEFAULT_SYMBOLIC_BUDGET, OutOfBudget, SymbolicBudget
 from nlobs.geometry.checks import _ScaledCodistribution
-from nlobs.geometry.lie import derivative_size
-from nlobs.geometry.pinv import NumericGain, numeric_gain
+from nlobs.geometry.pinv import NumericGain, gain_within, numeric_gain
 from nlobs.geometry.region import Box, format_point
 from nlobs.systems.symbolic import SymbolicModel
 
@@ -61,7 +60,7 @@ class GeometryReport:
     notes : tuple of str
     numeric_gain : NumericGain or None
         ``Q⁺(x)`` at points of the region (``numpy.linalg.pinv``) when the symbolic gain field did not
-        finish within the symbolic budget (``pinv_gain`` is then ``None``).
+        fit in the symbolic budget (``pinv_gain`` is then ``None``).
     numeric_parts : tuple of str
         The optional symbolic parts replaced by a numeric evaluation or left out (``"pinv_gain"``,
         ``"a5"``), each with a note saying why.
@@ -109,7 +108,7 @@ class GeometryReport:
 
     def summary(self) -> str:
         n = len(self.states)
-        lines = [f"differential geometry on {self.region.describe()} (seeds 002, 003):"]
+        lines = [f"differential geometry on {self.region.describe()} (Dalla Mora, Germani & Manes; Röbenack):"]
         for o, r, ev in zip(self.outputs, self.relative_degree, self.relative_degree_evidence):
             lines.append(f"  observation relative degree of {o}: {'undefined' if r is None else r}   ({ev})")
         rank = "undecided" if self.observability_rank is None else f"generic rank {self.observability_rank} of n = {n}"
@@ -141,11 +140,6 @@ class GeometryReport:
         return "\n".join(lines)
 
 
-#: A gain field whose ``Q`` is at most this big (the sum of :func:`~nlobs.geometry.lie.derivative_size` of its
-#: entries) is computed in this process; a bigger one in a child process killed at the symbolic budget.
-IN_PROCESS_GAIN_SIZE = 400
-
-
 #: Above this many states the symbolic analyses are not attempted (a 300-state model did not finish in 900 s; a
 #: 20-state cubic chain reaches the polynomial-size limit after 24 s).
 MAX_GEOMETRY_STATES = 50
@@ -171,9 +165,10 @@ def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: in
                     symbolic_budget: float | None = DEFAULT_SYMBOLIC_BUDGET) -> GeometryReport:
     """Run the symbolic analyses of Dalla Mora–Germani–Manes and Röbenack on a continuous-time input-affine model.
 
-    ``symbolic_budget`` bounds, in seconds, the optional symbolic parts (``None``: unlimited): the gain
+    ``symbolic_budget`` bounds, in seconds of counted work (:class:`~nlobs.geometry.budget.SymbolicBudget`,
+    never the clock), the optional symbolic parts (``None``: unlimited): the gain
     field ``Q⁺(x) k`` (17) and, with it, the symbolic ``Q⁺`` of the involutivity check A5. A part that
-    does not finish in time is replaced by a numeric evaluation (``Q⁺(x)`` by ``numpy.linalg.pinv`` at
+    does not fit is replaced by a numeric evaluation (``Q⁺(x)`` by ``numpy.linalg.pinv`` at
     sampled points; A5 is then not checked when ``Q`` is not square) and named in ``numeric_parts``
     with a note; every symbolic result that is reported is exact.
 
@@ -213,6 +208,7 @@ def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: in
         notes.append(f"generic rank undecided: {evidence_rank.describe()}")
     a1 = a5 = None
     gain: tuple[Any, ...] | None = None
+    value = ""
     numeric: NumericGain | None = None
     parts: list[str] = []
     if all(r is not None for r in rd.r):
@@ -221,17 +217,17 @@ def geometry_report(model: SymbolicModel, region: Box | None = None, *, seed: in
         if sum(r_) > fields.n:
             notes.append(f"Σ r_j = {sum(r_)} > n: Röbenack's decomposition needs Σ r_j ≤ n")
         elif a1.passed:
-            budget = SymbolicBudget(symbolic_budget)
             Q = reduced_observability_matrix(fields, r_)
-            small = sum(derivative_size(e) for e in Q) <= IN_PROCESS_GAIN_SIZE
-            done, value = run_bounded("nlobs.geometry.pinv", "gain_job", (Q, r_, fields.q), budget, in_process=small)
             square = sum(r_) == fields.n
-            if done:
-                gain, Qp = value
-                a5 = check_involutive(fields, r_, reg, Qp=Qp, seed=seed)
+            try:
+                gain, Qp = gain_within(Q, r_, fields.q, SymbolicBudget(symbolic_budget))
+            except OutOfBudget as exc:
+                value = str(exc)
             else:
+                a5 = check_involutive(fields, r_, reg, Qp=Qp, seed=seed)
+            if gain is None:
                 scd = _ScaledCodistribution.for_fields(fields, r_, reg)
-                numeric = numeric_gain(scd.J, reg, f"the symbolic Q⁺(x) k {value}", seed=seed)
+                numeric = numeric_gain(scd.J, reg, f"the symbolic Q⁺(x) k: {value}", seed=seed)
                 parts.append("pinv_gain")
                 notes.append(f"the gain field Q⁺(x) k (Röbenack (17)) was not computed symbolically: {value}; "
                              f"Q⁺(x) is evaluated numerically (numpy.linalg.pinv) at {numeric.samples} points of the "

@@ -366,8 +366,9 @@ def analyze_model(model: str | Path | Model, *, x0: Sequence[float] | None = Non
         (:func:`~nlobs.workflows.inputs.box_from_numbers`); default the file's ``[simulation] box``,
         else ``[−1, 1]ⁿ``.
     symbolic_budget : float or None
-        Seconds for the optional symbolic parts (``None``: unlimited). A part
-        that does not finish is evaluated numerically and named in the report's ``numeric_parts``.
+        Seconds for the optional symbolic parts (``None``: unlimited), counted as work
+        (:class:`~nlobs.geometry.budget.SymbolicBudget`), never timed. A part that does not fit is
+        evaluated numerically and named in the report's ``numeric_parts``.
 
     Raises
     ------
