@@ -80,3 +80,18 @@ def test_the_check_sees_a_command_that_loads_the_numeric_stack() -> None:
     """The probe itself works: a command that needs NumPy (``nlobs models`` reads the model files) shows it."""
     status, loaded = _numeric_modules_after("models", "--json")
     assert status == 0 and "numpy" in loaded
+
+
+@pytest.mark.parametrize("args", [
+    ["analyze", "pendulum"],
+    ["advise", "pendulum"],
+    ["design", "drift", "pendulum"],
+], ids=" ".join)
+def test_everyday_commands_load_no_solver_or_plotting_library(args: list[str]) -> None:
+    """CVXPY, Matplotlib and Dask are imported only by a command that solves an LMI, draws or scales out:
+    ``analyze``, ``advise`` and the drift design on a small model use none of them."""
+    status, loaded = _numeric_modules_after(*args)
+    assert status == 0
+    heavy = sorted({m.split(".")[0] for m in loaded} & {"cvxpy", "matplotlib"})
+    assert heavy == [], f"nlobs {' '.join(args)} imported {heavy}"
+    assert "sympy" in {m.split(".")[0] for m in loaded}  # the probe sees what the command does load

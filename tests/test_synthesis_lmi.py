@@ -39,3 +39,14 @@ def test_as_solver():
     assert as_solver("clarabel") is Solver.CLARABEL
     with pytest.raises(InvalidArgumentError, match="solver: unknown"):
         as_solver("cvxopt-ish")
+
+
+def test_solve_status_values_are_cvxpys_status_strings() -> None:
+    """The solver's raw status maps onto :class:`SolveStatus` by value; CVXPY's constants must be those values."""
+    import cvxpy as cp
+
+    from nlobs.synthesis.lmi import SolveStatus
+
+    for name in ("OPTIMAL", "OPTIMAL_INACCURATE", "INFEASIBLE", "INFEASIBLE_INACCURATE", "UNBOUNDED",
+                 "UNBOUNDED_INACCURATE"):
+        assert SolveStatus[name].value == getattr(cp, name)

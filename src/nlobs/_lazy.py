@@ -1,4 +1,8 @@
-"""Names of a package imported on first use (PEP 562): the one ``__getattr__`` / ``__dir__`` pair."""
+"""Imports on first use: a package's names (PEP 562, the one ``__getattr__`` / ``__dir__`` pair) and whole modules.
+
+A command imports only what it uses: CVXPY (with SciPy's statistics, a third of a second) is loaded by the
+first LMI a command solves, not by ``import nlobs.synthesis``.
+"""
 
 from __future__ import annotations
 
@@ -7,7 +11,7 @@ import sys
 from collections.abc import Callable, Mapping
 from typing import Any
 
-__all__ = ["lazy_exports"]
+__all__ = ["LazyModule", "lazy_exports"]
 
 
 def lazy_exports(package: str, names: Mapping[str, str]) -> tuple[Callable[[str], Any], Callable[[], list[str]]]:
@@ -42,3 +46,33 @@ def lazy_exports(package: str, names: Mapping[str, str]) -> tuple[Callable[[str]
         return sorted(set(namespace) | set(names))
 
     return __getattr__, __dir__
+
+
+class LazyModule:
+    """A module imported on its first attribute access: ``cp = LazyModule("cvxpy")`` then ``cp.Variable(...)``.
+
+    Parameters
+    ----------
+    name : str
+        The module's dotted name.
+
+    Examples
+    --------
+    >>> np_ = LazyModule("numpy")
+    >>> float(np_.sqrt(4.0))
+    2.0
+    """
+
+    __slots__ = ("_name",)
+
+    def __init__(self, name: str) -> None:
+        object.__setattr__(self, "_name", name)
+
+    def __getattr__(self, attr: str) -> Any:
+        return getattr(importlib.import_module(self._name), attr)
+
+    def __setattr__(self, attr: str, value: Any) -> None:
+        raise AttributeError(f"LazyModule({self._name!r}) is read-only")
+
+    def __repr__(self) -> str:
+        return f"LazyModule({self._name!r})"

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 import sympy as sp
-from scipy.optimize import minimize
+import scipy
 
 from nlobs._typing import Array
 from nlobs.checks import Check, CheckKind
@@ -72,7 +72,7 @@ def _refine(fn: object, pts: Array, sv: Array, region: Box, starts: int = 4) -> 
     bounds = list(zip(region.lower, region.upper))
     best_pt, best = pts[int(np.argmin(sv))], float(np.min(sv))
     for i in np.argsort(sv)[:starts]:
-        res = minimize(lambda z: float(_sigma_min(fn, z[None, :])[0]), pts[i], method="L-BFGS-B", bounds=bounds,
+        res = scipy.optimize.minimize(lambda z: float(_sigma_min(fn, z[None, :])[0]), pts[i], method="L-BFGS-B", bounds=bounds,
                        options={"maxiter": 200})
         if res.fun < best:
             best_pt, best = np.clip(res.x, region.lower, region.upper), float(res.fun)

@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
+import scipy
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, as_square, in_range

@@ -42,8 +42,6 @@ import math
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
-import scipy.sparse.csgraph
 from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, as_square, in_range

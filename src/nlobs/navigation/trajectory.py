@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike
-from scipy.optimize import fsolve
+import scipy
 
 from nlobs._typing import Array
 from nlobs._validate import as_vector, positive
@@ -346,7 +346,7 @@ def _solve(p: _Params, g: float) -> tuple[_Plan, _Positions]:
         )
 
     x0 = np.array([0.1, 0.06, 80.0, 25.0])
-    x, info, ier, msg = fsolve(residual, x0, full_output=True, xtol=1e-13)
+    x, info, ier, msg = scipy.optimize.fsolve(residual, x0, full_output=True, xtol=1e-13)
     res = residual(x)
     if ier != 1 and float(np.max(np.abs(res))) > 1e-9:
         raise DesignInfeasible(f"traffic pattern: the geometry could not be closed ({msg.strip()}); residual {res}")

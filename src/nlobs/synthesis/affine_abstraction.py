@@ -75,8 +75,7 @@ from dataclasses import dataclass
 from enum import Enum
 
 import numpy as np
-import scipy.optimize
-import scipy.sparse
+import scipy
 from numpy.typing import ArrayLike
 
 from nlobs._typing import Array

@@ -18,15 +18,17 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import cvxpy as cp
 import numpy as np
-import scipy.optimize
+import scipy
 from numpy.typing import ArrayLike
 
+from nlobs._lazy import LazyModule
 from nlobs._typing import Array
 from nlobs._validate import as_square, positive, readonly
 from nlobs.errors import DesignInfeasible
 from nlobs.synthesis.lmi import Solver, max_eig, solve, symmetrise
+
+cp = LazyModule("cvxpy")  # imported by the first problem built (see nlobs._lazy)
 
 __all__ = [
     "QuadraticLyapunov",

@@ -20,7 +20,7 @@ import time as _time
 from collections.abc import Sequence
 
 import numpy as np
-import scipy.signal
+import scipy
 from numpy.typing import ArrayLike
 
 from nlobs._typing import Array

@@ -73,10 +73,10 @@ from fractions import Fraction
 from functools import lru_cache
 from typing import Any, NamedTuple
 
-import cvxpy as cp
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nlobs._lazy import LazyModule
 from nlobs._typing import Array
 from nlobs._validate import as_matrix, positive, readonly
 from nlobs.errors import CertificateError, DesignInfeasible, InvalidArgumentError
@@ -96,6 +96,7 @@ from nlobs.synthesis.lmi import (
     symmetrise,
 )
 
+cp = LazyModule("cvxpy")  # imported by the first problem built (see nlobs._lazy)
 
 __all__ = [
     "ROUNDING_FACTOR",

@@ -21,11 +21,13 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any, TypeVar
 
-import cvxpy as cp
 import numpy as np
 from numpy.typing import NDArray
 
+from nlobs._lazy import LazyModule
 from nlobs.errors import InvalidArgumentError
+
+cp = LazyModule("cvxpy")  # imported by the first problem built (see nlobs._lazy)
 
 __all__ = [
     "psd_sqrt",
@@ -91,14 +93,8 @@ class SolveStatus(Enum):
         return self in (SolveStatus.INFEASIBLE, SolveStatus.INFEASIBLE_INACCURATE)
 
 
-_STATUS_MAP = {
-    cp.OPTIMAL: SolveStatus.OPTIMAL,
-    cp.OPTIMAL_INACCURATE: SolveStatus.OPTIMAL_INACCURATE,
-    cp.INFEASIBLE: SolveStatus.INFEASIBLE,
-    cp.INFEASIBLE_INACCURATE: SolveStatus.INFEASIBLE_INACCURATE,
-    cp.UNBOUNDED: SolveStatus.UNBOUNDED,
-    cp.UNBOUNDED_INACCURATE: SolveStatus.UNBOUNDED_INACCURATE,
-}
+#: CVXPY's status strings are the values of :class:`SolveStatus` (``tests/test_lmi.py`` checks them).
+_STATUS_MAP = {s.value: s for s in SolveStatus}
 
 # SCS's defaults (eps 1e-4) are too loose for certificates: one "optimal" SCS
 # answer on the Grip–Saberi–Johansen example had a non-Hurwitz closed loop. Tighter

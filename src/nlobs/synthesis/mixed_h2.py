@@ -58,12 +58,12 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-import cvxpy as cp
 import numpy as np
+import scipy
 import scipy.linalg
-import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
+from nlobs._lazy import LazyModule
 from nlobs._validate import as_matrix, as_square, as_symmetric, positive, readonly
 from nlobs.checks import Check, CheckKind
 from nlobs.errors import DesignInfeasible, DimensionError, InvalidArgumentError, NumericalError
@@ -79,6 +79,8 @@ from nlobs.synthesis.observer_gain import (
     _validate_data,
     verify_observer_gain,
 )
+
+cp = LazyModule("cvxpy")  # imported by the first problem built (see nlobs._lazy)
 
 __all__ = [
     "MixedH2Certificate",

@@ -40,10 +40,10 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, NoReturn
 
-import cvxpy as cp
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from nlobs._lazy import LazyModule
 from nlobs._validate import as_matrix, as_square, positive, readonly
 from nlobs.errors import (
     CertificateError,
@@ -79,6 +79,8 @@ from nlobs.synthesis.lmi import (
 )
 from nlobs.synthesis.regions import PoleRegion, as_regions
 from nlobs.synthesis.riccati import FilterRiccati, filter_riccati, riccati_delta, smallest_riccati_scale
+
+cp = LazyModule("cvxpy")  # imported by the first problem built (see nlobs._lazy)
 
 __all__ = [
     "ExtendedSystem",

@@ -68,9 +68,9 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
-import cvxpy as cp
 import numpy as np
 
+from nlobs._lazy import LazyModule
 from nlobs._typing import Array
 from nlobs._validate import as_count, as_finite_array, as_square, in_range, positive, readonly
 from nlobs.errors import CertificateError, DesignInfeasible, DimensionError, InvalidArgumentError
@@ -87,6 +87,8 @@ from nlobs.checks import Check, CheckKind
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.synthesis.lmi import Solver, as_enum, as_solver, max_eig, require_lmi_size, solve
 from nlobs.systems.discrete_ui import LPV, DiscreteUISystem, FunctionClass, Lipschitz
+
+cp = LazyModule("cvxpy")  # imported by the first problem built (see nlobs._lazy)
 
 __all__ = [
     "SetValuedObjective",
