@@ -32,6 +32,10 @@ __all__ = ["EKF"]
 
 _JACOBIANS = ("rhs_jacobian_x", "output_jacobian_x")
 
+#: The NIS rate of one run between samples (read-only: RK4 combines it into new arrays, never in place).
+_ZERO = np.zeros(())
+_ZERO.flags.writeable = False
+
 
 @dataclass(frozen=True, eq=False)
 class EKF(GaussianFilterBase):
@@ -81,10 +85,22 @@ class EKF(GaussianFilterBase):
                 f"{', '.join(f'{m}(t, x, u)' for m in missing)}, which {type(self.plant).__name__} lacks "
                 "(a compiled SymbolicModel and a LinearSystem have them; the UKF needs none)")
 
+    def _predicted(self, t: float, x: Array, u: Array) -> tuple[Array, Array]:
+        """``(f, ∂f/∂x)`` at ``(t, x, u)``: from one call of a compiled model, else from the plant's two methods."""
+        plant = self.plant
+        both = getattr(plant, "rhs_and_jacobian_x", None)
+        return both(t, x, u) if both is not None else (plant.rhs(t, x, u), plant.rhs_jacobian_x(t, x, u))
+
+    def _linearised_output(self, t: float, x: Array, u: Array) -> tuple[Array, Array]:
+        """``(h, ∂h/∂x)`` at ``(t, x, u)``: from one call of a compiled model, else from the plant's two methods."""
+        plant = self.plant
+        both = getattr(plant, "output_and_jacobian_x", None)
+        return both(t, x, u) if both is not None else (plant.output(t, x, u), plant.output_jacobian_x(t, x, u))
+
     def rhs(self, t: float, z: FilterState, u: Array, y: Array) -> FilterState:
         """Time derivative of ``(x̂, P)`` (continuous plant) or the prediction (discrete plant)."""
         x, P = z.x, z.P
-        F = self.plant.rhs_jacobian_x(t, x, u)  # type: ignore[attr-defined]
+        f, F = self._predicted(t, x, u)
         if F.ndim == 2 and P.ndim == 2:  # one run: ndarray.dot costs a third of @ on small matrices
             FP = F.dot(P)
             P_new = FP.dot(F.T) if self.discrete else FP + FP.T
@@ -95,12 +111,12 @@ class EKF(GaussianFilterBase):
         if self.discrete:
             P_new = P_new + P_new.mT.copy()  # F P Fᵀ, unlike F P + (F P)ᵀ, is not symmetric to the last bit
             P_new *= 0.5
-            return FilterState(self.plant.rhs(t, x, u), P_new, z.nis)
-        return FilterState(self.plant.rhs(t, x, u), P_new, np.zeros(np.shape(z.nis)))
+            return FilterState(f, P_new, z.nis)
+        nis = z.nis  # constant between samples: a zero rate (a NumPy scalar is carried by RK4 as it is)
+        return FilterState(f, P_new, _ZERO if nis.ndim == 0 else np.zeros(nis.shape))
 
     def _update(self, t: float, x: Array, P: Array, u: Array, y: Array, rows: Any) -> tuple[Array, Array, Array]:
-        h = self.plant.output(t, x, u)
-        H = self.plant.output_jacobian_x(t, x, u)  # type: ignore[attr-defined]
+        h, H = self._linearised_output(t, x, u)
         if rows is not None:
             h, H = h[..., rows], H[..., rows, :]
         dx, P_new, nis = joseph_update(P, H, self.R if rows is None else self.R[np.ix_(rows, rows)], y - h, nis=True)

@@ -177,7 +177,7 @@ class GaussianFilterBase(ToControl):
 
     def diagnostics(self, z: FilterState, u: Array) -> dict[str, Array]:
         """``P_diag`` (the variances ``(..., n)``), ``nis`` ``(...)`` and, with ``record_covariance``, ``P``."""
-        out = {"P_diag": np.diagonal(z.P, axis1=-2, axis2=-1), "nis": z.nis}
+        out = {"P_diag": z.P.diagonal(0, -2, -1), "nis": z.nis}
         if self.record_covariance:
             out["P"] = z.P
         return out

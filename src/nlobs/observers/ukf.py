@@ -173,6 +173,9 @@ class UKF(GaussianFilterBase):
 
     def sigma_points(self, x: Array, P: Array) -> Array:
         """The ``2n + 1`` sigma points of ``(x, P)``, shape ``(..., 2n + 1, n)`` (module docstring)."""
+        if x.ndim == 1 and P.ndim == 2:  # one run: the same operations without broadcasting
+            D = self.spread * psd_sqrt(0.5 * (P + P.T)).T
+            return np.concatenate((x[None, :], x + D, x - D))
         S = psd_sqrt(symmetrised(P))
         D = self.spread * np.swapaxes(S, -1, -2)  # rows: the scaled columns of S
         m = x[..., None, :]
@@ -187,6 +190,12 @@ class UKF(GaussianFilterBase):
     def rhs(self, t: float, z: FilterState, u: Array, y: Array) -> FilterState:
         """Särkkä's moment ODEs (continuous plant) or the unscented prediction (discrete plant)."""
         X = self.sigma_points(z.x, z.P)
+        if X.ndim == 2 and not self.discrete and np.ndim(u) == 1:  # one run, continuous plant
+            FX = self.plant.rhs(t, X, u)  # u broadcasts over the sigma points
+            m = np.einsum("l,ln->n", self.wm, FX)
+            dF = FX - m
+            A = ((X - z.x) * self.wc[:, None]).T.dot(dF)
+            return FilterState(x=m, P=A + A.T + self.Q, nis=np.zeros(np.shape(z.nis)))
         FX = self.plant.rhs(t, X, self._with_points(u, X))
         m = np.einsum("l,...ln->...n", self.wm, FX)
         dF = FX - m[..., None, :]

@@ -212,11 +212,11 @@ class _Recorder:
 def record_diagnostics(store: dict[str, Array], diag: Mapping[str, Any], row: int, rows: int) -> None:
     """Write an observer's ``diagnostics`` into time-major buffers ``(K, ...)``, allocated on first use."""
     for name, val in diag.items():
-        arr = np.asarray(val)
         buf = store.get(name)
         if buf is None:
+            arr = np.asarray(val)
             buf = store[name] = np.full((rows, *arr.shape), np.nan, dtype=np.result_type(arr.dtype, np.float64))
-        buf[row] = arr
+        buf[row] = val
 
 
 def time_major_extras(store: dict[str, Array], n_batch: int) -> dict[str, Array]:

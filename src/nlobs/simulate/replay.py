@@ -316,12 +316,16 @@ def run_observer(
             check(Ks - 1)
     else:
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"), Progress(K, progress, label) as bar:
+            # the rows of each step as a list of views (one run: cheaper than indexing the array at every step)
+            u_rows = list(np.moveaxis(u_arr, -2, 0)) if u_arr is not None else [u0] * K
+            y_rows = list(np.moveaxis(y_arr, -2, 0)) if G else []
+            fresh_rows = list(rows)
             for k in range(K):
-                u_k = u_arr[..., k, :] if u_arr is not None else u0
+                u_k = u_rows[k]
                 g = fix_list[k]
                 if g >= 0:
-                    y_g = y_arr[..., g, :]
-                    fresh = rows[g]
+                    y_g = y_rows[g]
+                    fresh = fresh_rows[g]
                     if correcting:
                         t0 = perf()
                         z = observer.correct(t_list[k], z, u_k, y_g, fresh)  # type: ignore[attr-defined]

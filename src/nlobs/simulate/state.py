@@ -42,16 +42,69 @@ def tree_map(fn: Callable[..., Array], first: Any, *rest: Any) -> Any:
         return fn(first, *rest)
     if isinstance(first, tuple):
         return tuple(tree_map(fn, a, *(r[i] for r in rest)) for i, a in enumerate(first))
-    if dataclasses.is_dataclass(first) and not isinstance(first, type):
-        changes = {}
-        for f in dataclasses.fields(first):
-            if not f.init:
-                continue
-            v = getattr(first, f.name)
-            if _is_leaf(v) or isinstance(v, tuple) or (dataclasses.is_dataclass(v) and not isinstance(v, type)):
-                changes[f.name] = tree_map(fn, v, *(getattr(r, f.name) for r in rest))
-        return dataclasses.replace(first, **changes)
-    return first
+    names = _init_fields(type(first))
+    if names is None:
+        return first
+    values = {}
+    for name in names:
+        v = getattr(first, name)
+        if type(v) is np.ndarray and v.dtype.kind == "f":
+            v = fn(v, *(getattr(r, name) for r in rest))
+        elif isinstance(v, tuple) or (dataclasses.is_dataclass(v) and not isinstance(v, type)):
+            v = tree_map(fn, v, *(getattr(r, name) for r in rest))
+        values[name] = v
+    return type(first)(**values)  # dataclasses.replace, without its per-call field introspection
+
+
+_FIELDS: dict[type, tuple[str, ...] | None] = {}
+
+
+def flat_fields(z: Any) -> tuple[tuple[str, ...], tuple[int, ...]] | None:
+    """A dataclass state that is a flat record of floats: its field names and the indices of its float arrays.
+
+    A flat record: every ``__init__`` field positional and a float array or a NumPy float scalar (a Kalman
+    filter's mean, covariance and NIS). Combining its float arrays field by field, carrying its scalars over
+    from the first operand and building it positionally gives exactly what :func:`tree_map` gives, without
+    walking the tree at every stage. Anything else (a bare array, a tuple, a dataclass with other fields) is
+    ``None``: those go through :func:`tree_map`.
+    """
+    cls = type(z)
+    names = _POSITIONAL.get(cls, ())
+    if names == ():
+        names = _POSITIONAL[cls] = _positional_fields(cls)
+    if names is None:
+        return None
+    arrays = []
+    for i, name in enumerate(names):
+        v = getattr(z, name)
+        if type(v) is np.ndarray and v.dtype.kind == "f":
+            arrays.append(i)
+        elif not isinstance(v, np.floating):
+            return None
+    return names, tuple(arrays)
+
+
+_POSITIONAL: dict[type, tuple[str, ...] | None] = {}
+
+
+def _positional_fields(cls: type) -> tuple[str, ...] | None:
+    """The ``__init__`` fields of a dataclass type, all positional (``None``: not a dataclass, or a keyword-only field)."""
+    if not dataclasses.is_dataclass(cls):
+        return None
+    fields = [f for f in dataclasses.fields(cls) if f.init]
+    if not fields or any(f.kw_only for f in fields):
+        return None
+    return tuple(f.name for f in fields)
+
+
+def _init_fields(cls: type) -> tuple[str, ...] | None:
+    """The ``__init__`` fields of a dataclass type (``None``: not a dataclass), looked up once per type."""
+    try:
+        return _FIELDS[cls]
+    except KeyError:
+        names = tuple(f.name for f in dataclasses.fields(cls) if f.init) if dataclasses.is_dataclass(cls) else None
+        _FIELDS[cls] = names
+        return names
 
 
 def leaves(z: Any, prefix: str = "") -> Iterator[tuple[str, Array]]:

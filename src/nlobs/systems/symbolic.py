@@ -22,7 +22,7 @@ import sympy as sp
 from nlobs._typing import Array
 from nlobs._validate import check_names
 from nlobs.errors import DimensionError, ModelError, NonFiniteError, UnknownNameError
-from nlobs.systems.codegen import BatchedFunction, compile_matrix
+from nlobs.systems.codegen import BatchedFunction, compile_matrix, evaluate_together
 from nlobs.systems.expressions import as_sympy_matrix
 from nlobs.systems.timebase import CONTINUOUS, TimeBase
 
@@ -341,6 +341,16 @@ class CompiledModel:
     def rhs_jacobian_x(self, t: float, x: Array, u: Array) -> Array:
         """``∂F/∂x``, shape ``(..., n, n)``."""
         return self._rhs_x(x, u)
+
+    def rhs_and_jacobian_x(self, t: float, x: Array, u: Array) -> tuple[Array, Array]:
+        """``(F(x, u), ∂F/∂x)`` in one call (the EKF's prediction), each exactly as :meth:`rhs` and
+        :meth:`rhs_jacobian_x` return it."""
+        return evaluate_together((self._rhs, self._rhs_x), x, u)  # type: ignore[return-value]
+
+    def output_and_jacobian_x(self, t: float, x: Array, u: Array) -> tuple[Array, Array]:
+        """``(h(x, u), ∂h/∂x)`` in one call (the EKF's correction), each exactly as :meth:`output` and
+        :meth:`output_jacobian_x` return it."""
+        return evaluate_together((self._h, self._h_x), x, u)  # type: ignore[return-value]
 
     def rhs_jacobian_u(self, t: float, x: Array, u: Array) -> Array:
         """``∂F/∂u``, shape ``(..., n, m)``."""
