@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-min docs bench clean
+.PHONY: demo test test-fast test-min docs bench clean
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -22,6 +22,11 @@ TEST_WORKERS ?= auto
 test: $(STAMP)
 	MPLBACKEND=Agg OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 \
 	  $(BIN)/python -m pytest -q -p no:cacheprovider -n $(TEST_WORKERS)
+
+# the inner loop of a developer: every test but those marked slow (each ≥ 1.5 s); `make test` runs them all
+test-fast: $(STAMP)
+	MPLBACKEND=Agg OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1 \
+	  $(BIN)/python -m pytest -q -p no:cacheprovider -n $(TEST_WORKERS) -m "not slow"
 
 # the declared minimum version of every dependency, in a second venv, against .venv (.ci/min_versions.py)
 test-min: $(STAMP)

@@ -33,6 +33,7 @@ def _min_det(report, method: str = "drift") -> float:
     return float(m.group(1))
 
 
+@pytest.mark.slow
 def test_chemostat_pinv_with_det_qs_and_mu_from_the_file() -> None:
     """Under the file's analyser (every 6 min) only the Luenberger/Thau gain chosen for the sensors is certified
     on the file's region (the parallelotope of μ, Xμ' and D keeps the mass balance): it is recommended, ahead of
@@ -58,6 +59,7 @@ def test_chemostat_pinv_with_det_qs_and_mu_from_the_file() -> None:
     assert rep.compare_command == "nlobs simulate chemostat --observer luenberger,ekf,ukf"
 
 
+@pytest.mark.slow
 def test_chemostat_default_box_contains_the_monod_pole() -> None:
     """On [−1, 1] (negative biomass and substrate) no gain is certified under the sensors: the theorems' order
     stands and the Moore–Penrose command carries the box."""
@@ -101,6 +103,7 @@ def test_two_tank_box_through_the_square_roots() -> None:
     assert rep.region.lower.tolist() == pytest.approx([0.05, 0.05]) and rep.region.upper.tolist() == [1.0, 1.0]
 
 
+@pytest.mark.slow
 def test_cartpole_drift_constant_det_and_cascade_structure() -> None:
     rep = advise_model("cartpole")
     assert rep.recommended == "luenberger"  # the one certificate under the 50 Hz encoders
@@ -124,6 +127,7 @@ def test_rossler_ekf_local_drift_and_cascade_structure() -> None:
     assert "cascade structure found: states x, y" in rep.method("cascade").reason
 
 
+@pytest.mark.slow
 def test_cascade_table_is_recommended(tmp_path: Path) -> None:
     """A [cascade] table ranks the cascade observer first among the uncertified; under the file's analyser the
     Luenberger/Thau gain chosen for the sensors is certified and goes ahead of it, and says so."""
@@ -169,6 +173,7 @@ def test_bad_box_in_the_workflow() -> None:
         advise_model("chemostat", box=[0.0, 1.0, 2.0])
 
 
+@pytest.mark.slow
 def test_json_keys_and_analyze_keeps_its_keys() -> None:
     res = runner.invoke(app, ["advise", "two-tank", "--json"])
     assert res.exit_code == 0
@@ -211,6 +216,7 @@ box = [[-3, 3], [-60, 60]]
 '''
 
 
+@pytest.mark.slow
 def test_check_ranks_a_high_gain_design_fed_slow_samples_below_the_kalman_filters(tmp_path: Path) -> None:
     """The theorems' verdict makes drift applicable; under a 5 Hz encoder it never converges (held samples), and
     --check says why."""
@@ -249,6 +255,7 @@ def test_check_ranks_a_high_gain_design_fed_slow_samples_below_the_kalman_filter
     assert runner.invoke(app, ["advise", str(f), "--check", "--runs", "0"]).exit_code == 2
 
 
+@pytest.mark.slow
 def test_check_keeps_an_observer_that_converges_and_notes_noise_only_above_the_factor(tmp_path: Path) -> None:
     """The Luenberger gain chosen for a 500 Hz encoder converges within CHECK_RMS_FACTOR of the EKF: no note."""
     from nlobs.methods.advice import CHECK_RMS_FACTOR
@@ -263,6 +270,7 @@ def test_check_keeps_an_observer_that_converges_and_notes_noise_only_above_the_f
     assert not any("amplifies the sensor noise" in e for e in rep.method("luenberger").evidence)
 
 
+@pytest.mark.slow
 def test_a_certified_design_on_a_given_box_prints_commands_on_that_box() -> None:
     """A box given to advise: the certificate is for it, so both printed commands carry it (else `simulate` would
     design on the file's region, another observer than the one advised)."""

@@ -46,6 +46,7 @@ def _independent_Q(model) -> tuple[list[sp.Symbol], object]:
     return x, sp.lambdify(x, sp.Matrix(rows), "numpy")
 
 
+@pytest.mark.slow
 def test_seven_state_chain_gain_is_numeric_and_agrees_with_numpy_pinv() -> None:
     m = poly_chain(7)
     g = geometry_report(m, symbolic_budget=0.0)

@@ -143,6 +143,7 @@ def test_given_options_override_the_file(tmp_path: Path) -> None:
     assert "F" in kinds and "A" in kinds and "choose --x0 inside the model's domain" in d["linearization_error"]
 
 
+@pytest.mark.slow
 def test_u0_is_the_files_input_at_t0_as_simulate_starts(tmp_path: Path) -> None:
     # the shipped chemostat: x0 = (1.5, 0.5), D = step 0.3 → 0.2 at t = 25 h, so u0 = D(0) = 0.3.
     # By hand, μ = μmax S/(Ks + S), μ' = μmax Ks/(Ks + S)²: A = [[μ − D, μ' X], [−μ/Y, −D − μ' X/Y]]

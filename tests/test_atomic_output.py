@@ -75,6 +75,7 @@ def _one_line(stderr: str) -> str:
     return lines[0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("sig", "status"), [(signal.SIGTERM, 143), (signal.SIGINT, 130)])
 def test_a_signal_inside_a_figure_write_keeps_the_previous_files_and_leaves_no_temporary(
     sig: signal.Signals, status: int, tmp_path: Path
@@ -122,6 +123,7 @@ def test_a_demo_signalled_after_it_created_its_folder_exits_with_one_line(
     _decodable(out)
 
 
+@pytest.mark.slow
 def test_the_temporary_of_a_run_killed_with_sigkill_is_removed_by_the_next_run(tmp_path: Path) -> None:
     out = tmp_path / "out"
     killed = _run([*PINV, "--out", str(out)], sig=signal.SIGKILL)
@@ -159,6 +161,7 @@ def test_only_the_temporaries_of_dead_processes_of_the_same_target_are_removed(t
     assert remove_stale_temporaries(tmp_path / "b.json") == [other]
 
 
+@pytest.mark.slow
 def test_two_runs_writing_one_folder_at_once_leave_decodable_files_and_no_temporary(tmp_path: Path) -> None:
     out = tmp_path / "out"
     out.mkdir()

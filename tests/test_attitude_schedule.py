@@ -212,6 +212,7 @@ def test_noise_schedule_halves_the_gain_on_a_one_over_t_law_down_to_the_steady_g
     assert len(noise_scheduled_gain(SensorNoise(gyro_std=1.0, mag_std=1e-3), flight.m_n, flight.g_n).gains) == 1
 
 
+@pytest.mark.slow
 def test_scheduled_gain_is_within_twice_the_ekf_in_attitude_on_a_full_flight(pattern, make_traj, gain9):
     # the demo's sensors and flight (seed 0, 369 s, 60° yaw error), the RMS after each filter's own
     # convergence below 5°. Measured: scheduled 0.284°, constant 0.5 I 0.477°, EKF 0.196°; over six

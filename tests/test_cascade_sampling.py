@@ -89,6 +89,7 @@ def test_the_augmented_plant_is_the_plant_and_the_observer_its_thau_observer(tmp
     np.testing.assert_array_equal(plant_map(d.report), [[1, 0, 0], [0, 1, 0], [0, 0, 1], [1, 0, 0]])
 
 
+@pytest.mark.slow
 def test_the_cascade_is_certified_under_its_sensors_and_its_runs_stay_below_the_bound(tmp_path: Path) -> None:
     path = _file(tmp_path)
     d = get("cascade").design(problem(path))

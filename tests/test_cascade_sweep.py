@@ -61,6 +61,7 @@ def test_placement_sweep_reaches_small_gamma() -> None:
     assert all(a < b for a, b in itertools.pairwise(norms))  # measured: 11.5, 8.1e3, 8.0e6, 8.0e9
 
 
+@pytest.mark.slow
 def test_simulated_sweep_shows_where_the_observer_stops_converging() -> None:
     plant = interconnected_plant(S1, S2)
     sw = gamma_sweep(

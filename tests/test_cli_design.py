@@ -60,6 +60,7 @@ def test_drift_vandermonde_gain_is_the_closed_form() -> None:
     assert K == pytest.approx([3 * w, 2 * w**2], rel=1e-9)
 
 
+@pytest.mark.slow
 def test_drift_simulation_decays_at_least_at_alpha() -> None:
     """On a region that holds the run the certificate covers it; on the default [−1, 1]² the estimate's
     peaking (ω̂ reaches 1.27 at t = 4 ms) leaves the region: the gain is certified, the run is not covered."""

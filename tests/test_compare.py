@@ -53,6 +53,7 @@ box = [-2, 2]
 '''
 
 
+@pytest.mark.slow
 def test_same_truth_and_noise_for_every_observer() -> None:
     # luenberger through the output predictor (not the impulsive form, which jumps at t = 0 like the EKF)
     rep = compare_observers(parse_scenario(PEND), observers=["ekf", "luenberger", "drift"], runs=4, seed=11,
@@ -197,6 +198,7 @@ def test_the_filters_in_the_comparison_equal_filterpy_on_its_recorded_measuremen
 JSON_KEYS = {"skipped", "rms_error", "rms_error_norm", "final_error_norm", "diverged_runs", "cost_per_step_us"}
 
 
+@pytest.mark.slow
 def test_cli_json_keys_and_files(tmp_path: Path) -> None:
     model = tmp_path / "pend.toml"
     model.write_text(PEND)

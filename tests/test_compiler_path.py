@@ -93,6 +93,7 @@ def test_planted_ziglang_in_cwd_is_not_run_when_compiling(tmp_path: Path, layout
         assert "label=ziglang" in lines
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not _have_compiler(), reason="no C compiler")
 def test_planted_ziglang_in_cwd_is_not_run_by_nlobs_export(tmp_path: Path) -> None:
     """``python -m nlobs export`` from a folder with a planted ``ziglang`` package."""

@@ -97,6 +97,7 @@ def test_design_reverifies_independently() -> None:
     assert hinf_norm(Fp, ext.Bd, np.eye(3), np.zeros((3, 1))) < d.theorem1.bound
 
 
+@pytest.mark.slow
 def test_never_certified_without_lyapunov_data() -> None:
     text = _ex1().split("[cascade.lyapunov]")[0]
     req = SimulationRequest([1, -0.5, 0.2, 0], duration=8.0, dt=1e-3)
@@ -127,6 +128,7 @@ def _lag_runs() -> tuple[float, float]:
     return (float(np.sqrt(np.mean(r1.error[after, 0] ** 2))), float(np.sqrt(np.mean(r2.error[after, 0] ** 2))))
 
 
+@pytest.mark.slow
 def test_chemostat_analyser_lag_matters() -> None:
     cascade, ignored = _lag_runs()
     # measured: 0.0034 g/L (cascade) against 0.048 g/L (lag ignored)
@@ -191,6 +193,7 @@ def test_cli_design_json_and_infeasible_exit_1() -> None:
     assert "LMI (14)" in res.output and "--gamma" in res.output
 
 
+@pytest.mark.slow
 def test_simulate_runs_the_cascade_observer() -> None:
     res = CliRunner().invoke(app, ["simulate", "chemostat-analyser", "--json", "--runs", "3", "--duration", "20",
                                    "--observer", "cascade,ekf"])

@@ -68,6 +68,7 @@ def test_h2_gain_has_the_smallest_noise_to_error_norm_of_the_designs(gamma):
         assert norms["h2"] < 0.9 * norms["placement"]
 
 
+@pytest.mark.slow
 def test_h2_gain_beats_the_other_designs_in_simulation_with_the_files_sensors(tmp_path: Path):
     # the same Monte Carlo runs (the file's sensors, process noise, initial errors) with the file's
     # method set to each design at γ = 5. Measured (20 runs): RMS ‖e‖ after 15 h 0.00466 (h2), 0.00505
@@ -112,6 +113,7 @@ def test_h2_without_sensors_is_a_clear_error(tmp_path: Path):
     assert res.exit_code == 2 and "expected 'lmi', 'placement' or 'h2'" in res.stderr
 
 
+@pytest.mark.slow
 def test_with_sensors_and_no_method_the_gain_is_chosen_for_them(tmp_path: Path):
     # the shipped file names method = "placement"; without it the default is the H2 gain for its sensors,
     # and without [sensors] it stays LMI (14)

@@ -109,6 +109,7 @@ def test_drift_sdp_at_n_120_is_refused_before_cvxpy(no_cvxpy: list[str]) -> None
 CHAIN = "name = \"chain\"\nstates = [{states}]\noutputs = [\"y\"]\n[dynamics]\nf = [{f}]\nh = [\"x0\"]\n"
 
 
+@pytest.mark.slow
 def test_cli_design_drift_sdp_at_n_120_is_one_line_exit_2(tmp_path: Path, no_cvxpy: list[str]) -> None:
     from typer.testing import CliRunner
 

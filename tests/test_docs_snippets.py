@@ -35,6 +35,7 @@ def test_the_pages_have_snippets() -> None:
     assert len(SNIPPETS) >= 9, [name for name, _ in SNIPPETS]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("name", "code"), SNIPPETS, ids=[name for name, _ in SNIPPETS])
 def test_snippet_runs(tmp_path: Path, name: str, code: str) -> None:
     env = {**os.environ, "MPLBACKEND": "Agg"}

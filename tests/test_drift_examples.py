@@ -24,6 +24,7 @@ def test_simulate_drift_bound_and_rate_with_exact_constants() -> None:
     assert d["design"]["s"] == [2] and d["final_error_norm"] < 1e-6
 
 
+@pytest.mark.slow
 def test_w_sweep_shows_the_high_gain_trade_off() -> None:
     sw = dm.w_sweep((1.0, 8.0, 64.0), noise_std=0.02, duration=4.0, after=2.0, dt=2e-3)
     # without noise a larger w converges faster; with noise a larger w amplifies it
@@ -32,6 +33,7 @@ def test_w_sweep_shows_the_high_gain_trade_off() -> None:
     assert sw.best_w in (1.0, 8.0)
 
 
+@pytest.mark.slow
 def test_mimo_example_structure_and_convergence() -> None:
     ex = dm.run_mimo(duration=6.0)
     assert ex.report.s == (3, 1) and ex.report.r == (3, 1)
@@ -48,6 +50,7 @@ def test_mimo_example_structure_and_convergence() -> None:
     assert ex.sdp.scaling > 1.0 and ex.sdp.gain_norm < ex.report.certificate.gain_norm
 
 
+@pytest.mark.slow
 def test_reproduce_dallamora2000_rows() -> None:
     assert PAPERS["dallamora2000"] == "nlobs.papers.dallamora2000"
     rows = {r.quantity.split(":")[0]: r for r in reproduce("dallamora2000")}
@@ -75,6 +78,7 @@ def test_the_example_figures_are_written_whole_and_replace_an_old_file(tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["siso.png", "sweep.png"]  # no temporary file left
 
 
+@pytest.mark.slow
 def test_paper_figures_leave_the_users_backend_and_pyplot_alone(tmp_path) -> None:  # type: ignore[no-untyped-def]
     # in a fresh interpreter whose user chose the svg backend and has a pyplot figure open
     import subprocess

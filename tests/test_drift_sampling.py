@@ -190,6 +190,7 @@ def test_the_drift_bounded_noise_bound_in_x_is_above_the_exact_worst_case(tmp_pa
     assert any("limsup |e| ≤" in line and "in x" in line for line in d.details)
 
 
+@pytest.mark.slow
 def test_with_process_noise_the_drift_bound_counts_it_and_its_runs_stay_below(tmp_path: Path) -> None:
     from nlobs.methods.comparison import compare_observers
     from nlobs.methods.sensor_design import drift_process_noise

@@ -146,6 +146,7 @@ def _teacher_forced(obs, co, py, t, U, Y, tol: float = 1e-12) -> None:
 
 
 # ----------------------------------------------------------------------------- Dalla Mora, Germani & Manes (3.1)
+@pytest.mark.slow
 def test_drift_observer_equals_python_plain_saturated_and_regularised() -> None:
     model = load_model("duffing-actuator")
     plant = model.compile()
@@ -283,6 +284,7 @@ def test_cli_export_writes_certified_module_and_refuses_bad_options(tmp_path) ->
     assert r.exit_code == 2 and "cannot write" in r.output
 
 
+@pytest.mark.slow
 def test_compare_backend_c_gives_the_python_numbers() -> None:
     from nlobs.workflows.compare import compare_observers
 
@@ -298,6 +300,7 @@ def test_compare_backend_c_gives_the_python_numbers() -> None:
         compare_observers("pendulum", backend="fortran", **kw)
 
 
+@pytest.mark.slow
 def test_cli_export_cascade_and_gnss_ins_carry_their_certificates(tmp_path) -> None:
     from typer.testing import CliRunner
 

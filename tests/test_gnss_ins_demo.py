@@ -14,6 +14,7 @@ from nlobs.cli import app
 KEYS = {"position_rms_m", "velocity_rms_mps", "attitude_rms_deg", "converge_s", "cost_per_step_us"}
 
 
+@pytest.mark.slow
 def test_demo_json_and_figures(tmp_path: Path) -> None:
     res = CliRunner().invoke(app, ["demo", "gnss-ins", "--json", "--duration", "40", "--seed", "3",
                                    "--out", str(tmp_path)])
@@ -51,6 +52,7 @@ def test_demo_bad_input() -> None:
     assert res.exit_code == 2 and "--translation-gain: applies to --gains 'noise-optimal'" in res.stderr
 
 
+@pytest.mark.slow
 def test_noise_optimal_gains_are_the_default_and_beat_the_papers(tmp_path: Path) -> None:
     # the default demo (the whole 369 s flight) runs the certified noise-optimal gain with the scheduled
     # attitude and translational gains and the paper's gains beside it, on the same data. Measured: position

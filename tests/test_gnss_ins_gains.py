@@ -147,6 +147,7 @@ def test_axis_noise_model_is_the_sampled_sensor_intensities() -> None:
     assert po.process[0, 0] == pytest.approx(1e-8 / 50.0)  # a noise-free accelerometer is floored at 1e-4
 
 
+@pytest.mark.slow
 def test_noise_optimal_gains_are_certified_and_near_the_kalman_infimum() -> None:
     from nlobs.navigation.gains import noise_optimal_gains
     from nlobs.workflows.demo import DEMO_NOISE

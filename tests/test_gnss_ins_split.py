@@ -20,6 +20,8 @@ from nlobs.navigation.run import run_navigation
 from nlobs.navigation.sensors import SensorNoise, drop_fixes, generate_sensors
 from nlobs.navigation.so3 import angle_between, exp_so3, rot_z
 
+pytestmark = pytest.mark.slow  # its module fixture alone takes seconds
+
 NOISE = SensorNoise(gyro_std=1e-3, accel_std=0.05, mag_std=5e-3, gnss_p_std=1.0, gnss_v_std=0.1)
 
 

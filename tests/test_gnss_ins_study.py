@@ -46,6 +46,7 @@ def _bits(summaries: dict[str, np.ndarray]) -> dict[str, bytes]:
     return {k: np.ascontiguousarray(v).tobytes() for k, v in summaries.items()}
 
 
+@pytest.mark.slow
 def test_summaries_are_bitwise_the_same_whatever_the_chunk_and_the_workers(tmp_path: Path) -> None:
     study = GnssInsStudy(DEMO_NOISE, duration=10.0, gains="scheduled", attitude_error_deg=120.0, position_error_m=20.0,
                          trajectory_every=25).solved()  # the SDP's gain solved once, sent with the recipe
@@ -103,6 +104,7 @@ def test_one_batch_recomputed_by_hand_from_the_batch_generator() -> None:
     np.testing.assert_allclose(metrics.position_error_m(res)[:, 0], pos_m, rtol=1e-12)
 
 
+@pytest.mark.slow
 def test_paper_gains_converge_globally_from_errors_up_to_180_degrees(tmp_path: Path) -> None:
     report = gnss_ins_monte_carlo(flights=48, duration=60.0, seed=2, gains="paper", attitude_error_deg=180.0,
                                   position_error_m=100.0, batch=24, out=tmp_path, progress=False)

@@ -19,6 +19,8 @@ from nlobs.papers.grip_example1 import (
 )
 from nlobs.synthesis import extended_system
 
+pytestmark = pytest.mark.slow  # its module fixture alone takes seconds
+
 
 @pytest.fixture(scope="module", params=[False, True], ids=["cascade", "feedback"])
 def result(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory):  # type: ignore[no-untyped-def]

@@ -23,6 +23,7 @@ COMMANDS = (
 )
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("args", COMMANDS, ids=lambda a: " ".join(a[:2]))
 def test_every_json_report_starts_with_schema_version(args: list[str], tmp_path: Path) -> None:
     extra = ["--out", str(tmp_path)] if args[0] == "demo" else []

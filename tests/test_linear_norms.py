@@ -63,6 +63,7 @@ def _grid_peak(A, B, C, D, *, discrete: bool) -> float:
     return best
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("discrete", [False, True])
 @SETTINGS
 @given(seed=st.integers(0, 2**32 - 1))

@@ -76,6 +76,7 @@ def _random(n: int, p: int, seed: int):
 # --------------------------------------------------------------------------- observability
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("n, p", [(3, 1), (8, 2), (30, 1), (60, 3), (120, 2)])
 def test_random_pairs_auto_agrees_with_pbh(n: int, p: int) -> None:
     A, C = _random(n, p, seed=n * 10 + p)

@@ -69,6 +69,7 @@ def test_problem_takes_every_default_from_the_file_with_its_source(axis) -> None
     assert problem(axis, duration=0.5).mu == pytest.approx(10 + 0.3 * np.sin(np.pi / 4), rel=1e-12)
 
 
+@pytest.mark.slow
 def test_the_same_drift_design_from_design_export_simulate_and_advise(axis, tmp_path) -> None:
     code_d, d = _json(["design", "drift", str(axis), "--json"])
     code_e, e = _json(["export", str(axis), "--observer", "drift", "--out", str(tmp_path / "c"), "--json"])
@@ -210,6 +211,7 @@ def test_the_unobservable_directions_of_a_linear_model_are_named() -> None:
     assert u.rank == 1 and u.directions == ("a + b",)
 
 
+@pytest.mark.slow
 def test_design_options_reach_the_method_from_simulate_and_export(axis, tmp_path) -> None:
     # μ = 12 given to the drift method through nlobs simulate's --option: the same design as nlobs design --mu 12
     code, s = _json(["simulate", str(axis), "--observer", "drift", "--option", "drift.mu=12", "--runs", "2",
@@ -227,6 +229,7 @@ def test_design_options_reach_the_method_from_simulate_and_export(axis, tmp_path
     assert code == 0 and e["design"]["parameters"]["mu"] == pytest.approx(MU, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_the_same_cascade_design_from_design_export_and_simulate(tmp_path) -> None:
     code_d, d = _json(["design", "cascade", "chemostat-analyser", "--json"])
     code_e, e = _json(["export", "chemostat-analyser", "--observer", "cascade", "--out", str(tmp_path), "--json"])

@@ -73,6 +73,7 @@ def test_a_process_pool_gives_the_same_bits(study: SetValuedStudy) -> None:
     _same(ref, got)
 
 
+@pytest.mark.slow
 def test_a_two_worker_local_cluster_gives_the_same_bits(study: SetValuedStudy, tmp_path: Path) -> None:
     pytest.importorskip("distributed")
     from nlobs.simulate.executors import cluster
@@ -194,6 +195,7 @@ _SCRIPT = textwrap.dedent("""
 """)
 
 
+@pytest.mark.slow
 def test_a_killed_run_finishes_from_its_last_chunk_with_identical_results(tmp_path: Path) -> None:
     script = tmp_path / "run.py"
     script.write_text(_SCRIPT)
@@ -251,6 +253,7 @@ def test_plant_study_is_the_loop_and_its_closed_form() -> None:
         PlantStudy("", sys_, obs, [1.0], [1.0], 0.5, duration=1.0)
 
 
+@pytest.mark.slow
 def test_compare_runs_its_observers_as_tasks_with_the_same_numbers() -> None:
     from nlobs.workflows.compare import compare_observers
 

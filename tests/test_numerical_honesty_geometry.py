@@ -98,6 +98,7 @@ def test_hiv_model_on_a_physical_box_has_rank_4_as_the_exact_rank_says(tmp_path:
     assert raw[-1] / raw[0] < 1e-10
 
 
+@pytest.mark.slow
 def test_hiv_model_with_an_unseen_state_is_rank_deficient_4_of_5(tmp_path: Path) -> None:
     x = [T, I, V, Z, W]
     f = HIV_F + [I - e * W]  # W is driven by I but feeds back nowhere: no output sees it

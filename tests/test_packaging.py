@@ -49,6 +49,7 @@ def test_wheel_metadata_matches_pyproject(wheel: Path) -> None:
     assert claimed == ["3.11"] and meta["Requires-Python"] == ">=3.11"
 
 
+@pytest.mark.slow
 def test_docs_build_fails_on_a_broken_link(tmp_path: Path) -> None:
     # the site's strictness: a page with a link to a missing page aborts the build (make docs)
     pytest.importorskip("mkdocs")

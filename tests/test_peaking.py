@@ -33,6 +33,7 @@ def rossler():
     return bench, design_drift_report(load_model("rossler"), mu=0.0, region=bench.REGION)
 
 
+@pytest.mark.slow
 def test_rossler_large_error_diverges_without_saturation_and_converges_with_it(rossler):
     bench, _ = rossler
     _, rows = bench.run(sizes=(0.5,), runs=20)
@@ -207,6 +208,7 @@ def test_cli_pinv_saturation_option():
     assert len(r.output.strip().splitlines()) == 1
 
 
+@pytest.mark.slow
 def test_pinv_saturation_defaults_on_only_with_a_box_because_the_state_must_stay_in_it():
     req = SimulationRequest([0.5, 0, 0, 0.5], [0.3, 0.3, -0.3, 0], [0.0], duration=10.0, dt=1e-3)
     off = design_pinv_observer("isidori-146", simulate=req)  # no box: off, the README's run

@@ -6,6 +6,8 @@ Monte Carlo simulation whose RMS error must stay below the certified bound.
 
 from __future__ import annotations
 
+import pytest
+
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +28,7 @@ def _fast_vdp(tmp_path: Path) -> str:
     return str(f)
 
 
+@pytest.mark.slow
 def test_a_fast_adc_certifies_the_pinv_observer_and_its_runs_stay_below_the_bound(tmp_path: Path) -> None:
     path = _fast_vdp(tmp_path)
     d = get("pinv").design(problem(path))
@@ -51,6 +54,7 @@ def test_a_fast_adc_certifies_the_pinv_observer_and_its_runs_stay_below_the_boun
     assert o.rms_error_norm <= c["rms_bound"]
 
 
+@pytest.mark.slow
 def test_where_no_certificate_covers_the_sensors_the_design_says_why() -> None:
     d = get("pinv").design(problem("vanderpol-circuit"))  # the shipped ADC at 20 kHz
     premise = next(h for h in d.hypotheses if getattr(h, "name", "").startswith("sampled with period"))

@@ -432,6 +432,7 @@ def test_bad_design_options_are_one_line_errors(tmp_path) -> None:
         assert "Traceback" not in res.output and len(res.output.strip().splitlines()) == 1, res.output
 
 
+@pytest.mark.slow
 def test_on_the_cartpole_the_certificate_covers_the_runs_and_bounds_their_rms() -> None:
     """The shipped cart-pole and its 50 Hz encoders: the design for the sensors covers every run and the measured
     RMS after the settling time stays below the certified bound (a measured RMS above it is a bug)."""

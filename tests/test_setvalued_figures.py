@@ -55,6 +55,7 @@ def test_sec62_claim_on_the_variant(claim62) -> None:  # type: ignore[no-untyped
     assert all(p.read_bytes()[:8] == PNG for p in r.paths) and len(r.paths) == 4
 
 
+@pytest.mark.slow
 def test_sec62_claim_on_61_bounded_radii_equal(tmp_path: Path) -> None:
     r = fig_unbounded_input(tmp_path, example="61", runs=20, steps=300, seed=2)
     assert r.bounded.containment.rate_state == r.growing.containment.rate_state == 1.0

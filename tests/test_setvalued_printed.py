@@ -40,6 +40,7 @@ def test_printed_class_I_is_infeasible(case: str) -> None:
         design_printed(s, M, alphas=[0.5, 0.9], eps_grid=(0.1, 1.0), refine=0)
 
 
+@pytest.mark.slow
 def test_alpha_line_search_is_no_worse_than_the_alpha_grid_and_solves_at_its_point() -> None:
     # A second algorithm: the α grid 0.05, …, 0.95 on the same problem. The line search (bisection +
     # golden section over α ∈ [0, 1], Theorem 5.4's range) must reach a ρ at least as small, with fewer

@@ -8,6 +8,8 @@ import pytest
 from nlobs.papers.khajenejad_yong import reproduce
 from nlobs.papers.reproduce import PAPERS, ReproRow
 
+pytestmark = pytest.mark.slow  # its module fixture alone takes seconds
+
 QUANTITIES = ("ρ", "α", "L̃", "P", "Y")
 
 

@@ -42,6 +42,7 @@ def _noise_run(seed: int | np.random.Generator, std: float = 0.3) -> np.ndarray:
     return simulate(still, obs, x0, np.zeros(2), duration=10.0, dt=1e-3, measurements=groups, seed=seed).y
 
 
+@pytest.mark.slow
 def test_noise_is_reproducible_with_a_seed_and_has_the_requested_std() -> None:
     y1, y2, y3 = _noise_run(7), _noise_run(7), _noise_run(8)
     np.testing.assert_array_equal(y1, y2)

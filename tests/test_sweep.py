@@ -309,6 +309,7 @@ LMI_CASE = ([0.3, 10.0, 1.0, 3.0, 0.1], {"gain_bound": 1e4})
 PLACEMENT_CASE = ([0.3, 0.01], {"method": "placement", "simulate": _simulate})
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("gammas", "kw"), [LMI_CASE, ([10.0, 1.0, 0.3], {"gamma_n": 5.0}), PLACEMENT_CASE],
                          ids=["lmi-gain-bound", "lmi-riccati-gamma-n", "placement-simulated"])
 def test_gamma_sweep_rows_unchanged(gammas: list[float], kw: dict[str, Any]) -> None:
@@ -317,6 +318,7 @@ def test_gamma_sweep_rows_unchanged(gammas: list[float], kw: dict[str, Any]) -> 
     assert any(r.ok for r in new.rows)
 
 
+@pytest.mark.slow
 def test_gamma_sweep_on_two_workers_equals_in_process(client: Any) -> None:
     for gammas, kw in (LMI_CASE, PLACEMENT_CASE):
         here = gamma_sweep(S1, S2, gammas, **kw)

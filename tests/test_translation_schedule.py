@@ -179,6 +179,7 @@ def test_bad_schedules_are_refused(k_inf):
         DemoConfig(gains="paper", translation_gain="scheduled")
 
 
+@pytest.mark.slow
 def test_the_scheduled_gain_brings_the_position_error_within_1_5x_the_ekf():
     # seed 2: the seed whose position error was 1.84× the EKF's over 300 s with the constant K
     runs = {tg: run_demo(DemoConfig(seed=2, duration=60.0, translation_gain=tg)) for tg in ("scheduled", "constant")}

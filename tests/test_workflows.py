@@ -79,6 +79,7 @@ def test_an_unwritable_out_is_a_typed_error_and_one_line(tmp_path: Path, kind: s
     assert res.exit_code == 2 and res.stderr.count("\n") == 1 and "--out" in res.stderr, res.output
 
 
+@pytest.mark.slow
 def test_a_short_demo_that_never_converges_writes_null_metrics(tmp_path: Path) -> None:
     rep = gnss_ins_demo(DemoConfig(duration=1.0, ekf=False), tmp_path)
     data = json.loads((tmp_path / "results.json").read_text())

@@ -55,6 +55,7 @@ def _cli(*args: str) -> tuple[int, str, str]:
 # --------------------------------------------------------------------------- report == CLI output
 
 
+@pytest.mark.slow
 def test_drift_report_is_what_the_cli_prints(tmp_path: Path) -> None:
     out = tmp_path / "out"
     args = ("pendulum", "--method", "sdp", "--alpha", "2", "--mu", "0.5", "--simulate", "--x0", "0.8,0",
