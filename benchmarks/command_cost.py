@@ -45,6 +45,9 @@ def _environment() -> dict[str, str]:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([root, *filter(None, [env.get("PYTHONPATH")])])
     env.update(COLUMNS="100", OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
+    # as installed: NumPy, SciPy and SymPy come with their bytecode from pip, so nlobs gets its own from the warm-up
+    # round (a session that sets PYTHONDONTWRITEBYTECODE would otherwise compile every nlobs module at every start)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     return env
 
 

@@ -94,3 +94,26 @@ def test_every_subpackage_name_resolves(package: str) -> None:
     assert not missing, missing
     with pytest.raises(AttributeError):
         getattr(mod, "no_such_name")
+
+
+@pytest.mark.parametrize("package", ["nlobs.synthesis", "nlobs.observers"])
+def test_a_lazy_package_names_what_its_static_imports_name(package: str) -> None:
+    """``nlobs.synthesis`` and ``nlobs.observers`` import a module on first use of one of its names; the imports
+    under ``TYPE_CHECKING`` (what type checkers and the API reference read) must name the same modules, and each
+    name must be its home module's object."""
+    import ast
+
+    pkg = importlib.import_module(package)
+    tree = ast.parse(Path(pkg.__file__).read_text(encoding="utf-8"))
+    static: dict[str, str] = {}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and getattr(node.test, "id", None) == "TYPE_CHECKING":
+            for imp in node.body:
+                assert isinstance(imp, ast.ImportFrom)
+                static.update({a.name: str(imp.module) for a in imp.names})
+    eager = {name: static[name] for name in static if name not in pkg._EXPORTS}  # bound when the package loads
+    assert set(eager) <= {"affine_abstraction"}  # a function named like its module (see the package's source)
+    assert {**pkg._EXPORTS, **eager} == static
+    assert sorted(pkg.__all__) == sorted(static)
+    for name, module in static.items():
+        assert getattr(pkg, name) is getattr(importlib.import_module(module), name)

@@ -122,3 +122,21 @@ def test_one_run_of_a_filter_equals_its_batched_run(kind) -> None:  # type: igno
         zb = rk4_step(lambda t, z: flt.rhs(t, z, u[None], y[None]), k * 1e-3, zb, 1e-3)
     np.testing.assert_allclose(z1.x, zb.x[0], rtol=1e-12, atol=1e-15)
     np.testing.assert_allclose(z1.P, zb.P[0], rtol=1e-10, atol=1e-15)
+
+
+def test_a_matrix_compiled_twice_is_compiled_once_and_the_cache_is_bounded() -> None:
+    import sympy as sp
+
+    from nlobs.systems import codegen
+
+    x = sp.symbols("x1 x2")
+    a = codegen.compile_matrix([x[0] * x[1], sp.sin(x[1])], (x,), vector=True, what="first")
+    b = codegen.compile_matrix(sp.Matrix([x[0] * x[1], sp.sin(x[1])]), (x,), vector=True, what="second")
+    assert a is b  # the same expressions of the same arguments
+    c = codegen.compile_matrix([x[0] * x[1], sp.sin(x[1])], (x,), what="matrix")  # not vector: another function
+    assert c is not a and c(np.array([2.0, 0.0])).shape == (2, 1)
+    d = codegen.compile_matrix([x[1] * x[0], sp.sin(x[1])], (tuple(reversed(x)),), vector=True)  # other arguments
+    assert d is not a and d(np.array([0.0, 2.0])).tolist() == a(np.array([2.0, 0.0])).tolist()
+    for i in range(codegen.COMPILED_CACHE_SIZE + 5):
+        codegen.compile_matrix([x[0] + i], (x,), vector=True)
+    assert len(codegen._COMPILED) == codegen.COMPILED_CACHE_SIZE

@@ -17,57 +17,68 @@
   2007) (``impulsive.py``).
 """
 
-from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
-from nlobs.observers.cascade import CascadeObserver
-from nlobs.observers.drift import DriftObserver, SingularObservabilityError
-from nlobs.observers.ekf import EKF
-from nlobs.observers.gaussian import FilterState
-from nlobs.observers.impulsive import ImpulsiveObserver
-from nlobs.observers.kalman import GaussianState, UnknownInputEKF, joseph_update
-from nlobs.observers.lipschitz import DiscreteLipschitzObserver
-from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
-from nlobs.observers.pinv import AssumptionWarning, ByrnesIsidoriObserver, PinvObserver
-from nlobs.observers.sampled import OutputPredictor, with_predictor
-from nlobs.observers.setvalued import (
-    GivenGain,
-    Radii,
-    RadiusRecursion,
-    SetValuedObserver,
-    SetValuedState,
-    input_error_map,
-    sound_radii,
-)
-from nlobs.observers.ukf import UKF
+from typing import TYPE_CHECKING
 
-__all__ = [
-    "AssumptionWarning",
-    "ByrnesIsidoriObserver",
-    "CascadeObserver",
-    "ConstantGainObserver",
-    "CorrectingObserver",
-    "DeferredEstimate",
-    "Diagnosing",
-    "DiscreteLipschitzObserver",
-    "DriftObserver",
-    "EKF",
-    "FilterState",
-    "GaussianState",
-    "GivenGain",
-    "ImpulsiveObserver",
-    "LuenbergerObserver",
-    "Observer",
-    "OutputPredictor",
-    "PinvObserver",
-    "Radii",
-    "RadiusRecursion",
-    "SelfStepping",
-    "SetValuedObserver",
-    "SetValuedState",
-    "SingularObservabilityError",
-    "UKF",
-    "UnknownInputEKF",
-    "input_error_map",
-    "joseph_update",
-    "sound_radii",
-    "with_predictor",
-]
+from nlobs._lazy import lazy_exports
+
+if TYPE_CHECKING:  # the names as static tools (type checkers, the API reference) see them
+    from nlobs.observers.base import CorrectingObserver, DeferredEstimate, Diagnosing, Observer, SelfStepping
+    from nlobs.observers.cascade import CascadeObserver
+    from nlobs.observers.drift import DriftObserver, SingularObservabilityError
+    from nlobs.observers.ekf import EKF
+    from nlobs.observers.gaussian import FilterState
+    from nlobs.observers.impulsive import ImpulsiveObserver
+    from nlobs.observers.kalman import GaussianState, UnknownInputEKF, joseph_update
+    from nlobs.observers.lipschitz import DiscreteLipschitzObserver
+    from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
+    from nlobs.observers.pinv import AssumptionWarning, ByrnesIsidoriObserver, PinvObserver
+    from nlobs.observers.sampled import OutputPredictor, with_predictor
+    from nlobs.observers.setvalued import (
+        GivenGain,
+        Radii,
+        RadiusRecursion,
+        SetValuedObserver,
+        SetValuedState,
+        input_error_map,
+        sound_radii,
+    )
+    from nlobs.observers.ukf import UKF
+
+#: Each public name and the module that holds it, imported on first use (a loop that needs the protocols of
+#: ``base.py`` does not load every observer).
+_EXPORTS = {
+    "AssumptionWarning": "nlobs.observers.pinv",
+    "ByrnesIsidoriObserver": "nlobs.observers.pinv",
+    "CascadeObserver": "nlobs.observers.cascade",
+    "ConstantGainObserver": "nlobs.observers.luenberger",
+    "CorrectingObserver": "nlobs.observers.base",
+    "DeferredEstimate": "nlobs.observers.base",
+    "Diagnosing": "nlobs.observers.base",
+    "DiscreteLipschitzObserver": "nlobs.observers.lipschitz",
+    "DriftObserver": "nlobs.observers.drift",
+    "EKF": "nlobs.observers.ekf",
+    "FilterState": "nlobs.observers.gaussian",
+    "GaussianState": "nlobs.observers.kalman",
+    "GivenGain": "nlobs.observers.setvalued",
+    "ImpulsiveObserver": "nlobs.observers.impulsive",
+    "LuenbergerObserver": "nlobs.observers.luenberger",
+    "Observer": "nlobs.observers.base",
+    "OutputPredictor": "nlobs.observers.sampled",
+    "PinvObserver": "nlobs.observers.pinv",
+    "Radii": "nlobs.observers.setvalued",
+    "RadiusRecursion": "nlobs.observers.setvalued",
+    "SelfStepping": "nlobs.observers.base",
+    "SetValuedObserver": "nlobs.observers.setvalued",
+    "SetValuedState": "nlobs.observers.setvalued",
+    "SingularObservabilityError": "nlobs.observers.drift",
+    "UKF": "nlobs.observers.ukf",
+    "UnknownInputEKF": "nlobs.observers.kalman",
+    "input_error_map": "nlobs.observers.setvalued",
+    "joseph_update": "nlobs.observers.kalman",
+    "sound_radii": "nlobs.observers.setvalued",
+    "with_predictor": "nlobs.observers.sampled",
+}
+
+__all__ = sorted(_EXPORTS)
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS)

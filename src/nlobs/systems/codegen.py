@@ -22,6 +22,8 @@ region (a Lipschitz constant) must refuse such an expression instead
 from __future__ import annotations
 
 import builtins
+import threading
+from collections import OrderedDict
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Callable
@@ -168,6 +170,13 @@ def evaluate_together(functions: Sequence[BatchedFunction], *args: Array) -> tup
     return tuple([fn._assemble(fn._fn(*flat), batch) for fn in functions])
 
 
+#: Functions compiled in this process, most recent last: an analysis that meets the same matrix twice (a model
+#: compiled by two steps of ``nlobs analyze``, the codistribution of two checks) compiles it once.
+COMPILED_CACHE_SIZE = 256
+_COMPILED: OrderedDict[tuple[Any, ...], BatchedFunction] = OrderedDict()
+_COMPILED_LOCK = threading.Lock()
+
+
 def compile_matrix(
     expr: sp.Matrix | Sequence[sp.Expr],
     groups: Sequence[Sequence[sp.Symbol]],
@@ -207,12 +216,18 @@ def compile_matrix(
     if stray:
         raise ModelError(f"{what}: free symbols that are not arguments: {', '.join(stray)}")
     entries = list(mat)  # row-major
+    key = (tuple(entries), tuple(tuple(g) for g in groups), bool(vector), tuple(mat.shape))
+    with _COMPILED_LOCK:
+        known = _COMPILED.get(key)
+        if known is not None:  # the same expressions of the same arguments: the same pure function
+            _COMPILED.move_to_end(key)
+            return known
     # dummify only when needed: the generated code then names its arguments _Dummy_…, so a state called
     # ``sin``, ``exp`` or ``numpy`` cannot shadow the function the code calls; dummies change the printed
     # term order (and so the last bits of a result), which the other models keep as they were
     dummify = any(s.name in _RESERVED for s in args)
     fn = sp.lambdify(args, entries, modules=_NUMPY_MODULES, cse=True, dummify=dummify, printer=_printer())
-    return BatchedFunction(
+    compiled = BatchedFunction(
         shape=(int(mat.shape[0]), int(mat.shape[1])),
         groups=tuple(len(g) for g in groups),
         vector=vector,
@@ -220,3 +235,8 @@ def compile_matrix(
         expressions=tuple(entries),
         arguments=tuple(tuple(g) for g in groups),
     )
+    with _COMPILED_LOCK:
+        _COMPILED[key] = compiled
+        while len(_COMPILED) > COMPILED_CACHE_SIZE:
+            _COMPILED.popitem(last=False)
+    return compiled

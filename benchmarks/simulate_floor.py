@@ -1,0 +1,88 @@
+"""``nlobs simulate MODEL`` against NumPy's floor: the plant and N observers against N + 1 plain RK4 loops of the plant.
+
+The comparison engine of ``nlobs simulate MODEL`` (:func:`nlobs.methods.comparison.compare_observers`) designs
+each observer and runs it with the plant on the same noisy, sampled Monte Carlo runs. The floor is the cheapest
+loop that does the plant's share of that work: the compiled plant (the same generated NumPy code) integrated by
+RK4 over the same steps for the same number of runs, one batched call per stage, nothing else. Target (everyday
+speed): the CPU time of the simulations of the N observers (their designs excluded, timed apart) within 3 × (N + 1)
+times that floor, for one run and for 50 runs.
+
+Both are timed in CPU time (``time.process_time``), interleaved, best of ``ROUNDS``; the simulations are timed
+inside the comparison (each call of :func:`nlobs.simulate.simulate` it makes), so the designs, the metrics and the
+report are left out and printed apart.
+
+Run: ``PYTHONPATH=src python benchmarks/simulate_floor.py [MODEL] [--duration S]`` (about a minute for the
+cartpole's 20 s at 1 ms).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+import nlobs.methods.comparison as comparison
+from nlobs.methods.problem import symbolic_model
+from nlobs.simulate import rk4_step
+
+ROUNDS = 3
+TARGET = 3.0
+
+
+def floor(plant, runs: int, steps: int, dt: float, x0: np.ndarray) -> float:  # type: ignore[no-untyped-def]
+    """CPU seconds of ``steps`` RK4 steps of the compiled plant for ``runs`` runs (a sine input, held)."""
+    x = np.broadcast_to(x0, (runs, plant.n)).copy() if runs > 1 else x0.copy()
+    u = np.zeros((runs, plant.m) if runs > 1 else (plant.m,))
+    c = time.process_time()
+    for k in range(steps):
+        u[...] = np.sin(np.pi * k * dt)
+        x = rk4_step(lambda t, xx: plant.rhs(t, xx, u), k * dt, x, dt)
+    return time.process_time() - c
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("model", nargs="?", default="cartpole")
+    ap.add_argument("--duration", type=float, default=None, help="simulated seconds (default: the file's)")
+    args = ap.parse_args()
+    spent = {"simulate": 0.0}
+    inner = comparison.simulate
+
+    def timed(*a, **k):  # type: ignore[no-untyped-def]
+        c = time.process_time()
+        try:
+            return inner(*a, **k)
+        finally:
+            spent["simulate"] += time.process_time() - c
+
+    comparison.simulate = timed  # the comparison's own calls of the loop, timed in CPU time
+    plant = symbolic_model(args.model).compile()
+    print(f"nlobs simulate {args.model}: CPU time of the N observers' simulations against N + 1 plain batched RK4 "
+          f"loops of the plant, best of {ROUNDS} interleaved rounds")
+    print(f"{'runs':>5} {'N':>2} {'steps':>7} {'floor [s]':>10} {'simulations [s]':>16} {'× (N+1) floor':>14} "
+          f"{'designs etc. [s]':>17}  target ≤ {TARGET:g}")
+    ok = True
+    for runs in (1, 50):
+        best: dict[str, float] = {}
+        for _ in range(ROUNDS):
+            spent["simulate"] = 0.0
+            c = time.process_time()
+            rep = comparison.compare_observers(args.model, runs=runs, duration=args.duration, progress=False)
+            total = time.process_time() - c
+            sim = spent["simulate"]
+            d = rep.to_dict()
+            n_obs = sum(1 for v in d["observers"].values() if not v.get("skipped"))
+            steps = int(round(d["duration"] / d["dt"]))
+            fl = floor(plant, runs, steps, d["dt"], np.zeros(plant.n))
+            for key, val in (("sim", sim), ("floor", fl), ("rest", total - sim)):
+                best[key] = min(best.get(key, np.inf), val)
+        ratio = best["sim"] / ((n_obs + 1) * best["floor"])
+        ok &= ratio <= TARGET
+        print(f"{runs:>5} {n_obs:>2} {steps:>7} {best['floor']:>10.3f} {best['sim']:>16.3f} {ratio:>14.2f} "
+              f"{best['rest']:>17.3f}")
+    print("target: " + ("met" if ok else "MISSED"))
+
+
+if __name__ == "__main__":
+    main()
