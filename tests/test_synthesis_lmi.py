@@ -50,3 +50,17 @@ def test_solve_status_values_are_cvxpys_status_strings() -> None:
     for name in ("OPTIMAL", "OPTIMAL_INACCURATE", "INFEASIBLE", "INFEASIBLE_INACCURATE", "UNBOUNDED",
                  "UNBOUNDED_INACCURATE"):
         assert SolveStatus[name].value == getattr(cp, name)
+
+
+def test_a_numeric_certificate_check_does_not_load_cvxpy() -> None:
+    """Re-verifying a gain (what a Dask worker does before its first chunk) is numeric: CVXPY stays unloaded."""
+    import subprocess
+    import sys
+
+    code = ("import sys, numpy as np\n"
+            "from nlobs.synthesis.lmi import bmat, is_expression\n"
+            "M = bmat([[np.eye(2), np.zeros((2, 1))], [np.zeros((1, 2)), np.eye(1)]])\n"
+            "assert M.shape == (3, 3) and not is_expression(M)\n"
+            "print('cvxpy' in sys.modules)\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "False"

@@ -14,6 +14,7 @@ CVXPY has no strict matrix inequalities, so every ``F ≺ 0`` is imposed as
 
 from __future__ import annotations
 
+import sys
 import time
 import warnings
 from collections.abc import Mapping, Sequence
@@ -178,7 +179,8 @@ def is_expression(x: object) -> bool:
     -------
     bool
     """
-    return isinstance(x, cp.Expression)
+    cvxpy = sys.modules.get("cvxpy")  # no CVXPY loaded, no CVXPY expression: a numeric check does not load it
+    return cvxpy is not None and isinstance(x, cvxpy.Expression)
 
 
 def symmetrise(M: Any) -> Any:

@@ -72,6 +72,7 @@ from nlobs.synthesis.lmi import (
     as_enum,
     as_solver,
     bmat,
+    is_expression,
     max_eig,
     require_lmi_size,
     solve,
@@ -513,7 +514,7 @@ def _min_bound(d: _Data, which: str, *, margin: float, gamma2: Any, gamma_n2: An
 
 def _value(x: Any) -> float:
     """A number, or the value a CVXPY variable took in the last solve."""
-    return float(x.value) if isinstance(x, cp.Variable) else float(x)
+    return float(x.value) if is_expression(x) else float(x)
 
 
 def _verified_feasible(d: _Data, *, gain_bound: GainBound | None, margin: float, gamma2: Any, gamma_n2: Any,
