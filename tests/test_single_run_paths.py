@@ -140,3 +140,47 @@ def test_a_matrix_compiled_twice_is_compiled_once_and_the_cache_is_bounded() -> 
     for i in range(codegen.COMPILED_CACHE_SIZE + 5):
         codegen.compile_matrix([x[0] + i], (x,), vector=True)
     assert len(codegen._COMPILED) == codegen.COMPILED_CACHE_SIZE
+
+
+def test_rk4_of_a_plant_and_filter_tuple_equals_the_tree_walk() -> None:
+    """The loop integrates ``(x, z)`` together; with ``z`` a filter's state the members are combined directly."""
+    rng = np.random.default_rng(4)
+    x = rng.normal(size=4)
+    z = FilterState(rng.normal(size=3), rng.normal(size=(3, 3)), np.float64(1.5))
+    A = rng.normal(size=(3, 3))
+
+    def f(t, xz):  # type: ignore[no-untyped-def]
+        xs, zs = xz
+        return np.cos(xs) + t, FilterState(np.sin(zs.x) @ A.T, zs.P @ A + A.T @ zs.P, np.zeros(()))
+
+    fast, slow = rk4_step(f, 0.1, (x, z), 1e-2), _rk4_by_tree(f, 0.1, (x, z), 1e-2)
+    np.testing.assert_array_equal(fast[0], slow[0])
+    np.testing.assert_array_equal(fast[1].x, slow[1].x)
+    np.testing.assert_array_equal(fast[1].P, slow[1].P)
+    assert fast[1].nis == slow[1].nis == 1.5
+
+
+def test_one_run_of_simulate_equals_a_batch_of_one() -> None:
+    """``nlobs simulate MODEL --runs 1`` runs without a batch axis and puts one back (``with_run_axis``)."""
+    from nlobs.simulate import simulate
+    from nlobs.simulate.result import with_run_axis
+    from nlobs.systems.sensors import MeasurementGroup
+
+    plant = _flexible_joint()
+    Q, R, P0 = np.diag([1e-6, 1e-4, 1e-6, 1e-4]), np.diag([1e-6, 1e-4]), np.eye(4) * 0.1
+    x0, xh0 = np.array([0.3, 0.0, 0.2, 0.0]), np.zeros(4)
+    sensors = [MeasurementGroup("enc", (0, 1), rate=100.0, noise_std=(1e-3, 1e-2))]
+    for flt in (EKF(plant, Q, R, P0), UKF(plant, Q, R, P0)):
+        kw = dict(duration=0.5, dt=1e-3, u=lambda t: np.array([0.2]), measurements=sensors, seed=3,
+                  process_noise=np.array([0.0, 1e-3, 0.0, 1e-3]))
+        one = with_run_axis(simulate(plant, flt, x0, xh0, **kw))
+        batch = simulate(plant, flt, x0[None], xh0[None], **kw)
+        assert one.x_hat.shape == batch.x_hat.shape == (1, 501, 4)
+        np.testing.assert_array_equal(one.x, batch.x)  # the plant: bit for bit (same code, same noise)
+        np.testing.assert_array_equal(one.y, batch.y)
+        np.testing.assert_allclose(one.x_hat, batch.x_hat, rtol=1e-11, atol=1e-14)
+        assert set(one.extras) == set(batch.extras)
+        for k in one.extras:
+            np.testing.assert_allclose(one.extras[k], batch.extras[k], rtol=1e-9, atol=1e-14)
+    with pytest.raises(Exception, match="batch shape"):
+        with_run_axis(batch)

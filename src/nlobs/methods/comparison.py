@@ -78,7 +78,7 @@ from nlobs.methods.registry import get as get_method
 from nlobs.methods.registry import names
 from nlobs.simulate.coverage import monitor
 from nlobs.simulate.loop import simulate
-from nlobs.simulate.result import SimulationResult
+from nlobs.simulate.result import SimulationResult, with_run_axis
 from nlobs.systems.linear import LinearSystem
 from nlobs.systems.modelfile import load_scenario
 from nlobs.systems.scenario import Scenario
@@ -894,11 +894,14 @@ def _run_one(name: str, s: _Setup, options: Mapping[str, Any], progress: bool | 
                                                            design.coverage_extras, design.bound)
     if backend == "c":
         obs, desc = _compiled(obs, desc)
-    x0 = np.broadcast_to(s.x0, (s.runs, s.scenario.model.n))
+    one = s.runs == 1  # one run without a batch axis: the single-run paths of the compiled code and the filters
+    x0 = s.x0 if one else np.broadcast_to(s.x0, (s.runs, s.scenario.model.n))
     try:
-        res = simulate(s.plant, obs, x0, s.x_hat0, duration=s.duration, dt=s.dt, u=s.u,
+        res = simulate(s.plant, obs, x0, s.x_hat0[0] if one else s.x_hat0, duration=s.duration, dt=s.dt, u=s.u,
                        measurements=s.sensors or None, process_noise=s.process_noise, seed=s.seed,
                        save_every=s.save_every, progress=progress, divergence="keep")
+        if one:
+            res = with_run_axis(res)
     except SimulationDiverged as exc:
         if exc.which == "plant":
             raise StudyFailed(f"the plant itself diverged ({exc}): check x0, the inputs and the process noise") from exc

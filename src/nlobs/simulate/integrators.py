@@ -126,6 +126,43 @@ def _rk4_record(f: Callable[[float, Any], Any], t: float, y: Any, names: tuple[s
     return cls(*out)
 
 
+def _combine(y: tuple[Any, ...], members: list[Any], c: float, k: tuple[Any, ...]) -> tuple[Any, ...]:
+    """``y + c k`` member by member: arrays directly, flat records field by field (their scalars carried)."""
+    out = []
+    for a, b, rec in zip(y, k, members):
+        if rec is None:
+            out.append(a + c * b)
+            continue
+        names, idx = rec
+        vals = [getattr(a, name) for name in names]
+        for i in idx:
+            vals[i] = vals[i] + c * getattr(b, names[i])
+        out.append(type(a)(*vals))
+    return tuple(out)
+
+
+def _rk4_members(f: Callable[[float, Any], Any], t: float, y: tuple[Any, ...], members: list[Any], h: float) -> Any:
+    """:func:`rk4_step` of a tuple of arrays and flat records, with the general case's operations in its order."""
+    k1 = f(t, y)
+    k2 = f(t + 0.5 * h, _combine(y, members, 0.5 * h, k1))
+    k3 = f(t + 0.5 * h, _combine(y, members, 0.5 * h, k2))
+    k4 = f(t + h, _combine(y, members, h, k3))
+    out = []
+    for j, (a, rec) in enumerate(zip(y, members)):
+        b1, b2, b3, b4 = k1[j], k2[j], k3[j], k4[j]
+        if rec is None:
+            out.append(a + (h / 6.0) * (b1 + 2.0 * b2 + 2.0 * b3 + b4))
+            continue
+        names, idx = rec
+        vals = [getattr(a, name) for name in names]
+        for i in idx:
+            name = names[i]
+            vals[i] = vals[i] + (h / 6.0) * (getattr(b1, name) + 2.0 * getattr(b2, name) + 2.0 * getattr(b3, name)
+                                             + getattr(b4, name))
+        out.append(type(a)(*vals))
+    return tuple(out)
+
+
 def rk4_step(f: Callable[[float, Any], Any], t: float, y: Any, h: float) -> Any:
     """One classical RK4 step of ``ẏ = f(t, y)`` from ``t`` to ``t + h`` — the one RK4 of nlobs.
 
@@ -151,6 +188,10 @@ def rk4_step(f: Callable[[float, Any], Any], t: float, y: Any, h: float) -> Any:
     record = flat_fields(y)
     if record is not None:  # a flat record of floats (a Kalman filter's mean and covariance): no tree walk per stage
         return _rk4_record(f, t, y, *record, h)
+    if isinstance(y, tuple):  # (plant state, a filter's state): arrays and flat records, no tree walk per stage
+        members = [None if isinstance(m, np.ndarray) else flat_fields(m) for m in y]
+        if all(r is not None for m, r in zip(y, members) if not isinstance(m, np.ndarray)):
+            return _rk4_members(f, t, y, members, h)
     k1 = f(t, y)
     k2 = f(t + 0.5 * h, tree_map(lambda a, b: a + (0.5 * h) * b, y, k1))
     k3 = f(t + 0.5 * h, tree_map(lambda a, b: a + (0.5 * h) * b, y, k2))

@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import os
 from collections.abc import Mapping, Sequence
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -408,6 +409,26 @@ class SimulationResult:
 
 
 # ------------------------------------------------------------------------ plot
+def with_run_axis(result: SimulationResult) -> SimulationResult:
+    """A single run's result as a batch of one run: ``x``, ``x_hat``, ``y`` and the extras get a leading axis of 1.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A result without a batch axis (``x_hat`` of shape ``(K, n)``).
+
+    Returns
+    -------
+    SimulationResult
+        The same values, ``x_hat`` of shape ``(1, K, n)`` (views, no copy).
+    """
+    if result.batch_shape != ():
+        raise DimensionError(f"with_run_axis: the result already has the batch shape {result.batch_shape}")
+    return dataclasses.replace(
+        result, x=None if result.x is None else result.x[None], x_hat=result.x_hat[None],
+        y=None if result.y is None else result.y[None], extras={k: v[None] for k, v in result.extras.items()})
+
+
 def _state_indices(result: SimulationResult, states: Sequence[int | str] | None) -> list[int]:
     n = len(result.states)
     if states is None:
