@@ -11,6 +11,8 @@ data and the same compiled functions (``rhs``, ``output`` and their Jacobians):
   compiled ``output`` and ``output_jacobian_x``, and the same continuous-discrete prediction written
   plainly: one RK4 step of ``(ẋ = f, Ṗ = F P + P Fᵀ + Q)``. Its estimates equal nlobs' (the difference is
   printed).
+* **nlobs EKF as C** — the same filter's generated C (``nlobs export MODEL --observer ekf``,
+  :func:`nlobs.export.compile_observer`) in the same loop, for reference (not part of the target).
 * **filterpy UKF** — ``filterpy.kalman.UnscentedKalmanFilter`` with the same sigma points (Merwe, α = 1,
   β = 2, κ = 0), ``fx`` one RK4 step of the plant, ``Q·dt`` added: filterpy's own discrete prediction of a
   sampled continuous plant (nlobs integrates Särkkä's moment ODEs instead; both RMS errors are printed).
@@ -104,12 +106,22 @@ def main() -> None:
     x0 = np.array([0.0, 0.0, 0.0, 0.0])
     Q, R, P0 = np.diag([1e-6, 1e-4, 1e-6, 1e-4]), np.diag([1e-6, 1e-4]), np.eye(4) * 0.1
     ekf, ukf = EKF(plant, Q, R, P0), UKF(plant, Q, R, P0)
+    ekf_c = None
+    try:
+        from nlobs.errors import NlobsError
+        from nlobs.export import compile_observer, find_compiler
+
+        ekf_c = compile_observer(ekf) if find_compiler() is not None else None
+    except (ImportError, NlobsError):  # no compiler (the codegen extra), or a version without the EKF's C
+        pass
     runs = {
         "nlobs EKF": lambda: run_observer(ekf, t, x_hat0=x0, u=u, y=y, progress=False).x_hat,
         "filterpy EKF": lambda: run_filterpy_ekf(plant, t, u, y, x0, Q, R, P0),
         "nlobs UKF": lambda: run_observer(ukf, t, x_hat0=x0, u=u, y=y, progress=False).x_hat,
         "filterpy UKF": lambda: run_filterpy_ukf(plant, t, u, y, x0, Q, R, P0),
     }
+    if ekf_c is not None:  # the generated C of the same filter, in the same loop (``nlobs export MODEL --observer ekf``)
+        runs["nlobs EKF as C"] = lambda: run_observer(ekf_c, t, x_hat0=x0, u=u, y=y, progress=False).x_hat
     cpu: dict[str, list[float]] = {name: [] for name in runs}
     est: dict[str, np.ndarray] = {}
     for name, fn in runs.items():  # warm-up
@@ -127,6 +139,9 @@ def main() -> None:
         print(f"{name:<14} {min(cpu[name]) / STEPS * 1e6:>8.1f} {rms:>10.3e}")
     d = float(np.max(np.abs(est["nlobs EKF"] - est["filterpy EKF"])))
     print(f"largest difference of the EKF estimates, nlobs against filterpy: {d:.2e}")
+    if ekf_c is not None:
+        d = float(np.max(np.abs(est["nlobs EKF"] - est["nlobs EKF as C"])))
+        print(f"largest difference of the EKF estimates, Python against its generated C: {d:.2e}")
     ok = True
     for kind in ("EKF", "UKF"):
         ratio = min(cpu[f"nlobs {kind}"]) / min(cpu[f"filterpy {kind}"])

@@ -20,6 +20,8 @@ r"""Observer → :class:`~nlobs.export.program.CProgram`: one generator per obse
 * :class:`~nlobs.observers.impulsive.ImpulsiveObserver` — Raff & Allgöwer's impulsive observer, the model
   ``F(x̂, u)`` between samples and the jump ``x̂ ← x̂ + L_J (y_J − h_J(x̂))`` at each (a correcting module), in
   :mod:`nlobs.export.impulsive`.
+* :class:`~nlobs.observers.ekf.EKF` — the extended Kalman filter of any plant with expressions (Jazwinski's
+  continuous-discrete form, or the discrete one) and its Joseph-form update, in :mod:`nlobs.export.kalman`.
 
 Every symbolic part goes through :func:`nlobs.export.cprint.emit_assignments` (SymPy's C99 printer
 with common subexpressions); the fixed parts (RK4, the solve, the saturated forms) are this module's
@@ -448,7 +450,8 @@ def _generators() -> dict[str, Any]:
             "SetValuedObserver": _lazy("nlobs.export.setvalued", "generate_setvalued"),
             "CascadeObserver": _lazy("nlobs.export.cascade", "generate_cascade"),
             "OutputPredictor": _lazy("nlobs.export.predictor", "generate_predictor"),
-            "ImpulsiveObserver": _lazy("nlobs.export.impulsive", "generate_impulsive")}
+            "ImpulsiveObserver": _lazy("nlobs.export.impulsive", "generate_impulsive"),
+            "EKF": _lazy("nlobs.export.kalman", "generate_ekf")}
 
 
 #: Observer classes whose generator takes options (``generate(..., options=)``).

@@ -72,7 +72,8 @@ class ExportReport:
                  *(f"  {p}" for p in self.files),
                  f"  compiled with -Wall -Wextra -Werror -std=c99 -pedantic by {ex.checked_with}" if ex.checked_with
                  else "  not compiled: no C compiler was found (pip install 'nlobs[codegen]')",
-                 f"  certificate: {'verified' if self.certified else 'NOT certified'}"]
+                 "  certificate: " + ("verified" if self.certified else "none (a Kalman filter carries no convergence "
+                                      "guarantee)" if self.verdict is Verdict.OK else "NOT certified")]
         lines += ["    " + ln for ln in self.certificate.splitlines()]
         return "\n".join(lines)  # the message, when FAILED, is the command's one line
 
@@ -185,11 +186,15 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
         if not options:
             raise
         raise InvalidArgumentError(f"{', '.join(sorted(options))}: {exc}") from exc
-    notes = (("certificate", ("verified" if certified else "NOT CERTIFIED") + (f" ({why})" if why else "")),
+    from nlobs.methods.kalman import KalmanMethod
+
+    filter_ = isinstance(method, KalmanMethod)  # a Kalman filter claims no certificate: none is missing
+    notes = (("certificate", "none: a Kalman filter carries no convergence guarantee" if filter_ else
+              ("verified" if certified else "NOT CERTIFIED") + (f" ({why})" if why else "")),
              ("certified on" if certified else "rests on", text))
     c_options = {"imu_period": design.parameters["imu_period"]} if observer == "gnss-ins" else None
     res = export_observer(obs, out, prefix=prefix or f"{name}_{observer}", notes=notes, options=c_options)
-    verdict = Verdict.OK if certified else Verdict.FAILED
-    msg = "" if certified else f"{name}: the {observer} design is not certified ({why}); the code was written " \
-                               "with that in its header"
+    verdict = Verdict.OK if certified or filter_ else Verdict.FAILED
+    msg = "" if certified or filter_ else f"{name}: the {observer} design is not certified ({why}); the code was " \
+                                          "written with that in its header"
     return ExportReport(name, observer, certified, text, (res.header, res.source), res, verdict, msg, design)
