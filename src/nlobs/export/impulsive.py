@@ -31,34 +31,12 @@ from typing import Any
 import numpy as np
 
 from nlobs.errors import InvalidArgumentError
-from nlobs.export.pieces import matrix_note, require_source, static_array, static_function
+from nlobs.export.pieces import affine_function, matrix_note, require_source, static_array, static_function
 from nlobs.export.program import CProgram
 
 __all__ = ["generate_impulsive"]
 
 _RHS_SIG = "(double t, const double *z, const double *u, const double *y, double *dz)"
-
-
-def _affine_c(name: str, M: np.ndarray, N: np.ndarray, rows: int, n: int, m: int) -> str:
-    """``static void name(x, u, out)``: ``out = M x + N u`` (``M`` rows-by-n, ``N`` rows-by-m, arrays ``name_M``…)."""
-    nu = (f"""
-        for (j = 0; j < {m}; ++j) {{
-            acc += {name}_N[i * {m} + j] * u[j];
-        }}""" if m else "")
-    return (static_array(f"{name}_M", M) + (static_array(f"{name}_N", N) if m else "") + f"""\
-static void {name}(const double *x, const double *u, double *out)
-{{
-    int i, j;
-    (void)u;
-    for (i = 0; i < {rows}; ++i) {{
-        double acc = 0.0;
-        for (j = 0; j < {n}; ++j) {{
-            acc += {name}_M[i * {n} + j] * x[j];
-        }}{nu}
-        out[i] = acc;
-    }}
-}}
-""")
 
 
 def _model_c(plant: Any, P: str, n: int, m: int, p: int) -> tuple[str, str]:
@@ -68,7 +46,7 @@ def _model_c(plant: Any, P: str, n: int, m: int, p: int) -> tuple[str, str]:
         if A.shape != (n, n) or C.shape != (p, n) or B.shape != (n, m) or D.shape != (p, m):
             raise InvalidArgumentError(f"ImpulsiveObserver: A, B, C, D of shapes {A.shape}, {B.shape}, {C.shape}, "
                                        f"{D.shape}; expected {(n, n)}, {(n, m)}, {(p, n)}, {(p, m)}")
-        defs = _affine_c(f"{P}_F", A, B, n, n, m) + _affine_c(f"{P}_h", C, D, p, n, m)
+        defs = affine_function(f"{P}_F", A, B, n, n, m) + affine_function(f"{P}_h", C, D, p, n, m)
         return defs, "linear: F = A x + B u, h = C x + D u (the model's matrices)"
     name = getattr(plant, "name", type(plant).__name__)
     rhs = require_source(getattr(plant, "_rhs", None), f"{name}.rhs")

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from nlobs.errors import InvalidArgumentError
-from nlobs.export.pieces import matrix_note, require_source, static_array, static_function
+from nlobs.export.pieces import affine_function, matrix_note, require_source, static_array, static_function
 from nlobs.export.program import CProgram, StateCodec
 
 __all__ = ["generate_ekf"]
@@ -48,28 +48,6 @@ static void {name}(const double *x, const double *u, double *out)
 """
 
 
-def _affine(name: str, M: np.ndarray, N: np.ndarray, rows: int, n: int, m: int) -> str:
-    """``static void name(x, u, out)``: ``out = M x + N u``."""
-    nu = (f"""
-        for (j = 0; j < {m}; ++j) {{
-            acc += {name}_N[i * {m} + j] * u[j];
-        }}""" if m else "")
-    return (static_array(f"{name}_M", M) + (static_array(f"{name}_N", N) if m else "") + f"""\
-static void {name}(const double *x, const double *u, double *out)
-{{
-    int i, j;
-    (void)u;
-    for (i = 0; i < {rows}; ++i) {{
-        double acc = 0.0;
-        for (j = 0; j < {n}; ++j) {{
-            acc += {name}_M[i * {n} + j] * x[j];
-        }}{nu}
-        out[i] = acc;
-    }}
-}}
-""")
-
-
 def _model_c(plant: Any, P: str, n: int, m: int, p: int) -> tuple[str, str]:
     """``P_f``, ``P_F`` (``∂f/∂x``), ``P_h``, ``P_H`` (``∂h/∂x``) as C, and the model's line of the header."""
     if hasattr(plant, "A") and hasattr(plant, "C") and not hasattr(plant, "_rhs"):
@@ -77,7 +55,7 @@ def _model_c(plant: Any, P: str, n: int, m: int, p: int) -> tuple[str, str]:
         if A.shape != (n, n) or C.shape != (p, n) or B.shape != (n, m) or D.shape != (p, m):
             raise InvalidArgumentError(f"EKF: A, B, C, D of shapes {A.shape}, {B.shape}, {C.shape}, {D.shape}; "
                                        f"expected {(n, n)}, {(n, m)}, {(p, n)}, {(p, m)}")
-        defs = (_affine(f"{P}_f", A, B, n, n, m) + _affine(f"{P}_h", C, D, p, n, m)
+        defs = (affine_function(f"{P}_f", A, B, n, n, m) + affine_function(f"{P}_h", C, D, p, n, m)
                 + _constant(f"{P}_F", A) + _constant(f"{P}_H", C))
         return defs, "linear: f = A x + B u, h = C x + D u, F = A, H = C (the model's matrices)"
     name = getattr(plant, "name", type(plant).__name__)
@@ -141,8 +119,24 @@ def generate_ekf(obs: Any, prefix: str) -> CProgram:
     Q, R, P0 = (np.asarray(M, dtype=float) for M in (obs.Q, obs.R, obs.P0))
     defs, model_note = _model_c(plant, P, n, m, p)
     N2 = n * n
+    fp = f"""
+/* F P, both n x n row-major */
+static void {P}_FP(const double *F, const double *Pm, double *FP)
+{{
+    int i, j, k;
+    for (i = 0; i < {n}; ++i) {{
+        for (j = 0; j < {n}; ++j) {{
+            double acc = 0.0;
+            for (k = 0; k < {n}; ++k) {{
+                acc += F[i * {n} + k] * Pm[k * {n} + j];
+            }}
+            FP[i * {n} + j] = acc;
+        }}
+    }}
+}}
+"""
     if obs.discrete:
-        predict = f"""
+        predict = fp + f"""
 /* the prediction of a discrete plant: x+ = f(x, u), P+ = (F P F' + Q) symmetrised; the NIS is kept */
 static int {P}_rhs_(double t, const double *z, const double *u, const double *y, double *dz)
 {{
@@ -152,15 +146,7 @@ static int {P}_rhs_(double t, const double *z, const double *u, const double *y,
     (void)y;
     {P}_f(z, u, dz);
     {P}_F(z, u, F);
-    for (i = 0; i < {n}; ++i) {{
-        for (j = 0; j < {n}; ++j) {{
-            double acc = 0.0;
-            for (k = 0; k < {n}; ++k) {{
-                acc += F[i * {n} + k] * z[{n} + k * {n} + j];
-            }}
-            FP[i * {n} + j] = acc;
-        }}
-    }}
+    {P}_FP(F, z + {n}, FP);
     for (i = 0; i < {n}; ++i) {{
         for (j = 0; j < {n}; ++j) {{
             double acc = 0.0;
@@ -180,26 +166,18 @@ static int {P}_rhs_(double t, const double *z, const double *u, const double *y,
 }}
 """
     else:
-        predict = f"""
+        predict = fp + f"""
 /* the moment equations of a continuous plant (Jazwinski, section 8.3): x' = f(x, u), P' = F P + (F P)' + Q,
    F = df/dx(x, u); the NIS is constant between samples */
 static int {P}_rhs_(double t, const double *z, const double *u, const double *y, double *dz)
 {{
     double F[{N2}], FP[{N2}];
-    int i, j, k;
+    int i, j;
     (void)t;
     (void)y;
     {P}_f(z, u, dz);
     {P}_F(z, u, F);
-    for (i = 0; i < {n}; ++i) {{
-        for (j = 0; j < {n}; ++j) {{
-            double acc = 0.0;
-            for (k = 0; k < {n}; ++k) {{
-                acc += F[i * {n} + k] * z[{n} + k * {n} + j];
-            }}
-            FP[i * {n} + j] = acc;
-        }}
-    }}
+    {P}_FP(F, z + {n}, FP);
     for (i = 0; i < {n}; ++i) {{
         for (j = 0; j < {n}; ++j) {{
             dz[{n} + i * {n} + j] = FP[i * {n} + j] + FP[j * {n} + i] + {P}_Q[i * {n} + j];

@@ -18,7 +18,8 @@ from nlobs.errors import InvalidArgumentError
 from nlobs.export.cprint import emit_assignments, matrix_literal
 from nlobs.systems.codegen import BatchedFunction
 
-__all__ = ["abscissa", "matrix_note", "require_source", "static_array", "static_function", "symbol_inputs"]
+__all__ = ["abscissa", "affine_function", "matrix_note", "require_source", "static_array", "static_function",
+           "symbol_inputs"]
 
 
 def symbol_inputs(groups: tuple[tuple[sp.Symbol, ...], ...], names: tuple[str, ...]) -> dict[sp.Symbol, str]:
@@ -41,6 +42,43 @@ def symbol_inputs(groups: tuple[tuple[sp.Symbol, ...], ...], names: tuple[str, .
         for j, s in enumerate(grp):
             out[s] = f"{arr}[{j}]"
     return out
+
+
+def affine_function(name: str, M: np.ndarray, N: np.ndarray, rows: int, n: int, m: int) -> str:
+    """``static void name(x, u, out)``: ``out = M x + N u``, with the constant arrays ``name_M`` and ``name_N``.
+
+    Parameters
+    ----------
+    name : str
+        The C function's name (a C identifier).
+    M, N : ndarray
+        ``rows × n`` and ``rows × m`` (a linear system's ``A, B`` or ``C, D``); ``N`` is left out when ``m = 0``.
+    rows, n, m : int
+        The sizes.
+
+    Returns
+    -------
+    str
+        C99 definitions.
+    """
+    nu = (f"""
+        for (j = 0; j < {m}; ++j) {{
+            acc += {name}_N[i * {m} + j] * u[j];
+        }}""" if m else "")
+    return (static_array(f"{name}_M", M) + (static_array(f"{name}_N", N) if m else "") + f"""\
+static void {name}(const double *x, const double *u, double *out)
+{{
+    int i, j;
+    (void)u;
+    for (i = 0; i < {rows}; ++i) {{
+        double acc = 0.0;
+        for (j = 0; j < {n}; ++j) {{
+            acc += {name}_M[i * {n} + j] * x[j];
+        }}{nu}
+        out[i] = acc;
+    }}
+}}
+""")
 
 
 def require_source(fn: Any, what: str) -> BatchedFunction:
