@@ -1,7 +1,8 @@
 """Cost of the EKF and UKF of nlobs: batched against one run at a time, and against filterpy.
 
 Two measurements, each repeated ``--repeat`` times with the alternatives interleaved (so that a
-change of machine load hits both); the table shows medians and the median of the per-repeat ratios.
+change of machine load hits both), in CPU time (``time.process_time``: a shared machine's load changes it far less
+than the wall clock); the table shows medians and the median of the per-repeat ratios.
 
 * **batch vs loop** — the flexible-joint robot (4 states, ``sin`` of the link angle; Raghavan &
   Hedrick's parameters) compiled from SymPy, continuous time, both motor outputs sampled at every
@@ -51,12 +52,12 @@ def flexible_joint():  # type: ignore[no-untyped-def]
 
 
 def _step_cost(filt, z, u, y, fresh, dt, steps):  # type: ignore[no-untyped-def]
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     for k in range(steps):
         t = k * dt
         z = filt.correct(t, z, u, y, fresh)
         z = rk4_step(lambda tt, zz: filt.rhs(tt, zz, u, y), t, z, dt)
-    return time.perf_counter() - t0
+    return time.process_time() - t0
 
 
 def batch_vs_loop(runs: int, steps: int, repeat: int) -> dict[str, dict[str, float]]:
@@ -75,10 +76,10 @@ def batch_vs_loop(runs: int, steps: int, repeat: int) -> dict[str, dict[str, flo
         batched, loop = [], []
         for _ in range(repeat):
             batched.append(_step_cost(filt, zb, u, y, fresh, 1e-3, steps) / steps / runs)
-            t0 = time.perf_counter()
+            t0 = time.process_time()
             for b in range(runs):
                 _step_cost(filt, singles[b], u, y[b], fresh, 1e-3, steps)
-            loop.append((time.perf_counter() - t0) / steps / runs)
+            loop.append((time.process_time() - t0) / steps / runs)
         out[filt.name] = {"batched_us": statistics.median(batched) * 1e6, "loop_us": statistics.median(loop) * 1e6,
                           "ratio": statistics.median(lp / bt for lp, bt in zip(loop, batched, strict=True))}
     return out
@@ -96,30 +97,30 @@ def versus_filterpy(steps: int, repeat: int) -> dict[str, float]:
 
     def run_nlobs() -> float:
         z = ekf.init(np.zeros(3))
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         for k in range(steps):
             z = ekf.correct(0.1 * k, z, us[k], ys[k], fresh)
             z = ekf.rhs(0.1 * k, z, us[k], ys[k])
-        return time.perf_counter() - t0
+        return time.process_time() - t0
 
     def run_kf() -> float:
         kf = KalmanFilter(dim_x=3, dim_z=2, dim_u=1)
         kf.F, kf.B, kf.H, kf.Q, kf.R, kf.P, kf.x = A, B, C, Q, R, P0.copy(), np.zeros(3)
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         for k in range(steps):
             kf.update(ys[k])
             kf.predict(u=us[k])
-        return time.perf_counter() - t0
+        return time.process_time() - t0
 
     def run_ekf() -> float:
         fp = ExtendedKalmanFilter(dim_x=3, dim_z=2, dim_u=1)
         fp.F, fp.B, fp.Q, fp.R, fp.P, fp.x = A, B, Q, R, P0.copy(), np.zeros(3)
         jac, hx = (lambda x: C), (lambda x: C @ x)
-        t0 = time.perf_counter()
+        t0 = time.process_time()
         for k in range(steps):
             fp.update(ys[k], jac, hx)
             fp.predict(u=us[k])
-        return time.perf_counter() - t0
+        return time.process_time() - t0
 
     times: dict[str, list[float]] = {"nlobs": [], "kf": [], "ekf": []}
     for fn in (run_nlobs, run_kf, run_ekf):
