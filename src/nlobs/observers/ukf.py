@@ -191,7 +191,7 @@ class UKF(GaussianFilterBase):
         """Särkkä's moment ODEs (continuous plant) or the unscented prediction (discrete plant)."""
         X = self.sigma_points(z.x, z.P)
         if X.ndim == 2 and not self.discrete and np.ndim(u) == 1:  # one run, continuous plant
-            FX = self.plant.rhs(t, X, u)  # u broadcasts over the sigma points
+            FX = self.plant.rhs(t, X, self._with_points(u, X))  # any plant: u given for each sigma point
             m = np.einsum("l,ln->n", self.wm, FX)
             dF = FX - m
             A = ((X - z.x) * self.wc[:, None]).T.dot(dF)
