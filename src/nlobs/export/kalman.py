@@ -91,6 +91,144 @@ def _codec(n: int) -> StateCodec:
     return StateCodec(pack=pack, unpack=unpack)
 
 
+def _joseph_c(P: str, n: int, p: int) -> str:
+    """``static int P_joseph(z, H, nu, Rq, q)``: the Joseph-form update of ``(x̂, P, NIS)`` in ``z`` (module docstring)."""
+    N2, pp = n * n, max(p, 1)
+    return f"""
+/* the Joseph-form update of (x, P, NIS) in z with q outputs: H (q x n), innovation nu, noise covariance Rq (q x q);
+   S = H P H' + Rq is inverted by Gauss-Jordan elimination with partial pivoting (1: S singular or not finite) */
+static int {P}_joseph(double *z, const double *H, const double *nu, const double *Rq, int q)
+{{
+    double S[{pp * pp}], Si[{pp * pp}], PHt[{n * pp}], K[{n * pp}];
+    double IKH[{N2}], A[{N2}], Pn[{N2}], w[{pp}], nis = 0.0;
+    int i, j, k, r;
+    double *Pm = z + {n};
+    for (i = 0; i < {n}; ++i) {{ /* P H' */
+        for (j = 0; j < q; ++j) {{
+            double acc = 0.0;
+            for (k = 0; k < {n}; ++k) {{
+                acc += Pm[i * {n} + k] * H[j * {n} + k];
+            }}
+            PHt[i * q + j] = acc;
+        }}
+    }}
+    for (i = 0; i < q; ++i) {{ /* S = H P H' + R_JJ, and the identity beside it */
+        for (j = 0; j < q; ++j) {{
+            double acc = 0.0;
+            for (k = 0; k < {n}; ++k) {{
+                acc += H[i * {n} + k] * PHt[k * q + j];
+            }}
+            S[i * q + j] = acc + Rq[i * q + j];
+            Si[i * q + j] = i == j ? 1.0 : 0.0;
+        }}
+    }}
+    for (k = 0; k < q; ++k) {{ /* Gauss-Jordan with partial pivoting: S^-1 in Si */
+        int piv = k;
+        double best = fabs(S[k * q + k]);
+        for (r = k + 1; r < q; ++r) {{
+            if (fabs(S[r * q + k]) > best) {{
+                best = fabs(S[r * q + k]);
+                piv = r;
+            }}
+        }}
+        if (!(best > 0.0) || best - best != 0.0) {{
+            return 1;
+        }}
+        if (piv != k) {{
+            for (j = 0; j < q; ++j) {{
+                double a = S[k * q + j], b = Si[k * q + j];
+                S[k * q + j] = S[piv * q + j];
+                Si[k * q + j] = Si[piv * q + j];
+                S[piv * q + j] = a;
+                Si[piv * q + j] = b;
+            }}
+        }}
+        {{
+            double d = S[k * q + k];
+            for (j = 0; j < q; ++j) {{
+                S[k * q + j] /= d;
+                Si[k * q + j] /= d;
+            }}
+        }}
+        for (r = 0; r < q; ++r) {{
+            if (r != k) {{
+                double c = S[r * q + k];
+                for (j = 0; j < q; ++j) {{
+                    S[r * q + j] -= c * S[k * q + j];
+                    Si[r * q + j] -= c * Si[k * q + j];
+                }}
+            }}
+        }}
+    }}
+    for (i = 0; i < {n}; ++i) {{ /* K = P H' S^-1 */
+        for (j = 0; j < q; ++j) {{
+            double acc = 0.0;
+            for (k = 0; k < q; ++k) {{
+                acc += PHt[i * q + k] * Si[k * q + j];
+            }}
+            K[i * q + j] = acc;
+        }}
+    }}
+    for (i = 0; i < q; ++i) {{ /* w = S^-1 nu, NIS = nu' w */
+        double acc = 0.0;
+        for (k = 0; k < q; ++k) {{
+            acc += Si[i * q + k] * nu[k];
+        }}
+        w[i] = acc;
+        nis += nu[i] * acc;
+    }}
+    for (i = 0; i < {n}; ++i) {{ /* I - K H */
+        for (j = 0; j < {n}; ++j) {{
+            double acc = 0.0;
+            for (k = 0; k < q; ++k) {{
+                acc += K[i * q + k] * H[k * {n} + j];
+            }}
+            IKH[i * {n} + j] = (i == j ? 1.0 : 0.0) - acc;
+        }}
+    }}
+    for (i = 0; i < {n}; ++i) {{ /* A = (I - K H) P */
+        for (j = 0; j < {n}; ++j) {{
+            double acc = 0.0;
+            for (k = 0; k < {n}; ++k) {{
+                acc += IKH[i * {n} + k] * Pm[k * {n} + j];
+            }}
+            A[i * {n} + j] = acc;
+        }}
+    }}
+    for (i = 0; i < {n}; ++i) {{ /* x += P H' w */
+        double acc = 0.0;
+        for (k = 0; k < q; ++k) {{
+            acc += PHt[i * q + k] * w[k];
+        }}
+        z[i] += acc;
+    }}
+    for (i = 0; i < {n}; ++i) {{ /* P = A (I - K H)' + (K R_JJ) K', then symmetrised */
+        for (j = 0; j < {n}; ++j) {{
+            double acc = 0.0, kr = 0.0;
+            for (k = 0; k < {n}; ++k) {{
+                acc += A[i * {n} + k] * IKH[j * {n} + k];
+            }}
+            for (k = 0; k < q; ++k) {{
+                double krk = 0.0;
+                for (r = 0; r < q; ++r) {{
+                    krk += K[i * q + r] * Rq[r * q + k];
+                }}
+                kr += krk * K[j * q + k];
+            }}
+            Pn[i * {n} + j] = acc + kr;
+        }}
+    }}
+    for (i = 0; i < {n}; ++i) {{
+        for (j = 0; j < {n}; ++j) {{
+            Pm[i * {n} + j] = (Pn[i * {n} + j] + Pn[j * {n} + i]) * 0.5;
+        }}
+    }}
+    z[{n + N2}] = nis;
+    return nis - nis == 0.0 ? 0 : 2;
+}}
+"""
+
+
 def generate_ekf(obs: Any, prefix: str) -> CProgram:
     """The :class:`CProgram` of an :class:`~nlobs.observers.ekf.EKF` (module docstring).
 
@@ -189,7 +327,7 @@ static int {P}_rhs_(double t, const double *z, const double *u, const double *y,
 """
     pp = max(p, 1)
     body = (static_array(f"{P}_Q", Q) + static_array(f"{P}_R", R) + static_array(f"{P}_P0", P0) + defs + predict
-            + f"""
+            + _joseph_c(P, n, p) + f"""
 static int {P}_init_(const double *xhat0, double *z)
 {{
     int i;
@@ -211,14 +349,11 @@ static void {P}_estimate_(const double *z, double *xhat)
     }}
 }}
 
-/* at a sample: the Joseph-form update with the outputs J (fresh and finite); S^-1 by Gauss-Jordan elimination
-   with partial pivoting */
+/* at a sample: the Joseph-form update with the outputs J (fresh and finite) */
 static int {P}_correct_(double t, double *z, const double *u, const double *y, const unsigned char *fresh)
 {{
-    double hx[{pp}], Hx[{pp * n}], H[{pp * n}], nu[{pp}], S[{pp * pp}], Si[{pp * pp}], PHt[{n * pp}], K[{n * pp}];
-    double IKH[{N2}], A[{N2}], Pn[{N2}], w[{pp}], nis = 0.0;
-    int rows[{pp}], q = 0, i, j, k, r;
-    double *Pm = z + {n};
+    double hx[{pp}], Hx[{pp * n}], H[{pp * n}], nu[{pp}], Rq[{pp * pp}];
+    int rows[{pp}], q = 0, i, j, k;
     (void)t;
     {P}_h(z, u, hx);
     {P}_H(z, u, Hx);
@@ -235,128 +370,12 @@ static int {P}_correct_(double t, double *z, const double *u, const double *y, c
     if (q == 0) {{
         return 0;
     }}
-    for (i = 0; i < {n}; ++i) {{ /* P H' */
+    for (i = 0; i < q; ++i) {{
         for (j = 0; j < q; ++j) {{
-            double acc = 0.0;
-            for (k = 0; k < {n}; ++k) {{
-                acc += Pm[i * {n} + k] * H[j * {n} + k];
-            }}
-            PHt[i * q + j] = acc;
+            Rq[i * q + j] = {P}_R[rows[i] * {p} + rows[j]];
         }}
     }}
-    for (i = 0; i < q; ++i) {{ /* S = H P H' + R_JJ, and the identity beside it */
-        for (j = 0; j < q; ++j) {{
-            double acc = 0.0;
-            for (k = 0; k < {n}; ++k) {{
-                acc += H[i * {n} + k] * PHt[k * q + j];
-            }}
-            S[i * q + j] = acc + {P}_R[rows[i] * {p} + rows[j]];
-            Si[i * q + j] = i == j ? 1.0 : 0.0;
-        }}
-    }}
-    for (k = 0; k < q; ++k) {{ /* Gauss-Jordan with partial pivoting: S^-1 in Si */
-        int piv = k;
-        double best = fabs(S[k * q + k]);
-        for (r = k + 1; r < q; ++r) {{
-            if (fabs(S[r * q + k]) > best) {{
-                best = fabs(S[r * q + k]);
-                piv = r;
-            }}
-        }}
-        if (!(best > 0.0) || best - best != 0.0) {{
-            return 1;
-        }}
-        if (piv != k) {{
-            for (j = 0; j < q; ++j) {{
-                double a = S[k * q + j], b = Si[k * q + j];
-                S[k * q + j] = S[piv * q + j];
-                Si[k * q + j] = Si[piv * q + j];
-                S[piv * q + j] = a;
-                Si[piv * q + j] = b;
-            }}
-        }}
-        {{
-            double d = S[k * q + k];
-            for (j = 0; j < q; ++j) {{
-                S[k * q + j] /= d;
-                Si[k * q + j] /= d;
-            }}
-        }}
-        for (r = 0; r < q; ++r) {{
-            if (r != k) {{
-                double c = S[r * q + k];
-                for (j = 0; j < q; ++j) {{
-                    S[r * q + j] -= c * S[k * q + j];
-                    Si[r * q + j] -= c * Si[k * q + j];
-                }}
-            }}
-        }}
-    }}
-    for (i = 0; i < {n}; ++i) {{ /* K = P H' S^-1 */
-        for (j = 0; j < q; ++j) {{
-            double acc = 0.0;
-            for (k = 0; k < q; ++k) {{
-                acc += PHt[i * q + k] * Si[k * q + j];
-            }}
-            K[i * q + j] = acc;
-        }}
-    }}
-    for (i = 0; i < q; ++i) {{ /* w = S^-1 nu, NIS = nu' w */
-        double acc = 0.0;
-        for (k = 0; k < q; ++k) {{
-            acc += Si[i * q + k] * nu[k];
-        }}
-        w[i] = acc;
-        nis += nu[i] * acc;
-    }}
-    for (i = 0; i < {n}; ++i) {{ /* I - K H */
-        for (j = 0; j < {n}; ++j) {{
-            double acc = 0.0;
-            for (k = 0; k < q; ++k) {{
-                acc += K[i * q + k] * H[k * {n} + j];
-            }}
-            IKH[i * {n} + j] = (i == j ? 1.0 : 0.0) - acc;
-        }}
-    }}
-    for (i = 0; i < {n}; ++i) {{ /* A = (I - K H) P */
-        for (j = 0; j < {n}; ++j) {{
-            double acc = 0.0;
-            for (k = 0; k < {n}; ++k) {{
-                acc += IKH[i * {n} + k] * Pm[k * {n} + j];
-            }}
-            A[i * {n} + j] = acc;
-        }}
-    }}
-    for (i = 0; i < {n}; ++i) {{ /* x += P H' w */
-        double acc = 0.0;
-        for (k = 0; k < q; ++k) {{
-            acc += PHt[i * q + k] * w[k];
-        }}
-        z[i] += acc;
-    }}
-    for (i = 0; i < {n}; ++i) {{ /* P = A (I - K H)' + (K R_JJ) K', then symmetrised */
-        for (j = 0; j < {n}; ++j) {{
-            double acc = 0.0, kr = 0.0;
-            for (k = 0; k < {n}; ++k) {{
-                acc += A[i * {n} + k] * IKH[j * {n} + k];
-            }}
-            for (k = 0; k < q; ++k) {{
-                double krk = 0.0;
-                for (r = 0; r < q; ++r) {{
-                    krk += K[i * q + r] * {P}_R[rows[r] * {p} + rows[k]];
-                }}
-                kr += krk * K[j * q + k];
-            }}
-            Pn[i * {n} + j] = acc + kr;
-        }}
-    }}
-    for (i = 0; i < {n}; ++i) {{
-        for (j = 0; j < {n}; ++j) {{
-            Pm[i * {n} + j] = (Pn[i * {n} + j] + Pn[j * {n} + i]) * 0.5;
-        }}
-    }}
-    z[{n + N2}] = nis;
-    return nis - nis == 0.0 ? 0 : 2;
+    return {P}_joseph(z, H, nu, Rq, q);
 }}
 """)
     names = ", ".join(obs.plant.states) if hasattr(obs.plant, "states") else f"{n} states"
@@ -379,3 +398,4 @@ static int {P}_correct_(double t, double *z, const double *u, const double *y, c
                     discrete=bool(obs.discrete), body=body, correcting=True, own_init=True, own_estimate=True,
                     notes=notes, codec=_codec(n), dt=float(tb.dt) if obs.discrete else None,
                     status1="a singular innovation covariance S")
+
