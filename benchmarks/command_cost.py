@@ -17,14 +17,16 @@ Run: ``PYTHONPATH=src python benchmarks/command_cost.py`` (about a minute).
 
 from __future__ import annotations
 
-import importlib.util
-import os
-import resource
 import statistics
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from cli_startup import _cpu_children  # noqa: E402  (the CPU time of the children, the one way both scripts read it)
+from cli_startup import _environment as cli_environment  # noqa: E402
 
 ROUNDS = 5
 TARGET = 2.0
@@ -38,22 +40,10 @@ LAUNCHER = ("import sys\nfrom nlobs.cli import app\nsys.argv[0] = 'nlobs'\n"
 
 
 def _environment() -> dict[str, str]:
-    spec = importlib.util.find_spec("nlobs")  # finds the package without importing it
-    if spec is None or spec.origin is None:
-        raise SystemExit("command_cost: nlobs is not importable (run with PYTHONPATH=src)")
-    root = str(Path(spec.origin).resolve().parent.parent)
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([root, *filter(None, [env.get("PYTHONPATH")])])
+    """``cli_startup``'s environment of the runs (``PYTHONPATH`` to this nlobs, bytecode written), one BLAS thread."""
+    env = cli_environment()
     env.update(COLUMNS="100", OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1", MKL_NUM_THREADS="1")
-    # as installed: NumPy, SciPy and SymPy come with their bytecode from pip, so nlobs gets its own from the warm-up
-    # round (a session that sets PYTHONDONTWRITEBYTECODE would otherwise compile every nlobs module at every start)
-    env.pop("PYTHONDONTWRITEBYTECODE", None)
     return env
-
-
-def _cpu_children() -> float:
-    r = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return r.ru_utime + r.ru_stime
 
 
 def _once(args: list[str], env: dict[str, str]) -> tuple[float, str, str]:

@@ -274,18 +274,8 @@ static void {P}_FP(const double *F, const double *Pm, double *FP)
 }}
 """
     if obs.discrete:
-        predict = fp + f"""
-/* the prediction of a discrete plant: x+ = f(x, u), P+ = (F P F' + Q) symmetrised; the NIS is kept */
-static int {P}_rhs_(double t, const double *z, const double *u, const double *y, double *dz)
-{{
-    double F[{N2}], FP[{N2}], M[{N2}];
-    int i, j, k;
-    (void)t;
-    (void)y;
-    {P}_f(z, u, dz);
-    {P}_F(z, u, F);
-    {P}_FP(F, z + {n}, FP);
-    for (i = 0; i < {n}; ++i) {{
+        what = "the prediction of a discrete plant: x+ = f(x, u), P+ = (F P F' + Q) symmetrised; the NIS is kept"
+        covariance = f"""    for (i = 0; i < {n}; ++i) {{
         for (j = 0; j < {n}; ++j) {{
             double acc = 0.0;
             for (k = 0; k < {n}; ++k) {{
@@ -299,29 +289,29 @@ static int {P}_rhs_(double t, const double *z, const double *u, const double *y,
             dz[{n} + i * {n} + j] = (M[i * {n} + j] + M[j * {n} + i]) * 0.5;
         }}
     }}
-    dz[{n + N2}] = z[{n + N2}];
-    return 0;
-}}
-"""
+    dz[{n + N2}] = z[{n + N2}];"""
+        locals_ = f"double F[{N2}], FP[{N2}], M[{N2}];\n    int i, j, k;"
     else:
-        predict = fp + f"""
-/* the moment equations of a continuous plant (Jazwinski, section 8.3): x' = f(x, u), P' = F P + (F P)' + Q,
-   F = df/dx(x, u); the NIS is constant between samples */
+        what = ("the moment equations of a continuous plant (Jazwinski, section 8.3): x' = f(x, u),\n"
+                "   P' = F P + (F P)' + Q, F = df/dx(x, u); the NIS is constant between samples")
+        covariance = f"""    for (i = 0; i < {n}; ++i) {{
+        for (j = 0; j < {n}; ++j) {{
+            dz[{n} + i * {n} + j] = FP[i * {n} + j] + FP[j * {n} + i] + {P}_Q[i * {n} + j];
+        }}
+    }}
+    dz[{n + N2}] = 0.0;"""
+        locals_ = f"double F[{N2}], FP[{N2}];\n    int i, j;"
+    predict = fp + f"""
+/* {what} */
 static int {P}_rhs_(double t, const double *z, const double *u, const double *y, double *dz)
 {{
-    double F[{N2}], FP[{N2}];
-    int i, j;
+    {locals_}
     (void)t;
     (void)y;
     {P}_f(z, u, dz);
     {P}_F(z, u, F);
     {P}_FP(F, z + {n}, FP);
-    for (i = 0; i < {n}; ++i) {{
-        for (j = 0; j < {n}; ++j) {{
-            dz[{n} + i * {n} + j] = FP[i * {n} + j] + FP[j * {n} + i] + {P}_Q[i * {n} + j];
-        }}
-    }}
-    dz[{n + N2}] = 0.0;
+{covariance}
     return 0;
 }}
 """

@@ -7,7 +7,7 @@ gets the same report everywhere), so the budget counts *work*, never the clock: 
 term operations it is about to do (a product of polynomials with ``a`` and ``b`` terms costs ``a·b``)
 and stops, before doing them, when they would exceed what is left. The budget is stated in seconds,
 the work a typical machine does in that time (:data:`TERM_OPERATIONS_PER_SECOND`), so that
-``--symbolic-budget 5`` reads as before; the count alone decides.
+a budget of 5 s reads as before; the count alone decides.
 """
 
 from __future__ import annotations

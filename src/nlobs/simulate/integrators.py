@@ -89,6 +89,20 @@ class SolveIVP:
 Integrator = RK4 | SolveIVP
 
 
+def _rk4_sum(a: Array, b1: Array, b2: Array, b3: Array, b4: Array, h: float) -> Array:
+    """``a + (h/6)(b1 + 2 b2 + 2 b3 + b4)`` with the operations of the general case in its order (so its rounding),
+    accumulated in place when no operand broadcasts."""
+    if not (a.shape == b1.shape == b2.shape == b3.shape == b4.shape):
+        return a + (h / 6.0) * (b1 + 2.0 * b2 + 2.0 * b3 + b4)
+    acc = 2.0 * b2
+    acc += b1
+    acc += 2.0 * b3
+    acc += b4
+    acc *= h / 6.0
+    acc += a
+    return acc
+
+
 def _rk4_record(f: Callable[[float, Any], Any], t: float, y: Any, names: tuple[str, ...], idx: tuple[int, ...],
                 h: float) -> Any:
     """:func:`rk4_step` of a flat record (:func:`~nlobs.simulate.state.flat_fields`): its float arrays (fields
@@ -112,17 +126,7 @@ def _rk4_record(f: Callable[[float, Any], Any], t: float, y: Any, names: tuple[s
     k4 = f(t + h, z4)
     out = y0.copy()
     for (i, name, a), b1, b2, b3 in zip(arrays, k1, k2, k3):
-        b4 = getattr(k4, name)
-        if not (a.shape == b1.shape == b2.shape == b3.shape == b4.shape):  # broadcasting: the general expression
-            out[i] = a + (h / 6.0) * (b1 + 2.0 * b2 + 2.0 * b3 + b4)
-            continue
-        acc = 2.0 * b2  # a + (h/6)(b1 + 2 b2 + 2 b3 + b4), summed in the general case's order, in place
-        acc += b1
-        acc += 2.0 * b3
-        acc += b4
-        acc *= h / 6.0
-        acc += a
-        out[i] = acc
+        out[i] = _rk4_sum(a, b1, b2, b3, getattr(k4, name), h)
     return cls(*out)
 
 
@@ -151,14 +155,13 @@ def _rk4_members(f: Callable[[float, Any], Any], t: float, y: tuple[Any, ...], m
     for j, (a, rec) in enumerate(zip(y, members)):
         b1, b2, b3, b4 = k1[j], k2[j], k3[j], k4[j]
         if rec is None:
-            out.append(a + (h / 6.0) * (b1 + 2.0 * b2 + 2.0 * b3 + b4))
+            out.append(_rk4_sum(a, b1, b2, b3, b4, h))
             continue
         names, idx = rec
         vals = [getattr(a, name) for name in names]
         for i in idx:
             name = names[i]
-            vals[i] = vals[i] + (h / 6.0) * (getattr(b1, name) + 2.0 * getattr(b2, name) + 2.0 * getattr(b3, name)
-                                             + getattr(b4, name))
+            vals[i] = _rk4_sum(vals[i], getattr(b1, name), getattr(b2, name), getattr(b3, name), getattr(b4, name), h)
         out.append(type(a)(*vals))
     return tuple(out)
 
