@@ -8,8 +8,9 @@ speed): the CPU time of the simulations of the N observers (their designs exclud
 times that floor, for one run and for 50 runs.
 
 Both are timed in CPU time (``time.process_time``), interleaved, best of ``ROUNDS``; the simulations are timed
-inside the comparison (each call of :func:`nlobs.simulate.simulate` it makes), so the designs, the metrics and the
-report are left out and printed apart.
+inside the comparison (each call it makes of the loop: :func:`~nlobs.simulate.loop.simulate`, or the plant's one run,
+:func:`~nlobs.simulate.loop.simulate_plant`, and each observer on it, :func:`~nlobs.simulate.loop.observe`), so the
+designs, the metrics and the report are left out and printed apart.
 
 Run: ``PYTHONPATH=src python benchmarks/simulate_floor.py [MODEL] [--duration S]`` (about a minute for the
 cartpole's 20 s at 1 ms).
@@ -47,16 +48,18 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=None, help="simulated seconds (default: the file's)")
     args = ap.parse_args()
     spent = {"simulate": 0.0}
-    inner = comparison.simulate
 
-    def timed(*a, **k):  # type: ignore[no-untyped-def]
-        c = time.process_time()
-        try:
-            return inner(*a, **k)
-        finally:
-            spent["simulate"] += time.process_time() - c
+    def timed(inner):  # type: ignore[no-untyped-def]
+        def call(*a, **k):  # type: ignore[no-untyped-def]
+            c = time.process_time()
+            try:
+                return inner(*a, **k)
+            finally:
+                spent["simulate"] += time.process_time() - c
+        return call
 
-    comparison.simulate = timed  # the comparison's own calls of the loop, timed in CPU time
+    for name in ("simulate", "simulate_plant", "observe"):  # the comparison's own calls of the loop, in CPU time
+        setattr(comparison, name, timed(getattr(comparison, name)))
     plant = symbolic_model(args.model).compile()
     print(f"nlobs simulate {args.model}: CPU time of the N observers' simulations against N + 1 plain batched RK4 "
           f"loops of the plant, best of {ROUNDS} interleaved rounds")

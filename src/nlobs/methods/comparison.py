@@ -77,7 +77,7 @@ from nlobs.methods.problem import Problem, problem
 from nlobs.methods.registry import get as get_method
 from nlobs.methods.registry import names
 from nlobs.simulate.coverage import monitor
-from nlobs.simulate.loop import simulate
+from nlobs.simulate.loop import PlantRun, observe, simulate, simulate_plant
 from nlobs.simulate.result import SimulationResult, with_run_axis
 from nlobs.systems.linear import LinearSystem
 from nlobs.systems.modelfile import load_scenario
@@ -800,8 +800,9 @@ def compare_observers(
                                    "cluster, a scheduler address uses a running one)")
     outcomes: dict[str, ObserverOutcome] = {}
     if executor is None and workers is None and scheduler is None:
+        shared = _SharedPlant(s, progress)  # the plant integrated once, at the first observer that runs
         for name_ in chosen:
-            outcomes[name_] = _run_one(name_, s, _with_p0(name_, options[name_], s), progress, backend)
+            outcomes[name_] = _run_one(name_, s, _with_p0(name_, options[name_], s), progress, backend, shared)
     else:
         from nlobs.simulate.executors import cluster, run_tasks
 
@@ -884,8 +885,30 @@ def _design(name: str, s: _Setup, options: Mapping[str, Any]) -> Design | str:
     return design
 
 
+class _SharedPlant:
+    """The comparison's plant run with its sensors (:func:`~nlobs.simulate.loop.simulate_plant`), made at the first
+    call and replayed to every observer: the observers see the same samples, and the plant is integrated once."""
+
+    def __init__(self, s: _Setup, progress: bool | None) -> None:
+        self._s, self._progress = s, progress
+        self._run: PlantRun | None = None
+
+    def __call__(self) -> PlantRun:
+        if self._run is None:
+            s = self._s
+            self._run = simulate_plant(s.plant, _initial(s), duration=s.duration, dt=s.dt, u=s.u,
+                                       measurements=s.sensors, process_noise=s.process_noise, seed=s.seed,
+                                       save_every=s.save_every, progress=self._progress)
+        return self._run
+
+
+def _initial(s: _Setup) -> Array:
+    """The runs' initial plant state: one vector for one run (no batch axis: the single-run paths), else a batch."""
+    return s.x0 if s.runs == 1 else np.broadcast_to(s.x0, (s.runs, s.scenario.model.n))
+
+
 def _run_one(name: str, s: _Setup, options: Mapping[str, Any], progress: bool | None,
-             backend: str = "python") -> ObserverOutcome:
+             backend: str = "python", shared: _SharedPlant | None = None) -> ObserverOutcome:
     design = _design(name, s, options)
     if isinstance(design, str):
         return ObserverOutcome(name, design)
@@ -895,11 +918,14 @@ def _run_one(name: str, s: _Setup, options: Mapping[str, Any], progress: bool | 
     if backend == "c":
         obs, desc = _compiled(obs, desc)
     one = s.runs == 1  # one run without a batch axis: the single-run paths of the compiled code and the filters
-    x0 = s.x0 if one else np.broadcast_to(s.x0, (s.runs, s.scenario.model.n))
+    x_hat0 = s.x_hat0[0] if one else s.x_hat0
     try:
-        res = simulate(s.plant, obs, x0, s.x_hat0[0] if one else s.x_hat0, duration=s.duration, dt=s.dt, u=s.u,
-                       measurements=s.sensors or None, process_noise=s.process_noise, seed=s.seed,
-                       save_every=s.save_every, progress=progress, divergence="keep")
+        if shared is not None and s.sensors:  # sampled outputs: the observer replays the one plant run
+            res = observe(shared(), obs, x_hat0, progress=progress, divergence="keep")
+        else:  # exact outputs are read at every RK4 stage of the plant: integrated with each observer
+            res = simulate(s.plant, obs, _initial(s), x_hat0, duration=s.duration, dt=s.dt, u=s.u,
+                           measurements=s.sensors or None, process_noise=s.process_noise, seed=s.seed,
+                           save_every=s.save_every, progress=progress, divergence="keep")
         if one:
             res = with_run_axis(res)
     except SimulationDiverged as exc:

@@ -1,7 +1,8 @@
 """Simulation of plants and observers: the one loop, multi-rate sampled measurements, noise, batches, metrics.
 
-Two entry points, one result: :func:`simulate` runs a plant and an observer together,
-:func:`run_observer` runs any observer on recorded data; both return an immutable
+Two entry points, one result: :func:`simulate` runs a plant and an observer together (or
+:func:`simulate_plant` runs the plant once and :func:`observe` replays it to each of many observers, with the
+same numbers), :func:`run_observer` runs any observer on recorded data; both return an immutable
 :class:`SimulationResult` with error metrics, extras, a plot and an ``.npz`` round trip.
 :func:`monte_carlo` runs a study (:class:`PlantStudy`, :class:`SetValuedStudy`, the GNSS/INS flights)
 in chunks, here or on Dask, with the same numbers however it is split; :func:`nlobs.simulate.sweep.sweep` evaluates a design
@@ -20,7 +21,7 @@ import types
 from typing import Any
 
 from nlobs.simulate.integrators import RK4, SolveIVP, rk4_integrate, rk4_step, rk4_step_joint, solve_ivp_batch
-from nlobs.simulate.loop import simulate
+from nlobs.simulate.loop import PlantRun, observe, simulate, simulate_plant
 from nlobs._lazy import lazy_exports
 from nlobs.simulate.metrics import ErrorMetrics
 from nlobs.simulate.montecarlo import MonteCarloResult, RunBatch, Study, monte_carlo
@@ -36,6 +37,7 @@ __all__ = [
     "InputSensor",
     "MeasurementGroup",
     "MonteCarloResult",
+    "PlantRun",
     "PlantStudy",
     "RunBatch",
     "SetValuedStudy",
@@ -44,11 +46,13 @@ __all__ = [
     "SolveIVP",
     "Study",
     "monte_carlo",
+    "observe",
     "rk4_integrate",
     "rk4_step",
     "rk4_step_joint",
     "run_observer",
     "simulate",
+    "simulate_plant",
     "solve_ivp_batch",
 ]
 

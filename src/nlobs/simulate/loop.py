@@ -103,6 +103,16 @@ class _NullObserver:
 
 
 @dataclass(frozen=True)
+class Samples:
+    """What the sensors of a plant run read, by step: the held measurement after the step's samples with the
+    outputs sampled (``y``), and the held input after the step's input samples (``u``): all an observer
+    sees of the plant on a sampled run."""
+
+    y: dict[int, tuple[Array, NDArray[np.bool_]]]
+    u: dict[int, Array]
+
+
+@dataclass(frozen=True)
 class _Setup:
     """Everything the two loops share, validated once."""
 
@@ -135,6 +145,8 @@ class _Setup:
     deferred: bool  # raw estimates recorded, finished once at the end (DeferredEstimate)
     q_factor: Array | None = None  # L with L Lᵀ = Q: process noise added to the plant after each step
     keep: bool = False  # divergence="keep": a non-finite observer state is recorded, not raised
+    tape: Samples | None = None  # a plant run: its samples are written here for observers to replay
+    truth: Samples | None = None  # an observer on a recorded plant run: its samples are read from here
     clock: list[float] = dataclasses.field(default_factory=lambda: [0.0, math.nan])  # observer seconds, diverged at
 
     def t(self, k: int) -> float:
@@ -173,13 +185,17 @@ class _Recorder:
     ``(*batch, K, n)`` views without copying.
     """
 
-    def __init__(self, s: _Setup) -> None:
+    def __init__(self, s: _Setup, plant_rows: tuple[Array, Array, NDArray[np.bool_]] | None = None) -> None:
         K = s.save_steps.size
         self.t = s.t0 + s.save_steps * s.dt
-        self.x = np.empty((K, *s.batch, s.plant.n))
         self.x_hat = np.empty((K, *s.batch, s.n_x))
-        self.y = np.empty((K, *s.batch, s.plant.p))
-        self.sampled = np.zeros((K, s.plant.p), dtype=bool)
+        self.replay = plant_rows is not None  # the plant's rows (time-major x, y, sampled) come from its recorded run
+        if plant_rows is None:
+            self.x = np.empty((K, *s.batch, s.plant.n))
+            self.y = np.empty((K, *s.batch, s.plant.p))
+            self.sampled = np.zeros((K, s.plant.p), dtype=bool)
+        else:
+            self.x, self.y, self.sampled = plant_rows
         self.row_of = {int(k): j for j, k in enumerate(s.save_steps)}
         self.extras: dict[str, Array] = {}
         self.K = K
@@ -188,10 +204,11 @@ class _Recorder:
         j = self.row_of.get(k)
         if j is None:
             return
-        self.x[j] = x
+        if not self.replay:
+            self.x[j] = x
+            self.y[j] = y
+            self.sampled[j] = fresh
         self.x_hat[j] = _estimate(s, z)
-        self.y[j] = y
-        self.sampled[j] = fresh
         if s.diagnose:
             record_diagnostics(self.extras, s.observer.diagnostics(z, u), j, self.K)
 
@@ -270,11 +287,24 @@ def _check_finite(s: _Setup, t: float, x: Array, z: Any) -> None:
 
 
 def _events(s: _Setup, st: _State, k: int, t: float, x: Array, z: Array) -> tuple[Array, NDArray[np.bool_]]:
-    """Sampling and correction at step ``k``; returns the (corrected) ``z`` and the fresh mask."""
-    fresh = st.fresh
-    due_y = [g for g in s.groups if g.due(k, t)] if s.groups else []
-    due_u = [g for g in s.sensors if g.due(k, t)]
-    if due_y or due_u or (s.groups is None and s.correcting):
+    """Sampling and correction at step ``k``; returns the (corrected) ``z`` and the fresh mask.
+
+    Replaying a recorded plant run (``s.truth``), the readings are the ones the plant's run took at this step."""
+    fresh, u = st.fresh, None
+    if s.truth is not None:
+        got = s.truth.y.get(k)
+        held_u = s.truth.u.get(k)
+        if held_u is not None:
+            st.u_held[...] = held_u
+        if got is None:
+            return z, fresh
+        st.y_held[...], fresh = got
+        due = True
+    else:
+        due_y = [g for g in s.groups if g.due(k, t)] if s.groups else []
+        due_u = [g for g in s.sensors if g.due(k, t)]
+        if not (due_y or due_u or (s.groups is None and s.correcting)):
+            return z, fresh
         u = s.u_fn(t)
         if due_y:
             y = s.plant.output(t, x, u)
@@ -284,17 +314,25 @@ def _events(s: _Setup, st: _State, k: int, t: float, x: Array, z: Array) -> tupl
                 fresh[g.index] = True
         for g in due_u:
             sample_into(st.u_held, u, g, s.rng)
-        if s.correcting:
-            exact = s.groups is None  # discrete observer with exact measurements: every step is a sample
-            y_obs = s.plant.output(t, x, u) if exact else st.y_view
-            tic = _time.perf_counter()
-            if exact:
-                z = s.observer.correct(t, z, st.u_obs(s, u), y_obs, st.all_fresh)
-                fresh = st.all_fresh
-            elif due_y:
-                z = s.observer.correct(t, z, st.u_obs(s, u), y_obs, fresh)
-            s.clock[0] += _time.perf_counter() - tic
-            _check_z(s, t, z)
+        if s.tape is not None:  # a plant run recorded for observers to replay
+            if due_y:
+                s.tape.y[k] = (st.y_held.copy(), fresh)
+            if due_u:
+                s.tape.u[k] = st.u_held.copy()
+        due = bool(due_y)
+    if s.correcting:
+        exact = s.groups is None  # discrete observer with exact measurements: every step is a sample
+        if u is None:
+            u = s.u_fn(t)
+        y_obs = s.plant.output(t, x, u) if exact else st.y_view
+        tic = _time.perf_counter()
+        if exact:
+            z = s.observer.correct(t, z, st.u_obs(s, u), y_obs, st.all_fresh)
+            fresh = st.all_fresh
+        elif due:
+            z = s.observer.correct(t, z, st.u_obs(s, u), y_obs, fresh)
+        s.clock[0] += _time.perf_counter() - tic
+        _check_z(s, t, z)
     return z, fresh
 
 
@@ -328,6 +366,9 @@ def _run_fixed(s: _Setup, rec: _Recorder, progress: Progress) -> None:
     def plant_only(t: float, xs: Array) -> Array:
         return plant.rhs(t, xs, u_step if s.u_hold else s.u_fn(t))
 
+    if s.truth is not None:
+        _replay_fixed(s, st, rec, progress)
+        return
     _check_finite(s, s.t0, x, z)
     for k in range(s.n_steps + 1):
         t = s.t(k)
@@ -357,6 +398,40 @@ def _run_fixed(s: _Setup, rec: _Recorder, progress: Progress) -> None:
         if s.q_factor is not None:
             x = x + _process_noise(s, x.shape)
         _check_finite(s, s.t(k + 1), x, z)
+        progress.update(k + 1)
+
+
+def _replay_fixed(s: _Setup, st: _State, rec: _Recorder, progress: Progress) -> None:
+    """:func:`_run_fixed` for an observer on a recorded plant run: the same operations on ``z`` in the same order
+    (so the same numbers, bit for bit), the plant's samples read back instead of the plant integrated."""
+    z, obs, clock, perf = s.z0, s.observer, s.clock, _time.perf_counter
+    u_step = s.u_fn(s.t0)
+
+    def observer_only(t: float, zs: Any) -> Any:
+        uo = st.u_obs(s, u_step if s.u_hold else s.u_fn(t))
+        tic = perf()
+        dz = obs.rhs(t, zs, uo, st.y_view)
+        clock[0] += perf() - tic
+        return dz
+
+    _check_z(s, s.t0, z)
+    for k in range(s.n_steps + 1):
+        t = s.t(k)
+        z, fresh = _events(s, st, k, t, s.x0, z)
+        if k in rec.row_of:
+            rec.save(s, k, s.x0, z, st.y_view, fresh, st.u_obs(s, s.u_fn(t)))
+        if k == s.n_steps:
+            break
+        if s.u_hold:
+            u_step = s.u_fn(t)
+        if s.observer_discrete or s.self_step:
+            uo = st.u_obs(s, s.u_fn(t))
+            tic = perf()
+            z = obs.rhs(t, z, uo, st.y_view) if s.observer_discrete else obs.step(t, z, uo, st.y_view, s.dt)
+            clock[0] += perf() - tic
+        else:
+            z = rk4_step(observer_only, t, z, s.dt)
+        _check_z(s, s.t(k + 1), z)
         progress.update(k + 1)
 
 
@@ -585,19 +660,129 @@ def simulate(
     >>> res = simulate(plant, obs, x0=[1.0, 0.0], x_hat0=[0.0, 0.0], duration=5.0, dt=1e-3)  # doctest: +SKIP
     >>> res.metrics(tol=1e-3).time_to_tolerance  # doctest: +SKIP
     """
+    setup = _prepare(plant, observer, x0, x_hat0, duration=duration, dt=dt, u=u, measurements=measurements,
+                     input_sensors=input_sensors, process_noise=process_noise, seed=seed, integrator=integrator,
+                     save_every=save_every, t0=t0, divergence=divergence)
+    return _execute(setup, integrator, observer, progress)
+
+
+@dataclass(frozen=True)
+class PlantRun:
+    """A plant simulated alone with its sensors, kept for observers to replay (:func:`simulate_plant`).
+
+    ``result`` is the plant's :class:`SimulationResult` (no estimates); the rest is the loop's setup and the readings
+    of every sensor at every step it sampled: everything an observer on this run sees.
+    """
+
+    result: SimulationResult
+    setup: _Setup
+    samples: Samples
+    rows: tuple[Array, Array, NDArray[np.bool_]]  # time-major x, y and the sampled mask, the result's buffers
+
+
+def simulate_plant(
+    plant: PlantModel,
+    x0: ArrayLike,
+    *,
+    duration: float,
+    dt: float | None = None,
+    u: InputLike = None,
+    measurements: MeasurementGroup | Sequence[MeasurementGroup],
+    input_sensors: InputSensor | Sequence[InputSensor] | None = None,
+    process_noise: ArrayLike | None = None,
+    seed: int | np.random.Generator | None = None,
+    save_every: int = 1,
+    t0: float = 0.0,
+    progress: bool | None = None,
+) -> PlantRun:
+    """Simulate a plant with its sensors once, for any number of observers (:func:`observe`).
+
+    ``observe(simulate_plant(plant, x0, **args), observer, x_hat0)`` is ``simulate(plant, observer, x0, x_hat0,
+    **args)``, bit for bit: the plant does not depend on the observer, and an observer on sampled measurements
+    sees the plant only through the held readings and the known input. So a comparison of N observers integrates
+    the plant once, not N times. The arguments are :func:`simulate`'s (RK4 for a continuous plant).
+
+    Parameters
+    ----------
+    plant : PlantModel
+        The true system.
+    x0 : array_like, shape (n,) or (*batch, n)
+        Initial plant state(s).
+    duration, dt, u, input_sensors, process_noise, seed, save_every, t0, progress
+        As for :func:`simulate`.
+    measurements : MeasurementGroup or sequence of them
+        The sampled sensors (required: with exact outputs an observer reads the plant at every RK4 stage, so it
+        must be integrated with it, by :func:`simulate`).
+
+    Returns
+    -------
+    PlantRun
+
+    Raises
+    ------
+    InvalidArgumentError, DimensionError, NonFiniteError
+        As for :func:`simulate`; ``measurements`` missing.
+    SimulationDiverged
+        The plant's state became non-finite.
+    """
+    if measurements is None:
+        raise InvalidArgumentError("measurements: a plant run for observers to replay needs sampled measurement "
+                                   "groups (with exact outputs the observer reads every RK4 stage: use simulate)")
+    setup = _prepare(plant, None, x0, None, duration=duration, dt=dt, u=u, measurements=measurements,
+                     input_sensors=input_sensors, process_noise=process_noise, seed=seed, integrator=RK4(),
+                     save_every=save_every, t0=t0, divergence="raise")
+    setup = dataclasses.replace(setup, tape=Samples({}, {}))
+    result = _execute(setup, RK4(), None, progress)
+    rows = (np.moveaxis(result.x, -2, 0), np.moveaxis(result.y, -2, 0), result.sampled)
+    return PlantRun(result, dataclasses.replace(setup, tape=None, rng=None), setup.tape, rows)
+
+
+def observe(run: PlantRun, observer: Observer, x_hat0: ArrayLike, *, progress: bool | None = None,
+            divergence: Literal["raise", "keep"] = "raise") -> SimulationResult:
+    """An observer on a recorded plant run: :func:`simulate` with the run's arguments, the plant not integrated again.
+
+    Parameters
+    ----------
+    run : PlantRun
+        From :func:`simulate_plant`.
+    observer : Observer
+        The observer; its time base must agree with the run's step.
+    x_hat0 : array_like, shape (n_x,) or (*batch, n_x)
+        Initial estimate(s), broadcast over the run's batch.
+    progress, divergence
+        As for :func:`simulate`.
+
+    Returns
+    -------
+    SimulationResult
+        The same numbers as :func:`simulate` (the plant's ``x``, ``y`` and ``sampled`` are the run's own arrays).
+
+    Raises
+    ------
+    InvalidArgumentError, DimensionError
+        Not a :class:`PlantRun`, not an observer, a time base that disagrees with the run, a bad ``x_hat0``.
+    SimulationDiverged
+        The observer's state became non-finite (``divergence="raise"``).
+    """
+    if not isinstance(run, PlantRun):
+        raise InvalidArgumentError(f"run: expected a PlantRun from simulate_plant, got {type(run).__name__}")
+    base = run.setup
+    obs = _checked_observer(base.plant, observer, x_hat0)
+    _, _, observer_discrete = _timebases(base.plant, obs, True, base.dt)
+    setup = dataclasses.replace(base, truth=run.samples, **_observer_part(
+        base.plant, obs, True, x_hat0, base.batch, base.groups, observer_discrete, divergence))
+    return _execute(setup, RK4(), observer, progress, run.rows)
+
+
+def _prepare(plant: PlantModel, observer: Observer | None, x0: ArrayLike, x_hat0: ArrayLike | None, *,
+             duration: float, dt: float | None, u: InputLike, measurements: Any, input_sensors: Any,
+             process_noise: ArrayLike | None, seed: Any, integrator: Integrator, save_every: int, t0: float,
+             divergence: str) -> _Setup:
+    """:func:`simulate`'s arguments checked and resolved into the loop's setup."""
     if not isinstance(plant, PlantModel):
         raise InvalidArgumentError(f"plant: expected a PlantModel (time, states, inputs, outputs, rhs, output), got {type(plant).__name__}")
+    obs = _checked_observer(plant, observer, x_hat0)
     has_observer = observer is not None
-    if observer is None:
-        if x_hat0 is not None:
-            raise InvalidArgumentError("x_hat0: given without an observer")
-        obs: Any = _NullObserver(plant.time)
-    else:
-        if not isinstance(observer, Observer):
-            raise InvalidArgumentError(f"observer: expected an Observer (time, n_x, init, rhs, estimate), got {type(observer).__name__}")
-        if x_hat0 is None:
-            raise InvalidArgumentError("x_hat0: the initial estimate is required when an observer is simulated")
-        obs = observer
     if not isinstance(integrator, (RK4, SolveIVP)):
         raise InvalidArgumentError(f"integrator: expected RK4() or SolveIVP(...), got {integrator!r}")
     step, plant_discrete, observer_discrete = _timebases(plant, obs, has_observer, dt)
@@ -630,17 +815,6 @@ def simulate(
     n = plant.n
     x0a = as_batch("x0", x0, n)
     batch = tuple(x0a.shape[:-1])
-    n_x = int(obs.n_x)
-    if has_observer:
-        xh = as_batch("x_hat0", x_hat0, n_x)
-        try:
-            xh = np.broadcast_to(xh, (*batch, n_x)).copy()
-        except ValueError:
-            raise DimensionError(f"x_hat0: shape {xh.shape} does not broadcast to the batch of x0, {(*batch, n_x)}") from None
-        z0 = initial_state(obs, xh, batch, n_x)
-    else:
-        z0 = np.zeros((*batch, 0))
-
     u_fn = as_input_function(u, plant.m, batch, t0)
     groups_in = _as_tuple(measurements, MeasurementGroup, "measurements")
     groups = None if measurements is None else schedule_measurements(groups_in, plant.outputs, step)
@@ -648,19 +822,12 @@ def simulate(
     sensed = np.zeros(plant.m, dtype=bool)
     for g in sensors:
         sensed[g.index] = True
-    correcting = has_observer and isinstance(obs, CorrectingObserver)
-    if correcting and groups is None and not observer_discrete:
-        raise InvalidArgumentError(
-            "measurements: a correcting observer in continuous time needs measurement groups with explicit rates"
-        )
     noisy = [g.label for g in (*(groups or ()), *sensors) if g.noisy]
     q_factor = _process_factor(process_noise, n)
     if q_factor is not None:
         if isinstance(integrator, SolveIVP):
             raise InvalidArgumentError("process_noise: the adaptive SolveIVP integrator takes no process noise; use RK4()")
         noisy.append("process_noise")
-    if divergence not in ("raise", "keep"):
-        raise InvalidArgumentError(f"divergence: expected 'raise' or 'keep', got {divergence!r}")
     if isinstance(seed, np.random.Generator):
         rng: np.random.Generator | None = seed
     elif seed is None:
@@ -675,21 +842,14 @@ def simulate(
     save_steps = np.arange(0, n_steps + 1, int(save_every), dtype=np.intp)
     if save_steps[-1] != n_steps:
         save_steps = np.append(save_steps, n_steps)
-    estimate_names = tuple(plant.states) if n_x == n else tuple(f"x_hat[{i}]" for i in range(n_x))
     setup = _Setup(
         plant=plant,
-        observer=obs,
-        has_observer=has_observer,
-        correcting=correcting,
         plant_discrete=plant_discrete,
-        observer_discrete=observer_discrete,
         dt=step,
         t0=t0,
         n_steps=n_steps,
         batch=batch,
         x0=x0a,
-        z0=z0,
-        n_x=n_x,
         u_fn=u_fn,
         u_hold=isinstance(u, SampledSignal) and u.kind == "hold",
         groups=groups,
@@ -698,20 +858,73 @@ def simulate(
         rng=rng,
         save_steps=save_steps,
         plant_names=tuple(plant.states),
-        observer_names=state_names(obs, z0),
-        estimate_names=estimate_names,
-        self_step=has_observer and not observer_discrete and isinstance(obs, SelfStepping),
-        array_state=isinstance(z0, np.ndarray),
-        diagnose=has_observer and isinstance(obs, Diagnosing),
-        deferred=has_observer and isinstance(obs, DeferredEstimate),
         q_factor=q_factor,
-        keep=divergence == "keep",
+        **_observer_part(plant, obs, has_observer, x_hat0, batch, groups, observer_discrete, divergence),
     )
     if isinstance(integrator, SolveIVP) and has_observer and not observer_discrete and (
             setup.self_step or not setup.array_state):
         raise InvalidArgumentError("integrator: SolveIVP integrates an observer whose state is one array and that has "
                                    "no step() of its own; use RK4() for this observer")
-    rec = _Recorder(setup)
+    return setup
+
+
+def _checked_observer(plant: PlantModel, observer: Observer | None, x_hat0: ArrayLike | None) -> Any:
+    """The observer to run (a stand-in without one), with ``x_hat0`` given exactly when there is one."""
+    if observer is None:
+        if x_hat0 is not None:
+            raise InvalidArgumentError("x_hat0: given without an observer")
+        return _NullObserver(plant.time)
+    if not isinstance(observer, Observer):
+        raise InvalidArgumentError(f"observer: expected an Observer (time, n_x, init, rhs, estimate), got {type(observer).__name__}")
+    if x_hat0 is None:
+        raise InvalidArgumentError("x_hat0: the initial estimate is required when an observer is simulated")
+    return observer
+
+
+def _observer_part(plant: PlantModel, obs: Any, has_observer: bool, x_hat0: ArrayLike | None,
+                   batch: tuple[int, ...], groups: tuple[ScheduledGroup, ...] | None, observer_discrete: bool,
+                   divergence: str) -> dict[str, Any]:
+    """The setup's fields that belong to the observer: its initial state, names and kind, checked."""
+    n_x = int(obs.n_x)
+    if has_observer:
+        xh = as_batch("x_hat0", x_hat0, n_x)
+        try:
+            xh = np.broadcast_to(xh, (*batch, n_x)).copy()
+        except ValueError:
+            raise DimensionError(f"x_hat0: shape {xh.shape} does not broadcast to the batch of x0, {(*batch, n_x)}") from None
+        z0 = initial_state(obs, xh, batch, n_x)
+    else:
+        z0 = np.zeros((*batch, 0))
+    correcting = has_observer and isinstance(obs, CorrectingObserver)
+    if correcting and groups is None and not observer_discrete:
+        raise InvalidArgumentError(
+            "measurements: a correcting observer in continuous time needs measurement groups with explicit rates"
+        )
+    if divergence not in ("raise", "keep"):
+        raise InvalidArgumentError(f"divergence: expected 'raise' or 'keep', got {divergence!r}")
+    return {
+        "observer": obs,
+        "has_observer": has_observer,
+        "correcting": correcting,
+        "observer_discrete": observer_discrete,
+        "z0": z0,
+        "n_x": n_x,
+        "observer_names": state_names(obs, z0),
+        "estimate_names": tuple(plant.states) if n_x == plant.n else tuple(f"x_hat[{i}]" for i in range(n_x)),
+        "self_step": has_observer and not observer_discrete and isinstance(obs, SelfStepping),
+        "array_state": isinstance(z0, np.ndarray),
+        "diagnose": has_observer and isinstance(obs, Diagnosing),
+        "deferred": has_observer and isinstance(obs, DeferredEstimate),
+        "keep": divergence == "keep",
+        "clock": [0.0, math.nan],
+    }
+
+
+def _execute(setup: _Setup, integrator: Integrator, observer: Observer | None, progress: bool | None,
+             plant_rows: tuple[Array, Array, NDArray[np.bool_]] | None = None) -> SimulationResult:
+    """Run the loop of a prepared setup and gather its result."""
+    rec = _Recorder(setup, plant_rows)
+    has_observer, batch, n_steps, plant = setup.has_observer, setup.batch, setup.n_steps, setup.plant
     wall = _time.perf_counter()
     runs = math.prod(batch)
     label = "simulating" + (f" {observer_label(observer)}" if has_observer else "") + (f", {runs} runs" if batch else "")
@@ -720,9 +933,9 @@ def simulate(
             _run_ivp(setup, rec, bar, integrator.options())
         else:
             _run_fixed(setup, rec, bar)
-    if plant_discrete:
+    if setup.plant_discrete:
         method = "discrete"
-    elif observer_discrete:
+    elif setup.observer_discrete:
         method = f"{integrator.name}+discrete observer"
     elif setup.self_step:
         method = f"{integrator.name}+observer step"
@@ -732,8 +945,8 @@ def simulate(
         **rec.arrays(setup),
         states=tuple(plant.states),
         outputs=tuple(plant.outputs),
-        estimates=estimate_names,
-        dt=step,
+        estimates=setup.estimate_names,
+        dt=setup.dt,
         method=method,
         observer=observer_label(observer) if has_observer else "",
         info={"wall_s": _time.perf_counter() - wall,
