@@ -8,6 +8,7 @@ cheap to evaluate and must not hold hidden state.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
@@ -132,9 +133,38 @@ def as_input_function(u: InputLike, m: int, batch_shape: tuple[int, ...], t0: fl
     first = _check_shape("u", raw, full)
     if not np.all(np.isfinite(first)):
         raise NonFiniteError(f"u: the input is not finite at t0={t0:g}")
+    memo = _last_two if isinstance(u, SampledSignal) or _is_input_signals(u) else (lambda f: f)
     if raw.shape == full:
-        return lambda t: np.asarray(fn(t), dtype=float)
-    return lambda t: np.broadcast_to(np.asarray(fn(t), dtype=float), full)
+        return memo(lambda t: np.asarray(fn(t), dtype=float))
+    return memo(lambda t: np.broadcast_to(np.asarray(fn(t), dtype=float), full))
+
+
+def _is_input_signals(u: object) -> bool:
+    """Whether ``u`` is a model file's :class:`~nlobs.systems.signals.InputSignals` (that module not imported for it:
+    if it is not loaded, no object can be one)."""
+    module = sys.modules.get("nlobs.systems.signals")
+    return module is not None and isinstance(u, module.InputSignals)
+
+
+def _last_two(fn: InputFunction) -> InputFunction:
+    """``fn`` remembering its last two times: an RK4 step asks ``u`` at ``t``, twice at ``t + h/2`` and at ``t + h``
+    (the next step's ``t``), and the loop asks again at each sample and saved step. For nlobs's own signals (a
+    :class:`SampledSignal`, a model file's :class:`~nlobs.systems.signals.InputSignals`): each call returns a new
+    array or a read-only view and depends on ``t`` alone, so the value at a time is the value. A caller's own
+    callable is called every time (it may reuse its output buffer)."""
+    times: list[float | None] = [None, None]
+    values: list[Array | None] = [None, None]
+
+    def call(t: float) -> Array:
+        if t == times[1]:
+            return values[1]  # type: ignore[return-value]
+        if t == times[0]:
+            return values[0]  # type: ignore[return-value]
+        v = fn(t)
+        times[0], values[0], times[1], values[1] = times[1], values[1], t, v
+        return v
+
+    return call
 
 
 def _check_shape(name: str, value: Array, full: tuple[int, ...]) -> Array:

@@ -115,9 +115,22 @@ def leaves(z: Any, prefix: str = "") -> Iterator[tuple[str, Array]]:
     elif isinstance(z, tuple):
         for i, v in enumerate(z):
             yield from leaves(v, f"{prefix}[{i}]")
-    elif dataclasses.is_dataclass(z) and not isinstance(z, type):
-        for f in dataclasses.fields(z):
-            yield from leaves(getattr(z, f.name), f"{prefix}.{f.name}" if prefix else f.name)
+    elif not isinstance(z, type):
+        for name in _all_fields(type(z)):  # () for anything but a dataclass instance
+            yield from leaves(getattr(z, name), f"{prefix}.{name}" if prefix else name)
+
+
+_ALL_FIELDS: dict[type, tuple[str, ...]] = {}
+
+
+def _all_fields(cls: type) -> tuple[str, ...]:
+    """Every field of a dataclass type, in order (``()`` for any other type), looked up once per type."""
+    try:
+        return _ALL_FIELDS[cls]
+    except KeyError:
+        names = tuple(f.name for f in dataclasses.fields(cls)) if dataclasses.is_dataclass(cls) else ()
+        _ALL_FIELDS[cls] = names
+        return names
 
 
 def first_nonfinite(z: Any, names: tuple[str, ...] | None = None) -> str | None:

@@ -117,14 +117,15 @@ class BatchedFunction:
             # NumPy scalars, not 0-d arrays: the same IEEE operations and ufuncs, a fifth of the call's cost
             return [v for a in args for v in a], None
         flat: list[Any] = []
-        batch: tuple[int, ...] = ()
+        batch: tuple[int, ...] | None = None
         for i, (a, size) in enumerate(zip(args, self.groups)):
             a = np.asarray(a, dtype=float)
             if a.ndim == 0 or a.shape[-1] != size:
                 raise DimensionError(f"argument {i}: expected shape (..., {size}), got {a.shape}")
-            batch = np.broadcast_shapes(batch, a.shape[:-1])
-            flat.extend(a[..., j] for j in range(size))
-        return flat, batch
+            lead = a.shape[:-1]
+            batch = lead if batch is None or batch == lead else np.broadcast_shapes(batch, lead)
+            flat.extend(a.T if a.ndim == 2 else [a[..., j] for j in range(size)])  # the views a[..., j]
+        return flat, () if batch is None else batch
 
     def _assemble(self, values: Sequence[Any], batch: tuple[int, ...] | None) -> Array:
         if batch is None:
