@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -183,3 +184,32 @@ def test_lipschitz_estimates_on_a_region_where_the_model_is_undefined() -> None:
         lipschitz_estimates(fields, (2,), (2,), Box.unit(2), samples=200)
     est = lipschitz_estimates(fields, (2,), (2,), Box([2.5, -1.0], [3.0, 1.0]), samples=200)  # defined there
     assert est.samples == 200 and np.isfinite(est.gamma_L)
+
+
+@pytest.mark.parametrize("on_singular", ["raise", "nan"])
+def test_unit_q_shortcut_gives_the_solves_numbers_bit_for_bit(on_singular: str) -> None:
+    """Φ_s the identity (y = x1, s = 2): Q_s ≡ I, so the correction is K ỹ without a solve; against the general
+    path (the same observer told otherwise): the same bits for a batch and one run, and the same answer where the
+    innovation is not finite."""
+    model = _lipschitz_model()
+    K = vandermonde_gain((2,), 3.0).K
+    fast = dataclasses.replace(DriftObserver.from_model(model, K), on_singular=on_singular)
+    slow = dataclasses.replace(fast)
+    object.__setattr__(slow, "_unit_q", False)
+    assert fast._unit_q and not DriftObserver.from_model(load_model(MODELS / "duffing-actuator.toml"),
+                                                         vandermonde_gain((3, 1), 3.0).K)._unit_q
+    assert not DriftObserver.from_model(model, K, cond_limit=1.5)._unit_q  # the bound ≈ 1 must stay below it
+    rng = np.random.default_rng(3)
+    z, u, y = rng.normal(size=(6, 2)), rng.normal(size=(6, 1)), 1e3 * rng.normal(size=(6, 1))
+    np.testing.assert_array_equal(fast.rhs(0.0, z, u, y), slow.rhs(0.0, z, u, y))
+    for i in range(6):
+        np.testing.assert_array_equal(fast.rhs(0.0, z[i], u[i], y[i]), slow.rhs(0.0, z[i], u[i], y[i]))
+    y[2, 0] = np.nan
+    with np.errstate(invalid="ignore"):
+        if on_singular == "raise":
+            with pytest.raises(SingularObservabilityError):
+                fast.rhs(0.0, z, u, y)
+            with pytest.raises(SingularObservabilityError):
+                slow.rhs(0.0, z, u, y)
+        else:
+            np.testing.assert_array_equal(fast.rhs(0.0, z, u, y), slow.rhs(0.0, z, u, y))

@@ -184,3 +184,26 @@ def test_one_run_of_simulate_equals_a_batch_of_one() -> None:
             np.testing.assert_allclose(one.extras[k], batch.extras[k], rtol=1e-9, atol=1e-14)
     with pytest.raises(Exception, match="batch shape"):
         with_run_axis(batch)
+
+
+def test_constant_entries_assigned_at_once_equal_the_entry_by_entry_values() -> None:
+    """A batch's constant entries (a Jacobian's zeros and ones) are written in one assignment from the values the
+    generated code gave at the first call; every batch shape after it gets the same array as entry by entry."""
+    import sympy as sp
+
+    from nlobs.systems.codegen import compile_matrix
+
+    x = sp.symbols("x1 x2")
+    fn = compile_matrix(sp.Matrix([[x[0] * x[1], 0, sp.Rational(10, 11)], [sp.pi, x[1] ** 3, 1]]), (x,))
+    rng = np.random.default_rng(0)
+    for shape in [(3,), (2, 5), (1,)]:
+        X = rng.normal(size=(*shape, 2))
+        want = np.empty((*shape, 2, 3))
+        want[..., 0, 0] = X[..., 0] * X[..., 1]
+        want[..., 0, 1] = 0.0
+        want[..., 0, 2] = 10 / 11
+        want[..., 1, 0] = np.pi
+        want[..., 1, 1] = np.power(X[..., 1], 3)
+        want[..., 1, 2] = 1.0
+        np.testing.assert_array_equal(fn(X), want)
+        np.testing.assert_array_equal(fn(X[(0,) * len(shape)]), want[(0,) * len(shape)])

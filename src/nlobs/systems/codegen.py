@@ -99,6 +99,8 @@ class BatchedFunction:
     #: from (the C export prints the same expressions; ``()`` for a function built otherwise).
     expressions: tuple[sp.Expr, ...] = field(default=(), repr=False, compare=False)
     arguments: tuple[tuple[sp.Symbol, ...], ...] = field(default=(), repr=False, compare=False)
+    #: The entries that are numbers, found at the first batched call (:meth:`_constant_entries`).
+    _split: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
 
     def __call__(self, *args: Array) -> Array:
         flat, batch = self._flatten(args)
@@ -132,10 +134,37 @@ class BatchedFunction:
             out = np.array(values, dtype=float)
             return out if self.vector else out.reshape(self.shape)
         out = np.empty(batch + (len(values),), dtype=float)
-        for j, v in enumerate(values):
-            out[..., j] = v  # broadcasts constant entries
+        split = self._constant_entries(values)
+        if split is None:
+            for j, v in enumerate(values):
+                out[..., j] = v  # broadcasts constant entries
+        else:  # the constant entries (a Jacobian's zeros and ones) in one assignment, the others one by one
+            varying, const_idx, const_val = split
+            out[..., const_idx] = const_val
+            for j in varying:
+                out[..., j] = values[j]
         rows, cols = self.shape
         return out if self.vector else out.reshape(batch + (rows, cols))
+
+
+    def _constant_entries(self, values: Sequence[Any]) -> tuple[list[int], Array, Array] | None:
+        """``(varying entries, constant entries, their values)`` when two or more entries are numbers, else ``None``.
+
+        Decided once, at the first batched call, from :attr:`expressions`; the constants' values are the ones the
+        generated code returned then (the same every call: they depend on no argument)."""
+        if "split" not in self._split:
+            found = None
+            if len(self.expressions) == len(values):
+                const = [j for j, e in enumerate(self.expressions) if getattr(e, "is_number", False)]
+                try:
+                    values_ = np.array([float(values[j]) for j in const])
+                except (TypeError, ValueError):  # a constant that is no real number: every entry as it comes
+                    const = []
+                if len(const) >= 2:
+                    found = ([j for j in range(len(values)) if j not in set(const)], np.array(const, dtype=np.intp),
+                             values_)
+            self._split["split"] = found
+        return self._split["split"]  # type: ignore[no-any-return]
 
 
 def evaluate_together(functions: Sequence[BatchedFunction], *args: Array) -> tuple[Array, ...]:
