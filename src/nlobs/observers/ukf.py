@@ -173,9 +173,14 @@ class UKF(GaussianFilterBase):
 
     def sigma_points(self, x: Array, P: Array) -> Array:
         """The ``2n + 1`` sigma points of ``(x, P)``, shape ``(..., 2n + 1, n)`` (module docstring)."""
-        if x.ndim == 1 and P.ndim == 2:  # one run: the same operations without broadcasting
+        if x.ndim == 1 and P.ndim == 2:  # one run: the same operations without broadcasting, into one array
             D = self.spread * psd_sqrt(0.5 * (P + P.T)).T
-            return np.concatenate((x[None, :], x + D, x - D))
+            n = self.n
+            X = np.empty((2 * n + 1, n))
+            X[0] = x
+            np.add(x, D, out=X[1 : n + 1])
+            np.subtract(x, D, out=X[n + 1 :])
+            return X
         S = psd_sqrt(symmetrised(P))
         D = self.spread * np.swapaxes(S, -1, -2)  # rows: the scaled columns of S
         m = x[..., None, :]
@@ -191,7 +196,8 @@ class UKF(GaussianFilterBase):
         """Särkkä's moment ODEs (continuous plant) or the unscented prediction (discrete plant)."""
         X = self.sigma_points(z.x, z.P)
         if X.ndim == 2 and not self.discrete and np.ndim(u) == 1:  # one run, continuous plant
-            FX = self.plant.rhs(t, X, self._with_points(u, X))  # any plant: u given for each sigma point
+            uu = np.asarray(u, dtype=float)
+            FX = self.plant.rhs(t, X, np.broadcast_to(uu, (X.shape[0], uu.shape[0])))  # u for each sigma point
             m = np.einsum("l,ln->n", self.wm, FX)
             dF = FX - m
             A = ((X - z.x) * self.wc[:, None]).T.dot(dF)
