@@ -30,7 +30,7 @@ import nlobs.methods.comparison as comparison
 from nlobs.methods.problem import symbolic_model
 from nlobs.simulate import rk4_step
 
-ROUNDS = 3
+ROUNDS = 5
 TARGET = 3.0
 
 

@@ -25,7 +25,7 @@ import numpy as np
 
 from nlobs._typing import Array
 from nlobs.errors import InvalidArgumentError
-from nlobs.observers.gaussian import FilterState, GaussianFilterBase
+from nlobs.observers.gaussian import ZERO_RATE, FilterState, GaussianFilterBase
 from nlobs.observers.kalman import joseph_update
 
 __all__ = ["EKF"]
@@ -33,8 +33,6 @@ __all__ = ["EKF"]
 _JACOBIANS = ("rhs_jacobian_x", "output_jacobian_x")
 
 #: The NIS rate of one run between samples (read-only: RK4 combines it into new arrays, never in place).
-_ZERO = np.zeros(())
-_ZERO.flags.writeable = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -113,7 +111,7 @@ class EKF(GaussianFilterBase):
             P_new *= 0.5
             return FilterState(f, P_new, z.nis)
         nis = z.nis  # constant between samples: a zero rate (a NumPy scalar is carried by RK4 as it is)
-        return FilterState(f, P_new, _ZERO if nis.ndim == 0 else np.zeros(nis.shape))
+        return FilterState(f, P_new, ZERO_RATE if nis.ndim == 0 else np.zeros(nis.shape))
 
     def _update(self, t: float, x: Array, P: Array, u: Array, y: Array, rows: Any) -> tuple[Array, Array, Array]:
         h, H = self._linearised_output(t, x, u)

@@ -96,6 +96,11 @@ def checked_covariance(name: str, value: ArrayLike, n: int, *, definite: bool) -
     return readonly(M)
 
 
+#: The NIS's rate between samples for one run: a shared read-only zero (the NIS only changes at a correction).
+ZERO_RATE = np.zeros(())
+ZERO_RATE.flags.writeable = False
+
+
 def symmetrised(M: Array) -> Array:
     """``(M + Mᵀ) / 2`` over the last two axes."""
     return 0.5 * (M + np.swapaxes(M, -1, -2))

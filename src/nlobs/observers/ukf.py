@@ -42,7 +42,7 @@ import numpy as np
 from nlobs._typing import Array
 from nlobs._validate import in_range, positive
 from nlobs.errors import InvalidArgumentError
-from nlobs.observers.gaussian import FilterState, GaussianFilterBase, symmetrised
+from nlobs.observers.gaussian import ZERO_RATE, FilterState, GaussianFilterBase, symmetrised
 from nlobs.observers.kalman import joseph_update
 
 __all__ = ["UKF", "psd_sqrt", "sigma_weights"]
@@ -201,7 +201,7 @@ class UKF(GaussianFilterBase):
             m = np.einsum("l,ln->n", self.wm, FX)
             dF = FX - m
             A = ((X - z.x) * self.wc[:, None]).T.dot(dF)
-            return FilterState(x=m, P=A + A.T + self.Q, nis=np.zeros(np.shape(z.nis)))
+            return FilterState(m, A + A.T + self.Q, ZERO_RATE if np.ndim(z.nis) == 0 else np.zeros(np.shape(z.nis)))
         FX = self.plant.rhs(t, X, self._with_points(u, X))
         m = np.einsum("l,...ln->...n", self.wm, FX)
         dF = FX - m[..., None, :]
