@@ -173,14 +173,10 @@ class UKF(GaussianFilterBase):
 
     def sigma_points(self, x: Array, P: Array) -> Array:
         """The ``2n + 1`` sigma points of ``(x, P)``, shape ``(..., 2n + 1, n)`` (module docstring)."""
-        if x.ndim == 1 and P.ndim == 2:  # one run: the same operations without broadcasting, into one array
+        if x.ndim == 1 and P.ndim == 2:  # one run: the same operations without broadcasting
+            # (concatenated, not written into np.empty: the layout it gives decides the BLAS product downstream)
             D = self.spread * psd_sqrt(0.5 * (P + P.T)).T
-            n = self.n
-            X = np.empty((2 * n + 1, n))
-            X[0] = x
-            np.add(x, D, out=X[1 : n + 1])
-            np.subtract(x, D, out=X[n + 1 :])
-            return X
+            return np.concatenate((x[None, :], x + D, x - D))
         S = psd_sqrt(symmetrised(P))
         D = self.spread * np.swapaxes(S, -1, -2)  # rows: the scaled columns of S
         m = x[..., None, :]
