@@ -78,13 +78,7 @@ def main() -> None:
     obs = GnssInsObserver(paper_gains(), PAPER_GAMMA, flight.m_n, flight.g_n)
     cobs = compile_observer(obs)
 
-    t = np.ascontiguousarray(data.t_imu)
-    u = np.ascontiguousarray(data.imu_input())
-    gidx = np.rint((data.t_gnss - t[0]) * RATE).astype(int)
-    y = np.zeros((t.size, 6))
-    y[gidx] = data.gnss_output()
-    sampled = np.zeros(y.shape, dtype=bool)
-    sampled[gidx] = True
+    t, u, y, sampled = data.record()
     x0 = np.concatenate([p0, v0, R0.ravel()])
 
     c_s, py_us, kern_s = [], [], []

@@ -125,16 +125,10 @@ def test_run_record_in_c_equals_the_python_run(kind, flight, make_traj, noise_op
     R0 = traj.R[0] @ rot_z(np.radians(60.0))
     p0 = traj.p[0] + np.array([5.0, -3.0, 2.0])
     py = run_navigation(obs, data, p0, traj.v[0], R0)
-    t = data.t_imu
-    gidx = np.rint((data.t_gnss - t[0]) * RATE).astype(int)
-    fixes = data.gnss_output()
-    y = np.zeros((t.size, fixes.shape[-1]))
-    y[gidx] = fixes
-    sampled = np.zeros(y.shape, dtype=bool)
-    sampled[gidx] = True
+    t, u, y, sampled = data.record()
     cobs = compile_observer(obs)
     x0 = np.concatenate([p0, traj.v[0], R0.ravel()])
-    raw = cobs.run_record(t, x0, u=data.imu_input(), y=y, sampled=sampled)
+    raw = cobs.run_record(t, x0, u=u, y=y, sampled=sampled)
     assert raw.shape == (t.size, 15)
     assert _rel(raw[:, 0:3], M.p_hat(py)) < RTOL
     assert _rel(raw[:, 3:6], M.v_hat(py)) < RTOL

@@ -238,8 +238,8 @@ def demo_cmd(
     position_only: Annotated[bool, typer.Option(help="GNSS position only (Sec. 5.2, C = [I 0]).")] = False,
     ekf: Annotated[bool, typer.Option(help="Also run the EKF baseline.")] = True,
     backend: Annotated[str, typer.Option(
-        help="'python' (default) or 'c': observer (24) runs as its generated, compiled C (the EKF stays in "
-             "Python).")] = "python",
+        help="'python' (default) or 'c': observer (24) and the EKF run as their generated, compiled C.")]
+    = "python",
 ) -> None:
     """Run a demo: gnss-ins simulates a flight and compares observer (24) with an EKF."""
     from nlobs.workflows.demo import DemoConfig, gnss_ins_demo

@@ -30,7 +30,8 @@ from nlobs.methods.registry import REGISTRY
 def export_cmd(
     model: Annotated[str, typer.Argument(help="A model file (.toml), or the name of a shipped model.")],
     observer: Annotated[str, typer.Option(
-        "--observer", help="Which design to export (MODEL is gnss-ins for gnss-ins): "
+        "--observer", help="Which design to export (MODEL is gnss-ins for gnss-ins; MODEL gnss-ins with ekf: the "
+                           "navigation EKF of the demo, the baseline of observer (24)): "
                            + "; ".join(f"{e.name}: {e.help}" for e in REGISTRY if e.exported) + ".")],
     out: Annotated[Path, typer.Option("--out", help="Folder for the header and the source (created).")],
     lang: Annotated[str, typer.Option("--lang", help="Target language (c: C99, math.h only, no heap).")] = "c",

@@ -451,7 +451,8 @@ def _generators() -> dict[str, Any]:
             "CascadeObserver": _lazy("nlobs.export.cascade", "generate_cascade"),
             "OutputPredictor": _lazy("nlobs.export.predictor", "generate_predictor"),
             "ImpulsiveObserver": _lazy("nlobs.export.impulsive", "generate_impulsive"),
-            "EKF": _lazy("nlobs.export.kalman", "generate_ekf")}
+            "EKF": _lazy("nlobs.export.kalman", "generate_ekf"),
+            "ExtendedKalmanFilter": _lazy("nlobs.export.nav_ekf", "generate_nav_ekf")}
 
 
 #: Observer classes whose generator takes options (``generate(..., options=)``).

@@ -50,6 +50,7 @@ from nlobs.errors import InvalidArgumentError
 from nlobs.export.cprint import c_double, comment, matrix_literal
 from nlobs.export.pieces import matrix_note
 from nlobs.export.program import CProgram, StateCodec
+from nlobs.export.rotations import expso3_c, mat3_c
 
 __all__ = ["DEFAULT_IMU_PERIOD", "IMU_PERIOD_RTOL", "generate_gnss_ins", "gnss_ins_codec"]
 
@@ -156,38 +157,6 @@ def static_array(name: str, values: Any, kind: str = "double") -> str:
         lit = "{" + ", ".join(str(int(v)) for v in arr) + "}" if arr.size else "{0}"
         return f"static const int {name}[{max(arr.size, 1)}] = {lit};\n"
     return f"static const double {name}[{max(arr.size, 1)}] = {matrix_literal(arr)};\n"
-
-
-def _mat3_c(P: str) -> str:
-    """``A B``, ``A Bᵀ``, ``Aᵀ B`` of row-major 3×3 matrices: the sums of :mod:`nlobs.navigation.split_kernel`."""
-    def body(ix: Any) -> str:
-        rows = []
-        for i in range(3):
-            for j in range(3):
-                terms = " + ".join(f"A[{ix(i, k, j)[0]}] * B[{ix(i, k, j)[1]}]" for k in range(3))
-                rows.append(f"    o[{3 * i + j}] = {terms};")
-        return "\n".join(rows)
-
-    mm = body(lambda i, k, j: (3 * i + k, 3 * k + j))
-    mmT = body(lambda i, k, j: (3 * i + k, 3 * j + k))
-    mTm = body(lambda i, k, j: (3 * k + i, 3 * k + j))
-    return f"""\
-/* o = A B, o = A B^T, o = A^T B (row-major 3x3; o distinct from A and B) */
-static void {P}_mm(const double *A, const double *B, double *o)
-{{
-{mm}
-}}
-
-static void {P}_mmT(const double *A, const double *B, double *o)
-{{
-{mmT}
-}}
-
-static void {P}_mTm(const double *A, const double *B, double *o)
-{{
-{mTm}
-}}
-"""
 
 
 def _flow_c(P: str, nb: int) -> str:
@@ -302,30 +271,9 @@ static int {P}_mode(double t)
 }}
 
 """,
-        _mat3_c(P), "\n", _flow_c(P, nb),
+        mat3_c(P), "\n", _flow_c(P, nb),
+        expso3_c(P),
         f"""
-/* Rodrigues: exp(S(phi)), the fused form of nlobs.navigation.split_kernel.exp_so3_scalar */
-static void {P}_expso3(double p0, double p1, double p2, double *E)
-{{
-    const double th = sqrt(p0 * p0 + p1 * p1 + p2 * p2) + 1e-300;
-    const double A = sin(th) / th;
-    const double sh = sin(0.5 * th);
-    const double r = sh / th;
-    const double B = 2.0 * (r * r);
-    const double c = 1.0 - 2.0 * sh * sh;
-    const double Ap0 = A * p0, Ap1 = A * p1, Ap2 = A * p2;
-    const double Bp0 = B * p0, Bp1 = B * p1, Bp2 = B * p2;
-    E[0] = c + Bp0 * p0;
-    E[1] = Bp0 * p1 - Ap2;
-    E[2] = Bp0 * p2 + Ap1;
-    E[3] = Bp1 * p0 + Ap2;
-    E[4] = c + Bp1 * p1;
-    E[5] = Bp1 * p2 - Ap0;
-    E[6] = Bp2 * p0 - Ap1;
-    E[7] = Bp2 * p1 + Ap0;
-    E[8] = c + Bp2 * p2;
-}}
-
 /* max(s, 1e-300) as Python's max (NaN stays NaN) */
 static double {P}_floor(double s)
 {{

@@ -26,7 +26,7 @@ from typing import Any
 import numpy as np
 
 from nlobs.errors import InvalidArgumentError
-from nlobs.export.pieces import affine_function, matrix_note, require_source, static_array, static_function
+from nlobs.export.pieces import affine_function, invert_c, matrix_note, require_source, static_array, static_function
 from nlobs.export.program import CProgram, StateCodec
 
 __all__ = ["generate_ekf"]
@@ -94,7 +94,7 @@ def _codec(n: int) -> StateCodec:
 def _joseph_c(P: str, n: int, p: int) -> str:
     """``static int P_joseph(z, H, nu, Rq, q)``: the Joseph-form update of ``(x̂, P, NIS)`` in ``z`` (module docstring)."""
     N2, pp = n * n, max(p, 1)
-    return f"""
+    return invert_c(P, p) + f"""
 /* the Joseph-form update of (x, P, NIS) in z with q outputs: H (q x n), innovation nu, noise covariance Rq (q x q);
    S = H P H' + Rq is inverted by Gauss-Jordan elimination with partial pivoting (1: S singular or not finite) */
 static int {P}_joseph(double *z, const double *H, const double *nu, const double *Rq, int q)
@@ -119,46 +119,10 @@ static int {P}_joseph(double *z, const double *H, const double *nu, const double
                 acc += H[i * {n} + k] * PHt[k * q + j];
             }}
             S[i * q + j] = acc + Rq[i * q + j];
-            Si[i * q + j] = i == j ? 1.0 : 0.0;
         }}
     }}
-    for (k = 0; k < q; ++k) {{ /* Gauss-Jordan with partial pivoting: S^-1 in Si */
-        int piv = k;
-        double best = fabs(S[k * q + k]);
-        for (r = k + 1; r < q; ++r) {{
-            if (fabs(S[r * q + k]) > best) {{
-                best = fabs(S[r * q + k]);
-                piv = r;
-            }}
-        }}
-        if (!(best > 0.0) || best - best != 0.0) {{
-            return 1;
-        }}
-        if (piv != k) {{
-            for (j = 0; j < q; ++j) {{
-                double a = S[k * q + j], b = Si[k * q + j];
-                S[k * q + j] = S[piv * q + j];
-                Si[k * q + j] = Si[piv * q + j];
-                S[piv * q + j] = a;
-                Si[piv * q + j] = b;
-            }}
-        }}
-        {{
-            double d = S[k * q + k];
-            for (j = 0; j < q; ++j) {{
-                S[k * q + j] /= d;
-                Si[k * q + j] /= d;
-            }}
-        }}
-        for (r = 0; r < q; ++r) {{
-            if (r != k) {{
-                double c = S[r * q + k];
-                for (j = 0; j < q; ++j) {{
-                    S[r * q + j] -= c * S[k * q + j];
-                    Si[r * q + j] -= c * Si[k * q + j];
-                }}
-            }}
-        }}
+    if ({P}_invert(S, Si, q)) {{ /* S^-1 in Si */
+        return 1;
     }}
     for (i = 0; i < {n}; ++i) {{ /* K = P H' S^-1 */
         for (j = 0; j < q; ++j) {{

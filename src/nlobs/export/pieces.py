@@ -18,7 +18,7 @@ from nlobs.errors import InvalidArgumentError
 from nlobs.export.cprint import emit_assignments, matrix_literal
 from nlobs.systems.codegen import BatchedFunction
 
-__all__ = ["abscissa", "affine_function", "matrix_note", "require_source", "static_array", "static_function",
+__all__ = ["abscissa", "affine_function", "invert_c", "matrix_note", "require_source", "static_array", "static_function",
            "symbol_inputs"]
 
 
@@ -200,3 +200,77 @@ def abscissa(M: Any, discrete: bool) -> float:
     """
     ev = np.linalg.eigvals(np.asarray(M, dtype=float)) if np.size(M) else np.zeros(1)
     return float(np.max(np.abs(ev))) if discrete else float(np.max(ev.real))
+
+
+def invert_c(P: str, size: int) -> str:
+    """``static int P_invert(double *S, double *Si, int q)``: ``Si = S⁻¹`` of a ``q × q`` matrix (``q ≤ size``).
+
+    Gauss–Jordan elimination with partial pivoting, row-major with stride ``q``; ``S`` is overwritten.
+    It returns 1 for an exact zero pivot or a non-finite one (``S`` singular or not finite), else 0: the
+    innovation covariance of the Kalman filters' updates (:mod:`nlobs.export.kalman`,
+    :mod:`nlobs.export.nav_ekf`).
+
+    Parameters
+    ----------
+    P : str
+        The module's C prefix.
+    size : int
+        The largest ``q`` the module calls it with (the arrays it is given hold ``size²`` entries).
+
+    Returns
+    -------
+    str
+        The static C function.
+    """
+    return f"""
+/* Si = S^-1 (q x q, q <= {max(size, 1)}, row-major) by Gauss-Jordan elimination with partial pivoting; S is
+   overwritten; 1: a zero or non-finite pivot (S singular or not finite) */
+static int {P}_invert(double *S, double *Si, int q)
+{{
+    int i, j, k, r;
+    for (i = 0; i < q; ++i) {{
+        for (j = 0; j < q; ++j) {{
+            Si[i * q + j] = i == j ? 1.0 : 0.0;
+        }}
+    }}
+    for (k = 0; k < q; ++k) {{
+        int piv = k;
+        double best = fabs(S[k * q + k]);
+        for (r = k + 1; r < q; ++r) {{
+            if (fabs(S[r * q + k]) > best) {{
+                best = fabs(S[r * q + k]);
+                piv = r;
+            }}
+        }}
+        if (!(best > 0.0) || best - best != 0.0) {{
+            return 1;
+        }}
+        if (piv != k) {{
+            for (j = 0; j < q; ++j) {{
+                double a = S[k * q + j], b = Si[k * q + j];
+                S[k * q + j] = S[piv * q + j];
+                Si[k * q + j] = Si[piv * q + j];
+                S[piv * q + j] = a;
+                Si[piv * q + j] = b;
+            }}
+        }}
+        {{
+            double d = S[k * q + k];
+            for (j = 0; j < q; ++j) {{
+                S[k * q + j] /= d;
+                Si[k * q + j] /= d;
+            }}
+        }}
+        for (r = 0; r < q; ++r) {{
+            if (r != k) {{
+                double c = S[r * q + k];
+                for (j = 0; j < q; ++j) {{
+                    S[r * q + j] -= c * S[k * q + j];
+                    Si[r * q + j] -= c * Si[k * q + j];
+                }}
+            }}
+        }}
+    }}
+    return 0;
+}}
+"""

@@ -26,7 +26,7 @@ from nlobs.navigation.translation_schedule import GainScheduleCertificate, certi
 from nlobs.synthesis.mixed_h2 import MixedH2Certificate
 
 __all__ = ["ATTITUDE_GAINS", "BACKENDS", "DEMO_NOISE", "GAINS", "GNSS_INS", "MAX_IMU_SAMPLES", "TRANSLATION_GAINS",
-           "DemoConfig", "GnssInsMethod", "demo_observer"]
+           "DemoConfig", "GnssInsMethod", "demo_ekf", "demo_observer"]
 
 
 #: Sensor noise of the demo: a consumer-grade IMU and a standalone GNSS receiver.
@@ -91,8 +91,8 @@ class DemoConfig:
     ekf : bool
         Also run the EKF baseline.
     backend : str
-        ``"python"`` (default) or ``"c"``: the observers (24) run as their generated, compiled C
-        (:func:`nlobs.export.compile_observer`, the same estimates to rounding; the EKF stays in Python).
+        ``"python"`` (default) or ``"c"``: the observers (24) and the EKF run as their generated, compiled C
+        (:func:`nlobs.export.compile_observer`, the same estimates to rounding).
     noise : SensorNoise
         The sensors' error model (default :data:`DEMO_NOISE`).
     """
@@ -168,6 +168,30 @@ def paper_observer(config: DemoConfig, flight: Any) -> GnssInsObserver:
     """
     K = paper_gains(position_only=config.position_only)  # position-only: the paper's recipe, designed once and cached
     return GnssInsObserver(K, PAPER_GAMMA, flight.m_n, flight.g_n, position_only=config.position_only)
+
+
+def demo_ekf(config: DemoConfig, flight: Any) -> Any:
+    """The EKF baseline of the demo (:class:`~nlobs.navigation.ekf.ExtendedKalmanFilter`), tuned to its sensors.
+
+    The filter's noise is the configuration's sensor noise (:meth:`~nlobs.navigation.ekf.EkfConfig.for_noise`),
+    its initial yaw standard deviation the initial yaw error (at least 30°), its sample period the IMU's.
+
+    Parameters
+    ----------
+    config : DemoConfig
+        Its ``noise``, ``yaw_error_deg``, ``imu_rate_hz`` and ``position_only``.
+    flight : Flight
+        The flight (its ``m_n``, ``g_n``).
+
+    Returns
+    -------
+    ExtendedKalmanFilter
+    """
+    from nlobs.navigation.ekf import EkfConfig, ExtendedKalmanFilter
+
+    return ExtendedKalmanFilter(EkfConfig.for_noise(config.noise, yaw_std_deg=max(30.0, abs(config.yaw_error_deg)),
+                                                    sample_period_s=1.0 / config.imu_rate_hz),
+                                flight.m_n, flight.g_n, position_only=config.position_only)
 
 
 def demo_observer(config: DemoConfig, flight: Any, start_s: float = 0.0) -> tuple[

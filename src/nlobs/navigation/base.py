@@ -42,7 +42,7 @@ import numpy as np
 from numpy.lib.stride_tricks import as_strided
 from numpy.typing import ArrayLike, NDArray
 
-from nlobs._typing import Array
+from nlobs._typing import Array, BoolArray
 from nlobs.errors import DimensionError
 
 __all__ = [
@@ -303,6 +303,29 @@ class SensorData:
             return np.concatenate(np.broadcast_arrays(p, v), axis=-1)
         except ValueError:
             raise DimensionError(f"data: GNSS shapes {p.shape}, {v.shape} do not broadcast") from None
+
+    def record(self) -> tuple[Array, Array, Array, BoolArray]:
+        """The flight as one record on the IMU grid, as a compiled observer's ``run_record`` takes it.
+
+        Returns
+        -------
+        t : ndarray, shape (K,)
+            The IMU instants.
+        u : ndarray, shape (..., K, 9)
+            :meth:`imu_input`.
+        y : ndarray, shape (..., K, 6) or (..., K, 3)
+            Each fix of :meth:`gnss_output` at the IMU instant nearest its time, zeros elsewhere.
+        sampled : ndarray of bool, shape (K, 6) or (K, 3)
+            Where a fix was taken.
+        """
+        t = np.ascontiguousarray(self.t_imu, dtype=float)
+        fixes = self.gnss_output()
+        k = np.rint((np.asarray(self.t_gnss, dtype=float) - t[0]) * float(self.imu_rate_hz)).astype(np.intp)
+        y = np.zeros((*fixes.shape[:-2], t.size, fixes.shape[-1]))
+        y[..., k, :] = fixes
+        sampled = np.zeros((t.size, fixes.shape[-1]), dtype=bool)
+        sampled[k] = True
+        return t, np.ascontiguousarray(self.imu_input()), y, sampled
 
     def truth(self) -> Array:
         """The true navigation vector ``[p, v, R]`` on the IMU grid, shape ``(K, 15)`` (:func:`nav_vector`)."""

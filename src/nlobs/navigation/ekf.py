@@ -268,7 +268,8 @@ class ExtendedKalmanFilter(ToControl):
 
         ``ṗ = v̂``, ``v̇ = R̂ a + gⁿ``, ``Ṙ = R̂ S(ω)``, ``Ṗ = F P + P Fᵀ + Q̇`` with
         ``Q̇ = G diag(σ_a² I, σ_g² I) Gᵀ T`` (``T`` = :attr:`EkfConfig.sample_period_s`). No
-        magnetometer (it is fused by :meth:`step` only); ``t`` and ``y`` are unused.
+        magnetometer (it is fused by :meth:`step` only); the skipped-fix counter's derivative is 0; ``t`` and
+        ``y`` are unused.
         """
         u_ = np.asarray(u, dtype=float)
         w, a = u_[..., IMU_OMEGA], u_[..., IMU_ACCEL]
@@ -278,7 +279,7 @@ class ExtendedKalmanFilter(ToControl):
         FP = F @ z.P
         Pdot = FP + np.swapaxes(FP, -1, -2) + G @ Qc @ np.swapaxes(G, -1, -2)
         return EkfState(p=z.v, v=np.einsum("...ij,...j->...i", z.R, a) + self.g_n, R=z.R @ skew(w), P=Pdot,
-                        skipped=z.skipped)
+                        skipped=np.zeros_like(z.skipped))  # a counter: constant between fixes
 
     def step(self, t: float, z: EkfState, u: Array, y: Array, h: float) -> EkfState:
         """Predict over ``h`` with ``u = [ω^b, a^b, m^b]`` held, then fuse the magnetometer (:meth:`propagate`)."""

@@ -22,7 +22,6 @@ import numpy as np
 
 from nlobs._io import atomic_write_json, prepare_output_dir, with_schema
 from nlobs.errors import InvalidArgumentError, OutputError
-from nlobs.navigation.ekf import EkfConfig, ExtendedKalmanFilter
 from nlobs.navigation.gains import NOISE_OPTIMAL_GAMMA
 from nlobs.navigation.metrics import summary_dict
 from nlobs.navigation.plots import plot_navigation
@@ -39,6 +38,7 @@ from nlobs.methods.gnss_ins import (
     GAINS,
     MAX_IMU_SAMPLES,
     DemoConfig,
+    demo_ekf,
     demo_observer,
     paper_observer,
 )
@@ -140,10 +140,9 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
         paper_res = run_navigation(run(paper_observer(config, flight)), data, p0, v0, R0, progress=progress)
     ekf_res = None
     if config.ekf:
-        ekf = ExtendedKalmanFilter(EkfConfig.for_noise(config.noise, yaw_std_deg=max(30.0, abs(config.yaw_error_deg)),
-                                                       sample_period_s=1.0 / config.imu_rate_hz),
-                                   flight.m_n, flight.g_n, position_only=config.position_only)
-        ekf_res = run_navigation(ekf, data, p0, v0, R0, progress=progress)
+        ekf = demo_ekf(config, flight)
+        ekf_res = run_navigation(ekf if config.backend == "python" else _compiled(ekf), data, p0, v0, R0,
+                                 progress=progress)
     figures: dict[str, Path] = {}
     if out_dir is not None:
         figures = plot_navigation(obs_res, Path(out_dir), compare=ekf_res, prefix="gnss_ins",
@@ -160,6 +159,13 @@ def _backend(config: DemoConfig) -> Any:
     from nlobs.export import compile_observer
 
     return lambda obs: compile_observer(obs, options={"imu_period": 1.0 / config.imu_rate_hz})
+
+
+def _compiled(ekf: Any) -> Any:
+    """The EKF baseline as its generated, compiled C (``backend="c"``)."""
+    from nlobs.export import compile_observer
+
+    return compile_observer(ekf)
 
 
 _LABELS = {"noise-optimal": "observer, noise-optimal gains", "paper": "observer, paper's gains",

@@ -118,6 +118,31 @@ def _method_design(method: Any, pb: Any, options: dict[str, Any], saturation: bo
     return design.observer, design.certified, _certificate_text(design, title), why_not, design
 
 
+_NO_GUARANTEE = "none: a Kalman filter carries no convergence guarantee"
+
+
+def _navigation_ekf(out: str | Path, prefix: str | None, box: Any, saturation: bool | None,
+                    options: dict[str, Any]) -> ExportReport:
+    """The demo's navigation EKF, the baseline of observer (24), as C.
+
+    ``export_model_observer("gnss-ins", observer="ekf")``.
+    """
+    from nlobs.export import export_observer
+    from nlobs.methods.gnss_ins import DemoConfig, demo_ekf
+    from nlobs.navigation.trajectory import traffic_pattern
+
+    given = [f"`{k}`" for k, v in (("box", box), ("saturation", saturation), *options.items()) if v is not None]
+    if given:
+        raise InvalidArgumentError(f"{', '.join(given)}: not an option of the navigation EKF (it takes none)")
+    config = DemoConfig()
+    ekf = demo_ekf(config, traffic_pattern(seed=config.seed))
+    text = ("navigation EKF of the GNSS/INS demo (error state, multiplicative attitude), tuned to the demo's sensor "
+            "noise: the baseline of observer (24) of Grip, Saberi & Johansen (Sec. 5)")
+    res = export_observer(ekf, out, prefix=prefix or "gnss_ins_ekf",
+                          notes=(("certificate", _NO_GUARANTEE), ("rests on", text)))
+    return ExportReport("gnss-ins", "ekf", False, text, (res.header, res.source), res, Verdict.OK, "", None)
+
+
 def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: str = "c",
                           box: Sequence[float] | Any | None = None, saturation: bool | None = None,
                           prefix: str | None = None, **options: Any) -> ExportReport:
@@ -170,6 +195,8 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
         named = ", ".join(f"`{u}`" for u in unknown)  # the keywords given: the command line's flags where it has them
         raise InvalidArgumentError(f"{named}: not a design option of the {observer} observer "
                                    f"(it takes {', '.join(sorted(method.options)) or 'none'})")
+    if str(model) == "gnss-ins" and observer == "ekf":
+        return _navigation_ekf(out, prefix, box, saturation, options)
     if box is not None and not method.uses_region:
         raise InvalidArgumentError(f"`box` does not apply to the {observer} observer")
     if observer == "gnss-ins":  # the demo's flight, not a model file
@@ -189,7 +216,7 @@ def export_model_observer(model: Any, *, observer: str, out: str | Path, lang: s
     from nlobs.methods.kalman import KalmanMethod
 
     filter_ = isinstance(method, KalmanMethod)  # a Kalman filter claims no certificate: none is missing
-    notes = (("certificate", "none: a Kalman filter carries no convergence guarantee" if filter_ else
+    notes = (("certificate", _NO_GUARANTEE if filter_ else
               ("verified" if certified else "NOT CERTIFIED") + (f" ({why})" if why else "")),
              ("certified on" if certified else "rests on", text))
     c_options = {"imu_period": design.parameters["imu_period"]} if observer == "gnss-ins" else None
