@@ -126,7 +126,8 @@ def test_the_registry_is_the_one_list_of_the_commands() -> None:
     from nlobs.workflows.export import EXPORTABLE
 
     assert OBSERVERS == names(simulated=True) == tuple(e.name for e in REGISTRY if e.simulated)
-    assert EXPORTABLE == names(exported=True) == ("drift", "pinv", "luenberger", "cascade", "ekf", "setvalued", "gnss-ins")
+    assert EXPORTABLE == names(exported=True) == ("drift", "pinv", "luenberger", "cascade", "ekf", "ukf", "setvalued",
+                                                        "gnss-ins")
     for n in names():
         m = get(n)
         assert m.name == n and isinstance(m.options, frozenset)

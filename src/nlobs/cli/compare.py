@@ -117,7 +117,7 @@ def compare_cmd(
     out: Annotated[Path | None, typer.Option("--out", help="Folder for compare.json, plots, .npz and .csv.")] = None,
     backend: Annotated[str, typer.Option(
         "--backend", help="'python' (default) or 'c': the observers with a C generator run as generated, "
-                          "compiled C (the EKF too; the UKF stays in Python).")] = "python",
+                          "compiled C (the EKF and the UKF too).")] = "python",
     workers: Annotated[int | None, typer.Option(min=1, help="Run the observers, one task each, on a local Dask "
                                                 "cluster of N worker processes (the same numbers; needs nlobs[dask]).")]
     = None,

@@ -452,6 +452,7 @@ def _generators() -> dict[str, Any]:
             "OutputPredictor": _lazy("nlobs.export.predictor", "generate_predictor"),
             "ImpulsiveObserver": _lazy("nlobs.export.impulsive", "generate_impulsive"),
             "EKF": _lazy("nlobs.export.kalman", "generate_ekf"),
+            "UKF": _lazy("nlobs.export.ukf", "generate_ukf"),
             "ExtendedKalmanFilter": _lazy("nlobs.export.nav_ekf", "generate_nav_ekf")}
 
 

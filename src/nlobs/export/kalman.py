@@ -29,7 +29,7 @@ from nlobs.errors import InvalidArgumentError
 from nlobs.export.pieces import affine_function, invert_c, matrix_note, require_source, static_array, static_function
 from nlobs.export.program import CProgram, StateCodec
 
-__all__ = ["generate_ekf"]
+__all__ = ["filter_codec", "generate_ekf", "joseph_c", "model_c"]
 
 
 def _constant(name: str, M: np.ndarray) -> str:
@@ -48,31 +48,66 @@ static void {name}(const double *x, const double *u, double *out)
 """
 
 
-def _model_c(plant: Any, P: str, n: int, m: int, p: int) -> tuple[str, str]:
-    """``P_f``, ``P_F`` (``∂f/∂x``), ``P_h``, ``P_H`` (``∂h/∂x``) as C, and the model's line of the header."""
+def model_c(plant: Any, P: str, n: int, m: int, p: int, *, jacobians: bool = True) -> tuple[str, str]:
+    """``P_f``, ``P_h`` and, with ``jacobians``, ``P_F`` (``∂f/∂x``) and ``P_H`` (``∂h/∂x``) as static C functions.
+
+    Parameters
+    ----------
+    plant : SymbolicModel or linear system
+        A compiled symbolic model (its expressions are printed) or a system with matrices ``A, B, C, D``.
+    P : str
+        The module's C prefix.
+    n, m, p : int
+        States, inputs, outputs.
+    jacobians : bool
+        Also the Jacobians (the EKF; the UKF needs ``f`` and ``h`` only).
+
+    Returns
+    -------
+    (str, str)
+        The C definitions (each ``static void name(const double *x, const double *u, double *out)``) and the
+        model's line of the header.
+
+    Raises
+    ------
+    InvalidArgumentError
+        The plant has no expressions to print, or its matrices have the wrong shapes.
+    """
     if hasattr(plant, "A") and hasattr(plant, "C") and not hasattr(plant, "_rhs"):
         A, B, C, D = (np.asarray(M, dtype=float) for M in (plant.A, plant.B, plant.C, plant.D))
         if A.shape != (n, n) or C.shape != (p, n) or B.shape != (n, m) or D.shape != (p, m):
-            raise InvalidArgumentError(f"EKF: A, B, C, D of shapes {A.shape}, {B.shape}, {C.shape}, {D.shape}; "
+            raise InvalidArgumentError(f"A, B, C, D of shapes {A.shape}, {B.shape}, {C.shape}, {D.shape}; "
                                        f"expected {(n, n)}, {(n, m)}, {(p, n)}, {(p, m)}")
-        defs = (affine_function(f"{P}_f", A, B, n, n, m) + affine_function(f"{P}_h", C, D, p, n, m)
-                + _constant(f"{P}_F", A) + _constant(f"{P}_H", C))
+        defs = affine_function(f"{P}_f", A, B, n, n, m) + affine_function(f"{P}_h", C, D, p, n, m)
+        if not jacobians:
+            return defs, "linear: f = A x + B u, h = C x + D u (the model's matrices)"
+        defs += _constant(f"{P}_F", A) + _constant(f"{P}_H", C)
         return defs, "linear: f = A x + B u, h = C x + D u, F = A, H = C (the model's matrices)"
     name = getattr(plant, "name", type(plant).__name__)
+    wanted = (("f", "_rhs", "rhs"), ("F", "_rhs_x", "drhs/dx"), ("h", "_h", "h"), ("H", "_h_x", "dh/dx"))
     parts = {key: require_source(getattr(plant, attr, None), f"{name}.{what}")
-             for key, attr, what in (("f", "_rhs", "rhs"), ("F", "_rhs_x", "drhs/dx"), ("h", "_h", "h"),
-                                     ("H", "_h_x", "dh/dx"))}
+             for key, attr, what in wanted if jacobians or key in ("f", "h")}
     sizes = {"f": n, "F": n * n, "h": p, "H": p * n}
     for key, fn in parts.items():
         if len(fn.expressions) != sizes[key]:
             raise InvalidArgumentError(f"{name}: {key} has {len(fn.expressions)} entries, expected {sizes[key]}")
     defs = "".join(static_function(f"{P}_{key}", fn, ("x", "u"), f"{name}.{key}") for key, fn in parts.items())
-    return defs, (f"{name}: states {', '.join(plant.states)}; outputs {', '.join(plant.outputs)}; f, h and their "
-                  "Jacobians printed from the model's expressions")
+    return defs, (f"{name}: states {', '.join(plant.states)}; outputs {', '.join(plant.outputs)}; f, h"
+                  + (" and their Jacobians" if jacobians else "") + " printed from the model's expressions")
 
 
-def _codec(n: int) -> StateCodec:
-    """``FilterState(x, P, nis)`` ↔ the flat ``[x, P (row-major), nis]`` of the C module."""
+def filter_codec(n: int) -> StateCodec:
+    """``FilterState(x, P, nis)`` ↔ the flat ``[x, P (row-major), nis]`` of the C module.
+
+    Parameters
+    ----------
+    n : int
+        The plant's states.
+
+    Returns
+    -------
+    StateCodec
+    """
     from nlobs.observers.gaussian import FilterState
 
     def pack(z: Any) -> Any:
@@ -91,8 +126,21 @@ def _codec(n: int) -> StateCodec:
     return StateCodec(pack=pack, unpack=unpack)
 
 
-def _joseph_c(P: str, n: int, p: int) -> str:
-    """``static int P_joseph(z, H, nu, Rq, q)``: the Joseph-form update of ``(x̂, P, NIS)`` in ``z`` (module docstring)."""
+def joseph_c(P: str, n: int, p: int) -> str:
+    """``static int P_joseph(z, H, nu, Rq, q)``: the Joseph-form update of ``(x̂, P, NIS)`` in ``z`` (module docstring).
+
+    Parameters
+    ----------
+    P : str
+        The module's C prefix.
+    n, p : int
+        States, and the most outputs an update takes.
+
+    Returns
+    -------
+    str
+        ``P_invert`` and ``P_joseph`` (0, or 1 for a singular ``S``, 2 for a non-finite NIS).
+    """
     N2, pp = n * n, max(p, 1)
     return invert_c(P, p) + f"""
 /* the Joseph-form update of (x, P, NIS) in z with q outputs: H (q x n), innovation nu, noise covariance Rq (q x q);
@@ -219,7 +267,7 @@ def generate_ekf(obs: Any, prefix: str) -> CProgram:
     n, p = int(obs.n), int(obs.p)
     m = len(getattr(plant, "inputs", ()))
     Q, R, P0 = (np.asarray(M, dtype=float) for M in (obs.Q, obs.R, obs.P0))
-    defs, model_note = _model_c(plant, P, n, m, p)
+    defs, model_note = model_c(plant, P, n, m, p)
     N2 = n * n
     fp = f"""
 /* F P, both n x n row-major */
@@ -281,7 +329,7 @@ static int {P}_rhs_(double t, const double *z, const double *u, const double *y,
 """
     pp = max(p, 1)
     body = (static_array(f"{P}_Q", Q) + static_array(f"{P}_R", R) + static_array(f"{P}_P0", P0) + defs + predict
-            + _joseph_c(P, n, p) + f"""
+            + joseph_c(P, n, p) + f"""
 static int {P}_init_(const double *xhat0, double *z)
 {{
     int i;
@@ -350,6 +398,6 @@ static int {P}_correct_(double t, double *z, const double *u, const double *y, c
     tb = obs.time
     return CProgram(prefix=P, title=f"Extended Kalman filter of {name}", n_z=n + N2 + 1, n_x=n, n_u=m, n_y=p,
                     discrete=bool(obs.discrete), body=body, correcting=True, own_init=True, own_estimate=True,
-                    notes=notes, codec=_codec(n), dt=float(tb.dt) if obs.discrete else None,
+                    notes=notes, codec=filter_codec(n), dt=float(tb.dt) if obs.discrete else None,
                     status1="a singular innovation covariance S")
 

@@ -748,10 +748,9 @@ def compare_observers(
     name : str, optional
         How messages name the model.
     backend : {"python", "c"}
-        ``"c"``: every observer that has a C generator (drift, pinv, luenberger, cascade, ekf) runs as its
-        generated, compiled C (:func:`nlobs.export.compile_observer`; the same estimates to rounding
-        when the outputs are sampled; with exact outputs it holds ``y`` over each step); the UKF
-        stays in Python.
+        ``"c"``: every observer that has a C generator (drift, pinv, luenberger, cascade, ekf, ukf) runs as
+        its generated, compiled C (:func:`nlobs.export.compile_observer`; the same estimates to rounding
+        when the outputs are sampled; with exact outputs it holds ``y`` over each step).
     executor : optional
         Where the observers run, one task per observer (:mod:`nlobs.simulate.executors`: a Dask client,
         a scheduler address or a process pool; ``None``: here). Each task is the same call as here, so

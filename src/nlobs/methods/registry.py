@@ -56,7 +56,7 @@ REGISTRY: tuple[Entry, ...] = (
     Entry("cascade", "nlobs.methods.cascade", "CASCADE",
           "Grip, Saberi & Johansen (9)–(10) / (17)–(18), the file's [cascade] table"),
     Entry("ekf", "nlobs.methods.kalman", "EKF", "extended Kalman filter (no certificate)"),
-    Entry("ukf", "nlobs.methods.kalman", "UKF", "unscented Kalman filter (no certificate)", exported=False),
+    Entry("ukf", "nlobs.methods.kalman", "UKF", "unscented Kalman filter (no certificate)"),
     Entry("setvalued", "nlobs.methods.setvalued", "SETVALUED",
           "Khajenejad & Yong (10)–(15), Algorithm 1, a discrete model with [unknown_inputs]", simulated=False),
     Entry("gnss-ins", "nlobs.methods.gnss_ins", "GNSS_INS",
