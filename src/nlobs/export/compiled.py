@@ -100,6 +100,9 @@ def load_library(program: CProgram, *, compiler: Compiler | None = None, strict:
             if program.correcting:
                 sigs["correct"] = (c_int, [c_d, _D, _D, _D, _B])
                 sigs["correct_batch"] = (c_long, [c_long, c_d, _D, _D, _D, _B, _I])
+            if program.staged:
+                sigs["step_stages"] = (c_int, [c_d, _D, _D, _D, _D, _D, c_d])
+                sigs["step_stages_batch"] = (c_long, [c_long, c_d, _D, _D, _D, _D, _D, c_d, _I])
             for name, (res, args) in sigs.items():
                 fn = getattr(lib, f"{P}_{name}")
                 fn.restype = res
@@ -161,8 +164,9 @@ class CompiledObserver:
         object.__setattr__(self, "state_names", tuple(names) if names and len(names) == self.program.n_z else None)
         P = self.program.prefix
         object.__setattr__(self, "_fn", {k: getattr(self.library, f"{P}_{k}") for k in (
-            "step_batch", "rhs_batch", "run", "run_batch", "init", "estimate", "estimate_batch", *(("correct_batch",) if self.program.correcting
-                                                                     else ()))})
+            "step_batch", "rhs_batch", "run", "run_batch", "init", "estimate", "estimate_batch",
+            *(("correct_batch",) if self.program.correcting else ()),
+            *(("step_stages_batch",) if self.program.staged else ()))})
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -235,6 +239,30 @@ class CompiledObserver:
             status = np.zeros(max(n, 1), dtype=np.intc)
             self._fn["step_batch"](n, float(t), _ptr(zc), _ptr(uc), _ptr(yc), float(h), _ptr(status))
             self._failed(status[:n], t, z, u, y, zc, lambda zz, uu, yy: self._python_step(t, zz, uu, yy, h))
+        return zc
+
+    def step_stages(self, t: float, z: Array, u0: Array, uh: Array, u1: Array, y: Array, h: float) -> Array:
+        """The state of every run at ``t + h``, ``y`` held, the input at RK4's stages: ``u0`` at ``t``, ``uh`` at
+        ``t + h/2``, ``u1`` at ``t + h`` (one ``P_step_stages_batch`` call; :meth:`step` where the module steps
+        itself, holding ``u0``).
+
+        Raises
+        ------
+        DimensionError
+            A state, input or measurement of the wrong width.
+        """
+        if not self.program.staged:
+            return self.step(t, z, u0, y, h)
+        zc, uc0, yc, n, batch = self._io(z, u0, y)
+        _, uch, _, _, _ = self._io(z, uh, y)
+        _, uc1, _, _, _ = self._io(z, u1, y)
+        fn = self._fn["step_stages_batch"]
+        if fn(n, float(t), _ptr(zc), _ptr(uc0), _ptr(uch), _ptr(uc1), _ptr(yc), float(h), None):
+            zc = np.array(z, dtype=np.float64, order="C", copy=True)
+            status = np.zeros(max(n, 1), dtype=np.intc)
+            fn(n, float(t), _ptr(zc), _ptr(uc0), _ptr(uch), _ptr(uc1), _ptr(yc), float(h), _ptr(status))
+            # the Python step of the failing run with u0 held raises the observer's own error (the same matrix)
+            self._failed(status[:n], t, z, u0, y, zc, lambda zz, uu, yy: self._python_step(t, zz, uu, yy, h))
         return zc
 
     def _python_step(self, t: float, z: Array, u: Array, y: Array, h: float) -> Any:

@@ -10,6 +10,11 @@ are plain ``double`` arrays of one run, no heap, no global state, nothing beyond
   state at ``t + h`` with ``u`` and ``y`` held over the step: one classical RK4 step of ``P_rhs``
   (the integrator of :func:`nlobs.simulate.integrators.rk4_step`, stage for stage), the observer's
   own discretisation where it has one, or ``z ← z⁺`` for a discrete observer (``h`` unused);
+* ``int P_step_stages(double t, double *z, const double *u0, const double *uh, const double *u1,
+  const double *y, double h)`` — only where ``P_step`` is the common RK4 step: the same step with the input
+  ``u0`` at ``t``, ``uh`` at the two stages at ``t + h/2`` and ``u1`` at ``t + h`` (a known input that varies
+  within the step, as :func:`nlobs.simulate.simulate` evaluates it; ``P_step`` is ``u0 = uh = u1 = u``), and
+  ``P_step_stages_batch``;
 * ``int P_correct(double t, double *z, const double *u, const double *y, const unsigned char *fresh)``
   — only for observers that correct at samples (``fresh[j]`` non-zero where output ``j`` was just
   sampled; a non-finite sampled value is a missing sample, skipped);
@@ -123,6 +128,11 @@ class CProgram:
     status1: str = "a singular matrix, e.g. a pivot at rounding level"
 
     @property
+    def staged(self) -> bool:
+        """``P_step`` is the common RK4 of ``P_rhs``: the module also has ``P_step_stages`` (an input per stage)."""
+        return not self.own_step and not self.discrete
+
+    @property
     def header_name(self) -> str:
         """``P.h``."""
         return f"{self.prefix}.h"
@@ -196,6 +206,11 @@ def render(program: CProgram, version: str) -> tuple[str, str]:
         f"long {P}_run_batch(long n, long K, const double *t, double *z, const double *u, const double *y,\n"
         f"                   const unsigned char *sampled, double *xhat, int *status);",
     ]
+    if program.staged:
+        api.insert(3, f"int {P}_step_stages(double t, double *z, const double *u0, const double *uh, const double *u1,\n"
+                      f"                  const double *y, double h);")
+        api.append(f"long {P}_step_stages_batch(long n, double t, double *z, const double *u0, const double *uh,\n"
+                   f"                          const double *u1, const double *y, double h, int *status);")
     if program.correcting:
         api.insert(3, f"int {P}_correct(double t, double *z, const double *u, const double *y, "
                       "const unsigned char *fresh);")
@@ -267,12 +282,13 @@ static void {P}_void(double *z)
 }}
 
 """
-        step = f"""\
+        stages = f"""\
     double k1[{up}_NZ1], k2[{up}_NZ1], k3[{up}_NZ1], k4[{up}_NZ1], w[{up}_NZ1];
     const double hh = 0.5 * h, h6 = h / 6.0;
     int i, s;
-    /* classical RK4 with u and y held, stage for stage as nlobs.simulate.integrators.rk4_step */
-    if ((s = {P}_rhs_(t, z, u, y, k1)) != {up}_OK) {{
+    /* classical RK4 with y held and the input u0 at t, uh at t + h/2, u1 at t + h, stage for stage as
+       nlobs.simulate.integrators.rk4_step */
+    if ((s = {P}_rhs_(t, z, u0, y, k1)) != {up}_OK) {{
         if (s == {up}_NONFINITE) {{
             {P}_void(z);
         }}
@@ -281,7 +297,7 @@ static void {P}_void(double *z)
     for (i = 0; i < {up}_NZ; ++i) {{
         w[i] = z[i] + hh * k1[i];
     }}
-    if ((s = {P}_rhs_(t + hh, w, u, y, k2)) != {up}_OK) {{
+    if ((s = {P}_rhs_(t + hh, w, uh, y, k2)) != {up}_OK) {{
         if (s == {up}_NONFINITE) {{
             {P}_void(z);
         }}
@@ -290,7 +306,7 @@ static void {P}_void(double *z)
     for (i = 0; i < {up}_NZ; ++i) {{
         w[i] = z[i] + hh * k2[i];
     }}
-    if ((s = {P}_rhs_(t + hh, w, u, y, k3)) != {up}_OK) {{
+    if ((s = {P}_rhs_(t + hh, w, uh, y, k3)) != {up}_OK) {{
         if (s == {up}_NONFINITE) {{
             {P}_void(z);
         }}
@@ -299,7 +315,7 @@ static void {P}_void(double *z)
     for (i = 0; i < {up}_NZ; ++i) {{
         w[i] = z[i] + h * k3[i];
     }}
-    if ((s = {P}_rhs_(t + h, w, u, y, k4)) != {up}_OK) {{
+    if ((s = {P}_rhs_(t + h, w, u1, y, k4)) != {up}_OK) {{
         if (s == {up}_NONFINITE) {{
             {P}_void(z);
         }}
@@ -307,7 +323,33 @@ static void {P}_void(double *z)
     }}
     for (i = 0; i < {up}_NZ; ++i) {{
         z[i] = z[i] + h6 * (k1[i] + 2.0 * k2[i] + 2.0 * k3[i] + k4[i]);
-    }}"""
+    }}
+    return {P}_finite(z, {up}_NZ) ? {up}_OK : {up}_NONFINITE;"""
+        void += f"""\
+int {P}_step_stages(double t, double *z, const double *u0, const double *uh, const double *u1, const double *y,
+                    double h)
+{{
+{stages}
+}}
+
+long {P}_step_stages_batch(long n, double t, double *z, const double *u0, const double *uh, const double *u1,
+                          const double *y, double h, int *status)
+{{
+    long r, bad = 0;
+    for (r = 0; r < n; ++r) {{
+        int s = {P}_step_stages(t, z + r * {up}_NZ, u0 + r * {up}_NU, uh + r * {up}_NU, u1 + r * {up}_NU,
+                                y + r * {up}_NY, h);
+        bad += (s != {up}_OK);
+        if (status != 0) {{
+            status[r] = s;
+        }}
+    }}
+    return bad;
+}}
+
+"""
+        step = f"    return {P}_step_stages(t, z, u, u, u, y, h);"
+    finish = "" if program.staged else f"\n    return {P}_finite(z, {up}_NZ) ? {up}_OK : {up}_NONFINITE;"
     out = [void + f"""\
 int {P}_init(const double *xhat0, double *z)
 {{
@@ -325,8 +367,7 @@ int {P}_rhs(double t, const double *z, const double *u, const double *y, double 
 
 int {P}_step(double t, double *z, const double *u, const double *y, double h)
 {{
-{step}
-    return {P}_finite(z, {up}_NZ) ? {up}_OK : {up}_NONFINITE;
+{step}{finish}
 }}
 
 void {P}_estimate(const double *z, double *xhat)

@@ -145,6 +145,7 @@ class _Setup:
     deferred: bool  # raw estimates recorded, finished once at the end (DeferredEstimate)
     q_factor: Array | None = None  # L with L Lᵀ = Q: process noise added to the plant after each step
     keep: bool = False  # divergence="keep": a non-finite observer state is recorded, not raised
+    stages: bool = False  # its own step is RK4 with an input per stage (step_stages: generated C), u not held
     tape: Samples | None = None  # a plant run: its samples are written here for observers to replay
     truth: Samples | None = None  # an observer on a recorded plant run: its samples are read from here
     clock: list[float] = dataclasses.field(default_factory=lambda: [0.0, math.nan])  # observer seconds, diverged at
@@ -388,7 +389,7 @@ def _run_fixed(s: _Setup, rec: _Recorder, progress: Progress) -> None:
             if s.observer_discrete:
                 z = obs.rhs(t, z, uo, yo)
             elif s.self_step:  # the observer's own discretisation, u and y held over the step
-                z = obs.step(t, z, uo, yo, s.dt)
+                z = _own_step(s, st, t, z, uo, yo)
             clock[0] += perf() - tic
             x = plant.rhs(t, x, u) if s.plant_discrete else rk4_step(plant_only, t, x, s.dt)
         elif s.has_observer:
@@ -399,6 +400,16 @@ def _run_fixed(s: _Setup, rec: _Recorder, progress: Progress) -> None:
             x = x + _process_noise(s, x.shape)
         _check_finite(s, s.t(k + 1), x, z)
         progress.update(k + 1)
+
+
+def _own_step(s: _Setup, st: _State, t: float, z: Any, uo: Array, y: Array) -> Any:
+    """A self-stepping observer's step from ``t`` over ``dt`` with ``y`` held; a generated RK4 step
+    (``step_stages``) reads the input at RK4's stage times, as the joint RK4 gives an observer's ``rhs``,
+    unless the input is held over the step (``uo`` is the observer's input at ``t``)."""
+    if s.stages and not s.u_hold:
+        h = s.dt
+        return s.observer.step_stages(t, z, uo, st.u_obs(s, s.u_fn(t + 0.5 * h)), st.u_obs(s, s.u_fn(t + h)), y, h)
+    return s.observer.step(t, z, uo, y, s.dt)
 
 
 def _replay_fixed(s: _Setup, st: _State, rec: _Recorder, progress: Progress) -> None:
@@ -427,7 +438,7 @@ def _replay_fixed(s: _Setup, st: _State, rec: _Recorder, progress: Progress) -> 
         if s.observer_discrete or s.self_step:
             uo = st.u_obs(s, s.u_fn(t))
             tic = perf()
-            z = obs.rhs(t, z, uo, st.y_view) if s.observer_discrete else obs.step(t, z, uo, st.y_view, s.dt)
+            z = obs.rhs(t, z, uo, st.y_view) if s.observer_discrete else _own_step(s, st, t, z, uo, st.y_view)
             clock[0] += perf() - tic
         else:
             z = rk4_step(observer_only, t, z, s.dt)
@@ -912,6 +923,8 @@ def _observer_part(plant: PlantModel, obs: Any, has_observer: bool, x_hat0: Arra
         "observer_names": state_names(obs, z0),
         "estimate_names": tuple(plant.states) if n_x == plant.n else tuple(f"x_hat[{i}]" for i in range(n_x)),
         "self_step": has_observer and not observer_discrete and isinstance(obs, SelfStepping),
+        "stages": has_observer and not observer_discrete and isinstance(obs, SelfStepping)
+        and bool(getattr(getattr(obs, "program", None), "staged", False)) and hasattr(obs, "step_stages"),
         "array_state": isinstance(z0, np.ndarray),
         "diagnose": has_observer and isinstance(obs, Diagnosing),
         "deferred": has_observer and isinstance(obs, DeferredEstimate),
