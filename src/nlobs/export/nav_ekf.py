@@ -96,7 +96,7 @@ class _Products:
         out = ["\n/* dense products, row-major, C distinct from A and B: mul_n_k_m is C = A B (A n x k, B k x m), "
                "mulT_n_k_m is C = A B' (B m x k) */\n"]
         for name, (tr, n, k, m) in sorted(self.used.items()):
-            b = "B[j * {k} + l]".format(k=k) if tr else "B[l * {m} + j]".format(m=m)
+            b = f"B[j * {k} + l]" if tr else f"B[l * {m} + j]"
             out.append(f"""static void {name}(const double *A, const double *B, double *C)
 {{
     int i, j, l;
