@@ -29,7 +29,7 @@ from nlobs.errors import InvalidArgumentError
 from nlobs.export.pieces import affine_function, invert_c, matrix_note, require_source, static_array, static_function
 from nlobs.export.program import CProgram, StateCodec
 
-__all__ = ["filter_codec", "generate_ekf", "joseph_c", "model_c"]
+__all__ = ["filter_codec", "filter_init_c", "generate_ekf", "joseph_c", "model_c"]
 
 
 def _constant(name: str, M: np.ndarray) -> str:
@@ -124,6 +124,38 @@ def filter_codec(n: int) -> StateCodec:
                            np.float64(nis) if nis.ndim == 0 else np.array(nis))
 
     return StateCodec(pack=pack, unpack=unpack)
+
+
+def filter_init_c(P: str, n: int) -> str:
+    """``static int P_init_(xhat0, z)``: ``x̂ = x̂0``, ``P = P0`` (the static array ``P_P0``), ``NIS = 0``.
+
+    Parameters
+    ----------
+    P : str
+        The module's C prefix.
+    n : int
+        The plant's states.
+
+    Returns
+    -------
+    str
+        The static C function (after a blank line).
+    """
+    N2 = n * n
+    return f"""
+static int {P}_init_(const double *xhat0, double *z)
+{{
+    int i;
+    for (i = 0; i < {n}; ++i) {{
+        z[i] = xhat0[i];
+    }}
+    for (i = 0; i < {N2}; ++i) {{
+        z[{n} + i] = {P}_P0[i];
+    }}
+    z[{n + N2}] = 0.0;
+    return 0;
+}}
+"""
 
 
 def joseph_c(P: str, n: int, p: int) -> str:
@@ -329,20 +361,7 @@ static int {P}_rhs_(double t, const double *z, const double *u, const double *y,
 """
     pp = max(p, 1)
     body = (static_array(f"{P}_Q", Q) + static_array(f"{P}_R", R) + static_array(f"{P}_P0", P0) + defs + predict
-            + joseph_c(P, n, p) + f"""
-static int {P}_init_(const double *xhat0, double *z)
-{{
-    int i;
-    for (i = 0; i < {n}; ++i) {{
-        z[i] = xhat0[i];
-    }}
-    for (i = 0; i < {N2}; ++i) {{
-        z[{n} + i] = {P}_P0[i];
-    }}
-    z[{n + N2}] = 0.0;
-    return 0;
-}}
-
+            + joseph_c(P, n, p) + filter_init_c(P, n) + f"""
 static void {P}_estimate_(const double *z, double *xhat)
 {{
     int i;

@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from nlobs.export.cprint import c_double
-from nlobs.export.kalman import filter_codec, joseph_c, model_c
+from nlobs.export.kalman import filter_codec, filter_init_c, joseph_c, model_c
 from nlobs.export.pieces import matrix_note, static_array
 from nlobs.export.program import CProgram
 
@@ -380,20 +380,7 @@ static int {P}_correct_(double t, double *z, const double *u, const double *y, c
             + "/* the sigma points' mean and covariance weights, and their spread sqrt(n + lambda) */\n"
             + static_array(f"{P}_wm", obs.wm) + static_array(f"{P}_wc", obs.wc)
             + f"static const double {P}_spread = {c_double(obs.spread)};\n"
-            + defs + _linalg_c(P, n) + predict + joseph_c(P, n, p) + correct + f"""
-static int {P}_init_(const double *xhat0, double *z)
-{{
-    int i;
-    for (i = 0; i < {n}; ++i) {{
-        z[i] = xhat0[i];
-    }}
-    for (i = 0; i < {N2}; ++i) {{
-        z[{n} + i] = {P}_P0[i];
-    }}
-    z[{n + N2}] = 0.0;
-    return 0;
-}}
-""")
+            + defs + _linalg_c(P, n) + predict + joseph_c(P, n, p) + correct + filter_init_c(P, n))
     names = ", ".join(plant.states) if hasattr(plant, "states") else f"{n} states"
     notes = (
         ("observer", "the unscented Kalman filter: " + ("the unscented transform of a discrete plant" if obs.discrete
