@@ -6,7 +6,9 @@ its samples replayed to each observer, or, with exact outputs, integrated with e
 loop that does the plant's share of that work: the compiled plant (the same generated NumPy code) integrated by
 RK4 over the same steps for the same number of runs, one batched call per stage, nothing else. Target (everyday
 speed): the CPU time of the simulations of the N observers (their designs excluded, timed apart) within 3 × (N + 1)
-times that floor, for one run and for 50 runs.
+times that floor, for one run and for 50 runs. Then the same with ``--backend c`` (``backend="c"``): the plant's ``f``
+and every observer with a C generator stepped by their generated C (one ctypes call per step for the batch), against
+the same NumPy floor.
 
 Both are timed in CPU time (``time.process_time``), interleaved: each simulation is followed at once by a floor
 loop of the same runs and steps, and counted in those floors (so a slow spell of a shared machine slows both);
@@ -58,7 +60,8 @@ def main() -> None:
         def call(*a, **k):  # type: ignore[no-untyped-def]
             if "duration" in k:  # simulate_plant and simulate name the grid; observe replays the plant's
                 grid["steps"], grid["dt"] = round(k["duration"] / k["dt"]), k["dt"]
-            label = "plant" if name == "simulate_plant" else type(a[1]).__name__
+            label = (("plant [C]" if hasattr(a[0], "step_stages") else "plant") if name == "simulate_plant"
+                     else getattr(a[1], "name", type(a[1]).__name__))
             c = time.process_time()
             try:
                 return inner(*a, **k)
@@ -73,17 +76,18 @@ def main() -> None:
             setattr(comparison, name, timed(name, getattr(comparison, name)))
     print(f"nlobs simulate {args.model}: CPU time of the plant's run and the N observers' simulations, each against "
           f"a plain batched RK4 loop of the plant timed right after it; best of {ROUNDS} interleaved rounds")
-    print(f"{'runs':>5} {'N':>2} {'steps':>7} {'floor [s]':>10} {'simulations [s]':>16} {'× (N+1) floor':>14} "
+    print(f"{'backend':>7} {'runs':>5} {'N':>2} {'steps':>7} {'floor [s]':>10} {'simulations [s]':>16} {'× (N+1) floor':>14} "
           f"{'designs etc. [s]':>17}  target ≤ {TARGET:g}   each part in floors")
     ok = True
-    for runs in (1, 50):
+    for backend, runs in (("python", 1), ("python", 50), ("c", 1), ("c", 50)):
         grid["runs"] = runs
         best: dict[str, float] = {}
         cost: dict[str, float] = {}  # each part in floors (its time over the adjacent floor's), best round
         for _ in range(ROUNDS):
             parts.clear()
             c = time.process_time()
-            rep = comparison.compare_observers(args.model, runs=runs, duration=args.duration, progress=False)
+            rep = comparison.compare_observers(args.model, runs=runs, duration=args.duration, progress=False,
+                                               backend=backend)
             total = time.process_time() - c
             d = rep.to_dict()
             n_obs = sum(1 for v in d["observers"].values() if not v.get("skipped"))
@@ -97,7 +101,7 @@ def main() -> None:
         ratio = sum(cost.values()) / (n_obs + 1)
         ok &= ratio <= TARGET
         each = ", ".join(f"{k} {v:.2f}" for k, v in cost.items())
-        print(f"{runs:>5} {n_obs:>2} {steps:>7} {best['floor']:>10.3f} {best['sim']:>16.3f} {ratio:>14.2f} "
+        print(f"{backend:>7} {runs:>5} {n_obs:>2} {steps:>7} {best['floor']:>10.3f} {best['sim']:>16.3f} {ratio:>14.2f} "
               f"{best['rest']:>17.3f}   {each}")
     print("target: " + ("met" if ok else "MISSED"))
 

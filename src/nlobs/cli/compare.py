@@ -116,8 +116,8 @@ def compare_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
     out: Annotated[Path | None, typer.Option("--out", help="Folder for compare.json, plots, .npz and .csv.")] = None,
     backend: Annotated[str, typer.Option(
-        "--backend", help="'python' (default) or 'c': the observers with a C generator run as generated, "
-                          "compiled C (the EKF and the UKF too).")] = "python",
+        "--backend", help="'python' (default) or 'c': the plant and the observers with a C generator run as "
+                          "generated, compiled C (the EKF and the UKF too).")] = "python",
     workers: Annotated[int | None, typer.Option(min=1, help="Run the observers, one task each, on a local Dask "
                                                 "cluster of N worker processes (the same numbers; needs nlobs[dask]).")]
     = None,

@@ -124,9 +124,11 @@ def _width(name: str, what: str, a: Any, n: int) -> None:
 
 def _contig(a: Any, shape: tuple[int, ...]) -> Array:
     """``a`` as a C-contiguous float64 array of ``shape`` (no copy when it already is one)."""
-    if isinstance(a, np.ndarray) and a.shape == shape and a.dtype == np.float64 and a.flags.c_contiguous:
+    if type(a) is np.ndarray and a.shape == shape and a.dtype == np.float64 and a.flags.c_contiguous:
         return a
-    return np.array(np.broadcast_to(np.asarray(a, dtype=float), shape), dtype=np.float64, order="C")
+    out = np.empty(shape)
+    out[...] = a  # broadcast on assignment (a ValueError where it does not broadcast, as np.broadcast_to)
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -201,6 +203,11 @@ class CompiledObserver:
         yc = _contig(y, (*batch, self.program.n_y)) if self.program.n_y else np.zeros(max(n, 1))
         return zc, uc, yc, n, batch
 
+    def _input(self, u: Array, batch: tuple[int, ...], n: int) -> Array:
+        """Another input of the batch (a stage's) as :meth:`_io` reads ``u``."""
+        _width(self.name, "u", u, self.program.n_u)
+        return _contig(u, (*batch, self.program.n_u)) if self.program.n_u else np.zeros(max(n, 1))
+
     # ------------------------------------------------------------------ protocol
     def init(self, x_hat0: ArrayLike) -> Array:
         """The Python observer's ``init`` (its checks included), as the flat C state ``(..., n_z)``."""
@@ -254,8 +261,7 @@ class CompiledObserver:
         if not self.program.staged:
             return self.step(t, z, u0, y, h)
         zc, uc0, yc, n, batch = self._io(z, u0, y)
-        _, uch, _, _, _ = self._io(z, uh, y)
-        _, uc1, _, _, _ = self._io(z, u1, y)
+        uch, uc1 = self._input(uh, batch, n), self._input(u1, batch, n)
         fn = self._fn["step_stages_batch"]
         if fn(n, float(t), _ptr(zc), _ptr(uc0), _ptr(uch), _ptr(uc1), _ptr(yc), float(h), None):
             zc = np.array(z, dtype=np.float64, order="C", copy=True)

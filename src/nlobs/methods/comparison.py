@@ -750,7 +750,9 @@ def compare_observers(
     backend : {"python", "c"}
         ``"c"``: every observer that has a C generator (drift, pinv, luenberger, cascade, ekf, ukf) runs as
         its generated, compiled C (:func:`nlobs.export.compile_observer`; the same estimates to rounding
-        when the outputs are sampled; with exact outputs it holds ``y`` over each step).
+        when the outputs are sampled; with exact outputs it holds ``y`` over each step), and the plant's ``f``
+        is stepped by its generated C where the model has expressions or matrices
+        (:func:`nlobs.export.plant.compile_plant`; outputs, sensors and noise as in Python).
     executor : optional
         Where the observers run, one task per observer (:mod:`nlobs.simulate.executors`: a Dask client,
         a scheduler address or a process pool; ``None``: here). Each task is the same call as here, so
@@ -799,7 +801,7 @@ def compare_observers(
                                    "cluster, a scheduler address uses a running one)")
     outcomes: dict[str, ObserverOutcome] = {}
     if executor is None and workers is None and scheduler is None:
-        shared = _SharedPlant(s, progress)  # the plant integrated once, at the first observer that runs
+        shared = _SharedPlant(s, progress, backend)  # the plant integrated once, at the first observer that runs
         for name_ in chosen:
             outcomes[name_] = _run_one(name_, s, _with_p0(name_, options[name_], s), progress, backend, shared)
     else:
@@ -888,17 +890,35 @@ class _SharedPlant:
     """The comparison's plant run with its sensors (:func:`~nlobs.simulate.loop.simulate_plant`), made at the first
     call and replayed to every observer: the observers see the same samples, and the plant is integrated once."""
 
-    def __init__(self, s: _Setup, progress: bool | None) -> None:
-        self._s, self._progress = s, progress
+    def __init__(self, s: _Setup, progress: bool | None, backend: str = "python") -> None:
+        self._s, self._progress, self._backend = s, progress, backend
         self._run: PlantRun | None = None
+        self._plant: Any = None
+
+    @property
+    def plant(self) -> Any:
+        """The plant as it runs: its generated C with ``backend="c"`` where it has a generator (made once)."""
+        if self._plant is None:
+            self._plant = _plant(self._s, self._backend)
+        return self._plant
 
     def __call__(self) -> PlantRun:
         if self._run is None:
             s = self._s
-            self._run = simulate_plant(s.plant, _initial(s), duration=s.duration, dt=s.dt, u=s.u,
+            self._run = simulate_plant(self.plant, _initial(s), duration=s.duration, dt=s.dt, u=s.u,
                                        measurements=s.sensors, process_noise=s.process_noise, seed=s.seed,
                                        save_every=s.save_every, progress=self._progress)
         return self._run
+
+
+def _plant(s: _Setup, backend: str) -> Any:
+    """The comparison's plant, as its generated C with ``backend="c"`` where it has a generator (its ``f`` stepped
+    in C; outputs, sensors and noise as in Python, so the same draws), else itself."""
+    if backend != "c":
+        return s.plant
+    from nlobs.export.plant import compile_plant, has_plant_generator
+
+    return compile_plant(s.plant) if has_plant_generator(s.plant) else s.plant
 
 
 def _initial(s: _Setup) -> Array:
@@ -922,7 +942,8 @@ def _run_one(name: str, s: _Setup, options: Mapping[str, Any], progress: bool | 
         if shared is not None and s.sensors:  # sampled outputs: the observer replays the one plant run
             res = observe(shared(), obs, x_hat0, progress=progress, divergence="keep")
         else:  # exact outputs are read at every RK4 stage of the plant: integrated with each observer
-            res = simulate(s.plant, obs, _initial(s), x_hat0, duration=s.duration, dt=s.dt, u=s.u,
+            plant = shared.plant if shared is not None else _plant(s, backend)
+            res = simulate(plant, obs, _initial(s), x_hat0, duration=s.duration, dt=s.dt, u=s.u,
                            measurements=s.sensors or None, process_noise=s.process_noise, seed=s.seed,
                            save_every=s.save_every, progress=progress, divergence="keep")
         if one:

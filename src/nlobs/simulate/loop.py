@@ -43,7 +43,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time as _time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
@@ -391,15 +391,27 @@ def _run_fixed(s: _Setup, rec: _Recorder, progress: Progress) -> None:
             elif s.self_step:  # the observer's own discretisation, u and y held over the step
                 z = _own_step(s, st, t, z, uo, yo)
             clock[0] += perf() - tic
-            x = plant.rhs(t, x, u) if s.plant_discrete else rk4_step(plant_only, t, x, s.dt)
+            x = plant.rhs(t, x, u) if s.plant_discrete else _plant_step(s, plant_only, t, x, u_step)
         elif s.has_observer:
             x, z = rk4_step(joint, t, (x, z), s.dt)
         else:
-            x = rk4_step(plant_only, t, x, s.dt)
+            x = _plant_step(s, plant_only, t, x, u_step)
         if s.q_factor is not None:
             x = x + _process_noise(s, x.shape)
         _check_finite(s, s.t(k + 1), x, z)
         progress.update(k + 1)
+
+
+def _plant_step(s: _Setup, plant_only: Callable[[float, Array], Array], t: float, x: Array, u_step: Array) -> Array:
+    """The continuous plant's RK4 step from ``t``: its own ``step_stages`` where it has one (a compiled plant: the
+    same stages, the input at RK4's stage times unless it is held), else :func:`rk4_step` of ``plant_only``."""
+    step = getattr(s.plant, "step_stages", None)
+    if step is None:
+        return rk4_step(plant_only, t, x, s.dt)  # type: ignore[no-any-return]
+    h = s.dt
+    if s.u_hold:
+        return step(t, x, u_step, u_step, u_step, h)  # type: ignore[no-any-return]
+    return step(t, x, s.u_fn(t), s.u_fn(t + 0.5 * h), s.u_fn(t + h), h)  # type: ignore[no-any-return]
 
 
 def _own_step(s: _Setup, st: _State, t: float, z: Any, uo: Array, y: Array) -> Any:
