@@ -23,11 +23,11 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import Enum
-from types import MappingProxyType
 from typing import Any
 
 import numpy as np
 
+from nlobs._frozen import FrozenMapping
 from nlobs.errors import InvalidArgumentError
 
 __all__ = ["CheckKind", "Check", "Verdict"]
@@ -77,7 +77,7 @@ def _holds(value: float, limit: float, strict: bool) -> bool:
     return value < limit if strict else value <= limit
 
 
-_EMPTY: Mapping[str, Any] = MappingProxyType({})
+_EMPTY: Mapping[str, Any] = FrozenMapping({})
 
 
 @dataclass(frozen=True, eq=False)
@@ -149,7 +149,7 @@ class Check:
             set_(self, "value", float(self.value))
         if self.limit is not None:
             set_(self, "limit", float(self.limit))
-        set_(self, "values", MappingProxyType(dict(self.values)))
+        set_(self, "values", FrozenMapping(dict(self.values)))
         if self.worst_point is not None:
             set_(self, "worst_point", tuple(float(v) for v in self.worst_point))
         if self.strict is not None:

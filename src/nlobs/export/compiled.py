@@ -145,6 +145,9 @@ class CompiledObserver:
         The generated module.
     library : ctypes.CDLL
         The loaded shared library.
+    made_with : tuple or None
+        How :func:`compile_observer` made it (prefix, notes, options): a pickle compiles it again from these
+        (``None``: built otherwise, not picklable).
     time : Continuous or Discrete
         The observer's time base.
     name : str
@@ -154,6 +157,7 @@ class CompiledObserver:
     observer: Any
     program: CProgram
     library: Any = field(repr=False)
+    made_with: tuple[Any, ...] | None = field(default=None, repr=False, compare=False)
     time: TimeBase = field(init=False)
     name: str = field(init=False)
     state_names: tuple[str, ...] | None = field(init=False, repr=False)
@@ -169,6 +173,14 @@ class CompiledObserver:
             "step_batch", "rhs_batch", "run", "run_batch", "init", "estimate", "estimate_batch",
             *(("correct_batch",) if self.program.correcting else ()),
             *(("step_stages_batch",) if self.program.staged else ()))})
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        """Pickled as the Python observer and how it was compiled; compiled (or taken from the library cache) again
+        where it is unpickled (a loaded library cannot be pickled)."""
+        if self.made_with is None:
+            raise TypeError(f"{self.name}: built without compile_observer, so it cannot be pickled; pickle its "
+                            "observer and compile it where it is needed")
+        return (_recompile_observer, (self.observer, *self.made_with))
 
     # ------------------------------------------------------------------ sizes
     @property
@@ -396,6 +408,8 @@ class CompiledCorrectingObserver(CompiledObserver):
         The generated module (``correcting`` is true).
     library : ctypes.CDLL
         The loaded shared library.
+    made_with : tuple or None
+        How :func:`compile_observer` made it (a pickle compiles it again from these).
     """
 
     def correct(self, t: float, z: Array, u: Array, y: Array, fresh: BoolArray) -> Array:
@@ -459,7 +473,13 @@ def compile_observer(observer: Any, *, prefix: str | None = None, compiler: Comp
         cls = _CompiledDeferred if isinstance(observer, DeferredEstimate) else CompiledCorrectingObserver
     if isinstance(observer, Diagnosing):
         cls = _with_diagnostics(cls)
-    return cls(observer, program, lib)
+    return cls(observer, program, lib, (prefix, notes, options))
+
+
+def _recompile_observer(observer: Any, prefix: str | None, notes: tuple[tuple[str, str], ...],
+                        options: dict[str, Any] | None) -> CompiledObserver:
+    """Unpickle a :class:`CompiledObserver`: :func:`compile_observer` once more (the library cache answers)."""
+    return compile_observer(observer, prefix=prefix, notes=notes, options=options)
 
 
 _DIAGNOSING: dict[type, type] = {}

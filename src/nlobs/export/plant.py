@@ -120,6 +120,10 @@ class CompiledPlant:
         object.__setattr__(self, "name", f"{label} [C]")
         object.__setattr__(self, "_no_y", np.zeros(0))
 
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        """Pickled as the Python plant and the module's prefix; compiled again where it is unpickled."""
+        return (_recompile_plant, (self.plant, self.stepper.program.prefix))
+
     @property
     def n(self) -> int:
         """States."""
@@ -194,3 +198,8 @@ def compile_plant(plant: Any, *, prefix: str | None = None, compiler: Compiler |
     P = default_prefix(plant, prefix or f"nlobs_plant_{type(plant).__name__.lower()}")
     program = generate_plant(plant, P)
     return CompiledPlant(plant, CompiledObserver(plant, program, load_library(program, compiler=compiler)))
+
+
+def _recompile_plant(plant: Any, prefix: str) -> CompiledPlant:
+    """Unpickle a :class:`CompiledPlant`: :func:`compile_plant` once more (the library cache answers)."""
+    return compile_plant(plant, prefix=prefix)

@@ -86,6 +86,10 @@ class AffineFields:
     outputs: tuple[str, ...]
     _memo: dict[Any, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without the memo of derivatives (it holds SymPy polynomial rings, which do not pickle)."""
+        return {**self.__dict__, "_memo": {}}
+
     def __post_init__(self) -> None:
         # built directly (not by from_model), the fields may hold anything: no string may reach SymPy
         object.__setattr__(self, "x", as_symbols("x", self.x))

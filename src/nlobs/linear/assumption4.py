@@ -28,6 +28,7 @@ from nlobs.errors import AssumptionViolated, DimensionError, InvalidArgumentErro
 from nlobs.linear.observability import is_detectable, unobservable_modes
 from nlobs.linear.stability import BOUNDARY_TOL
 from nlobs.linear.zeros import invariant_zeros, minimum_phase
+from nlobs.systems.linear import takes_system
 
 __all__ = [
     "ASSUMPTION4_ITEMS",
@@ -69,6 +70,7 @@ class ExtendedSystem(NamedTuple):
     """``ℭ = [C, D_z]``."""
 
 
+@takes_system(time="continuous", A="A", B_z="B", C="C", D_z="D")
 def extended_system(A: ArrayLike, B_z: ArrayLike, C: ArrayLike, D_z: ArrayLike | None = None) -> ExtendedSystem:
     r"""Extended system (8c) of Grip, Saberi & Johansen that includes ``z`` as a state.
 
@@ -223,6 +225,7 @@ def _rank_item(key: str, title: str, M: Array, want: int, what: str) -> Check:
                                             "singular_values": [float(v) for v in s]}, CheckKind.RANK)
 
 
+@takes_system(time="continuous", A="A", B_z="B", C="C", D_z="D")
 def check_assumption4(
     A: ArrayLike,
     B_z: ArrayLike,
@@ -319,6 +322,7 @@ def check_assumption4(
     return Assumption4Report(tuple(items), n, pz, py, readonly(zeros, complex), int(iz.normal_rank))
 
 
+@takes_system(time="continuous", A="A", B_z="B", C="C", D_z="D")
 def require_assumption4(
     A: ArrayLike, B_z: ArrayLike, C: ArrayLike, D_z: ArrayLike | None = None, *, tol: float = BOUNDARY_TOL
 ) -> Assumption4Report:

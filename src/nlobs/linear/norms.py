@@ -38,6 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_matrix, as_square, in_range
 from nlobs.errors import DimensionError, InvalidArgumentError, NumericalError
+from nlobs.systems.linear import takes_system
 
 __all__ = ["h2_norm", "hinf_grid_peak", "hinf_norm"]
 
@@ -610,6 +611,7 @@ def _grid_peak_discrete(A: NDArray, B: NDArray, C: NDArray, D: NDArray, points: 
     return max(best, -float(res.fun))
 
 
+@takes_system(A="A", B="B", C="C", D="D")
 def hinf_grid_peak(
     A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike, *, discrete: bool = False, points: int = 600
 ) -> float:

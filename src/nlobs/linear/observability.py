@@ -48,6 +48,7 @@ from nlobs._validate import as_matrix, as_square, in_range
 from nlobs.errors import InvalidArgumentError
 from nlobs.linear.norms import _balance
 from nlobs.linear.stability import BOUNDARY_TOL, strictly_inside
+from nlobs.systems.linear import takes_system
 
 __all__ = ["observability_matrix", "is_observable", "unobservable_modes", "is_detectable"]
 
@@ -73,6 +74,7 @@ def _check_ac(A: ArrayLike, C: ArrayLike) -> tuple[NDArray[np.float64], NDArray[
     return A_, C_
 
 
+@takes_system(A="A", C="C")
 def observability_matrix(A: ArrayLike, C: ArrayLike) -> NDArray[np.float64]:
     """Kalman observability matrix ``[C; C A; …; C Aⁿ⁻¹]``, shape ``(n p, n)``.
 
@@ -456,6 +458,7 @@ def _conjugate_symmetric(z: NDArray, atol: float) -> NDArray:
     return z
 
 
+@takes_system(A="A", C="C")
 def unobservable_modes(
     A: ArrayLike, C: ArrayLike, *, discrete: bool = False, rtol: float = DEFAULT_RTOL, method: str = "auto"
 ) -> NDArray[np.complex128]:
@@ -516,6 +519,7 @@ def unobservable_modes(
     return lam[np.lexsort((lam.imag, lam.real))]
 
 
+@takes_system(A="A", C="C")
 def is_observable(A: ArrayLike, C: ArrayLike, *, rtol: float = DEFAULT_RTOL, method: str = "auto") -> bool:
     """Whether ``(A, C)`` is observable (no unobservable mode).
 
@@ -538,6 +542,7 @@ def is_observable(A: ArrayLike, C: ArrayLike, *, rtol: float = DEFAULT_RTOL, met
     return bool(_unobservable_eigs(A_, C_, in_range("rtol", rtol, 0.0, 1.0), _method(method)).size == 0)
 
 
+@takes_system(A="A", C="C")
 def is_detectable(
     A: ArrayLike,
     C: ArrayLike,

@@ -13,6 +13,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from nlobs._validate import as_square, in_range
 from nlobs.errors import NumericalError
+from nlobs.systems.linear import takes_system
 
 __all__ = ["BOUNDARY_TOL", "strictly_inside", "eigenvalues", "is_stable", "spectral_abscissa", "spectral_radius", "stability_margin"]
 
@@ -90,6 +91,7 @@ def strictly_inside(points: ArrayLike, *, discrete: bool = False, tol: float = B
     return z.real < -t * np.maximum(1.0, np.abs(z))
 
 
+@takes_system(A="A")
 def eigenvalues(A: ArrayLike) -> NDArray[np.complex128]:
     """Eigenvalues of a square matrix, sorted by real part then imaginary part.
 
@@ -114,6 +116,7 @@ def eigenvalues(A: ArrayLike) -> NDArray[np.complex128]:
     return lam[np.lexsort((lam.imag, lam.real))]
 
 
+@takes_system(A="A")
 def spectral_abscissa(A: ArrayLike) -> float:
     """Largest real part of the eigenvalues of ``A`` (``-inf`` when ``n = 0``).
 
@@ -132,6 +135,7 @@ def spectral_abscissa(A: ArrayLike) -> float:
     return float(np.max(lam.real, initial=-np.inf))
 
 
+@takes_system(A="A")
 def spectral_radius(A: ArrayLike) -> float:
     """Largest modulus of the eigenvalues of ``A`` (``0`` when ``n = 0``).
 
@@ -150,6 +154,7 @@ def spectral_radius(A: ArrayLike) -> float:
     return float(np.max(np.abs(lam), initial=0.0))
 
 
+@takes_system(A="A")
 def stability_margin(A: ArrayLike, *, discrete: bool = False) -> float:
     """Distance of the worst eigenvalue to the stability boundary.
 
@@ -174,6 +179,7 @@ def stability_margin(A: ArrayLike, *, discrete: bool = False) -> float:
     return -spectral_abscissa(A)
 
 
+@takes_system(A="A")
 def is_stable(A: ArrayLike, *, discrete: bool = False, tol: float = 0.0) -> bool:
     """Whether ``A`` is strictly (asymptotically) stable, with a safety margin.
 

@@ -38,6 +38,7 @@ from nlobs.checks import Check, CheckKind
 from nlobs.linear.norms import _balance, _check_abcd
 from nlobs.linear.observability import _conjugate_symmetric
 from nlobs.linear.stability import BOUNDARY_TOL, strictly_inside
+from nlobs.systems.linear import takes_system
 
 __all__ = [
     "InvariantZeros",
@@ -167,6 +168,7 @@ def _normal_rank_tol(A: NDArray, B: NDArray, C: NDArray, D: NDArray) -> tuple[fl
     return tol, scale
 
 
+@takes_system(A="A", B="B", C="C", D="D")
 def invariant_zeros(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | None = None) -> InvariantZeros:
     r"""Finite invariant zeros and normal rank of the Rosenbrock system matrix.
 
@@ -247,6 +249,7 @@ def _zeros(A_: NDArray, B_: NDArray, C_: NDArray, D_: NDArray) -> tuple[NDArray,
     return z, normal_rank
 
 
+@takes_system(A="A", B="B", C="C", D="D")
 def is_left_invertible(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | None = None) -> bool:
     """Whether the system is left invertible: normal rank of ``R(s)`` equals ``n + m``.
 
@@ -266,6 +269,7 @@ def is_left_invertible(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | 
     return invariant_zeros(A, B, C, D).left_invertible
 
 
+@takes_system(A="A", B="B", C="C", D="D")
 def minimum_phase(
     A: ArrayLike,
     B: ArrayLike,
@@ -312,6 +316,7 @@ def minimum_phase(
     return verdict(True, "left invertible, all finite invariant zeros strictly stable")
 
 
+@takes_system(A="A", B="B", C="C", D="D")
 def is_minimum_phase(
     A: ArrayLike,
     B: ArrayLike,
@@ -346,6 +351,7 @@ def is_minimum_phase(
     return minimum_phase(A, B, C, D, discrete=discrete, tol=tol).passed
 
 
+@takes_system(A="A", G="B", C="C", H="D")
 def is_strongly_detectable(
     A: ArrayLike,
     G: ArrayLike,

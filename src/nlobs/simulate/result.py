@@ -16,11 +16,11 @@ from collections.abc import Mapping, Sequence
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import MappingProxyType
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from nlobs._frozen import FrozenMapping
 from nlobs._io import atomic_write, save_figure
 from nlobs._typing import Array, BoolArray
 from nlobs._validate import readonly
@@ -33,7 +33,7 @@ if TYPE_CHECKING:
 #: Version of the ``.npz`` layout written by :meth:`SimulationResult.save` (version 1 files still load).
 FORMAT_VERSION = 2
 
-_EMPTY: Mapping[str, Any] = MappingProxyType({})
+_EMPTY: Mapping[str, Any] = FrozenMapping({})
 
 
 def _frozen_map(m: Mapping[str, Any] | None, arrays: bool) -> Mapping[str, Any]:
@@ -47,7 +47,7 @@ def _frozen_map(m: Mapping[str, Any] | None, arrays: bool) -> Mapping[str, Any]:
             out[k] = readonly(v, dtype=None)
         else:
             out[k] = v
-    return MappingProxyType(out)
+    return FrozenMapping(out)
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,6 +134,11 @@ class SimulationResult:
                                      f"estimate's {self.x_hat.shape[:-2]}") from None
         if self.sampled is not None and self.sampled.shape != (K, len(self.outputs)):
             raise DimensionError(f"SimulationResult.sampled: expected shape ({K}, {len(self.outputs)}), got {self.sampled.shape}")
+
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        """Pickled as its fields and made again by the constructor where it is unpickled (its arrays read-only
+        there too)."""
+        return (type(self), tuple(getattr(self, f.name) for f in dataclasses.fields(self)))
 
     # ------------------------------------------------------------------ shapes
     @property

@@ -60,6 +60,7 @@ from nlobs.errors import CertificateError, DesignInfeasible
 from nlobs.checks import Check, CheckKind
 from nlobs.synthesis.certificate import CertificateMixin, checks_dict
 from nlobs.synthesis.lmi import Solver, as_solver, bmat, max_eig, require_lmi_size, solve, symmetrise
+from nlobs.systems.linear import takes_system
 
 cp = LazyModule("cvxpy")  # imported by the first problem built (see nlobs._lazy)
 
@@ -159,6 +160,7 @@ def _structure(E: ArrayLike | None, F: ArrayLike | None, n: int) -> tuple[Array,
     return E_, F_
 
 
+@takes_system(time="discrete", A="A", C="C")
 def verify_discrete_lipschitz_gain(A: ArrayLike, C: ArrayLike, L: ArrayLike, P: ArrayLike, *, lipschitz: float,
                                    rho: float = 1.0, epsilon: float = 1.0, E: ArrayLike | None = None,
                                    F: ArrayLike | None = None) -> tuple[Check, ...]:
@@ -249,6 +251,7 @@ class _Problem:
         self.problem = cp.Problem(objective, cons)
 
 
+@takes_system(time="discrete", A="A", C="C")
 def design_discrete_lipschitz_gain(
     A: ArrayLike,
     C: ArrayLike,

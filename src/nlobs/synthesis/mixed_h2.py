@@ -79,6 +79,7 @@ from nlobs.synthesis.observer_gain import (
     _validate_data,
     verify_observer_gain,
 )
+from nlobs.systems.linear import takes_system
 
 cp = LazyModule("cvxpy")  # imported by the first problem built (see nlobs._lazy)
 
@@ -206,6 +207,7 @@ def _require_psd(name: str, M: NDArray[np.float64]) -> None:
         raise InvalidArgumentError(f"{name}: an intensity must be positive semidefinite (smallest eigenvalue {lam:.3g})")
 
 
+@takes_system(time="continuous", A="A", C="C")
 def h2_error_norm(A: ArrayLike, C: ArrayLike, K: ArrayLike, noise: NoiseModel) -> float:
     """``‖T‖₂``: the RMS of the weighted error ``z = L_z e`` of observer gain ``K`` under ``noise``.
 
@@ -245,6 +247,7 @@ def _h2(A: NDArray, C: NDArray, K: NDArray, noise: NoiseModel) -> float:
     return float(h2_norm(A - K @ C, B, Lz, np.zeros((Lz.shape[0], B.shape[1]))))
 
 
+@takes_system(time="continuous", A="A", C="C")
 def error_covariance(A: ArrayLike, C: ArrayLike, K: ArrayLike, noise: NoiseModel) -> NDArray[np.float64]:
     """Steady-state covariance ``Σ`` of the error ``e`` (not weighted): ``(A − KC) Σ + Σ (A − KC)ᵀ + B̂ B̂ᵀ = 0``.
 
@@ -282,6 +285,7 @@ def _covariance(Acl: NDArray, B: NDArray) -> NDArray:
     return 0.5 * (S + S.T)
 
 
+@takes_system(time="continuous", A="A", C="C")
 def kalman_bucy_gain(A: ArrayLike, C: ArrayLike, noise: NoiseModel, *,
                      regularise: float = 1e-9) -> tuple[NDArray[np.float64], bool]:
     """The Kalman–Bucy gain of the noise model: the unconstrained minimum of the error variance.
@@ -581,6 +585,7 @@ def _refine(d: Any, noise: NoiseModel, K0: NDArray[np.float64], gamma: float) ->
     return gain(x)
 
 
+@takes_system(time="continuous", A="A", C="C", Bd="B")
 def design_h2_gain(
     A: ArrayLike,
     C: ArrayLike,
@@ -704,6 +709,7 @@ def _certificate(d: Any, noise: NoiseModel, K: NDArray[np.float64], gamma: float
         solver_status=status, margin=margin, seconds=seconds)
 
 
+@takes_system(time="continuous", A="A", C="C", Bd="B")
 def verify_h2_gain(A: ArrayLike, C: ArrayLike, Bd: ArrayLike, K: ArrayLike, *, gamma: float, noise: NoiseModel,
                    region: RegionArg = None, gain_bound: GainBound | float | None = None,
                    margin: float = 1e-6) -> MixedH2Certificate:

@@ -80,6 +80,7 @@ from nlobs.synthesis.lmi import (
 )
 from nlobs.synthesis.regions import PoleRegion, as_regions
 from nlobs.synthesis.riccati import FilterRiccati, filter_riccati, riccati_delta, smallest_riccati_scale
+from nlobs.systems.linear import takes_system
 
 cp = LazyModule("cvxpy")  # imported by the first problem built (see nlobs._lazy)
 
@@ -300,6 +301,7 @@ class SdpEstimate:
                 f"~{self.seconds:.2g} s for the interior-point solver")
 
 
+@takes_system(time="continuous", A="A", C="C", Bd="B")
 def sdp_estimate(A: ArrayLike, C: ArrayLike, Bd: ArrayLike, *, N: ArrayLike | None = None,
                  gamma_n: float | None = None, region: RegionArg = None, gain_bound: GainBound | float | None = None,
                  objective: Objective | str = Objective.CENTRAL) -> SdpEstimate:
@@ -855,6 +857,7 @@ def _riccati_infeasible(d: _Data, gamma: float, gamma_n: float, margin: float, r
     )
 
 
+@takes_system(time="continuous", A="A", C="C", Bd="B")
 def design_observer_gain(
     A: ArrayLike,
     C: ArrayLike,
@@ -1028,6 +1031,7 @@ def _riccati_certificate(d: _Data, out: _RiccatiOut, gamma: float, gamma_n: floa
     return cert
 
 
+@takes_system(time="continuous", A="A", C="C", Bd="B")
 def verify_observer_gain(
     A: ArrayLike,
     C: ArrayLike,

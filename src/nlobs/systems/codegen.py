@@ -102,6 +102,13 @@ class BatchedFunction:
     #: The entries that are numbers, found at the first batched call (:meth:`_constant_entries`).
     _split: dict[str, Any] = field(default_factory=dict, init=False, repr=False, compare=False)
 
+    def __reduce__(self) -> tuple[Any, tuple[Any, ...]]:
+        """Pickled as what it was compiled from (the expressions and argument symbols), compiled again where it is
+        unpickled: generated code cannot be pickled. A function built otherwise pickles as its fields."""
+        if self.arguments and len(self.expressions) == self.shape[0] * self.shape[1]:
+            return (_recompile, (self.shape, self.expressions, self.arguments, self.vector))
+        return (BatchedFunction, (self.shape, self.groups, self.vector, self._fn, self.expressions, self.arguments))
+
     def __call__(self, *args: Array) -> Array:
         flat, batch = self._flatten(args)
         return self._assemble(self._fn(*flat), batch)
@@ -205,6 +212,12 @@ def evaluate_together(functions: Sequence[BatchedFunction], *args: Array) -> tup
 COMPILED_CACHE_SIZE = 256
 _COMPILED: OrderedDict[tuple[Any, ...], BatchedFunction] = OrderedDict()
 _COMPILED_LOCK = threading.Lock()
+
+
+def _recompile(shape: tuple[int, int], expressions: tuple[sp.Expr, ...], arguments: tuple[tuple[sp.Symbol, ...], ...],
+               vector: bool) -> BatchedFunction:
+    """Unpickle a :class:`BatchedFunction`: compile its expressions again."""
+    return compile_matrix(sp.Matrix(shape[0], shape[1], list(expressions)), arguments, vector=vector)
 
 
 def compile_matrix(

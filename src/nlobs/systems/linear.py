@@ -7,10 +7,12 @@ read-only float arrays.
 
 from __future__ import annotations
 
+import functools
+import inspect
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -20,6 +22,7 @@ from nlobs.errors import InvalidArgumentError
 from nlobs.systems.timebase import CONTINUOUS, Discrete, TimeBase
 
 _CONTROL_DEFAULT_LABEL = re.compile(r"[xuy]\[\d+\]")
+F = TypeVar("F", bound=Callable[..., Any])
 
 
 def is_control_system(obj: Any) -> bool:
@@ -74,6 +77,80 @@ def as_linear_system(obj: Any, what: str = "sys") -> LinearSystem:
         return LinearSystem.from_control(obj)
     raise InvalidArgumentError(f"{what}: expected a LinearSystem or a python-control StateSpace/TransferFunction, "
                                f"got {type(obj).__name__}")
+
+
+_ROLE_LETTERS = frozenset("ABCD")
+
+
+def takes_system(*, time: str = "either", **roles: str) -> Callable[[F], F]:
+    """Let a function of a system's matrices also take the system: a :class:`LinearSystem` or a python-control
+    ``StateSpace``/``TransferFunction`` in place of its first matrix.
+
+    ``roles`` maps each matrix parameter to the system's matrix it is (``A="A", C="C", Bd="B"``), the first one being
+    where the system goes; the other matrices must then not be given. Positional arguments after the system go to
+    the function's other parameters in order. A ``discrete`` parameter is taken from the system's time base (given as
+    well, it must agree).
+
+    Parameters
+    ----------
+    time : {"either", "continuous", "discrete"}
+        The time bases the function is for: a system of another is refused with the function's name.
+    **roles : str
+        Parameter name → ``"A"``, ``"B"``, ``"C"`` or ``"D"``.
+
+    Returns
+    -------
+    callable
+        The decorator.
+    """
+    if not roles or any(v not in _ROLE_LETTERS for v in roles.values()) or time not in ("either", "continuous",
+                                                                                          "discrete"):
+        raise InvalidArgumentError(f"takes_system: roles {roles!r}, time {time!r}")
+    names = tuple(roles)
+
+    def decorate(fn: F) -> F:
+        params = [p for p in inspect.signature(fn).parameters.values()
+                  if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+        if not params or params[0].name != names[0]:
+            raise InvalidArgumentError(f"takes_system: {fn.__name__}'s first parameter is not {names[0]}")
+        others = [p.name for p in params if p.name not in roles]
+        has_discrete = "discrete" in inspect.signature(fn).parameters
+
+        @functools.wraps(fn)
+        def wrapper(*args: Any, **kwargs: Any) -> Any:
+            first = args[0] if args else kwargs.get(names[0])
+            if not (isinstance(first, LinearSystem) or is_control_system(first)):
+                return fn(*args, **kwargs)
+            sys = as_linear_system(first, names[0])
+            rest = list(args[1:])
+            if len(rest) > len(others):
+                raise InvalidArgumentError(f"{fn.__name__}: {len(args)} positional arguments with a system")
+            given = [n for n in names[1:] if n in kwargs]
+            if given:
+                raise InvalidArgumentError(f"{fn.__name__}: {names[0]} is a system, and {', '.join(given)} "
+                                           "given as well: give the system or its matrices")
+            call = {k: v for k, v in kwargs.items() if k != names[0]}
+            for name, value in zip(others, rest):
+                if name in call:
+                    raise InvalidArgumentError(f"{fn.__name__}: {name} given twice")
+                call[name] = value
+            matrices = {"A": sys.A, "B": sys.B, "C": sys.C, "D": sys.D}
+            for name, role in roles.items():
+                call[name] = matrices[role]
+            discrete = sys.time.is_discrete
+            if time != "either" and discrete != (time == "discrete"):
+                raise InvalidArgumentError(f"{fn.__name__}: a {'discrete' if discrete else 'continuous'}-time system; "
+                                           f"this function is for {time} time")
+            if has_discrete:
+                if "discrete" in call and bool(call["discrete"]) != discrete:
+                    raise InvalidArgumentError(f"{fn.__name__}: discrete={call['discrete']!r} for a "
+                                               f"{'discrete' if discrete else 'continuous'}-time system")
+                call["discrete"] = discrete
+            return fn(**call)
+
+        return wrapper  # type: ignore[return-value]
+
+    return decorate
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,6 @@ import io
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from types import MappingProxyType
 from pathlib import Path
 from typing import Any, Literal
 
@@ -37,6 +36,7 @@ import numpy as np
 import sympy as sp
 from numpy.typing import ArrayLike
 
+from nlobs._frozen import FrozenMapping
 from nlobs._io import read_regular_text
 from nlobs._typing import Array
 from nlobs._validate import as_finite_array, escape_unsafe, name_problem, readonly, real_scalar
@@ -398,7 +398,7 @@ class Expression(Signal):
         expr = parse_expression(self.text, {"t": t, **psyms})
         used = {k: params[k] for k in sorted(params) if psyms[k] in expr.free_symbols}
         expr = expr.subs({psyms[k]: sp.Float(v) for k, v in used.items()})
-        object.__setattr__(self, "parameters", MappingProxyType(used))
+        object.__setattr__(self, "parameters", FrozenMapping(used))
         object.__setattr__(self, "_fn", compile_matrix([expr], ((t,),), vector=True, what="Expression"))
 
     def __eq__(self, other: object) -> bool:
