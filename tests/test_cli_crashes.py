@@ -355,7 +355,7 @@ def test_a_box_beyond_1e100_is_refused_not_called_a_rank_failure() -> None:
 
 
 @pytest.mark.parametrize(("args", "needle"), [
-    (["analyze"], "Missing argument 'model'"), (["bogus"], "No such command 'bogus'"),
+    (["analyze"], "Missing argument 'MODEL'"), (["bogus"], "No such command 'bogus'"),
     (["simulate", "compare", "pendulum", "--runs", "x"], "Invalid value for '--runs'"),
 ])
 def test_usage_errors_are_one_line(args: list[str], needle: str) -> None:

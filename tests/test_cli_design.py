@@ -103,7 +103,7 @@ def test_pinv_refuses_a_model_violating_a1_with_status_3(tmp_path: Path) -> None
     ("args", "status", "msg"),
     [
         (["design", "drift", "pendulum", "--s", "1"], 2, "sums to 1; it must sum to n = 2"),
-        (["design", "drift", "pendulum", "--method", "magic"], 2, "--method: expected 'vandermonde' or 'sdp'"),
+        (["design", "drift", "pendulum", "--method", "magic"], 2, "'magic' is not one of 'vandermonde', 'sdp'"),
         (["design", "drift", "grip-example1-filter"], 2, "a nonlinear (symbolic) model is needed"),
         (["design", "pinv", "pendulum", "--simulate"], 2, "--simulate needs --x0"),
         (["design", "pinv", "pendulum", "--simulate", "--x0", "1,2,3"], 2, "--x0: expected 2 numbers"),

@@ -12,12 +12,13 @@ from typing import Annotated
 
 import typer
 
-from nlobs.cli.common import box_numbers, console, emit_json, fail, finish
+from nlobs.cli.common import Progress_, box_numbers, complete_model, console, emit_json, fail, finish
 from nlobs.errors import ModelFileError, NlobsError
 
 
 def advise_cmd(
-    model: Annotated[str, typer.Argument(help="A model file (.toml), or the name of a shipped model.")],
+    model: Annotated[str, typer.Argument(
+        metavar="MODEL", autocompletion=complete_model, help="A model file (.toml), or the name of a shipped model.")],
     box: Annotated[str | None, typer.Option(
         help="Region of the analyses: 'lo,hi' for every state, or 2n numbers lo1,hi1,... "
              "(default: the file's [simulation] box, else -1,1).")] = None,
@@ -27,6 +28,7 @@ def advise_cmd(
                         "(seconds to minutes).")] = False,
     runs: Annotated[int, typer.Option(help="Monte Carlo runs of --check.")] = 3,
     as_json: Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON report.")] = False,
+    progress: Progress_ = None,
 ) -> None:
     """Say which observer applies to a model, with the evidence, the parameters to start from and the command."""
     from nlobs.workflows.advise import advise_model
@@ -34,7 +36,7 @@ def advise_cmd(
 
     try:
         report = advise_model(model, box=box_numbers("--box", box), check=check, runs=runs,
-                              progress=None if not as_json else False)
+                              progress=progress)
     except ModelFileError as exc:
         fail(str(exc))
     except BoxError as exc:

@@ -25,6 +25,7 @@ from typing import Annotated
 import typer
 
 from nlobs.cli.common import (
+    complete_model,
     EXIT_FAILURE,
     box_numbers,
     console,
@@ -35,7 +36,9 @@ from nlobs.cli.common import (
     parse_floats,
     print_table,
     simulate_app,
+    Progress_,
 )
+from nlobs.cli.choices import Backend, Demo, DemoGains, Paper, Schedule, value
 from nlobs.errors import ModelFileError, NlobsError, OutputError
 
 class _Interrupted(BaseException):
@@ -108,13 +111,36 @@ def _one_line_usage_errors() -> None:
         module.UsageError.show = _usage_in_one_line
 
 
+def _named_arguments_without_types() -> None:
+    """typer ≥ 0.26 writes an argument's Python type after its name (``MODEL <str>``); an argument that names its
+    value (a metavar) is shown by that name alone, choices still listed (``PAPER <grip2013|…>``)."""
+    try:
+        core = importlib.import_module("typer.core")
+    except ImportError:  # pragma: no cover - typer is a dependency
+        return
+    cls = getattr(core, "TyperArgument", None)
+    original = getattr(cls, "display_type", None)
+    if original is None or getattr(original, "nlobs_named", False):
+        return  # an older typer (click's own help), or already done
+
+    def display_type(self: Any, ctx: Any) -> str:
+        descriptor = getattr(self, "type_descriptor", None)
+        if self.metavar is not None and not getattr(descriptor, "is_choice", False):
+            return ""
+        return original(self, ctx)  # type: ignore[no-any-return]
+
+    display_type.nlobs_named = True  # type: ignore[attr-defined]
+    cls.display_type = display_type  # type: ignore[union-attr]
+
+
 _one_line_usage_errors()
+_named_arguments_without_types()
 
 app = _NlobsApp(
     name="nlobs",
     help="Design, certify and simulate nonlinear state observers.",
     no_args_is_help=True,
-    add_completion=False,
+    add_completion=True,
     pretty_exceptions_enable=False,
     rich_markup_mode=None,  # plain help: units in brackets ("[s]") are text, not markup; the same on every typer
 )
@@ -142,7 +168,8 @@ def _root(
 
 @app.command("analyze")
 def analyze_cmd(
-    model: Annotated[str, typer.Argument(help="A model file (.toml), or the name of a shipped model.")],
+    model: Annotated[str, typer.Argument(
+        metavar="MODEL", autocompletion=complete_model, help="A model file (.toml), or the name of a shipped model.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON report.")] = False,
     x0: Annotated[str | None, typer.Option(
         help="Linearisation point of a nonlinear model, e.g. '0,1,0,0' (default: the file's [simulation] x0, "
@@ -183,7 +210,7 @@ def analyze_cmd(
 
 @app.command("reproduce")
 def reproduce_cmd(
-    paper: Annotated[str, typer.Argument(help=(
+    paper: Annotated[Paper, typer.Argument(metavar="PAPER", help=(
         "Which paper: grip2013 (Grip, Saberi & Johansen, cascade and GNSS/INS observers), dallamora2000 (Dalla "
         "Mora, Germani & Manes, drift observability), robenack2008 (Röbenack, the Moore–Penrose gain), "
         "khajenejad-yong (Khajenejad & Yong, set-valued input and state observers)."))],
@@ -192,10 +219,9 @@ def reproduce_cmd(
     """Print each number a paper reports beside the value nlobs computes."""
     from rich.table import Table
 
-    from nlobs.papers.reproduce import PAPERS, format_value, reproduce
+    from nlobs.papers.reproduce import format_value, reproduce
 
-    if paper not in PAPERS:
-        fail(f"unknown paper {paper!r} (known: {', '.join(sorted(PAPERS))})")
+    paper = value(paper)
     try:
         rows = reproduce(paper)
     except NlobsError as exc:
@@ -211,49 +237,46 @@ def reproduce_cmd(
     console().print(table)
 
 
-DEMOS = ("gnss-ins",)
-
-
 @app.command("demo")
 def demo_cmd(
-    name: Annotated[str, typer.Argument(help="Which demo: gnss-ins.")],
+    name: Annotated[Demo, typer.Argument(metavar="NAME", help="Which demo: gnss-ins.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print the results as JSON.")] = False,
     seed: Annotated[int, typer.Option(help="Seed of the flight and of the sensor noise.")] = 0,
     duration: Annotated[float | None, typer.Option(help="Flight length [s] (default: the whole pattern).")] = None,
     out: Annotated[Path, typer.Option(help="Folder for the figures and results.json.")] = Path("out/gnss-ins"),
     yaw_error: Annotated[float, typer.Option(help="Initial yaw error [deg].")] = 60.0,
-    gains: Annotated[str, typer.Option(
+    gains: Annotated[DemoGains, typer.Option(
         help="'noise-optimal' (the certified gain with the smallest noise-to-error H2 norm under LMI (14), "
              "the paper's gains beside it), 'paper' (Sec. 5.2) or 'designed' (nlobs's central LMI design).")
-    ] = "noise-optimal",
-    attitude_gain: Annotated[str | None, typer.Option(
+    ] = DemoGains.noise_optimal,
+    attitude_gain: Annotated[Schedule | None, typer.Option(
         help="Attitude gain of the noise-optimal observer: 'scheduled' (its default: Γ(t) = γ(t) I from 0.5 I "
              "down to the steady-state gain set by the gyro and magnetometer noise) or 'constant' (0.5 I).")
     ] = None,
-    translation_gain: Annotated[str | None, typer.Option(
+    translation_gain: Annotated[Schedule | None, typer.Option(
         help="Gain K of the noise-optimal observer's position and velocity: 'scheduled' (its default: certified "
              "Kalman–Bucy levels from the first fix's uncertainty down to the noise-optimal K) or 'constant' "
              "(the noise-optimal K throughout).")
     ] = None,
     position_only: Annotated[bool, typer.Option(help="GNSS position only (Sec. 5.2, C = [I 0]).")] = False,
     ekf: Annotated[bool, typer.Option(help="Also run the EKF baseline.")] = True,
-    backend: Annotated[str, typer.Option(
+    backend: Annotated[Backend, typer.Option(
         help="'python' (default) or 'c': observer (24) and the EKF run as their generated, compiled C.")]
-    = "python",
+    = Backend.python,
+    progress: Progress_ = None,
 ) -> None:
     """Run a demo: gnss-ins simulates a flight and compares observer (24) with an EKF."""
     from nlobs.workflows.demo import DemoConfig, gnss_ins_demo
 
-    if name not in DEMOS:
-        fail(f"unknown demo {name!r} (known: {', '.join(DEMOS)})")
+    name = value(name)
     try:
-        config = DemoConfig(seed=seed, duration=duration, yaw_error_deg=yaw_error, gains=gains,
-                            attitude_gain=attitude_gain, translation_gain=translation_gain,
-                            position_only=position_only, ekf=ekf, backend=backend)
+        config = DemoConfig(seed=seed, duration=duration, yaw_error_deg=yaw_error, gains=value(gains),
+                            attitude_gain=value(attitude_gain), translation_gain=value(translation_gain),
+                            position_only=position_only, ekf=ekf, backend=value(backend))
     except NlobsError as exc:
         fail(str(exc))
     try:
-        report = gnss_ins_demo(config, out, progress=not as_json)
+        report = gnss_ins_demo(config, out, progress=progress)
     except OutputError as exc:
         fail(str(exc))
     except NlobsError as exc:

@@ -20,7 +20,7 @@ import json
 import math
 import re
 from collections.abc import Collection, Mapping
-from typing import TYPE_CHECKING, Any, NoReturn
+from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 
 import typer
 from typer.core import TyperGroup
@@ -212,6 +212,27 @@ def emit_json(data: dict[str, Any]) -> None:
     typer.echo(json.dumps(report, indent=2, allow_nan=False))
 
 
+
+def complete_model(incomplete: str) -> list[str]:
+    """Shell completion of a MODEL argument: the shipped models and the ``.toml`` files here that start so."""
+    from pathlib import Path
+
+    from nlobs.systems.modelfile import shipped_models
+
+    names = sorted(n for n in shipped_models() if n.startswith(incomplete))
+    folder = Path(incomplete).parent if incomplete else Path(".")
+    try:
+        files = sorted(str(p) if str(folder) != "." else p.name for p in folder.glob("*.toml")
+                       if str(p).startswith(incomplete) or (str(folder) == "." and p.name.startswith(incomplete)))
+    except OSError:
+        files = []
+    return names + files
+
+
+#: The one progress convention of the long commands: a bar on stderr, shown automatically on a terminal.
+Progress_ = Annotated[bool | None, typer.Option(
+    "--progress/--no-progress", help="A progress bar on stderr (default: on a terminal, once the work takes a "
+                                     "while; never in redirected output).")]
 
 design_app = typer.Typer(help="Design an observer for a model and print its verification.", no_args_is_help=True,
                          rich_markup_mode=None)

@@ -17,7 +17,9 @@ from typing import Annotated
 import typer
 
 from nlobs.cli.common import (
+    complete_model,
     EXIT_FAILURE,
+    Progress_,
     box_numbers,
     console,
     emit_json,
@@ -26,6 +28,7 @@ from nlobs.cli.common import (
     parse_floats,
     simulate_app,
 )
+from nlobs.cli.choices import Backend, value
 from nlobs.errors import ModelFileError, NlobsError, OutputError, StudyFailed
 from nlobs.methods.registry import REGISTRY, names
 
@@ -86,9 +89,10 @@ def _one_or_many(option: str, text: str | None) -> list[float] | float | None:
 
 @simulate_app.command("compare")
 def compare_cmd(
-    model: Annotated[str, typer.Argument(help="A model file (.toml) with optional [sensors], [input_signals], "
+    model: Annotated[str, typer.Argument(
+        metavar="MODEL", autocompletion=complete_model, help="A model file (.toml) with optional [sensors], [input_signals], "
                                               "[process_noise], units and [simulation] tables, or a shipped model.")],
-    observer: Annotated[str, typer.Option("--observer", help=f"Comma-separated observers (default: all). {_HELP}.")] = _KNOWN,
+    observer: Annotated[str, typer.Option("--observer", metavar="NAME,...", help=f"Comma-separated observers (default: all). {_HELP}.")] = _KNOWN,
     runs: Annotated[int | None, typer.Option(help="Monte Carlo runs (default: [simulation].runs, else 20).")] = None,
     duration: Annotated[float | None, typer.Option(help="Simulated time [s] (default: [simulation], else 10).")] = None,
     dt: Annotated[float | None, typer.Option(help="RK4 step [s] (default: [simulation], else 1e-3).")] = None,
@@ -102,7 +106,7 @@ def compare_cmd(
     rate: Annotated[float | None, typer.Option(help="One sensor for all outputs at this rate [Hz] (replaces [sensors]).")] = None,
     noise_std: Annotated[str | None, typer.Option("--noise-std", help="Its noise std, one or per output.")] = None,
     input_: Annotated[list[str] | None, typer.Option(
-        "--input", help="Known input NAME=SPEC, repeatable: constant:1, step:0,1,2, sine:A,f[,phase,offset], "
+        "--input", metavar="NAME=SPEC", help="Known input NAME=SPEC, repeatable: constant:1, step:0,1,2, sine:A,f[,phase,offset], "
                         "chirp:A,f0,f1,T, csv:FILE[:COLUMN], expr:0.5*sin(2*t).")] = None,
     process_noise: Annotated[str | None, typer.Option(
         "--process-noise", help="Process-noise std per state [unit/√s] (replaces [process_noise]).")] = None,
@@ -110,19 +114,20 @@ def compare_cmd(
         "--filter-q", help="EKF/UKF process-noise std per state (default: the process noise).")] = None,
     alpha: Annotated[float | None, typer.Option(help="Luenberger gain: poles left of −alpha (default 1).")] = None,
     option: Annotated[list[str] | None, typer.Option(
-        "--option", help="A method's design option, METHOD.KEY=VALUE, repeatable (e.g. drift.mu=2, drift.alpha=0.5, "
+        "--option", metavar="METHOD.KEY=VALUE", help="A method's design option, METHOD.KEY=VALUE, repeatable (e.g. drift.mu=2, drift.alpha=0.5, "
                          "pinv.theta=3, cascade.gamma=0.5, ekf.filter_q=0.01,0.01): the options of nlobs design and "
                          "nlobs export.")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
     out: Annotated[Path | None, typer.Option("--out", help="Folder for compare.json, plots, .npz and .csv.")] = None,
-    backend: Annotated[str, typer.Option(
+    backend: Annotated[Backend, typer.Option(
         "--backend", help="'python' (default) or 'c': the plant and the observers with a C generator run as "
-                          "generated, compiled C (the EKF and the UKF too).")] = "python",
+                          "generated, compiled C (the EKF and the UKF too).")] = Backend.python,
     workers: Annotated[int | None, typer.Option(min=1, help="Run the observers, one task each, on a local Dask "
                                                 "cluster of N worker processes (the same numbers; needs nlobs[dask]).")]
     = None,
     scheduler: Annotated[str | None, typer.Option(help="Run the observers on the Dask scheduler at this address "
                                                   "(tcp://host:8786).")] = None,
+    progress: Progress_ = None,
 ) -> None:
     """Compare observers (drift, pinv, luenberger, cascade) with an EKF and a UKF on the same noisy runs."""
     from nlobs.workflows.compare import compare_observers
@@ -138,8 +143,8 @@ def compare_cmd(
             x_hat0=parse_floats("--xhat0", xhat0), initial_error_std=_one_or_many("--initial-error-std", initial_error_std),
             box=box_numbers("--box", box), settle=settle, rate=rate, noise_std=_one_or_many("--noise-std", noise_std),
             inputs=_inputs(input_), process_noise=pn, filter_q=fq, alpha=alpha,
-            design_options=design_options(option), out=out, progress=None if not as_json else False,
-            name=model, backend=backend, workers=workers, scheduler=scheduler)
+            design_options=design_options(option), out=out, progress=progress,
+            name=model, backend=value(backend), workers=workers, scheduler=scheduler)
     except ModelFileError as exc:
         fail(str(exc))
     except OutputError as exc:

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Annotated, Any, NoReturn
 import typer
 
 from nlobs.cli.common import (
+    complete_model,
     EXIT_FAILURE,
     EXIT_NO_OBSERVER,
     box_numbers,
@@ -36,6 +37,7 @@ from nlobs.cli.common import (
     on_off,
     parse_floats,
 )
+from nlobs.cli.choices import CascadeMethod, DriftMethod, OnOff, Placement, value
 from nlobs.errors import (
     AssumptionViolated,
     DesignError,
@@ -60,7 +62,7 @@ U_ = Annotated[str | None, typer.Option("--u", help="Constant input for --simula
 Duration_ = Annotated[float, typer.Option("--duration", help="Simulated time [s].")]
 Dt_ = Annotated[float, typer.Option("--dt", help="RK4 step [s]; it must resolve the gain's fastest pole.")]
 Out_ = Annotated[Path | None, typer.Option("--out", help="Folder for the plot (.png) and trajectories (.npz).")]
-Saturation_ = Annotated[str, typer.Option(
+Saturation_ = Annotated[OnOff, typer.Option(
     "--saturation", help="'on' (default): the simulated observer is saturated outside the region (peaking remedy; "
     "the same observer while the estimate is in the region); 'off': as printed in the paper.")]
 
@@ -119,18 +121,20 @@ def _errors(model: str, exc: NlobsError) -> NoReturn:
 
 @design_app.command("drift")
 def drift_cmd(
-    model: Annotated[str, typer.Argument(help="A model file (.toml) or a shipped model name.")],
+    model: Annotated[str, typer.Argument(
+        metavar="MODEL", autocompletion=complete_model, help="A model file (.toml) or a shipped model name.")],
     s: Annotated[str | None, typer.Option("--s", help="Multi-index, e.g. '3,1' (default: observability indices).")] = None,
     alpha: Annotated[float | None, typer.Option(help="Decay rate α of (2.17) (default 1).")] = None,
     mu: Annotated[float | None, typer.Option(
         help="Input bound μ of (2.17) (default: the largest ‖u(t)‖ of the file's [input_signals] over its "
              "[simulation] duration, else 0).")] = None,
     gamma: Annotated[float | None, typer.Option(help="γ of (2.17) (default: estimated on the region).")] = None,
-    method: Annotated[str, typer.Option(help="'vandermonde' (Remark 2.11) or 'sdp' (LMI in S = P⁻¹, Y = S K).")] = "vandermonde",
+    method: Annotated[DriftMethod, typer.Option(help="'vandermonde' (Remark 2.11) or 'sdp' (LMI in S = P⁻¹, Y = S K).")
+                      ] = DriftMethod.vandermonde,
     w: Annotated[float | None, typer.Option(help="Check and use K(w) instead of searching the smallest w.")] = None,
     w_max: Annotated[float, typer.Option("--w-max", help="Largest w the search for the smallest w tries.")] = 1e5,
     box: Box_ = None,
-    saturation: Saturation_ = "on",
+    saturation: Saturation_ = OnOff.on,
     as_json: Json_ = False,
     simulate: Simulate_ = False,
     x0: X0_ = None,
@@ -146,12 +150,11 @@ def drift_cmd(
     this structure there), 1 when the design is not usable otherwise (a given --gamma below the
     sampled estimate, a failed certificate).
     """
-    from nlobs.workflows.design_drift import METHODS, design_drift_observer
+    from nlobs.workflows.design_drift import design_drift_observer
 
-    if method not in METHODS:
-        fail(f"--method: expected 'vandermonde' or 'sdp', got {method!r}")
+    method = value(method)
     region = box_numbers("--box", box)
-    sat = on_off("--saturation", saturation)
+    sat = on_off("--saturation", value(saturation))
     multi_index = _ints("--s", s)
     request = _request(simulate, x0, xhat0, u, duration, dt, out)
     try:
@@ -169,12 +172,14 @@ def drift_cmd(
 
 @design_app.command("pinv")
 def pinv_cmd(
-    model: Annotated[str, typer.Argument(help="A model file (.toml) or a shipped model name.")],
+    model: Annotated[str, typer.Argument(
+        metavar="MODEL", autocompletion=complete_model, help="A model file (.toml) or a shipped model name.")],
     theta: Annotated[float, typer.Option(help="High-gain parameter θ of the roots of (10).")] = 2.0,
-    placement: Annotated[str, typer.Option(help="'powers' (roots −θ^i) or 'multiple' (root −θ, multiplicity r).")] = "powers",
+    placement: Annotated[Placement, typer.Option(help="'powers' (roots −θ^i) or 'multiple' (root −θ, multiplicity r).")
+                         ] = Placement.powers,
     k: Annotated[str | None, typer.Option("--k", help="Gain vector k (Σ r_j numbers), instead of θ.")] = None,
     box: Box_ = None,
-    saturation: Annotated[str | None, typer.Option(
+    saturation: Annotated[OnOff | None, typer.Option(
         "--saturation", help="'on': the simulated observer is saturated outside the region (peaking remedy; the "
         "same observer while the estimate is in the region); 'off': as printed in the paper. Default: on with "
         "a region (--box, or the model file's [simulation] box), off without (the default region -1,1 need not "
@@ -189,12 +194,11 @@ def pinv_cmd(
     out: Out_ = None,
 ) -> None:
     """Design Röbenack's Moore–Penrose observer (7), (17) and check A1, A5."""
-    from nlobs.workflows.design_pinv import PLACEMENTS, design_pinv_observer
+    from nlobs.workflows.design_pinv import design_pinv_observer
 
-    if placement not in PLACEMENTS:
-        fail(f"--placement: expected 'powers' or 'multiple', got {placement!r}")
+    placement = value(placement)
     region = box_numbers("--box", box)
-    sat = None if saturation is None else on_off("--saturation", saturation)
+    sat = None if saturation is None else on_off("--saturation", value(saturation))
     kv = parse_floats("--k", k)
     request = _request(simulate, x0, xhat0, u, duration, dt, out)
     try:
@@ -209,10 +213,11 @@ def pinv_cmd(
 
 @design_app.command("cascade")
 def cascade_cmd(
-    model: Annotated[str, typer.Argument(help="A model file (.toml) with a [cascade] table, or a shipped model name.")],
+    model: Annotated[str, typer.Argument(
+        metavar="MODEL", autocompletion=complete_model, help="A model file (.toml) with a [cascade] table, or a shipped model name.")],
     gamma: Annotated[float | None, typer.Option(help="‖H‖∞ < γ asked of the gain (default: the file's "
                                                      "[cascade].gamma, else 1).")] = None,
-    method: Annotated[str | None, typer.Option(help="'lmi' (LMI (14), analytic centre), 'placement' (poles "
+    method: Annotated[CascadeMethod | None, typer.Option(help="'lmi' (LMI (14), analytic centre), 'placement' (poles "
                                                     "scaled until ‖H‖∞ < γ, for Theorem 1's small γ) or 'h2' "
                                                     "(the smallest noise-to-error H2 norm under LMI (14) for the "
                                                     "file's [sensors.*] and [process_noise]); default: "
@@ -233,10 +238,9 @@ def cascade_cmd(
     After the report, exit status 3 when Assumption 4 fails (no gain can exist), 1 when the design is
     infeasible for the options given (the message names the option to change).
     """
-    from nlobs.workflows.design_cascade import METHODS, design_cascade_observer
+    from nlobs.workflows.design_cascade import design_cascade_observer
 
-    if method is not None and method not in METHODS:
-        fail(f"--method: expected 'lmi', 'placement' or 'h2', got {method!r}")
+    method = value(method)
     request = _request(simulate, x0, xhat0, u, duration, dt, out)
     try:
         report = design_cascade_observer(model, gamma=gamma, method=method, gain_bound=gain_bound, simulate=request,

@@ -14,6 +14,7 @@ from typing import Annotated
 import typer
 
 from nlobs.cli.common import (
+    complete_model,
     EXIT_FAILURE,
     EXIT_NO_OBSERVER,
     box_numbers,
@@ -23,22 +24,25 @@ from nlobs.cli.common import (
     finish,
     parse_floats,
 )
+from nlobs.cli.choices import ExportMethod, Exported, Lang, OnOff, Placement
+from nlobs.cli.choices import value as plain
 from nlobs.errors import AssumptionViolated, DesignError, ModelFileError, NlobsError
 from nlobs.methods.registry import REGISTRY
 
 
 def export_cmd(
-    model: Annotated[str, typer.Argument(help="A model file (.toml), or the name of a shipped model.")],
-    observer: Annotated[str, typer.Option(
+    model: Annotated[str, typer.Argument(
+        metavar="MODEL", autocompletion=complete_model, help="A model file (.toml), or the name of a shipped model.")],
+    observer: Annotated[Exported, typer.Option(
         "--observer", help="Which design to export (MODEL is gnss-ins for gnss-ins; MODEL gnss-ins with ekf: the "
                            "navigation EKF of the demo, the baseline of observer (24)): "
                            + "; ".join(f"{e.name}: {e.help}" for e in REGISTRY if e.exported) + ".")],
     out: Annotated[Path, typer.Option("--out", help="Folder for the header and the source (created).")],
-    lang: Annotated[str, typer.Option("--lang", help="Target language (c: C99, math.h only, no heap).")] = "c",
+    lang: Annotated[Lang, typer.Option("--lang", help="Target language (c: C99, math.h only, no heap).")] = Lang.c,
     box: Annotated[str | None, typer.Option(
         "--box", help="Region of the design: 'lo,hi' or 2n numbers (default: the model file's [simulation] box, "
                       "else -1,1).")] = None,
-    saturation: Annotated[str | None, typer.Option(
+    saturation: Annotated[OnOff | None, typer.Option(
         "--saturation", help="'on': Khalil's saturated form outside the region; 'off': as printed (default: as "
                              "nlobs design).")] = None,
     prefix: Annotated[str | None, typer.Option(
@@ -51,16 +55,16 @@ def export_cmd(
              "its [simulation] duration).")] = None,
     gamma: Annotated[float | None, typer.Option(
         help="drift: γ of (2.17) (default: estimated on the region); cascade: ‖H‖∞ < γ (default: the file's).")] = None,
-    method: Annotated[str | None, typer.Option(
+    method: Annotated[ExportMethod | None, typer.Option(
         help="drift: 'vandermonde' or 'sdp'; cascade: 'lmi', 'placement' or 'h2' (as nlobs design).")] = None,
     w: Annotated[float | None, typer.Option(help="drift: check and use K(w).")] = None,
     w_max: Annotated[float | None, typer.Option("--w-max", help="drift: largest w the search tries.")] = None,
     theta: Annotated[float | None, typer.Option(help="pinv: high-gain parameter θ of the roots of (10).")] = None,
-    placement: Annotated[str | None, typer.Option(help="pinv: 'powers' or 'multiple'.")] = None,
+    placement: Annotated[Placement | None, typer.Option(help="pinv: 'powers' or 'multiple'.")] = None,
     k: Annotated[str | None, typer.Option("--k", help="pinv: gain vector k (Σ r_j numbers), instead of θ.")] = None,
     gain_bound: Annotated[float | None, typer.Option("--gain-bound", help="cascade: ‖K‖ bound.")] = None,
     option: Annotated[list[str] | None, typer.Option(
-        "--option", help="Any other design option of the method, KEY=VALUE, repeatable (a number, numbers "
+        "--option", metavar="KEY=VALUE", help="Any other design option of the method, KEY=VALUE, repeatable (a number, numbers "
                          "separated by commas, or a word).")] = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON report.")] = False,
 ) -> None:
@@ -69,7 +73,8 @@ def export_cmd(
     from nlobs.workflows.export import export_model_observer
     from nlobs.workflows.inputs import BoxError
 
-    sat = None if saturation is None else on_off("--saturation", saturation)
+    observer, lang, method, placement = plain(observer), plain(lang), plain(method), plain(placement)
+    sat = None if saturation is None else on_off("--saturation", plain(saturation))
     ints = parse_floats("--s", s)
     if ints is not None and any(v != int(v) for v in ints):
         fail(f"--s: expected integers, got {s!r}")

@@ -12,7 +12,8 @@ from typing import Annotated, Any
 
 import typer
 
-from nlobs.cli.common import EXIT_FAILURE, console, emit_json, fail, finish, simulate_app
+from nlobs.cli.common import EXIT_FAILURE, Progress_, console, emit_json, fail, finish, simulate_app
+from nlobs.cli.choices import StudyGains, value
 from nlobs.errors import DesignInfeasible, NlobsError, OutputError, StudyFailed
 
 
@@ -40,9 +41,9 @@ def simulate_gnss_ins_cmd(
     flights: Annotated[int, typer.Option(help="Monte Carlo flights (>= 1).")] = 1000,
     duration: Annotated[float, typer.Option(help="Flight length [s].")] = 60.0,
     seed: Annotated[int, typer.Option(help="Seed of the sensor noise and the initial errors (>= 0).")] = 0,
-    gains: Annotated[str, typer.Option(
+    gains: Annotated[StudyGains, typer.Option(
         help="'scheduled' (the noise-optimal K with Γ(t) scheduled from 0.5 I), 'noise-optimal' (Γ = 0.5 I) or "
-             "'paper' (Sec. 5.2: the paper's K and Γ = diag(20, 0.2, 0.2)).")] = "scheduled",
+             "'paper' (Sec. 5.2: the paper's K and Γ = diag(20, 0.2, 0.2)).")] = StudyGains.scheduled,
     attitude_error: Annotated[float, typer.Option(
         "--attitude-error", help="Largest initial attitude error [deg], about a random axis (0-180).")] = 90.0,
     position_error: Annotated[float, typer.Option(
@@ -58,15 +59,14 @@ def simulate_gnss_ins_cmd(
         help="Folder for the figure and, in DIR/runs, the chunk files (a run on the same folder resumes).")] = None,
     trajectories: Annotated[bool, typer.Option(
         "--trajectories", help="Also save every flight's estimate and truth at 10 Hz (needs --out).")] = False,
-    progress: Annotated[bool | None, typer.Option(
-        "--progress/--no-progress", help="A progress bar on stderr (default: on a terminal).")] = None,
+    progress: Progress_ = None,
     as_json: Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON report.")] = False,
 ) -> None:
     """Monte Carlo flights of observer (24) (Grip–Saberi–Johansen) from random initial errors: do all converge?"""
     from nlobs.workflows.gnss_ins_study import gnss_ins_monte_carlo
 
     try:
-        report = gnss_ins_monte_carlo(flights=flights, duration=duration, seed=seed, gains=gains,
+        report = gnss_ins_monte_carlo(flights=flights, duration=duration, seed=seed, gains=value(gains),
                                       attitude_error_deg=attitude_error, position_error_m=position_error,
                                       batch=batch, chunk=chunk, workers=workers, scheduler=scheduler, out=out,
                                       trajectories=trajectories, progress=progress)

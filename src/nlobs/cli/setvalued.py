@@ -15,7 +15,9 @@ from typing import Annotated, Any
 import typer
 
 from nlobs.cli.common import (
+    complete_model,
     EXIT_FAILURE,
+    Progress_,
     console,
     design_app,
     emit_json,
@@ -61,7 +63,8 @@ def _show(report: Any, as_json: bool) -> None:
 
 @design_app.command("setvalued")
 def design_setvalued_cmd(
-    model: Annotated[str, typer.Argument(help="A model file with unknown inputs (.toml), or a shipped model name.")],
+    model: Annotated[str, typer.Argument(
+        metavar="MODEL", autocompletion=complete_model, help="A model file with unknown inputs (.toml), or a shipped model name.")],
     as_json: Annotated[bool, typer.Option("--json", help="Print a machine-readable JSON report.")] = False,
     objective: Annotated[Objective, typer.Option(help="radius: smallest steady radius bound; hinf: ℓ2 gain ρ.")]
     = Objective.radius,
@@ -80,7 +83,8 @@ def design_setvalued_cmd(
 
 @simulate_app.command("setvalued")
 def simulate_setvalued_cmd(
-    model: Annotated[str, typer.Argument(help="A model file with unknown inputs (.toml), or a shipped model name.")],
+    model: Annotated[str, typer.Argument(
+        metavar="MODEL", autocompletion=complete_model, help="A model file with unknown inputs (.toml), or a shipped model name.")],
     runs: Annotated[int, typer.Option(min=1, help="Monte Carlo runs.")] = 1000,
     steps: Annotated[int, typer.Option(min=1, help="Steps per run.")] = 200,
     unknown_input: Annotated[UnknownInput, typer.Option(
@@ -103,8 +107,7 @@ def simulate_setvalued_cmd(
                                                   "(tcp://host:8786).")] = None,
     trajectories: Annotated[bool, typer.Option(help="Save every run's truth and centres in the chunk files of "
                                                "OUT/runs (needs --out).")] = False,
-    progress: Annotated[bool | None, typer.Option(help="Progress bar over runs (default: on a terminal, for long "
-                                                  "runs).")] = None,
+    progress: Progress_ = None,
 ) -> None:
     """Run Algorithm 1 (Khajenejad–Yong) in Monte Carlo: containment rates, radii and the point baselines.
 
