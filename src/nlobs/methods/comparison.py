@@ -76,6 +76,7 @@ from nlobs.methods.kalman import DEFAULT_FILTER_Q, noise_matrix
 from nlobs.methods.problem import Problem, problem
 from nlobs.methods.registry import get as get_method
 from nlobs.methods.registry import names
+from nlobs.simulate.consistency import Consistency, filter_consistency
 from nlobs.simulate.coverage import monitor
 from nlobs.simulate.loop import PlantRun, observe, simulate, simulate_plant
 from nlobs.simulate.result import SimulationResult, with_run_axis
@@ -170,6 +171,9 @@ class ObserverOutcome:
         The observer that was run, with its gains (not part of :meth:`to_dict`).
     design : Design or None
         The method's design (:class:`nlobs.methods.base.Design`; ``to_dict()`` is the ``design`` key).
+    consistency : Consistency or None
+        A Kalman filter's NEES and NIS over the runs against their 95 % χ² bands
+        (:func:`nlobs.simulate.consistency.filter_consistency`; ``to_dict()`` is the ``consistency`` key).
     """
 
     name: str
@@ -188,6 +192,7 @@ class ObserverOutcome:
     result: SimulationResult | None = None
     observer: Any = None
     design: Design | None = None
+    consistency: Consistency | None = None
 
     def to_dict(self) -> dict[str, Any]:
         if self.skipped is not None:
@@ -205,6 +210,7 @@ class ObserverOutcome:
             "diverged_runs": [d.to_dict() for d in self.diverged_runs],
             "cost_per_step_us": self.cost_per_step_us,
             "certificate": None if self.certificate is None else dict(self.certificate),
+            "consistency": None if self.consistency is None else self.consistency.to_dict(),
         }
 
 
@@ -651,6 +657,9 @@ def _outcome(name: str, desc: str, res: SimulationResult, s: _Setup, cert: _Cert
     else:
         nan = (math.nan,) * x.shape[-1]
         rms, rms_all, rms_norm, rms_norm_all, final, conv_time = nan, nan, math.nan, math.nan, math.nan, math.nan
+    consistency = filter_consistency(res)
+    if "P" in res.extras:  # recorded for the NEES only: the result keeps what a filter records by default
+        res = dataclasses.replace(res, extras={k: v for k, v in res.extras.items() if k != "P"})
     certificate = None
     if cert is not None:
         cov = monitor(res, cert.hypotheses, u=s.u, verified=cert.verified)
@@ -661,7 +670,8 @@ def _outcome(name: str, desc: str, res: SimulationResult, s: _Setup, cert: _Cert
         if cert.bound is not None:
             certificate.update(_bound_entries(cert.bound, s))
     return ObserverOutcome(name, None, desc, rms, rms_all, rms_norm, rms_norm_all, final, conv_time, tuple(diverged),
-                           float(res.info.get("cost_per_step_us", math.nan)), certificate, run_rms, res)
+                           float(res.info.get("cost_per_step_us", math.nan)), certificate, run_rms, res,
+                           consistency=consistency)
 
 
 def _bound_entries(bound: Any, s: _Setup) -> dict[str, Any]:
@@ -934,6 +944,7 @@ def _run_one(name: str, s: _Setup, options: Mapping[str, Any], progress: bool | 
     obs, desc = design.observer, design.description
     cert = None if design.certificate is None else _Cert(design.verified, design.hypotheses,
                                                            design.coverage_extras, design.bound)
+    obs = _recording_covariance(obs, s)
     if backend == "c":
         obs, desc = _compiled(obs, desc)
     one = s.runs == 1  # one run without a batch axis: the single-run paths of the compiled code and the filters
@@ -957,6 +968,22 @@ def _run_one(name: str, s: _Setup, options: Mapping[str, Any], progress: bool | 
             raise
         return dataclasses.replace(_failed(name, desc, s, f"stopped: {exc}"), design=design)
     return dataclasses.replace(_outcome(name, desc, res, s, cert, design), observer=obs, design=design)
+
+
+#: The most covariance values (runs × saved instants × n²) a comparison records for a filter's NEES.
+MAX_COVARIANCE_VALUES = 20_000_000
+
+
+def _recording_covariance(obs: Any, s: _Setup) -> Any:
+    """A Kalman filter that also records its covariance at the saved instants (its NEES, :func:`_outcome`), where
+    the runs' covariances fit :data:`MAX_COVARIANCE_VALUES`; any other observer as it is."""
+    if getattr(obs, "record_covariance", True):
+        return obs
+    n = s.scenario.model.n
+    saved = round(s.duration / s.dt) // s.save_every + 1
+    if s.runs * saved * n * n > MAX_COVARIANCE_VALUES:
+        return obs
+    return dataclasses.replace(obs, record_covariance=True)
 
 
 def _run_task(s: _Setup, name: str, options: Mapping[str, Any], backend: str) -> ObserverOutcome:

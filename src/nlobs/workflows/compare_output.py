@@ -4,8 +4,11 @@ figures, the trajectories.
 * ``compare.json`` — :meth:`~nlobs.workflows.compare.ComparisonReport.to_dict`;
 * ``states.png`` — run 0: every state, true (black) and each observer's estimate, and every output
   with its measurement samples (dots) over the true output;
-* ``error_norms.png`` — ``‖x̂ − x‖`` of all observers on one log axis: the median over the runs and
-  the band between the 10th and 90th percentiles;
+* ``error_norms.png`` — the error of every observer state by state (``|x̂_i − x_i|`` in its unit), then
+  ``‖x̂ − x‖``, on log axes: the median over the runs that did not diverge and the band between the 10th and 90th
+  percentiles; observers whose runs diverged named with when and why;
+* ``consistency.png`` — the Kalman filters' NEES and NIS over the runs against the 95 % χ² band
+  (:mod:`nlobs.simulate.consistency`), when a filter ran;
 * ``rms_boxplot.png`` — a box plot over the Monte Carlo runs of each observer's RMS ``‖e‖`` after the
   settling time, with the certified bound of a design under the sensors as a dashed mark (also a dashed line
   on ``error_norms.png``);
@@ -48,6 +51,29 @@ def _colors(report: ComparisonReport) -> dict[str, str]:
     return {k: f"C{i % 10}" for i, k in enumerate(names)}
 
 
+#: One dash pattern per observer (with its colour): curves that coincide (an EKF and a UKF on a mildly nonlinear
+#: plant) stay visible, each drawn over the other with its own gaps.
+_DASHES: tuple[Any, ...] = ((0, (6, 2)), (0, (2, 2)), (0, (8, 2, 2, 2)), (0, (4, 3)), (0, (1, 1)), (0, (10, 3, 1, 3)))
+
+
+def _styles(report: ComparisonReport) -> dict[str, dict[str, Any]]:
+    """Colour, dash pattern and width of each observer's curves (the widths fall so that later curves sit on top)."""
+    names = list(report.observers)
+    return {k: {"color": f"C{i % 10}", "ls": _DASHES[i % len(_DASHES)], "lw": 1.7 - 0.15 * (i % 4)}
+            for i, k in enumerate(names)}
+
+
+def _diverged_note(o: Any, unit: str) -> str | None:
+    """``"ekf: 3 of 20 runs diverged (first at t = 1.2 s: non-finite estimate)"``, or ``None``."""
+    d = o.diverged_runs
+    if not d:
+        return None
+    first = min(d, key=lambda r: r.time if np.isfinite(r.time) else np.inf)
+    when = f"t = {first.time:.3g} {unit}: " if np.isfinite(first.time) else ""
+    total = o.run_rms.size or len(d)
+    return f"{o.name}: {len(d)} of {total} runs diverged (first at {when}{first.reason})"
+
+
 def states_figure(report: ComparisonReport, scenario: Scenario, plant: Any = None) -> Any:
     """Run 0: states (true and estimated) and outputs (true and sampled); ``plant`` the compiled model
     (compiled here when not given)."""
@@ -64,12 +90,19 @@ def states_figure(report: ComparisonReport, scenario: Scenario, plant: Any = Non
         return fig
     t = ref.t
     x = ref.x[0]
+    styles = _styles(report)
     for i, name in enumerate(model.states):
         ax = axes[i]
         ax.plot(t, x[:, i], label="true", **_TRUE)
         for o in ran:
             xh = o.result.x_hat[0, :, i]
-            ax.plot(t, np.where(np.isfinite(xh), xh, np.nan), ls="--", lw=1.2, color=colors[o.name], label=o.name)
+            xh = np.where(np.isfinite(xh), xh, np.nan)
+            var = o.result.extras.get("P_diag")
+            if var is not None:  # a filter: x̂ ± 3σ of its own covariance
+                sd = 3.0 * np.sqrt(np.maximum(np.asarray(var)[0, :, i], 0.0))
+                ax.fill_between(t, xh - sd, xh + sd, color=colors[o.name], alpha=0.12, lw=0,
+                                label=f"{o.name} ± 3σ" if i == 0 else None)
+            ax.plot(t, xh, label=o.name, **styles[o.name])
         ax.set_ylabel(scenario.label(name))
         if name in report.unobservable:
             ax.set_title(f"{name} is not observable from the outputs: every estimate of it runs open loop",
@@ -96,43 +129,112 @@ def states_figure(report: ComparisonReport, scenario: Scenario, plant: Any = Non
         ax.grid(True, alpha=0.3)
         ax.legend(loc="upper right", fontsize="small")
     axes[-1].set_xlabel(f"time [{report.time_unit}]")
-    fig.suptitle(f"{report.model}: run 0 of {report.runs}, true (black) and estimated (dashed) states; "
-                 "outputs with their samples", fontsize="medium")
+    fig.suptitle(f"{report.model}: run 0 of {report.runs}, true (black) and estimated (dashed) states, a filter's "
+                 "± 3σ shaded; outputs with their samples", fontsize="medium")
     return fig
 
 
 def error_figure(report: ComparisonReport) -> Any:
-    """``‖x̂ − x‖`` of every observer on one log axis (median and 10–90 % band over the runs)."""
+    """The error of every observer, state by state in its own unit (``|x̂_i − x_i|``), then ``‖x̂ − x‖`` with the
+    certified bounds: the median over the runs that did not diverge and the band between their 10th and 90th
+    percentiles, on log axes (the transient and the noise floor both readable); an observer whose runs diverged is
+    named with when and why."""
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(9.0, 4.2), layout="constrained")
-    ax = fig.subplots()
-    colors = _colors(report)
+    n = len(report.states)
+    extra = n > 1  # one state: its error is the norm
+    fig = Figure(figsize=(9.0, 2.0 * (n + extra) + 1.2), layout="constrained")
+    axes = fig.subplots(n + extra, 1, sharex=True, squeeze=False)[:, 0]
+    last = len(axes) - 1
+    colors, styles = _colors(report), _styles(report)
+    notes = []
     for o in _ran(report):
         r = o.result
         with np.errstate(all="ignore"):
+            e = np.abs(r.x_hat - r.x)
             en = np.linalg.norm(r.x_hat - r.x, axis=-1)
-        ok = np.isfinite(en).all(axis=-1)
+        ok = np.isfinite(en).all(axis=-1) & ~np.isin(np.arange(en.shape[0]), [d.run for d in o.diverged_runs])
+        note = _diverged_note(o, report.time_unit)
+        if note is not None:
+            notes.append(note)
         if not ok.any():
+            for ax in axes:  # every run diverged: named in the legend, no curve
+                ax.plot([], [], label=f"{o.name}: every run diverged", **styles[o.name])
             continue
-        q10, q50, q90 = np.percentile(en[ok], [10, 50, 90], axis=0)
-        ax.semilogy(r.t, np.where(q50 > 0, q50, np.nan), color=colors[o.name], lw=1.4,
-                    label=f"{o.name} (median of {int(ok.sum())} runs)")
-        ax.fill_between(r.t, np.where(q10 > 0, q10, np.nan), np.where(q90 > 0, q90, np.nan), color=colors[o.name],
-                        alpha=0.15, lw=0)
+        for i, ax in enumerate(axes):
+            data = e[ok][..., i] if i < n else en[ok]
+            q10, q50, q90 = np.percentile(data, [10, 50, 90], axis=0)
+            label = f"{o.name} (median of {int(ok.sum())} runs)" if i in (0, last) else None
+            ax.semilogy(r.t, np.where(q50 > 0, q50, np.nan), label=label, **styles[o.name])
+            ax.fill_between(r.t, np.where(q10 > 0, q10, np.nan), np.where(q90 > 0, q90, np.nan),
+                            color=colors[o.name], alpha=0.12, lw=0)
         bound = _bound(o)
         if bound is not None:
-            ax.hlines(bound, report.settle, r.t[-1], color=colors[o.name], ls="--", lw=1.0,
-                      label=f"{o.name}: certified RMS bound {bound:.3g} (after the settling time)")
-    ax.axvline(report.settle, color="grey", ls=":", lw=1.0,
-               label=f"settling time {report.settle:g} {report.time_unit}")
-    units = {u for u in report.units if u}
-    unit = f" [{units.pop()}]" if len(units) == 1 else ""
-    ax.set_xlabel(f"time [{report.time_unit}]")
-    ax.set_ylabel(f"‖x̂ − x‖{unit}")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(loc="best", fontsize="small")
-    ax.set_title(f"{report.model}: estimation error of every observer (band: 10–90 % of the runs)", fontsize="medium")
+            axes[last].hlines(bound, report.settle, r.t[-1], color=colors[o.name], ls="-", lw=1.0,
+                           label=f"{o.name}: certified RMS bound {bound:.3g} (after the settling time)")
+    for i, ax in enumerate(axes):
+        ax.axvline(report.settle, color="grey", ls=":", lw=1.0,
+                   label=f"settling time {report.settle:g} {report.time_unit}" if i == last else None)
+        ax.grid(True, which="both", alpha=0.3)
+    for i, name in enumerate(report.states):
+        unit = report.units[i] if i < len(report.units) else ""
+        axes[i].set_ylabel(f"|{name}̂ − {name}|" + (f" [{unit}]" if unit else ""), fontsize="small")
+    units = [u for u in report.units if u]
+    mixed = len(set(units)) > 1
+    if extra:
+        axes[last].set_ylabel("‖x̂ − x‖" + ("" if mixed or not units else f" [{units[0]}]"), fontsize="small")
+    if mixed:
+        axes[last].set_title("‖x̂ − x‖ mixes the units " + ", ".join(dict.fromkeys(units)) + " (the certificates bound "
+                          "this norm)", fontsize="small", loc="left")
+    if extra:
+        axes[0].legend(loc="upper right", fontsize="x-small", ncol=2)
+    axes[last].legend(loc="upper right", fontsize="x-small")
+    axes[last].set_xlabel(f"time [{report.time_unit}]")
+    title = f"{report.model}: estimation error per state (median over the runs; band: 10–90 %)"
+    if notes:
+        title += "\n" + "; ".join(notes)
+    fig.suptitle(title, fontsize="medium")
+    return fig
+
+
+def consistency_figure(report: ComparisonReport) -> Any | None:
+    """The Kalman filters' NEES and NIS over the runs, each divided by its degrees of freedom, with the 95 % χ²
+    band; ``None`` when no observer records them."""
+    from matplotlib.figure import Figure
+
+    filters = [o for o in _ran(report) if o.consistency is not None and o.consistency.runs]
+    if not filters:
+        return None
+    fig = Figure(figsize=(9.0, 6.0), layout="constrained")
+    ax_nees, ax_nis = fig.subplots(2, 1, sharex=True)
+    styles = _styles(report)
+    banded = False
+    for o in filters:
+        c = o.consistency
+        if c.nees is not None:
+            if not banded:
+                ax_nees.axhspan(*c.nees_band, color="grey", alpha=0.2, lw=0,
+                                label=f"{c.level:.0%} χ² band ({c.runs} runs)")
+                banded = True
+            ax_nees.plot(c.t, c.nees, label=f"{o.name}: {c.nees_inside:.0%} inside", **styles[o.name])
+        if c.nis.size:
+            if o is filters[0]:
+                ax_nis.fill_between(c.t_nis, c.nis_lo, c.nis_hi, color="grey", alpha=0.2, lw=0, step="mid",
+                                    label=f"{c.level:.0%} χ² band")
+            ax_nis.plot(c.t_nis, c.nis, marker="." if c.nis.size <= 100 else None, ms=3.0,
+                        label=f"{o.name}: {c.nis_inside:.0%} inside", **styles[o.name])
+    for ax, what in ((ax_nees, "NEES / n"), (ax_nis, "NIS / outputs")):
+        ax.axhline(1.0, color="black", lw=0.8)
+        ax.set_ylabel(what)
+        ax.set_yscale("log")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(loc="upper right", fontsize="small")
+    ax_nees.set_title("estimation error against the filter's covariance, averaged over the runs", fontsize="small",
+                      loc="left")
+    ax_nis.set_title("innovations at the samples against their predicted covariance", fontsize="small", loc="left")
+    ax_nis.set_xlabel(f"time [{report.time_unit}]")
+    fig.suptitle(f"{report.model}: filter consistency (inside the band about {filters[0].consistency.level:.0%} of "
+                 "the time when the filter's covariance describes its error)", fontsize="medium")
     return fig
 
 
@@ -236,6 +338,9 @@ def write_comparison(report: ComparisonReport, scenario: Scenario, out: Path, *,
     put(out / "states.png", lambda p: save_figure(states_figure(report, scenario, plant), p))
     put(out / "error_norms.png", lambda p: save_figure(error_figure(report), p))
     put(out / "rms_boxplot.png", lambda p: save_figure(boxplot_figure(report), p))
+    consistency = consistency_figure(report)
+    if consistency is not None:
+        put(out / "consistency.png", lambda p: save_figure(consistency, p))
     for o in _ran(report):
         put(out / f"{o.name}.npz", lambda p, o=o: o.result.save(p))
     put(out / "trajectories.csv", lambda p: atomic_write_text(p, trajectories_csv(report, scenario)))
