@@ -325,6 +325,16 @@ def test_figures_like_the_papers_figs_4_to_6(tmp_path, data):
     assert second.get_zorder() > first.get_zorder() and second.get_linewidth() < first.get_linewidth()
     with pytest.raises(InvalidArgumentError, match="labels"):
         plot_euler_error(r, compare=r, labels=("one",))
+    # more runs (the demo's EKF and the paper's gains): each drawn and named, the third below the others; the
+    # axis holds the largest error, the initial one (30° here), with a tick at it
+    fig = plot_euler_error(r, compare=[r, r], labels=("observer", "EKF", "paper"))
+    lines = fig.axes[2].get_lines()[:3]
+    assert [ln.get_label() for ln in lines] == ["observer", "EKF", "paper"]
+    assert lines[2].get_zorder() < lines[0].get_zorder() < lines[1].get_zorder()
+    lo, hi = fig.axes[2].get_ylim()
+    assert lo <= -30.0 and hi >= 30.0 and 30.0 in [abs(v) for v in fig.axes[2].get_yticks()]
+    with pytest.raises(InvalidArgumentError, match="at most 4 runs"):
+        plot_euler_error(r, compare=[r] * 5)
     # the three PNGs of a real run
     res = run_navigation(GnssInsObserver.paper(M_N, G_N), data, data.p[0], data.v[0], rot_z(0.2) @ data.R[0])
     paths = plot_navigation(res, tmp_path, prefix="t")

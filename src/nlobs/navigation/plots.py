@@ -21,6 +21,8 @@ PNG (dpi 100). Matplotlib is imported lazily and only its object API is used (no
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import os
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -39,7 +41,7 @@ if TYPE_CHECKING:
 
 __all__ = ["euler_error_deg", "plot_euler_error", "plot_ground_track", "plot_navigation", "plot_velocity_error"]
 
-_COLOURS = ("tab:blue", "tab:red")
+_COLOURS = ("tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange")
 
 _AXES = ("North", "East", "Down")
 _ANGLES = ("roll", "pitch", "yaw")
@@ -57,8 +59,12 @@ def _pick(result: SimulationResult, arr: Array, index: int | tuple[int, ...], ta
         raise InvalidArgumentError(f"index: {index} is out of range for the batch shape {batch}") from None
 
 
-def _runs(result: SimulationResult, compare: SimulationResult | None) -> list[SimulationResult]:
-    runs = [result] if compare is None else [result, compare]
+def _runs(result: SimulationResult, compare: SimulationResult | Sequence[SimulationResult] | None
+          ) -> list[SimulationResult]:
+    others = [] if compare is None else [compare] if isinstance(compare, SimulationResult) else list(compare)
+    if len(others) + 1 > len(_COLOURS):
+        raise InvalidArgumentError(f"compare: at most {len(_COLOURS) - 1} runs beside the result, got {len(others)}")
+    runs = [result, *others]
     for r in runs[1:]:
         if r.t.shape != result.t.shape or not np.allclose(r.t, result.t):
             raise InvalidArgumentError("compare: must be a run on the same time grid as result")
@@ -88,7 +94,8 @@ def _new(figsize: tuple[float, float]) -> Figure:
     return Figure(figsize=figsize)
 
 
-def plot_ground_track(result: SimulationResult, *, compare: SimulationResult | None = None, index: int | tuple[int, ...] = 0,
+def plot_ground_track(result: SimulationResult, *, compare: SimulationResult | Sequence[SimulationResult] | None = None,
+                      index: int | tuple[int, ...] = 0,
                       marker_every_s: float = 5.0, labels: tuple[str, ...] | None = None,
                       path: str | os.PathLike[str] | None = None) -> Figure:
     """Fig. 4: true position (markers every ``marker_every_s``) and estimated position (solid).
@@ -97,8 +104,9 @@ def plot_ground_track(result: SimulationResult, *, compare: SimulationResult | N
     ----------
     result : SimulationResult
         The navigation run (its truth is drawn).
-    compare : SimulationResult, optional
-        A second run on the same time grid (e.g. the EKF on the same data), drawn in another colour.
+    compare : SimulationResult or sequence of them, optional
+        Other runs on the same time grid (e.g. the EKF and the paper's gains on the same data), each drawn in
+        another colour (at most four).
     index : int or tuple of int, optional
         The flight of a batch to draw (default 0; ignored for a single flight).
     marker_every_s : float, optional
@@ -154,8 +162,9 @@ def _error_figure(result: SimulationResult, runs: list[SimulationResult], labels
 
     The error axes are symmetric-logarithmic, linear within the steady-state band (the 99th
     percentile of every run's ``|error|`` over the second half of the flight), so a large initial
-    transient and a small steady-state error are both readable. The comparison run is drawn on top
-    with a thinner line, so neither hides the other.
+    transient and a small steady-state error are both readable, up to the largest error (the initial one). The
+    first comparison run is drawn on top with a thinner line, so neither hides the other; further runs lie below,
+    lighter.
     """
     from matplotlib.ticker import NullLocator
 
@@ -165,10 +174,11 @@ def _error_figure(result: SimulationResult, runs: list[SimulationResult], labels
     half = t >= t[0] + 0.5 * (t[-1] - t[0])
     band = max(float(np.nanpercentile(np.abs(e[half]), 99)) for e in err) if np.any(half) else 1.0
     band = band if np.isfinite(band) and band > 0 else 1.0
-    styles = ({"lw": 1.4, "alpha": 0.9}, {"lw": 0.8, "alpha": 0.95})
+    styles = ({"lw": 1.4, "alpha": 0.9}, {"lw": 0.8, "alpha": 0.95}, {"lw": 0.7, "alpha": 0.45})
     for i, ax in enumerate(axes[:3]):
         for j, (nm, e, c) in enumerate(zip(labels, err, _COLOURS)):
-            ax.plot(t, e[:, i], "-", color=c, label=f"{nm}", zorder=2 + j, **styles[min(j, 1)])
+            style = {"ls": "-", **styles[min(j, 2)]}
+            ax.plot(t, e[:, i], color=c, label=f"{nm}", zorder=2 + j if j < 2 else 1, **style)
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_ylabel(f"{names[i]} error [{unit_err}]")
         if ylim is not None:
@@ -177,10 +187,15 @@ def _error_figure(result: SimulationResult, runs: list[SimulationResult], labels
             ax.set_yscale("symlog", linthresh=band, linscale=1.5)
             ax.axhspan(-band, band, color="0.92", zorder=0, lw=0)
             top = max(float(np.nanmax(np.abs(e[:, i]))) for e in err)
+            top = top if np.isfinite(top) else band
             ticks = [0.0, band] + [10.0 ** k for k in range(int(np.ceil(np.log10(band * 1.5))),
                                                             int(np.floor(np.log10(max(top, band)))) + 1)]
+            if top > 1.5 * max(ticks):  # the largest error (the initial one) gets its own tick
+                ticks.append(float(f"{top:.2g}"))
             ticks = sorted({x for x in ticks} | {-x for x in ticks})
             ax.set_yticks(ticks, [f"{x:.2g}" for x in ticks])
+            lim = 1.25 * max(top, band)  # every error whole, the initial transient included
+            ax.set_ylim(-lim, lim)
             ax.yaxis.set_minor_locator(NullLocator())
         ax.grid(True, alpha=0.3)
     axes[0].legend(loc="upper right", fontsize=8, ncol=2)
@@ -195,7 +210,8 @@ def _error_figure(result: SimulationResult, runs: list[SimulationResult], labels
     return _finish(fig, path)
 
 
-def plot_velocity_error(result: SimulationResult, *, compare: SimulationResult | None = None, index: int | tuple[int, ...] = 0,
+def plot_velocity_error(result: SimulationResult, *, compare: SimulationResult | Sequence[SimulationResult] | None = None,
+                        index: int | tuple[int, ...] = 0,
                         ylim: tuple[float, float] | None = None, labels: tuple[str, ...] | None = None,
                         path: str | os.PathLike[str] | None = None) -> Figure:
     """Fig. 5: velocity estimation error ``v − v̂`` (solid) and true velocity (dashed), N/E/D.
@@ -204,8 +220,9 @@ def plot_velocity_error(result: SimulationResult, *, compare: SimulationResult |
     ----------
     result : SimulationResult
         The navigation run (its truth is drawn).
-    compare : SimulationResult, optional
-        A second run on the same time grid (e.g. the EKF on the same data), drawn in another colour.
+    compare : SimulationResult or sequence of them, optional
+        Other runs on the same time grid (e.g. the EKF and the paper's gains on the same data), each drawn in
+        another colour (at most four).
     index : int or tuple of int, optional
         The flight of a batch to draw (default 0; ignored for a single flight).
     ylim : (float, float), optional
@@ -251,7 +268,8 @@ def euler_error_deg(result: SimulationResult, index: int | tuple[int, ...] = 0) 
     return (true - est + 180.0) % 360.0 - 180.0
 
 
-def plot_euler_error(result: SimulationResult, *, compare: SimulationResult | None = None, index: int | tuple[int, ...] = 0,
+def plot_euler_error(result: SimulationResult, *, compare: SimulationResult | Sequence[SimulationResult] | None = None,
+                     index: int | tuple[int, ...] = 0,
                      ylim: tuple[float, float] | None = None, labels: tuple[str, ...] | None = None,
                      path: str | os.PathLike[str] | None = None) -> Figure:
     """Fig. 6: Euler-angle error ``true − estimate`` (solid) and true Euler angles (dashed), degrees.
@@ -260,8 +278,9 @@ def plot_euler_error(result: SimulationResult, *, compare: SimulationResult | No
     ----------
     result : SimulationResult
         The navigation run (its truth is drawn).
-    compare : SimulationResult, optional
-        A second run on the same time grid (e.g. the EKF on the same data), drawn in another colour.
+    compare : SimulationResult or sequence of them, optional
+        Other runs on the same time grid (e.g. the EKF and the paper's gains on the same data), each drawn in
+        another colour (at most four).
     index : int or tuple of int, optional
         The flight of a batch to draw (default 0; ignored for a single flight).
     ylim : (float, float), optional
@@ -289,7 +308,7 @@ def plot_euler_error(result: SimulationResult, *, compare: SimulationResult | No
 
 
 def plot_navigation(result: SimulationResult, directory: str | os.PathLike[str], *,
-                    compare: SimulationResult | None = None,
+                    compare: SimulationResult | Sequence[SimulationResult] | None = None,
                     index: int | tuple[int, ...] = 0, prefix: str = "nav",
                     velocity_ylim: tuple[float, float] | None = None,
                     euler_ylim: tuple[float, float] | None = None,
@@ -302,8 +321,8 @@ def plot_navigation(result: SimulationResult, directory: str | os.PathLike[str],
         The navigation run (its truth is drawn).
     directory : str or path-like
         Folder of the PNG files (created if needed).
-    compare : SimulationResult, optional
-        A second run on the same time grid, drawn in another colour.
+    compare : SimulationResult or sequence of them, optional
+        Other runs on the same time grid, each drawn in another colour (at most four).
     index : int or tuple of int, optional
         The flight of a batch to draw (default 0; ignored for a single flight).
     prefix : str, optional

@@ -145,8 +145,10 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
                                  progress=progress)
     figures: dict[str, Path] = {}
     if out_dir is not None:
-        figures = plot_navigation(obs_res, Path(out_dir), compare=ekf_res, prefix="gnss_ins",
-                                  labels=(_label(config), "EKF") if ekf_res is not None else None)
+        others = [(r, name) for r, name in ((ekf_res, "EKF"), (paper_res, "observer, the paper's gains"))
+                  if r is not None]
+        figures = plot_navigation(obs_res, Path(out_dir), compare=[r for r, _ in others], prefix="gnss_ins",
+                                  labels=(_label(config), *(name for _, name in others)))
     return DemoResult(config, obs_res, ekf_res, figures, float(traj.t[-1]), observer_paper=paper_res,
                       certificate=cert, schedule=schedule, gain_schedule=gain_cert,
                       observer_gain_schedule=getattr(observer, "gain_schedule", None))
