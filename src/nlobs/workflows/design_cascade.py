@@ -119,7 +119,8 @@ class CascadeWorkflowReport:
     simulation : CascadeSimulation or None
     request : SimulationRequest or None
     files : tuple of Path
-        ``cascade.png`` and ``cascade.npz`` written to ``request.out``.
+        ``cascade.png``, ``cascade.npz`` and ``bode.png`` (the error dynamics' frequency response) written to
+        ``request.out``.
     verdict : Verdict
         ``OK`` with a verified gain; ``NO_OBSERVER`` when Assumption 4 fails (no gain can exist);
         ``FAILED`` when the design is infeasible for the options given.
@@ -278,4 +279,28 @@ def design_cascade_observer(
     x0, x_hat0, u = resolved
     sim = run_study(lambda: _simulate(design, simulate, x0, x_hat0, u))
     files = write_result(sim.result, simulate.out, "cascade", model_units(cm.path) if cm.path else None)
+    if simulate.out is not None:
+        unit = (model_units(cm.path) if cm.path else {}).get("t", "s")
+        files = (*files, _bode(design, simulate.out / "bode.png", label, unit))
     return CascadeWorkflowReport(design, sim, simulate, files, Verdict.OK, "", unified)
+
+
+def _bode(design: CascadeDesign, path: Path, label: str, time_unit: str) -> Path:
+    """``bode.png``: ``‖H(jω)‖`` (13) with γ and ``‖G(jω)‖`` (noise on every output, ``N = I``) with γn where the
+    gain was designed with one (:func:`nlobs.workflows.bode.bode_figure`)."""
+    from nlobs.errors import OutputError
+    from nlobs.linear.assumption4 import extended_system
+    from nlobs.workflows.bode import bode_figure
+
+    s2 = design.cascade.sigma2
+    ext = extended_system(s2.A, s2.B_z, s2.C, s2.D_z)
+    cert = design.certificate
+    assert cert is not None
+    K = np.asarray(cert.gain, dtype=float)
+    gamma_n = getattr(cert, "gamma_n", None)
+    try:
+        bode_figure(ext.A - K @ ext.C, ext.Bd, gamma=design.gamma, KN=K, gamma_n=gamma_n, time_unit=time_unit,
+                    title=f"{label}: error dynamics of Σ2's observer (gain: {design.method})", path=path)
+    except OSError as exc:
+        raise OutputError(f"{path}: {exc.strerror or exc}") from exc
+    return path
