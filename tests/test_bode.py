@@ -9,7 +9,7 @@ import pytest
 
 from nlobs.errors import InvalidArgumentError
 from nlobs.linear import hinf_norm
-from nlobs.workflows.bode import bode_figure, error_response, frequency_grid
+from nlobs.linear.frequency import bode_figure, error_response, frequency_grid
 
 
 def test_a_second_order_error_against_its_closed_form() -> None:

@@ -110,7 +110,7 @@ def test_h2_without_sensors_is_a_clear_error(tmp_path: Path):
     with pytest.raises(InvalidArgumentError, match="needs a noise model"):
         design_cascade(load_cascade(MODEL), method="h2")
     res = CliRunner().invoke(app, ["design", "cascade", MODEL, "--method", "kalman"])
-    assert res.exit_code == 2 and "expected 'lmi', 'placement' or 'h2'" in res.stderr
+    assert res.exit_code == 2 and "'kalman' is not one of 'lmi', 'placement', 'h2'" in res.stderr
 
 
 @pytest.mark.slow

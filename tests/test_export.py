@@ -273,9 +273,9 @@ def test_cli_export_writes_certified_module_and_refuses_bad_options(tmp_path) ->
     # Röbenack's Corollary 4.1 rests on A2, A3, A4, A6, which nobody checks: written, not certified (exit 1)
     r = runner.invoke(app, ["export", "isidori-146", "--observer", "pinv", "--out", str(tmp_path / "p")])
     assert r.exit_code == 1 and "A2: not checked" in r.output and "not certified" in r.output
-    for args, text in ((["--observer", "bogus"], "--observer: expected one of"),
-                       (["--observer", "drift", "--lang", "fortran"], "--lang: expected one of c"),
-                       (["--observer", "drift", "--saturation", "maybe"], "--saturation: expected 'on' or 'off'")):
+    for args, text in ((["--observer", "bogus"], "'bogus' is not one of 'drift'"),
+                       (["--observer", "drift", "--lang", "fortran"], "'fortran' is not one of 'c'"),
+                       (["--observer", "drift", "--saturation", "maybe"], "'maybe' is not one of 'on', 'off'")):
         r = runner.invoke(app, ["export", "duffing-actuator", *args, "--out", str(tmp_path / "x")])
         assert r.exit_code == 2 and text in r.output and "Traceback" not in r.output
     blocker = tmp_path / "blocker"

@@ -66,4 +66,4 @@ def test_unknown_paper() -> None:
     with pytest.raises(UnknownNameError, match="unknown paper 'nope'"):
         reproduce("nope")
     res = CliRunner().invoke(app, ["reproduce", "nope"])
-    assert res.exit_code == 2 and "unknown paper" in res.stderr
+    assert res.exit_code == 2 and "'nope' is not one of 'grip2013'" in res.stderr

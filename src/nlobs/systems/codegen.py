@@ -35,7 +35,7 @@ from sympy.printing.precedence import precedence
 
 from nlobs._typing import Array
 from nlobs.errors import DimensionError, ModelError
-from nlobs.systems.expressions import as_sympy_matrix, as_symbols
+from nlobs.systems.expressions import as_sympy_expr, as_sympy_matrix, as_symbols
 
 
 def _dirac_delta(x: Any, *order: Any) -> Any:
@@ -217,7 +217,9 @@ _COMPILED_LOCK = threading.Lock()
 def _recompile(shape: tuple[int, int], expressions: tuple[sp.Expr, ...], arguments: tuple[tuple[sp.Symbol, ...], ...],
                vector: bool) -> BatchedFunction:
     """Unpickle a :class:`BatchedFunction`: compile its expressions again."""
-    return compile_matrix(sp.Matrix(shape[0], shape[1], list(expressions)), arguments, vector=vector)
+    rows, cols = (int(v) for v in shape)
+    entries = [as_sympy_expr("expressions", e) for e in expressions]  # SymPy objects only, never text
+    return compile_matrix(sp.ImmutableMatrix(rows, cols, entries), arguments, vector=vector)
 
 
 def compile_matrix(

@@ -287,10 +287,10 @@ def design_cascade_observer(
 
 def _bode(design: CascadeDesign, path: Path, label: str, time_unit: str) -> Path:
     """``bode.png``: ``‖H(jω)‖`` (13) with γ and ``‖G(jω)‖`` (noise on every output, ``N = I``) with γn where the
-    gain was designed with one (:func:`nlobs.workflows.bode.bode_figure`)."""
+    gain was designed with one (:func:`nlobs.linear.frequency.bode_figure`)."""
     from nlobs.errors import OutputError
     from nlobs.linear.assumption4 import extended_system
-    from nlobs.workflows.bode import bode_figure
+    from nlobs.linear.frequency import bode_figure
 
     s2 = design.cascade.sigma2
     ext = extended_system(s2.A, s2.B_z, s2.C, s2.D_z)

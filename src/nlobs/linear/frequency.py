@@ -3,8 +3,8 @@
 Grip, Saberi & Johansen design the gain ``K`` of the linear part so that ``H(s) = (sI − 𝔄 + Kℭ)⁻¹ 𝔅_d`` (13), from
 the interconnection's disturbance to the error, has ``‖H‖∞ < γ`` (LMI (14)), and, with noise, ``G(s) = −(sI − 𝔄 +
 Kℭ)⁻¹ K N`` from the measurement noise to the error ``‖G‖∞ ≤ γn`` (LMI (15)). :func:`error_response` evaluates their
-largest singular values on a frequency grid; :func:`bode_figure` draws them with ``γ``, ``γn`` and each peak, the
-figure ``nlobs design cascade --simulate --out DIR`` writes as ``bode.png``.
+largest singular values on a frequency grid; :func:`bode_figure` draws them with ``γ``, ``γn`` and each peak (the
+cascade design writes it as ``bode.png`` beside its simulation). Matplotlib is imported by the figure only.
 """
 
 from __future__ import annotations
