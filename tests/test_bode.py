@@ -53,3 +53,14 @@ def test_the_cascade_design_writes_bode_png_with_its_certified_peak(tmp_path) ->
     h_line = fig.axes[0].get_lines()[0]
     assert abs(float(np.max(h_line.get_ydata())) - d.certificate.hinf_H) < 1e-3 * d.certificate.hinf_H
     assert np.max(h_line.get_ydata()) < d.gamma
+
+
+def test_a_linear_models_comparison_draws_the_luenberger_error_dynamics(tmp_path) -> None:
+    from nlobs.workflows.compare import compare_observers
+
+    rep = compare_observers("gnss-ins-axis", observers=["luenberger"], runs=2, duration=2.0, out=tmp_path)
+    assert (tmp_path / "bode.png").stat().st_size > 10_000 and tmp_path / "bode.png" in rep.files
+    cert = rep.observers["luenberger"].design.certificate
+    assert cert.hinf_H < cert.gamma  # what the figure's peak shows against its γ line
+    assert "bode.png" not in {p.name for p in compare_observers(
+        "pendulum", observers=["luenberger"], runs=2, duration=1.0, out=tmp_path / "nl").files}  # nonlinear: none

@@ -9,6 +9,8 @@ figures, the trajectories.
   percentiles; observers whose runs diverged named with when and why;
 * ``consistency.png`` — the Kalman filters' NEES and NIS over the runs against the 95 % χ² band
   (:mod:`nlobs.simulate.consistency`), when a filter ran;
+* ``bode.png`` — for a continuous linear model's Luenberger design, ``σ_max`` of its error dynamics' ``H(jω)``
+  and ``G(jω)`` with γ and γn (:func:`nlobs.linear.frequency.bode_figure`);
 * ``rms_boxplot.png`` — a box plot over the Monte Carlo runs of each observer's RMS ``‖e‖`` after the
   settling time, with the certified bound of a design under the sensors as a dashed mark (also a dashed line
   on ``error_norms.png``);
@@ -238,6 +240,28 @@ def consistency_figure(report: ComparisonReport) -> Any | None:
     return fig
 
 
+def _linear_bode(report: ComparisonReport, scenario: Scenario) -> Any | None:
+    """The frequency response of a continuous linear model's Luenberger error dynamics (``bode.png``): ``𝔄 − Kℭ``
+    with ``𝔅_d = I`` as LMIs (14), (15) designed it, γ and γn of its certificate; ``None`` otherwise."""
+    from nlobs.linear.frequency import bode_figure
+    from nlobs.systems.linear import LinearSystem
+
+    model = scenario.model
+    o = report.observers.get("luenberger")
+    if not isinstance(model, LinearSystem) or model.time.is_discrete or o is None or o.skipped is not None:
+        return None
+    cert = None if o.design is None else o.design.certificate
+    if cert is None or getattr(cert, "gamma", None) is None or getattr(cert, "gain", None) is None:
+        return None
+    K = np.asarray(cert.gain, dtype=float)
+    F = np.asarray(model.A, dtype=float) - K @ np.asarray(model.C, dtype=float)
+    if float(np.max(np.linalg.eigvals(F).real)) >= 0.0:
+        return None
+    return bode_figure(F, np.eye(model.n), gamma=cert.gamma, KN=K, gamma_n=getattr(cert, "gamma_n", None),
+                       time_unit=report.time_unit,
+                       title=f"{report.model}: error dynamics of the Luenberger observer (B_d = I, N = I)")
+
+
 def _bound(outcome: Any) -> float | None:
     """The certified RMS bound of an observer's run under the sensors (``certificate.rms_bound``), if any."""
     cert = outcome.certificate or {}
@@ -341,6 +365,9 @@ def write_comparison(report: ComparisonReport, scenario: Scenario, out: Path, *,
     consistency = consistency_figure(report)
     if consistency is not None:
         put(out / "consistency.png", lambda p: save_figure(consistency, p))
+    bode = _linear_bode(report, scenario)
+    if bode is not None:
+        put(out / "bode.png", lambda p: save_figure(bode, p))
     for o in _ran(report):
         put(out / f"{o.name}.npz", lambda p, o=o: o.result.save(p))
     put(out / "trajectories.csv", lambda p: atomic_write_text(p, trajectories_csv(report, scenario)))
