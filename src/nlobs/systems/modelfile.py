@@ -154,6 +154,16 @@ def load_model(path: str | Path) -> Model:
         If the file cannot be found or read, is not valid TOML, or any key, name,
         expression or matrix is invalid; the message names the file, the line
         and the offending text.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> model = load_model("pendulum")
+    >>> model.states, model.inputs, model.outputs
+    (('theta', 'omega'), ('tau',), ('y',))
+    >>> plant = model.compile()  # NumPy callables, batch axes first
+    >>> plant.rhs(0.0, np.array([[0.1, 0.0], [0.0, 1.0]]), np.zeros((2, 1))).shape
+    (2, 2)
     """
     p = resolve_model(path)
     return parse_model(read_text(p), source=str(p))
