@@ -209,14 +209,13 @@ class CompiledObserver:
             raise DimensionError(f"{self.name}: state of shape {zc.shape}, expected (..., {self.n_z})")
         batch = zc.shape[:-1]
         n = zc.size // self.n_z
-        _width(self.name, "u", u, self.program.n_u)
+        uc = self._input(u, batch, n)
         _width(self.name, "y", y, self.program.n_y)
-        uc = _contig(u, (*batch, self.program.n_u)) if self.program.n_u else np.zeros(max(n, 1))
         yc = _contig(y, (*batch, self.program.n_y)) if self.program.n_y else np.zeros(max(n, 1))
         return zc, uc, yc, n, batch
 
     def _input(self, u: Array, batch: tuple[int, ...], n: int) -> Array:
-        """Another input of the batch (a stage's) as :meth:`_io` reads ``u``."""
+        """An input of the batch as the C reads it: ``(*batch, n_u)`` contiguous (a stage's too)."""
         _width(self.name, "u", u, self.program.n_u)
         return _contig(u, (*batch, self.program.n_u)) if self.program.n_u else np.zeros(max(n, 1))
 

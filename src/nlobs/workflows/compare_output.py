@@ -49,8 +49,8 @@ def _ran(report: ComparisonReport) -> list[Any]:
 
 
 def _colors(report: ComparisonReport) -> dict[str, str]:
-    names = list(report.observers)
-    return {k: f"C{i % 10}" for i, k in enumerate(names)}
+    """Each observer's colour (:func:`_styles`'s)."""
+    return {k: v["color"] for k, v in _styles(report).items()}
 
 
 #: One dash pattern per observer (with its colour): curves that coincide (an EKF and a UKF on a mildly nonlinear
