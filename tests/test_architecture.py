@@ -30,7 +30,7 @@ import pytest
 
 SRC = Path(__file__).resolve().parents[1] / "src" / "nlobs"
 
-CORE = {"errors", "_validate", "_io", "_typing", "_progress", "_lazy", "checks", "_frozen"}
+CORE = {"errors", "_validate", "_io", "_typing", "_progress", "_lazy", "checks", "_frozen", "_schema"}
 BELOW_METHODS = CORE | {"systems", "geometry", "linear", "synthesis", "observers", "simulate", "navigation", "export"}
 BELOW_WORKFLOWS = BELOW_METHODS | {"methods"}
 # layer -> nlobs top-level names it may import (besides itself)

@@ -25,3 +25,26 @@ def test_the_examples_of_a_module_run(name: str) -> None:
     result = doctest.testmod(module, optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE, verbose=False,
                              report=True)
     assert result.failed == 0, f"{name}: {result.failed} of {result.attempted} examples failed"
+
+
+def _public_names() -> list[tuple[str, object]]:
+    import nlobs
+    from nlobs.simulate.sweep import sweep
+
+    out = [(f"{module}.{name}", getattr(importlib.import_module(module), name))
+           for name, module in sorted(nlobs._LAZY.items()) if name != "__version__"]
+    return [*out, ("nlobs.simulate.sweep.sweep", sweep)]
+
+
+@pytest.mark.parametrize(("name", "obj"), _public_names(), ids=lambda v: v if isinstance(v, str) else "")
+def test_every_public_name_has_a_runnable_example(name: str, obj: object) -> None:
+    """Every name ``import nlobs`` offers (and ``sweep``) shows its use in an Examples section that this suite runs."""
+    import inspect
+
+    target = obj
+    doc = inspect.getdoc(target) or ""
+    assert "\nExamples\n--------\n" in doc, f"{name}: no Examples section"
+    assert ">>> " in doc.split("\nExamples\n--------\n", 1)[1], f"{name}: its Examples section has no >>> line"
+    assert "doctest: +SKIP" not in doc, f"{name}: a skipped example"
+    module = inspect.getmodule(target)
+    assert module is not None and module.__name__ in MODULES, f"{name}: its module is not doctested"

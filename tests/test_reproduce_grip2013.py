@@ -59,6 +59,11 @@ def test_cli_json_rows_have_the_stable_keys() -> None:
     assert res.exit_code == 0, res.output
     data = json.loads(res.stdout)
     assert all(set(r) == {"quantity", "paper", "nlobs", "note"} for r in data)
+    from jsonschema import Draft202012Validator
+
+    from nlobs.cli.schema import command_schema
+
+    assert [e.message for e in Draft202012Validator(command_schema("reproduce")).iter_errors(data)] == []
     assert any(r["quantity"].startswith("K_pp") and r["paper"] == 128.9 for r in data)
 
 

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from nlobs._frozen import FrozenMapping
+from nlobs._schema import ANY, BOOLEAN, NUMBER, STRING, Record, array, enum, mapping, nullable
 from nlobs.errors import InvalidArgumentError
 
 __all__ = ["CheckKind", "Check", "Verdict"]
@@ -124,6 +125,24 @@ class Check:
     Notes
     -----
     The class is frozen; equality is identity (``values`` is a read-only mapping, not hashable).
+
+    Examples
+    --------
+    A comparison: a recomputed norm against its bound (Grip, Saberi & Johansen, (14)); the verdict,
+    the margin and the evidence follow from the numbers:
+
+    >>> c = Check.compare("‖H‖∞ < γ", 0.8, 1.0, kind=CheckKind.NORM)
+    >>> c.passed, round(c.margin, 3), c.evidence
+    (True, 0.2, '0.8 < 1')
+    >>> Check.compare("LMI (14)", 1e-3, 0.0, kind=CheckKind.LMI).summary()
+    'LMI (14): 0.001 < 0 (FAILED by 0.001)'
+
+    A verdict reached otherwise, with the evidence a user reads (no margin):
+
+    >>> v = Check.verdict("A5 (involutive)", True, "[τ₁, τ₂] ∈ span{τ₁, τ₂}", kind=CheckKind.STRUCTURAL,
+    ...                   method="symbolic")
+    >>> v.summary(), v.is_comparison, v.method
+    ('A5 (involutive): holds — [τ₁, τ₂] ∈ span{τ₁, τ₂}', False, 'symbolic')
     """
 
     name: str
@@ -254,7 +273,7 @@ class Check:
         ``"holds"`` repeats ``"passed"``: it is the key that the geometric and assumption reports
         have always written.
         """
-        return {
+        return CHECK_JSON.emit({
             "name": self.name,
             "passed": self.passed,
             "holds": self.passed,
@@ -269,7 +288,26 @@ class Check:
             "values": _plain(self.values),
             "worst_point": None if self.worst_point is None else list(self.worst_point),
             "symbolic": self.symbolic,
-        }
+        })
+
+
+#: The JSON of a :class:`Check` (``premises``, ``a1``, ``class_check`` … of the reports).
+CHECK_JSON = Record("Check", {
+    "name": STRING.about("what is checked, e.g. 'LMI (14)'"),
+    "passed": BOOLEAN,
+    "holds": BOOLEAN.about("the same as passed"),
+    "kind": enum(*(k.value for k in CheckKind)),
+    "method": STRING.about("how it was decided"),
+    "evidence": STRING,
+    "value": NUMBER.about("the measured quantity (null: none, or not finite)"),
+    "limit": NUMBER.about("the bound it is compared with (null: none)"),
+    "strict": nullable(BOOLEAN),
+    "required": BOOLEAN,
+    "key": STRING,
+    "values": mapping(ANY, "further named values of the check"),
+    "worst_point": nullable(array(NUMBER)),
+    "symbolic": nullable(STRING),
+}, description="One verdict with its evidence (nlobs.checks.Check).")
 
 
 class Verdict(Enum):
@@ -281,3 +319,7 @@ class Verdict(Enum):
     """A design is not usable, a certificate failed, or a guarantee was violated (exit status 1)."""
     NO_OBSERVER = "no observer"
     """No observer of the requested structure exists for this model (exit status 3)."""
+
+
+#: The JSON of a :class:`Verdict` (the reports' ``verdict``).
+VERDICT_JSON = enum(*(v.value for v in Verdict))

@@ -10,15 +10,59 @@ from __future__ import annotations
 
 
 class NlobsError(Exception):
-    """Base class of every error nlobs raises on purpose."""
+    """Base class of every error nlobs raises on purpose.
+
+    Examples
+    --------
+    One ``except`` clause catches every deliberate refusal, whatever its kind; the errors about bad
+    arguments are also :class:`ValueError`, a divergence an :class:`ArithmeticError`:
+
+    >>> import nlobs
+    >>> from nlobs.systems.modelfile import load_model
+    >>> for bad in (lambda: load_model("no-such-model"),
+    ...             lambda: nlobs.LinearSystem([[0.0, 1.0], [-2.0, -0.5]], [[0.0], [1.0]], [[1.0, 0.0, 0.0]])):
+    ...     try:
+    ...         bad()
+    ...     except NlobsError as exc:
+    ...         print(type(exc).__name__, isinstance(exc, ValueError))
+    ModelFileError True
+    DimensionError True
+    >>> issubclass(SimulationDiverged, ArithmeticError), issubclass(DesignInfeasible, ValueError)
+    (True, False)
+    """
 
 
 class DimensionError(NlobsError, ValueError):
-    """An array has the wrong shape or two arrays disagree in size."""
+    """An array has the wrong shape or two arrays disagree in size.
+
+    Examples
+    --------
+    A measurement matrix ``C`` with three columns for a system of two states:
+
+    >>> import nlobs
+    >>> try:
+    ...     nlobs.LinearSystem([[0.0, 1.0], [-2.0, -0.5]], [[0.0], [1.0]], [[1.0, 0.0, 0.0]])
+    ... except DimensionError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    DimensionError - C: expected shape (?, 2), got (1, 3)
+    """
 
 
 class NonFiniteError(NlobsError, ValueError):
-    """An array holds NaN or infinite entries where finite numbers are required."""
+    """An array holds NaN or infinite entries where finite numbers are required.
+
+    Examples
+    --------
+    A NaN in the system matrix; the message names the entry:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> try:
+    ...     nlobs.LinearSystem([[0.0, 1.0], [-2.0, np.nan]], [[0.0], [1.0]], [[1.0, 0.0]])
+    ... except NonFiniteError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    NonFiniteError - A: entry (1, 1) is ...nan...; all entries must be finite
+    """
 
 
 class NotSymmetricError(NlobsError, ValueError):
@@ -30,11 +74,38 @@ class InvalidArgumentError(NlobsError, ValueError):
 
 
 class UnknownNameError(NlobsError, ValueError):
-    """A name (state, input, parameter, option, example) is not known."""
+    """A name (state, input, parameter, option, example) is not known.
+
+    Examples
+    --------
+    A misspelt parameter of the shipped pendulum; the message lists the known ones:
+
+    >>> from nlobs.systems.modelfile import load_model
+    >>> try:
+    ...     load_model("pendulum").compile({"mas": 0.5})
+    ... except UnknownNameError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    UnknownNameError - pendulum: no parameter named 'mas' (known: ['c', 'g', 'l', 'mass'])
+    """
 
 
 class ModelError(NlobsError, ValueError):
-    """A model is inconsistent (duplicate names, free symbols, wrong time base...)."""
+    """A model is inconsistent (duplicate names, free symbols, wrong time base...).
+
+    Examples
+    --------
+    The drift observer (3.1) of Dalla Mora, Germani & Manes needs a nonlinear model; the shipped
+    ``grip-example1-filter`` is linear:
+
+    >>> from nlobs.workflows.design_drift import design_drift_observer
+    >>> try:
+    ...     design_drift_observer("grip-example1-filter")
+    ... except ModelError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ModelError - a nonlinear (symbolic) model is needed; this one is linear
+    >>> issubclass(ModelFileError, ModelError)  # an invalid file is an invalid model
+    True
+    """
 
 
 class ModelFileError(ModelError):
@@ -48,6 +119,32 @@ class ModelFileError(ModelError):
         1-based line number of the offending text, when known.
     text : str
         The offending text (an expression, a key), possibly empty.
+
+    Examples
+    --------
+    A model file whose ``f`` uses a name it never declares; the error names the file, the line and the text:
+
+    >>> from nlobs.systems.modelfile import load_model, parse_model
+    >>> text = '''name = "bad"
+    ... time = "continuous"
+    ... states = ["x"]
+    ... outputs = ["y"]
+    ... [dynamics]
+    ... f = ["-x + k"]
+    ... h = ["x"]
+    ... '''
+    >>> try:
+    ...     parse_model(text, source="bad.toml")
+    ... except ModelFileError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ...     print(exc.path, exc.line, repr(exc.text))
+    ModelFileError - bad.toml:6: [dynamics].f: undeclared name: 'k'
+    bad.toml 6 'k'
+    >>> try:
+    ...     load_model("no-such-model")
+    ... except ModelFileError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ModelFileError - no-such-model: no such file (shipped models: ball-and-beam, cartpole, ...)
     """
 
     def __init__(self, path: str, line: int | None, text: str, reason: str) -> None:
@@ -74,7 +171,24 @@ class SignalFileError(ModelFileError):
 
 
 class DesignError(NlobsError):
-    """Base class of gain-synthesis failures."""
+    """Base class of gain-synthesis failures.
+
+    Examples
+    --------
+    Whatever the reason a design fails (no solution, a failed certificate, a broken assumption), one
+    ``except DesignError`` catches it; here a given gain that makes ``A − K C`` unstable:
+
+    >>> import numpy as np
+    >>> from nlobs.synthesis.observer_gain import verify_observer_gain
+    >>> A, C, Bd = np.array([[0.0, 1.0], [-2.0, -0.5]]), np.array([[1.0, 0.0]]), np.array([[0.0], [1.0]])
+    >>> try:
+    ...     verify_observer_gain(A, C, Bd, [[-1.0], [0.0]], gamma=10.0)
+    ... except DesignError as exc:
+    ...     print(type(exc).__name__)
+    CertificateError
+    >>> [issubclass(e, DesignError) for e in (DesignInfeasible, DesignUnbounded, CertificateError, AssumptionViolated)]
+    [True, True, True, True]
+    """
 
 
 class DesignInfeasible(DesignError):
@@ -87,6 +201,22 @@ class DesignInfeasible(DesignError):
     violation : float or None
         By how much it fails (e.g. the largest eigenvalue of a block that must
         be negative definite), when known.
+
+    Examples
+    --------
+    LMIs (14), (15) of Grip, Saberi & Johansen asked of a pair ``(A, C)`` with an unmeasured unstable mode:
+    no gain exists for any ``γ``, and the error says why:
+
+    >>> import numpy as np
+    >>> from nlobs.synthesis.observer_gain import design_observer_gain
+    >>> A, C, Bd = np.eye(2), np.array([[1.0, 0.0]]), np.array([[0.0], [1.0]])
+    >>> try:
+    ...     design_observer_gain(A, C, Bd, gamma=10.0, gamma_n=10.0)
+    ... except DesignInfeasible as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ...     print(exc.constraint, exc.violation)
+    DesignInfeasible - (A, C) is not detectable: the mode λ = 1+0j (Re λ ≥ 0) is unobservable ...
+    detectability 1.0
     """
 
     def __init__(self, message: str, *, constraint: str = "", violation: float | None = None) -> None:
@@ -104,7 +234,22 @@ class DesignUnbounded(DesignError):
 
 
 class CertificateError(DesignError):
-    """A solver answer failed the independent re-verification of its certificate."""
+    """A solver answer failed the independent re-verification of its certificate.
+
+    Examples
+    --------
+    A given gain checked against LMI (14) of Grip, Saberi & Johansen: ``A − K C`` has an eigenvalue at
+    0.25, so no certificate holds, and the message lists the failed checks:
+
+    >>> import numpy as np
+    >>> from nlobs.synthesis.observer_gain import verify_observer_gain
+    >>> A, C, Bd = np.array([[0.0, 1.0], [-2.0, -0.5]]), np.array([[1.0, 0.0]]), np.array([[0.0], [1.0]])
+    >>> try:
+    ...     verify_observer_gain(A, C, Bd, [[-1.0], [0.0]], gamma=10.0)
+    ... except CertificateError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    CertificateError - the given gain K failed verification: A − K C Hurwitz (max Re λ): 0.25 < 0 ...
+    """
 
 
 class SimulationDiverged(NlobsError, ArithmeticError):
@@ -120,6 +265,23 @@ class SimulationDiverged(NlobsError, ArithmeticError):
         Name of the first non-finite state component.
     detail : str
         What is known about the cause (e.g. the RK4 stability of the step for the gain, peaking).
+
+    Examples
+    --------
+    A Luenberger gain far too stiff for RK4 steps of 0.1 s: the estimate grows by orders of magnitude
+    each step until it overflows, and the error names the time and the component:
+
+    >>> import nlobs
+    >>> from nlobs.simulate import simulate
+    >>> system = nlobs.LinearSystem([[0.0, 1.0], [-2.0, -0.5]], [[0.0], [1.0]], [[1.0, 0.0]])
+    >>> observer = nlobs.LuenbergerObserver(system, [[450.0], [175.0]])
+    >>> try:
+    ...     simulate(system, observer, [1.0, 0.0], [0.0, 0.0], duration=10.0, dt=0.1, u=0.0)
+    ... except SimulationDiverged as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ...     print(exc.time, exc.which, exc.state)
+    SimulationDiverged - simulation diverged at t=6: observer state 'x1_hat' is not finite
+    6.0 observer x1_hat
     """
 
     def __init__(self, time: float, which: str, state: str, detail: str = "") -> None:
@@ -140,6 +302,20 @@ class AssumptionViolated(DesignError):
         Key of the failed item (e.g. ``"no_zero_at_origin"``).
     evidence : str
         The numbers behind the verdict.
+
+    Examples
+    --------
+    The Moore–Penrose observer of Röbenack needs A1, independent rows of ``Q`` (13); the ball and beam
+    has relative degrees ``r = (3, 2)``, more rows than its four states:
+
+    >>> from nlobs.workflows.design_pinv import design_pinv_observer
+    >>> try:
+    ...     design_pinv_observer("ball-and-beam")
+    ... except AssumptionViolated as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ...     print(exc.item)
+    AssumptionViolated - ball-and-beam: A1 fails: Σ r_j = 5 > n = 4 for r = (3, 2); the rows of Q (13) ...
+    A1
     """
 
     def __init__(self, message: str, *, item: str = "", evidence: str = "") -> None:

@@ -295,11 +295,12 @@ def models_cmd(
     as_json: Annotated[bool, typer.Option("--json", help="Print a JSON list.")] = False,
 ) -> None:
     """List the model files shipped with nlobs."""
-    from nlobs.systems.modelfile import shipped_models
+    from nlobs.systems.modelfile import SHIPPED_MODEL_JSON, shipped_models
 
     shipped = shipped_models()
     if as_json:
-        typer.echo(json.dumps([{"name": k, "path": str(v)} for k, v in sorted(shipped.items())], indent=2))
+        rows = [SHIPPED_MODEL_JSON.emit({"name": k, "path": str(v)}) for k, v in sorted(shipped.items())]
+        typer.echo(json.dumps(rows, indent=2))
         return
     con = console()
     for name, path in sorted(shipped.items()):
@@ -319,6 +320,9 @@ from nlobs.cli.export import export_cmd  # noqa: E402 - registered after the app
 
 app.command("export")(export_cmd)
 from nlobs.cli import gnss_ins as _gnss_ins  # noqa: E402,F401 - registers `simulate gnss-ins`
+from nlobs.cli.schema import schema_cmd  # noqa: E402 - registered after the app exists
+
+app.command("schema")(schema_cmd)
 
 app.add_typer(design_app, name="design")
 app.add_typer(simulate_app, name="simulate")

@@ -463,6 +463,25 @@ def compile_observer(observer: Any, *, prefix: str | None = None, compiler: Comp
         The observer has no C generator.
     CompilerError
         No C compiler, or it failed.
+
+    Examples
+    --------
+    A Luenberger observer (eigenvalues of ``A − L C`` at ``−2, −3``) compiled once (the library is
+    cached), then run on a recorded measurement beside the Python observer: the same estimates:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> from nlobs.simulate import run_observer
+    >>> system = nlobs.LinearSystem([[0.0, 1.0], [-2.0, -0.5]], [[0.0], [1.0]], [[1.0, 0.0]])
+    >>> observer = nlobs.LuenbergerObserver(system, [[4.5], [1.75]])
+    >>> compiled = compile_observer(observer)
+    >>> type(compiled).__name__, compiled.program.prefix
+    ('CompiledObserver', 'nlobs_luenbergerobserver')
+    >>> t = np.linspace(0.0, 2.0, 201)
+    >>> rec = dict(x_hat0=[0.0, 0.0], u=np.zeros((201, 1)), y=np.cos(t)[:, None])
+    >>> a, b = run_observer(observer, t, **rec), run_observer(compiled, t, **rec)
+    >>> b.method, bool(np.allclose(a.x_hat, b.x_hat, rtol=0.0, atol=1e-12))
+    ('observer step, whole record in one call', True)
     """
     program = generate(observer, default_prefix(observer, prefix), notes=notes,
                        options=options)

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from nlobs._schema import BOOLEAN, INTEGER, STRING, Record, nullable
 from nlobs._io import atomic_write_text, prepare_output_dir
 from nlobs.errors import CompilerError, OutputError
 from nlobs.export.compiler import compile_object, find_compiler
@@ -38,9 +39,19 @@ class ExportResult:
     def to_dict(self) -> dict[str, Any]:
         """A JSON-ready summary."""
         p = self.program
-        return {"prefix": p.prefix, "title": p.title, "header": str(self.header), "source": str(self.source),
-                "n_z": p.n_z, "n_x": p.n_x, "n_u": p.n_u, "n_y": p.n_y, "discrete": p.discrete,
-                "correcting": p.correcting, "checked_with": self.checked_with}
+        return EXPORTED_MODULE_JSON.emit({
+            "prefix": p.prefix, "title": p.title, "header": str(self.header), "source": str(self.source),
+            "n_z": p.n_z, "n_x": p.n_x, "n_u": p.n_u, "n_y": p.n_y, "discrete": p.discrete,
+            "correcting": p.correcting, "checked_with": self.checked_with})
+
+
+#: ``module`` of ``nlobs export``: the C module written.
+EXPORTED_MODULE_JSON = Record("ExportedModule", {
+    "prefix": STRING.about("the prefix of every C name"), "title": STRING, "header": STRING, "source": STRING,
+    "n_z": INTEGER.about("the observer's state size"), "n_x": INTEGER, "n_u": INTEGER, "n_y": INTEGER,
+    "discrete": BOOLEAN, "correcting": BOOLEAN.about("it corrects at sample instants"),
+    "checked_with": nullable(STRING, "the compiler that built it with -Wall -Wextra -Werror (null: none found)"),
+})
 
 
 def export_observer(observer: Any, out: str | Path, *, prefix: str | None = None,
@@ -75,6 +86,26 @@ def export_observer(observer: Any, out: str | Path, *, prefix: str | None = None
         The strict compilation failed (nothing is written).
     OutputError
         The folder cannot be written.
+
+    Examples
+    --------
+    The C99 module of a Luenberger observer, checked by a strict compilation (when a compiler is
+    found) and written to a folder:
+
+    >>> import tempfile
+    >>> import nlobs
+    >>> system = nlobs.LinearSystem([[0.0, 1.0], [-2.0, -0.5]], [[0.0], [1.0]], [[1.0, 0.0]])
+    >>> observer = nlobs.LuenbergerObserver(system, [[4.5], [1.75]])
+    >>> with tempfile.TemporaryDirectory() as out:
+    ...     res = export_observer(observer, out, prefix="osc", notes=(("poles", "eig(A - L C) = -2, -3"),))
+    ...     header = res.header.read_text(encoding="utf-8")
+    ...     files = sorted(p.name for p in res.header.parent.iterdir())
+    >>> files, res.program.prefix
+    (['osc.c', 'osc.h'], 'osc')
+    >>> "int osc_step(" in header, "eig(A - L C) = -2, -3" in header
+    (True, True)
+    >>> {k: res.to_dict()[k] for k in ("n_x", "n_u", "n_y", "discrete")}
+    {'n_x': 2, 'n_u': 1, 'n_y': 1, 'discrete': False}
     """
     program = generate(observer, default_prefix(observer, prefix), notes=notes,
                        options=options)

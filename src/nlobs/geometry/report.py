@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from nlobs._schema import ANY, BOOLEAN, BOX, INTEGER, NUMBER, STRING, Record, array, nullable, one_of
+from nlobs.checks import CHECK_JSON
 from nlobs.errors import ExpressionTooLarge, ModelError
 from nlobs.geometry.checks import (
     Check,
@@ -27,6 +29,44 @@ from nlobs.geometry.checks import _ScaledCodistribution
 from nlobs.geometry.pinv import NumericGain, gain_within, numeric_gain
 from nlobs.geometry.region import Box, format_point
 from nlobs.systems.symbolic import SymbolicModel
+
+
+#: ``observability_rank_evidence`` of ``nlobs analyze``.
+RANK_EVIDENCE_JSON = Record("RankEvidence", {
+    "rank": nullable(INTEGER), "lower": INTEGER.about("count of singular values above 10 eta"),
+    "upper": INTEGER.about("count above eta"), "singular_values": array(NUMBER, "scaled, at point"),
+    "tolerance": NUMBER.about("eta, their error bound"), "gap": NUMBER, "point": nullable(array(NUMBER)),
+    "points": INTEGER, "state_scales": array(NUMBER), "gap_factor": NUMBER, "method": STRING,
+    "high_precision_singular_values": nullable(array(NUMBER)), "high_precision_tolerance": NUMBER,
+}, description="The numerical evidence for the generic rank of the observability codistribution.")
+
+#: ``pinv_gain_numeric`` of ``nlobs analyze``.
+NUMERIC_GAIN_JSON = Record("NumericPinvGain", {
+    "points": array(array(NUMBER)), "pinv": array(array(array(NUMBER))), "max_norm": NUMBER, "samples": INTEGER,
+    "method": STRING, "reason": STRING,
+}, description="Q+(x) by numpy.linalg.pinv at sampled points, when the symbolic gain did not fit the budget.")
+
+#: The keys the differential-geometric analysis adds to ``nlobs analyze`` (Dalla Mora, Germani & Manes;
+#: Röbenack).
+GEOMETRY_JSON = Record("Geometry", {
+    "region": BOX,
+    "observation_relative_degree": nullable(array(nullable(INTEGER)),
+                                            "per output, Dalla Mora, Germani & Manes Def. 2.5 / Röbenack A1"),
+    "relative_degree_evidence": array(STRING),
+    "observability_rank": nullable(INTEGER, "null: undecided"),
+    "observability_rank_evidence": nullable(RANK_EVIDENCE_JSON),
+    "multi_index": array(INTEGER),
+    "drift_observable": nullable(BOOLEAN),
+    "drift_observability": nullable(CHECK_JSON),
+    "a1": nullable(CHECK_JSON),
+    "involutive": nullable(BOOLEAN, "Röbenack A5"),
+    "a5": nullable(CHECK_JSON),
+    "pinv_gain": nullable(array(one_of(STRING, array(STRING))), "Q+(x) k of Röbenack (17), in the model's names"),
+    "pinv_gain_numeric": nullable(NUMERIC_GAIN_JSON),
+    "numeric_parts": array(STRING),
+    "symbolic_budget": NUMBER,
+    "notes": array(STRING),
+})
 
 
 @dataclass(frozen=True)
@@ -87,7 +127,7 @@ class GeometryReport:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON keys (stable, documented in the README)."""
-        return {
+        return GEOMETRY_JSON.emit({
             "region": {"lower": self.region.lower.tolist(), "upper": self.region.upper.tolist()},
             "observation_relative_degree": list(self.relative_degree),
             "relative_degree_evidence": list(self.relative_degree_evidence),
@@ -104,7 +144,7 @@ class GeometryReport:
             "numeric_parts": list(self.numeric_parts),
             "symbolic_budget": self.symbolic_budget,
             "notes": list(self.notes),
-        }
+        })
 
     def summary(self) -> str:
         n = len(self.states)

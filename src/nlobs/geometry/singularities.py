@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from nlobs._schema import NUMBER, STRING, Record, array, enum, nullable
 from nlobs.geometry.region import Box, format_point
 from nlobs.systems.codegen import compile_matrix
 from nlobs.systems.expressions import as_sympy_expr, as_symbols
@@ -60,8 +61,20 @@ class Singularity:
         return f"{what} at x = {format_point(np.asarray(self.point))}" if self.point is not None else what
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "expression": self.expression, "state": self.state, "values": list(self.values),
-                "point": None if self.point is None else list(self.point), "description": self.describe()}
+        return SINGULARITY_JSON.emit({
+            "kind": self.kind, "expression": self.expression, "state": self.state, "values": list(self.values),
+            "point": None if self.point is None else list(self.point), "description": self.describe()})
+
+
+#: The JSON of a :class:`Singularity` (``nlobs advise``'s ``singularities``).
+SINGULARITY_JSON = Record("Singularity", {
+    "kind": enum("pole", "domain", "non-finite"),
+    "expression": STRING,
+    "state": nullable(STRING, "the one state it depends on"),
+    "values": array(NUMBER, "its zeros in that state inside the region"),
+    "point": nullable(array(NUMBER), "a point of the region where it happens"),
+    "description": STRING,
+})
 
 
 def sample_points(box: Box, count: int = SAMPLES, seed: int = 0) -> np.ndarray:

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from nlobs._schema import BOOLEAN, INTEGER, NUMBER, STRING, Record, array, enum
 from nlobs.errors import InvalidArgumentError
 from nlobs.linear.norms import h2_norm, hinf_norm
 from nlobs.linear.observability import unobservable_modes
@@ -63,6 +64,31 @@ def _fmt_c(v: complex) -> str:
 
 def _fmt_list(z: NDArray[np.complex128]) -> str:
     return "none" if len(z) == 0 else ", ".join(_fmt_c(v) for v in z)
+
+
+#: A complex number as ``[re, im]``.
+_COMPLEX = array(NUMBER)
+
+#: The JSON of a :class:`LinearReport` (``nlobs analyze`` of a linear model; ``linearization``).
+LINEAR_REPORT_JSON = Record("LinearReport", {
+    "name": STRING,
+    "time": enum("continuous", "discrete"),
+    "dt": NUMBER.about("the sampling period of a discrete model (null: continuous)"),
+    "n": INTEGER.about("states"),
+    "m": INTEGER.about("inputs"),
+    "p": INTEGER.about("outputs"),
+    "eigenvalues": array(_COMPLEX, "eigenvalues of A as [re, im]"),
+    "stable": BOOLEAN,
+    "observable": BOOLEAN.about("PBH test on (A, C)"),
+    "detectable": BOOLEAN,
+    "left_invertible": BOOLEAN.about("normal rank of the Rosenbrock matrix = n + m"),
+    "minimum_phase": BOOLEAN,
+    "strongly_detectable": BOOLEAN.about("Khajenejad & Yong Def. 2.1 with B, D as the unknown-input matrices"),
+    "invariant_zeros": array(_COMPLEX, "finite invariant zeros of (A, B, C, D) as [re, im]"),
+    "normal_rank": INTEGER,
+    "hinf_norm": NUMBER.about("H-infinity norm of u -> y; null when unstable"),
+    "h2_norm": NUMBER.about("H2 norm; null when unstable or infinite"),
+}, description="Structural properties and norms of a linear system.")
 
 
 @dataclass(frozen=True)
@@ -128,7 +154,7 @@ class LinearReport:
         Complex numbers are ``[re, im]`` pairs; booleans, ints and floats are
         plain Python types; a missing norm is ``None`` (JSON ``null``).
         """
-        return {
+        return LINEAR_REPORT_JSON.emit({
             "name": str(self.name),
             "time": str(self.time),
             "dt": None if self.dt is None else float(self.dt),
@@ -146,7 +172,7 @@ class LinearReport:
             "normal_rank": int(self.normal_rank),
             "hinf_norm": None if self.hinf_norm is None else float(self.hinf_norm),
             "h2_norm": None if self.h2_norm is None else float(self.h2_norm),
-        }
+        })
 
     def summary(self) -> str:
         """A short human-readable multi-line report (plain text)."""

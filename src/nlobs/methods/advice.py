@@ -53,6 +53,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from nlobs._schema import ANY, BOX, INTEGER, NUMBER, STRING, Record, array, enum, mapping, nullable
 from nlobs.errors import InvalidArgumentError, ModelError, ModelFileError, NlobsError
 from nlobs.geometry.budget import DEFAULT_SYMBOLIC_BUDGET
 from nlobs.geometry.checks import SYMBOLIC_DET_MAX_N
@@ -62,6 +63,7 @@ from nlobs.geometry.region import Box, format_point
 from nlobs.geometry.report import MAX_GEOMETRY_STATES, GeometryReport, geometry_report, too_many_states
 from nlobs.geometry.unobservable import Unobservability, linear_unobservable_directions, unobservable_directions
 from nlobs.geometry.singularities import (
+    SINGULARITY_JSON,
     Singularity,
     expression_atoms,
     real_roots,
@@ -74,7 +76,8 @@ from nlobs.systems.linear import LinearSystem
 from nlobs.systems.linearize import linearize
 from nlobs.systems.modelfile import Model, load_discrete_ui_model, load_model, load_scenario, model_file_tables
 from nlobs.systems.symbolic import SymbolicModel
-from nlobs.checks import Verdict
+from nlobs.checks import VERDICT_JSON, Verdict
+from nlobs.methods.base import DESIGN_JSON
 from nlobs.methods.problem import as_region, model_label, problem
 
 #: With ``check``: an observer whose RMS error exceeds this multiple of the EKF's gets a note on noise amplification.
@@ -122,8 +125,20 @@ class CascadeStructure:
 
     def to_dict(self) -> dict[str, Any]:
         return {"linear_states": list(self.linear_states), "nonlinear_states": list(self.nonlinear_states),
-                "drive": list(self.drive)}
+                "drive": list(self.drive)}  # one of the parameters of MethodAdvice (not a record of its own)
 
+
+#: The JSON of a :class:`MethodAdvice` (one entry of ``nlobs advise``'s ``methods``).
+METHOD_ADVICE_JSON = Record("MethodAdvice", {
+    "method": enum(*METHODS),
+    "title": STRING,
+    "applicable": enum("yes", "no", "local"),
+    "reason": STRING.about("one line: why"),
+    "region": nullable(STRING, "where a local verdict holds"),
+    "evidence": array(STRING, "the numbers behind the verdict"),
+    "parameters": mapping(ANY, "what to start from (box, alpha, mu, theta, ...)"),
+    "command": nullable(STRING, "the first nlobs command to run (null when the method does not apply)"),
+})
 
 @dataclass(frozen=True)
 class MethodAdvice:
@@ -165,10 +180,28 @@ class MethodAdvice:
         return self.applicable in ("yes", "local") and self.command is not None
 
     def to_dict(self) -> dict[str, Any]:
-        return {"method": self.method, "title": self.title, "applicable": self.applicable, "reason": self.reason,
-                "region": self.region, "evidence": list(self.evidence), "parameters": dict(self.parameters),
-                "command": self.command}
+        return METHOD_ADVICE_JSON.emit({
+            "method": self.method, "title": self.title, "applicable": self.applicable, "reason": self.reason,
+            "region": self.region, "evidence": list(self.evidence), "parameters": dict(self.parameters),
+            "command": self.command})
 
+
+#: One observer's line of a :class:`SensorCheck`.
+SENSOR_OUTCOME_JSON = Record("SensorCheckOutcome", {
+    "rms_error_norm": NUMBER.about("RMS of the error norm after the settling time, over the runs that did not diverge"),
+    "diverged": INTEGER.about("runs that diverged"),
+    "convergence_time": NUMBER,
+    "skipped": nullable(STRING, "why it was not run"),
+})
+
+#: The JSON of a :class:`SensorCheck` (``nlobs advise`` with its check).
+SENSOR_CHECK_JSON = Record("SensorCheck", {
+    "runs": INTEGER,
+    "seed": INTEGER,
+    "outcomes": mapping(SENSOR_OUTCOME_JSON, "per observer"),
+    "demoted": mapping(STRING, "the observers ranked below the Kalman filters, with the measured reason"),
+    "time_unit": STRING,
+})
 
 @dataclass(frozen=True)
 class SensorCheck:
@@ -203,8 +236,10 @@ class SensorCheck:
                 f"{o['rms_error_norm']:.4g}, diverged {o['diverged']}/{self.runs}, {conv_txt}{note}")
 
     def to_dict(self) -> dict[str, Any]:
-        return {"runs": self.runs, "seed": self.seed, "outcomes": {k: dict(v) for k, v in self.outcomes.items()},
-                "demoted": dict(self.demoted), "time_unit": self.time_unit}
+        return SENSOR_CHECK_JSON.emit({
+            "runs": self.runs, "seed": self.seed,
+            "outcomes": {k: SENSOR_OUTCOME_JSON.emit(v) for k, v in self.outcomes.items()},
+            "demoted": dict(self.demoted), "time_unit": self.time_unit})
 
 
 def _sensor_check(model: str | Path, methods: Sequence[MethodAdvice], region: Box, runs: int,
@@ -275,6 +310,23 @@ def _sampling_note(observer: Any, model: str | Path, time_unit: str) -> str:
             "|λ|·Ts well below 1: a faster sensor, or a smaller gain (a smaller α of the design, a smaller region))")
 
 
+#: The JSON of an :class:`AdviceReport` (``nlobs advise``; ``advice`` in ``nlobs analyze``).
+ADVICE_JSON = Record("Advice", {
+    "model": STRING,
+    "box": nullable(BOX, "the region the methods were judged on"),
+    "box_source": STRING,
+    "region": nullable(BOX, "a suggested region that avoids the singularities"),
+    "singularities": array(SINGULARITY_JSON),
+    "methods": mapping(METHOD_ADVICE_JSON, "per method, in the advisor's order"),
+    "recommended": STRING,
+    "command": STRING,
+    "compare_command": nullable(STRING),
+    "verdict": VERDICT_JSON,
+    "message": STRING,
+    "check": nullable(SENSOR_CHECK_JSON, "the observers run under the file's sensors (the check)"),
+    "design": nullable(DESIGN_JSON, "the recommended method's design"),
+}, description="Which observer applies to a model, with the evidence.")
+
 @dataclass(frozen=True)
 class AdviceReport:
     """What ``nlobs advise`` prints: one :class:`MethodAdvice` per method and the recommendation.
@@ -342,12 +394,13 @@ class AdviceReport:
         def box(b: Box | None) -> Any:
             return None if b is None else {"lower": b.lower.tolist(), "upper": b.upper.tolist()}
 
-        return {"model": self.model, "box": box(self.box), "box_source": self.box_source, "region": box(self.region),
-                "singularities": [s.to_dict() for s in self.singular],
-                "methods": {m.method: m.to_dict() for m in self.methods}, "recommended": self.recommended,
-                "command": self.command, "compare_command": self.compare_command, "verdict": self.verdict.value,
-                "message": self.message, "check": None if self.check is None else self.check.to_dict(),
-                "design": None if self.design is None else self.design.to_dict()}
+        return ADVICE_JSON.emit({
+            "model": self.model, "box": box(self.box), "box_source": self.box_source, "region": box(self.region),
+            "singularities": [s.to_dict() for s in self.singular],
+            "methods": {m.method: m.to_dict() for m in self.methods}, "recommended": self.recommended,
+            "command": self.command, "compare_command": self.compare_command, "verdict": self.verdict.value,
+            "message": self.message, "check": None if self.check is None else self.check.to_dict(),
+            "design": None if self.design is None else self.design.to_dict()})
 
     def summary(self, *, short: bool = False) -> str:
         """The text report (``short``: the recommendation and one line per method, as ``nlobs analyze`` ends)."""

@@ -24,7 +24,8 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from nlobs.checks import Check
+from nlobs._schema import ANY, BOOLEAN, NUMBER, OBJECT, STRING, Record, array, mapping, nullable, one_of
+from nlobs.checks import CHECK_JSON, Check
 from nlobs.methods.problem import Problem
 
 __all__ = ["Design", "Method"]
@@ -137,7 +138,7 @@ class Design:
 
     def to_dict(self) -> dict[str, Any]:
         """The ``design`` object of every command's JSON (the README's JSON section)."""
-        return {
+        return DESIGN_JSON.emit({
             "method": self.method,
             "parameters": {k: _plain(v) for k, v in self.parameters.items()},
             "sources": dict(self.sources),
@@ -151,7 +152,7 @@ class Design:
             "warnings": list(self.warnings),
             "description": self.description,
             "sampled": None if self.bound is None else self.bound.to_dict(),
-        }
+        })
 
     def defaults_text(self) -> str:
         """The parameters that have a source, each with it: ``"μ = 10.3 (max ‖u(t)‖ of [input_signals] over [0,
@@ -185,6 +186,44 @@ def _fmt(v: Any) -> str:
     if isinstance(v, list):
         return "[" + ", ".join(_fmt(x) for x in v) + "]"
     return str(v)
+
+
+#: The ``design`` object of every command that designs (``nlobs simulate``, ``advise``, ``export``, ``design``).
+DESIGN_JSON = Record("Design", {
+    "method": STRING.about("the method: drift, pinv, luenberger, cascade, ekf, ukf, setvalued"),
+    "parameters": mapping(ANY, "the parameters actually used (they depend on the method)"),
+    "sources": mapping(STRING, "where each default came from"),
+    "gain": nullable(one_of(NUMBER, array(one_of(NUMBER, array(NUMBER)))), "the gain (a constant gain's entries)"),
+    "certified": BOOLEAN.about("usable, with a verified certificate and every premise checked and holding"),
+    "usable": BOOLEAN.about("nothing that was checked failed"),
+    "status": STRING.about("'certified', 'not certified: …' or 'not usable: …'"),
+    "premises": array(CHECK_JSON, "the theorem's premises, each checked"),
+    "unchecked": array(STRING, "premises not checked"),
+    "failed": array(STRING, "what failed"),
+    "warnings": array(STRING),
+    "description": STRING,
+    "sampled": nullable(OBJECT, "the bound under the file's sensors (sampling periods, noise), when computed"),
+}, description="A method's design with its certificate's verdict (nlobs.methods.Design).")
+
+
+def joined_design_json(title: str, own: Record) -> Record:
+    """The ``design`` object of ``nlobs design drift|pinv|cascade``: the report's own keys joined to the method's
+    :data:`DESIGN_JSON` (whose keys are absent when the method's design was not made).
+
+    Parameters
+    ----------
+    title : str
+        The record's name.
+    own : Record
+        The report's own design keys.
+
+    Returns
+    -------
+    Record
+    """
+    return Record(title, {**DESIGN_JSON.fields, **own.fields},
+                  optional=(set(DESIGN_JSON.fields) - set(own.fields)) | own.optional,
+                  description=f"{own.description or own.title}, joined to the method's design object")
 
 
 @runtime_checkable

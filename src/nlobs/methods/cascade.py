@@ -29,8 +29,9 @@ from typing import Any
 
 import numpy as np
 
+from nlobs._schema import BOOLEAN, MATRIX, NUMBER, OBJECT, STRING, Record, array, nullable
 from nlobs._validate import positive
-from nlobs.checks import Check, CheckKind
+from nlobs.checks import CHECK_JSON, Check, CheckKind
 from nlobs.errors import AssumptionViolated, DesignError, DesignInfeasible, InvalidArgumentError, NlobsError
 from nlobs.linear.assumption4 import Assumption4Report, check_assumption4, extended_system
 from nlobs.linear.norms import hinf_norm
@@ -190,7 +191,7 @@ class CascadeDesign:
 
     def to_dict(self) -> dict[str, Any]:
         c = self.cascade
-        return {
+        return CASCADE_DESIGN_JSON.emit({
             "model": c.name, "form": c.form,
             "sigma1": {"states": list(c.sigma1.states), "z": list(c.sigma1.outputs), "inputs": list(c.sigma1.inputs)},
             "sigma2": {"states": list(c.sigma2.states), "outputs": list(c.sigma2.outputs),
@@ -206,7 +207,30 @@ class CascadeDesign:
             "lyapunov": None if c.lyapunov is None else c.lyapunov.to_dict(),
             "status": self.status,
             "failure": self.failure,
-        }
+        })
+
+
+#: The JSON of a :class:`CascadeDesign` (joined to the method's ``design`` object by ``nlobs design cascade``).
+CASCADE_DESIGN_JSON = Record("CascadeDesign", {
+    "model": STRING,
+    "form": STRING.about("cascade or feedback"),
+    "sigma1": Record("CascadeSigma1", {"states": array(STRING), "z": array(STRING), "inputs": array(STRING)}),
+    "sigma2": Record("CascadeSigma2", {"states": array(STRING), "outputs": array(STRING), "A": MATRIX,
+                                       "B_z": MATRIX, "C": MATRIX, "D_z": MATRIX}),
+    "assumption4": OBJECT.about("Assumption 4 of Grip, Saberi & Johansen, item by item"),
+    "method": STRING.about("the gain method: lmi, placement or h2"),
+    "gamma": NUMBER,
+    "certificate": nullable(OBJECT, "the gain's certificate, re-verified"),
+    "checks": array(CHECK_JSON),
+    "verified": BOOLEAN,
+    "theorem1": nullable(Record("Theorem1", {
+        "theorem": STRING, "bound": NUMBER, "bound_as_given": NUMBER, "hinf_H": NUMBER, "holds": BOOLEAN,
+        "reason": STRING})),
+    "noise_notes": array(STRING),
+    "lyapunov": nullable(OBJECT, "the file's [cascade.lyapunov] constants"),
+    "status": STRING,
+    "failure": nullable(STRING),
+})
 
 
 def _theorem1(cm: CascadeModel, hinf_H: float, hurwitz: bool) -> Theorem1Check:

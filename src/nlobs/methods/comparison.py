@@ -71,13 +71,14 @@ from nlobs.errors import (
     StudyFailed,
     UnknownNameError,
 )
-from nlobs.methods.base import Design
+from nlobs._schema import BOOLEAN, INTEGER, NUMBER, STRING, Node, Record, array, mapping, nullable, one_of
+from nlobs.methods.base import DESIGN_JSON, Design
 from nlobs.methods.kalman import DEFAULT_FILTER_Q, noise_matrix
 from nlobs.methods.problem import Problem, problem
 from nlobs.methods.registry import get as get_method
 from nlobs.methods.registry import names
-from nlobs.simulate.consistency import Consistency, filter_consistency
-from nlobs.simulate.coverage import monitor
+from nlobs.simulate.consistency import CONSISTENCY_JSON, Consistency, filter_consistency
+from nlobs.simulate.coverage import VIOLATION_JSON, monitor
 from nlobs.simulate.loop import PlantRun, observe, simulate, simulate_plant
 from nlobs.simulate.result import SimulationResult, with_run_axis
 from nlobs.systems.linear import LinearSystem
@@ -110,6 +111,80 @@ MAX_SAVED_VALUES = 50_000_000
 SAVED_POINTS = 2000
 
 
+#: One run that diverged (``diverged_runs`` of ``nlobs simulate MODEL``).
+DIVERGED_RUN_JSON = Record("DivergedRun", {
+    "run": INTEGER,
+    "time": NUMBER.about("first time the error was non-finite or too large"),
+    "reason": STRING,
+    "causes": array(STRING, "what the run showed before"),
+})
+
+#: An observer's certificate checked along the runs (``certificate`` of ``nlobs simulate MODEL``).
+RUN_CERTIFICATE_JSON = Record("RunCertificate", {
+    "verified": BOOLEAN.about("re-checked without the solver"),
+    "covers_run": BOOLEAN.about("every run inside every hypothesis"),
+    "covered_fraction": NUMBER,
+    "reasons": array(STRING, "why runs are not covered"),
+    "violations": array(VIOLATION_JSON, "per run not covered, the first"),
+    "hypotheses": array(STRING, "what the certificate rests on, each checked along every run"),
+    "region": STRING.about("drift: the region of the certificate"),
+    "mu": NUMBER.about("drift: the bound on the input"),
+    "hinf_H": NUMBER.about("cascade: the H-infinity norm of H, the error dynamics (13) of Grip, Saberi & Johansen"),
+    "theorem1_gamma": NUMBER.about("cascade: the gamma that Theorem 1 requires of it (null: no Lyapunov constants)"),
+    "rms_bound": NUMBER.about("the certified RMS of the error after the settling time (null: not verified)"),
+    "sampling": Record("SamplingBudget", {
+        "budget": NUMBER,
+        "iss_gain": NUMBER,
+        "groups": array(Record("SamplingGroup", {"name": STRING, "period": NUMBER, "T_max": NUMBER})),
+    }),
+}, optional={"region", "mu", "hinf_H", "theorem1_gamma", "rms_bound", "sampling"})
+
+#: An observer that did not run, and why.
+SKIPPED_OBSERVER_JSON = Record("SkippedObserver", {
+    "skipped": STRING.about("why it does not apply: the assumption or design that failed"),
+    "description": STRING,
+})
+
+#: An observer's results over the Monte Carlo runs (an entry of ``observers`` of ``nlobs simulate MODEL``).
+OBSERVER_OUTCOME_JSON = Record("ObserverOutcome", {
+    "skipped": Node({"type": "null"}),
+    "description": STRING,
+    "design": nullable(DESIGN_JSON),
+    "rms_error": array(NUMBER, "per state, after the settling time, over the runs that did not diverge"),
+    "rms_error_all": array(NUMBER, "per state, over the whole run"),
+    "rms_error_norm": NUMBER,
+    "rms_error_norm_all": NUMBER,
+    "final_error_norm": NUMBER,
+    "convergence_time": NUMBER,
+    "diverged_runs": array(DIVERGED_RUN_JSON),
+    "cost_per_step_us": NUMBER.about("wall time inside the observer per step and run"),
+    "certificate": nullable(RUN_CERTIFICATE_JSON),
+    "consistency": nullable(CONSISTENCY_JSON),
+})
+
+#: How the runs were made, as text.
+SETUP_JSON = Record("Setup", {
+    "sensors": STRING, "inputs": STRING, "process_noise": STRING, "initial estimate": STRING, "region": STRING})
+
+#: ``nlobs simulate MODEL``.
+COMPARISON_JSON = Record("Comparison", {
+    "model": STRING,
+    "states": array(STRING),
+    "units": array(STRING, "per state, empty when none"),
+    "runs": INTEGER,
+    "seed": INTEGER,
+    "duration": NUMBER,
+    "dt": NUMBER,
+    "settle": NUMBER,
+    "time_unit": STRING,
+    "x0": array(NUMBER),
+    "setup": SETUP_JSON,
+    "observers": mapping(one_of(OBSERVER_OUTCOME_JSON, SKIPPED_OBSERVER_JSON), "per observer, in the order asked for"),
+    "unobservable": array(STRING, "the directions the outputs cannot see"),
+    "files": array(STRING),
+}, description="Observers compared on the same noisy Monte Carlo runs.")
+
+
 @dataclass(frozen=True)
 class DivergedRun:
     """A Monte Carlo run whose estimate blew up: its index, when, and how.
@@ -133,7 +208,8 @@ class DivergedRun:
     causes: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
-        return {"run": self.run, "time": self.time, "reason": self.reason, "causes": list(self.causes)}
+        return DIVERGED_RUN_JSON.emit({"run": self.run, "time": self.time, "reason": self.reason,
+                                       "causes": list(self.causes)})
 
 
 @dataclass(frozen=True, eq=False)
@@ -196,8 +272,8 @@ class ObserverOutcome:
 
     def to_dict(self) -> dict[str, Any]:
         if self.skipped is not None:
-            return {"skipped": self.skipped, "description": self.description}
-        return {
+            return SKIPPED_OBSERVER_JSON.emit({"skipped": self.skipped, "description": self.description})
+        return OBSERVER_OUTCOME_JSON.emit({
             "skipped": None,
             "description": self.description,
             "design": None if self.design is None else self.design.to_dict(),
@@ -209,9 +285,9 @@ class ObserverOutcome:
             "convergence_time": self.convergence_time,
             "diverged_runs": [d.to_dict() for d in self.diverged_runs],
             "cost_per_step_us": self.cost_per_step_us,
-            "certificate": None if self.certificate is None else dict(self.certificate),
+            "certificate": None if self.certificate is None else RUN_CERTIFICATE_JSON.emit(self.certificate),
             "consistency": None if self.consistency is None else self.consistency.to_dict(),
-        }
+        })
 
 
 @dataclass(frozen=True, eq=False)
@@ -267,14 +343,14 @@ class ComparisonReport:
     unobservable: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        return COMPARISON_JSON.emit({
             "model": self.model, "states": list(self.states), "units": list(self.units), "runs": self.runs,
             "seed": self.seed, "duration": self.duration, "dt": self.dt, "settle": self.settle,
             "time_unit": self.time_unit, "x0": list(self.x0),
-            "setup": dict(self.setup), "observers": {k: v.to_dict() for k, v in self.observers.items()},
+            "setup": SETUP_JSON.emit(self.setup), "observers": {k: v.to_dict() for k, v in self.observers.items()},
             "unobservable": list(self.unobservable),
             "files": [str(f) for f in self.files],
-        }
+        })
 
     def table(self) -> tuple[str, list[str], list[list[str]]]:
         """Title, column heads and rows of the comparison table the CLI prints."""

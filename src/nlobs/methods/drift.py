@@ -24,7 +24,8 @@ import numpy as np
 
 from nlobs._typing import Array
 from nlobs._validate import positive, readonly
-from nlobs.checks import Check, CheckKind
+from nlobs._schema import BOOLEAN, INTEGER, MATRIX, NUMBER, OBJECT, STRING, Record, array
+from nlobs.checks import CHECK_JSON, Check, CheckKind
 from nlobs.errors import InvalidArgumentError, AssumptionViolated, DesignInfeasible, ModelError, NlobsError
 from nlobs.geometry.checks import check_drift_observability, check_s_le_r, default_multi_index
 from nlobs.geometry.lipschitz import LipschitzEstimates, lipschitz_estimates
@@ -173,7 +174,7 @@ class DriftDesignReport:
         return "\n".join(lines)
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        return DRIFT_DESIGN_JSON.emit({
             "model": self.model,
             "s": list(self.s),
             "r": list(self.r),
@@ -189,7 +190,27 @@ class DriftDesignReport:
             "usable_scope": self.usable_scope,
             "reasons": list(self.reasons),
             "warnings": list(self.warnings),
-        }
+        })
+
+
+#: The JSON of a :class:`DriftDesignReport` (joined to the method's ``design`` object by ``nlobs design drift``).
+DRIFT_DESIGN_JSON = Record("DriftDesign", {
+    "model": STRING,
+    "s": array(INTEGER, "the multi-index"),
+    "r": array(INTEGER, "the observation relative degrees"),
+    "checks": array(CHECK_JSON),
+    "F": MATRIX.about("the gain's Brunovsky matrix"),
+    "H": STRING,
+    "gamma": NUMBER.about("the Lipschitz constant of (2.5)"),
+    "gamma_source": STRING,
+    "certificate": OBJECT.about("the gain's certificate (2.17), re-verified"),
+    "lipschitz": OBJECT.about("the sampled Lipschitz estimates on the region"),
+    "bound": OBJECT.about("the constants of the error bound (3.2)"),
+    "usable": BOOLEAN,
+    "usable_scope": STRING,
+    "reasons": array(STRING),
+    "warnings": array(STRING),
+}, description="The drift-observability observer (3.1) of Dalla Mora, Germani & Manes, designed and verified")
 
 
 def _singular_note(model: Any, region: Box) -> str:

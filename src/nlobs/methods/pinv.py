@@ -27,7 +27,8 @@ import numpy as np
 import sympy as sp
 from numpy.typing import ArrayLike
 
-from nlobs.checks import Check, CheckKind
+from nlobs._schema import BOOLEAN, INTEGER, NUMBER, OBJECT, STRING, Record, array, nullable
+from nlobs.checks import CHECK_JSON, Check, CheckKind
 from nlobs.errors import InvalidArgumentError, ModelError, NlobsError
 from nlobs.geometry.checks import observability_rank
 from nlobs.geometry.lie import lie_derivative
@@ -67,6 +68,18 @@ def build_pinv_observer(
 def _strings(M: sp.MatrixBase) -> tuple[tuple[str, ...], ...]:
     return tuple(tuple(str(M[i, j]) for j in range(M.shape[1])) for i in range(M.shape[0]))
 
+
+#: The JSON of a :class:`PinvDesignReport` (joined to the method's ``design`` object by ``nlobs design pinv``).
+PINV_DESIGN_JSON = Record("PinvDesign", {
+    "model": STRING, "states": array(STRING), "outputs": array(STRING),
+    "observation_relative_degree": array(nullable(INTEGER)), "input_gains": array(STRING),
+    "observability_rank": nullable(INTEGER), "checks": array(CHECK_JSON), "involutive": BOOLEAN.about("A5"),
+    "Q": array(array(STRING), "the observability matrix Q(x)"), "pinv": array(array(STRING), "Q+(x)"),
+    "pinv_gain": array(array(STRING), "Q+(x) k of (17)"), "pinv_gain_numeric": array(array(STRING)),
+    "k": array(NUMBER), "roots": array(NUMBER), "theta": NUMBER, "placement": STRING,
+    "usable": BOOLEAN, "usable_scope": STRING, "hypotheses": array(OBJECT, "A1-A6, each with its status"),
+    "missing_hypotheses": array(STRING),
+}, description="Röbenack's Moore-Penrose observer (7) with the gain (17)")
 
 @dataclass(frozen=True)
 class PinvDesignReport:
@@ -161,7 +174,7 @@ class PinvDesignReport:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready form (stable keys)."""
-        return {
+        return PINV_DESIGN_JSON.emit({
             "model": self.model, "states": list(self.states), "outputs": list(self.outputs),
             "observation_relative_degree": list(self.relative_degree), "input_gains": list(self.input_gains),
             "observability_rank": self.observability_rank, "checks": [c.to_dict() for c in self.checks],
@@ -171,7 +184,7 @@ class PinvDesignReport:
             "k": list(self.k), "roots": list(self.roots), "theta": self.theta, "placement": self.placement,
             "usable": self.usable, "usable_scope": self.usable_scope, "hypotheses": list(self.hypotheses),
             "missing_hypotheses": list(self.missing),
-        }
+        })
 
     def summary(self) -> str:
         """A plain-text report."""

@@ -16,7 +16,8 @@ from pathlib import Path
 from typing import Any
 
 from nlobs._typing import Array
-from nlobs.checks import Verdict
+from nlobs._schema import BOOLEAN, INTEGER, MATRIX, NUMBER, OBJECT, STRING, Record, array, nullable
+from nlobs.checks import CHECK_JSON, Verdict
 from nlobs.errors import AssumptionViolated, ModelError
 from nlobs.linear.transform_ui import StructuralReport, structural_check
 from nlobs.methods.base import Design
@@ -82,6 +83,37 @@ _NO_OBSERVER = ("no stable observer of this structure exists (a linear member of
                 "detectable, or Lemma 5.1's rank condition fails); evidence printed above")
 
 
+#: ``structure`` of the set-valued reports: Lemma 5.1 and strong detectability.
+STRUCTURE_JSON = Record("SetValuedStructure", {
+    "exists": BOOLEAN.about("a stable observer of the structure (10)-(15) exists"),
+    "lemma_5_1_rank": BOOLEAN, "strongly_detectable": array(BOOLEAN),
+    "reasons": array(STRING), "unstable_error_modes": array(array(array(NUMBER))), "evidence": STRING,
+    "checks": array(CHECK_JSON)})
+
+#: ``class_check`` of the set-valued reports: the function class sampled on the box.
+CLASS_CHECK_JSON = Record("FunctionClassCheck", {
+    "holds": BOOLEAN, "worst_margin": NUMBER, "x1": nullable(array(NUMBER)), "x2": nullable(array(NUMBER)),
+    "pairs": INTEGER, "box": MATRIX, "text": STRING})
+
+#: ``design`` of the set-valued reports: the gain of Algorithm 1 (Khajenejad & Yong) with its certificate.
+SETVALUED_GAIN_JSON = Record("SetValuedGain", {
+    "objective": STRING, "L_tilde": MATRIX, "gain": MATRIX, "P": MATRIX, "lambda": NUMBER, "lambda_eff": NUMBER,
+    "kappa": NUMBER, "q": NUMBER, "c": NUMBER, "theta": array(NUMBER), "rho": NUMBER, "steady_radius": NUMBER,
+    "spectral_radii": array(NUMBER), "hinf_linear": array(NUMBER), "solver": nullable(STRING),
+    "solver_status": nullable(STRING), "margin": NUMBER, "solves": INTEGER, "seconds": NUMBER,
+    "function_class_used": STRING, "lpv_design": nullable(OBJECT), "checks": array(CHECK_JSON),
+    "verified": BOOLEAN})
+
+#: ``nlobs design setvalued``.
+SETVALUED_DESIGN_REPORT_JSON = Record("DesignSetValued", {
+    "model": STRING, "n": INTEGER, "p": INTEGER.about("unknown inputs"), "l": INTEGER.about("measurements"),
+    "function_class": STRING, "gamma": NUMBER, "eta_w": NUMBER, "eta_v": NUMBER, "delta0": NUMBER,
+    "structure": STRUCTURE_JSON, "class_check": CLASS_CHECK_JSON,
+    "design": SETVALUED_GAIN_JSON.about("absent when no stable observer of the structure exists"),
+}, optional={"design"}, description="The set-valued input and state observer of Khajenejad & Yong (10)-(15): "
+                                    "structural checks, the function class, the gain and its certificate.")
+
+
 @dataclass(frozen=True, eq=False)
 class SetValuedDesignReport:
     """What ``nlobs design setvalued`` prints: structure, sampled class check, design and verification.
@@ -111,7 +143,7 @@ class SetValuedDesignReport:
 
     def to_dict(self) -> dict[str, Any]:
         """The JSON report."""
-        return copy.deepcopy(self.data)
+        return SETVALUED_DESIGN_REPORT_JSON.emit(copy.deepcopy(self.data))
 
     def head(self) -> str:
         """The model, structure and class-check lines (shared with the simulation report)."""
@@ -163,6 +195,26 @@ def design_setvalued_observer(model: str | Path | DiscreteUIModel, *, objective:
         The nonlinear part violates its stated class on the sampled pairs (no certificate would hold).
     DesignInfeasible, CertificateError
         The design failed (the message says which LMI and by how much) or failed its re-verification.
+
+    Examples
+    --------
+    The flexible-joint robot of Khajenejad & Yong, Sec. 6.1: a stable observer of the structure exists
+    (Corollary 5.8), the sampled Class II check holds, and the certified gain ``L̃`` of (15) contracts
+    the Lyapunov function of (⋆) by ``λ < 1`` per step:
+
+    >>> rep = design_setvalued_observer("khajenejad-6-1", samples=2000)
+    >>> d = rep.to_dict()
+    >>> rep.verdict.value, d["structure"]["exists"], d["class_check"]["holds"], d["design"]["verified"]
+    ('ok', True, True, True)
+    >>> rep.design.gain.shape, round(d["design"]["lambda"], 3)
+    ((4, 1), 0.969)
+
+    Their Sec. 6.2 example, as printed, has an invariant zero outside the unit circle: no observer, with
+    the evidence:
+
+    >>> rep = design_setvalued_observer("khajenejad-6-2", samples=2000)
+    >>> rep.verdict.value, rep.design, rep.to_dict()["structure"]["reasons"]
+    ('no observer', None, ['invariant zero(s) with |z| >= 1: -1.34308+0j'])
     """
     m = load_setvalued_model(model)
     label = str(model) if not isinstance(model, DiscreteUIModel) else m.system.name

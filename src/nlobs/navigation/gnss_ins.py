@@ -324,6 +324,29 @@ class GnssInsObserver(ToControl):
     overhead dominates, so ``kernel="auto"`` evaluates the same formulas on Python
     floats instead (:mod:`nlobs.navigation.split_kernel`, no NumPy call in the
     arithmetic). The three evaluations agree to rounding (tested to 1e-12).
+
+    Examples
+    --------
+    The take-off of the traffic pattern of Grip, Saberi & Johansen (Sec. 5.2) with exact sensors (IMU at
+    100 Hz, GNSS at 5 Hz), the paper's gains, the estimate started 30° off in yaw and 3.7 m off in position:
+
+    >>> import math
+    >>> import numpy as np
+    >>> import nlobs
+    >>> from nlobs.navigation import metrics, nav_vector, traffic_pattern
+    >>> from nlobs.navigation.so3 import rot_z
+    >>> traj = traffic_pattern(duration=10.0).sample(100.0)  # the first 10 s of the flight of Sec. 5.2, 100 Hz
+    >>> u = np.hstack([traj.omega_b, traj.a_b, traj.m_b])  # exact IMU samples [ω^b, a^b, m^b]
+    >>> fixes = slice(None, None, 20)  # exact GNSS fixes [p, v] at 5 Hz
+    >>> y, truth = np.hstack([traj.p, traj.v])[fixes], nav_vector(traj.p, traj.v, traj.R)
+    >>> x_hat0 = nav_vector(traj.p[0] + [3.0, -2.0, 1.0], traj.v[0], rot_z(math.radians(30.0)) @ traj.R[0])
+    >>> observer = nlobs.GnssInsObserver.paper(traj.m_n, traj.g_n)
+    >>> res = nlobs.run_observer(observer, traj.t, x_hat0=x_hat0, u=u, y=y, y_times=traj.t[fixes], truth=truth)
+    >>> attitude, position = metrics.attitude_error_deg(res), metrics.position_error_m(res)
+    >>> round(float(attitude[0]), 3), round(float(position[0]), 3)
+    (30.0, 3.742)
+    >>> bool(attitude[-1] < 1.0), bool(position[-1] < 0.05)
+    (True, True)
     """
 
     K: Array

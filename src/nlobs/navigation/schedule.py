@@ -184,6 +184,34 @@ class ScheduledGnssInsObserver(ToControl):
         an :class:`AttitudeGainSchedule`, ``gain_schedule`` not a
         :class:`~nlobs.navigation.translation_schedule.TranslationGainSchedule`, or its gains do not
         fit the receiver.
+
+    Examples
+    --------
+    The take-off of the traffic pattern of Grip, Saberi & Johansen (Sec. 5.2) with exact sensors (IMU at
+    100 Hz, GNSS at 5 Hz), the estimate started 30° off in yaw and 3.7 m off in position. With the paper's
+    ``Γ`` switched to ``0.5 I`` at 5 s the attitude error ends smaller than with the paper's ``Γ`` throughout:
+
+    >>> import math
+    >>> import numpy as np
+    >>> import nlobs
+    >>> from nlobs.navigation import metrics, nav_vector, traffic_pattern
+    >>> from nlobs.navigation.so3 import rot_z
+    >>> traj = traffic_pattern(duration=10.0).sample(100.0)  # the first 10 s of the flight of Sec. 5.2, 100 Hz
+    >>> u = np.hstack([traj.omega_b, traj.a_b, traj.m_b])  # exact IMU samples [ω^b, a^b, m^b]
+    >>> fixes = slice(None, None, 20)  # exact GNSS fixes [p, v] at 5 Hz
+    >>> y, truth = np.hstack([traj.p, traj.v])[fixes], nav_vector(traj.p, traj.v, traj.R)
+    >>> x_hat0 = nav_vector(traj.p[0] + [3.0, -2.0, 1.0], traj.v[0], rot_z(math.radians(30.0)) @ traj.R[0])
+    >>> from nlobs.navigation import AttitudeGainSchedule
+    >>> base = nlobs.GnssInsObserver.paper(traj.m_n, traj.g_n)
+    >>> schedule = AttitudeGainSchedule((base.Gamma, 0.5), (5.0,))
+    >>> schedule.describe()
+    'Γ = diag(20, 0.2, 0.2); 0.5 I from 5 s'
+    >>> def final_attitude_error(observer):
+    ...     res = nlobs.run_observer(observer, traj.t, x_hat0=x_hat0, u=u, y=y, y_times=traj.t[fixes], truth=truth)
+    ...     return float(metrics.attitude_error_deg(res)[-1])
+    >>> scheduled = nlobs.ScheduledGnssInsObserver(base, schedule)
+    >>> round(final_attitude_error(base), 2), round(final_attitude_error(scheduled), 2)  # degrees
+    (0.67, 0.16)
     """
 
     base: GnssInsObserver

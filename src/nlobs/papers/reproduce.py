@@ -12,9 +12,23 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from nlobs._schema import STRING, Node, Record, array
 from nlobs.errors import UnknownNameError
 
 Value = float | int | str | bool | list[Any] | None
+
+#: A reported value: a number, a text, a truth value, a list of them (e.g. a matrix), or null.
+_VALUE = Node({"type": ["number", "string", "boolean", "array", "null"]})
+
+#: One row of ``nlobs reproduce PAPER``.
+REPRO_ROW_JSON = Record("ReproRow", {
+    "quantity": STRING.about("what the paper reports, with its equation, table or figure"),
+    "paper": _VALUE.about("the paper's value (null: the paper gives none)"),
+    "nlobs": _VALUE.about("the value nlobs computes"),
+    "note": STRING.about("how they compare, and why they differ where they do"),
+})
+#: ``nlobs reproduce PAPER``: a list of rows (no ``schema_version``).
+REPRODUCE_JSON = array(REPRO_ROW_JSON, "each number a paper reports beside the value nlobs computes")
 
 
 @dataclass(frozen=True)
@@ -41,7 +55,8 @@ class ReproRow:
 
     def to_dict(self) -> dict[str, Value]:
         """The stable JSON form: keys ``quantity``, ``paper``, ``nlobs``, ``note``."""
-        return {"quantity": self.quantity, "paper": self.paper, "nlobs": self.nlobs, "note": self.note}
+        return REPRO_ROW_JSON.emit({"quantity": self.quantity, "paper": self.paper, "nlobs": self.nlobs,
+                                    "note": self.note})
 
 
 #: ``nlobs reproduce NAME`` → module under ``nlobs.papers`` with a ``reproduce()`` function.

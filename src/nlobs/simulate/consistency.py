@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from nlobs._schema import INTEGER, NUMBER, Record, array, nullable
 from nlobs._typing import Array
 from nlobs._validate import in_range
 
@@ -90,13 +91,27 @@ class Consistency:
 
     def to_dict(self) -> dict[str, Any]:
         """The fractions inside the band and the averages (the JSON's ``consistency``)."""
-        return {"runs": self.runs, "level": self.level,
+        return CONSISTENCY_JSON.emit({"runs": self.runs, "level": self.level,
                 "nees_inside": None if self.nees is None else self.nees_inside,
                 "nees_mean": None if self.nees is None else float(np.mean(self.nees)),
                 "nees_band": None if self.nees is None else list(self.nees_band),
                 "nis_inside": self.nis_inside if self.nis.size else None,
                 "nis_mean": float(np.mean(self.nis)) if self.nis.size else None,
-                "nis_instants": int(self.nis.size)}
+                "nis_instants": int(self.nis.size)})
+
+
+#: The JSON of a :class:`Consistency` (``consistency`` of ``nlobs simulate MODEL``).
+CONSISTENCY_JSON = Record("Consistency", {
+    "runs": INTEGER.about("the runs that did not diverge"),
+    "level": NUMBER.about("probability inside the band"),
+    "nees_inside": NUMBER.about("fraction of instants with the mean NEES inside the band (null: not recorded)"),
+    "nees_mean": NUMBER.about("mean NEES divided by the degrees of freedom (about 1)"),
+    "nees_band": nullable(array(NUMBER), "the band of the mean NEES divided by the degrees of freedom"),
+    "nis_inside": NUMBER,
+    "nis_mean": NUMBER,
+    "nis_instants": INTEGER,
+}, description="NEES and NIS of a filter against the two-sided chi-square band (Bar-Shalom, Li & Kirubarajan, "
+               "Sec. 5.4.2).")
 
 
 def filter_consistency(result: Any, *, level: float = 0.95) -> Consistency | None:

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from nlobs._schema import BOOLEAN, INTEGER, NUMBER, STRING, Record, array
 from nlobs._typing import Array
 from nlobs.errors import InvalidArgumentError
 from nlobs.simulate.result import SimulationResult
@@ -62,7 +63,8 @@ class Violation:
     detail: str
 
     def to_dict(self) -> dict[str, Any]:
-        return {"run": self.run, "hypothesis": self.hypothesis, "time": self.time, "detail": self.detail}
+        return VIOLATION_JSON.emit({"run": self.run, "hypothesis": self.hypothesis, "time": self.time,
+                                    "detail": self.detail})
 
     def describe(self, time_unit: str = "s") -> str:
         return f"run {self.run}: {self.hypothesis} violated at t = {self.time:.4g} {time_unit} ({self.detail})"
@@ -308,10 +310,24 @@ class Coverage:
     def to_dict(self) -> dict[str, Any]:
         """``certificate_covers_run``, ``certificate_covered_fraction``, ``certificate_violations`` (first per run),
         ``certificate_failed_premises`` and ``certificate_hypotheses``."""
-        return {"certificate_covers_run": self.covers_run, "certificate_covered_fraction": self.covered_fraction,
-                "certificate_violations": [v.to_dict() for v in self.violations],
-                "certificate_failed_premises": list(self.failed_premises),
-                "certificate_hypotheses": list(self.hypotheses)}
+        return COVERAGE_JSON.emit({
+            "certificate_covers_run": self.covers_run, "certificate_covered_fraction": self.covered_fraction,
+            "certificate_violations": [v.to_dict() for v in self.violations],
+            "certificate_failed_premises": list(self.failed_premises),
+            "certificate_hypotheses": list(self.hypotheses)})
+
+
+#: The first violation of a hypothesis in one run.
+VIOLATION_JSON = Record("Violation", {"run": INTEGER, "hypothesis": STRING, "time": NUMBER, "detail": STRING})
+
+#: The keys a :class:`Coverage` adds to a report (the certificate's hypotheses checked along every run).
+COVERAGE_JSON = Record("Coverage", {
+    "certificate_covers_run": BOOLEAN.about("every run inside every hypothesis"),
+    "certificate_covered_fraction": NUMBER,
+    "certificate_violations": array(VIOLATION_JSON, "per run not covered, the first"),
+    "certificate_failed_premises": array(STRING),
+    "certificate_hypotheses": array(STRING),
+})
 
 
 def monitor(result: SimulationResult, hypotheses: Sequence[Hypothesis], *,

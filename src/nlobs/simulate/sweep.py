@@ -285,6 +285,19 @@ class SweepResult:
         Wall time of the sweep.
     chunk : int
         Points per task.
+
+    Examples
+    --------
+    What :func:`sweep` returns, here written out for two points, the second failed:
+
+    >>> res = SweepResult("demo", ("gamma",), ({"gamma": 1.0}, {"gamma": 0.1}), ({"gain": 4.0, "ok": True}, None),
+    ...                   (None, "DesignInfeasible: γ = 0.1 is below the attainable level"), "in-process", 1, 0.0)
+    >>> len(res), res.ok, res.failed, res.value_names
+    (2, (True, False), 1, ('gain', 'ok'))
+    >>> res.column("gain").tolist()[0], res.column("ok").tolist()[0]  # flags as 0/1, NaN where a point failed
+    (4.0, 1.0)
+    >>> res.table()[1]
+    {'gamma': 0.1, 'gain': None, 'ok': None, 'error': 'DesignInfeasible: γ = 0.1 is below the attainable level'}
     """
 
     problem: str
@@ -437,6 +450,37 @@ def sweep(problem: SweepProblem, grid: Mapping[str, Sequence[float]] | Sequence[
     InvalidArgumentError
         A bad grid (empty, a non-finite or non-numeric value, points with other keys), a problem that
         is not a :class:`SweepProblem`, a bad ``chunk``, or values that are not name → scalar.
+
+    Examples
+    --------
+    The H∞ norm of ``G(s) = c b / (s − a)`` (``c b / |a|``) over three poles; the unstable one is a
+    failed point, recorded with its error, and the sweep goes on:
+
+    >>> import numpy as np
+    >>> from nlobs.errors import DesignInfeasible
+    >>> from nlobs.linear import hinf_norm
+    >>> class FirstOrder:
+    ...     name = "first order"
+    ...     def key(self):
+    ...         return "first order, b = 2, c = 1.5"
+    ...     def prepare(self):  # once per process: B and C
+    ...         return np.array([[2.0]]), np.array([[1.5]])
+    ...     def evaluate(self, prepared, point):
+    ...         a = point["a"]
+    ...         if a >= 0:
+    ...             raise DesignInfeasible(f"pole a = {a:g} is not in the open left half-plane")
+    ...         B, C = prepared
+    ...         return {"hinf": round(float(hinf_norm(np.array([[a]]), B, C, np.zeros((1, 1)))), 6)}
+    >>> res = sweep(FirstOrder(), {"a": [-1.0, -4.0, 0.5]}, progress=False)
+    >>> res.ok, res.column("hinf").tolist()[:2], res.errors[2]
+    ((True, True, False), [3.0, 0.75], 'DesignInfeasible: pole a = 0.5 is not in the open left half-plane')
+    >>> print(res.summary())
+    first order: 3 points on in-process (1 worker), 1 failed, ... s
+      a  hinf  status
+     -1     3      ok
+     -4  0.75      ok
+    0.5     -  failed
+      a = 0.5: DesignInfeasible: pole a = 0.5 is not in the open left half-plane
     """
     if isinstance(executor, str):
         client = connect(executor)

@@ -87,6 +87,19 @@ def design_cascade_gain(
         Assumption 4 fails (the item is named).
     DesignInfeasible, DesignUnbounded, CertificateError
         From the LMI design.
+
+    Examples
+    --------
+    The filter Σ₂ = 1/(s² + s + 1) of Example 1 (Grip, Saberi & Johansen, Sec. 4), as ``(A, B_z, C)``;
+    ``K`` stacks ``K_w`` (two rows) and ``K_z`` (one row) for the extended system (8c):
+
+    >>> import numpy as np
+    >>> sigma2 = ([[0.0, 1.0], [-1.0, -1.0]], [[0.0], [1.0]], [[1.0, 0.0]])
+    >>> cert = design_cascade_gain(sigma2, gamma=1.0, gamma_n=10.0)
+    >>> cert.verified, cert.gain.shape, cert.method.value
+    (True, (3, 1), 'riccati')
+    >>> bool(cert.hinf_H < 1.0 and cert.eigenvalues.real.max() < 0)  # (13) below γ, 𝔄 − Kℭ Hurwitz
+    True
     """
     s2 = as_linear_subsystem(sigma2)
     if check_assumptions:

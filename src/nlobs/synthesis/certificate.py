@@ -104,6 +104,24 @@ class Certificate(Protocol):
         The checks that failed (empty when verified).
     solver : Solver or None
         The solver that produced the answer (``None`` for a construction without one).
+
+    Examples
+    --------
+    Two designs, one protocol: the observer gain of LMIs (14), (15) (Grip, Saberi & Johansen) and the
+    Vandermonde gain of Remark 2.11 (Dalla Mora, Germani & Manes), each re-verified without a solver:
+
+    >>> import numpy as np
+    >>> from nlobs.synthesis.drift_gain import RiccatiConstants, design_drift_gain
+    >>> from nlobs.synthesis.observer_gain import design_observer_gain
+    >>> A, C, Bd = np.array([[0.0, 1.0], [-2.0, -0.5]]), np.array([[1.0, 0.0]]), np.array([[0.0], [1.0]])
+    >>> certs = [design_observer_gain(A, C, Bd, gamma=10.0, gamma_n=10.0),
+    ...          design_drift_gain(RiccatiConstants((2,), [[0.0], [1.0]], alpha=1.0, mu=1.0, gamma=1.0))]
+    >>> [(isinstance(c, Certificate), c.verified, c.failed_checks, c.solver) for c in certs]
+    [(True, True, (), None), (True, True, (), None)]
+    >>> [c.name for c in certs[0].checks]
+    ['P ≻ 0', 'LMI (14)', 'LMI (15)', 'A − K C Hurwitz (max Re λ)', '‖H‖∞ < γ', '‖G‖∞ ≤ γn']
+    >>> certs[0].summary().splitlines()[0], certs[1].to_dict()["verified"]
+    ('observer gain certificate: verified', True)
     """
 
     @property

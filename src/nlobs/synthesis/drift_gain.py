@@ -485,6 +485,23 @@ def verify_drift_gain(c: RiccatiConstants, K: ArrayLike, P: ArrayLike, *, method
     ------
     InvalidArgumentError, NonFiniteError, DimensionError
         Bad ``K``, ``P`` or ``w``.
+
+    Examples
+    --------
+    One output with ``s = r = (2,)`` and ``α = μ = γ = 1``: the Vandermonde pair of Remark 2.11 at
+    ``w = 10`` (eigenvalues ``−10, −20``) solves (2.17); at ``w = 1`` it does not, and the failed
+    check says which:
+
+    >>> c = RiccatiConstants((2,), [[0.0], [1.0]], alpha=1.0, mu=1.0, gamma=1.0)
+    >>> g = vandermonde_gain((2,), 10.0)
+    >>> g.K.ravel().tolist(), g.eigenvalues.tolist()
+    ([30.0, 200.0], [-10.0, -20.0])
+    >>> cert = verify_drift_gain(c, g.K, g.P, method="vandermonde", w=10.0)
+    >>> cert.verified, [x.name for x in cert.checks]
+    (True, ['(2.17) scaled: λ_max(D L D)', 'P ≻ 0 scaled: −λ_min(D P D)', 'A_s − K C_s Hurwitz (max Re λ)'])
+    >>> g1 = vandermonde_gain((2,), 1.0)
+    >>> [x.name for x in verify_drift_gain(c, g1.K, g1.P, w=1.0).failed_checks]
+    ['(2.17) scaled: λ_max(D L D)']
     """
     w = None if w is None else positive("`w`", w)
     K_ = as_matrix("K", K, (c.n, c.q)).copy()
@@ -1078,6 +1095,22 @@ def design_drift_gain(
     ------
     DesignInfeasible
         No solution (Vandermonde: none up to ``w_max``, or the given ``w`` fails (2.17)).
+
+    Examples
+    --------
+    Remark 2.11 for one output with ``s = r = (2,)`` (``F_{s,r} = B_s``) and ``α = μ = γ = 1``: the
+    smallest ``w`` for which ``(K(w), P(w))`` solves (2.17), and ``A_s − K C_s`` with eigenvalues
+    ``−w, −2w``:
+
+    >>> import numpy as np
+    >>> c = RiccatiConstants((2,), [[0.0], [1.0]], alpha=1.0, mu=1.0, gamma=1.0)
+    >>> cert = design_drift_gain(c)
+    >>> cert.verified, cert.method, round(cert.w, 1)
+    (True, 'vandermonde', 4.0)
+    >>> bool(np.allclose(np.sort(cert.eigenvalues.real), [-2 * cert.w, -cert.w]))
+    True
+    >>> design_drift_gain(c, w=10.0).gain.ravel().tolist()  # a given w, verified: K = [3w, 2w²]
+    [30.0, 200.0]
     """
     m = str(method).lower()
     if m == "vandermonde":

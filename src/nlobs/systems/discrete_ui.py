@@ -480,6 +480,27 @@ class DiscreteUISystem:
     time : Discrete
         Time base (required: the sampling period is never defaulted).
     name : str
+
+    Examples
+    --------
+    The Sec. 6.2 benchmark of Khajenejad & Yong: ``f(x) = A x + φ(x)`` with ``φ = [0, −1.25 tanh x₁]``
+    (Class I, ``L = 1.25``), one unknown input, ``y = x₂``:
+
+    >>> import numpy as np
+    >>> from nlobs.systems.timebase import Discrete
+    >>> phi = lambda x: np.stack([np.zeros(x.shape[:-1]), -1.25 * np.tanh(x[..., 0])], axis=-1)
+    >>> system = DiscreteUISystem([[-0.42, 1.0], [-0.6, 0.0]], [[1.0], [-0.65]], [[0.0, 1.0]], phi=phi,
+    ...                           function_class=Lipschitz(1.25, 2), eta_w=0.2, eta_v=0.1, time=Discrete(1.0))
+    >>> (system.n, system.p, system.l, system.n_w), system.H.tolist(), system.function_class.label
+    ((2, 1, 1, 2), [[0.0]], 'Class I (Lipschitz)')
+    >>> np.round(system.f(np.array([1.0, 0.0])), 4).tolist()  # A x + φ(x)
+    [-0.42, -1.552]
+
+    Three runs of ten steps from ``x₀ = 0`` with ``d = 1`` and no noise:
+
+    >>> x, y = system.simulate(np.zeros((3, 2)), np.ones((3, 11, 1)), np.zeros((3, 10, 2)), np.zeros((3, 11, 1)))
+    >>> x.shape, y.shape, x[0, 1].tolist()  # x₁ = G d₀
+    ((3, 11, 2), (3, 11, 1), [1.0, -0.65])
     """
 
     A: Array

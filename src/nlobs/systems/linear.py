@@ -170,6 +170,27 @@ class LinearSystem:
         Names; default ``x1..xn``, ``u1..um``, ``y1..yp``.
     name : str
         A label used in reports.
+
+    Examples
+    --------
+    A damped oscillator, continuous by default, with nlobs's default names and ``D = 0``:
+
+    >>> import numpy as np
+    >>> system = LinearSystem([[0.0, 1.0], [-2.0, -0.5]], [[0.0], [1.0]], [[1.0, 0.0]])
+    >>> (system.n, system.m, system.p), system.states, system.outputs, system.D.tolist(), str(system.time)
+    ((2, 1, 1), ('x1', 'x2'), ('y1',), [[0.0]], 'continuous')
+    >>> system.rhs(0.0, np.array([1.0, 0.0]), np.array([0.5])).tolist()  # A x + B u
+    [0.0, -1.5]
+    >>> system.output(0.0, np.zeros((4, 2)), np.zeros((4, 1))).shape  # a batch of four runs
+    (4, 1)
+
+    A discrete-time system carries its sampling period:
+
+    >>> from nlobs.systems.timebase import Discrete
+    >>> sampled = LinearSystem([[1.0, 0.1], [0.0, 1.0]], [[0.0], [0.1]], [[1.0, 0.0]], time=Discrete(0.1),
+    ...                        states=["pos", "vel"])
+    >>> sampled.is_discrete, sampled.time.dt, sampled.states
+    (True, 0.1, ('pos', 'vel'))
     """
 
     A: NDArray[np.float64]

@@ -122,6 +122,8 @@ from nlobs.systems.modelfile_common import (
     read_text,
     read_toml,
     resolve_model,
+    MODELS_JSON,
+    SHIPPED_MODEL_JSON,
     shipped_models,
 )
 from nlobs.systems.scenario import RunDefaults, Scenario

@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from nlobs._schema import STRING, Record, array
 from nlobs._io import read_regular_text
 from nlobs._validate import escape_unsafe, name_problem, unsafe_character
 from nlobs.errors import ModelFileError
@@ -141,8 +142,27 @@ class Source:
         return ModelFileError(self.path, line, text, reason)
 
 
+#: One entry of ``nlobs models``.
+SHIPPED_MODEL_JSON = Record("ShippedModel", {"name": STRING.about("the name nlobs commands accept"),
+                                             "path": STRING.about("the model file")})
+#: ``nlobs models``: a list (no ``schema_version``).
+MODELS_JSON = array(SHIPPED_MODEL_JSON, "the model files shipped with nlobs, by name")
+
+
 def shipped_models() -> dict[str, Path]:
-    """The model files shipped with nlobs, by name (the file stem), e.g. ``"pendulum"``."""
+    """The model files shipped with nlobs, by name (the file stem), e.g. ``"pendulum"``.
+
+    Examples
+    --------
+    >>> models = shipped_models()
+    >>> "pendulum" in models, models["pendulum"].name
+    (True, 'pendulum.toml')
+    >>> all(p.suffix == ".toml" and p.is_file() for p in models.values())
+    True
+    >>> from nlobs.systems.modelfile import load_model
+    >>> load_model(models["pendulum"]).states  # the same model as load_model("pendulum")
+    ('theta', 'omega')
+    """
     from importlib import resources
 
     root = resources.files("nlobs") / "data" / "models"

@@ -13,7 +13,19 @@ from nlobs._validate import positive
 
 @dataclass(frozen=True)
 class Continuous:
-    """Continuous time, ``ẋ = f(x, u)``."""
+    """Continuous time, ``ẋ = f(x, u)``.
+
+    Examples
+    --------
+    One instance, :data:`CONTINUOUS`, serves every continuous model (the default of
+    :class:`~nlobs.systems.linear.LinearSystem`):
+
+    >>> from nlobs.systems.linear import LinearSystem
+    >>> Continuous() == CONTINUOUS, CONTINUOUS.is_discrete, str(CONTINUOUS)
+    (True, False, 'continuous')
+    >>> LinearSystem([[-1.0]], [[1.0]], [[1.0]]).time
+    Continuous()
+    """
 
     @property
     def is_discrete(self) -> bool:
@@ -31,6 +43,18 @@ class Discrete:
     ----------
     dt : float
         The sampling period, positive and finite.
+
+    Examples
+    --------
+    >>> from nlobs.errors import InvalidArgumentError
+    >>> T = Discrete(0.01)
+    >>> T.dt, T.is_discrete, str(T), T == Discrete(0.01)
+    (0.01, True, 'discrete (dt=0.01)', True)
+    >>> try:
+    ...     Discrete(0.0)  # the sampling period is never defaulted or zero
+    ... except InvalidArgumentError:
+    ...     print("refused")
+    refused
     """
 
     dt: float

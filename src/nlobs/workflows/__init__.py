@@ -21,8 +21,9 @@ scripts and notebooks. See :mod:`nlobs.workflows.verdict` for how a report says 
   simulate for decreasing ``γ`` (:mod:`nlobs.workflows.gamma_sweep`);
 * the inputs a caller hands over as plain values (:mod:`nlobs.workflows.inputs`):
   :class:`SimulationRequest`, :func:`box_from_numbers` (:class:`BoxError`), :func:`symbolic_model`,
-  :func:`escape_unsafe` for text that reaches a terminal, and :func:`jsonable` (and :func:`with_schema`, the ``schema_version`` key) for what is printed
-  as JSON.
+  :func:`escape_unsafe` for text that reaches a terminal, and :func:`jsonable` (and :func:`with_schema`, the
+  ``schema_version`` key) for what is printed as JSON, :func:`document_schema` (with :func:`one_of`) for the JSON
+  Schema of a report, :func:`atomic_write_text` for the files a command writes.
 
 Importing this package is cheap (the command line imports it when it starts): every name is
 imported on first use, the workflows (and with them the observers, the solvers and the
@@ -36,7 +37,8 @@ from typing import TYPE_CHECKING
 from nlobs._lazy import lazy_exports
 
 if TYPE_CHECKING:
-    from nlobs._io import jsonable, with_schema
+    from nlobs._io import atomic_write_text, jsonable, with_schema
+    from nlobs._schema import document_schema, one_of
     from nlobs._validate import escape_unsafe
     from nlobs.workflows.analyze import AnalysisReport, analyze_model
     from nlobs.workflows.demo import DemoConfig, DemoReport, gnss_ins_demo
@@ -87,6 +89,9 @@ _LAZY: dict[str, str] = {
     "Verdict": "nlobs.workflows.verdict",
     "jsonable": "nlobs._io",
     "with_schema": "nlobs._io",
+    "atomic_write_text": "nlobs._io",
+    "document_schema": "nlobs._schema",
+    "one_of": "nlobs._schema",
 }
 
 __all__ = [
@@ -118,7 +123,10 @@ __all__ = [
     "gamma_sweep",
     "gnss_ins_monte_carlo",
     "gnss_ins_demo",
+    "atomic_write_text",
+    "document_schema",
     "jsonable",
+    "one_of",
     "with_schema",
     "monte_carlo",
     "simulate_drift",

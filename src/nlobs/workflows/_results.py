@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any, TypeVar
 import numpy as np
 
 from nlobs._io import prepare_output_dir
+from nlobs._schema import NUMBER, STRING, Record, array
 from nlobs._typing import Array
 from nlobs.errors import NlobsError, OutputError, SimulationDiverged, StudyFailed
 from nlobs.simulate.result import SimulationResult
@@ -121,11 +122,18 @@ def write_result(result: SimulationResult, out: Path | None, stem: str,
     return (png, saved)
 
 
+#: The keys of :func:`error_summary`.
+ERROR_SUMMARY_JSON = Record("ErrorSummary", {
+    "final_error_norm": NUMBER, "initial_error_norm": NUMBER, "max_error_norm": NUMBER.about("largest over a batch"),
+    "files": array(STRING)})
+
+
 def error_summary(result: SimulationResult, files: tuple[Path, ...]) -> dict[str, Any]:
     """``final_error_norm``, ``initial_error_norm``, ``max_error_norm`` (largest over a batch) and ``files``."""
     e = result.error_norm
-    return {"final_error_norm": float(np.max(e[..., -1])), "initial_error_norm": float(np.max(e[..., 0])),
-            "max_error_norm": float(np.max(e)), "files": [str(f) for f in files]}
+    return ERROR_SUMMARY_JSON.emit({
+        "final_error_norm": float(np.max(e[..., -1])), "initial_error_norm": float(np.max(e[..., 0])),
+        "max_error_norm": float(np.max(e)), "files": [str(f) for f in files]})
 
 
 def error_line(summary: dict[str, Any], duration: float, dt: float) -> str:

@@ -7,6 +7,7 @@ applies); this module is the command's entry, and keeps the names it has always 
 from __future__ import annotations
 
 from nlobs.methods.advice import (
+    ADVICE_JSON,
     CHECK_RMS_FACTOR,
     METHODS,
     AdviceReport,

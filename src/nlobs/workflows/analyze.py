@@ -36,8 +36,17 @@ from nlobs.geometry.budget import DEFAULT_SYMBOLIC_BUDGET
 from nlobs.geometry.checks import codistribution_function
 from nlobs.geometry.observability import AffineFields
 from nlobs.geometry.region import Box, format_point
-from nlobs.geometry.report import MAX_GEOMETRY_STATES, GeometryReport, geometry_report, too_many_states
+from nlobs._schema import BOOLEAN, INTEGER, NUMBER, STRING, Node, Record, array, enum, mapping, nullable
+from nlobs.geometry.report import (
+    GEOMETRY_JSON,
+    MAX_GEOMETRY_STATES,
+    GeometryReport,
+    geometry_report,
+    too_many_states,
+)
 from nlobs.linear import LinearReport, analyze_linear
+from nlobs.linear.report import LINEAR_REPORT_JSON
+from nlobs.methods.advice import ADVICE_JSON
 from nlobs.systems.linear import LinearSystem
 from nlobs.systems.modelfile import Model, load_model, load_scenario, model_file_tables
 from nlobs.systems.symbolic import SymbolicModel
@@ -57,6 +66,11 @@ REGION_DEFAULT = "default [-1, 1]^n"
 #: At most this many non-finite entries are named per quantity (the count says how many there are).
 MAX_NAMED_ENTRIES = 8
 
+
+#: One quantity of the linearisation that is not finite (``linearization_nonfinite``).
+NONFINITE_JSON = Record("NonFinite", {
+    "quantity": enum("F", "h", "A", "B", "C", "D"), "label": STRING,
+    "entries": array(array(INTEGER), "0-based [row, column], or [row] for F and h"), "names": array(STRING)})
 
 @dataclass(frozen=True)
 class NonFinite:
@@ -81,8 +95,8 @@ class NonFinite:
     names: tuple[str, ...]
 
     def to_dict(self) -> dict[str, Any]:
-        return {"quantity": self.quantity, "label": self.label, "entries": [list(e) for e in self.entries],
-                "names": list(self.names)}
+        return NONFINITE_JSON.emit({"quantity": self.quantity, "label": self.label,
+                                    "entries": [list(e) for e in self.entries], "names": list(self.names)})
 
     def describe(self) -> str:
         shown = [f"({','.join(map(str, e))}) {nm}" for e, nm in zip(self.entries, self.names)][:MAX_NAMED_ENTRIES]
@@ -142,6 +156,29 @@ def _nonfinite_message(bad: Sequence[NonFinite], x: Sequence[float], u: Sequence
             f"u0={[float(v) for v in u]}: the model is not defined or not differentiable there; {hint}")
 
 
+#: ``nlobs analyze`` of a nonlinear model, without ``advice``.
+NONLINEAR_REPORT_JSON = Record("NonlinearReport", {
+    "kind": Node({"const": "nonlinear"}),
+    "name": STRING, "time": enum("continuous", "discrete"), "dt": NUMBER,
+    "n": INTEGER, "m": INTEGER, "p": INTEGER,
+    "states": array(STRING), "inputs": array(STRING), "outputs": array(STRING),
+    "parameters": mapping(NUMBER), "input_affine": BOOLEAN,
+    "equations": array(STRING), "output_equations": array(STRING),
+    "linearization": nullable(LINEAR_REPORT_JSON.extend(
+        "Linearization", {"x0": array(NUMBER), "u0": array(NUMBER)}),
+        "the linear keys for the Jacobian linearisation at x0, u0"),
+    "linearization_error": nullable(STRING, "why the linear part is skipped"),
+    "linearization_nonfinite": nullable(array(NONFINITE_JSON)),
+    "operating_point": Record("OperatingPoint", {
+        "x0": array(NUMBER), "u0": array(NUMBER), "x0_source": STRING, "u0_source": STRING}),
+    "region_source": STRING,
+    **GEOMETRY_JSON.fields,
+    "geometry_error": nullable(STRING),
+}, optional={"relative_degree_evidence", "multi_index", "drift_observable", "drift_observability", "a1", "a5",
+             "symbolic_budget", "notes"},
+   description="A nonlinear model: dimensions, equations, the linearisation at an operating point and the "
+               "differential-geometric analysis on a region.")
+
 @dataclass(frozen=True)
 class NonlinearReport:
     """What nlobs reports about a nonlinear model (see :func:`analyze`)."""
@@ -171,7 +208,7 @@ class NonlinearReport:
         """JSON-serialisable dict with stable keys (documented in the README)."""
         x0, u0 = self.operating_point
         region = self.region if self.region is not None else Box.unit(len(self.states))
-        return {
+        return NONLINEAR_REPORT_JSON.emit({
             "kind": "nonlinear",
             "name": self.name,
             "time": self.time,
@@ -204,7 +241,7 @@ class NonlinearReport:
                 "observability_rank_evidence": None, "involutive": None,
                 "pinv_gain": None, "pinv_gain_numeric": None, "numeric_parts": []}),
             "geometry_error": self.geometry_error,
-        }
+        })
 
     def summary(self) -> str:
         """Human-readable multi-line report."""
@@ -316,6 +353,16 @@ def analyze(
     )
 
 
+#: ``nlobs analyze`` of a linear model.
+ANALYZE_LINEAR_JSON = LINEAR_REPORT_JSON.extend("LinearAnalysis", {
+    "kind": Node({"const": "linear"}),
+    "advice": nullable(ADVICE_JSON, "the advisor's report (nlobs advise)"),
+})
+#: ``nlobs analyze`` of a nonlinear model.
+ANALYZE_NONLINEAR_JSON = NONLINEAR_REPORT_JSON.extend("NonlinearAnalysis", {
+    "advice": nullable(ADVICE_JSON, "the advisor's report (nlobs advise)"),
+})
+
 @dataclass(frozen=True, eq=False)
 class AnalysisReport:
     """What ``nlobs analyze`` prints: the linear report of a linear model, or the nonlinear report.
@@ -338,7 +385,7 @@ class AnalysisReport:
         data = self.report.to_dict()
         data.setdefault("kind", "linear")
         data["advice"] = None if self.advice is None else self.advice.to_dict()
-        return data
+        return (ANALYZE_NONLINEAR_JSON if data["kind"] == "nonlinear" else ANALYZE_LINEAR_JSON).emit(data)
 
     def summary(self) -> str:
         """The text report, ending with the advisor's short summary (``nlobs advise`` for the evidence)."""
@@ -379,6 +426,21 @@ def analyze_model(model: str | Path | Model, *, x0: Sequence[float] | None = Non
         with ``[simulation] box:``).
     NlobsError
         Anything else the analysis refuses (a typed error naming the quantity).
+
+    Examples
+    --------
+    The shipped pendulum: its linearisation at the origin, the observability codistribution and observation
+    relative degree on ``[−1, 1]²`` (Dalla Mora, Germani & Manes; Röbenack), and the advisor's choice:
+
+    >>> report = analyze_model("pendulum")
+    >>> lin = report.report.linearization
+    >>> bool(lin.observable), bool(lin.stable)
+    (True, True)
+    >>> data = report.to_dict()
+    >>> data["kind"], data["observation_relative_degree"], data["observability_rank"], data["drift_observable"]
+    ('nonlinear', [2], 2, True)
+    >>> report.advice.recommended  # the drift observer (3.1) of Dalla Mora, Germani & Manes
+    'drift'
     """
     from nlobs.methods.advice import advise_model
 

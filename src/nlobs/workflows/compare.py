@@ -17,6 +17,7 @@ from nlobs.methods import comparison
 from nlobs.methods.comparison import (
     BACKENDS,
     BLOWUP,
+    COMPARISON_JSON,
     DEFAULT_FILTER_Q,
     MAX_SAVED_VALUES,
     OBSERVERS,

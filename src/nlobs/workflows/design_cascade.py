@@ -21,17 +21,19 @@ import numpy as np
 
 from nlobs._typing import Array
 from nlobs.errors import InvalidArgumentError
-from nlobs.simulate.coverage import Coverage, Premise, monitor
+from nlobs.simulate.coverage import COVERAGE_JSON, Coverage, Premise, monitor
 from nlobs.simulate.loop import simulate as run_simulation
 from nlobs.simulate.result import SimulationResult
 from nlobs.synthesis.mixed_h2 import NoiseModel
 from nlobs.systems.cascade_file import CascadeModel, load_cascade
 from nlobs.systems.interconnected import interconnected_plant
-from nlobs.methods.base import Design
+from nlobs._schema import BOOLEAN, NUMBER, STRING, Record, array
+from nlobs.methods.base import Design, joined_design_json
 from nlobs.methods.cascade import (
     DEFAULT_GAIN_BOUND,
     DEFAULT_GAMMA,
     METHODS,
+    CASCADE_DESIGN_JSON,
     CascadeDesign,
     Theorem1Check,
     cascade_design,
@@ -40,7 +42,14 @@ from nlobs.methods.cascade import (
     design_cascade,
     gain_for_sensors,
 )
-from nlobs.workflows._results import checked_request, error_line, error_summary, run_study, write_result
+from nlobs.workflows._results import (
+    ERROR_SUMMARY_JSON,
+    checked_request,
+    error_line,
+    error_summary,
+    run_study,
+    write_result,
+)
 from nlobs.workflows.inputs import SimulationRequest, model_label, model_units
 from nlobs.workflows.verdict import Verdict
 
@@ -109,6 +118,24 @@ def _simulate(design: CascadeDesign, request: SimulationRequest, x0: Array, x_ha
 # --------------------------------------------------------------------------- the command
 
 
+#: ``design`` of ``nlobs design cascade``.
+CASCADE_COMMAND_DESIGN_JSON = joined_design_json("CascadeCommandDesign", CASCADE_DESIGN_JSON)
+#: ``simulation`` of ``nlobs design cascade`` with a simulation.
+CASCADE_SIMULATION_JSON = ERROR_SUMMARY_JSON.extend("CascadeSimulation", {
+    "states": array(STRING),
+    "final_error": array(NUMBER),
+    "rms_error_second_half": array(NUMBER),
+    "certified": BOOLEAN.about("Theorem 1 holds for the gain and the monitor covers the run"),
+    **COVERAGE_JSON.fields,
+})
+#: ``nlobs design cascade``.
+DESIGN_CASCADE_JSON = Record("DesignCascade", {
+    "design": CASCADE_COMMAND_DESIGN_JSON,
+    "simulation": CASCADE_SIMULATION_JSON,
+}, optional={"simulation"}, description="The cascade/feedback observer of Grip, Saberi & Johansen, designed and "
+                                        "verified (and simulated, when asked).")
+
+
 @dataclass(frozen=True, eq=False)
 class CascadeWorkflowReport:
     """What ``nlobs design cascade`` reports.
@@ -145,6 +172,7 @@ class CascadeWorkflowReport:
         out.update(sim.to_dict())
         return out
 
+
     def to_dict(self) -> dict[str, Any]:
         """``{"design": …, "simulation": …}``: the JSON report of ``nlobs design cascade``.
 
@@ -155,10 +183,11 @@ class CascadeWorkflowReport:
         ``certificate_violations``, ``certificate_failed_premises``, ``certificate_hypotheses``.
         """
         unified = {} if self.method_design is None else self.method_design.to_dict()
-        data: dict[str, Any] = {"design": {**unified, **self.design.to_dict()}}  # the report's own keys first
+        data: dict[str, Any] = {"design": CASCADE_COMMAND_DESIGN_JSON.emit(
+            {**unified, **self.design.to_dict()})}  # the report's own keys first
         if self.simulation is not None:
-            data["simulation"] = self._simulation_dict()
-        return data
+            data["simulation"] = CASCADE_SIMULATION_JSON.emit(self._simulation_dict())
+        return DESIGN_CASCADE_JSON.emit(data)
 
     def summary(self) -> str:
         lines = [self.design.summary()]

@@ -28,7 +28,7 @@ from nlobs.errors import (
 )
 from nlobs.geometry.region import Box
 from nlobs.observers.drift import DriftObserver
-from nlobs.simulate.coverage import Coverage, InputBound, InRegion, Premise, monitor
+from nlobs.simulate.coverage import COVERAGE_JSON, Coverage, InputBound, InRegion, Premise, monitor
 from nlobs.simulate.loop import simulate
 from nlobs.simulate.result import SimulationResult
 from nlobs.simulate.sampling import MeasurementGroup
@@ -40,10 +40,12 @@ from nlobs.synthesis.drift_gain import (
 )
 from nlobs.systems.brunovsky import brunovsky
 from nlobs.systems.symbolic import SymbolicModel
-from nlobs.methods.base import Design
-from nlobs.methods.drift import DRIFT, METHODS, DriftDesignReport, design_drift_report
+from nlobs._schema import BOOLEAN, NUMBER, Record
+from nlobs.methods.base import Design, joined_design_json
+from nlobs.methods.drift import DRIFT, DRIFT_DESIGN_JSON, METHODS, DriftDesignReport, design_drift_report
 from nlobs.methods.problem import problem
 from nlobs.workflows._results import (
+    ERROR_SUMMARY_JSON,
     checked_request,
     error_line,
     error_summary,
@@ -242,6 +244,24 @@ def simulate_drift(
 # --------------------------------------------------------------------------- the command
 
 
+#: ``design`` of ``nlobs design drift``.
+DRIFT_COMMAND_DESIGN_JSON = joined_design_json("DriftCommandDesign", DRIFT_DESIGN_JSON)
+#: ``simulation`` of ``nlobs design drift`` with a simulation.
+DRIFT_SIMULATION_JSON = ERROR_SUMMARY_JSON.extend("DriftSimulation", {
+    "decay_rate": NUMBER,
+    "bound_ratio": NUMBER.about("max |e| / the bound (3.2); null when the gain is not certified"),
+    "certified": BOOLEAN.about("the gain is certified and the run stayed inside every hypothesis of Theorem 3.1"),
+    "gain_certified": BOOLEAN,
+    **COVERAGE_JSON.fields,
+})
+#: ``nlobs design drift``.
+DESIGN_DRIFT_JSON = Record("DesignDrift", {
+    "design": DRIFT_COMMAND_DESIGN_JSON,
+    "simulation": DRIFT_SIMULATION_JSON,
+}, optional={"simulation"}, description="The drift-observability observer (3.1) of Dalla Mora, Germani & Manes: "
+                                        "design, verification and, when asked, a run checked against Theorem 3.1.")
+
+
 @dataclass(frozen=True, eq=False)
 class DriftWorkflowReport:
     """What ``nlobs design drift`` reports: the design, its simulation if asked for, the files written.
@@ -296,11 +316,11 @@ class DriftWorkflowReport:
         ``certificate_violations`` (first per run: hypothesis, time, detail), ``certificate_failed_premises``,
         ``certificate_hypotheses``.
         """
-        data: dict[str, Any] = {"design": {**self.design.to_dict(), **(
-            {} if self.method_design is None else self.method_design.to_dict())}}
+        data: dict[str, Any] = {"design": DRIFT_COMMAND_DESIGN_JSON.emit({**self.design.to_dict(), **(
+            {} if self.method_design is None else self.method_design.to_dict())})}
         if self.simulation is not None:
-            data["simulation"] = self._simulation_dict()
-        return data
+            data["simulation"] = DRIFT_SIMULATION_JSON.emit(self._simulation_dict())
+        return DESIGN_DRIFT_JSON.emit(data)
 
     def summary(self) -> str:
         """The design report, where its defaults came from, then the simulation line and a ``wrote <file>`` line per file."""
@@ -403,6 +423,21 @@ def design_drift_observer(
     StudyFailed
         The simulation stopped with another nlobs error (e.g. ``Q_s`` singular along the estimate);
         the cause is chained.
+
+    Examples
+    --------
+    The pendulum on ``[−1, 1] × [−3, 3]``: the smallest ``w`` of Remark 2.11 solving (2.17) of Dalla Mora,
+    Germani & Manes, then one second of observer (3.1) from a 0.01 rad initial error. The run stays inside
+    the region, so Theorem 3.1 covers it, and its error stays below the bound (3.2):
+
+    >>> from nlobs.workflows.inputs import SimulationRequest
+    >>> req = SimulationRequest([0.5, 0.0], [0.49, 0.0], duration=1.0)
+    >>> rep = design_drift_observer("pendulum", box=[-1, 1, -3, 3], simulate=req)
+    >>> rep.verdict.value, rep.design.s, round(rep.design.certificate.w, 1)
+    ('ok', (2,), 217.9)
+    >>> sim = rep.to_dict()["simulation"]
+    >>> bool(sim["final_error_norm"] < 1e-6), round(sim["bound_ratio"], 2), sim["certified"]
+    (True, 0.1, True)
     """
     label = model_label(model) if name is None else str(name)
     if method not in METHODS:

@@ -20,17 +20,18 @@ from numpy.typing import ArrayLike
 
 from nlobs.errors import InvalidArgumentError
 from nlobs.geometry.region import Box
-from nlobs.simulate.coverage import Coverage, InRegion, Premise, monitor
+from nlobs.simulate.coverage import COVERAGE_JSON, Coverage, InRegion, Premise, monitor
 from nlobs.simulate.loop import simulate
 from nlobs.simulate.result import SimulationResult
 from nlobs.simulate.sampling import MeasurementGroup
 from nlobs.simulate.signals import InputLike
 from nlobs.synthesis.pinv_gain import DEFAULT_THETA, PLACEMENTS, Placement
 from nlobs.systems.symbolic import SymbolicModel
-from nlobs.methods.base import Design
-from nlobs.methods.pinv import PINV, PinvDesignReport, build_pinv_observer, design_pinv_report
+from nlobs._schema import Record
+from nlobs.methods.base import Design, joined_design_json
+from nlobs.methods.pinv import PINV, PINV_DESIGN_JSON, PinvDesignReport, build_pinv_observer, design_pinv_report
 from nlobs.methods.problem import problem
-from nlobs.workflows._results import checked_request, error_line, error_summary, run_study, write_result
+from nlobs.workflows._results import ERROR_SUMMARY_JSON, checked_request, error_line, error_summary, run_study, write_result
 from nlobs.workflows.inputs import SimulationRequest, model_units, symbolic_model
 from nlobs.workflows.verdict import Verdict
 
@@ -116,6 +117,20 @@ def simulate_pinv(
 
 
 # ----------------------------------------------------------------------------- the command
+#: ``design`` of ``nlobs design pinv``.
+PINV_COMMAND_DESIGN_JSON = joined_design_json("PinvCommandDesign", PINV_DESIGN_JSON)
+#: ``simulation`` of ``nlobs design pinv`` with a simulation.
+PINV_SIMULATION_JSON = ERROR_SUMMARY_JSON.extend("PinvSimulation", {
+    **COVERAGE_JSON.fields,
+}, optional=set(COVERAGE_JSON.fields))
+#: ``nlobs design pinv``.
+DESIGN_PINV_JSON = Record("DesignPinv", {
+    "design": PINV_COMMAND_DESIGN_JSON,
+    "simulation": PINV_SIMULATION_JSON,
+}, optional={"simulation"}, description="Röbenack's Moore-Penrose observer (7), (17): design, the checks of A1-A6 "
+                                        "and, when asked, a run checked against them.")
+
+
 @dataclass(frozen=True, eq=False)
 class PinvWorkflowReport:
     """What ``nlobs design pinv`` reports: the design, its simulation if asked for, the files written.
@@ -169,11 +184,11 @@ class PinvWorkflowReport:
         ``certificate_covers_run``, ``certificate_covered_fraction``, ``certificate_violations`` (first per run:
         hypothesis, time, detail), ``certificate_failed_premises``, ``certificate_hypotheses``.
         """
-        data: dict[str, Any] = {"design": {**self.design.to_dict(), **(
-            {} if self.method_design is None else self.method_design.to_dict())}}
+        data: dict[str, Any] = {"design": PINV_COMMAND_DESIGN_JSON.emit({**self.design.to_dict(), **(
+            {} if self.method_design is None else self.method_design.to_dict())})}
         if self.simulation is not None:
-            data["simulation"] = self._simulation_dict()
-        return data
+            data["simulation"] = PINV_SIMULATION_JSON.emit(self._simulation_dict())
+        return DESIGN_PINV_JSON.emit(data)
 
     def summary(self) -> str:
         """The design report, where its defaults came from, then the simulation line and a ``wrote <file>`` line per file."""
@@ -245,6 +260,27 @@ def design_pinv_observer(
         The simulation diverged.
     StudyFailed
         The simulation stopped with another nlobs error; the cause is chained.
+
+    Examples
+    --------
+    Röbenack's Example (21) (``isidori-146``): ``y = x4`` has relative degree 2 < n = 4, so ``Q`` is not
+    square and the gain field (17) uses its Moore–Penrose inverse; A1 and A5 hold on
+    ``[−1, 1]⁴`` and ``θ = 2`` places the roots of (10) at −4 and −2:
+
+    >>> rep = design_pinv_observer("isidori-146")
+    >>> d = rep.to_dict()["design"]
+    >>> d["observability_rank"], [c["holds"] for c in d["checks"]], d["k"], d["roots"]
+    (3, [True, True], [6.0, 8.0], [-4.0, -2.0])
+    >>> d["pinv_gain"]  # l(x) = Q⁺(x) k, one entry per state: (26) of the paper
+    [['2*k2*x1/(4*x1**2 + 1)'], ['k2/(4*x1**2 + 1)'], ['0'], ['k1']]
+
+    Simulated (observer (7) as printed) on the pendulum, from a 0.5 rad initial error:
+
+    >>> from nlobs.workflows.inputs import SimulationRequest
+    >>> rep = design_pinv_observer("pendulum", theta=3.0, simulate=SimulationRequest([0.5, 0.0], duration=2.0))
+    >>> sim = rep.to_dict()["simulation"]
+    >>> sim["initial_error_norm"], bool(sim["final_error_norm"] < 1e-4)
+    (0.5, True)
     """
     if placement not in PLACEMENTS:
         raise InvalidArgumentError(f"`placement`: expected 'powers' or 'multiple', got {placement!r}")

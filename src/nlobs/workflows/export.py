@@ -16,6 +16,10 @@ from pathlib import Path
 from typing import Any
 
 from nlobs._io import with_schema
+from nlobs._schema import BOOLEAN, STRING, Record, array, nullable
+from nlobs.checks import VERDICT_JSON
+from nlobs.export.write import EXPORTED_MODULE_JSON
+from nlobs.methods.base import DESIGN_JSON
 from nlobs.errors import InvalidArgumentError, NlobsError
 from nlobs.methods.registry import names
 from nlobs.workflows.verdict import Verdict
@@ -26,6 +30,15 @@ __all__ = ["EXPORTABLE", "ExportReport", "export_model_observer"]
 #: generator.
 EXPORTABLE: tuple[str, ...] = names(exported=True)
 LANGUAGES: tuple[str, ...] = ("c",)
+
+
+#: ``nlobs export``.
+EXPORT_JSON = Record("Export", {
+    "model": STRING, "observer": STRING, "certified": BOOLEAN,
+    "certificate": STRING.about("what the header's comment says the design rests on"),
+    "files": array(STRING), "module": EXPORTED_MODULE_JSON, "verdict": VERDICT_JSON, "message": STRING,
+    "design": nullable(DESIGN_JSON),
+}, description="An observer's design written as dependency-free C99, its certificate in the header.")
 
 
 @dataclass(frozen=True)
@@ -79,11 +92,11 @@ class ExportReport:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready view (``schema_version`` first)."""
-        return with_schema({"model": self.model, "observer": self.observer, "certified": self.certified,
-                            "certificate": self.certificate, "files": [str(p) for p in self.files],
-                            "module": self.exported.to_dict(), "verdict": self.verdict.value,
-                            "message": self.message,
-                            "design": None if self.design is None else self.design.to_dict()})
+        return with_schema(EXPORT_JSON.emit({
+            "model": self.model, "observer": self.observer, "certified": self.certified,
+            "certificate": self.certificate, "files": [str(p) for p in self.files],
+            "module": self.exported.to_dict(), "verdict": self.verdict.value, "message": self.message,
+            "design": None if self.design is None else self.design.to_dict()}))
 
 
 def _certificate_text(design: Any, title: str) -> str:

@@ -23,6 +23,8 @@ from typing import Any
 import numpy as np
 
 from nlobs._io import prepare_output_dir, save_figure
+from nlobs._schema import INTEGER, NUMBER, STRING, Record, array, mapping, nullable
+from nlobs.checks import VERDICT_JSON
 from nlobs._validate import as_count
 from nlobs.errors import InvalidArgumentError, OutputError
 from nlobs.navigation.montecarlo import GnssInsStudy
@@ -49,6 +51,23 @@ def _max(a: Any) -> float:
     v = np.asarray(a, dtype=float)
     v = v[np.isfinite(v)]
     return float(np.max(v)) if v.size else math.nan
+
+
+#: ``nlobs simulate gnss-ins``.
+GNSS_INS_STUDY_JSON = Record("SimulateGnssIns", {
+    "setup": Record("GnssInsStudySetup", {
+        "flights": INTEGER, "duration_s": NUMBER, "seed": INTEGER, "flight_seed": INTEGER, "gains": STRING,
+        "attitude_error_deg": NUMBER, "position_error_m": NUMBER, "imu_rate_hz": NUMBER, "gnss_rate_hz": NUMBER,
+        "converge_deg": NUMBER, "tail_s": NUMBER}),
+    "converged": INTEGER.about("flights whose attitude error converged below converge_deg"),
+    "converged_fraction": NUMBER,
+    "diverged": INTEGER,
+    "statistics": mapping(NUMBER, "medians and extremes over the flights"),
+    "executor": STRING, "workers": INTEGER, "batch": INTEGER, "chunk": INTEGER, "chunks": INTEGER,
+    "resumed_chunks": INTEGER, "seconds": NUMBER,
+    "out": nullable(STRING), "figure": nullable(STRING), "trajectories": array(STRING),
+    "verdict": VERDICT_JSON, "message": STRING,
+}, description="Monte Carlo flights of the GNSS/INS observer (24) of Grip, Saberi & Johansen.")
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,7 +160,7 @@ class GnssInsStudyReport:
     def to_dict(self) -> dict[str, Any]:
         """Plain values: the set-up, the counts, the statistics, where it ran, the files."""
         st, r = self.study, self.result
-        return {
+        return GNSS_INS_STUDY_JSON.emit({
             "setup": {"flights": self.flights, "duration_s": float(st.duration), "seed": r.seed,
                       "flight_seed": int(st.flight_seed), "gains": st.gains,
                       "attitude_error_deg": float(st.attitude_error_deg),
@@ -164,7 +183,7 @@ class GnssInsStudyReport:
             "trajectories": list(r.trajectory_names),
             "verdict": self.verdict.value,
             "message": self.message,
-        }
+        })
 
 
 def _figure(report: GnssInsStudyReport, path: Path) -> Path:
