@@ -134,6 +134,9 @@ def test_codec_round_trip_and_c_init(flight) -> None:  # type: ignore[no-untyped
     codec = nav_ekf_codec()
     back = codec.unpack(codec.pack(st))
     for f in dataclasses.fields(st):
+        if f.name == "nis":  # the C state does not carry the GNSS fix's NIS: rebuilt without it (None)
+            assert back.nis is None and ekf.diagnostics(back, np.zeros(9)).keys() == {"P_diag"}
+            continue
         np.testing.assert_array_equal(getattr(back, f.name), getattr(st, f.name))
     x0 = np.concatenate([[1.0, -2.0, 3.0], [4.0, 5.0, -6.0], rot_z(0.4).ravel()])
     z = np.empty(cobs.n_z)

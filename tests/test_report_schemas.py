@@ -71,6 +71,7 @@ CASES = [
     ("simulate setvalued", ["simulate", "setvalued", "khajenejad-6-2", "--json"]),
     ("simulate gnss-ins", ["simulate", "gnss-ins", "--flights", "2", "--duration", "5", "--json"]),
     ("demo gnss-ins", ["demo", "gnss-ins", "--duration", "5", "--no-ekf", "--gains", "paper", "--json"]),
+    ("demo gnss-ins", ["demo", "gnss-ins", "--duration", "8", "--gains", "paper", "--json"]),
     ("models", ["models", "--json"]),
 ]
 

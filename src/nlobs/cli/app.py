@@ -286,6 +286,8 @@ def demo_cmd(
         return
     print_table(*report.table())
     con = console()
+    if report.consistency_line():
+        con.print(report.consistency_line(), markup=False)
     for f in report.files:
         con.print(f"wrote {f}", markup=False)
 

@@ -489,7 +489,7 @@ def compile_observer(observer: Any, *, prefix: str | None = None, compiler: Comp
     cls: type[CompiledObserver] = CompiledObserver
     if program.correcting:
         cls = _CompiledDeferred if isinstance(observer, DeferredEstimate) else CompiledCorrectingObserver
-    if isinstance(observer, Diagnosing):
+    if isinstance(observer, Diagnosing) and getattr(observer, "compiled_diagnostics", True):
         cls = _with_diagnostics(cls)
     return cls(observer, program, lib, (prefix, notes, options))
 

@@ -195,13 +195,15 @@ class _OneFlight:
 @dataclass(frozen=True)
 class EkfState:
     """EKF state: nominal ``p``, ``v`` ``(..., 3)``, ``R`` ``(..., 3, 3)``, covariance ``P`` ``(..., 9, 9)``;
-    ``skipped`` counts invalid GNSS fixes per batch member."""
+    ``skipped`` counts invalid GNSS fixes per batch member; ``nis`` ``(...)`` is the normalised innovation squared
+    ``νᵀ S⁻¹ ν`` of the last GNSS fix (``None`` where a state is rebuilt without it, e.g. from generated C)."""
 
     p: Array
     v: Array
     R: Array
     P: Array
     skipped: Array
+    nis: Array | None = None
 
 
 @dataclass(frozen=True)
@@ -226,6 +228,10 @@ class ExtendedKalmanFilter(ToControl):
         NumPy path; ``"batched"``: always the batched path (the same results to rounding).
     name : str
         Label of the results (default ``"ekf"``).
+    record_covariance : bool
+        :meth:`diagnostics` also returns the whole error-state covariance ``P`` (for the NEES,
+        :func:`~nlobs.navigation.metrics.navigation_consistency`); its diagonal ``P_diag`` and the GNSS fixes'
+        ``nis`` are always returned.
 
     Raises
     ------
@@ -264,6 +270,7 @@ class ExtendedKalmanFilter(ToControl):
     use_magnetometer: bool = True
     kernel: Literal["auto", "batched"] = "auto"
     name: str = "ekf"
+    record_covariance: bool = False
     time: TimeBase = field(default=CONTINUOUS, init=False)
     _k: _OneFlight = field(init=False, repr=False, compare=False)
     _q_cache: dict = field(init=False, repr=False, compare=False)
@@ -303,7 +310,8 @@ class ExtendedKalmanFilter(ToControl):
         FP = F @ z.P
         Pdot = FP + np.swapaxes(FP, -1, -2) + G @ Qc @ np.swapaxes(G, -1, -2)
         return EkfState(p=z.v, v=np.einsum("...ij,...j->...i", z.R, a) + self.g_n, R=z.R @ skew(w), P=Pdot,
-                        skipped=np.zeros_like(z.skipped))  # a counter: constant between fixes
+                        skipped=np.zeros_like(z.skipped),  # a counter: constant between fixes
+                        nis=None if z.nis is None else np.zeros_like(z.nis))
 
     def step(self, t: float, z: EkfState, u: Array, y: Array, h: float) -> EkfState:
         """Predict over ``h`` with ``u = [ω^b, a^b, m^b]`` held, then fuse the magnetometer (:meth:`propagate`)."""
@@ -334,6 +342,36 @@ class ExtendedKalmanFilter(ToControl):
         """The nominal state ``[p̂, v̂, R̂]`` (``R̂`` is a rotation matrix by construction), shape ``(..., 15)``."""
         return nav_vector(state.p, state.v, state.R)
 
+    @property
+    def compiled_diagnostics(self) -> bool:
+        """Its generated C records :meth:`diagnostics` (the covariance, for the NEES) only with
+        :attr:`record_covariance`: the C state carries no NIS, and without diagnostics the compiled filter runs
+        a whole record in one call."""
+        return self.record_covariance
+
+    def diagnostics(self, z: EkfState, u: Array) -> dict[str, Array]:
+        """What the loops record: ``P_diag`` (the error-state variances ``(..., 9)``: position, velocity,
+        attitude), ``nis`` ``(...)`` of the last GNSS fix (when the state carries it) and, with
+        :attr:`record_covariance`, ``P`` ``(..., 9, 9)``.
+
+        Parameters
+        ----------
+        z : EkfState
+            The filter's state.
+        u : ndarray
+            The IMU sample (unused).
+
+        Returns
+        -------
+        dict
+        """
+        out = {"P_diag": np.diagonal(z.P, 0, -2, -1)}
+        if z.nis is not None:
+            out["nis"] = np.asarray(z.nis, dtype=float)
+        if self.record_covariance:
+            out["P"] = z.P
+        return out
+
     # ------------------------------------------------------ functional form (domain types)
     def init_state(self, p0: ArrayLike, v0: ArrayLike, R0: ArrayLike) -> EkfState:
         """Initial state; the covariance is diagonal from :class:`EkfConfig`.
@@ -361,6 +399,7 @@ class ExtendedKalmanFilter(ToControl):
             R=np.broadcast_to(R, batch + (3, 3)).copy(),
             P=P,
             skipped=np.zeros(batch, dtype=int),
+            nis=np.zeros(batch),
         )
 
     def propagate(self, state: EkfState, imu: ImuSample, dt: float) -> EkfState:
@@ -428,7 +467,7 @@ class ExtendedKalmanFilter(ToControl):
             Rm = np.diag(np.r_[np.full(3, c.gnss_p_std**2), np.full(3, c.gnss_v_std**2)])
         nu = np.where(valid[..., None], np.nan_to_num(y - yhat), 0.0)
         Hb = np.broadcast_to(H, state.P.shape[:-2] + H.shape)
-        dx, P_new = joseph_update(state.P, Hb, Rm, nu)
+        dx, P_new, nis = joseph_update(state.P, Hb, Rm, nu, nis=True)
         new = self._inject(state, dx, P_new)
         keep = valid
         return EkfState(
@@ -437,6 +476,7 @@ class ExtendedKalmanFilter(ToControl):
             R=np.where(keep[..., None, None], new.R, state.R),
             P=np.where(keep[..., None, None], new.P, state.P),
             skipped=state.skipped + (~valid).astype(int),
+            nis=None if state.nis is None else np.where(valid, nis, 0.0),
         )
 
     # ------------------------------------------------------------------ pieces
@@ -517,7 +557,7 @@ class ExtendedKalmanFilter(ToControl):
         if self.use_magnetometer:
             return self._magnetometer_one(state, [p0, p1, p2, v0, v1, v2], R_new, P, u[6:9])
         return EkfState(p=np.array([p0, p1, p2]), v=np.array([v0, v1, v2]), R=np.array(R_new).reshape(3, 3),
-                        P=P, skipped=state.skipped)
+                        P=P, skipped=state.skipped, nis=state.nis)
 
     def _magnetometer_one(self, state: EkfState, pv: list[float], R: tuple[float, ...], P: Array,
                           m_b: list[float]) -> EkfState:
@@ -537,9 +577,10 @@ class ExtendedKalmanFilter(ToControl):
         return self._joseph_inject_one(state, pv, R, P, H, K, var, [m_b[0] - q0, m_b[1] - q1, m_b[2] - q2])
 
     def _joseph_inject_one(self, state: EkfState, pv: list[float], R: tuple[float, ...] | list[float], P: Array,
-                           H: Array, K: Array, var: float | Array, nu: list[float]) -> EkfState:
+                           H: Array, K: Array, var: float | Array, nu: list[float],
+                           nis: float | None = None) -> EkfState:
         """Joseph form ``(I − KH) P (I − KH)ᵀ + K R Kᵀ`` (``R = var·I`` for a float ``var``), symmetrised,
-        and the injection of ``δx = K ν``, for one flight."""
+        and the injection of ``δx = K ν``, for one flight (``nis``: that of a GNSS fix, else the state's)."""
         IKH = self._k.I9 - K.dot(H)
         KRKt = K.dot(K.T) * var if isinstance(var, float) else K.dot(var).dot(K.T)
         P_new = IKH.dot(P).dot(IKH.T)
@@ -550,7 +591,8 @@ class ExtendedKalmanFilter(ToControl):
         E = exp_so3_scalar(dx[6], dx[7], dx[8])
         return EkfState(p=np.array([pv[0] + dx[0], pv[1] + dx[1], pv[2] + dx[2]]),
                         v=np.array([pv[3] + dx[3], pv[4] + dx[4], pv[5] + dx[5]]),
-                        R=np.array(_mm(R, E)).reshape(3, 3), P=P_new, skipped=state.skipped)
+                        R=np.array(_mm(R, E)).reshape(3, 3), P=P_new, skipped=state.skipped,
+                        nis=state.nis if nis is None or state.nis is None else np.asarray(nis))
 
     def _update_one(self, state: EkfState, y: list[float], valid: bool) -> EkfState:
         """:meth:`update` of one flight with the fix ``y = [p, (v)]`` as floats; an invalid fix is counted."""
@@ -563,9 +605,11 @@ class ExtendedKalmanFilter(ToControl):
         PHt = P.dot(H.T)
         S = H.dot(PHt)
         S += Rm
-        K = PHt.dot(np.linalg.inv(S))
-        return self._joseph_inject_one(state, pv, state.R.ravel().tolist(), P, H, K, Rm,
-                                       [y[i] - pv[i] for i in range(q)])
+        Sinv = np.linalg.inv(S)
+        K = PHt.dot(Sinv)
+        nu = [y[i] - pv[i] for i in range(q)]
+        return self._joseph_inject_one(state, pv, state.R.ravel().tolist(), P, H, K, Rm, nu,
+                                       nis=float(np.dot(nu, Sinv.dot(nu))))
 
 
 def _inv3(s: list[float], var: float) -> Array:

@@ -32,8 +32,8 @@ from nlobs.simulate.result import SimulationResult
 
 __all__ = [
     "DEFAULT_CONVERGE_DEG", "R", "R_hat", "R_raw", "attitude_error_deg", "attitude_rms_deg", "converge_s", "p",
-    "p_hat", "position_error_m", "position_rms_m", "summary_dict", "v", "v_hat", "velocity_error_mps",
-    "velocity_rms_mps", "z_hat",
+    "navigation_consistency", "navigation_error_state", "p_hat", "position_error_m", "position_rms_m",
+    "summary_dict", "v", "v_hat", "velocity_error_mps", "velocity_rms_mps", "z_hat",
 ]
 
 #: Attitude-error threshold [deg] defining :func:`converge_s` by default.
@@ -354,3 +354,63 @@ def summary_dict(res: SimulationResult, after: float | None = None,
         "after": after,
         "threshold_deg": float(threshold_deg),
     }
+
+
+def navigation_error_state(res: SimulationResult) -> Array:
+    """The error in the navigation EKF's error-state coordinates: ``[p − p̂, v − v̂, log(R̂ᵀ R)]``, shape
+    ``(..., K, 9)`` (the filter's attitude error ``δθ`` is defined by ``R = R̂ exp(S(δθ))``, as it injects it).
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A navigation run with its truth.
+
+    Returns
+    -------
+    ndarray
+    """
+    from nlobs.navigation.so3 import log_so3
+
+    Rh, Rt = R_hat(res), R(res)
+    dtheta = log_so3(np.swapaxes(Rh, -1, -2) @ Rt)
+    return np.concatenate([p(res) - p_hat(res), v(res) - v_hat(res), dtheta], axis=-1)
+
+
+def navigation_consistency(res: SimulationResult, data: Any, *, level: float = 0.95) -> Any:
+    """NEES of the navigation EKF's 9-dimensional error state and NIS of its GNSS fixes against the χ² band
+    (:func:`nlobs.simulate.consistency.error_consistency`); ``None`` for a run that recorded neither.
+
+    The NEES needs the whole covariance (``ExtendedKalmanFilter(record_covariance=True)``); without it only the
+    NIS is reported. A run of generated C records no NIS (its state does not carry it): the NEES alone.
+
+    Parameters
+    ----------
+    res : SimulationResult
+        A run of :func:`~nlobs.navigation.run.run_navigation` with the EKF's diagnostics (every IMU step saved).
+    data : SensorData
+        The sensor record it ran on: its GNSS fixes are the instants of the NIS (a missing fix is not counted).
+    level : float
+        Probability inside the band.
+
+    Returns
+    -------
+    Consistency or None
+    """
+    from nlobs.simulate.consistency import error_consistency
+
+    has_nis = "nis" in res.extras
+    if res.x is None or not (has_nis or "P" in res.extras):
+        return None
+    e = navigation_error_state(res)
+    fixes = np.asarray(data.gnss_output(), dtype=float)  # (..., G, q)
+    K = res.t.shape[0]
+    rows = np.rint((np.asarray(data.t_gnss, dtype=float) - res.t[0]) * float(data.imu_rate_hz)).astype(np.intp)
+    if rows.size and (rows.min() < 0 or rows.max() >= K):
+        raise InvalidArgumentError("data: its GNSS fixes are not on the run's saved instants")
+    y = np.full((*fixes.shape[:-2], K, fixes.shape[-1]), np.nan)
+    y[..., rows, :] = fixes
+    sampled = np.zeros((K, fixes.shape[-1]), dtype=bool)
+    sampled[rows] = True
+    if not has_nis:  # generated C: the NEES alone
+        return error_consistency(res.t, e, res.extras["P"], np.zeros(e.shape[:-1]), None, None, level=level)
+    return error_consistency(res.t, e, res.extras.get("P"), res.extras["nis"], sampled, y, level=level)

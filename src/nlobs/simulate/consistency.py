@@ -21,7 +21,7 @@ from nlobs._schema import INTEGER, NUMBER, Record, array, nullable
 from nlobs._typing import Array
 from nlobs._validate import in_range
 
-__all__ = ["Consistency", "chi2_band", "filter_consistency"]
+__all__ = ["Consistency", "chi2_band", "error_consistency", "filter_consistency"]
 
 
 def chi2_band(dof: Any, level: float = 0.95) -> tuple[Array, Array]:
@@ -149,6 +149,37 @@ def filter_consistency(result: Any, *, level: float = 0.95) -> Consistency | Non
     if "nis" not in extras or result.x is None:
         return None
     e = np.asarray(result.x_hat, dtype=float) - np.asarray(result.x, dtype=float)
+    return error_consistency(result.t, e, extras.get("P"), extras["nis"], result.sampled, result.y, level=level)
+
+
+def error_consistency(t: Array, e: Array, P: Array | None, nis: Array, sampled: Array | None, y: Array | None, *,
+                      level: float = 0.95) -> Consistency:
+    """NEES and NIS of a filter's runs from its errors, covariances and innovations (what
+    :func:`filter_consistency` computes from a result; a filter whose error lives in another space than its
+    estimate, the navigation EKF's error state, calls it with that error).
+
+    Parameters
+    ----------
+    t : ndarray, shape (K,)
+        The saved instants.
+    e : ndarray, shape (..., K, n)
+        The estimation error at them, in the coordinates of ``P``.
+    P : ndarray, shape (..., K, n, n), or None
+        The filter's covariance at the same instants (``None``: no NEES).
+    nis : ndarray, shape (..., K)
+        The normalised innovation squared of the last correction at each instant.
+    sampled : ndarray of bool, shape (K, q), or None
+        The outputs sampled at each instant.
+    y : ndarray, shape (..., K, q), or None
+        The samples (NaN: missing, not counted).
+    level : float
+        Probability inside the band.
+
+    Returns
+    -------
+    Consistency
+    """
+    e = np.asarray(e, dtype=float)
     batch = e.shape[:-2]
     K, n = e.shape[-2:]
     e = e.reshape(-1, K, n)
@@ -156,13 +187,12 @@ def filter_consistency(result: Any, *, level: float = 0.95) -> Consistency | Non
     runs = int(ok.sum())
     nan_ = float("nan")
     if runs == 0:
-        return Consistency(0, level, result.t, None, (nan_, nan_), np.zeros(0), np.zeros(0), np.zeros(0),
+        return Consistency(0, level, t, None, (nan_, nan_), np.zeros(0), np.zeros(0), np.zeros(0),
                            np.zeros(0), nan_, nan_)
     e = e[ok]
     nees = None
     band = (nan_, nan_)
     inside_nees = nan_
-    P = extras.get("P")
     if P is not None:
         P = np.broadcast_to(np.asarray(P, dtype=float), (*batch, K, n, n)).reshape(-1, K, n, n)[ok]
         with np.errstate(all="ignore"):
@@ -175,12 +205,12 @@ def filter_consistency(result: Any, *, level: float = 0.95) -> Consistency | Non
         band = (float(lo), float(hi))
         good = np.isfinite(nees)
         inside_nees = float(np.mean((nees[good] >= lo) & (nees[good] <= hi))) if good.any() else nan_
-    nis = np.broadcast_to(np.asarray(extras["nis"], dtype=float), (*batch, K)).reshape(-1, K)[ok]
+    nis = np.broadcast_to(np.asarray(nis, dtype=float), (*batch, K)).reshape(-1, K)[ok]
     t_nis, m_nis, lo_nis, hi_nis = np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)
     inside_nis = nan_
-    sampled = result.sampled
-    if sampled is not None and result.y is not None and sampled.any():
-        y = np.broadcast_to(np.asarray(result.y, dtype=float), (*batch, K, sampled.shape[-1])).reshape(
+    if sampled is not None and y is not None and np.any(sampled):
+        sampled = np.asarray(sampled, dtype=bool)
+        y = np.broadcast_to(np.asarray(y, dtype=float), (*batch, K, sampled.shape[-1])).reshape(
             -1, K, sampled.shape[-1])[ok]
         dof = np.sum(sampled[None] & np.isfinite(y), axis=-1)  # (runs, K): outputs each run used at each instant
         rows = np.flatnonzero(sampled.any(axis=-1) & (dof.sum(axis=0) > 0))
@@ -188,8 +218,8 @@ def filter_consistency(result: Any, *, level: float = 0.95) -> Consistency | Non
         total = d.sum(axis=0)
         m_nis = np.sum(np.where(d > 0, nis[:, rows], 0.0), axis=0) / total
         lo_nis, hi_nis = chi2_band(total, level)
-        t_nis = result.t[rows]
+        t_nis = np.asarray(t)[rows]
         fin = np.isfinite(m_nis)
         inside_nis = float(np.mean((m_nis[fin] >= lo_nis[fin]) & (m_nis[fin] <= hi_nis[fin]))) if fin.any() else nan_
-    return Consistency(runs, float(level), result.t, nees, band, t_nis, m_nis, lo_nis, hi_nis, inside_nees,
+    return Consistency(runs, float(level), np.asarray(t), nees, band, t_nis, m_nis, lo_nis, hi_nis, inside_nees,
                        inside_nis)

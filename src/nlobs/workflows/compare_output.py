@@ -28,6 +28,7 @@ import csv
 import io
 import math
 from pathlib import Path
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -204,27 +205,54 @@ def consistency_figure(report: ComparisonReport) -> Any | None:
     band; ``None`` when no observer records them."""
     from matplotlib.figure import Figure
 
-    filters = [o for o in _ran(report) if o.consistency is not None and o.consistency.runs]
+    filters = {o.name: o.consistency for o in _ran(report) if o.consistency is not None and o.consistency.runs}
     if not filters:
         return None
+    return consistency_plot(filters, title=f"{report.model}: filter consistency", time_unit=report.time_unit,
+                            styles=_styles(report))
+
+
+def consistency_plot(filters: Mapping[str, Any], *, title: str, time_unit: str,
+                     styles: Mapping[str, Mapping[str, Any]] | None = None) -> Any:
+    """NEES and NIS of each filter (a :class:`~nlobs.simulate.consistency.Consistency` by name) over time, each
+    divided by its degrees of freedom, with the χ² band: ``consistency.png`` of ``nlobs simulate`` and the
+    GNSS/INS demo's ``gnss_ins_consistency.png``.
+
+    Parameters
+    ----------
+    filters : Mapping[str, Consistency]
+        By the name shown in the legend.
+    title : str
+        The figure's title (the band's meaning is added).
+    time_unit : str
+        The unit of the time axis.
+    styles : Mapping, optional
+        Matplotlib line properties by name (default: the colour cycle).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(9.0, 6.0), layout="constrained")
     ax_nees, ax_nis = fig.subplots(2, 1, sharex=True)
-    styles = _styles(report)
+    styles = styles or {name: {"color": f"C{i}"} for i, name in enumerate(filters)}
     banded = False
-    for o in filters:
-        c = o.consistency
+    first = next(iter(filters.values()))
+    for name, c in filters.items():
         if c.nees is not None:
             if not banded:
                 ax_nees.axhspan(*c.nees_band, color="grey", alpha=0.2, lw=0,
-                                label=f"{c.level:.0%} χ² band ({c.runs} runs)")
+                                label=f"{c.level:.0%} χ² band ({c.runs} run{'' if c.runs == 1 else 's'})")
                 banded = True
-            ax_nees.plot(c.t, c.nees, label=f"{o.name}: {c.nees_inside:.0%} inside", **styles[o.name])
+            ax_nees.plot(c.t, c.nees, label=f"{name}: {c.nees_inside:.0%} inside", **styles[name])
         if c.nis.size:
-            if o is filters[0]:
+            if c is first:
                 ax_nis.fill_between(c.t_nis, c.nis_lo, c.nis_hi, color="grey", alpha=0.2, lw=0, step="mid",
                                     label=f"{c.level:.0%} χ² band")
             ax_nis.plot(c.t_nis, c.nis, marker="." if c.nis.size <= 100 else None, ms=3.0,
-                        label=f"{o.name}: {c.nis_inside:.0%} inside", **styles[o.name])
+                        label=f"{name}: {c.nis_inside:.0%} inside", **styles[name])
     for ax, what in ((ax_nees, "NEES / n"), (ax_nis, "NIS / outputs")):
         ax.axhline(1.0, color="black", lw=0.8)
         ax.set_ylabel(what)
@@ -234,9 +262,9 @@ def consistency_figure(report: ComparisonReport) -> Any | None:
     ax_nees.set_title("estimation error against the filter's covariance, averaged over the runs", fontsize="small",
                       loc="left")
     ax_nis.set_title("innovations at the samples against their predicted covariance", fontsize="small", loc="left")
-    ax_nis.set_xlabel(f"time [{report.time_unit}]")
-    fig.suptitle(f"{report.model}: filter consistency (inside the band about {filters[0].consistency.level:.0%} of "
-                 "the time when the filter's covariance describes its error)", fontsize="medium")
+    ax_nis.set_xlabel(f"time [{time_unit}]")
+    fig.suptitle(f"{title}\n(inside the band about {first.level:.0%} of the time when the filter's covariance "
+                 "describes its error)", fontsize="medium")
     return fig
 
 

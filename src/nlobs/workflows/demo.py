@@ -14,17 +14,19 @@ paper's Figs. 4–6.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from nlobs._io import atomic_write_json, prepare_output_dir, with_schema
+from nlobs._io import atomic_write_json, prepare_output_dir, save_figure, with_schema
 from nlobs._schema import BOOLEAN, INTEGER, MATRIX, NUMBER, STRING, Record, array, enum, mapping, nullable
 from nlobs.errors import InvalidArgumentError, OutputError
 from nlobs.navigation.gains import NOISE_OPTIMAL_GAMMA
-from nlobs.navigation.metrics import summary_dict
+from nlobs.navigation.metrics import navigation_consistency, summary_dict
+from nlobs.simulate.consistency import CONSISTENCY_JSON, Consistency
 from nlobs.navigation.plots import plot_navigation
 from nlobs.navigation.run import run_navigation
 from nlobs.navigation.schedule import AttitudeGainSchedule
@@ -58,6 +60,8 @@ NAV_METRICS_JSON = Record("NavigationMetrics", {
     "cost_per_step_us": NUMBER, "skipped_fixes": INTEGER, "n_fixes": INTEGER,
     "after": NUMBER.about("the start of the RMS window when one was given (null: converge_s)"),
     "threshold_deg": NUMBER,
+    "consistency": nullable(CONSISTENCY_JSON, "the EKF's NEES (its 9-dimensional error state) and the NIS of its "
+                                              "GNSS fixes against the 95 % chi-square band; null for observer (24)"),
 }, description="RMS errors from the filter's convergence time on (RMS over the run from converge_s).")
 
 #: ``nlobs demo gnss-ins`` (and its ``results.json``).
@@ -89,7 +93,8 @@ DEMO_JSON = Record("DemoGnssIns", {
 class DemoResult:
     """What the demo computed: one :class:`~nlobs.simulate.SimulationResult` per filter, and the figures.
 
-    Their navigation metrics are the functions of :mod:`nlobs.navigation.metrics`.
+    Their navigation metrics are the functions of :mod:`nlobs.navigation.metrics`; ``ekf_consistency`` is the
+    EKF's NEES and NIS (:func:`~nlobs.navigation.metrics.navigation_consistency`, ``None`` without the EKF).
     """
 
     config: DemoConfig
@@ -102,13 +107,17 @@ class DemoResult:
     schedule: AttitudeGainSchedule | None = None
     gain_schedule: GainScheduleCertificate | None = None
     observer_gain_schedule: TranslationGainSchedule | None = None
+    ekf_consistency: Consistency | None = None
 
     def metrics(self, which: str) -> dict[str, Any]:
-        """The table row of ``"observer"``, ``"observer_paper"`` or ``"ekf"`` (RMS after that filter's own convergence)."""
+        """The table row of ``"observer"``, ``"observer_paper"`` or ``"ekf"`` (RMS after that filter's own
+        convergence; the EKF's with its NEES and NIS, :func:`~nlobs.navigation.metrics.navigation_consistency`)."""
         res = {"observer": self.observer, "observer_paper": self.observer_paper, "ekf": self.ekf}.get(which)
         if res is None:
             raise InvalidArgumentError(f"no result for {which!r}")
-        return summary_dict(res, threshold_deg=self.config.converge_deg)
+        cons = self.ekf_consistency if which == "ekf" else None
+        return NAV_METRICS_JSON.emit({**summary_dict(res, threshold_deg=self.config.converge_deg),
+                                      "consistency": None if cons is None else cons.to_dict()})
 
     def to_dict(self) -> dict[str, Any]:
         """Stable JSON form: ``observer`` and ``ekf`` objects (see the README) plus the setup."""
@@ -173,20 +182,29 @@ def run_demo(config: DemoConfig = DemoConfig(), out_dir: str | Path | None = Non
     paper_res = None
     if config.gains == "noise-optimal":
         paper_res = run_navigation(run(paper_observer(config, flight)), data, p0, v0, R0, progress=progress)
-    ekf_res = None
+    ekf_res, ekf_cons = None, None
     if config.ekf:
-        ekf = demo_ekf(config, flight)
+        # P for the NEES in Python; the generated C keeps its one call per record (its state carries no NIS)
+        ekf = dataclasses.replace(demo_ekf(config, flight), record_covariance=config.backend == "python")
         ekf_res = run_navigation(ekf if config.backend == "python" else _compiled(ekf), data, p0, v0, R0,
                                  progress=progress)
+        ekf_cons = navigation_consistency(ekf_res, data)
+        ekf_res = dataclasses.replace(ekf_res, extras={k: v for k, v in ekf_res.extras.items() if k != "P"})
     figures: dict[str, Path] = {}
     if out_dir is not None:
         others = [(r, name) for r, name in ((ekf_res, "EKF"), (paper_res, "observer, the paper's gains"))
                   if r is not None]
         figures = plot_navigation(obs_res, Path(out_dir), compare=[r for r, _ in others], prefix="gnss_ins",
                                   labels=(_label(config), *(name for _, name in others)))
+        if ekf_cons is not None and ekf_cons.runs:
+            from nlobs.workflows.compare_output import consistency_plot
+
+            fig = consistency_plot({"EKF": ekf_cons}, title="GNSS/INS demo, the navigation EKF: consistency",
+                                   time_unit="s", styles={"EKF": {"color": "C2"}})
+            figures["consistency"] = save_figure(fig, Path(out_dir) / "gnss_ins_consistency.png")
     return DemoResult(config, obs_res, ekf_res, figures, float(traj.t[-1]), observer_paper=paper_res,
                       certificate=cert, schedule=schedule, gain_schedule=gain_cert,
-                      observer_gain_schedule=getattr(observer, "gain_schedule", None))
+                      observer_gain_schedule=getattr(observer, "gain_schedule", None), ekf_consistency=ekf_cons)
 
 
 def _backend(config: DemoConfig) -> Any:
@@ -274,7 +292,21 @@ class DemoReport:
         lines = [title, "  ".join(h.ljust(w) if i == 0 else h.rjust(w) for i, (h, w) in enumerate(zip(heads, widths)))]
         lines += ["  ".join(v.ljust(w) if i == 0 else v.rjust(w) for i, (v, w) in enumerate(zip(row, widths)))
                   for row in rows]
-        return "\n".join(lines + [f"wrote {f}" for f in self.files])
+        return "\n".join(lines + ([self.consistency_line()] if self.consistency_line() else [])
+                         + [f"wrote {f}" for f in self.files])
+
+    def consistency_line(self) -> str:
+        """One line on the EKF's consistency (its NEES and NIS against the 95 % χ² band), or ``""``."""
+        c = self.result.ekf_consistency
+        if c is None or not c.runs:
+            return ""
+        d = c.to_dict()
+        nees = ("" if d["nees_inside"] is None else
+                f"NEES inside the {c.level:.0%} χ² band {d['nees_inside']:.0%} of the time (mean {d['nees_mean']:.2f})")
+        nis = ("" if d["nis_inside"] is None else
+               f"NIS at the GNSS fixes {d['nis_inside']:.0%} (mean {d['nis_mean']:.2f})")
+        return "EKF consistency: " + ", ".join(p for p in (nees, nis) if p) + " (about 95 % and 1 when its " \
+               "covariance describes its error)"
 
 
 def gnss_ins_demo(config: DemoConfig = DemoConfig(), out: str | Path | None = Path("out/gnss-ins"), *,
