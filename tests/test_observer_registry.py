@@ -539,7 +539,7 @@ def case_navigation_ekf() -> Any:
     traj0 = traffic_pattern(seed=0, duration=1.0)
     tuning = SensorNoise(gyro_std=0.002, accel_std=0.05, mag_std=0.01, gnss_p_std=1.5, gnss_v_std=0.1)
     ekf = ExtendedKalmanFilter(EkfConfig.for_noise(tuning, yaw_std_deg=60.0), traj0.m_n, traj0.g_n)
-    check_protocol(ekf, _nav_x_hat0(), NAV_U, NAV_Y, time=Continuous, correcting=True, capabilities=(SelfStepping,))
+    check_protocol(ekf, _nav_x_hat0(), NAV_U, NAV_Y, time=Continuous, correcting=True, capabilities=(SelfStepping, Diagnosing))
     _check_navigation_converged(_flight_run(ekf))
     return ekf
 

@@ -103,7 +103,32 @@ def atomic_write(path: str | Path, write: Callable[[IO[bytes]], None]) -> Path:
 
 
 def atomic_write_text(path: str | Path, text: str) -> Path:
-    """Write a UTF-8 text file atomically (see :func:`atomic_write`)."""
+    """Write a UTF-8 text file atomically (see :func:`atomic_write`).
+
+    Examples
+    --------
+    The file holds the whole text, and no temporary file is left beside it; a write that fails
+    half-way (here the disk fills after a first chunk) leaves the previous text as it was:
+
+    >>> import shutil
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> target = atomic_write_text(folder / "report.txt", "γ = 0.5\\n")
+    >>> target.read_text(encoding="utf-8"), sorted(p.name for p in folder.iterdir())
+    ('γ = 0.5\\n', ['report.txt'])
+    >>> def disk_full(fh):
+    ...     fh.write(b"half a rep")
+    ...     raise OSError(28, "No space left on device")
+    >>> try:
+    ...     atomic_write(target, disk_full)
+    ... except OSError as exc:
+    ...     print(type(exc).__name__, "-", exc.strerror)
+    OSError - No space left on device
+    >>> target.read_text(encoding="utf-8"), sorted(p.name for p in folder.iterdir())
+    ('γ = 0.5\\n', ['report.txt'])
+    >>> shutil.rmtree(folder)
+    """
     data = text.encode("utf-8")
     return atomic_write(path, lambda fh: fh.write(data))
 
@@ -124,6 +149,20 @@ def jsonable(obj: Any) -> Any:
 
     The one conversion behind every JSON nlobs prints or writes (``json.dumps(..., allow_nan=False)``
     then never fails on a NaN metric, e.g. a convergence time that was never reached).
+
+    Examples
+    --------
+    NumPy arrays and scalars become lists and Python numbers, a NaN becomes ``None``, so strict JSON
+    (``allow_nan=False``) can be written:
+
+    >>> import json
+    >>> import numpy as np
+    >>> report = {"gain": np.array([[1.5], [0.25]]), "runs": np.int64(3), "t_conv": np.float64("nan"),
+    ...           "bounds": (np.float32(0.5), float("inf"))}
+    >>> jsonable(report)
+    {'gain': [[1.5], [0.25]], 'runs': 3, 't_conv': None, 'bounds': [0.5, None]}
+    >>> json.dumps(jsonable(report), allow_nan=False)
+    '{"gain": [[1.5], [0.25]], "runs": 3, "t_conv": null, "bounds": [0.5, null]}'
     """
     if isinstance(obj, dict):
         return {str(k): jsonable(v) for k, v in obj.items()}
@@ -148,6 +187,15 @@ def with_schema(data: Any) -> Any:
     """A JSON report (a mapping) with ``schema_version`` first; anything else unchanged.
 
     The two list outputs (the JSON of ``nlobs reproduce`` and of ``nlobs models``) stay lists.
+
+    Examples
+    --------
+    The version goes first, replacing any the report already had; a list is returned unchanged:
+
+    >>> with_schema({"verdict": "ok", "schema_version": 0, "gamma": 0.5})
+    {'schema_version': 1, 'verdict': 'ok', 'gamma': 0.5}
+    >>> with_schema([{"name": "pendulum"}])
+    [{'name': 'pendulum'}]
     """
     if isinstance(data, dict):
         return {"schema_version": SCHEMA_VERSION, **{k: v for k, v in data.items() if k != "schema_version"}}

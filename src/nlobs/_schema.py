@@ -152,6 +152,14 @@ def one_of(*nodes: Node, description: str = "") -> Node:
         The alternatives.
     description : str
         Said in the schema.
+
+    Examples
+    --------
+    A sensor channel given by its index or by its name:
+
+    >>> channel = one_of(INTEGER, STRING, description="an output index or name")
+    >>> channel.kind, channel.schema({})
+    ('anyOf', {'anyOf': [{'type': 'integer'}, {'type': 'string'}], 'description': 'an output index or name'})
     """
     return Node(items=tuple(nodes), kind="anyOf", description=description)
 
@@ -392,6 +400,29 @@ def document_schema(node: Node, command: str, *, versioned: bool = True, descrip
     -------
     dict
         A JSON-serialisable schema with its records under ``$defs``.
+
+    Examples
+    --------
+    An object report starts with ``schema_version`` (required, the constant
+    :data:`nlobs._io.SCHEMA_VERSION`); a list output refers to its items' record under ``$defs``:
+
+    >>> point = Record("Point", {"x": NUMBER, "label": nullable(STRING)}, optional={"label"})
+    >>> doc = document_schema(point, "design drift")
+    >>> doc["$id"], doc["title"]
+    ('urn:nlobs:schema:design-drift', 'nlobs design drift: JSON output')
+    >>> doc["required"], doc["properties"]["schema_version"], doc["additionalProperties"]
+    (['schema_version', 'x'], {'const': 1}, False)
+    >>> listing = document_schema(array(point), "models", versioned=False)
+    >>> listing["type"], listing["items"], sorted(listing["$defs"])
+    ('array', {'$ref': '#/$defs/Point'}, ['Point'])
+
+    The keys of a real report, a :class:`~nlobs.checks.Check` written as JSON, are those its document declares:
+
+    >>> from nlobs._io import with_schema
+    >>> from nlobs.checks import CHECK_JSON, Check, CheckKind
+    >>> report = with_schema(Check.compare("‖H‖∞ < γ", 0.8, 1.0, kind=CheckKind.NORM).to_dict())
+    >>> list(report) == list(document_schema(CHECK_JSON, "check")["properties"])
+    True
     """
     from nlobs._io import SCHEMA_VERSION
 

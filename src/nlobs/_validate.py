@@ -286,6 +286,22 @@ def escape_unsafe(text: str, *, one_line: bool = False) -> str:
 
     What remains cannot move the cursor, change colours, set a terminal title or
     reorder the displayed text. With ``one_line`` tab and newline are escaped too.
+
+    Examples
+    --------
+    A name read from a file that would set the terminal's title (``ESC ] 0 ; … BEL``) and reverse the
+    text after it (U+202E) is printed harmless:
+
+    >>> name = "tau" + chr(0x1b) + "]0;pwned" + chr(7) + chr(0x202e) + "x"
+    >>> print(escape_unsafe(name))
+    tau\\x1b]0;pwned\\x07\\u202ex
+
+    Tab and newline are kept, unless the text must stay on one line:
+
+    >>> escape_unsafe("a\\tb\\nc") == "a\\tb\\nc"
+    True
+    >>> print(escape_unsafe("a\\tb\\nc", one_line=True))
+    a\\x09b\\x0ac
     """
     return (_UNSAFE_LINE if one_line else _UNSAFE_TEXT).sub(_escape_char, text)
 

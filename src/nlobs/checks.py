@@ -35,7 +35,21 @@ __all__ = ["CheckKind", "Check", "Verdict"]
 
 
 class CheckKind(Enum):
-    """What a :class:`Check` verifies (how it was decided is :attr:`Check.method`)."""
+    """What a :class:`Check` verifies (how it was decided is :attr:`Check.method`).
+
+    Examples
+    --------
+    A spectrum check: the closed-loop matrix ``A`` with eigenvalues −1 and −2 is Hurwitz, by a margin of 1;
+    the kind is written to JSON by its value, and read back from it:
+
+    >>> import numpy as np
+    >>> A = np.array([[0.0, 1.0], [-2.0, -3.0]])
+    >>> c = Check.compare("A Hurwitz (max Re λ)", max(np.linalg.eigvals(A).real), 0.0, kind=CheckKind.SPECTRUM)
+    >>> c.passed, round(c.margin, 6), c.to_dict()["kind"]
+    (True, 1.0, 'spectrum')
+    >>> CheckKind("spectrum") is CheckKind.SPECTRUM, [k.value for k in CheckKind][:4]
+    (True, ['lmi', 'positivity', 'spectrum', 'region'])
+    """
 
     LMI = "lmi"
     """Largest eigenvalue of a symmetrised LMI block against its bound (``< 0`` or ``< −ε``)."""
@@ -311,7 +325,25 @@ CHECK_JSON = Record("Check", {
 
 
 class Verdict(Enum):
-    """What a report concluded, in the words the CLI turns into exit statuses (``OK`` 0, ``FAILED`` 1, ``NO_OBSERVER`` 3)."""
+    """What a report concluded, in the words the CLI turns into exit statuses (``OK`` 0, ``FAILED`` 1, ``NO_OBSERVER`` 3).
+
+    Examples
+    --------
+    The drift observer (3.1) of Dalla Mora, Germani & Manes exists for the shipped pendulum; for the shipped
+    ``khajenejad-6-2`` no set-valued observer of the requested structure exists, and the report says why:
+
+    >>> from nlobs.methods.setvalued import design_setvalued_observer
+    >>> from nlobs.workflows.design_drift import design_drift_observer
+    >>> design_drift_observer("pendulum").verdict
+    <Verdict.OK: 'ok'>
+    >>> rep = design_setvalued_observer("khajenejad-6-2", samples=2000)
+    >>> rep.verdict, rep.verdict.value
+    (<Verdict.NO_OBSERVER: 'no observer'>, 'no observer')
+    >>> print(rep.message)
+    khajenejad-6-2: no stable observer of this structure exists (a linear member of the class is not ...
+    >>> Verdict("failed") is Verdict.FAILED
+    True
+    """
 
     OK = "ok"
     """Everything asked for was done and holds (a design is usable, a guarantee held)."""

@@ -66,11 +66,38 @@ class NonFiniteError(NlobsError, ValueError):
 
 
 class NotSymmetricError(NlobsError, ValueError):
-    """A matrix that must be symmetric is not (beyond a relative tolerance)."""
+    """A matrix that must be symmetric is not (beyond a relative tolerance).
+
+    Examples
+    --------
+    A noise covariance of two channels written with one off-diagonal entry only; the message names the
+    sensor, the argument and the asymmetry:
+
+    >>> from nlobs.systems.sensors import MeasurementGroup
+    >>> try:
+    ...     MeasurementGroup("gnss", ["y1", "y2"], rate=5.0, noise_cov=[[1.0, 0.5], [0.0, 1.0]])
+    ... except NotSymmetricError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    NotSymmetricError - measurement group 'gnss': noise_cov: not symmetric (max |M - M^T| = 0.5)
+    """
 
 
 class InvalidArgumentError(NlobsError, ValueError):
-    """An argument has an invalid value (negative bound, unknown option, ...)."""
+    """An argument has an invalid value (negative bound, unknown option, ...).
+
+    Examples
+    --------
+    A sine input of frequency zero; like every error about a bad argument it is also a :class:`ValueError`:
+
+    >>> from nlobs.systems.signals import Sine
+    >>> try:
+    ...     Sine(amplitude=1.0, frequency=0.0)
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ...     print(isinstance(exc, ValueError))
+    InvalidArgumentError - Sine.frequency: must be positive (in Hz), got 0.0
+    True
+    """
 
 
 class UnknownNameError(NlobsError, ValueError):
@@ -163,6 +190,25 @@ class SignalFileError(ModelFileError):
     The message is one line, ``FILE:LINE: reason``, where the reason quotes the offending text
     (e.g. ``u.csv:7: column 'tau': 'nan' is not a finite number``); the attributes are those of
     :class:`ModelFileError`.
+
+    Examples
+    --------
+    A CSV file of a torque input whose second sample is not a number:
+
+    >>> import shutil
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> from nlobs.systems.signals import read_signal_csv
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = (folder / "u.csv").write_text("t,tau\\n0.0,0.0\\n0.5,nan\\n", encoding="utf-8")
+    >>> try:
+    ...     read_signal_csv(folder / "u.csv")
+    ... except SignalFileError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ...     print(Path(exc.path).name, exc.line, repr(exc.text))
+    SignalFileError - ...u.csv:3: column 'tau': 'nan' is not a finite number
+    u.csv 3 'nan'
+    >>> shutil.rmtree(folder)
     """
 
     def __init__(self, path: str, line: int | None, text: str, reason: str) -> None:
@@ -230,6 +276,22 @@ class DesignUnbounded(DesignError):
 
     Raised instead of returning a huge gain that merely reflects the solver's
     strictness margin (see ``docs/synthesis.md``).
+
+    Examples
+    --------
+    The smallest ``γ`` of LMI (14) of Grip, Saberi & Johansen for a pair without invariant zeros: the
+    infimum ``γ* = 0`` is approached only as the gain grows without bound, so no minimum exists and no
+    gain is returned; the message gives the numbers at two strictness margins and what to ask instead:
+
+    >>> import numpy as np
+    >>> from nlobs.synthesis.observer_gain import design_observer_gain
+    >>> A, C, Bd = np.array([[0.0, 1.0], [-2.0, -0.5]]), np.array([[1.0, 0.0]]), np.array([[0.0], [1.0]])
+    >>> try:
+    ...     design_observer_gain(A, C, Bd, objective="min_gamma")
+    ... except DesignUnbounded as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    DesignUnbounded - minimising γ² subject to LMIs (14) has no minimum here: the optimum is set by the strictness
+    margin ε, not by the problem. ... or pass gain_bound=GainBound(κ) so that the minimum is attained.
     """
 
 
@@ -328,6 +390,30 @@ class OutputError(NlobsError, OSError):
     """An output file or folder cannot be written (an existing file where a folder is needed, read-only, full disk).
 
     Nothing is left half-written: every output of nlobs is written atomically.
+
+    Examples
+    --------
+    The C code of a Luenberger observer exported to a path that is an existing file, not a folder; the file is
+    left as it was, and the error is also an :class:`OSError`:
+
+    >>> import shutil
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> import nlobs
+    >>> from nlobs.export import export_observer
+    >>> system = nlobs.LinearSystem([[0.0, 1.0], [-2.0, -0.5]], [[0.0], [1.0]], [[1.0, 0.0]])
+    >>> observer = nlobs.LuenbergerObserver(system, [[4.5], [1.75]])
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> taken = folder / "taken"
+    >>> _ = taken.write_text("not a folder", encoding="utf-8")
+    >>> try:
+    ...     export_observer(observer, taken, check=False)
+    ... except OutputError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ...     print(isinstance(exc, OSError), taken.read_text(encoding="utf-8"))
+    OutputError - ...taken: cannot write the generated C (exists and is not a folder)
+    True not a folder
+    >>> shutil.rmtree(folder)
     """
 
 
@@ -336,6 +422,23 @@ class StudyFailed(NlobsError):
 
     The cause is chained and named in the message. A divergence of a single simulation is
     :class:`SimulationDiverged` instead.
+
+    Examples
+    --------
+    The drift observer (3.1) of Dalla Mora, Germani & Manes for the shipped pendulum, simulated with a step
+    of 1 s, far too long for its gain: the estimate explodes until ``Q_s`` is singular, and the study stops
+    with the reason:
+
+    >>> from nlobs.workflows import SimulationRequest
+    >>> from nlobs.workflows.design_drift import design_drift_observer
+    >>> try:
+    ...     design_drift_observer("pendulum", simulate=SimulationRequest([0.5, 0.0], duration=50.0, dt=1.0))
+    ... except StudyFailed as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ...     print(exc.__cause__ is not None)
+    StudyFailed - pendulum: Q_s (s = [2]) is singular at t=... the drift-observability observer (3.1) needs
+    Q_s(x̂) invertible: ...
+    True
     """
 
 
@@ -345,6 +448,23 @@ class NumericalError(NlobsError, ArithmeticError):
     Raised instead of returning a number that is known to be wrong (a Gramian whose Lyapunov
     residual is not small, data whose magnitude overflows the computation). The message names
     the quantity and the measured residual or magnitude.
+
+    Examples
+    --------
+    A system matrix with entries of 1e308, whose eigenvalues LAPACK cannot compute in range; it is an
+    :class:`ArithmeticError`, like a divergence:
+
+    >>> import nlobs
+    >>> from nlobs.linear import analyze_linear
+    >>> system = nlobs.LinearSystem([[1e308, 1e308], [-1e308, 1e308]], [[0.0], [1.0]], [[1.0, 0.0]])
+    >>> try:
+    ...     analyze_linear(system)
+    ... except NumericalError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ...     print(isinstance(exc, ArithmeticError))
+    NumericalError - A: entries up to 1e+308 in magnitude exceed 1e+130; eigenvalues, norms and Gramians of such
+    data overflow or lose all accuracy in double precision (rescale the model's units)
+    True
     """
 
 
@@ -355,6 +475,25 @@ class ExpressionTooLarge(NlobsError, ValueError):
     ``sin(sin(…sin(x)…))`` nested 99 deep, has Lie derivatives of millions of terms, whose
     construction would run for minutes). The message names the quantity and the limit
     (:data:`nlobs.geometry.lie.MAX_DERIVATIVE_NODES`).
+
+    Examples
+    --------
+    A chain of 51 integrators, ``ẋ_i = x_{i+1}``, ``ẋ_51 = −x1``, ``y = x1``: the symbolic analyses of
+    Dalla Mora, Germani & Manes and Röbenack are refused above
+    :data:`~nlobs.geometry.report.MAX_GEOMETRY_STATES` states, before the first Lie derivative is built:
+
+    >>> from nlobs.geometry.report import geometry_report
+    >>> from nlobs.systems.symbolic import SymbolicModel
+    >>> states = [f"x{i}" for i in range(1, 52)]
+    >>> chain = SymbolicModel.input_affine(states, [], ["y"], f=[*states[1:], "-x1"], g=None, h=["x1"])
+    >>> try:
+    ...     geometry_report(chain)
+    ... except ExpressionTooLarge as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ...     print(isinstance(exc, ValueError))
+    ExpressionTooLarge - 51 states: the Lie-derivative analysis is done up to 50 states (the size of L_f^k h grows
+    with every k)
+    True
     """
 
 
@@ -365,6 +504,24 @@ class ProblemTooLarge(InvalidArgumentError):
     interior-point solver), the limit, and what to change (e.g. drop a pole region or gain bound so
     that the Riccati path applies, or reduce the model). A subclass of
     :class:`InvalidArgumentError`, so the command line reports it in one line with exit 2.
+
+    Examples
+    --------
+    An observer gain for 60 states and 20 outputs with a pole region (Chilali–Gahinet LMIs): the SDP would
+    need about 10 GiB, so it is refused at once, before any solver is called:
+
+    >>> import numpy as np
+    >>> from nlobs.synthesis.observer_gain import design_observer_gain
+    >>> from nlobs.synthesis.regions import HalfPlane
+    >>> n = 60
+    >>> A = -np.eye(n) + np.eye(n, k=1)
+    >>> try:
+    ...     design_observer_gain(A, np.eye(20, n), np.eye(n, 10), gamma=40.0, gamma_n=40.0, region=HalfPlane(0.1))
+    ... except ProblemTooLarge as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ...     print(isinstance(exc, InvalidArgumentError))
+    ProblemTooLarge - observer-gain SDP too large: n = 60 states, 20 outputs give ... the limit is 4 GiB ...
+    True
     """
 
 
@@ -374,4 +531,18 @@ class CompilerError(NlobsError, RuntimeError):
     The message names the compiler tried (or the ones looked for) and the first lines of its
     diagnostics. Install the ``codegen`` extra (``pip install nlobs[codegen]``, a C compiler from the
     package index), put ``cc`` on the ``PATH``, or name one with the ``NLOBS_CC`` environment variable.
+
+    Examples
+    --------
+    ``NLOBS_CC`` naming a compiler that is not installed (set here for the one call):
+
+    >>> import os
+    >>> from unittest import mock
+    >>> from nlobs.export.compiler import find_compiler
+    >>> with mock.patch.dict(os.environ, {"NLOBS_CC": "no-such-compiler-xyz"}):
+    ...     try:
+    ...         find_compiler()
+    ...     except CompilerError as exc:
+    ...         print(type(exc).__name__, "-", exc)
+    CompilerError - NLOBS_CC='no-such-compiler-xyz': no such compiler command
     """

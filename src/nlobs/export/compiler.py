@@ -64,6 +64,25 @@ class Compiler:
         ``("<site-packages>/ziglang/zig", "cc")``).
     label : str
         How it was found: ``"NLOBS_CC"``, ``"ziglang"`` or ``"PATH"``.
+
+    Examples
+    --------
+    A compiler named by hand, and the one nlobs finds here (the Zig toolchain of the ``codegen`` extra,
+    or a ``cc`` on the ``PATH``), which compiles a strict C99 function (in a temporary folder, discarded)
+    and refuses one with a warning (an unused variable, under ``-Werror``):
+
+    >>> Compiler(("zig", "cc"), "NLOBS_CC").describe()
+    'zig cc'
+    >>> cc = find_compiler()
+    >>> isinstance(cc, Compiler), cc.label in ("NLOBS_CC", "ziglang", "PATH")
+    (True, True)
+    >>> compile_object("double twice(double x) { return 2.0 * x; }\\n", compiler=cc) is None
+    True
+    >>> try:
+    ...     compile_object("double twice(double x) { int spare; return 2.0 * x; }\\n", compiler=cc)
+    ... except CompilerError as exc:
+    ...     print(type(exc).__name__, "unused" in str(exc))
+    CompilerError True
     """
 
     command: tuple[str, ...]
@@ -119,6 +138,27 @@ def find_compiler() -> Compiler:
     ------
     CompilerError
         ``NLOBS_CC`` is set but empty or not found, or no compiler is installed.
+
+    Examples
+    --------
+    Without ``NLOBS_CC`` the packaged Zig toolchain or a compiler on the ``PATH`` is found; a
+    ``NLOBS_CC`` that names no command is refused rather than passed over:
+
+    >>> import os
+    >>> saved = os.environ.pop("NLOBS_CC", None)
+    >>> try:
+    ...     found = find_compiler()
+    ...     os.environ["NLOBS_CC"] = "no-such-cc-for-nlobs -c"
+    ...     find_compiler()
+    ... except CompilerError as exc:
+    ...     print(type(exc).__name__, exc)
+    ... finally:
+    ...     _ = os.environ.pop("NLOBS_CC", None)
+    ...     if saved is not None:
+    ...         os.environ["NLOBS_CC"] = saved
+    CompilerError NLOBS_CC='no-such-cc-for-nlobs -c': no such compiler command
+    >>> found.label in ("ziglang", "PATH"), found.describe() == " ".join(found.command)
+    (True, True)
     """
     env = os.environ.get("NLOBS_CC")
     if env is not None:

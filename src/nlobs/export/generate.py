@@ -474,7 +474,18 @@ def default_prefix(observer: Any, prefix: str | None = None) -> str:
 
 
 def supported() -> tuple[str, ...]:
-    """Names of the observer classes this module generates C for."""
+    """Names of the observer classes this module generates C for.
+
+    Examples
+    --------
+    >>> names = supported()
+    >>> names[:5]
+    ('LuenbergerObserver', 'ConstantGainObserver', 'PinvObserver', 'ByrnesIsidoriObserver', 'DriftObserver')
+    >>> "GnssInsObserver" in names, "ExtendedKalmanFilter" in names
+    (True, True)
+    >>> "DiscreteLipschitzObserver" in names  # no C generator: the export refuses it
+    False
+    """
     return tuple(_generators())
 
 
@@ -499,6 +510,26 @@ def generate(observer: Any, prefix: str, *, notes: tuple[tuple[str, str], ...] =
         The observer's class has no C generator, or this configuration of it is not exported.
     ModelError
         An expression has no C99 form.
+
+    Examples
+    --------
+    The module of a Luenberger observer holds ``A − L C``, ``B − L D`` and ``L`` as constant arrays (row-major);
+    the header notes say what was generated:
+
+    >>> import nlobs
+    >>> system = nlobs.LinearSystem([[0.0, 1.0], [-2.0, -0.5]], [[0.0], [1.0]], [[1.0, 0.0]])
+    >>> program = generate(nlobs.LuenbergerObserver(system, [[4.5], [1.75]]), "osc")
+    >>> program.title, (program.n_z, program.n_x, program.n_u, program.n_y), program.discrete, program.correcting
+    ('Luenberger observer (2 states)', (2, 2, 1, 1), False, False)
+    >>> print(program.body.splitlines()[0])  # A − L C = [[-4.5, 1], [-3.75, -0.5]]
+    static const double osc_Fz[4] = {(-4.5), 1.0, (-3.75), (-0.5)};
+    >>> dict(program.notes)["A - L C"]
+    'spectral abscissa -2'
+    >>> try:
+    ...     generate(object(), "x")
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError no C export for object; exported: LuenbergerObserver, ...
     """
     kind = type(observer).__name__
     gen = _generators().get(kind)

@@ -29,6 +29,25 @@ class ExportResult:
     checked_with : str or None
         The compiler that compiled the module with ``-Wall -Wextra -Werror -std=c99 -pedantic``
         (``None``: no compiler was found, the files are unchecked).
+
+    Examples
+    --------
+    What :func:`export_observer` returns for a Luenberger observer written without the strict check, and
+    its JSON summary (the ``module`` of ``nlobs export``):
+
+    >>> import tempfile
+    >>> import nlobs
+    >>> system = nlobs.LinearSystem([[0.0, 1.0], [-2.0, -0.5]], [[0.0], [1.0]], [[1.0, 0.0]])
+    >>> observer = nlobs.LuenbergerObserver(system, [[4.5], [1.75]])
+    >>> res = export_observer(observer, tempfile.mkdtemp(), prefix="osc", check=False)
+    >>> type(res).__name__, res.header.name, res.source.name, res.checked_with
+    ('ExportResult', 'osc.h', 'osc.c', None)
+    >>> source = res.source.read_text(encoding="utf-8")
+    >>> res.header.parent == res.source.parent, "osc_Fz[4] = {(-4.5), 1.0, (-3.75), (-0.5)};" in source  # A − L C
+    (True, True)
+    >>> summary = res.to_dict()
+    >>> summary["prefix"], summary["title"], summary["correcting"], summary["checked_with"]
+    ('osc', 'Luenberger observer (2 states)', False, None)
     """
 
     program: CProgram

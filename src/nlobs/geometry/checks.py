@@ -161,6 +161,30 @@ def check_drift_observability(
     evidence: ``σ_min(Q_s)`` at ``samples`` seeded points, refined by a bounded local
     minimisation from the worst ones. Sampling cannot prove nonsingularity everywhere: a
     positive numeric verdict says "nonsingular at every point examined".
+
+    Examples
+    --------
+    ``ẋ1 = x2²``, ``y = x1``: ``Q_s = [[1, 0], [0, 2 x2]]``. On ``[−1, 1]²`` its determinant ``2 x2``
+    changes sign, which proves a singular point (found on ``x2 = 0``); on ``x2 ∈ [0.25, 1]`` it is
+    nonsingular, ``σ_min(Q_s) = min(1, 2 x2)`` smallest (``0.5``) on the edge ``x2 = 0.25``.
+
+    >>> from nlobs.geometry.observability import AffineFields
+    >>> from nlobs.systems.symbolic import SymbolicModel
+    >>> m = SymbolicModel.input_affine(["x1", "x2"], ["u"], ["y"], f=["x2**2", "-x1"], g=[[0], [1]], h=["x1"],
+    ...                                name="fold")
+    >>> fields = AffineFields.from_model(m)
+    >>> chk = check_drift_observability(fields, (2,))
+    >>> chk.passed, chk.method, chk.symbolic, abs(chk.worst_point[1]) < 1e-9
+    (False, 'intermediate value', '2*x2', True)
+    >>> chk = check_drift_observability(fields, (2,), Box([-1.0, 0.25], [1.0, 1.0]), samples=64)
+    >>> chk.passed, chk.method, round(chk.value, 3), round(chk.worst_point[1], 3)
+    (True, 'numeric', 0.5, 0.25)
+
+    A constant determinant is a proof everywhere (the shipped pendulum, ``y = θ``: ``Q_s = I``):
+
+    >>> import nlobs
+    >>> check_drift_observability(AffineFields.from_model(nlobs.load_model("pendulum")), (2,)).evidence
+    'det Q_s = 1 (constant): Q_s is nonsingular everywhere'
     """
     s_ = check_multi_index(s, fields.q, fields.n)
     reg = region or Box.unit(fields.n)
@@ -178,7 +202,25 @@ def check_drift_observability(
 
 
 def check_a1(fields: AffineFields, r: Sequence[int], region: Box | None = None, *, samples: int = 256, seed: int = 0) -> Check:
-    """Röbenack A1 (second part): the rows ``dh, …, dL_f^{r−1} h`` of ``Q`` are linearly independent."""
+    """Röbenack A1 (second part): the rows ``dh, …, dL_f^{r−1} h`` of ``Q`` are linearly independent.
+
+    Examples
+    --------
+    The shipped Isidori example (``y = x4``, ``r = 2``): ``Q = [[0, 0, 0, 1], [2 x1, 1, 0, 0]]`` has
+    ``σ_min ≥ 1`` everywhere. Two outputs ``y1 = x1``, ``y2 = 2 x1`` have dependent differentials.
+
+    >>> import nlobs
+    >>> from nlobs.geometry.observability import AffineFields
+    >>> chk = check_a1(AffineFields.from_model(nlobs.load_model("isidori-146")), (2,))
+    >>> chk.passed, chk.method, round(chk.value, 6)
+    (True, 'numeric', 1.0)
+    >>> from nlobs.systems.symbolic import SymbolicModel
+    >>> m = SymbolicModel.input_affine(["x1", "x2"], ["u"], ["y1", "y2"], f=["-x1", "-x2"], g=[[1], [0]],
+    ...                                h=["x1", "2*x1"])
+    >>> chk = check_a1(AffineFields.from_model(m), (1, 1))
+    >>> chk.passed, chk.evidence.split(" at ")[0]
+    (False, 'dh, …, dL_f^(r−1) h are dependent')
+    """
     r_ = check_multi_index(r, fields.q)
     reg = region or Box.unit(fields.n)
     if sum(r_) > fields.n:
@@ -206,6 +248,23 @@ def check_involutive(
     Every bracket ``[τ_i, τ_j]`` must lie in ``Δ = range Qᵀ``; its residual
     ``(I − Q⁺ Q)[τ_i, τ_j]`` is tested symbolically, then at sampled points
     (relative to ``‖[τ_i, τ_j]‖``). ``Δ`` of rank 1 (or ``n``) is always involutive.
+
+    Examples
+    --------
+    The shipped Isidori example passes symbolically. For ``y = x3`` with ``L_f h = x1 + x2 x3``
+    (``r = 2``), ``Δ = span{e3, (1, x3, 0)}`` and by hand ``[e3, (1, x3, 0)] = (0, 1, 0) ∉ Δ``.
+
+    >>> import nlobs
+    >>> from nlobs.geometry.observability import AffineFields
+    >>> chk = check_involutive(AffineFields.from_model(nlobs.load_model("isidori-146")), (2,))
+    >>> chk.passed, chk.method
+    (True, 'symbolic')
+    >>> from nlobs.systems.symbolic import SymbolicModel
+    >>> m = SymbolicModel.input_affine(["x1", "x2", "x3"], ["u"], ["y"], f=["-x1", "-x2", "x1 + x2*x3"],
+    ...                                g=[[1], [0], [0]], h=["x3"], name="twisted")
+    >>> chk = check_involutive(AffineFields.from_model(m), (2,))
+    >>> chk.passed, chk.method, chk.evidence.split(" at ")[0], chk.value > 1e-3
+    (False, 'numeric', '[τ_1, τ_2] leaves span{τ}', True)
     """
     r_ = check_multi_index(r, fields.q)
     reg = region or Box.unit(fields.n)
@@ -250,7 +309,18 @@ def check_involutive(
 
 
 def check_s_le_r(s: Sequence[int], r: Sequence[int | None]) -> Check:
-    """``s ≤ r`` componentwise (Dalla Mora, Germani & Manes Theorems 2.9, 3.4); an undefined ``r_j`` is infinite."""
+    """``s ≤ r`` componentwise (Dalla Mora, Germani & Manes Theorems 2.9, 3.4); an undefined ``r_j`` is infinite.
+
+    Examples
+    --------
+    >>> check_s_le_r((2, 2), (2, 2)).evidence
+    's = (2, 2), r = (2, 2): s ≤ r, (2.17) is solvable for every (α, μ, γ) (Thm 2.9)'
+    >>> chk = check_s_le_r((3, 1), (2, 2))
+    >>> chk.passed, chk.evidence
+    (False, 's = (3, 1), r = (2, 2): s ≰ r: the input bound μ must be small enough (Thm 2.7)')
+    >>> check_s_le_r((3,), (None,)).passed  # no input reaches the output: r = ∞
+    True
+    """
     ok = all(rj is None or sj <= rj for sj, rj in zip(s, r))
     rt = ["∞" if v is None else str(v) for v in r]
     return Check.verdict("s ≤ r", ok,
@@ -300,6 +370,23 @@ class RankEvidence:
     high_precision_singular_values, high_precision_tolerance : tuple of float or None, float or None
         The scaled singular values at ``point`` recomputed at ``HIGH_PRECISION_DIGITS`` digits and
         their error bound (``None`` when not needed: double precision proved full rank).
+
+    Examples
+    --------
+    An oscillator ``(x1, x2)`` measured by ``y = x1`` next to a state ``x3`` it never sees: rank 2 of 3,
+    the third scaled singular value is zero (below ``η``) and the deficiency is confirmed at 48 digits.
+
+    >>> from nlobs.geometry.observability import AffineFields
+    >>> from nlobs.systems.symbolic import SymbolicModel
+    >>> m = SymbolicModel.input_affine(["x1", "x2", "x3"], ["u"], ["y"], f=["x2", "-x1", "-x3"],
+    ...                                g=[[0], [1], [1]], h=["x1"])
+    >>> ev = observability_rank_evidence(AffineFields.from_model(m))
+    >>> ev.rank, ev.lower, ev.upper, ev.points, ev.method
+    (2, 2, 2, 32, 'double precision, checked at 48 digits')
+    >>> [round(v, 6) for v in ev.singular_values], ev.singular_values[-1] <= ev.tolerance, ev.gap > 1e10
+    ([1.414214, 1.0, 0.0], True, True)
+    >>> [round(v, 6) for v in ev.high_precision_singular_values], ev.to_dict()["rank"]
+    ([1.414214, 1.0, 0.0], 2)
     """
 
     rank: int | None
@@ -461,6 +548,24 @@ def observability_rank_evidence(
     ------
     ModelError
         If the region's dimension differs from the model's.
+
+    Examples
+    --------
+    The shipped pendulum (``y = θ``): ``[dh; dL_f h] = I``, full rank, decided in double precision.
+
+    >>> import nlobs
+    >>> from nlobs.geometry.observability import AffineFields
+    >>> fields = AffineFields.from_model(nlobs.load_model("pendulum"))
+    >>> ev = observability_rank_evidence(fields)
+    >>> ev.rank, ev.method, [round(v, 6) for v in ev.singular_values], ev.state_scales
+    (2, 'double precision', [1.0, 1.0], (1.0, 1.0))
+    >>> observability_rank_evidence(fields, Box.around([0.0, 0.0], 3.0)).state_scales
+    (3.0, 3.0)
+    >>> try:
+    ...     observability_rank_evidence(fields, Box.unit(3))
+    ... except Exception as exc:
+    ...     print(type(exc).__name__, exc)
+    ModelError pendulum: region has dimension 3, the model 2
     """
     reg = region or Box.unit(fields.n)
     if reg.n != fields.n:
@@ -572,6 +677,18 @@ def observability_rank(
 
     The rank of :func:`observability_rank_evidence` (scaled matrix, tolerance from the evaluation's
     rounding error; see there for the rule and the evidence).
+
+    Examples
+    --------
+    The shipped Isidori example has ``n = 4`` but rank 3: ``x3`` enters neither ``h = x4`` nor the
+    other rows of ``f``.
+
+    >>> import nlobs
+    >>> from nlobs.geometry.observability import AffineFields
+    >>> observability_rank(AffineFields.from_model(nlobs.load_model("isidori-146")))
+    3
+    >>> observability_rank(AffineFields.from_model(nlobs.load_model("pendulum")))
+    2
     """
     return observability_rank_evidence(fields, region, samples=samples, seed=seed, max_order=max_order).rank
 
@@ -583,7 +700,23 @@ def default_multi_index(fields: AffineFields, region: Box | None = None, *, seed
 
     The rows are scaled as in :func:`observability_rank_evidence` (columns by the state scales, each
     row by its largest norm on the region); a row is added when the smallest singular value of the scaled rows chosen so
-    far and the candidate exceeds ``RANK_GAP_FACTOR`` times their error bound ``η``."""
+    far and the candidate exceeds ``RANK_GAP_FACTOR`` times their error bound ``η``.
+
+    Examples
+    --------
+    The shipped Duffing oscillator driven through an actuator (``y1 = x1``, ``y2 = x4``): ``x1``
+    and its first two derivatives see ``x1, x2, x3``, then ``x4`` completes the rank, so
+    ``s = (3, 1)``, and ``Q_s`` is nonsingular (``det Q_s = 1``).
+
+    >>> import nlobs
+    >>> from nlobs.geometry.observability import AffineFields
+    >>> fields = AffineFields.from_model(nlobs.load_model("duffing-actuator"))
+    >>> s = default_multi_index(fields)
+    >>> s, check_drift_observability(fields, s).passed
+    ((3, 1), True)
+    >>> default_multi_index(AffineFields.from_model(nlobs.load_model("pendulum")))  # one output: (n,)
+    (2,)
+    """
     if fields.q == 1:
         return (fields.n,)
     reg = region or Box.unit(fields.n)

@@ -105,7 +105,15 @@ def require_differentiable(expr: sp.Basic, what: str) -> None:
 
 
 def gradient(phi: sp.Expr, x: Symbols) -> sp.Matrix:
-    """``dφ = ∂φ/∂x`` as a 1 × n row."""
+    """``dφ = ∂φ/∂x`` as a 1 × n row.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> x1, x2 = sp.symbols("x1 x2", real=True)
+    >>> gradient(x1**2 * x2, (x1, x2))
+    Matrix([[2*x1*x2, x1**2]])
+    """
     phi = as_sympy_expr("phi", phi)
     return sp.Matrix([[sp.diff(phi, xi) for xi in as_symbols("x", x)]])
 
@@ -123,6 +131,27 @@ def lie_derivative(phi: sp.Expr, f: sp.MatrixBase | Sequence[sp.Expr], x: Symbol
         Coordinates.
     order : int
         Number of iterations (``0`` returns ``phi``).
+
+    Examples
+    --------
+    The pendulum ``ẋ1 = x2``, ``ẋ2 = −sin x1`` measured by ``y = x1``: ``L_f h = x2`` (the velocity) and
+    ``L_f² h = −sin x1`` (the acceleration).
+
+    >>> import sympy as sp
+    >>> x1, x2 = sp.symbols("x1 x2", real=True)
+    >>> f = [x2, -sp.sin(x1)]
+    >>> lie_derivative(x1, f, (x1, x2)), lie_derivative(x1, f, (x1, x2), order=2)
+    (x2, -sin(x1))
+    >>> lie_derivative(x1, f, (x1, x2), order=0)
+    x1
+
+    Text is not evaluated: build ``phi`` from symbols.
+
+    >>> try:
+    ...     lie_derivative("x1", f, (x1, x2))
+    ... except Exception as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError phi: expected a SymPy expression, got the string 'x1'; text is not evaluated ...
     """
     if order < 0:
         raise DimensionError(f"order: expected a non-negative integer, got {order}")
@@ -144,6 +173,19 @@ def lie_derivatives(phi: sp.Expr, f: sp.MatrixBase | Sequence[sp.Expr], x: Symbo
     ------
     ExpressionTooLarge
         One of them has derivatives beyond :data:`MAX_DERIVATIVE_NODES` (see :func:`require_differentiable`).
+
+    Examples
+    --------
+    The rows of the observability map ``[h, L_f h, L_f² h]`` of the pendulum ``ẋ1 = x2``, ``ẋ2 = −sin x1``,
+    ``y = x1``; the last one is :func:`lie_derivative` of order 2.
+
+    >>> import sympy as sp
+    >>> x1, x2 = sp.symbols("x1 x2", real=True)
+    >>> f = [x2, -sp.sin(x1)]
+    >>> lie_derivatives(x1, f, (x1, x2), 3)
+    (x1, x2, -sin(x1))
+    >>> lie_derivatives(x1, f, (x1, x2), 3)[-1] == lie_derivative(x1, f, (x1, x2), order=2)
+    True
     """
     x = as_symbols("x", x)
     fv = _column("f", f, len(x))
@@ -169,7 +211,22 @@ def lie_derivative_along_columns(phi: sp.Expr, g: sp.MatrixBase, x: Symbols) -> 
 
 
 def lie_bracket(f: sp.MatrixBase | Sequence[sp.Expr], g: sp.MatrixBase | Sequence[sp.Expr], x: Symbols) -> sp.Matrix:
-    """``[f, g] = (∂g/∂x) f − (∂f/∂x) g`` (Röbenack, Sec. 2)."""
+    """``[f, g] = (∂g/∂x) f − (∂f/∂x) g`` (Röbenack, Sec. 2).
+
+    Examples
+    --------
+    By hand, ``[x2 ∂/∂x1, ∂/∂x2] = −∂/∂x1``; the bracket is antisymmetric.
+
+    >>> import sympy as sp
+    >>> x1, x2 = sp.symbols("x1 x2", real=True)
+    >>> lie_bracket([x2, 0], [0, 1], (x1, x2))
+    Matrix([
+    [-1],
+    [ 0]])
+    >>> f, g = [x2, -sp.sin(x1)], [0, x1**2]
+    >>> lie_bracket(f, g, (x1, x2)) + lie_bracket(g, f, (x1, x2)) == sp.zeros(2, 1)
+    True
+    """
     x = as_symbols("x", x)
     n = len(x)
     fv, gv = _column("f", f, n), _column("g", g, n)
@@ -182,6 +239,19 @@ def covector_lie_derivative(omega: sp.MatrixBase, f: sp.MatrixBase | Sequence[sp
 
     ``(L_f ω)ᵢ = Σⱼ fⱼ ∂ωᵢ/∂xⱼ + Σⱼ ωⱼ ∂fⱼ/∂xᵢ``; for an exact form ``ω = dφ`` it
     equals ``d(L_f φ)``.
+
+    Examples
+    --------
+    For ``ω = dφ`` with ``φ = x1² x2`` along the pendulum field, ``L_f dφ = d(L_f φ)``.
+
+    >>> import sympy as sp
+    >>> x1, x2 = sp.symbols("x1 x2", real=True)
+    >>> f, phi = [x2, -sp.sin(x1)], x1**2 * x2
+    >>> w = covector_lie_derivative(gradient(phi, (x1, x2)), f, (x1, x2))
+    >>> w
+    Matrix([[-x1**2*cos(x1) - 2*x1*sin(x1) + 2*x2**2, 4*x1*x2]])
+    >>> w == gradient(lie_derivative(phi, f, (x1, x2)), (x1, x2))
+    True
     """
     x = as_symbols("x", x)
     n = len(x)

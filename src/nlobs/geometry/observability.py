@@ -75,6 +75,25 @@ class AffineFields:
     g : sympy.ImmutableMatrix, (n, m)
     h : sympy.ImmutableMatrix, (q, 1)
     states, outputs : tuple of str
+
+    Examples
+    --------
+    The shipped pendulum, its parameters substituted by exact rationals (``g/l = 9.81 → 981/100``):
+
+    >>> import nlobs
+    >>> fields = AffineFields.from_model(nlobs.load_model("pendulum"))
+    >>> fields.x, fields.n, fields.m, fields.q
+    ((theta, omega), 2, 1, 1)
+    >>> fields.f.T, fields.g.T, fields.h
+    (Matrix([[omega, -omega/5 - 981*sin(theta)/100]]), Matrix([[0, 2]]), Matrix([[theta]]))
+
+    A discrete-time model has no Lie derivatives:
+
+    >>> try:
+    ...     AffineFields.from_model(nlobs.load_model("khajenejad-6-1"))
+    ... except Exception as exc:
+    ...     print(type(exc).__name__, exc)
+    ModelError khajenejad-6-1: Lie derivatives need a continuous-time model, got discrete (dt=0.01)
     """
 
     name: str
@@ -315,6 +334,21 @@ def observability_map(fields: AffineFields, s: Sequence[int]) -> sp.ImmutableMat
     Returns
     -------
     sympy.ImmutableMatrix, (n, 1)
+
+    Examples
+    --------
+    The Van der Pol oscillator in Liénard form (``ẋ1 = x1 − x1³/3 + x2``, ``ẋ2 = −x1``, ``y = x1``):
+    ``Φ = [h, L_f h]``.
+
+    >>> import nlobs
+    >>> fields = AffineFields.from_model(nlobs.load_model("vanderpol-lienard"))
+    >>> observability_map(fields, (2,)).T
+    Matrix([[x1, -x1**3/3 + x1 + x2]])
+    >>> try:
+    ...     observability_map(fields, (1,))
+    ... except Exception as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError multi-index s=[1] sums to 1; it must sum to n = 2
     """
     return lie_map(fields, check_multi_index(s, fields.q, fields.n))
 
@@ -332,6 +366,21 @@ def observability_jacobian(fields: AffineFields, s: Sequence[int]) -> sp.Immutab
     Returns
     -------
     sympy.ImmutableMatrix, (n, n)
+
+    Examples
+    --------
+    The Van der Pol oscillator in Liénard form, ``y = x1``: ``det Q_s = 1``, so ``Φ_s`` is a global
+    diffeomorphism (Def. 2.3).
+
+    >>> import nlobs
+    >>> fields = AffineFields.from_model(nlobs.load_model("vanderpol-lienard"))
+    >>> Q = observability_jacobian(fields, (2,))
+    >>> Q
+    Matrix([
+    [        1, 0],
+    [1 - x1**2, 1]])
+    >>> Q == observability_map(fields, (2,)).jacobian(fields.x), Q.det()
+    (True, 1)
     """
     return fields.codistribution(check_multi_index(s, fields.q, fields.n))
 
@@ -349,6 +398,22 @@ def reduced_observability_matrix(fields: AffineFields, r: Sequence[int]) -> sp.I
     Returns
     -------
     sympy.ImmutableMatrix, (Σ r_j, n)
+
+    Examples
+    --------
+    The shipped Isidori example (``n = 4``, ``y = x4``, ``r = 2``): ``Q = [dh; dL_f h]`` has two rows
+    of rank 2.
+
+    >>> import nlobs
+    >>> fields = AffineFields.from_model(nlobs.load_model("isidori-146"))
+    >>> r = observation_relative_degree(fields).r
+    >>> Q = reduced_observability_matrix(fields, r)
+    >>> r, Q
+    ((2,), Matrix([
+    [   0, 0, 0, 1],
+    [2*x1, 1, 0, 0]]))
+    >>> Q.rank()
+    2
     """
     return fields.codistribution(r)
 
@@ -366,6 +431,20 @@ def output_derivative_terms(fields: AffineFields, s: Sequence[int]) -> sp.Immuta
     Returns
     -------
     sympy.ImmutableMatrix, (q, 1)
+
+    Examples
+    --------
+    The Van der Pol oscillator in Liénard form, ``s = (2,)``: ``L_s = L_f² h``, the entry the Brunovsky
+    form (2.15) feeds back through ``B_s``.
+
+    >>> import nlobs
+    >>> from nlobs.geometry.lie import lie_derivative
+    >>> fields = AffineFields.from_model(nlobs.load_model("vanderpol-lienard"))
+    >>> L = output_derivative_terms(fields, (2,))
+    >>> L
+    Matrix([[x1**5/3 - 4*x1**3/3 - x1**2*x2 + x2]])
+    >>> L[0] == lie_derivative(fields.h[0], fields.f, fields.x, order=2)
+    True
     """
     s_ = check_multi_index(s, fields.q)
     return sp.ImmutableMatrix([fields.lie_chain(j, sj + 1)[-1] for j, sj in enumerate(s_)])
@@ -385,6 +464,30 @@ class RelativeDegree:
         together, the largest in magnitude) for ``k = 0, …, r_j − 1``.
     region : Box
     max_order : int
+
+    Examples
+    --------
+    The shipped Isidori example: ``L_g h ≡ 0`` (proven symbolically), ``L_g L_f h ≢ 0``, so ``r = 2``.
+
+    >>> import nlobs
+    >>> fields = AffineFields.from_model(nlobs.load_model("isidori-146"))
+    >>> rd = observation_relative_degree(fields)
+    >>> rd.r, rd.max_order, [(t.zero, t.method) for t in rd.tests[0]]
+    ((2,), 4, [(True, 'symbolic'), (False, 'symbolic')])
+    >>> rd.require(fields.outputs)
+    (2,)
+
+    Without inputs no ``L_g L_f^k h`` is nonzero, and :meth:`require` names the output:
+
+    >>> rossler = AffineFields.from_model(nlobs.load_model("rossler"))
+    >>> rd = observation_relative_degree(rossler)
+    >>> rd.r
+    (None,)
+    >>> try:
+    ...     rd.require(rossler.outputs)
+    ... except Exception as exc:
+    ...     print(type(exc).__name__, exc)
+    ModelError observation relative degree of output(s) ['x_meas'] is not defined on [-1, 1] × [-1, 1] × [-1, 1]: ...
     """
 
     r: tuple[int | None, ...]
@@ -433,6 +536,29 @@ def observation_relative_degree(
     Returns
     -------
     RelativeDegree
+
+    Examples
+    --------
+    The shipped pendulum (the input acts on ``ω̇``, ``y = θ``) has ``r = 2``; by hand,
+    ``L_g h = 0`` and ``L_g L_f h = 2``.
+
+    >>> import nlobs
+    >>> from nlobs.geometry.region import Box
+    >>> fields = AffineFields.from_model(nlobs.load_model("pendulum"))
+    >>> observation_relative_degree(fields).r
+    (2,)
+
+    The degree is decided on the region: ``y = x1`` with the input gain ``x1 + |x1|`` in ``ẋ1`` has
+    ``r = 1`` where ``x1 > 0`` and ``r = 2`` where ``x1 < 0``.
+
+    >>> from nlobs.systems.symbolic import SymbolicModel
+    >>> m = SymbolicModel.input_affine(["x1", "x2"], ["u"], ["y"], f=["x2", "-x1"], g=[["x1 + abs(x1)"], [1]],
+    ...                                h=["x1"])
+    >>> fields = AffineFields.from_model(m)
+    >>> observation_relative_degree(fields, Box([1.0, -1.0], [2.0, 1.0])).r
+    (1,)
+    >>> observation_relative_degree(fields, Box([-2.0, -1.0], [-1.0, 1.0])).r
+    (2,)
     """
     reg = region or Box.unit(fields.n)
     kmax = fields.n if max_order is None else int(max_order)
@@ -491,6 +617,23 @@ def input_gain_structure(
     ------
     DimensionError
         ``r`` does not have ``q`` entries.
+
+    Examples
+    --------
+    The shipped Duffing oscillator driven through an actuator (``n = 4``, outputs ``x1`` and ``x4``, two
+    inputs): ``r = (3, 1)``; with ``s = r`` each output contributes one row to ``H``, and ``Q_s g = F H``.
+
+    >>> import nlobs
+    >>> import sympy as sp
+    >>> fields = AffineFields.from_model(nlobs.load_model("duffing-actuator"))
+    >>> r = observation_relative_degree(fields).r
+    >>> H, F = input_gain_structure(fields, (3, 1), r)
+    >>> r, H, F.astype(int).tolist()
+    ((3, 1), Matrix([
+    [1, 0],
+    [0, 1]]), [[0, 0], [0, 0], [1, 0], [0, 1]])
+    >>> observability_jacobian(fields, (3, 1)) * fields.g == sp.Matrix(F.astype(int)) * H
+    True
     """
     s_ = check_multi_index(s, fields.q, fields.n)
     if len(r) != fields.q:

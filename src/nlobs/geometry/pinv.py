@@ -26,6 +26,27 @@ def symbolic_pinv(Q: sp.MatrixBase) -> sp.ImmutableMatrix:
 
     Full row rank is the caller's check (:func:`nlobs.geometry.checks.check_a1`);
     the formula is the Moore–Penrose inverse exactly when it holds.
+
+    Examples
+    --------
+    ``Q = [dh; dL_f h]`` of ``y = x3``, ``L_f h = x1 + x2 x3`` (``r = 2 < n = 3``): ``Q⁺`` is a right inverse.
+
+    >>> import sympy as sp
+    >>> x1, x2, x3 = sp.symbols("x1:4", real=True)
+    >>> Q = sp.Matrix([[0, 0, 1], [1, x3, x2]])
+    >>> Qp = symbolic_pinv(Q)
+    >>> Qp
+    Matrix([
+    [   -x2/(x3**2 + 1),    1/(x3**2 + 1)],
+    [-x2*x3/(x3**2 + 1), x3/(x3**2 + 1)],
+    [                 1,                0]])
+    >>> (Q * Qp).applyfunc(sp.simplify) == sp.eye(2)
+    True
+    >>> try:
+    ...     symbolic_pinv(Q.T)
+    ... except Exception as exc:
+    ...     print(type(exc).__name__, exc)
+    DimensionError Q: expected at most as many rows as columns, got shape (3, 2)
     """
     Qm = sp.Matrix(as_sympy_matrix("Q", Q))
     if Qm.shape[0] > Qm.shape[1]:
@@ -36,12 +57,38 @@ def symbolic_pinv(Q: sp.MatrixBase) -> sp.ImmutableMatrix:
 
 
 def gain_symbols(r: Sequence[int]) -> tuple[sp.Symbol, ...]:
-    """``k1, k2, …`` (``Σ r_j`` of them), the symbolic high-gain vector entries."""
+    """``k1, k2, …`` (``Σ r_j`` of them), the symbolic high-gain vector entries.
+
+    Examples
+    --------
+    >>> gain_symbols((2, 1))
+    (k1, k2, k3)
+    >>> gain_symbols((2, 1))[0].is_real
+    True
+    """
     return tuple(sp.Symbol(f"k{i + 1}", real=True) for i in range(sum(int(v) for v in r)))
 
 
 def block_gain(r: Sequence[int], k: Sequence[sp.Expr | float]) -> sp.Matrix:
-    """``K = blockdiag(k^1, …, k^q)`` (``Σ r_j × q``) from the stacked entries ``k``."""
+    """``K = blockdiag(k^1, …, k^q)`` (``Σ r_j × q``) from the stacked entries ``k``.
+
+    Examples
+    --------
+    Two outputs with ``r = (2, 1)``: ``k^1 = (1, 2)`` in the first column, ``k^2 = (3,)`` in the second.
+
+    >>> block_gain((2, 1), [1, 2, 3])
+    Matrix([
+    [1, 0],
+    [2, 0],
+    [0, 3]])
+    >>> block_gain((2, 1), gain_symbols((2, 1))).shape
+    (3, 2)
+    >>> try:
+    ...     block_gain((2, 1), [1, 2])
+    ... except Exception as exc:
+    ...     print(type(exc).__name__, exc)
+    DimensionError `k`: expected 3 entries (Σ r_j), got 2
+    """
     rs = [int(v) for v in r]
     k = [as_sympy_expr(f"k[{i}]", v) for i, v in enumerate(k)]
     if len(k) != sum(rs):
@@ -59,6 +106,24 @@ def pinv_gain_field(Qp: sp.MatrixBase, r: Sequence[int], k: Sequence[sp.Expr | f
     """``l(x) = Q⁺(x) K`` (Röbenack (17)); ``n × q`` (a column for one output).
 
     ``k`` defaults to the symbols ``k1, k2, …``.
+
+    Examples
+    --------
+    For the Van der Pol oscillator in Liénard form (``y = x1``), ``Q = [[1, 0], [1 − x1², 1]]`` is square,
+    so ``l(x) = Q⁻¹ k`` and ``Q l = k``.
+
+    >>> import sympy as sp
+    >>> x1 = sp.Symbol("x1", real=True)
+    >>> Q = sp.Matrix([[1, 0], [1 - x1**2, 1]])
+    >>> l = pinv_gain_field(symbolic_pinv(Q), (2,))
+    >>> l
+    Matrix([
+    [               k1],
+    [k1*x1**2 - k1 + k2]])
+    >>> (Q * l).applyfunc(sp.expand) == sp.Matrix(gain_symbols((2,)))
+    True
+    >>> pinv_gain_field(symbolic_pinv(Q), (2,), [10, 25]).T
+    Matrix([[10, 10*x1**2 + 15]])
     """
     kk = gain_symbols(r) if k is None else tuple(k)
     return sp.ImmutableMatrix((sp.Matrix(as_sympy_matrix("Qp", Qp)) * block_gain(r, kk)).applyfunc(tidy))

@@ -42,6 +42,26 @@ class Box:
     ----------
     lower, upper : array_like, shape (n,)
         Finite bounds with ``lower < upper`` componentwise.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> box = Box.around([0.0, 1.0], 0.5)
+    >>> box.n, box.describe(), Box.unit(2).describe()
+    (2, '[-0.5, 0.5] × [0.5, 1.5]', '[-1, 1] × [-1, 1]')
+    >>> pts = box.sample(100, seed=0)
+    >>> pts.shape, bool(np.all((box.lower <= pts) & (pts <= box.upper)))
+    ((100, 2), True)
+    >>> bool(np.array_equal(pts, box.sample(100, seed=0)))  # seeded: the same points every time
+    True
+
+    An empty side is refused.
+
+    >>> try:
+    ...     Box([0.0, 1.0], [1.0, 1.0])
+    ... except Exception as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError Box: upper[1] = 1 must exceed lower[1] = 1
     """
 
     lower: Array
@@ -101,6 +121,20 @@ class ZeroTest:
         A point where the expression is largest in magnitude (``None`` when proven zero).
     value : float or None
         The expression's value at ``witness``.
+
+    Examples
+    --------
+    :func:`vanishes_on` returns one: ``|x1| − x1`` vanishes where ``x1 > 0`` (only numerically decidable,
+    ``abs`` is not rational) and not on ``[−1, 1]³``, where the witness shows a point with ``x1 < 0``.
+
+    >>> import sympy as sp
+    >>> x = sp.symbols("x1:4", real=True)
+    >>> t = vanishes_on(sp.Abs(x[0]) - x[0], x, Box([0.1, -1.0, -1.0], [1.0, 1.0, 1.0]))
+    >>> t.zero, t.method, t.describe()
+    (True, 'numeric', '= 0 at 64 sampled points (numeric)')
+    >>> t = vanishes_on(sp.Abs(x[0]) - x[0], x, Box.unit(3))
+    >>> t.zero, t.method, t.witness[0] < 0, abs(t.value + 2 * t.witness[0]) < 1e-12
+    (False, 'numeric', True, True)
     """
 
     zero: bool
@@ -139,6 +173,27 @@ def vanishes_on(
     ------
     NonFiniteError
         If the expression is finite at none of the sampled points (no evidence either way).
+
+    Examples
+    --------
+    ``sin² + cos² − 1`` is proven zero by SymPy; a polynomial is decided exactly (a nonzero one cannot
+    vanish on an open box), its witness being the sampled point where it is largest.
+
+    >>> import sympy as sp
+    >>> x = sp.symbols("x1:4", real=True)
+    >>> vanishes_on(sp.sin(x[0])**2 + sp.cos(x[0])**2 - 1, x, Box.unit(3)).describe()
+    '≡ 0 (symbolic)'
+    >>> t = vanishes_on(x[0] * x[1] - sp.Rational(1, 4), x, Box.unit(3))
+    >>> t.zero, t.method, abs(t.value - (t.witness[0] * t.witness[1] - 0.25)) < 1e-12
+    (False, 'symbolic', True)
+
+    An expression defined nowhere on the region gives no evidence:
+
+    >>> try:
+    ...     vanishes_on(sp.log(x[0] - 5), x, Box.unit(3))
+    ... except Exception as exc:
+    ...     print(type(exc).__name__, exc)
+    NonFiniteError log(x1 - 5) is not finite at any of 64 sampled points of [-1, 1] × [-1, 1] × [-1, 1]: ...
     """
     expr, x = as_sympy_expr("expr", expr), as_symbols("x", x)
     if region.n != len(x):

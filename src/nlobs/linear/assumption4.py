@@ -60,6 +60,17 @@ class ExtendedSystem(NamedTuple):
         ``𝔅_d = [[0], [I]]``.
     C : ndarray, shape (p_y, n_w + p_z)
         ``ℭ = [C, D_z]``.
+
+    Examples
+    --------
+    The per-axis GNSS/INS model (Grip, Saberi & Johansen, Sec. 5), position measured and the
+    acceleration ``z`` unknown: (8c) makes ``z`` a third state, driven by ``𝔅_d``:
+
+    >>> A, Bd, C = extended_system([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> A.tolist()
+    [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 0.0]]
+    >>> Bd.ravel().tolist(), C.tolist()
+    ([0.0, 0.0, 1.0], [[1.0, 0.0, 0.0]])
     """
 
     A: NDArray[np.float64]
@@ -145,6 +156,21 @@ class Assumption4Report:
         Finite invariant zeros of ``(A, B_z, C, D_z)``.
     normal_rank : int
         Normal rank of the Rosenbrock matrix (``n_w + p_z`` iff left-invertible).
+
+    Examples
+    --------
+    ``G(s) = (1 − s)/((s + 1)(s + 2))``: Assumption 4 holds, but the zero at ``s = 1`` makes
+    ``(A, B_z, C, D_z)`` non-minimum phase, so Theorem 2 does not give ``γ* = 0``:
+
+    >>> rep = check_assumption4([[-1, 0], [0, -2]], [[1], [1]], [[1, -1.5]])
+    >>> rep.holds, rep.minimum_phase, rep.gamma_star_zero
+    (True, False, False)
+    >>> np.round(rep.zeros, 6).tolist(), rep.normal_rank
+    ([(1+0j)], 3)
+    >>> rep.item("minimum_phase").evidence
+    'invariant zero(s) with Re z >= 0: 1+0j'
+    >>> rep.to_dict()["items"][0]["key"], rep.summary().splitlines()[0]
+    ('rank_Bz_Dz', 'Assumption 4 (Grip–Saberi–Johansen) for Σ2 with n_w=2, p_z=1, p_y=1: HOLDS')
     """
 
     items: tuple[Check, ...]
@@ -263,6 +289,26 @@ def check_assumption4(
     ------
     DimensionError
         Inconsistent shapes.
+
+    Examples
+    --------
+    The per-axis GNSS/INS model (Grip, Saberi & Johansen, Sec. 5): position measured, the
+    acceleration ``z`` enters the velocity. A double integrator has no finite zero, so every item
+    holds and ``γ* = 0`` (Theorem 2):
+
+    >>> rep = check_assumption4([[0, 1], [0, 0]], [[0], [1]], [[1, 0]])
+    >>> rep.holds, rep.gamma_star_zero, rep.zeros.size
+    (True, True, 0)
+    >>> [(it.key, it.passed) for it in rep.items if it.required]
+    [('rank_Bz_Dz', True), ('rank_C_Dz', True), ('detectable', True), ('left_invertible', True),
+     ('no_zero_at_origin', True)]
+
+    With ``z`` entering the position instead, ``z`` no longer drives the velocity mode at ``s = 0``
+    (``G(s) = 1/s``): an invariant zero at the origin, which Assumption 4 excludes:
+
+    >>> bad = check_assumption4([[0, 1], [0, 0]], [[1], [0]], [[1, 0]])
+    >>> bad.holds, [it.key for it in bad.failed]
+    (False, ['no_zero_at_origin'])
     """
     A_ = as_square("A", A)
     n = A_.shape[0]
@@ -349,6 +395,21 @@ def require_assumption4(
     AssumptionViolated
         Naming the first failed item (``.item``) with its evidence, e.g.
         ``"Assumption 4 fails: no invariant zero at the origin — finite invariant zeros [0] ..."``.
+
+    Examples
+    --------
+    Measuring the position of a double integrator driven by ``z`` satisfies Assumption 4; measuring only
+    the velocity leaves the position unobserved, an integrator, so ``(A, C)`` is not detectable:
+
+    >>> require_assumption4([[0, 1], [0, 0]], [[0], [1]], [[1, 0]]).holds
+    True
+    >>> try:
+    ...     require_assumption4([[0, 1], [0, 0]], [[0], [1]], [[0, 1]])
+    ... except AssumptionViolated as exc:
+    ...     print(type(exc).__name__, exc.item)
+    ...     print(exc)
+    AssumptionViolated detectable
+    Assumption 4 (Grip–Saberi–Johansen) fails: (A, C) detectable [detectable] — unobservable modes [0]; ...
     """
     rep = check_assumption4(A, B_z, C, D_z, tol=tol)
     if not rep.holds:

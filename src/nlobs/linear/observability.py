@@ -91,6 +91,19 @@ def observability_matrix(A: ArrayLike, C: ArrayLike) -> NDArray[np.float64]:
     -----
     Provided for reference and teaching; its rank is a poor numerical test for
     large ``n``. Use :func:`is_observable` for decisions.
+
+    Examples
+    --------
+    A double integrator: the position output gives ``[C; C A] = I`` (rank 2, observable); the
+    velocity output gives rank 1 (the position is not seen):
+
+    >>> import numpy as np
+    >>> A = [[0, 1], [0, 0]]
+    >>> observability_matrix(A, [[1, 0]]).tolist()
+    [[1.0, 0.0], [0.0, 1.0]]
+    >>> O = observability_matrix(A, [[0, 1]])
+    >>> O.tolist(), int(np.linalg.matrix_rank(O))
+    ([[0.0, 1.0], [0.0, 0.0]], 1)
     """
     A_, C_ = _check_ac(A, C)
     n = A_.shape[0]
@@ -512,6 +525,17 @@ def unobservable_modes(
     A known limit of both: a defective unobservable eigenvalue (a Jordan block of size ≥ 3) that the
     observable part shares is perturbed by rounding by about ``ε^(1/3)`` and can be missed; the
     multiplicities of semisimple shared eigenvalues (``A = −I``) are exact.
+
+    Examples
+    --------
+    Two decoupled modes ``−1`` and ``2``: the output sees only the one it measures, and the PBH test
+    ``rank [λI − A; C] < n`` holds exactly at the other:
+
+    >>> A = [[-1, 0], [0, 2]]
+    >>> unobservable_modes(A, [[0, 1]]).tolist(), unobservable_modes(A, [[1, 0]]).tolist()
+    ([(-1+0j)], [(2+0j)])
+    >>> unobservable_modes(A, [[1, 1]]).size  # both seen: observable
+    0
     """
     A_, C_ = _check_ac(A, C)
     r = in_range("rtol", rtol, 0.0, 1.0)
@@ -537,6 +561,13 @@ def is_observable(A: ArrayLike, C: ArrayLike, *, rtol: float = DEFAULT_RTOL, met
     bool
         ``True`` iff the unobservable subspace is ``{0}`` (equivalently, the PBH matrix ``[λI − A; C]`` has full column
         rank for every ``λ``; equivalently rank of the Kalman matrix is ``n``).
+
+    Examples
+    --------
+    A double integrator is observable from its position, not from its velocity:
+
+    >>> is_observable([[0, 1], [0, 0]], [[1, 0]]), is_observable([[0, 1], [0, 0]], [[0, 1]])
+    (True, False)
     """
     A_, C_ = _check_ac(A, C)
     return bool(_unobservable_eigs(A_, C_, in_range("rtol", rtol, 0.0, 1.0), _method(method)).size == 0)
@@ -574,6 +605,17 @@ def is_detectable(
     bool
         Detectability is necessary and sufficient for the existence of an
         observer gain ``L`` making ``A − L C`` stable.
+
+    Examples
+    --------
+    Modes ``−1`` and ``2``: hiding the stable one leaves the pair detectable, hiding the unstable one
+    does not; in discrete time the hidden mode ``0.5`` lies inside the unit circle:
+
+    >>> A = [[-1, 0], [0, 2]]
+    >>> is_observable(A, [[0, 1]]), is_detectable(A, [[0, 1]]), is_detectable(A, [[1, 0]])
+    (False, True, False)
+    >>> is_detectable([[0.5, 0], [0, 2]], [[0, 1]], discrete=True)
+    True
     """
     lam = unobservable_modes(A, C, discrete=discrete, rtol=rtol, method=method)
     return bool(np.all(strictly_inside(lam, discrete=discrete, tol=tol)))

@@ -126,6 +126,23 @@ class LinearReport:
         ``None`` when the system is not stable.
     h2_norm : float or None
         ``None`` when unstable, or infinite (continuous time with ``D ≠ 0``).
+
+    Examples
+    --------
+    Two stable modes of which the output sees only one: detectable, not observable, and the hidden
+    mode ``−2`` shows as an invariant zero; ``G(s) = 1/(s + 1)`` has ``‖G‖∞ = 1`` and ``‖G‖₂ = 1/√2``:
+
+    >>> from nlobs.systems.linear import LinearSystem
+    >>> rep = analyze_linear(LinearSystem([[-1, 0], [0, -2]], [[1], [1]], [[1, 0]], name="two-modes"))
+    >>> rep.stable, rep.observable, rep.detectable, rep.unobservable_modes.real.tolist()
+    (True, False, True, [-2.0])
+    >>> rep.invariant_zeros.real.round(9).tolist(), rep.left_invertible, rep.minimum_phase
+    ([-2.0], True, True)
+    >>> round(rep.hinf_norm, 9), round(rep.h2_norm, 9)
+    (1.0, 0.707106781)
+    >>> d = rep.to_dict()
+    >>> tuple(d) == REPORT_KEYS, d["eigenvalues"]
+    (True, [[-2.0, 0.0], [-1.0, 0.0]])
     """
 
     name: str
@@ -234,6 +251,35 @@ def analyze_linear(sys: LinearSystem | Any) -> LinearReport:
     :func:`~nlobs.linear.zeros.invariant_zeros` (Emami-Naeini & Van Dooren
     1982), :func:`~nlobs.linear.norms.hinf_norm` (Bruinsma & Steinbuch 1990)
     and :func:`~nlobs.linear.norms.h2_norm` (Gramians).
+
+    Examples
+    --------
+    The shipped filter ``1/(s² + s + 1)`` of Grip, Saberi & Johansen's Example 1: poles
+    ``−1/2 ± j√3/2``, ``‖G‖∞ = 2/√3`` (the peak at ``ω = 1/√2``) and ``‖G‖₂ = 1/√2``:
+
+    >>> import nlobs
+    >>> print(analyze_linear(nlobs.load_model("grip-example1-filter")).summary())
+    Linear system 'grip-example1-filter': continuous, n=2, m=1, p=1
+      poles:               -0.5-0.866025j, -0.5+0.866025j
+      stable:              yes
+      observable:          yes
+      detectable:          yes
+      invariant zeros:     none
+      normal rank:         3 (n + m = 3)
+      left invertible:     yes
+      minimum phase:       yes
+      strongly detectable: yes (B read as unknown-input matrix)
+      H-infinity norm:     1.1547
+      H2 norm:             0.707107
+
+    The discrete double integrator (zero-order hold, ``dt = 0.1``) is unstable, and its sampling zero
+    at ``z = −1`` makes it non-minimum phase:
+
+    >>> rep = analyze_linear(nlobs.load_model("double-integrator-discrete"))
+    >>> rep.time, rep.dt, rep.stable, rep.hinf_norm, rep.invariant_zeros.real.round(9).tolist()
+    ('discrete', 0.1, False, None, [-1.0])
+    >>> rep.minimum_phase_reason
+    'invariant zero(s) with |z| >= 1: -1+0j'
     """
     sys = as_linear_system(sys)
     A, B, C, D = (np.asarray(M, dtype=float) for M in (sys.A, sys.B, sys.C, sys.D))

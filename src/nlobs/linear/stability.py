@@ -83,6 +83,15 @@ def strictly_inside(points: ArrayLike, *, discrete: bool = False, tol: float = B
     Returns
     -------
     ndarray of bool
+
+    Examples
+    --------
+    The boundary itself is outside (``s = 0``, ``s = j``), and so is a point within ``tol`` of it:
+
+    >>> strictly_inside([-1, 0, 1j, -1 + 2j, -1e-12]).tolist()
+    [True, False, False, True, False]
+    >>> strictly_inside([0.5, -1, 0.99j], discrete=True).tolist()
+    [True, False, True]
     """
     z = np.asarray(points, dtype=complex)
     t = in_range("tol", tol, 0.0, np.inf)
@@ -111,6 +120,16 @@ def eigenvalues(A: ArrayLike) -> NDArray[np.complex128]:
         ``A`` is not a square 2-d matrix.
     NonFiniteError
         ``A`` has NaN or infinite entries.
+
+    Examples
+    --------
+    The companion matrix of ``s² + 2s + 2`` has the roots ``−1 ± j``; real eigenvalues come sorted:
+
+    >>> import numpy as np
+    >>> np.round(eigenvalues([[0, 1], [-2, -2]]), 9).tolist()
+    [(-1-1j), (-1+1j)]
+    >>> eigenvalues([[3, 0], [0, -1]]).real.tolist()
+    [-1.0, 3.0]
     """
     lam = _eigs(as_square("A", A))
     return lam[np.lexsort((lam.imag, lam.real))]
@@ -130,6 +149,13 @@ def spectral_abscissa(A: ArrayLike) -> float:
     Returns
     -------
     float
+
+    Examples
+    --------
+    The eigenvalues ``−1 ± j`` of ``s² + 2s + 2``: the largest real part is ``−1``:
+
+    >>> round(spectral_abscissa([[0, 1], [-2, -2]]), 9)
+    -1.0
     """
     lam = _eigs(as_square("A", A))
     return float(np.max(lam.real, initial=-np.inf))
@@ -149,6 +175,16 @@ def spectral_radius(A: ArrayLike) -> float:
     Returns
     -------
     float
+
+    Examples
+    --------
+    A triangular matrix has its diagonal as eigenvalues: ``max(|0.5|, |−0.8|) = 0.8``; ``−1 ± j`` have
+    modulus ``√2``:
+
+    >>> round(spectral_radius([[0.5, 1], [0, -0.8]]), 9)
+    0.8
+    >>> round(spectral_radius([[0, 1], [-2, -2]]), 9) == round(2**0.5, 9)
+    True
     """
     lam = _eigs(as_square("A", A))
     return float(np.max(np.abs(lam), initial=0.0))
@@ -173,6 +209,18 @@ def stability_margin(A: ArrayLike, *, discrete: bool = False) -> float:
         Positive when ``A`` is strictly stable, zero on the boundary, negative
         when unstable; ``+inf`` for ``n = 0`` in continuous time (no eigenvalue)
         and ``1`` in discrete time.
+
+    Examples
+    --------
+    ``−1 ± j`` are at distance 1 from the imaginary axis; ``0.5`` and ``−0.8`` at distance
+    ``1 − 0.8 = 0.2`` from the unit circle; the double integrator sits on the boundary:
+
+    >>> round(stability_margin([[0, 1], [-2, -2]]), 9)
+    1.0
+    >>> round(stability_margin([[0.5, 1], [0, -0.8]], discrete=True), 9)
+    0.2
+    >>> stability_margin([[0, 1], [0, 0]]) == 0
+    True
     """
     if discrete:
         return 1.0 - spectral_radius(A)
@@ -196,6 +244,16 @@ def is_stable(A: ArrayLike, *, discrete: bool = False, tol: float = 0.0) -> bool
     Returns
     -------
     bool
+
+    Examples
+    --------
+    ``−1 ± j`` are Hurwitz, but not with a margin of 1.5; the double integrator is not
+    asymptotically stable; ``0.5`` and ``−0.8`` are Schur:
+
+    >>> is_stable([[0, 1], [-2, -2]]), is_stable([[0, 1], [-2, -2]], tol=1.5), is_stable([[0, 1], [0, 0]])
+    (True, False, False)
+    >>> is_stable([[0.5, 1], [0, -0.8]], discrete=True)
+    True
     """
     t = in_range("tol", tol, -np.inf, np.inf)
     return bool(stability_margin(A, discrete=discrete) > t)

@@ -66,6 +66,18 @@ class InvariantZeros:
         ``min(n + p, n + m)``.
     n, m, p : int
         Dimensions of the system.
+
+    Examples
+    --------
+    ``G(s) = (s + 2)/((s + 1)(s + 3))`` in companion form: one finite zero at ``−2``, normal rank
+    ``n + 1 = 3``, and a square ``G`` with full normal rank is invertible from both sides:
+
+    >>> import numpy as np
+    >>> iz = invariant_zeros([[0, 1], [-3, -4]], [[0], [1]], [[2, 1]])
+    >>> np.round(iz.zeros, 9).tolist(), iz.normal_rank, (iz.n, iz.m, iz.p)
+    ([(-2+0j)], 3, (2, 1, 1))
+    >>> iz.left_invertible, iz.right_invertible
+    (True, True)
     """
 
     zeros: NDArray[np.complex128]
@@ -197,6 +209,20 @@ def invariant_zeros(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | Non
     removed by the reduction. For ``m = 0`` the zeros are the unobservable
     modes of ``(A, C)``; for ``p = 0`` the uncontrollable modes of ``(A, B)``.
     Rank decisions use the tolerance ``10 max(n+p, n+m)² ε ‖[[A, B], [C, D]]‖_F``.
+
+    Examples
+    --------
+    The zeros of ``G(s) = (s + 2)/(s² + 4s + 3)`` and ``(s − 2)/(s² + 4s + 3)`` are the roots of
+    their numerators; ``s/(s + 1)`` (``D = 1``) has its zero at the origin:
+
+    >>> import numpy as np
+    >>> A, B = [[0, 1], [-3, -4]], [[0], [1]]
+    >>> np.round(invariant_zeros(A, B, [[2, 1]]).zeros, 9).tolist()
+    [(-2+0j)]
+    >>> np.round(invariant_zeros(A, B, [[-2, 1]]).zeros, 9).tolist()
+    [(2+0j)]
+    >>> np.abs(invariant_zeros([[-1]], [[1]], [[-1]], [[1]]).zeros).round(9).tolist()
+    [0.0]
     """
     A_, B_, C_, D_ = _check_abcd(A, B, C, D)
     n, m, p = A_.shape[0], B_.shape[1], C_.shape[0]
@@ -265,6 +291,16 @@ def is_left_invertible(A: ArrayLike, B: ArrayLike, C: ArrayLike, D: ArrayLike | 
     Returns
     -------
     bool
+
+    Examples
+    --------
+    Two inputs seen through one output cannot both be recovered (``y = x₁ + x₂`` mixes them); one
+    input seen through one output with a nonzero transfer function can:
+
+    >>> is_left_invertible([[-1, 0], [0, -2]], [[1, 0], [0, 1]], [[1, 1]])
+    False
+    >>> is_left_invertible([[0, 1], [-3, -4]], [[0], [1]], [[2, 1]])
+    True
     """
     return invariant_zeros(A, B, C, D).left_invertible
 
@@ -299,6 +335,19 @@ def minimum_phase(
         ``passed`` is the verdict; ``evidence`` the reason (the rank deficiency, or the offending
         zeros); ``values["unstable_zeros"]`` the finite invariant zeros outside the open stability
         region, as a tuple of complex (empty when minimum phase or not left invertible).
+
+    Examples
+    --------
+    ``(s − 2)/(s² + 4s + 3)`` fails with its zero at ``s = 2`` named; two inputs through one output
+    fail for lack of left invertibility:
+
+    >>> chk = minimum_phase([[0, 1], [-3, -4]], [[0], [1]], [[-2, 1]])
+    >>> chk.passed, chk.evidence
+    (False, 'invariant zero(s) with Re z >= 0: 2+0j')
+    >>> [round(z.real, 9) for z in chk.values["unstable_zeros"]]
+    [2.0]
+    >>> minimum_phase([[-1, 0], [0, -2]], [[1, 0], [0, 1]], [[1, 1]]).evidence
+    'not left invertible: normal rank 3 < n + m = 4'
     """
     iz = invariant_zeros(A, B, C, D)
 
@@ -347,6 +396,16 @@ def is_minimum_phase(
         finite invariant zero lies strictly inside the stability region.
         Zeros on the boundary (e.g. ``s = 0`` for ``s/(s + 1)``) fail the test.
         :func:`minimum_phase` returns the reason as well.
+
+    Examples
+    --------
+    ``(s + 2)/(s² + 4s + 3)`` is minimum phase, ``(s − 2)/(s² + 4s + 3)`` and ``s/(s + 1)`` are not:
+
+    >>> A, B = [[0, 1], [-3, -4]], [[0], [1]]
+    >>> is_minimum_phase(A, B, [[2, 1]]), is_minimum_phase(A, B, [[-2, 1]])
+    (True, False)
+    >>> is_minimum_phase([[-1]], [[1]], [[-1]], [[1]])
+    False
     """
     return minimum_phase(A, B, C, D, discrete=discrete, tol=tol).passed
 
@@ -387,5 +446,17 @@ def is_strongly_detectable(
         with ``|z| ≥ 1`` (resp. ``Re z ≥ 0``); i.e. it is minimum phase.
         Strong detectability is the condition under which the state (and the
         unknown input) can be estimated without knowledge of ``d``.
+
+    Examples
+    --------
+    ``x⁺ = A x + G d`` with ``A = [[0.5, 1], [0, 0.3]]``, ``G = [0; 1]``: measuring ``y = x₁`` gives no
+    invariant zero, measuring ``y = −2.5 x₁ + x₂`` gives ``(z − 3)/((z − 0.5)(z − 0.3))``, whose zero
+    ``z = 3`` lies outside the unit circle:
+
+    >>> A, G = [[0.5, 1], [0, 0.3]], [[0], [1]]
+    >>> is_strongly_detectable(A, G, [[1, 0]], discrete=True)
+    True
+    >>> is_strongly_detectable(A, G, [[-2.5, 1]], discrete=True)
+    False
     """
     return minimum_phase(A, G, C, H, discrete=discrete, tol=tol).passed

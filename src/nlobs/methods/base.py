@@ -85,6 +85,31 @@ class Design:
     bound : SampledDataBound or None
         What the certificate guarantees under the problem's sensors and noise: the sampling budget and the
         mean-square error bound (:mod:`nlobs.synthesis.sampled_data`); ``None`` when the method states none.
+
+    Examples
+    --------
+    The drift observer (3.1) of Dalla Mora, Germani & Manes for the shipped pendulum (``y = θ``) on
+    the default region ``[−1, 1]²``: both checked premises of Theorem 3.1 hold and the gain of (2.17)
+    was re-verified, so the design is certified; ``γ`` is the sampled Lipschitz constant
+    ``√(g² + c²)`` of ``θ̈ = −g sin θ − c θ̇``:
+
+    >>> from nlobs.methods.problem import problem
+    >>> from nlobs.methods.registry import get
+    >>> d = get("drift").design(problem("pendulum"), samples=200)
+    >>> d.method, d.status, d.usable, d.verified, d.unchecked
+    ('drift', 'certified', True, True, ())
+    >>> [(p.name, p.passed) for p in d.premises]
+    [('drift-observability', True), ('input bound μ of (2.17) covers the known input', True)]
+    >>> d.parameters["s"], round(d.parameters["gamma"], 3), round((9.81**2 + 0.2**2) ** 0.5, 3), d.gain.shape
+    ([2], 9.812, 9.812, (2, 1))
+    >>> d.sources["mu"], d.to_dict()["certified"]
+    ('no [input_signals]: zero input', True)
+
+    A ``γ`` given below that constant leaves a gain, but not a usable design:
+
+    >>> bad = get("drift").design(problem("pendulum"), gamma=1.0, samples=200)
+    >>> bad.usable, bad.certified, bad.status
+    (False, False, 'not usable: γ = 1 (given) is below the sampled √(γ_L² + γ_H²) = 9.812 on the region: ...')
     """
 
     method: str
@@ -243,6 +268,21 @@ class Method(Protocol):
         commands with its name).
     uses_region : bool
         The design reads the problem's region (a box given to a method that does not is refused).
+
+    Examples
+    --------
+    Every method of the registry satisfies the protocol; :meth:`applies` says why a method does not
+    fit a model before any design is tried:
+
+    >>> from nlobs.methods.problem import problem
+    >>> from nlobs.methods.registry import get
+    >>> drift = get("drift")
+    >>> isinstance(drift, Method), drift.name, drift.uses_region, "mu" in drift.options
+    (True, 'drift', True, True)
+    >>> drift.applies(problem("pendulum")) is None
+    True
+    >>> drift.applies(problem("gnss-ins-axis"))
+    '(3.1) of Dalla Mora, Germani & Manes is for nonlinear input-affine models; this one is linear'
     """
 
     name: str

@@ -95,6 +95,28 @@ class DemoConfig:
         (:func:`nlobs.export.compile_observer`, the same estimates to rounding).
     noise : SensorNoise
         The sensors' error model (default :data:`DEMO_NOISE`).
+
+    Examples
+    --------
+    The default is the paper's sensor rates (Grip, Saberi & Johansen, Sec. 5: IMU at 100 Hz, GNSS at
+    5 Hz) with the noise-optimal observer, whose attitude gain and ``K`` are both scheduled; the paper's
+    gains are constant:
+
+    >>> cfg = DemoConfig(duration=60.0)
+    >>> cfg.imu_rate_hz, cfg.gnss_rate_hz, cfg.gains, cfg.scheduled, cfg.translation_scheduled
+    (100.0, 5.0, 'noise-optimal', True, True)
+    >>> cfg.noise.gnss_p_std, cfg.noise.gyro_std
+    (1.5, 0.002)
+    >>> DemoConfig(gains="paper").scheduled
+    False
+
+    Options that do not fit are refused when the configuration is made:
+
+    >>> try:
+    ...     DemoConfig(gains="paper", attitude_gain="constant")
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError `attitude_gain`: applies to `gains` 'noise-optimal' (the 'paper' gains use the paper's Γ)
     """
 
     seed: int = 0

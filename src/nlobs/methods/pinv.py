@@ -118,6 +118,24 @@ class PinvDesignReport:
     observer : PinvObserver
         The observer this report describes (built once; :func:`simulate_pinv` with
         ``report=`` runs this very object). Not part of :meth:`to_dict` nor of equality.
+
+    Examples
+    --------
+    The shipped four-state model ``isidori-146`` with ``y = x4``: relative degree 2, so ``Q`` has two
+    rows; the codistribution has generic rank 3, and the gain field ``Q⁺(x) k`` of (17) corrects
+    ``x1``, ``x2`` and ``x4`` but not ``x3``. A1 and A5 hold on the region, the global A2–A4 and A6
+    are not checked:
+
+    >>> import nlobs
+    >>> rep = design_pinv_report(nlobs.load_model("isidori-146"))
+    >>> rep.outputs, rep.relative_degree, rep.input_gains, rep.observability_rank
+    (('y',), (2,), ('2*(x3 + 1)',), 3)
+    >>> [row[0] for row in rep.gain_field]
+    ['2*k2*x1/(4*x1**2 + 1)', 'k2/(4*x1**2 + 1)', '0', 'k1']
+    >>> rep.usable, rep.missing, rep.usable_scope
+    (True, ('A2', 'A3', 'A4', 'A6'), 'local, on the region [-1, 1] × [-1, 1] × [-1, 1] × [-1, 1]')
+    >>> rep.to_dict()["involutive"], type(rep.observer).__name__
+    (True, 'PinvObserver')
     """
 
     model: str
@@ -260,6 +278,22 @@ def design_pinv_report(
     ------
     AssumptionViolated
         A1 fails on the region.
+
+    Examples
+    --------
+    ``placement="multiple"`` puts every root of (10) at ``−θ``: with ``θ = 3`` the gain is the
+    coefficients of ``(s + 3)² = s² + 6s + 9``; a given ``k`` overrides the high-gain design:
+
+    >>> import nlobs
+    >>> model = nlobs.load_model("isidori-146")
+    >>> rep = design_pinv_report(model, theta=3.0, placement="multiple")
+    >>> rep.k, [round(r, 6) for r in rep.roots], rep.theta, rep.placement
+    ((6.0, 9.0), [-3.0, -3.0], 3.0, 'multiple')
+    >>> [row[0] for row in rep.gain_numeric]
+    ['18*x1/(4*x1**2 + 1)', '9/(4*x1**2 + 1)', '0', '6']
+    >>> given = design_pinv_report(model, k=[3.0, 2.0])
+    >>> given.k, [round(r, 6) for r in given.roots], given.theta
+    ((3.0, 2.0), [-2.0, -1.0], None)
     """
     obs = build_pinv_observer(model, k, theta, placement, region, parameters, pinv)
     F = obs.fields

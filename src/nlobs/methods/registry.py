@@ -75,6 +75,13 @@ def names(*, simulated: bool | None = None, exported: bool | None = None) -> tup
     Returns
     -------
     tuple of str
+
+    Examples
+    --------
+    >>> names()
+    ('drift', 'pinv', 'luenberger', 'cascade', 'ekf', 'ukf', 'setvalued', 'gnss-ins')
+    >>> names(simulated=False)  # not run by ``nlobs simulate MODEL``
+    ('setvalued', 'gnss-ins')
     """
     return tuple(e.name for e in REGISTRY
                  if (simulated is None or e.simulated == simulated) and (exported is None or e.exported == exported))
@@ -119,6 +126,17 @@ def get(name: str) -> Any:
     ------
     UnknownNameError
         No method of that name (the message lists the known ones).
+
+    Examples
+    --------
+    >>> m = get("pinv")
+    >>> m.name, m.title
+    ('pinv', 'Moore–Penrose observer (Röbenack (7), (17))')
+    >>> try:
+    ...     get("kalman")
+    ... except UnknownNameError as exc:
+    ...     print(type(exc).__name__, exc)
+    UnknownNameError observer: unknown method 'kalman' (known: drift, pinv, luenberger, cascade, ekf, ukf, ...)
     """
     e = entry(name)
     return getattr(importlib.import_module(e.module), e.attribute)

@@ -132,6 +132,24 @@ class SetValuedDesignReport:
         ``OK`` or ``NO_OBSERVER``.
     message : str
         The line printed after the report when the verdict is not ``OK``.
+
+    Examples
+    --------
+    Khajenejad & Yong's Sec. 6.2 example, as printed, has a linear member with an invariant zero outside
+    the unit circle, so it is not strongly detectable (their Definition 2.1): the report says so and holds no
+    design (their Sec. 6.1 example gets one, see :func:`design_setvalued_observer`):
+
+    >>> rep = design_setvalued_observer("khajenejad-6-2", samples=500)
+    >>> rep.verdict.value, rep.design is None, type(rep.structure).__name__
+    ('no observer', True, 'StructuralReport')
+    >>> d = rep.to_dict()
+    >>> (d["n"], d["p"], d["l"]), d["structure"]["exists"], "design" in d
+    ((2, 1, 1), False, False)
+    >>> print(rep.summary())
+    khajenejad-6-2: NO stable observer of the structure (10)-(15) exists
+    member 0: strongly detectable=False (invariant zero(s) with |z| >= 1: -1.34308+0j); ...
+    >>> print(rep.message)
+    khajenejad-6-2: no stable observer of this structure exists (a linear member of the class is not strongly ...
     """
 
     model: str

@@ -92,6 +92,26 @@ def nav_vector(p: ArrayLike, v: ArrayLike, R: ArrayLike) -> Array:
     ------
     DimensionError
         Wrong trailing shapes, or batch shapes that do not broadcast.
+
+    Examples
+    --------
+    A level aircraft heading east (``R = Rz(90°)``) at 40 m/s, 300 m up: ``R`` follows ``p`` and ``v`` row by
+    row, and one attitude broadcasts over a batch of two positions:
+
+    >>> import numpy as np
+    >>> R = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    >>> x = nav_vector([0.0, 0.0, -300.0], [0.0, 40.0, 0.0], R)
+    >>> x.shape, x[:6].tolist()
+    ((15,), [0.0, 0.0, -300.0, 0.0, 40.0, 0.0])
+    >>> bool(np.array_equal(x[NAV_R], R.reshape(9))), float(dict(zip(NAV_STATES, x))["R12"])
+    (True, -1.0)
+    >>> nav_vector([[0.0, 0.0, 0.0], [1.0, 2.0, 3.0]], np.zeros(3), R).shape
+    (2, 15)
+    >>> try:
+    ...     nav_vector(np.zeros(3), np.zeros(3), np.eye(2))
+    ... except DimensionError as exc:
+    ...     print(type(exc).__name__, exc)
+    DimensionError nav_vector: expected p, v of shape (..., 3) and R of shape (..., 3, 3), got (3,), (3,), (2, 2)
     """
     p_, v_, R_ = (np.asarray(a, dtype=float) for a in (p, v, R))
     if p_.shape[-1:] != (3,) or v_.shape[-1:] != (3,) or R_.shape[-2:] != (3, 3):
@@ -126,6 +146,23 @@ def split_nav(x: ArrayLike) -> tuple[Array, Array, Array]:
     ------
     DimensionError
         ``x`` is not of shape ``(..., 15)``.
+
+    Examples
+    --------
+    The inverse of :func:`nav_vector`, for one vector or a batch (``R`` is read row-major):
+
+    >>> import numpy as np
+    >>> R = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    >>> p, v, R_back = split_nav(nav_vector([1.0, 2.0, -3.0], [0.0, 40.0, 0.0], R))
+    >>> p.tolist(), v.tolist(), bool(np.array_equal(R_back, R))
+    ([1.0, 2.0, -3.0], [0.0, 40.0, 0.0], True)
+    >>> [a.shape for a in split_nav(np.zeros((4, 100, 15)))]  # 4 flights of 100 samples
+    [(4, 100, 3), (4, 100, 3), (4, 100, 3, 3)]
+    >>> try:
+    ...     split_nav(np.zeros(9))
+    ... except DimensionError as exc:
+    ...     print(type(exc).__name__, exc)
+    DimensionError split_nav: expected shape (..., 15), got (9,)
     """
     a = np.asarray(x, dtype=float)
     if a.shape[-1:] != (15,):
@@ -243,6 +280,29 @@ class SensorData:
 
     :meth:`imu_input`, :meth:`gnss_output` and :meth:`truth` give the arrays
     :func:`nlobs.simulate.run_observer` takes (channel layouts of the module docstring).
+
+    Examples
+    --------
+    Two seconds of an aircraft standing level on the runway, heading north, sampled without noise by
+    :func:`~nlobs.navigation.sensors.generate_sensors` (IMU at 10 Hz, GNSS at 1 Hz): the accelerometer
+    reads the specific force ``a^b = [0, 0, −g]`` and the magnetometer ``m^b = mⁿ``:
+
+    >>> import numpy as np
+    >>> from nlobs.navigation.sensors import SensorNoise, generate_sensors
+    >>> from nlobs.navigation.trajectory import M_N_DEFAULT, Trajectory
+    >>> t = np.arange(21) / 10.0
+    >>> still, level = np.zeros((21, 3)), np.broadcast_to(np.eye(3), (21, 3, 3))
+    >>> g_n = np.array([0.0, 0.0, G0])
+    >>> traj = Trajectory(t=t, p=still, v=still, vdot=still, R=level, rpy=still, omega_b=still,
+    ...                   a_b=np.tile(-g_n, (21, 1)), m_b=np.tile(M_N_DEFAULT, (21, 1)), m_n=M_N_DEFAULT, g_n=g_n)
+    >>> data = generate_sensors(traj, imu_rate_hz=10.0, gnss_rate_hz=1.0, noise=SensorNoise(), seed=0)
+    >>> data.t_gnss.tolist(), data.imu_input().shape, data.gnss_output().shape, data.truth().shape
+    ([0.0, 1.0, 2.0], (21, 9), (3, 6), (21, 15))
+    >>> np.round(data.imu_input()[0, IMU_ACCEL], 5).tolist(), bool(np.allclose(data.m_b, M_N_DEFAULT))
+    ([0.0, 0.0, -9.80665], True)
+    >>> t_rec, u, y, sampled = data.record()  # the fixes on the IMU grid, as a compiled observer reads them
+    >>> np.flatnonzero(sampled[:, 0]).tolist(), y.shape
+    ([0, 10, 20], (21, 6))
     """
 
     t_imu: Array

@@ -206,6 +206,32 @@ class GnssInsState:
         Whether a valid fix has arrived yet (no injection before).
     skipped : (...) int
         Number of invalid fixes skipped so far.
+
+    Examples
+    --------
+    Two flights at rest at the origin, the paper's gains. A fix ``p = [1, 2, 3]``, ``v = [4, 5, 6]`` reaches
+    the first, a non-finite fix the second: the correction only stores the fix (the observer injects it
+    through ``K`` as it integrates), the second flight counts a skipped fix and keeps waiting. One IMU period
+    later (level, at rest: ``R̂ a^b + gⁿ = 0``) only the first flight has moved: more than halfway to its fix:
+
+    >>> import numpy as np
+    >>> from nlobs.navigation.base import nav_vector
+    >>> from nlobs.navigation.trajectory import M_N_DEFAULT
+    >>> observer = GnssInsObserver.paper(M_N_DEFAULT, [0.0, 0.0, 9.80665])
+    >>> state = observer.init(nav_vector(np.zeros((2, 3)), np.zeros(3), np.eye(3)))
+    >>> state.batch_shape, state.has_fix.tolist(), state.xi.tolist()
+    ((2,), [False, False], [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    >>> fixes = np.array([[1.0, 2.0, 3.0, 4.0, 5.0, 6.0], [np.nan, 0.0, 0.0, 0.0, 0.0, 0.0]])
+    >>> held = observer.correct(0.0, state, np.zeros(9), fixes, True)
+    >>> held.has_fix.tolist(), held.skipped.tolist(), held.y_p[0].tolist(), held.y_v[0].tolist()
+    ([True, False], [0, 1], [1.0, 2.0, 3.0], [4.0, 5.0, 6.0])
+    >>> bool(np.array_equal(held.p, state.p))  # the estimate itself is not reset
+    True
+    >>> at_rest = np.r_[0.0, 0.0, 0.0, 0.0, 0.0, -9.80665, M_N_DEFAULT]  # [ω^b, a^b, m^b]
+    >>> later = observer.step(0.0, held, at_rest, fixes, 0.01)
+    >>> fix = np.array([1.0, 2.0, 3.0])
+    >>> bool(np.linalg.norm(later.p[0] - fix) < 0.5 * np.linalg.norm(fix)), later.p[1].tolist()
+    (True, [0.0, 0.0, 0.0])
     """
 
     p: Array

@@ -333,6 +333,32 @@ def summary_dict(res: SimulationResult, after: float | None = None,
     ------
     InvalidArgumentError
         The result has no truth, or its ``info`` lacks the GNSS bookkeeping.
+
+    Examples
+    --------
+    The navigation EKF on the first 10 s of the traffic pattern with noisy sensors (three GNSS fixes lost),
+    started 30° off in yaw: its attitude error stays below 2° from 1 s on, and the RMS errors are taken from
+    there (``cost_per_step_us`` is a measured time, so it is left out here):
+
+    >>> import math
+    >>> import nlobs
+    >>> from nlobs.navigation import EkfConfig, SensorNoise, drop_fixes, generate_sensors, traffic_pattern
+    >>> from nlobs.navigation.so3 import rot_z
+    >>> traj = traffic_pattern(seed=0, duration=10.0).sample(100.0)
+    >>> noise = SensorNoise(gyro_std=0.002, accel_std=0.05, mag_std=0.01, gnss_p_std=1.5, gnss_v_std=0.1)
+    >>> data = drop_fixes(generate_sensors(traj, imu_rate_hz=100.0, gnss_rate_hz=5.0, noise=noise, seed=1),
+    ...                   [10, 11, 12])
+    >>> ekf = nlobs.ExtendedKalmanFilter(EkfConfig.for_noise(noise), data.m_n, data.g_n)
+    >>> res = nlobs.navigation.run_navigation(ekf, data, data.p_gnss[0], data.v_gnss[0],
+    ...                                       rot_z(math.radians(30.0)) @ data.R[0])
+    >>> row = summary_dict(res)
+    >>> sorted(row)
+    ['after', 'attitude_rms_deg', 'converge_s', 'cost_per_step_us', 'filter', 'n_fixes', 'position_rms_m',
+     'skipped_fixes', 'threshold_deg', 'velocity_rms_mps']
+    >>> row["filter"], row["converge_s"], row["threshold_deg"], row["skipped_fixes"], row["n_fixes"]
+    ('ekf', 1.0, 2.0, 3, 51)
+    >>> round(row["position_rms_m"], 2), round(row["velocity_rms_mps"], 3), round(row["attitude_rms_deg"], 2)
+    (0.47, 0.068, 0.3)
     """
 
     def py(a: Any) -> Any:

@@ -91,6 +91,28 @@ class AttitudeGainSchedule:
         A non-finite gain entry or switch time.
     DimensionError, NotSymmetricError
         A gain of the wrong shape or not symmetric.
+
+    Examples
+    --------
+    The paper's ``Γ = diag(20, 0.2, 0.2)`` for the first 5 s, then ``0.5 I``, then ``0.05 I`` from 10 s. A
+    switch time reached to within 1 ns counts as reached (the IMU grid's ``k / rate`` rounding); the
+    constants of Lemma 1 and Assumption 2 come from the smallest and the largest mode:
+
+    >>> import numpy as np
+    >>> schedule = AttitudeGainSchedule((np.diag([20.0, 0.2, 0.2]), 0.5, 0.05), (5.0, 10.0))
+    >>> schedule.describe()
+    'Γ = diag(20, 0.2, 0.2); 0.5 I from 5 s; 0.05 I from 10 s'
+    >>> [schedule.index(t) for t in (0.0, 4.999, 5.0, 9.9999999999, 60.0)]
+    [0, 0, 1, 2, 2]
+    >>> np.diag(schedule.gain_at(7.0)).tolist(), schedule.smallest_eigenvalue, schedule.largest_eigenvalue
+    ([0.5, 0.5, 0.5], 0.05, 20.0)
+    >>> AttitudeGainSchedule.constant(0.5).to_dict()["times_s"]
+    []
+    >>> try:
+    ...     AttitudeGainSchedule((0.5, -0.1), (5.0,))
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError gains[1]: must be positive definite (smallest eigenvalue -0.1)
     """
 
     gains: tuple[Array, ...]
@@ -426,6 +448,24 @@ def noise_scheduled_gain(noise: SensorNoise, m_n: ArrayLike, g_n: ArrayLike, *,
     InvalidArgumentError
         Non-positive ``initial``, ``decay_scale_s``, ``factor ≤ 1``, or the conditions of
         :func:`steady_attitude_gain`.
+
+    Examples
+    --------
+    The demo's sensors: ``γ`` halves from 0.5 at ``t₁ γ₀ / γ`` (6 s, 12 s, 24 s, …) down to the steady-state
+    ``γ∞`` of :func:`steady_attitude_gain`, reached at ``t₁ γ₀ / γ∞``:
+
+    >>> import numpy as np
+    >>> from nlobs.navigation.trajectory import M_N_DEFAULT
+    >>> demo = SensorNoise(gyro_std=0.002, accel_std=0.05, mag_std=0.01, gnss_p_std=1.5, gnss_v_std=0.1)
+    >>> g_n = [0.0, 0.0, 9.80665]
+    >>> schedule = noise_scheduled_gain(demo, M_N_DEFAULT, g_n)
+    >>> [round(float(G[0, 0]), 5) for G in schedule.gains]
+    [0.5, 0.25, 0.125, 0.0625, 0.03125, 0.01562, 0.00781, 0.00642]
+    >>> [round(t, 1) for t in schedule.times]
+    [6.0, 12.0, 24.0, 48.0, 96.0, 192.0, 233.5]
+    >>> g_inf = steady_attitude_gain(demo, M_N_DEFAULT, g_n)
+    >>> bool(np.isclose(schedule.gains[-1][0, 0], g_inf)), bool(np.isclose(schedule.times[-1], 3.0 * 0.5 / g_inf))
+    (True, True)
     """
     g0 = positive("initial", initial)
     t1 = positive("decay_scale_s", decay_scale_s)

@@ -35,6 +35,23 @@ class SensorNoise:
         GNSS position [m] and velocity [m/s] noise per fix.
     gyro_bias, accel_bias : (3,) array_like
         Constant biases added to every sample (zero by default).
+
+    Examples
+    --------
+    A typical small-aircraft sensor set with a gyro bias about the body x axis; the defaults are exact sensors,
+    and a negative standard deviation is refused:
+
+    >>> noise = SensorNoise(gyro_std=0.002, accel_std=0.05, mag_std=0.01, gnss_p_std=1.5, gnss_v_std=0.1,
+    ...                     gyro_bias=[0.01, 0.0, 0.0])
+    >>> noise.gyro_bias, noise.accel_bias
+    ((0.01, 0.0, 0.0), (0.0, 0.0, 0.0))
+    >>> SensorNoise() == SensorNoise(gyro_std=0.0, gnss_p_std=0.0)
+    True
+    >>> try:
+    ...     SensorNoise(gyro_std=-0.1)
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError gyro_std: must be non-negative, got -0.1
     """
 
     gyro_std: float = 0.0
@@ -87,6 +104,31 @@ def generate_sensors(
         GNSS fixes at ``t_gnss = t_imu[::imu_rate_hz / gnss_rate_hz]``. The three IMU streams are
         views of one ``(..., K, 9)`` buffer (and ``p_gnss``, ``v_gnss`` of one ``(..., G, 6)``), so
         :meth:`~nlobs.navigation.base.SensorData.imu_input` needs no copy.
+
+    Examples
+    --------
+    200 noise realisations of the first 10 s of the traffic pattern (IMU at 100 Hz, GNSS at 5 Hz): the gyro
+    error has the bias as its mean and ``gyro_std`` as its spread, the GNSS position error ``gnss_p_std``:
+
+    >>> import numpy as np
+    >>> from nlobs.navigation.trajectory import traffic_pattern
+    >>> traj = traffic_pattern(seed=0, duration=10.0).sample(100.0)
+    >>> noise = SensorNoise(gyro_std=0.002, accel_std=0.05, gnss_p_std=1.5, gnss_v_std=0.1, gyro_bias=(0.01, 0.0, 0.0))
+    >>> data = generate_sensors(traj, imu_rate_hz=100.0, gnss_rate_hz=5.0, noise=noise, seed=0, batch=200)
+    >>> data.omega_b.shape, data.p_gnss.shape, data.t_gnss[:3].tolist()
+    ((200, 1001, 3), (200, 51, 3), [0.0, 0.2, 0.4])
+    >>> gyro_error = data.omega_b - traj.omega_b
+    >>> round(float(gyro_error[..., 0].mean()), 4), round(float(gyro_error[..., 1].std()), 4)
+    (0.01, 0.002)
+    >>> round(float((data.p_gnss - traj.p[::20]).std()), 1)
+    1.5
+    >>> bool(np.shares_memory(data.imu_input(), data.omega_b))  # the IMU input is a view, not a copy
+    True
+    >>> try:
+    ...     generate_sensors(traj, imu_rate_hz=100.0, gnss_rate_hz=3.0, noise=noise, seed=0)
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError gnss_rate_hz=3 must divide imu_rate_hz=100 (fixes must fall on IMU samples)
     """
     imu = positive("imu_rate_hz", imu_rate_hz)
     gnss = positive("gnss_rate_hz", gnss_rate_hz)
@@ -153,6 +195,23 @@ def drop_fixes(data: SensorData, fixes: ArrayLike, *, batch_index: int | None = 
         Indices into ``data.t_gnss``.
     batch_index : int, optional
         Only this batch member loses the fixes (default: all members).
+
+    Examples
+    --------
+    Two flights of 10 s with fixes at 5 Hz; the second loses fixes 3 and 4 (a 0.4 s outage), the first
+    keeps all of them, and the data given is not changed:
+
+    >>> import numpy as np
+    >>> from nlobs.navigation.trajectory import traffic_pattern
+    >>> traj = traffic_pattern(seed=0, duration=10.0).sample(100.0)
+    >>> data = generate_sensors(traj, imu_rate_hz=100.0, gnss_rate_hz=5.0, noise=SensorNoise(gnss_p_std=1.5),
+    ...                         seed=0, batch=2)
+    >>> outage = drop_fixes(data, [3, 4], batch_index=1)
+    >>> missing = np.isnan(outage.gnss_output()).any(axis=-1)  # (flights, fixes)
+    >>> missing.sum(axis=-1).tolist(), np.flatnonzero(missing[1]).tolist(), outage.t_gnss[[3, 4]].tolist()
+    ([0, 2], [3, 4], [0.6, 0.8])
+    >>> bool(np.isnan(data.p_gnss).any())
+    False
     """
     idx = np.asarray(as_finite_array("fixes", fixes), dtype=int).ravel()
     if idx.size and (idx.min() < 0 or idx.max() >= data.t_gnss.size):

@@ -377,6 +377,26 @@ class Trajectory:
     a_b : (K, 3) specific force ``a^b = Rᵀ(v̇ⁿ − gⁿ)`` [m/s²].
     m_b : (K, 3) magnetic field in body axes ``m^b = Rᵀ mⁿ``.
     m_n, g_n : (3,) magnetic field and gravity in NED.
+
+    Examples
+    --------
+    The traffic pattern sampled at 10 Hz: level at the pattern altitude on downwind, back on the runway
+    and stopped at the end; the signals are exact, so ``Ṙ = R S(ω^b)`` holds to the accuracy of a central
+    difference, and the TRIAD margin ``min ‖m^b × a^b‖`` stays well away from zero:
+
+    >>> import numpy as np
+    >>> from nlobs.navigation.so3 import skew
+    >>> flight = traffic_pattern(seed=0)
+    >>> traj = flight.sample(10.0)
+    >>> traj.t.shape, traj.R.shape, round(float(traj.altitude.max()), 1), round(flight.pattern_altitude, 1)
+    ((3689,), (3689, 3, 3), 281.6, 281.6)
+    >>> round(float(traj.speed.max()), 1), float(traj.speed[-1]), bool(abs(traj.altitude[-1]) < 1e-6)
+    (45.7, 0.0, True)
+    >>> Rdot = (traj.R[2:] - traj.R[:-2]) / 0.2  # central difference
+    >>> bool(np.max(np.abs(Rdot - traj.R[1:-1] @ skew(traj.omega_b[1:-1]))) < 1e-3)
+    True
+    >>> round(float(triad_margin(traj).min()), 2)  # c_obs of Sec. 5.1 [m/s²]
+    1.38
     """
 
     t: Array
@@ -423,6 +443,30 @@ class Flight:
         −1 for a left-hand pattern, +1 for a right-hand one.
     phases : tuple of (str, float)
         Named phases and their start times [s].
+
+    Examples
+    --------
+    The first 100 s of a pattern, evaluated at any times in ``[0, 100]``: the specific force is
+    ``a^b = Rᵀ(v̇ⁿ − gⁿ)``, and the position is the integral of the velocity (a central difference of ``p``
+    gives ``v``):
+
+    >>> import numpy as np
+    >>> flight = traffic_pattern(seed=0, duration=100.0)
+    >>> flight.duration, [name for name, _ in flight.phases]
+    (100.0, ['take-off roll', 'rotation', 'climb', 'crosswind turn'])
+    >>> at = flight([0.0, 60.0])  # a Trajectory of two samples
+    >>> float(np.linalg.norm(at.v[0])), (np.round(at.a_b[0], 5) + 0.0).tolist()  # standing still, level
+    (0.0, [0.0, 0.0, -9.80665])
+    >>> bool(np.allclose(np.einsum("kji,kj->ki", at.R, at.vdot - at.g_n), at.a_b))
+    True
+    >>> near = flight([60.0 - 1e-3, 60.0 + 1e-3])
+    >>> bool(np.allclose((near.p[1] - near.p[0]) / 2e-3, at.v[1], atol=1e-6))
+    True
+    >>> try:
+    ...     flight([120.0])
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError t: times must lie in [0, 100] s, got [120, 120]
     """
 
     duration: float
@@ -509,6 +553,26 @@ def traffic_pattern(
     ------
     DesignInfeasible
         If the pattern geometry cannot be closed (not expected for any seed).
+
+    Examples
+    --------
+    The pattern of seed 0: a right-hand pattern at 281.6 m from a runway heading 311°, about six minutes
+    from the take-off roll to the stop, ending back on the runway centre line at ground level:
+
+    >>> import numpy as np
+    >>> flight = traffic_pattern(seed=0)
+    >>> round(flight.duration, 1), round(float(np.degrees(flight.runway_heading)), 1), flight.side
+    (368.9, 311.3, 1)
+    >>> [name for name, _ in flight.phases]
+    ['take-off roll', 'rotation', 'climb', 'crosswind turn', 'level-off', 'downwind turn', 'descent', 'base turn',
+     'final turn', 'flare', 'touchdown', 'stopped']
+    >>> end = flight([flight.duration])
+    >>> heading = np.array([np.cos(flight.runway_heading), np.sin(flight.runway_heading)])
+    >>> off_centre_line = end.p[0, :2] @ np.array([-heading[1], heading[0]])
+    >>> bool(abs(end.altitude[0]) < 1e-6), bool(abs(off_centre_line) < 1e-6), float(end.speed[0])
+    (True, True, 0.0)
+    >>> flight.g_n.tolist(), round(float(np.linalg.norm(flight.m_n)), 12)  # gravity and the unit field
+    ([0.0, 0.0, 9.80665], 1.0)
     """
     g = positive("g", g)
     mn = M_N_DEFAULT.copy() if m_n is None else as_vector("m_n", m_n, 3)

@@ -123,6 +123,29 @@ class SingularObservabilityError(NlobsError, ValueError):
         Simulation time (``None`` at the initial estimate).
     condition : float
         ``cond(Q_s)`` there (or the lower bound that tripped; ``inf`` when exactly singular).
+
+    Examples
+    --------
+    The Rössler system (a shipped model) measured through ``x`` has ``det Q_s = x − 5.9`` for ``s = (3)``
+    (module docstring): an observer started on that plane is refused, with the point, and so is a
+    right-hand side evaluated there during a run, with the time:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> from nlobs.synthesis.drift_gain import vandermonde_gain
+    >>> observer = nlobs.DriftObserver.from_model(nlobs.load_model("rossler"), vandermonde_gain((3,), 2.0).K)
+    >>> try:
+    ...     observer.init([5.9, 0.0, 1.0])
+    ... except SingularObservabilityError as exc:
+    ...     print(type(exc).__name__, exc.quantity, exc.point, exc.time, exc.condition > COND_LIMIT)
+    SingularObservabilityError Q_s (s = [3]) (5.9, 0.0, 1.0) None True
+    >>> try:
+    ...     observer.rhs(1.5, np.array([5.9, 0.0, 1.0]), np.zeros(0), np.array([1.0]))
+    ... except SingularObservabilityError as exc:
+    ...     print(exc)
+    rossler: Q_s (s = [3]) is singular at t=1.5, x̂ = (x=5.9, y=0, z=1) (cond = ...); the drift-observability ...
+    >>> observer.init([1.0, 0.0, 1.0]).tolist()  # off the plane x = 5.9
+    [1.0, 0.0, 1.0]
     """
 
     def __init__(self, model: str, quantity: str, point: Sequence[float], time: float | None, condition: float,

@@ -50,6 +50,35 @@ class FilterState:
         Normalised innovation squared ``νᵀ S⁻¹ ν`` of the last correction of each member (0 before the
         first one; kept by a member that skipped a missing sample); a NumPy ``float64`` scalar for a
         single run after a correction. Constant between samples (its time derivative is zero).
+
+    Examples
+    --------
+    The EKF of a double integrator whose position is measured with ``R = 1``, from ``P0 = I``: one sample
+    ``y = 2`` gives the gain ``K = P Cᵀ/(C P Cᵀ + R) = (0.5, 0)``, the mean ``(1, 0)``, the variance of the
+    position halved, and the NIS ``ν²/S = 4/2``; a missing sample (NaN) leaves the state as it was:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> plant = nlobs.LinearSystem([[0.0, 1.0], [0.0, 0.0]], [[0.0], [1.0]], [[1.0, 0.0]])
+    >>> ekf = nlobs.EKF(plant, Q=np.zeros((2, 2)), R=[[1.0]], P0=np.eye(2))
+    >>> z = ekf.init([0.0, 0.0])
+    >>> z.x.tolist(), z.P.tolist(), float(z.nis)
+    ([0.0, 0.0], [[1.0, 0.0], [0.0, 1.0]], 0.0)
+    >>> z1 = ekf.correct(0.0, z, np.zeros(1), np.array([2.0]), np.array([True]))
+    >>> z1.x.tolist(), z1.P.tolist(), float(z1.nis)
+    ([1.0, 0.0], [[0.5, 0.0], [0.0, 1.0]], 2.0)
+    >>> ekf.correct(0.0, z, np.zeros(1), np.array([np.nan]), np.array([True])).x.tolist()
+    [0.0, 0.0]
+
+    Between samples ``rhs`` returns the rates in the same form: ``ẋ = A x`` and ``Ṗ = A P + P Aᵀ + Q``, the NIS
+    constant; a batch of runs carries its leading axes in every field:
+
+    >>> rate = ekf.rhs(0.0, z1, np.zeros(1), np.array([2.0]))
+    >>> rate.x.tolist(), rate.P.tolist(), float(rate.nis)
+    ([0.0, 0.0], [[0.0, 1.0], [1.0, 0.0]], 0.0)
+    >>> batch = ekf.init(np.zeros((3, 2)))
+    >>> batch.x.shape, batch.P.shape, batch.nis.shape
+    ((3, 2), (3, 2, 2), (3,))
     """
 
     x: Array

@@ -44,6 +44,28 @@ class GaussianState:
         Mean (the estimate).
     P : ndarray, shape (..., n, n)
         Covariance.
+
+    Examples
+    --------
+    A random walk ``x⁺ = x + w`` (``Q_w = 0.25``) measured as ``y = x + v`` (``R_v = 1``), from the prior
+    ``x̂ = 0``, ``P = 1``: the update with ``y = 2`` (gain ``K = 1/2``) gives the posterior ``(1, 0.5)``, the
+    prediction adds ``Q_w`` to the variance, and ``rhs`` is the two in one step:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> ekf = nlobs.UnknownInputEKF([[1.0]], [[1.0]], nlobs.Discrete(1.0), Q_w=[[0.25]], R_v=[[1.0]], P0=[[1.0]])
+    >>> prior = ekf.init([0.0])
+    >>> isinstance(prior, GaussianState), prior.x.tolist(), prior.P.tolist()
+    (True, [0.0], [[1.0]])
+    >>> posterior = ekf.update(prior, None, [2.0])
+    >>> posterior.x.tolist(), posterior.P.tolist()
+    ([1.0], [[0.5]])
+    >>> nxt = ekf.predict(posterior, None, [2.0])
+    >>> nxt.x.tolist(), nxt.P.tolist()
+    ([1.0], [[0.75]])
+    >>> step = ekf.rhs(0.0, prior, np.zeros(0), np.array([2.0]))
+    >>> step.x.tolist(), step.P.tolist()
+    ([1.0], [[0.75]])
     """
 
     x: Array
@@ -79,6 +101,28 @@ def joseph_update(P: Array, H: Array, R: Array, innovation: Array, *, nis: bool 
     ------
     numpy.linalg.LinAlgError
         ``S`` is singular (the caller names the time).
+
+    Examples
+    --------
+    Two states with the correlated prior ``P = [[2, 1], [1, 2]]``, the first measured (``R = 1``) with the
+    innovation ``ν = 3``: ``S = 3``, ``K = (2/3, 1/3)``, so ``K ν = (2, 1)``; without rounding the Joseph form
+    equals the short form ``(I − K H) P``:
+
+    >>> import numpy as np
+    >>> P, H, R = np.array([[2.0, 1.0], [1.0, 2.0]]), np.array([[1.0, 0.0]]), np.array([[1.0]])
+    >>> dx, P_new, nis = joseph_update(P, H, R, np.array([3.0]), nis=True)
+    >>> dx.round(6).tolist(), round(float(nis), 6)  # ν² / S = 9 / 3
+    ([2.0, 1.0], 3.0)
+    >>> K = P @ H.T / 3.0
+    >>> bool(np.allclose(P_new, (np.eye(2) - K @ H) @ P)), (P_new * 3).round(6).tolist()
+    (True, [[2.0, 1.0], [1.0, 5.0]])
+
+    Batched: one update per leading index (here three priors ``k I``, each with ``ν = 1``):
+
+    >>> Pb = np.arange(1.0, 4.0)[:, None, None] * np.eye(2)
+    >>> dx, P_new, nis = joseph_update(Pb, H, R, np.ones((3, 1)), nis=True)
+    >>> dx.shape, P_new.shape, nis.round(4).tolist()  # ν² / (k + 1)
+    ((3, 2), (3, 2, 2), [0.5, 0.3333, 0.25])
     """
     if P.ndim == 2 and H.ndim == 2 and R.ndim == 2 and innovation.ndim == 1:
         return _joseph_one(P, H, R, innovation, nis)

@@ -108,7 +108,26 @@ __all__ = ["AssumptionWarning", "ByrnesIsidoriObserver", "PinvObserver"]
 
 
 class AssumptionWarning(UserWarning):
-    """A design assumption that the observer does not need in order to run fails (its guarantee is lost)."""
+    """A design assumption that the observer does not need in order to run fails (its guarantee is lost).
+
+    Examples
+    --------
+    The gain (8) of :class:`ByrnesIsidoriObserver` for the four-state example of Röbenack (``isidori-146``, a
+    shipped model) with ``φ3 = x3`` and ``φ4 = x1``: ``L_g x3 = 1 ≠ 0``, so these coordinates are not the
+    Byrnes–Isidori normal form (5). The observer is built all the same, and the warning says what is lost:
+
+    >>> import warnings
+    >>> import sympy as sp
+    >>> import nlobs
+    >>> x1, x3 = sp.symbols("x1 x3", real=True)
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     observer = nlobs.ByrnesIsidoriObserver.from_model(nlobs.load_model("isidori-146"), [x3, x1])
+    >>> [(w.category.__name__, str(w.message)) for w in caught]
+    [('AssumptionWarning', "isidori-146: L_g φ ≠ 0 for ['1']: not the Byrnes–Isidori form (gain (8) still valid)")]
+    >>> issubclass(AssumptionWarning, UserWarning), observer.checks[1].name, observer.checks[1].passed
+    (True, '(5) L_g φ_i ≡ 0', False)
+    """
 
 
 # ----------------------------------------------------------------------------- helpers

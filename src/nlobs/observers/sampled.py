@@ -231,5 +231,28 @@ def with_predictor(observer: Any, plant: Any, sampled: bool) -> Any:
         The model whose output is predicted.
     sampled : bool
         Whether the observer runs on sampled outputs (a model file with ``[sensors]``).
+
+    Returns
+    -------
+    Observer
+        An :class:`OutputPredictor` around ``observer`` (``sampled``), else ``observer`` itself.
+
+    Examples
+    --------
+    A Luenberger observer of an oscillator whose position is measured: on exact outputs it is used as it is;
+    on sampled ones it is wrapped, its state extended by the prediction ``w`` of the output, which
+    ``init`` starts at ``h(x̂0)``:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> plant = nlobs.LinearSystem([[0.0, 1.0], [-1.0, 0.0]], np.zeros((2, 1)), [[1.0, 0.0]])
+    >>> luenberger = nlobs.LuenbergerObserver(plant, [[2.0], [2.0]])
+    >>> with_predictor(luenberger, plant, sampled=False) is luenberger
+    True
+    >>> wrapped = with_predictor(luenberger, plant, sampled=True)
+    >>> type(wrapped).__name__, wrapped.n_x, wrapped.n_z, wrapped.state_names[-1]
+    ('OutputPredictor', 2, 3, 'w[y1]')
+    >>> wrapped.init([0.5, -1.0]).tolist()
+    [0.5, -1.0, 0.5]
     """
     return OutputPredictor(observer, plant) if sampled else observer

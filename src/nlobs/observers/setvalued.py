@@ -73,6 +73,32 @@ class Radii:
         Limits of the bounds (``inf`` when they do not converge).
     label : str
         ``"sound"`` or ``"printed"``.
+
+    Examples
+    --------
+    The sound radii (:func:`sound_radii`) of a design for the flexible-joint robot of Khajenejad & Yong, Sec. 6.1
+    (a shipped model file), over 100 steps: ``K + 1`` state radii starting at ``δ₀``, ``K`` input radii, all
+    below their limits:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> from nlobs.systems.modelfile import load_discrete_ui_model
+    >>> system = load_discrete_ui_model("khajenejad-6-1").system
+    >>> design = nlobs.design_setvalued(system, lam=0.98)
+    >>> radii = sound_radii(system, design, 100)
+    >>> radii.label, radii.state.shape, radii.input.shape, float(radii.state[0]) == system.delta0
+    ('sound', (101,), (100,), True)
+    >>> bool(np.all(radii.state <= radii.state_steady) and np.all(radii.input <= radii.input_steady))
+    True
+
+    Any other table can be reported by the observer instead (here constant radii, without a guarantee):
+
+    >>> table = Radii(np.full(101, 25.0), np.full(100, 1000.0), 25.0, 1000.0, "constant")
+    >>> observer = SetValuedObserver(system, design, radii=table)
+    >>> z = observer.rhs(0.0, observer.correct(0.0, observer.init(system.x0), np.zeros(0), np.zeros(2), [True, True]),
+    ...                  np.zeros(0), np.zeros(2))
+    >>> z.radius, z.radius_input
+    (25.0, 1000.0)
     """
 
     state: Array
@@ -133,6 +159,31 @@ def input_error_map(system: DiscreteUISystem, design: SetValuedDesign) -> tuple[
         ``F_π``, the map of the nonlinearity's increment ``π``.
     F_omega : tuple of ndarray
         ``(F_{v,k−1}, F_w, F_{v,k})``, the maps of the noise ``v_{k−1}``, ``w`` and ``v_k``.
+
+    Examples
+    --------
+    The flexible-joint robot of Khajenejad & Yong, Sec. 6.1 (a shipped model file; ``n = 4``, one unknown input,
+    two outputs). Without noise, the input error of the first step of Algorithm 1 is ``F_ζ ζ + F_π π`` with
+    ``ζ = x₀ − x̂_{0|0}`` and ``π = φ(x₀) − φ(x̂_{0|0})``:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> from nlobs.systems.modelfile import load_discrete_ui_model
+    >>> system = load_discrete_ui_model("khajenejad-6-1").system
+    >>> design = nlobs.design_setvalued(system, lam=0.98)
+    >>> F_zeta, F_pi, F_omega = input_error_map(system, design)
+    >>> F_zeta.shape, F_pi.shape, [F.shape for F in F_omega]
+    ((1, 4), (1, 4), [(1, 2), (1, 4), (1, 2)])
+    >>> d = np.array([[[0.5], [0.0]]])  # d₀ = 0.5
+    >>> x, y = system.simulate([[0.3, -0.2, 0.4, 0.1]], d, np.zeros((1, 1, 4)), np.zeros((1, 2, 2)))
+    >>> observer = SetValuedObserver(system, design)
+    >>> u, fresh = np.zeros(0), np.array([True, True])
+    >>> z0 = observer.correct(0.0, observer.init(system.x0), u, y[0, 0], fresh)
+    >>> z1 = observer.correct(0.01, observer.rhs(0.0, z0, u, y[0, 0]), u, y[0, 1], fresh)
+    >>> zeta = x[0, 0] - z0.x
+    >>> pi = system.f(x[0, 0]) - system.f(z0.x) - system.A @ zeta
+    >>> bool(np.allclose(0.5 - z1.d, F_zeta @ zeta + F_pi @ pi))
+    True
     """
     design.certified_for.require(system)
     tr = design.transform
@@ -170,6 +221,31 @@ class RadiusRecursion:
         Contraction and offset of the Lyapunov bound ``V̄_k = λ_eff V̄_{k−1} + c`` (the design's).
     lmin, lmax : float
         Smallest and largest eigenvalues of the design's ``P``.
+
+    Examples
+    --------
+    The recursion of a design for the flexible-joint robot of Khajenejad & Yong, Sec. 6.1 (a shipped model
+    file), iterated by hand from ``δ₀``: the same radii as :func:`sound_radii`, and its Lyapunov bound contracts
+    by the design's ``λ``:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> from nlobs.systems.modelfile import load_discrete_ui_model
+    >>> system = load_discrete_ui_model("khajenejad-6-1").system
+    >>> design = nlobs.design_setvalued(system, lam=0.98)
+    >>> rec = RadiusRecursion.of(system, design)
+    >>> rec.lam_eff, bool(rec.lmin <= rec.lmax)
+    (0.98, True)
+    >>> dx, V, state, inputs = system.delta0, rec.start(system.delta0), [system.delta0], []
+    >>> for k in range(20):
+    ...     dd, dx, V = rec.advance(dx, V)
+    ...     state.append(dx)
+    ...     inputs.append(dd)
+    >>> radii = sound_radii(system, design, 20)
+    >>> bool(np.allclose(state, radii.state) and np.allclose(inputs, radii.input))
+    True
+    >>> rec.steady() == (radii.state_steady, radii.input_steady)
+    True
     """
 
     th: float
@@ -255,6 +331,29 @@ def sound_radii(system: DiscreteUISystem, design: SetValuedDesign, steps: int, *
     -------
     Radii
         ``K + 1`` state radii, ``K`` input radii and their limits, labelled ``"sound"``.
+
+    Examples
+    --------
+    A design for the flexible-joint robot of Khajenejad & Yong, Sec. 6.1 (a shipped model file): the state radius
+    grows from ``δ₀ = 1`` towards its limit (the noise and the unknown input keep it away from zero); from an
+    exactly known initial state (``delta0=0``) every radius is smaller, with the same limit:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> from nlobs.systems.modelfile import load_discrete_ui_model
+    >>> system = load_discrete_ui_model("khajenejad-6-1").system
+    >>> design = nlobs.design_setvalued(system, lam=0.98)
+    >>> radii = sound_radii(system, design, 100)
+    >>> exact = sound_radii(system, design, 100, delta0=0.0)
+    >>> bool(np.all(np.diff(radii.state) >= 0)), bool(np.all(radii.state <= radii.state_steady))
+    (True, True)
+    >>> float(exact.state[0]), bool(np.all(exact.state <= radii.state)), exact.state_steady == radii.state_steady
+    (0.0, True, True)
+    >>> try:
+    ...     sound_radii(system, design, -1)
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError steps: must be >= 0, got -1
     """
     rec = RadiusRecursion.of(system, design)
     K = int(steps)
@@ -283,6 +382,31 @@ class GivenGain:
         The gain ``L̃`` of (15).
     transform : UITransform
         The transformation of the system (:meth:`for_system` builds both).
+
+    Examples
+    --------
+    The flexible-joint robot of Khajenejad & Yong, Sec. 6.1 (a shipped model file) has ``l = 2`` outputs and
+    ``p_H = 1``, so ``L̃`` is ``4 × 1``; given as a flat list (as a paper prints it; here the one nlobs designs),
+    it drives the same centres as the certified design, but without radii:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> from nlobs.systems.modelfile import load_discrete_ui_model
+    >>> model = load_discrete_ui_model("khajenejad-6-1")
+    >>> system = model.system
+    >>> design = nlobs.design_setvalued(system, lam=0.98)
+    >>> given = GivenGain.for_system(system, design.gain.ravel().tolist())
+    >>> given.gain.shape, given.transform.p_H
+    ((4, 1), 1)
+    >>> t = np.arange(51) * system.time.dt
+    >>> d = model.signals["bounded"](t)
+    >>> x, y = system.simulate([[0.3, -0.2, 0.4, 0.1]], d[None], np.zeros((1, 50, 4)), np.zeros((1, 51, 2)))
+    >>> certified = nlobs.run_observer(SetValuedObserver(system, design), t, x_hat0=system.x0, y=y[0])
+    >>> uncertified = nlobs.run_observer(SetValuedObserver(system, given), t, x_hat0=system.x0, y=y[0])
+    >>> bool(np.array_equal(certified.x_hat, uncertified.x_hat))
+    True
+    >>> bool(np.isnan(uncertified.extras["radius_state"]).all())  # no certificate, no radii
+    True
     """
 
     gain: Array
@@ -320,6 +444,31 @@ class SetValuedState:
         ``δᵈ_{k−1}`` (NaN before the first step).
     V : float
         The Lyapunov bound ``V̄_k`` of the sound recursion (NaN with given radii).
+
+    Examples
+    --------
+    One step of Algorithm 1 by hand on the flexible-joint robot of Khajenejad & Yong, Sec. 6.1 (a shipped model
+    file): ``init`` gives step ``−1``, the measurement of step 0 only computes ``d̂₁,0``, the time update moves
+    to step 1 with the radii of step 1, and its measurement gives the first input estimate ``d̂₀``:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> from nlobs.systems.modelfile import load_discrete_ui_model
+    >>> system = load_discrete_ui_model("khajenejad-6-1").system
+    >>> observer = SetValuedObserver(system, nlobs.design_setvalued(system, lam=0.98))
+    >>> u, y, fresh = np.zeros(0), np.zeros(2), np.array([True, True])
+    >>> z = observer.init(system.x0)
+    >>> z.k, z.corrected, z.radius, z.d.tolist()
+    (-1, False, 1.0, [nan])
+    >>> z = observer.correct(0.0, z, u, y, fresh)
+    >>> z.k, z.corrected, z.x.shape, z.d1.shape
+    (0, True, (4,), (1,))
+    >>> z = observer.rhs(0.0, z, u, y)
+    >>> z.k, z.corrected, bool(z.radius > system.delta0), bool(np.isfinite(z.radius_input))
+    (1, False, True, True)
+    >>> z = observer.correct(0.01, z, u, y, fresh)
+    >>> z.k, z.corrected, z.d.tolist()  # all zero: the plant at rest with d = 0
+    (1, True, [0.0])
     """
 
     x: Array

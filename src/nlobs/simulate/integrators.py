@@ -43,7 +43,24 @@ RK4_REAL_LIMIT = 2.785
 
 @dataclass(frozen=True)
 class RK4:
-    """Fixed-step classical Runge–Kutta of order 4 (the default integrator)."""
+    """Fixed-step classical Runge–Kutta of order 4 (the default integrator).
+
+    Examples
+    --------
+    ``ẋ = −x`` with a Luenberger observer of gain 3 (so ``ė = −4 e``) from ``x = 1``, ``x̂ = 0``: with
+    ``dt = 0.1`` the state and the estimate ``e^{−t} − e^{−4t}`` at ``t = 1`` are within ``O(dt⁴)``:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> plant = nlobs.LinearSystem([[-1.0]], np.zeros((1, 0)), [[1.0]])
+    >>> observer = nlobs.LuenbergerObserver(plant, [[3.0]])
+    >>> res = nlobs.simulate(plant, observer, [1.0], [0.0], duration=1.0, dt=0.1, integrator=RK4())
+    >>> RK4().name, res.method, res.t.size
+    ('rk4', 'rk4', 11)
+    >>> exact = np.exp(-1.0), np.exp(-1.0) - np.exp(-4.0)
+    >>> bool(abs(res.x[-1, 0] - exact[0]) < 1e-6), bool(abs(res.x_hat[-1, 0] - exact[1]) < 1e-4)
+    (True, True)
+    """
 
     @property
     def name(self) -> str:
@@ -62,6 +79,31 @@ class SolveIVP:
         Tolerances passed to ``solve_ivp``.
     max_step : float
         Largest step ``solve_ivp`` may take (``inf``: no limit).
+
+    Examples
+    --------
+    ``ẋ = −x`` with a Luenberger observer of gain 3 (``ė = −4 e``), integrated adaptively and reported on the
+    grid of ``dt``: at ``t = 1`` the state is ``e^{−1}`` and the estimate ``e^{−1} − e^{−4}`` to the tolerances
+    (RK4 with the same ``dt = 0.1`` is off by about ``3e−7``):
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> plant = nlobs.LinearSystem([[-1.0]], np.zeros((1, 0)), [[1.0]])
+    >>> observer = nlobs.LuenbergerObserver(plant, [[3.0]])
+    >>> res = nlobs.simulate(plant, observer, [1.0], [0.0], duration=1.0, dt=0.1, integrator=SolveIVP())
+    >>> res.method, res.t.size
+    ('solve_ivp:DOP853', 11)
+    >>> exact = np.exp(-1.0), np.exp(-1.0) - np.exp(-4.0)
+    >>> bool(abs(res.x[-1, 0] - exact[0]) < 1e-10), bool(abs(res.x_hat[-1, 0] - exact[1]) < 1e-10)
+    (True, True)
+    >>> SolveIVP("Radau", rtol=1e-6).options()
+    {'method': 'Radau', 'rtol': 1e-06, 'atol': 1e-12, 'max_step': inf}
+    >>> try:
+    ...     SolveIVP("Euler")
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError SolveIVP.method: expected one of ('RK45', 'RK23', 'DOP853', 'Radau', 'BDF', 'LSODA'),
+    got 'Euler'
     """
 
     method: str = "DOP853"
@@ -174,6 +216,40 @@ def rk4_step(f: Callable[[float, Any], Any], t: float, y: Any, h: float) -> Any:
     state) whose float-array leaves are combined stage by stage (:func:`nlobs.simulate.state.tree_map`);
     ``f`` returns a tree of the same structure. Integrating the parts of a tuple together keeps them
     coupled at every stage (the observer sees the plant output of the same stage).
+
+    Parameters
+    ----------
+    f : callable
+        ``f(t, y)``, returning ``ẏ`` of the structure of ``y``.
+    t : float
+        Start of the step.
+    y : ndarray or tree of arrays
+        The state at ``t``.
+    h : float
+        Step size.
+
+    Returns
+    -------
+    ndarray or tree of arrays
+        The state at ``t + h``, of the structure of ``y``.
+
+    Examples
+    --------
+    One step of ``ẏ = −y`` from ``y = 1`` is the Taylor polynomial of ``e^{−h}`` to degree 4, and a batch of
+    initial values takes the step at once:
+
+    >>> import numpy as np
+    >>> h = 0.1
+    >>> y1 = rk4_step(lambda t, y: -y, 0.0, np.array([1.0, 2.0]), h)
+    >>> bool(np.allclose(y1, np.array([1.0, 2.0]) * (1 - h + h**2 / 2 - h**3 / 6 + h**4 / 24), rtol=1e-15))
+    True
+
+    A tuple ``(x, z)`` is integrated as one coupled state: here ``ẋ = −x`` and ``ż = x − z``, whose exact
+    solution from ``(1, 0)`` is ``(e^{−t}, t e^{−t})``:
+
+    >>> x, z = rk4_step(lambda t, s: (-s[0], s[0] - s[1]), 0.0, (np.array([1.0]), np.array([0.0])), h)
+    >>> bool(np.allclose(x, np.exp(-h), atol=1e-6)), bool(np.allclose(z, h * np.exp(-h), atol=1e-6))
+    (True, True)
     """
     if isinstance(y, np.ndarray):
         k1 = f(t, y)
@@ -222,6 +298,28 @@ def rk4_integrate(f: VectorField, y0: ArrayLike, t: ArrayLike) -> Array:
     -------
     ndarray, shape (..., K, n)
         The state at every grid time.
+
+    Raises
+    ------
+    DimensionError, NonFiniteError
+        ``y0`` is a scalar; ``y0`` or ``t`` is not finite.
+    InvalidArgumentError
+        ``t`` is empty or not strictly increasing.
+
+    Examples
+    --------
+    The harmonic oscillator ``ẏ₁ = y₂``, ``ẏ₂ = −y₁`` from two initial states at once, over one period with
+    100 steps: the first is ``(cos t, −sin t)``, and both come back to where they started:
+
+    >>> import numpy as np
+    >>> t = np.linspace(0.0, 2 * np.pi, 101)
+    >>> Y = rk4_integrate(lambda t, y: np.stack([y[..., 1], -y[..., 0]], axis=-1), [[1.0, 0.0], [0.0, 2.0]], t)
+    >>> Y.shape
+    (2, 101, 2)
+    >>> bool(np.allclose(Y[0], np.stack([np.cos(t), -np.sin(t)], axis=-1), atol=1e-5))
+    True
+    >>> bool(np.allclose(Y[:, -1], Y[:, 0], atol=1e-5))
+    True
     """
     y = as_finite_array("y0", y0)
     grid = as_finite_array("t", t, ndim=1)
@@ -264,6 +362,28 @@ def solve_ivp_batch(
     sol : OdeResult
         The raw solver answer; when it failed (``sol.status != 0``),
         ``sol.t[-1]`` and ``sol.y[:, -1]`` are the last accepted time and state.
+
+    Examples
+    --------
+    Two decays ``ẏ = −a y`` (``a = 1, 2``) of shape ``(2, 1)``, as one ODE: the solution at ``t = 0.5`` and
+    ``t = 1`` comes back as ``(2, 2, 1)``, ``e^{−a t}``:
+
+    >>> import numpy as np
+    >>> a = np.array([[1.0], [2.0]])
+    >>> ys, sol = solve_ivp_batch(lambda t, y: -a * y, np.ones((2, 1)), (0.0, 1.0), [0.5, 1.0],
+    ...                           {"rtol": 1e-10, "atol": 1e-12})
+    >>> ys.shape, sol.status
+    ((2, 2, 1), 0)
+    >>> bool(np.allclose(ys[..., 0], np.exp(-np.outer([0.5, 1.0], [1.0, 2.0]))))
+    True
+
+    ``ẏ = y²`` from ``y = 1`` escapes at ``t = 1``: the solver stops there, and only the times before it come back:
+
+    >>> ys, sol = solve_ivp_batch(lambda t, y: y**2, np.ones(1), (0.0, 2.0), [0.5, 0.9, 1.5, 2.0], {})
+    >>> ys.shape, sol.status, bool(sol.t[-1] < 1.0)
+    ((2, 1), -1, True)
+    >>> np.round(ys[:, 0], 1).tolist()  # 1 / (1 − t)
+    [2.0, 10.0]
     """
     y0 = np.asarray(y0, dtype=float)
     shape = y0.shape

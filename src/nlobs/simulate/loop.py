@@ -705,6 +705,36 @@ class PlantRun:
 
     ``result`` is the plant's :class:`SimulationResult` (no estimates); the rest is the loop's setup and the readings
     of every sensor at every step it sampled: everything an observer on this run sees.
+
+    Attributes
+    ----------
+    result : SimulationResult
+        The plant's run: ``x``, ``y``, ``sampled``; ``x_hat`` has no columns.
+    setup : object
+        The loop's checked arguments (grid, sensors, input), reused by :func:`observe`.
+    samples : object
+        The held readings by step: ``samples.y`` (measurements, with the outputs sampled) and ``samples.u``
+        (input sensors).
+    rows : tuple of ndarray
+        The time-major buffers of ``x``, ``y`` and the sampled mask behind ``result``.
+
+    Examples
+    --------
+    An oscillator whose position is sampled at 10 Hz with noise, over 5 s: 51 readings are kept for the observers
+    that :func:`observe` runs on it:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> from nlobs.simulate import MeasurementGroup
+    >>> plant = nlobs.LinearSystem([[0.0, 1.0], [-1.0, 0.0]], np.zeros((2, 1)), [[1.0, 0.0]])
+    >>> sensor = MeasurementGroup("position", [0], rate=10.0, noise_std=0.01)
+    >>> run = simulate_plant(plant, [1.0, 0.0], duration=5.0, dt=1e-2, u=0.0, measurements=sensor, seed=1)
+    >>> isinstance(run, PlantRun), run.result.x.shape, run.result.x_hat.shape
+    (True, (501, 2), (501, 0))
+    >>> len(run.samples.y), int(run.result.sampled.sum()), run.setup.dt
+    (51, 51, 0.01)
+    >>> bool(np.allclose(run.result.x[:, 0], np.cos(run.result.t), atol=1e-8))
+    True
     """
 
     result: SimulationResult
@@ -757,6 +787,35 @@ def simulate_plant(
         As for :func:`simulate`; ``measurements`` missing.
     SimulationDiverged
         The plant's state became non-finite.
+
+    Examples
+    --------
+    One noisy sampled run of an oscillator, and two Luenberger observers on it (the plant is integrated once):
+    each gives the same numbers, bit for bit, as :func:`simulate` of the plant with it, and the faster gain ends
+    with the smaller error:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> from nlobs.simulate import MeasurementGroup
+    >>> plant = nlobs.LinearSystem([[0.0, 1.0], [-1.0, 0.0]], np.zeros((2, 1)), [[1.0, 0.0]])
+    >>> sensor = MeasurementGroup("position", [0], rate=10.0, noise_std=0.01)
+    >>> args = dict(duration=5.0, dt=1e-2, u=0.0, measurements=sensor, seed=1)
+    >>> run = simulate_plant(plant, [1.0, 0.0], **args)
+    >>> slow, fast = nlobs.LuenbergerObserver(plant, [[1.0], [0.5]]), nlobs.LuenbergerObserver(plant, [[4.0], [4.0]])
+    >>> results = [observe(run, observer, [0.0, 0.0]) for observer in (slow, fast)]
+    >>> alone = simulate(plant, fast, [1.0, 0.0], [0.0, 0.0], **args)
+    >>> bool(np.array_equal(results[1].x_hat, alone.x_hat) and np.array_equal(results[1].x, alone.x))
+    True
+    >>> [round(float(r.error_norm[-1]), 2) for r in results]
+    [0.15, 0.05]
+
+    Without sampled sensors there is nothing to replay (an observer on exact outputs reads every RK4 stage):
+
+    >>> try:
+    ...     simulate_plant(plant, [1.0, 0.0], duration=5.0, dt=1e-2, u=0.0, measurements=None)
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError measurements: a plant run for observers to replay needs sampled measurement groups ...
     """
     if measurements is None:
         raise InvalidArgumentError("measurements: a plant run for observers to replay needs sampled measurement "
@@ -796,6 +855,29 @@ def observe(run: PlantRun, observer: Observer, x_hat0: ArrayLike, *, progress: b
         Not a :class:`PlantRun`, not an observer, a time base that disagrees with the run, a bad ``x_hat0``.
     SimulationDiverged
         The observer's state became non-finite (``divergence="raise"``).
+
+    Examples
+    --------
+    An observer on a recorded noisy run of an oscillator (position sampled at 10 Hz) gives what :func:`simulate`
+    gives for the plant and the observer together, bit for bit, and the run's own ``x`` and ``y``:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> from nlobs.simulate import MeasurementGroup
+    >>> plant = nlobs.LinearSystem([[0.0, 1.0], [-1.0, 0.0]], np.zeros((2, 1)), [[1.0, 0.0]])
+    >>> sensor = MeasurementGroup("position", [0], rate=10.0, noise_std=0.01)
+    >>> run = simulate_plant(plant, [1.0, 0.0], duration=5.0, dt=1e-2, u=0.0, measurements=sensor, seed=1)
+    >>> observer = nlobs.LuenbergerObserver(plant, [[4.0], [4.0]])
+    >>> res = observe(run, observer, [0.0, 0.0])
+    >>> same = simulate(plant, observer, [1.0, 0.0], [0.0, 0.0], duration=5.0, dt=1e-2, u=0.0, measurements=sensor,
+    ...                 seed=1)
+    >>> bool(np.array_equal(res.x_hat, same.x_hat)), bool(np.array_equal(res.y, run.result.y)), res.x_hat.shape
+    (True, True, (501, 2))
+    >>> try:
+    ...     observe(run, observer, [0.0, 0.0, 0.0])
+    ... except DimensionError as exc:
+    ...     print(type(exc).__name__, exc)
+    DimensionError x_hat0: expected shape (..., 2), got (3,)
     """
     if not isinstance(run, PlantRun):
         raise InvalidArgumentError(f"run: expected a PlantRun from simulate_plant, got {type(run).__name__}")

@@ -38,6 +38,28 @@ class ErrorMetrics:
         Start of the RMSE window.
     tol : float or None
         Tolerance used for ``time_to_tolerance``.
+
+    Examples
+    --------
+    :meth:`SimulationResult.metrics <nlobs.simulate.result.SimulationResult.metrics>` of two runs of ``ẋ = −x``
+    with a Luenberger observer of gain 3, so ``e(t) = e₀ e^{−4t}``, from ``e₀ = −1`` and ``−2`` over 2 s: the decay
+    rate is 4, the final error ``e₀ e^{−8}``, the error stays below ``0.01`` from the first grid time after
+    ``ln(100 |e₀|)/4`` and the RMS error over the run is about ``|e₀|/4``:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> plant = nlobs.LinearSystem([[-1.0]], np.zeros((1, 0)), [[1.0]])
+    >>> observer = nlobs.LuenbergerObserver(plant, [[3.0]])
+    >>> res = nlobs.simulate(plant, observer, [[1.0], [2.0]], [0.0], duration=2.0, dt=1e-3)
+    >>> m = res.metrics(tol=1e-2)
+    >>> isinstance(m, ErrorMetrics), m.rmse.shape, m.final_error.shape, m.decay_rate.shape
+    (True, (2, 1), (2, 1), (2,))
+    >>> np.round(m.decay_rate, 3).tolist(), bool(np.allclose(m.final_error[:, 0], [-np.exp(-8), -2 * np.exp(-8)]))
+    ([4.0, 4.0], True)
+    >>> np.round(m.time_to_tolerance, 3).tolist(), np.round(np.log([100.0, 200.0]) / 4, 4).tolist()
+    ([1.152, 1.325], [1.1513, 1.3246])
+    >>> np.round(m.rmse[:, 0], 2).tolist(), m.tol
+    ([0.25, 0.5], 0.01)
     """
 
     rmse: Array

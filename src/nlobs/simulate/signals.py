@@ -41,6 +41,37 @@ class SampledSignal:
     -----
     Before ``times[0]`` the signal is undefined (:func:`simulate` rejects a
     start time earlier than ``times[0]``); after ``times[-1]`` the last value is held.
+
+    Examples
+    --------
+    A step from 0 to 1 at ``t = 1``, held or interpolated; after the last sample the last value is held:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> step = SampledSignal([0.0, 1.0], [[0.0], [1.0]])
+    >>> ramp = SampledSignal([0.0, 1.0], [[0.0], [1.0]], kind="linear")
+    >>> step.m, step(0.5).tolist(), step(1.0).tolist(), ramp(0.5).tolist(), ramp(3.0).tolist()
+    (1, [0.0], [1.0], [0.5], [1.0])
+
+    Driving the integrator ``ẋ = u`` for 2 s: the held step gives ``x(2) = 1`` (the loop integrates a held
+    input exactly), the ramp ``x(2) = 1/2 + 1``:
+
+    >>> plant = nlobs.LinearSystem([[0.0]], [[1.0]], [[1.0]])
+    >>> [round(float(nlobs.simulate(plant, None, [0.0], duration=2.0, dt=0.1, u=sig).x[-1, 0]), 9)
+    ...  for sig in (step, ramp)]
+    [1.0, 1.5]
+
+    A leading batch axis gives each run its own input (here a step and a constant 2):
+
+    >>> both = SampledSignal([0.0, 1.0], [[[0.0], [1.0]], [[2.0], [2.0]]])
+    >>> res = nlobs.simulate(plant, None, [[0.0], [0.0]], duration=2.0, dt=0.1, u=both)
+    >>> both(0.5).tolist(), res.x[:, -1, 0].round(9).tolist()
+    ([[0.0], [2.0]], [1.0, 4.0])
+    >>> try:
+    ...     SampledSignal([0.0, 0.0], [[0.0], [1.0]])
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError SampledSignal.times: must be strictly increasing
     """
 
     times: Array

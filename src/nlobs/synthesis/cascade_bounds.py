@@ -78,6 +78,24 @@ def theorem1_gamma_bound(alpha3: float, alpha4: float, L1: float, L2: float) -> 
     ``V`` may be scaled by any ``c > 0`` (``α₃, α₄ → cα₃, cα₄``); the bound is
     largest for ``c* = 2L₂/(α₄L₁)``, where it equals ``α₃/(α₄L₁L₂)``
     (:func:`theorem1_optimal_scaling`).
+
+    Examples
+    --------
+    With ``α₃ = 0.5, α₄ = 3, L₁ = 2, L₂ = 1.5`` the bound is ``4·0.5/(4·1.5² + 3²·2²) = 2/45``:
+
+    >>> g = theorem1_gamma_bound(0.5, 3.0, 2.0, 1.5)
+    >>> round(g, 6), bool(abs(g - 2 / 45) < 1e-15)
+    (0.044444, True)
+
+    Scaling ``V`` by ``c* = 2L₂/(α₄L₁) = 0.5`` raises it to ``α₃/(α₄L₁L₂) = 1/18``:
+
+    >>> round(theorem1_gamma_bound(0.5 * 0.5, 0.5 * 3.0, 2.0, 1.5), 6), round(1 / 18, 6)
+    (0.055556, 0.055556)
+    >>> try:
+    ...     theorem1_gamma_bound(0.0, 3.0, 2.0, 1.5)
+    ... except Exception as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError alpha3: must be positive, got 0.0
     """
     a3, a4, l1, l2 = _constants(alpha3, alpha4, L1, L2)
     return 4.0 * a3 / (4.0 * l2**2 + a4**2 * l1**2)
@@ -99,6 +117,17 @@ def theorem1_optimal_scaling(alpha3: float, alpha4: float, L1: float, L2: float)
     Returns
     -------
     (c_star, gamma) : tuple of float
+
+    Examples
+    --------
+    ``c* = 2·1.5/(3·2) = 0.5`` and ``γ(c*) = 0.5/(3·2·1.5) = 1/18``; no other scaling does better:
+
+    >>> import numpy as np
+    >>> c, g = theorem1_optimal_scaling(0.5, 3.0, 2.0, 1.5)
+    >>> round(c, 6), round(g, 6), round(1 / 18, 6)
+    (0.5, 0.055556, 0.055556)
+    >>> all(theorem1_gamma_bound(s * 0.5, s * 3.0, 2.0, 1.5) <= g * (1 + 1e-12) for s in np.logspace(-2, 2, 41))
+    True
     """
     a3, a4, l1, l2 = _constants(alpha3, alpha4, L1, L2)
     c = 2.0 * l2 / (a4 * l1)
@@ -127,6 +156,19 @@ def theorem1_prime_gamma_bound(
     -------
     float
         ``γ̄`` (any ``0 < γ < γ̄`` satisfies both conditions).
+
+    Examples
+    --------
+    The two conditions of Appendix B written out: they hold just below ``γ̄`` and fail just above it:
+
+    >>> a3, a4, L1, L2 = 0.5, 3.0, 2.0, 1.5
+    >>> def ok(g):
+    ...     return g < a3 / L2**2 and g < 4 * (a3 - g * L2**2) * (1 - g**2 * L2**2) / (a4**2 * L1**2)
+    >>> gb = theorem1_prime_gamma_bound(a3, a4, L1, L2, optimise_scaling=False)
+    >>> round(gb, 4), ok(0.999 * gb), ok(1.001 * gb)
+    (0.0443, True, False)
+    >>> round(theorem1_prime_gamma_bound(a3, a4, L1, L2), 4)  # the best scaling of V raises it
+    0.0554
     """
     a3, a4, l1, l2 = _constants(alpha3, alpha4, L1, L2)
 
@@ -175,6 +217,26 @@ class QuadraticLyapunov:
         ``ℓ``.
     certificate_max_eig : float
         Largest eigenvalue of the S-procedure block recomputed in NumPy (≤ 0).
+
+    Examples
+    --------
+    The Rajamani-type observer of Example 1 (Grip, Saberi & Johansen, Sec. 4), ``F = A₁ − L C₁``, with
+    ``ℓ = 0.4``; (5)–(7) hold, and ``V̇ ≤ −α₃‖x̃‖²`` (6) on sampled errors and perturbations with
+    ``‖δΦ‖ ≤ ℓ‖x̃‖``:
+
+    >>> import numpy as np
+    >>> F = np.array([[0.0, -68.6], [1.0, -12.6]])
+    >>> q = quadratic_lyapunov_constants(F, 0.4)
+    >>> q.P.shape, bool(0 < q.alpha1 <= q.alpha2), bool(np.isclose(q.alpha4, 2 * q.alpha2)), q.certificate_max_eig <= 0
+    ((2, 2), True, True, True)
+    >>> rng = np.random.default_rng(0)
+    >>> e, d = rng.normal(size=(1000, 2)), rng.normal(size=(1000, 2))
+    >>> d *= 0.4 * rng.uniform(size=(1000, 1)) * np.linalg.norm(e, axis=1, keepdims=True) / np.linalg.norm(
+    ...     d, axis=1, keepdims=True)
+    >>> bool(np.all(q.derivative_bound(F, e, d) <= -q.alpha3 * np.sum(e**2, axis=1)))
+    True
+    >>> bool(np.isclose(q.ratio, q.alpha3 / q.alpha4))  # the scale-invariant ratio of Theorem 1
+    True
     """
 
     P: Array
@@ -234,6 +296,24 @@ def quadratic_lyapunov_constants(
     ------
     DesignInfeasible
         No quadratic ``V`` proves (6) (e.g. ``ℓ ≥ 1/‖(sI − F)⁻¹‖∞``).
+
+    Examples
+    --------
+    For ``F = −I`` the best ``P`` is ``I`` and the S-procedure gives
+    ``α₃ = max_τ (2 − τℓ² − 1/τ) = 2(1 − ℓ)`` at ``τ = 1/ℓ``; with ``ℓ = 0.5``:
+
+    >>> import numpy as np
+    >>> q = quadratic_lyapunov_constants(-np.eye(2), 0.5)
+    >>> round(q.alpha1, 4), round(q.alpha2, 4), round(q.alpha3, 4), round(q.alpha4, 4), round(q.tau, 2)
+    (1.0, 1.0, 1.0, 2.0, 2.0)
+
+    Here ``‖(sI − F)⁻¹‖∞ = 1``, so no quadratic ``V`` exists for ``ℓ = 1.2``:
+
+    >>> try:
+    ...     quadratic_lyapunov_constants(-np.eye(2), 1.2)
+    ... except DesignInfeasible as exc:
+    ...     print(type(exc).__name__, "-", exc.constraint)
+    DesignInfeasible - Assumption 1
     """
     F_ = as_square("F", F)
     n = F_.shape[0]

@@ -46,6 +46,25 @@ class ErrorBoundConstants:
         The constants ``κ₁``, ``κ₂`` of (3.17).
     estimated : bool
         Whether the Lipschitz constants were estimated by sampling (rather than given).
+
+    Examples
+    --------
+    The constants of the Vandermonde pair at ``w = 10`` for ``s = (2,)``, ``α = μ = γ = 1``, with
+    ``Φ_s`` the identity (``γ_Φ = γ_{Φ⁻¹} = 1``); the bound (3.2) at ``t = 0, 1, 2`` for ``‖e(0)‖ = 1``
+    and no perturbation decays like ``e^{−αt}`` from ``κ₁``:
+
+    >>> import numpy as np
+    >>> from nlobs.synthesis.drift_gain import RiccatiConstants, design_drift_gain
+    >>> cert = design_drift_gain(RiccatiConstants((2,), [[0.0], [1.0]], 1.0, 1.0, 1.0), w=10.0)
+    >>> k = error_bound_constants(cert, 1.0, 1.0, estimated=False)
+    >>> round(k.kappa1, 2), round(k.kappa2, 3)
+    (50.18, 1.584)
+    >>> np.round(k.bound([0.0, 1.0, 2.0], 1.0), 3).tolist()
+    [50.18, 18.46, 6.791]
+    >>> float(k.bound(0.0, 0.0, b=2.0)[0]) == 2.0 * k.kappa2  # ‖e(0)‖ = 0: only the perturbation term
+    True
+    >>> k.describe()
+    'κ₁ = γ_Φ γ_Φ⁻¹ √cn(P) = 1 · 1 · √2518 = 50.18; κ₂ = γ_Φ⁻¹ √(‖P‖/2α) = 1.584 (Lipschitz constants given)'
     """
 
     gamma_phi: float
@@ -94,6 +113,26 @@ def error_bound_constants(cert: DriftGainCertificate, gamma_phi: float, gamma_ph
     ------
     InvalidArgumentError, NonFiniteError
         ``gamma_phi`` or ``gamma_phi_inv`` is not a positive finite number.
+
+    Examples
+    --------
+    For ``s = r = (2,)``, ``α = μ = γ = 1`` and the smallest Vandermonde ``w`` of Remark 2.11, with
+    ``γ_Φ = 2``, ``γ_{Φ⁻¹} = 3``: ``κ₁ = 6 √cn(P)`` and ``κ₂ = 3 √(‖P‖/(2α))`` as in (3.17):
+
+    >>> import math
+    >>> from nlobs.synthesis.drift_gain import RiccatiConstants, design_drift_gain
+    >>> cert = design_drift_gain(RiccatiConstants((2,), [[0.0], [1.0]], alpha=1.0, mu=1.0, gamma=1.0))
+    >>> k = error_bound_constants(cert, 2.0, 3.0)
+    >>> math.isclose(k.kappa1, 6.0 * math.sqrt(cert.cond_P)), math.isclose(k.kappa2, 3.0 * math.sqrt(cert.norm_P / 2.0))
+    (True, True)
+    >>> k.estimated, k.alpha
+    (True, 1.0)
+    >>> from nlobs.errors import InvalidArgumentError
+    >>> try:
+    ...     error_bound_constants(cert, 0.0, 1.0)
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError gamma_phi: must be positive, got 0.0
     """
     gp = positive("gamma_phi", gamma_phi)
     gpi = positive("gamma_phi_inv", gamma_phi_inv)

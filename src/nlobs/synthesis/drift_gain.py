@@ -164,6 +164,22 @@ class RiccatiConstants:
     gamma : float
         ``γ = √(γ_L² + γ_H²) ≥ 0``, the ALG/Lipschitz constants of ``L_s`` and ``H_{s,r}``
         in ``z``-coordinates (Assumption H0).
+
+    Examples
+    --------
+    One output with ``s = r = (2,)``, so ``F_{s,r} = B_s`` (the input enters at the end of the chain),
+    and ``α = μ = γ = 1``; the Brunovsky triple ``(A_s, B_s, C_s)`` of (2.16) is a double integrator:
+
+    >>> c = RiccatiConstants((2,), [[0.0], [1.0]], alpha=1.0, mu=1.0, gamma=1.0)
+    >>> c.n, c.q, c.describe()
+    (2, 1, 's = (2,), α = 1, μ = 1, γ = 1')
+    >>> [m.tolist() for m in c.triple()]
+    [[[0.0, 1.0], [0.0, 0.0]], [[0.0], [1.0]], [[1.0, 0.0]]]
+    >>> try:
+    ...     RiccatiConstants((2,), None, alpha=0.0, mu=1.0, gamma=1.0)
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError `alpha`: must be positive, got 0.0
     """
 
     s: tuple[int, ...]
@@ -291,6 +307,22 @@ class DriftGainCertificate(CertificateMixin):
         ``lhs_max_eig_scaled < −lhs_tolerance``.
     lhs_rounding : float
         The same level for the unscaled ``L`` — above ``|lhs_max_eig|`` the unscaled sign means nothing.
+
+    Examples
+    --------
+    The Vandermonde pair of Remark 2.11 at ``w = 10`` for ``s = (2,)``, ``α = μ = γ = 1``: (2.17)
+    holds with room to spare (its decay margin adds about 6 to ``α``), and ``A_s − K C_s`` has the
+    assigned eigenvalues ``−10, −20``, well below ``−α``:
+
+    >>> c = RiccatiConstants((2,), [[0.0], [1.0]], alpha=1.0, mu=1.0, gamma=1.0)
+    >>> g = vandermonde_gain((2,), 10.0)
+    >>> cert = verify_drift_gain(c, g.K, g.P, method="vandermonde", w=10.0)
+    >>> cert.verified, cert.method, cert.spectral_abscissa
+    (True, 'vandermonde', -10.0)
+    >>> bool(cert.lhs_max_eig_scaled < -cert.lhs_tolerance), round(cert.decay_margin, 2)
+    (True, 5.99)
+    >>> round(cert.cond_P), round(cert.norm_P, 3), round(cert.gain_norm, 2)  # cn(P), ‖P‖, ‖K‖₂
+    (2518, 5.018, 202.24)
     """
 
     constants: RiccatiConstants
@@ -594,6 +626,27 @@ def vandermonde_gain(s: Sequence[int], w: float) -> VandermondeGain:
     ------
     InvalidArgumentError
         ``w`` is so large that ``K(w)`` or ``P(w)`` overflows a double (or ``s``, ``w`` are invalid).
+
+    Examples
+    --------
+    ``s = (2,)``, ``w = 10``: ``(λ + 10)(λ + 20) = λ² + 30λ + 200``; ``V_s`` diagonalises
+    ``A_s − K C_s`` and ``P = (V_sᵀ V_s)⁻¹``:
+
+    >>> import numpy as np
+    >>> g = vandermonde_gain((2,), 10.0)
+    >>> g.K.ravel().tolist(), g.V.tolist(), g.eigenvalues.tolist()
+    ([30.0, 200.0], [[-10.0, 1.0], [-20.0, 1.0]], [-10.0, -20.0])
+    >>> A, B, C = brunovsky_triple((2,))
+    >>> bool(np.allclose(g.V @ (A - g.K @ C) @ np.linalg.inv(g.V), np.diag(g.eigenvalues)))
+    True
+    >>> bool(np.allclose(g.P, np.linalg.inv(g.V.T @ g.V)))
+    True
+
+    Two outputs, ``s = (2, 1)``, ``w = 3``: one block per output, ``−3, −6`` and ``−3``:
+
+    >>> g2 = vandermonde_gain((2, 1), 3.0)
+    >>> g2.K.tolist(), g2.eigenvalues.tolist()
+    ([[9.0, 0.0], [18.0, 0.0], [0.0, 3.0]], [-3.0, -6.0, -3.0])
     """
     s_ = positive_multi_index(s)
     w = positive("`w`", w)
@@ -682,6 +735,25 @@ def smallest_w(c: RiccatiConstants, *, w_max: float = 1e5, rtol: float = 1e-3) -
     DesignInfeasible
         No ``w ≤ w_max`` works: the message gives the smallest ``λ_max(D L D)`` seen and where
         (``constraint="(2.17) with P(w) = (V_sᵀV_s)⁻¹"``, ``violation`` = that ``λ_max``).
+
+    Examples
+    --------
+    ``s = r = (2,)``, ``α = μ = γ = 1``: (2.17) fails just below ``w ≈ 4.03`` and holds from there
+    (also at ``2w``, ``4w``, ``10w``); with ``w_max = 2`` no ``w`` is found:
+
+    >>> c = RiccatiConstants((2,), [[0.0], [1.0]], alpha=1.0, mu=1.0, gamma=1.0)
+    >>> ws = smallest_w(c)
+    >>> round(ws.w, 2), ws.certificate.verified, ws.monotone
+    (4.03, True, True)
+    >>> lo, hi = ws.bracket
+    >>> g = vandermonde_gain((2,), lo)
+    >>> verify_drift_gain(c, g.K, g.P).verified, bool(hi / lo <= 1.001)
+    (False, True)
+    >>> try:
+    ...     smallest_w(c, w_max=2.0)
+    ... except DesignInfeasible as exc:
+    ...     print(type(exc).__name__, exc.constraint)
+    DesignInfeasible (2.17) with P(w) = (V_sᵀV_s)⁻¹
     """
     w_max = positive("`w_max`", w_max)
     rtol = positive("rtol", rtol)
@@ -1035,6 +1107,24 @@ def design_drift_gain_sdp(
         it and ``violation`` is the smallest slack ``t`` found (the LMI holds as ``⪯ (t − ε) I``).
     CertificateError
         Every solver answer failed the re-verification.
+
+    Examples
+    --------
+    ``s = r = (2,)``, ``α = μ = γ = 1``: the smallest-gain SDP answer, re-verified without the
+    solver, needs a much smaller gain than the smallest-``w`` Vandermonde pair of Remark 2.11
+    (``‖K(w*)‖ ≈ 34.7``); a bound ``κ ≤ 5`` on the gain is infeasible:
+
+    >>> c = RiccatiConstants((2,), [[0.0], [1.0]], alpha=1.0, mu=1.0, gamma=1.0)
+    >>> cert = design_drift_gain_sdp(c)
+    >>> cert.verified, cert.method, cert.objective, cert.spectral_abscissa < -c.alpha
+    (True, 'sdp', 'min_gain', True)
+    >>> bool(cert.gain_norm < 20.0 < smallest_w(c).certificate.gain_norm)
+    True
+    >>> try:
+    ...     design_drift_gain_sdp(c, kappa_max=5.0, scaling=None)
+    ... except DesignInfeasible as exc:
+    ...     print(type(exc).__name__, exc)
+    DesignInfeasible (2.17) as an LMI in (S, Y) is infeasible for s = (2,), α = 1, μ = 1, γ = 1 with ‖K̃‖ ≤ 5 ...
     """
     t0 = time.perf_counter()
     obj = as_enum("objective", DriftObjective, objective)

@@ -64,7 +64,20 @@ MAX_LMI_SIZE = 25_000
 
 
 class Solver(str, Enum):
-    """Conic solvers nlobs uses for LMIs (both ship as plain wheels)."""
+    """Conic solvers nlobs uses for LMIs (both ship as plain wheels).
+
+    Examples
+    --------
+    A member or its name in any case (:func:`as_solver`); both solve the same problem, ``min x`` subject to
+    ``x ≥ 1``:
+
+    >>> import cvxpy as cp
+    >>> [s.value for s in Solver], as_solver("clarabel") is Solver.CLARABEL, Solver("SCS") is Solver.SCS
+    (['CLARABEL', 'SCS'], True, True)
+    >>> x = cp.Variable()
+    >>> [round(solve(cp.Problem(cp.Minimize(x), [x >= 1.0]), s).value, 4) for s in Solver]
+    [1.0, 1.0]
+    """
 
     CLARABEL = "CLARABEL"
     """Interior-point solver; accurate, supports the exponential cone (log-det). Default."""
@@ -73,7 +86,21 @@ class Solver(str, Enum):
 
 
 class SolveStatus(Enum):
-    """Outcome of a solver run, as reported by the solver (not yet verified)."""
+    """Outcome of a solver run, as reported by the solver (not yet verified).
+
+    Examples
+    --------
+    :func:`solve` maps CVXPY's status string to a member; only an optimal status carries a solution:
+
+    >>> import cvxpy as cp
+    >>> x = cp.Variable()
+    >>> for cons in ([x >= 1.0], [x >= 1.0, x <= 0.0], []):
+    ...     st = solve(cp.Problem(cp.Minimize(x), cons)).status
+    ...     print(st.value, st.has_solution, st.is_infeasible)
+    optimal True False
+    infeasible False True
+    unbounded False False
+    """
 
     OPTIMAL = "optimal"
     OPTIMAL_INACCURATE = "optimal_inaccurate"
@@ -124,6 +151,21 @@ class SolveResult:
         Optimal objective value, when there is one.
     seconds : float
         Wall-clock time of compile + solve.
+
+    Examples
+    --------
+    The smallest ``trace P`` with ``AᵀP + PA ⪯ −I`` is attained at the solution of the Lyapunov equation
+    ``AᵀP + PA = −I``, here ``P = [[1.25, 0.25], [0.25, 0.25]]`` (trace 1.5):
+
+    >>> import cvxpy as cp
+    >>> import numpy as np
+    >>> A = np.array([[0.0, 1.0], [-2.0, -3.0]])
+    >>> P = cp.Variable((2, 2), symmetric=True)
+    >>> res = solve(cp.Problem(cp.Minimize(cp.trace(P)), [symmetrise(A.T @ P + P @ A) << -np.eye(2)]))
+    >>> res.status, res.raw_status, res.solver, round(res.value, 4)
+    (<SolveStatus.OPTIMAL: 'optimal'>, 'optimal', <Solver.CLARABEL: 'CLARABEL'>, 1.5)
+    >>> np.round(P.value, 3).tolist(), max_eig(A.T @ P.value + P.value @ A) <= -1 + 1e-6
+    ([[1.25, 0.25], [0.25, 0.25]], True)
     """
 
     status: SolveStatus

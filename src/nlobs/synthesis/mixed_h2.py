@@ -118,6 +118,23 @@ def sampled_intensity(std: float, rate_hz: float) -> float:
     -------
     float
         ``std² / rate_hz`` (units² · s).
+
+    Examples
+    --------
+    A GNSS position at 5 Hz with ``σ = 1.5`` m: ``2.25 m² × 0.2 s``:
+
+    >>> round(sampled_intensity(1.5, 5.0), 6)
+    0.45
+
+    A first-order filter of bandwidth ``k = 1`` rad/s, well below a 100 Hz rate: its variance under the
+    sampled sequence (``x⁺ = (1 − kT) x + kT v``) and under white noise of this intensity
+    (``ẋ = −k x + k v``, variance ``kV/2``) agree to ``kT/2``:
+
+    >>> std, rate, k = 0.1, 100.0, 1.0
+    >>> T = 1 / rate
+    >>> sampled = (k * T) ** 2 * std**2 / (1 - (1 - k * T) ** 2)
+    >>> round(sampled / (k * sampled_intensity(std, rate) / 2), 4)
+    1.005
     """
     s = float(std)
     if not (math.isfinite(s) and s >= 0.0):
@@ -143,6 +160,23 @@ class NoiseModel:
         ``L_z``: the error combination whose variance is minimised, ``z = L_z e`` (default: the
         whole error, ``I``). Weighting by ``1/σ`` of each channel minimises the error relative
         to what each sensor gives.
+
+    Examples
+    --------
+    A position sensor (``V = 0.25``) on a double integrator whose acceleration is white noise of intensity
+    ``W = 4`` entering the velocity equation:
+
+    >>> import numpy as np
+    >>> noise = NoiseModel([[0.25]], process_input=[[0.0], [1.0]], process=[[4.0]])
+    >>> noise.inputs(np.array([[2.0], [4.0]])).tolist()  # B̂(K) = [B_w W^{1/2}, −K V^{1/2}]
+    [[0.0, -1.0], [2.0, -2.0]]
+    >>> noise.weight(2).tolist(), noise.to_dict()["process"]
+    ([[1.0, 0.0], [0.0, 1.0]], [[4.0]])
+    >>> try:
+    ...     NoiseModel([[0.25]], process_input=[[0.0], [1.0]])
+    ... except Exception as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError process_input and process: give both or neither
     """
 
     measurement: NDArray[np.float64]
@@ -226,6 +260,18 @@ def h2_error_norm(A: ArrayLike, C: ArrayLike, K: ArrayLike, noise: NoiseModel) -
     Returns
     -------
     float
+
+    Examples
+    --------
+    The scalar observer ``ė = −k e + w − k v`` (``A = 0``, ``C = 1``): ``‖T‖₂² = (W + k²V)/(2k)``, smallest at
+    the Kalman–Bucy gain ``k = √(W/V)``; a gain that destabilises the error gives ``inf``:
+
+    >>> import math
+    >>> noise = NoiseModel([[1.0]], process_input=[[1.0]], process=[[1.0]])  # V = W = 1
+    >>> [round(h2_error_norm([[0.0]], [[1.0]], [[k]], noise), 4) for k in (0.5, 1.0, 2.0)]
+    [1.118, 1.0, 1.118]
+    >>> round(math.sqrt((1 + 2.0**2) / (2 * 2.0)), 4), h2_error_norm([[0.0]], [[1.0]], [[-1.0]], noise)
+    (1.118, inf)
     """
     A_, C_, K_ = _acK(A, C, K)
     noise.check_against(A_.shape[0], C_.shape[0])
@@ -269,6 +315,24 @@ def error_covariance(A: ArrayLike, C: ArrayLike, K: ArrayLike, noise: NoiseModel
     ------
     DesignInfeasible
         ``A − K C`` is not Hurwitz (no steady state).
+
+    Examples
+    --------
+    A double integrator with a position sensor (``V = 0.25``) and white acceleration (``W = 4``): with the
+    Kalman–Bucy gain ``K = [2√2, 4]ᵀ`` the covariance is the filter's Riccati solution, ``K = Σ Cᵀ V⁻¹``:
+
+    >>> import numpy as np
+    >>> A, C = np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[1.0, 0.0]])
+    >>> noise = NoiseModel([[0.25]], process_input=[[0.0], [1.0]], process=[[4.0]])
+    >>> K = np.array([[2 * np.sqrt(2)], [4.0]])
+    >>> S = error_covariance(A, C, K, noise)
+    >>> np.round(S, 4).tolist(), bool(np.allclose(S @ C.T / 0.25, K))
+    ([[0.7071, 1.0], [1.0, 2.8284]], True)
+    >>> try:
+    ...     error_covariance(A, C, np.array([[-1.0], [0.0]]), noise)
+    ... except DesignInfeasible as exc:
+    ...     print(type(exc).__name__, exc)
+    DesignInfeasible A − K C is not Hurwitz: the error has no steady-state covariance
     """
     A_, C_, K_ = _acK(A, C, K)
     noise.check_against(A_.shape[0], C_.shape[0])
@@ -316,6 +380,24 @@ def kalman_bucy_gain(A: ArrayLike, C: ArrayLike, noise: NoiseModel, *,
     DesignInfeasible
         ``V`` is singular (the filter is not defined) or no stabilising solution exists even
         regularised.
+
+    Examples
+    --------
+    The double integrator with a position sensor of intensity ``r`` and white acceleration of intensity ``q``
+    has ``K = [√2 (q/r)^{1/4}, (q/r)^{1/2}]ᵀ``; for ``q/r = 16``, ``K = [2√2, 4]ᵀ``:
+
+    >>> import numpy as np
+    >>> A, C = np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[1.0, 0.0]])
+    >>> K, regularised = kalman_bucy_gain(A, C, NoiseModel([[0.25]], process_input=[[0.0], [1.0]], process=[[4.0]]))
+    >>> np.round(K.ravel(), 6).tolist(), round(2 * 2**0.5, 6), regularised
+    ([2.828427, 4.0], 2.828427, False)
+
+    An integrator with no process noise has no stabilising solution: the regularised gain is tiny (the
+    infimum ``k → 0`` is not attained):
+
+    >>> K, regularised = kalman_bucy_gain([[0.0]], [[1.0]], NoiseModel([[1.0]]))
+    >>> regularised, bool(0 < K[0, 0] < 1e-3)
+    (True, True)
     """
     A_ = as_square("A", A)
     n = A_.shape[0]
@@ -415,6 +497,24 @@ class MixedH2Certificate(CertificateMixin):
     solver_status : str
     margin : float
     seconds : float
+
+    Examples
+    --------
+    The scalar observer ``ė = −k e + w − k v`` with ``W = 0.01``, ``V = 1``: the Kalman–Bucy gain
+    ``k = √(W/V) = 0.1`` has ``‖H‖∞ = 1/k = 10``, so at ``γ = 2`` LMI (14) binds and the optimum is the
+    boundary gain ``k = 1/γ``, with ``‖T‖₂ = √((W + k²V)/(2k))`` above the Kalman–Bucy ``(WV)^{1/4}``:
+
+    >>> import math
+    >>> noise = NoiseModel([[1.0]], process_input=[[1.0]], process=[[0.01]])
+    >>> cert = design_h2_gain([[0.0]], [[1.0]], [[1.0]], gamma=2.0, noise=noise)
+    >>> cert.verified, cert.refined, round(float(cert.gain[0, 0]), 3), bool(cert.hinf_H < 2.0)
+    (True, True, 0.5, True)
+    >>> round(cert.h2, 3), round(math.sqrt((0.01 + 0.25) / 1.0), 3)
+    (0.51, 0.51)
+    >>> round(cert.h2_kalman, 4), round(cert.hinf_kalman, 3)  # (WV)^{1/4} and 1/√(W/V)
+    (0.3162, 10.0)
+    >>> round(cert.h2_ratio_to_kalman, 2), cert.error_std.shape, cert.summary().splitlines()[0]
+    (1.61, (1,), 'noise-optimal gain certificate (mixed H2/H∞): verified')
     """
 
     gain: NDArray[np.float64]
@@ -640,6 +740,21 @@ def design_h2_gain(
         ``(A, C)`` not detectable, or the LMIs infeasible at ``γ`` (the message says which).
     CertificateError
         No gain passed the independent re-verification.
+
+    Examples
+    --------
+    A double integrator with a position sensor (``V = 0.25``) and white acceleration (``W = 4``), the
+    disturbance entering the velocity. At a loose ``γ = 2`` the Kalman–Bucy gain ``[2√2, 4]ᵀ``
+    (``‖H‖∞ ≈ 0.77``) satisfies LMI (14) and is found (:class:`MixedH2Certificate` shows a binding ``γ``):
+
+    >>> import numpy as np
+    >>> A, C, Bd = np.array([[0.0, 1.0], [0.0, 0.0]]), np.array([[1.0, 0.0]]), np.array([[0.0], [1.0]])
+    >>> noise = NoiseModel([[0.25]], process_input=[[0.0], [1.0]], process=[[4.0]])
+    >>> loose = design_h2_gain(A, C, Bd, gamma=2.0, noise=noise)
+    >>> loose.verified, np.round(loose.gain.ravel(), 3).tolist(), round(loose.h2 / loose.h2_kalman, 6)
+    (True, [2.828, 4.0], 1.0)
+    >>> bool(loose.hinf_H < 2.0), round(loose.hinf_kalman, 2)
+    (True, 0.77)
     """
     t0 = time.perf_counter()
     g = positive("gamma", gamma)
@@ -738,6 +853,21 @@ def verify_h2_gain(A: ArrayLike, C: ArrayLike, Bd: ArrayLike, K: ArrayLike, *, g
     Returns
     -------
     MixedH2Certificate
+
+    Examples
+    --------
+    The scalar observer ``ė = −k e + w − k v`` (``V = W = 1``) with the given ``k = 2``:
+    ``‖T‖₂ = √((W + k²V)/(2k)) = √1.25`` and ``‖H‖∞ = 1/k = 0.5``; ``k = 0.5`` has ``‖H‖∞ = 2`` and fails
+    LMI (14) at ``γ = 1``:
+
+    >>> import math
+    >>> noise = NoiseModel([[1.0]], process_input=[[1.0]], process=[[1.0]])
+    >>> cert = verify_h2_gain([[0.0]], [[1.0]], [[1.0]], [[2.0]], gamma=1.0, noise=noise)
+    >>> cert.verified, round(cert.h2, 4), round(math.sqrt(1.25), 4), round(cert.hinf_H, 4), cert.refined
+    (True, 1.118, 1.118, 0.5, False)
+    >>> slow = verify_h2_gain([[0.0]], [[1.0]], [[1.0]], [[0.5]], gamma=1.0, noise=noise)
+    >>> slow.verified, round(slow.hinf_H, 4), "‖H‖∞ < γ" in [c.name for c in slow.failed_checks]
+    (False, 2.0, True)
     """
     g = positive("gamma", gamma)
     if not isinstance(noise, NoiseModel):

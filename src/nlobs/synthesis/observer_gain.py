@@ -121,6 +121,25 @@ class GainBound:
     ----------
     kappa : float
         The bound ``κ > 0`` on the spectral norm of ``K``.
+
+    Examples
+    --------
+    The smallest ``γ`` of LMI (14) (Grip, Saberi & Johansen) for a damped oscillator under ``‖K‖₂ ≤ κ``:
+    the bound is re-verified, and a larger ``κ`` allows a smaller ``γ``:
+
+    >>> import numpy as np
+    >>> A, C, Bd = np.array([[0.0, 1.0], [-2.0, -0.5]]), np.array([[1.0, 0.0]]), np.array([[0.0], [1.0]])
+    >>> kappas = (0.5, 2.0)
+    >>> certs = [design_observer_gain(A, C, Bd, objective="min_gamma", gain_bound=GainBound(k)) for k in kappas]
+    >>> [(c.verified, c.checks[-1].name, bool(c.gain_norm <= k)) for c, k in zip(certs, kappas)]
+    [(True, '‖K‖₂ ≤ κ', True), (True, '‖K‖₂ ≤ κ', True)]
+    >>> bool(certs[1].gamma < certs[0].gamma)
+    True
+    >>> try:
+    ...     GainBound(0.0)
+    ... except Exception as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError gain_bound.kappa: must be positive, got 0.0
     """
 
     kappa: float

@@ -68,6 +68,21 @@ def high_gain_roots(r: int, theta: float, placement: Placement = "powers") -> Ar
     Returns
     -------
     ndarray, shape (r,)
+
+    Examples
+    --------
+    A block of size 3 with ``θ = 2``: the Dalla Mora–Germani–Manes roots ``−θ^i`` and the
+    Gauthier–Hammouri–Othman triple root ``−θ``:
+
+    >>> high_gain_roots(3, 2.0).tolist()
+    [-2.0, -4.0, -8.0]
+    >>> high_gain_roots(3, 2.0, "multiple").tolist()
+    [-2.0, -2.0, -2.0]
+    >>> try:
+    ...     high_gain_roots(3, 2.0, "random")
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError `placement`: expected one of ['powers', 'multiple'], got 'random'
     """
     r_ = _check_order(r)
     th = positive("`theta`", theta)
@@ -96,6 +111,31 @@ def high_gain_coefficients(r: int, theta: float, placement: Placement = "powers"
     Returns
     -------
     ndarray, shape (r,)
+
+    Raises
+    ------
+    InvalidArgumentError
+        ``θ`` so large that a coefficient exceeds double precision; ``θ ≤ 0``, ``r`` not a positive
+        integer or an unknown ``placement``.
+    NonFiniteError
+        ``θ`` is not finite.
+
+    Examples
+    --------
+    For ``r = 3``, ``θ = 2``: ``(λ + 2)(λ + 4)(λ + 8) = λ³ + 14λ² + 56λ + 64`` and the binomial
+    coefficients ``C(3, i) 2^i`` of ``(λ + 2)³``; both agree with the polynomial of the roots:
+
+    >>> import numpy as np
+    >>> k = high_gain_coefficients(3, 2.0)
+    >>> k.tolist(), bool(np.allclose(np.poly(high_gain_roots(3, 2.0))[1:], k))
+    ([14.0, 56.0, 64.0], True)
+    >>> high_gain_coefficients(3, 2.0, "multiple").tolist()
+    [6.0, 12.0, 8.0]
+    >>> try:
+    ...     high_gain_coefficients(30, 1e3)
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError `theta`: θ = 1000 makes the gain coefficients of (10) about 10^1395 ... below about 4.42
     """
     r_ = _check_order(r)
     th = positive("`theta`", theta)
@@ -124,6 +164,17 @@ class HighGain:
     theta : float
         ``θ > 0``; larger is faster (and amplifies noise).
     placement : {"powers", "multiple"}
+
+    Examples
+    --------
+    Two outputs with block sizes ``r = (2, 1)`` and ``θ = 2``: ``(λ + 2)(λ + 4) = λ² + 6λ + 8`` for
+    the first block and ``λ + 2`` for the second, stacked:
+
+    >>> design = HighGain(theta=2.0)
+    >>> design.vector([2, 1]).tolist(), design.roots([2, 1]).tolist()
+    ([6.0, 8.0, 2.0], [-2.0, -4.0, -2.0])
+    >>> HighGain(theta=2.0, placement="multiple").vector([2, 1]).tolist()  # (λ + 2)², λ + 2
+    [4.0, 4.0, 2.0]
     """
 
     theta: float = DEFAULT_THETA
@@ -153,6 +204,17 @@ def companion_error_matrix(k: ArrayLike) -> Array:
     Returns
     -------
     ndarray, shape (r, r)
+
+    Examples
+    --------
+    ``k = (6, 8)`` places the roots of ``λ² + 6λ + 8`` at ``−2, −4`` (:class:`HighGain` with ``θ = 2``):
+
+    >>> import numpy as np
+    >>> M = companion_error_matrix([6.0, 8.0])
+    >>> M.tolist()
+    [[-6.0, 1.0], [-8.0, 0.0]]
+    >>> np.sort(np.linalg.eigvals(M).real).tolist()
+    [-4.0, -2.0]
     """
     kv = as_vector("k", k)
     r = kv.size

@@ -62,7 +62,25 @@ def _finite(name: str, value: float) -> float:
 
 
 class PoleRegion(ABC):
-    """An LMI region ``D`` of the complex plane (Chilali & Gahinet 1996)."""
+    """An LMI region ``D`` of the complex plane (Chilali & Gahinet 1996).
+
+    Examples
+    --------
+    Several regions passed to a design are intersected: each adds its LMI with the ``P`` of LMI (14)
+    (Grip, Saberi & Johansen) and an eigenvalue check to the certificate:
+
+    >>> import numpy as np
+    >>> from nlobs.synthesis import design_observer_gain
+    >>> A, C, Bd = np.array([[0.0, 1.0], [-2.0, -0.5]]), np.array([[1.0, 0.0]]), np.array([[0.0], [1.0]])
+    >>> regions = [HalfPlane(1.0), Sector.from_damping(0.7)]
+    >>> cert = design_observer_gain(A, C, Bd, gamma=10.0, gamma_n=10.0, region=regions)
+    >>> cert.verified, [r.contains(cert.eigenvalues) for r in regions]
+    (True, [True, True])
+    >>> [c.name for c in cert.checks if c.name.startswith("region")]
+    ['region: half-plane Re λ < -1', 'region: sector |arg(−λ)| < 45.573°']
+    >>> all(issubclass(cls, PoleRegion) for cls in (HalfPlane, Disk, Sector, LmiRegion))
+    True
+    """
 
     @abstractmethod
     def lmi(self, P: Any, PF: Any) -> Any:
@@ -102,6 +120,20 @@ class HalfPlane(PoleRegion):
     alpha : float
         Required decay rate; any finite real (``α < 0`` allows slow unstable
         poles in the region itself, but LMI (14) still forces Hurwitz).
+
+    Examples
+    --------
+    ``F`` with eigenvalues ``−2 ± j`` decays at rate 2: inside ``Re λ < −1`` (margin 1), outside
+    ``Re λ < −2.5``. ``F`` is normal, so ``P = I`` proves it, and the LMI's largest eigenvalue is
+    ``2(α − 2)``:
+
+    >>> import numpy as np
+    >>> F = np.array([[-2.0, 1.0], [-1.0, -2.0]])
+    >>> lam = np.linalg.eigvals(F)
+    >>> HalfPlane(1.0).description, round(HalfPlane(1.0).margin(lam), 6), HalfPlane(2.5).contains(lam)
+    ('half-plane Re λ < -1', 1.0, False)
+    >>> [round(float(np.linalg.eigvalsh(HalfPlane(a).lmi(np.eye(2), F)).max()), 6) for a in (1.0, 2.5)]
+    [-2.0, 1.0]
     """
 
     alpha: float
@@ -135,6 +167,19 @@ class Disk(PoleRegion):
         Real centre ``c`` (e.g. ``−10``).
     radius : float
         Radius ``r > 0``.
+
+    Examples
+    --------
+    The eigenvalues ``−2 ± j`` lie at distance 1 from ``c = −2``: inside ``r = 1.5`` (margin 0.5), outside
+    ``r = 0.5``. With ``P = I`` (``F`` is normal) the LMI's largest eigenvalue is ``‖F − cI‖ − r = 1 − r``:
+
+    >>> import numpy as np
+    >>> F = np.array([[-2.0, 1.0], [-1.0, -2.0]])
+    >>> lam = np.linalg.eigvals(F)
+    >>> Disk(-2.0, 1.5).description, round(Disk(-2.0, 1.5).margin(lam), 6), Disk(-2.0, 0.5).contains(lam)
+    ('disk |λ − (-2)| < 1.5', 0.5, False)
+    >>> [round(float(np.linalg.eigvalsh(Disk(-2.0, r).lmi(np.eye(2), F)).max()), 6) for r in (1.5, 0.5)]
+    [-0.5, 0.5]
     """
 
     center: float
@@ -169,6 +214,25 @@ class Sector(PoleRegion):
     ----------
     half_angle : float
         ``θ`` in radians, ``0 < θ < π/2``.
+
+    Examples
+    --------
+    The eigenvalues ``−2 ± j`` have damping ratio ``2/√5 ≈ 0.894``: inside the sector of ``ζ > 0.7``,
+    outside that of ``ζ > 0.95``, and the LMI with ``P = I`` (``F`` is normal) agrees:
+
+    >>> import numpy as np
+    >>> F = np.array([[-2.0, 1.0], [-1.0, -2.0]])
+    >>> lam = np.linalg.eigvals(F)
+    >>> s = Sector.from_damping(0.7)
+    >>> s.description, round(s.half_angle, 4), s.contains(lam), Sector.from_damping(0.95).contains(lam)
+    ('sector |arg(−λ)| < 45.573°', 0.7954, True, False)
+    >>> [bool(np.linalg.eigvalsh(Sector.from_damping(z).lmi(np.eye(2), F)).max() < 0) for z in (0.7, 0.95)]
+    [True, False]
+    >>> try:
+    ...     Sector(2.0)
+    ... except Exception as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError half_angle: must lie in (0, π/2) radians, got 2.0
     """
 
     half_angle: float
@@ -218,6 +282,24 @@ class LmiRegion(PoleRegion):
         Real ``d × d``.
     name : str
         Label for messages.
+
+    Examples
+    --------
+    ``Re z < −1`` as ``L = [2]``, ``M = [1]`` (``f = 2 + z + z̄``), and the disk ``|z + 2| < 1.5`` as
+    ``L = [[−1.5, 2], [2, −1.5]]``, ``M = [[0, 1], [0, 0]]``: their LMIs are those of :class:`HalfPlane` and
+    :class:`Disk` for any ``P``:
+
+    >>> import numpy as np
+    >>> F, P = np.array([[-2.0, 1.0], [-1.0, -2.0]]), np.array([[2.0, 0.5], [0.5, 1.0]])
+    >>> hp = LmiRegion([[2.0]], [[1.0]], name="Re z < -1")
+    >>> dk = LmiRegion([[-1.5, 2.0], [2.0, -1.5]], [[0.0, 1.0], [0.0, 0.0]], name="|z + 2| < 1.5")
+    >>> bool(np.allclose(hp.lmi(P, P @ F), HalfPlane(1.0).lmi(P, P @ F)))
+    True
+    >>> bool(np.allclose(dk.lmi(P, P @ F), Disk(-2.0, 1.5).lmi(P, P @ F)))
+    True
+    >>> lam = np.linalg.eigvals(F)  # −2 ± j
+    >>> hp.contains(lam), dk.contains(lam), dk.contains([-3.6]), dk.description
+    (True, True, False, '|z + 2| < 1.5')
     """
 
     L: NDArray[np.float64]

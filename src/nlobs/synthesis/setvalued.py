@@ -103,7 +103,29 @@ __all__ = [
 
 
 class SetValuedObjective(str, Enum):
-    """What :func:`design_setvalued` optimises."""
+    """What :func:`design_setvalued` optimises.
+
+    Examples
+    --------
+    A linear plant (``γ = 0``) with three states, two outputs and one unknown input: the ``"hinf"``
+    design bounds the ℓ₂ gain of Definition 5.9 by ``ρ``, which the H∞ norm of the linear error
+    dynamics (computed independently) does not exceed, and contracts by ``λ_eff = 1 − 1/λ_max(P)``;
+    the ``"radius"`` design (the default) bounds the steady radius, here at a fixed ``λ``:
+
+    >>> import numpy as np
+    >>> from nlobs.systems.timebase import Discrete
+    >>> A = np.array([[0.9, 0.2, 0.0], [0.0, 0.8, 0.3], [0.1, 0.0, 1.05]])
+    >>> system = DiscreteUISystem(A, [[1.0], [0.0], [0.5]], [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]], [[0.0], [0.2]],
+    ...                           function_class=Lipschitz(0.0, 3), eta_w=0.05, eta_v=0.02, time=Discrete(1.0))
+    >>> hinf = design_setvalued(system, objective="hinf")
+    >>> hinf.objective, hinf.verified, hinf.lam, round(hinf.rho, 1)
+    (<SetValuedObjective.HINF: 'hinf'>, True, 1.0, 5.2)
+    >>> bool(hinf.hinf_linear[0] <= hinf.rho * (1 + 1e-7)), bool(hinf.lam_eff < 1)
+    (True, True)
+    >>> radius = design_setvalued(system, lam=0.5)
+    >>> radius.objective.value, radius.rho, radius.verified, bool(np.isfinite(radius.steady_radius))
+    ('radius', None, True, True)
+    """
 
     RADIUS = "radius"
     """Smallest steady-state bound on ``V`` (hence on the radius), with a line search over ``λ``."""
@@ -225,6 +247,29 @@ class ErrorDynamics:
     Xic : ndarray, shape (l − p_H, 2n + 2l + n_w)
     n, l, n_w : int
     transform : UITransform
+
+    Examples
+    --------
+    A linear plant with three states and one unknown input: ``Ξ(L̃)`` of a designed gain, split into
+    its ``ζ``, ``π`` and ``ω`` columns; the ``ζ`` block ``𝒜`` is the error matrix whose spectral radius
+    the design certifies (the only linear member of the class, ``γ = 0``, is ``K = 0``):
+
+    >>> import numpy as np
+    >>> from nlobs.systems.timebase import Discrete
+    >>> A = np.array([[0.9, 0.2, 0.0], [0.0, 0.8, 0.3], [0.1, 0.0, 1.05]])
+    >>> system = DiscreteUISystem(A, [[1.0], [0.0], [0.5]], [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]], [[0.0], [0.2]],
+    ...                           function_class=Lipschitz(0.0, 3), eta_w=0.05, eta_v=0.02, time=Discrete(1.0))
+    >>> design = design_setvalued(system, lam=0.5)
+    >>> dyn = design.dynamics
+    >>> Acl, Bcl, E = dyn.split(design.gain)
+    >>> Acl.shape, Bcl.shape, E.shape  # ω = (v_{k−1}, w_{k−1}, v_k): 2 + 3 + 2 columns
+    ((3, 3), (3, 3), (3, 7))
+    >>> bool(np.isclose(max(abs(np.linalg.eigvals(Acl))), design.spectral_radii[0]))
+    True
+    >>> bool(design.spectral_radii[0] <= np.sqrt(design.lam))
+    True
+    >>> bool(np.array_equal(dyn.closed_loop(np.zeros_like(design.gain)), dyn.Xi0))  # L̃ = 0: Ξ₀
+    True
     """
 
     Xi0: Array
@@ -259,6 +304,24 @@ def error_dynamics(system: DiscreteUISystem, transform: UITransform | None = Non
     Returns
     -------
     ErrorDynamics
+
+    Examples
+    --------
+    A linear plant with three states, two outputs (``l = 2``), one unknown input, ``W = I``
+    (``n_w = 3``): ``Ξ₀`` has ``2n + 2l + n_w = 13`` columns, and its ``ζ`` and ``π`` blocks are
+    ``Φ(A − Ψ)`` and ``Φ`` of the transformation (Appendix A.1); one output is left for the gain:
+
+    >>> import numpy as np
+    >>> from nlobs.systems.timebase import Discrete
+    >>> A = np.array([[0.9, 0.2, 0.0], [0.0, 0.8, 0.3], [0.1, 0.0, 1.05]])
+    >>> system = DiscreteUISystem(A, [[1.0], [0.0], [0.5]], [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]], [[0.0], [0.2]],
+    ...                           function_class=Lipschitz(0.0, 3), eta_w=0.05, eta_v=0.02, time=Discrete(1.0))
+    >>> dyn = error_dynamics(system)
+    >>> dyn.Xi0.shape, dyn.Xic.shape, (dyn.n, dyn.l, dyn.n_w)
+    ((3, 13), (1, 13), (3, 2, 3))
+    >>> tr = dyn.transform
+    >>> bool(np.allclose(dyn.Xi0[:, :3], tr.Phi @ (A - tr.Psi))), bool(np.allclose(dyn.Xi0[:, 3:6], tr.Phi))
+    (True, True)
     """
     tr = ui_transform(system.G, system.C, system.H, system.D) if transform is None else transform
     n, l, nw = system.n, system.l, system.n_w
@@ -314,6 +377,25 @@ class SetValuedDesign(CertificateMixin):
         Number of SDP solves (one compiled problem).
     certified_for : CertifiedFor
         The system data the certificate holds for (checked by the observer's runners).
+
+    Examples
+    --------
+    The flexible-joint robot of Khajenejad & Yong, Sec. 6.1, designed at ``λ = 0.98``: ``V_k ≤ λ V_{k−1} + c``
+    gives the steady radius ``√(c / ((1 − λ) λ_min(P)))``; the certificate holds for this system only:
+
+    >>> import dataclasses, math
+    >>> import numpy as np
+    >>> from nlobs.systems.modelfile import load_discrete_ui
+    >>> system = load_discrete_ui("khajenejad-6-1")
+    >>> d = design_setvalued(system, lam=0.98)
+    >>> d.verified, d.lam, d.q, d.lam_eff, d.gain.shape, d.P.shape
+    (True, 0.98, 0.0, 0.98, (4, 1), (4, 4))
+    >>> math.isclose(d.steady_radius, math.sqrt(d.c / ((1 - d.lam_eff) * np.linalg.eigvalsh(d.P)[0])))
+    True
+    >>> d.certified_for.mismatches(system)
+    []
+    >>> d.certified_for.mismatches(dataclasses.replace(system, eta_v=1.0))
+    ['eta_v = 1 exceeds the certified 0.1']
     """
 
     objective: SetValuedObjective

@@ -30,6 +30,25 @@ def brunovsky(s: Sequence[int]) -> tuple[Array, Array, Array]:
     """``(A_s, B_s, C_s)`` of Dalla Mora, Germani & Manes (2.16): ``n × n``, ``n × q``, ``q × n`` with ``n = Σ s_j``.
 
     Block ``j``: ``A_j`` the ``s_j × s_j`` upper shift, ``B_j = e_{s_j}``, ``C_j = e_1ᵀ``.
+
+    Examples
+    --------
+    The multi-index ``s = (2, 1)``: a chain of two integrators and a single one, each measured at its
+    top; the pair ``(A_s, C_s)`` is observable:
+
+    >>> import numpy as np
+    >>> A, B, C = brunovsky([2, 1])
+    >>> A.tolist()
+    [[0.0, 1.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]
+    >>> B.tolist(), C.tolist()
+    ([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]], [[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    >>> int(np.linalg.matrix_rank(np.vstack([C, C @ A, C @ A @ A])))
+    3
+    >>> try:
+    ...     brunovsky([2, 0])
+    ... except Exception as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    InvalidArgumentError - s: every entry must be a positive integer (at least 1), got [2, 0]
     """
     s_ = positive_multi_index(s)
     n, q = sum(s_), len(s_)

@@ -87,6 +87,26 @@ class NonlinearSubsystem:
     feedback : bool
         ``True`` for Σ₁* (``f, h, g`` depend on ``w``).
     name : str
+
+    Examples
+    --------
+    Σ₁ of Example 1 of Grip, Saberi & Johansen, ``ẋ1 = x2``, ``ẋ2 = x1 − x2 + 0.4 sin x1``, ``z = x2``, with the
+    injection term of Rajamani's observer (3), ``g = L (z − x̂2)``, ``L = [69.6, 11.6]``; evaluated at
+    ``x = (1, 2)`` (no input, no ``w`` in the cascade case):
+
+    >>> import math
+    >>> import numpy as np
+    >>> sigma1 = NonlinearSubsystem.symbolic(states=["x1", "x2"], outputs=["z"], f=["x2", "x1 - x2 + 0.4*sin(x1)"],
+    ...                                      h=["x2"], g=["69.6*(z - x2)", "11.6*(z - x2)"])
+    >>> sigma1.states, sigma1.outputs, sigma1.feedback, (sigma1.n_x, sigma1.m, sigma1.p_z)
+    (('x1', 'x2'), ('z',), False, (2, 0, 1))
+    >>> u, w, x = np.zeros(0), np.zeros(0), np.array([1.0, 2.0])
+    >>> bool(np.allclose(sigma1.f(u, w, x), [2.0, 1.0 - 2.0 + 0.4 * math.sin(1.0)]))
+    True
+    >>> sigma1.h(u, w, x).tolist(), sigma1.h_x(u, w, x).tolist()
+    ([2.0], [[0.0, 1.0]])
+    >>> np.round(sigma1.g(u, np.array([1.0, 1.5]), w, np.array([2.0])), 6).tolist()  # L (z − x̂2), z − x̂2 = 0.5
+    [34.8, 5.8]
     """
 
     states: tuple[str, ...]
@@ -359,6 +379,20 @@ class LinearSubsystem:
         Zero when omitted (both must have the same ``m`` when given).
     states, outputs : sequence of str, optional
         Names of ``w`` (default ``w1..``) and ``y`` (default ``y1..``).
+
+    Examples
+    --------
+    The filter Σ₂ = 1/(s² + s + 1) of Example 1 of Grip, Saberi & Johansen, driven by ``z``, its output
+    ``y = w1`` measured; ``D_z`` is zero when omitted, and the DC gain ``C (−A)⁻¹ B_z`` is 1:
+
+    >>> import numpy as np
+    >>> sigma2 = LinearSubsystem([[0.0, 1.0], [-1.0, -1.0]], [[0.0], [1.0]], [[1.0, 0.0]])
+    >>> sigma2.states, sigma2.outputs, (sigma2.n_w, sigma2.p_z, sigma2.p_y), sigma2.D_z.tolist()
+    (('w1', 'w2'), ('y1',), (2, 1, 1), [[0.0]])
+    >>> (sigma2.C @ np.linalg.solve(-sigma2.A, sigma2.B_z)).tolist()
+    [[1.0]]
+    >>> [M.shape for M in sigma2.input_matrices(1)]  # B_u, D_u: zero when omitted
+    [(2, 1), (1, 1)]
     """
 
     A: Array
@@ -480,6 +514,21 @@ def check_interconnection(sigma1: NonlinearSubsystem, sigma2: LinearSubsystem) -
         ``B_u``/``D_u`` columns differ from Σ₁'s inputs.
     InvalidArgumentError
         Wrong types.
+
+    Examples
+    --------
+    Σ₁ and Σ₂ of Example 1 of Grip, Saberi & Johansen fit (one ``z``); a Σ₂ driven by two ``z`` does not:
+
+    >>> sigma1 = NonlinearSubsystem.symbolic(states=["x1", "x2"], outputs=["z"], f=["x2", "x1 - x2 + 0.4*sin(x1)"],
+    ...                                      h=["x2"], g=["69.6*(z - x2)", "11.6*(z - x2)"])
+    >>> sigma2 = LinearSubsystem([[0.0, 1.0], [-1.0, -1.0]], [[0.0], [1.0]], [[1.0, 0.0]])
+    >>> check_interconnection(sigma1, sigma2) is None
+    True
+    >>> try:
+    ...     check_interconnection(sigma1, LinearSubsystem([[-1.0]], [[1.0, 1.0]], [[1.0]]))
+    ... except DimensionError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    DimensionError - p_z mismatch: h of Σ1 has 1 outputs z but B_z/D_z of Σ2 have 2 columns
     """
     if not isinstance(sigma1, NonlinearSubsystem):
         raise InvalidArgumentError(f"sigma1: expected a NonlinearSubsystem, got {type(sigma1).__name__}")
@@ -513,6 +562,26 @@ class InterconnectedPlant:
         Σ₁ (1a) or Σ₁* (2).
     sigma2 : LinearSubsystem
         Σ₂ (1b).
+
+    Examples
+    --------
+    The cascade of Example 1 of Grip, Saberi & Johansen (Fig. 1) is a :class:`~nlobs.systems.base.PlantModel`
+    of state ``[x1, x2, w1, w2]``; its right-hand side takes a batch of states, and ``z`` is available for
+    comparisons although only ``y`` is measured:
+
+    >>> import numpy as np
+    >>> from nlobs.systems.base import PlantModel
+    >>> sigma1 = NonlinearSubsystem.symbolic(states=["x1", "x2"], outputs=["z"], f=["x2", "x1 - x2 + 0.4*sin(x1)"],
+    ...                                      h=["x2"], g=["69.6*(z - x2)", "11.6*(z - x2)"])
+    >>> sigma2 = LinearSubsystem([[0.0, 1.0], [-1.0, -1.0]], [[0.0], [1.0]], [[1.0, 0.0]])
+    >>> plant = InterconnectedPlant(sigma1, sigma2)
+    >>> isinstance(plant, PlantModel), plant.states, (plant.n, plant.m, plant.p)
+    (True, ('x1', 'x2', 'w1', 'w2'), (4, 0, 1))
+    >>> batch = np.array([[1.0, 2.0, 0.5, -1.0], [0.0, 0.0, 0.0, 0.0]])
+    >>> plant.rhs(0.0, batch, np.zeros((2, 0))).shape
+    (2, 4)
+    >>> plant.z(0.0, batch, np.zeros((2, 0))).tolist(), plant.output(0.0, batch, np.zeros((2, 0))).tolist()
+    ([[2.0], [0.0]], [[0.5], [0.0]])
     """
 
     sigma1: NonlinearSubsystem
@@ -590,5 +659,22 @@ def interconnected_plant(sigma1: NonlinearSubsystem, sigma2: LinearSubsystem) ->
     ------
     DimensionError
         Σ₁ and Σ₂ do not fit (see :func:`check_interconnection`).
+
+    Examples
+    --------
+    The plant (1) of Example 1 of Grip, Saberi & Johansen at ``[x1, x2, w1, w2] = [1, 2, 0.5, −1]``:
+    ``ẋ = (x2, x1 − x2 + 0.4 sin x1)``, ``ẇ = (w2, −w1 − w2 + z)`` with ``z = x2``, and ``y = w1``:
+
+    >>> import math
+    >>> import numpy as np
+    >>> sigma1 = NonlinearSubsystem.symbolic(states=["x1", "x2"], outputs=["z"], f=["x2", "x1 - x2 + 0.4*sin(x1)"],
+    ...                                      h=["x2"], g=["69.6*(z - x2)", "11.6*(z - x2)"])
+    >>> sigma2 = LinearSubsystem([[0.0, 1.0], [-1.0, -1.0]], [[0.0], [1.0]], [[1.0, 0.0]])
+    >>> plant = interconnected_plant(sigma1, sigma2)
+    >>> s, u = np.array([1.0, 2.0, 0.5, -1.0]), np.zeros(0)
+    >>> bool(np.allclose(plant.rhs(0.0, s, u), [2.0, -1.0 + 0.4 * math.sin(1.0), -1.0, -0.5 + 1.0 + 2.0]))
+    True
+    >>> plant.output(0.0, s, u).tolist(), plant.outputs
+    ([0.5], ('y1',))
     """
     return InterconnectedPlant(sigma1, sigma2)

@@ -192,6 +192,24 @@ def resolve_model(model: str | os.PathLike[str]) -> Path:
     ModelFileError
         No such file and no shipped model of that name (the message lists the shipped names), or the
         name is ambiguous.
+
+    Examples
+    --------
+    A bare name is a shipped model, a ``Path`` is returned as it is, and a misspelt name is refused with
+    the names that exist:
+
+    >>> from pathlib import Path
+    >>> from nlobs.errors import ModelFileError
+    >>> found = resolve_model("pendulum")
+    >>> found.name, found == shipped_models()["pendulum"], found.is_file()
+    ('pendulum.toml', True, True)
+    >>> resolve_model(Path("models") / "plant.toml").as_posix()
+    'models/plant.toml'
+    >>> try:
+    ...     resolve_model("pendulm")
+    ... except ModelFileError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ModelFileError - pendulm: no such file (shipped models: ball-and-beam, cartpole, ..., pendulum, ...)
     """
     if not isinstance(model, str):  # a path object is a path: the reader says why it cannot be read
         return Path(model)

@@ -82,7 +82,26 @@ def _finite(name: str, value: Any) -> float:
 
 
 class Signal:
-    """Base class of the scalar known-input signals of this module (see the module docstring)."""
+    """Base class of the scalar known-input signals of this module (see the module docstring).
+
+    Examples
+    --------
+    Every kind of signal is called at a time (or an array of times), describes itself in one line, and says
+    whether it is constant between jumps:
+
+    >>> import numpy as np
+    >>> signals = [Constant(1.5), Step(0.0, 2.0, at=1.0), Sine(0.5, 0.25, offset=1.0), Expression("exp(-t)")]
+    >>> all(isinstance(sig, Signal) for sig in signals)
+    True
+    >>> for sig in signals:
+    ...     print(f"{sig.describe()} | u(1) = {round(sig(1.0), 4)} | piecewise constant: {sig.piecewise_constant}")
+    constant 1.5 | u(1) = 1.5 | piecewise constant: True
+    step 0 → 2 at t = 1 | u(1) = 2.0 | piecewise constant: True
+    sine 0.5 sin(2π·0.25 t + 0) + 1 | u(1) = 1.5 | piecewise constant: False
+    expression exp(-t) | u(1) = 0.3679 | piecewise constant: False
+    >>> [sig(np.array([0.0, 0.5, 2.0])).shape for sig in signals]
+    [(3,), (3,), (3,), (3,)]
+    """
 
     __slots__ = ()
 
@@ -103,7 +122,17 @@ class Signal:
 
 @dataclass(frozen=True)
 class Constant(Signal):
-    """The constant signal ``u(t) = value``."""
+    """The constant signal ``u(t) = value``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> c = Constant(1.5)
+    >>> c(7.0), c(np.array([0.0, 1.0, 2.0])).tolist(), c.describe()
+    (1.5, [1.5, 1.5, 1.5], 'constant 1.5')
+    >>> c.to_dict(), signal_from_table(c.to_dict()) == c
+    ({'kind': 'constant', 'value': 1.5}, True)
+    """
 
     value: float
 
@@ -128,7 +157,19 @@ class Constant(Signal):
 
 @dataclass(frozen=True)
 class Step(Signal):
-    """A step: ``before`` for ``t < at``, ``after`` from ``t >= at`` on."""
+    """A step: ``before`` for ``t < at``, ``after`` from ``t >= at`` on.
+
+    Examples
+    --------
+    A torque switched from 0 to 2 at ``t = 1`` s; the new value holds from the instant of the step on:
+
+    >>> import numpy as np
+    >>> step = Step(before=0.0, after=2.0, at=1.0)
+    >>> step(0.999), step(1.0), step(np.array([0.0, 0.5, 1.0, 1.5])).tolist()
+    (0.0, 2.0, [0.0, 0.0, 2.0, 2.0])
+    >>> step.describe(), step.piecewise_constant
+    ('step 0 → 2 at t = 1', True)
+    """
 
     before: float
     after: float
@@ -168,6 +209,19 @@ class Sine(Signal):
         In radians.
     offset : float
         Added to the sine.
+
+    Examples
+    --------
+    ``2 sin(2π·0.25 t) + 1``: a period of 4 s, its maximum 3 at ``t = 1``:
+
+    >>> import math
+    >>> import numpy as np
+    >>> sine = Sine(amplitude=2.0, frequency=0.25, offset=1.0)
+    >>> round(sine(1.0), 12), sine.describe()
+    (3.0, 'sine 2 sin(2π·0.25 t + 0) + 1')
+    >>> t = np.linspace(0.0, 8.0, 33)
+    >>> bool(np.allclose(sine(t), 2.0 * np.sin(0.5 * math.pi * t) + 1.0)), bool(np.allclose(sine(t + 4.0), sine(t)))
+    (True, True)
     """
 
     amplitude: float
@@ -215,6 +269,21 @@ class Chirp(Signal):
         Length of the sweep in seconds, positive.
     offset : float
         Added to the sine.
+
+    Examples
+    --------
+    A sweep from 0.5 to 2.5 Hz over 4 s: the instantaneous frequency grows linearly, then stays at ``f1``;
+    it is the derivative of the phase over 2π (checked here by a central difference):
+
+    >>> import math
+    >>> chirp = Chirp(amplitude=1.0, f0=0.5, f1=2.5, duration=4.0)
+    >>> [chirp.frequency(t) for t in (0.0, 2.0, 4.0, 10.0)]
+    [0.5, 1.5, 2.5, 2.5]
+    >>> h = 1e-6
+    >>> [round((chirp.phase(t + h) - chirp.phase(t - h)) / (2 * h) / (2 * math.pi), 6) for t in (1.0, 6.0)]
+    [1.0, 2.5]
+    >>> chirp.describe()
+    'chirp 1 sin(φ(t)) + 0, 0.5 → 2.5 Hz linearly over [0, 4] s, then 2.5 Hz'
     """
 
     amplitude: float
@@ -286,6 +355,24 @@ class Piecewise(Signal):
     -----
     Before ``times[0]`` the signal holds ``values[0]``, after ``times[-1]`` it holds ``values[-1]``.
     Two piecewise signals are equal when their kinds, times and values are.
+
+    Examples
+    --------
+    Three samples, held or interpolated; outside the samples the first and last values hold:
+
+    >>> import numpy as np
+    >>> hold = Piecewise([0.0, 1.0, 2.0], [0.0, 10.0, 5.0])
+    >>> linear = Piecewise([0.0, 1.0, 2.0], [0.0, 10.0, 5.0], kind="linear")
+    >>> t = np.array([-1.0, 0.5, 1.0, 1.5, 3.0])
+    >>> hold(t).tolist(), linear(t).tolist()
+    ([0.0, 0.0, 10.0, 10.0, 5.0], [0.0, 5.0, 10.0, 7.5, 5.0])
+    >>> hold.piecewise_constant, linear.piecewise_constant, hold.describe()
+    (True, False, 'piecewise zero-order hold, 3 samples over t ∈ [0, 2], values in [0, 10]')
+    >>> try:
+    ...     Piecewise([0.0, 1.0, 1.0], [0.0, 1.0, 2.0])
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    InvalidArgumentError - Piecewise.times: must be strictly increasing; times[2] = 1.0 is not after times[1] = 1.0
     """
 
     times: Array
@@ -303,8 +390,8 @@ class Piecewise(Signal):
         bad = np.flatnonzero(np.diff(t) <= 0)
         if bad.size:
             k = int(bad[0]) + 1
-            raise InvalidArgumentError(f"Piecewise.times: must be strictly increasing; times[{k}] = {t[k]!r} is not "
-                                       f"after times[{k - 1}] = {t[k - 1]!r}")
+            raise InvalidArgumentError(f"Piecewise.times: must be strictly increasing; times[{k}] = {float(t[k])!r} "
+                                       f"is not after times[{k - 1}] = {float(t[k - 1])!r}")
         if self.kind not in ("hold", "linear"):
             raise InvalidArgumentError(f"Piecewise.kind: expected 'hold' or 'linear', got {self.kind!r}")
         if not isinstance(self.source, str):
@@ -372,6 +459,25 @@ class Expression(Signal):
         The text is not an allowed expression of ``t`` and the parameters.
     InvalidArgumentError, NonFiniteError
         A parameter name or value is not allowed.
+
+    Examples
+    --------
+    ``a sin(w t)`` with ``a = 2``, ``w = 3``: the value is that of the closed form, the unused parameter is
+    dropped, and text that is not a whitelisted expression is refused without being run:
+
+    >>> import math
+    >>> import numpy as np
+    >>> e = Expression("a*sin(w*t)", {"a": 2.0, "w": 3.0, "unused": 1.0})
+    >>> bool(np.isclose(e(0.5), 2.0 * math.sin(1.5))), e(np.array([0.0, 1.0])).shape
+    (True, (2,))
+    >>> dict(e.parameters), e.describe()
+    ({'a': 2.0, 'w': 3.0}, 'expression a*sin(w*t) with a = 2, w = 3')
+    >>> from nlobs.systems.expressions import ExpressionError
+    >>> try:
+    ...     Expression('__import__("os")')
+    ... except ExpressionError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ExpressionError - function is not in the whitelist abs, acos, ...: '__import__' in expression ...
     """
 
     text: str
@@ -438,6 +544,20 @@ class InputSignals:
         The input names (unique identifiers), in the order of the plant's inputs.
     signals : sequence of Signal
         One signal per name.
+
+    Examples
+    --------
+    Two inputs: ``u(t)`` is a vector of two entries, or one row per time of an array of times:
+
+    >>> import numpy as np
+    >>> u = InputSignals(("tau", "F"), (Sine(1.0, 0.25), Step(0.0, 5.0, at=2.0)))
+    >>> u.m, np.round(u(1.0), 6).tolist(), u(np.linspace(0.0, 3.0, 4)).shape
+    (2, [1.0, 0.0], (4, 2))
+    >>> print(u.describe())
+    tau: sine 1 sin(2π·0.25 t + 0) + 0
+    F: step 0 → 5 at t = 2
+    >>> u.piecewise_constant, InputSignals(("F",), (Step(0.0, 5.0, at=2.0),)).piecewise_constant
+    (False, True)
     """
 
     names: tuple[str, ...]
@@ -527,6 +647,28 @@ def read_signal_csv(path: str | Path, *, columns: Sequence[str] | None = None,
         message is one line naming the file and the line.
     UnknownNameError
         A name in ``columns`` is not a column of the file (the message lists those that are).
+
+    Examples
+    --------
+    Two sampled inputs, held (default) or interpolated linearly; a column not in the file is refused with
+    the list of those that are:
+
+    >>> import shutil
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = (folder / "u.csv").write_text("t,tau,F\\n0.0,0.0,1.5\\n0.5,0.2,1.5\\n1.0,0.4,0.0\\n", encoding="utf-8")
+    >>> signals = read_signal_csv(folder / "u.csv")
+    >>> list(signals), signals["tau"](0.75), signals["F"](2.0)
+    (['tau', 'F'], 0.2, 0.0)
+    >>> round(read_signal_csv(folder / "u.csv", columns=["tau"], kind="linear")["tau"](0.75), 6)
+    0.3
+    >>> try:
+    ...     read_signal_csv(folder / "u.csv", columns=["torque"])
+    ... except UnknownNameError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    UnknownNameError - ...u.csv: no column 'torque'; the columns are: tau, F
+    >>> shutil.rmtree(folder)
     """
     p = str(path)
     if kind not in ("hold", "linear"):
@@ -737,6 +879,23 @@ def parse_signal_spec(text: str, *, parameters: Mapping[str, float] | None = Non
         not allowed.
     SignalFileError, UnknownNameError
         As :func:`read_signal_csv`.
+
+    Examples
+    --------
+    >>> parse_signal_spec("1.5")
+    Constant(value=1.5)
+    >>> parse_signal_spec("step:0,1,2").describe()
+    'step 0 → 1 at t = 2'
+    >>> sine = parse_signal_spec("sine:1,w,pi/2", parameters={"w": 2.0})  # sin(2π·2 t + π/2) = cos(4π t)
+    >>> sine.frequency, round(sine(0.25), 12)
+    (2.0, -1.0)
+    >>> parse_signal_spec("expr:0.5*sin(2*t)").describe()
+    'expression 0.5*sin(2*t)'
+    >>> try:
+    ...     parse_signal_spec("sin:1,0.5")
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    InvalidArgumentError - input signal 'sin:1,0.5': unknown kind 'sin'; expected one of: NUMBER, constant:VALUE, ...
     """
     if not isinstance(text, str):
         raise InvalidArgumentError(f"input signal: expected a string, got {type(text).__name__}")
@@ -817,6 +976,26 @@ def signal_from_table(table: Mapping[str, Any], *, parameters: Mapping[str, floa
         a value that is not allowed.
     SignalFileError, UnknownNameError
         As :func:`read_signal_csv`.
+
+    Examples
+    --------
+    A table as a model file writes it, a number given as an expression of a parameter, and the round trip
+    of a signal through its ``to_dict()``:
+
+    >>> sine = signal_from_table({"kind": "sine", "amplitude": 1, "frequency": "w/2"}, parameters={"w": 1.0})
+    >>> sine.describe()
+    'sine 1 sin(2π·0.5 t + 0) + 0'
+    >>> chirp = Chirp(1.0, 0.5, 2.5, duration=4.0)
+    >>> signal_from_table(chirp.to_dict()) == chirp
+    True
+    >>> signal_from_table({"kind": "piecewise", "times": [0, 1], "values": [0, 2], "interpolation": "linear"})(0.25)
+    0.5
+    >>> try:
+    ...     signal_from_table({"kind": "sine", "amplitude": 1, "freq": 0.5})
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    InvalidArgumentError - input signal of kind 'sine': unknown key 'freq'; allowed keys: kind, amplitude, frequency,
+    phase, offset
     """
     if not isinstance(table, Mapping):
         raise InvalidArgumentError(f"input signal: expected a table with a 'kind' key, got {type(table).__name__}")

@@ -78,6 +78,31 @@ class SymbolicModel:
     time : Continuous or Discrete
         Time base.
     name : str
+
+    Examples
+    --------
+    A pendulum ``θ̇ = ω``, ``ω̇ = −(g/l) sin θ + τ``, ``y = θ``, written as text over its names (parsed, never
+    evaluated); the input-affine parts and the whole right-hand side are SymPy matrices:
+
+    >>> m = SymbolicModel.input_affine(["theta", "omega"], ["tau"], ["y"], f=["omega", "-(g/l)*sin(theta)"],
+    ...                                g=[["0"], ["1"]], h=["theta"], parameters={"g": 9.81, "l": 1.0},
+    ...                                name="pendulum")
+    >>> m.states, m.inputs, m.outputs, (m.n, m.m, m.p), m.is_input_affine
+    (('theta', 'omega'), ('tau',), ('y',), (2, 1, 1), True)
+    >>> m.drift.T, m.input_matrix.T, m.rhs.T
+    (Matrix([[omega, -g*sin(theta)/l]]), Matrix([[0, 1]]), Matrix([[omega, -g*sin(theta)/l + tau]]))
+
+    The general form ``ẋ = F(x, u)`` has no input-affine parts; a name the model does not declare is refused:
+
+    >>> cubic = SymbolicModel.general(["x"], ["u"], ["y"], rhs=["-x**3 + u"], h=["x"])
+    >>> cubic.is_input_affine, cubic.drift is None
+    (False, True)
+    >>> from nlobs.systems.expressions import ExpressionError
+    >>> try:
+    ...     SymbolicModel.general(["x"], [], ["y"], rhs=["-k*x"], h=["x"])
+    ... except ExpressionError as exc:
+    ...     print(type(exc).__name__, "-", exc)
+    ExpressionError - rhs[0]: undeclared name: 'k' in expression '-k*x'
     """
 
     x: tuple[sp.Symbol, ...]
@@ -296,6 +321,29 @@ class CompiledModel:
 
     It pickles (process pools, Dask): the symbolic model it was compiled from travels instead of
     the generated functions, and is compiled again on the other side.
+
+    Examples
+    --------
+    The shipped pendulum, ``θ̇ = ω``, ``ω̇ = −(g/l) sin θ − c ω + τ/(m l²)``, compiled with ``l = 2``: its
+    right-hand side and Jacobian agree with the closed forms, a batch of states is evaluated in one call,
+    and a pickled copy computes the same:
+
+    >>> import math
+    >>> import pickle
+    >>> import numpy as np
+    >>> import nlobs
+    >>> plant = nlobs.load_model("pendulum").compile({"l": 2.0})
+    >>> g, l, c, mass = 9.81, 2.0, 0.2, 0.5
+    >>> x, u = np.array([math.pi / 6, 0.5]), np.array([1.0])
+    >>> bool(np.allclose(plant.rhs(0.0, x, u), [0.5, -(g / l) * 0.5 - c * 0.5 + 1.0 / (mass * l**2)]))
+    True
+    >>> bool(np.allclose(plant.rhs_jacobian_x(0.0, x, u), [[0.0, 1.0], [-(g / l) * math.cos(math.pi / 6), -c]]))
+    True
+    >>> plant.output(0.0, np.zeros((4, 2)), np.zeros((4, 1))).shape, plant.rhs_jacobian_u(0.0, x, u).tolist()
+    ((4, 1), [[0.0], [0.5]])
+    >>> copy = pickle.loads(pickle.dumps(plant))
+    >>> bool(np.array_equal(copy.rhs(0.0, x, u), plant.rhs(0.0, x, u)))
+    True
     """
 
     time: TimeBase

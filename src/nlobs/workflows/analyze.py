@@ -373,6 +373,24 @@ class AnalysisReport:
     verdict : Verdict
         Always ``OK`` (an analysis reports; it does not fail).
     message : str
+
+    Examples
+    --------
+    The report of a linear model, ``G(s) = 1 / (s² + 0.5 s + 2)``: its poles ``−0.25 ± j√1.9375``, and its H2
+    norm ``1 / √(2 · 0.5 · 2) = 1/√2``; the advisor recommends a Luenberger observer:
+
+    >>> import math
+    >>> import nlobs
+    >>> report = analyze_model(nlobs.LinearSystem([[0.0, 1.0], [-2.0, -0.5]], [[0.0], [1.0]], [[1.0, 0.0]]))
+    >>> type(report.report).__name__, report.verdict.value, report.message
+    ('LinearReport', 'ok', '')
+    >>> data = report.to_dict()
+    >>> data["kind"], data["observable"], data["stable"], [round(im, 4) for _, im in data["eigenvalues"]]
+    ('linear', True, True, [-1.3919, 1.3919])
+    >>> round(data["h2_norm"], 6), round(1 / math.sqrt(2), 6), data["advice"]["recommended"]
+    (0.707107, 0.707107, 'luenberger')
+    >>> print(report.summary().splitlines()[0])
+    Linear system 'linear': continuous, n=2, m=1, p=1
     """
 
     report: LinearReport | NonlinearReport

@@ -72,7 +72,7 @@ def simulate_pinv(
     Without it the observer is built as :func:`design_pinv_report` builds it (``k`` overrides
     ``(theta, placement)``; A5 failing only warns). The plant is ``model.compile(parameters)``;
     ``u``, ``measurements``, ``seed`` are passed to :func:`nlobs.simulate.simulate`
-    (``u=None``: zero input). ``saturation``: the observer saturated on its region outside it
+    (``u=None`` for a plant without inputs). ``saturation``: the observer saturated on its region outside it
     (:meth:`~nlobs.observers.pinv.PinvObserver.with_saturation`, Khalil's form of
     :mod:`nlobs.observers.pinv`; the same as (7) while the estimate is in the region); ``False``
     (default here): (7) as printed.
@@ -90,7 +90,7 @@ def simulate_pinv(
     dt : float
         Integration step.
     u : None, array_like, callable or SampledSignal
-        Known input (``None``: zero input).
+        Known input (``None`` for a plant without inputs).
     k, theta, placement, region, pinv : optional
         As in :func:`design_pinv_report` (not used with ``report``).
     parameters : mapping of str to float, optional
@@ -107,6 +107,24 @@ def simulate_pinv(
     Returns
     -------
     SimulationResult
+
+    Examples
+    --------
+    The shipped pendulum (``Φ`` the identity, so ``Q⁺ = Q⁻¹ = I``) with a constant torque, two runs from rest
+    estimates: ``θ = 3`` (``powers`` placement) is the gain ``k = [12, 27]`` of the roots ``−3, −9`` of (10),
+    and the numeric pseudo-inverse gives the symbolic one's estimates to rounding:
+
+    >>> import numpy as np
+    >>> import nlobs
+    >>> model = nlobs.load_model("pendulum")
+    >>> x0 = [[0.5, 0.0], [1.0, 0.5]]
+    >>> res = simulate_pinv(model, x0, [0.0, 0.0], 2.0, dt=1e-2, u=[0.3], theta=3.0)
+    >>> res.x_hat.shape, np.round(res.error_norm[:, 0], 4).tolist(), bool(np.all(res.error_norm[:, -1] < 1e-3))
+    ((2, 201, 2), [0.5, 1.118], True)
+    >>> by_k = simulate_pinv(model, x0, [0.0, 0.0], 2.0, dt=1e-2, u=[0.3], k=[12.0, 27.0])
+    >>> numeric = simulate_pinv(model, x0, [0.0, 0.0], 2.0, dt=1e-2, u=[0.3], theta=3.0, pinv="numeric")
+    >>> bool(np.array_equal(by_k.x_hat, res.x_hat)), bool(np.allclose(numeric.x_hat, res.x_hat, atol=1e-12))
+    (True, True)
     """
     obs = report.observer if report is not None else build_pinv_observer(model, k, theta, placement, region, parameters,
                                                                       pinv)
@@ -158,6 +176,22 @@ class PinvWorkflowReport:
     method_design : Design or None
         The method's :class:`~nlobs.methods.base.Design` (its ``to_dict()`` keys join ``design`` in
         :meth:`to_dict`).
+
+    Examples
+    --------
+    The pendulum's observer simulated for 2 s: it converges, but no theorem covers the run (the global A2–A4,
+    A6 are not checked, and the state leaves the region where A1 and A5 were verified), and the report says
+    where:
+
+    >>> from nlobs.workflows.inputs import SimulationRequest
+    >>> rep = design_pinv_observer("pendulum", theta=3.0, simulate=SimulationRequest([0.5, 0.0], duration=2.0, dt=1e-2))
+    >>> rep.verdict.value, rep.message, rep.simulation.x_hat.shape, rep.files
+    ('ok', '', (201, 2), ())
+    >>> sim = rep.to_dict()["simulation"]
+    >>> sim["initial_error_norm"], bool(sim["final_error_norm"] < 1e-4), sim["certificate_covers_run"]
+    (0.5, True, False)
+    >>> sim["certificate_failed_premises"], sim["certificate_violations"][0]["hypothesis"]
+    (['A2, A3, A4, A6 of Corollary 4.1: not checked (global conditions)'], 'state in the region [-1, 1] × [-1, 1]')
     """
 
     design: PinvDesignReport

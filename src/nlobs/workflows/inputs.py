@@ -103,6 +103,28 @@ class SimulationRequest:
     out : path, optional
         Folder for the plot (``<stem>.png``) and the trajectories (``<stem>.npz``); created if
         missing. ``None``: nothing is written.
+
+    Examples
+    --------
+    Two seconds of a 2-state, 1-input model at ``dt = 0.01``: 200 RK4 steps (and 0.3 s at 0.1 s is 3 steps,
+    although ``0.3 / 0.1`` is ``3.0000000000000004`` in floating point); the defaults are filled in against
+    the model's sizes, which also catch a vector of the wrong length:
+
+    >>> req = SimulationRequest([0.5, 0.0], duration=2.0, dt=0.01)
+    >>> req.steps, req.x_hat0, req.u, req.out, SimulationRequest([1.0], duration=0.3, dt=0.1).steps
+    (200, None, None, None, 3)
+    >>> [v.tolist() for v in req.resolved(2, 1, "pendulum")]  # x0, x̂0 = 0, u = 0
+    [[0.5, 0.0], [0.0, 0.0], [0.0]]
+    >>> try:
+    ...     req.resolved(3, 1, "a 3-state model")
+    ... except DimensionError as exc:
+    ...     print(type(exc).__name__, exc)
+    DimensionError `x0`: expected 3 numbers for model a 3-state model, got 2
+    >>> try:
+    ...     SimulationRequest([0.5, 0.0], duration=1.0, dt=2.0)
+    ... except InvalidArgumentError as exc:
+    ...     print(type(exc).__name__, exc)
+    InvalidArgumentError `dt` 2 is longer than `duration` 1: the one step would end past the run ...
     """
 
     x0: Array
