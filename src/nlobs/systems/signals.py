@@ -673,6 +673,92 @@ def read_signal_csv(path: str | Path, *, columns: Sequence[str] | None = None,
     p = str(path)
     if kind not in ("hold", "linear"):
         raise InvalidArgumentError(f"kind: expected 'hold' or 'linear', got {kind!r}")
+    table = read_csv_table(path)
+    available = list(table.columns)
+    if columns is None:
+        wanted = available
+    else:
+        if isinstance(columns, str):
+            columns = [columns]
+        wanted = list(columns)
+        unknown = [c for c in wanted if c not in available]
+        if unknown:
+            raise UnknownNameError(f"{p}: no column {_shown(str(unknown[0]))}; the columns are: "
+                                   f"{', '.join(escape_unsafe(c, one_line=True) for c in available)}")
+    return {c: Piecewise(table.t, table.columns[c], kind, source=f"{p}: {escape_unsafe(c, one_line=True)}")
+            for c in wanted}
+
+
+@dataclass(frozen=True)
+class CsvTable:
+    """A CSV file of samples as :func:`read_csv_table` reads it.
+
+    Attributes
+    ----------
+    path : str
+        The file.
+    t : ndarray, shape (K,)
+        The strictly increasing times.
+    columns : Mapping[str, ndarray]
+        Every other column by its header, shape ``(K,)`` each, in the file's order (NaN for an empty field where
+        they are allowed).
+    lines : ndarray of int, shape (K,)
+        The line of the file of each row (for messages).
+    """
+
+    path: str
+    t: Array
+    columns: Mapping[str, Array]
+    lines: Array
+
+
+def read_csv_table(path: str | Path, *, empty_fields: bool = False) -> CsvTable:
+    """Read a CSV file of samples with a header row: the time first (``t`` or ``time``, any case, strictly
+    increasing), then named columns; the one reader of nlobs's CSV inputs (:func:`read_signal_csv`, recorded logs).
+
+    Blank lines are skipped and a UTF-8 byte-order mark is allowed. Numbers are read by ``float()`` (never
+    evaluated) and must be finite; with ``empty_fields`` an empty field is NaN (a sensor that gave no sample in a
+    multi-rate log), never the time.
+
+    Parameters
+    ----------
+    path : str or Path
+        A regular file of at most :data:`MAX_CSV_BYTES` bytes, UTF-8.
+    empty_fields : bool
+        Allow empty fields outside the time column (read as NaN).
+
+    Returns
+    -------
+    CsvTable
+
+    Raises
+    ------
+    SignalFileError
+        The file is missing, not a regular file, too large, not UTF-8 or empty, has no header, a first column that
+        is not ``t``/``time``, an unnamed or repeated column, a row with another number of fields than the header,
+        a field that is not a finite number (or empty, unless allowed), a time not after the previous one, or no
+        data row. The message is one line naming the file and the line.
+
+    Examples
+    --------
+    A two-rate log: ``y`` sampled at every row, ``z`` at every other (empty fields allowed):
+
+    >>> import shutil
+    >>> import tempfile
+    >>> from pathlib import Path
+    >>> folder = Path(tempfile.mkdtemp())
+    >>> _ = (folder / "log.csv").write_text("t,y,z\\n0,1.0,5\\n0.5,1.5,\\n1.0,2.0,6\\n", encoding="utf-8")
+    >>> table = read_csv_table(folder / "log.csv", empty_fields=True)
+    >>> table.t.tolist(), table.columns["z"].tolist(), table.lines.tolist()
+    ([0.0, 0.5, 1.0], [5.0, nan, 6.0], [2, 3, 4])
+    >>> try:
+    ...     read_csv_table(folder / "log.csv")
+    ... except SignalFileError as exc:
+    ...     print(str(exc).split("log.csv")[1])
+    :3: column 'z': an empty field is not a number
+    >>> shutil.rmtree(folder)
+    """
+    p = str(path)
     text = read_regular_text(path, MAX_CSV_BYTES, lambda reason: SignalFileError(p, None, "", reason))
     if text.startswith("\ufeff"):
         text = text[1:]
@@ -706,41 +792,29 @@ def read_signal_csv(path: str | Path, *, columns: Sequence[str] | None = None,
     dup = sorted({nm for nm in names if names.count(nm) > 1})
     if dup:
         raise SignalFileError(p, line, dup[0], f"column {_shown(dup[0])} appears twice in the header")
-    available = names[1:]
-    if columns is None:
-        wanted = available
-    else:
-        if isinstance(columns, str):
-            columns = [columns]
-        wanted = list(columns)
-        unknown = [c for c in wanted if c not in available]
-        if unknown:
-            raise UnknownNameError(f"{p}: no column {_shown(str(unknown[0]))}; the columns are: "
-                                   f"{', '.join(escape_unsafe(c, one_line=True) for c in available)}")
-    index = [names.index(c) for c in wanted]
     width = len(names)
     times: list[float] = []
-    data: list[list[float]] = [[] for _ in index]
+    lines: list[int] = []
+    data: list[list[float]] = [[] for _ in names[1:]]
     previous = -math.inf
     header_line = line
     for line, row in it:
         if len(row) != width:
             raise SignalFileError(p, line, "", f"{len(row)} fields, but the header has {width}")
-        # every field is checked, also those of columns not asked for: a file with a bad number is a bad file
-        numbers = [_csv_number(p, line, nm, f) for nm, f in zip(names, row)]
-        t = numbers[0]
+        # every field is checked: a file with a bad number is a bad file
+        t = _csv_number(p, line, names[0], row[0])
         if not t > previous:
             raise SignalFileError(p, line, row[0].strip(),
                                   f"time {_fmt(t)} is not after the previous time {_fmt(previous)}")
         previous = t
         times.append(t)
-        for out, j in zip(data, index):
-            out.append(numbers[j])
+        lines.append(line)
+        for out, nm, f in zip(data, names[1:], row[1:]):
+            out.append(math.nan if empty_fields and not f.strip() else _csv_number(p, line, nm, f))
     if not times:
         raise SignalFileError(p, header_line, "", "no data rows after the header (at least one is required)")
-    tt = np.array(times)
-    return {c: Piecewise(tt, np.array(vals), kind, source=f"{p}: {escape_unsafe(c, one_line=True)}")
-            for c, vals in zip(wanted, data)}
+    return CsvTable(p, np.array(times), FrozenMapping({nm: np.array(v) for nm, v in zip(names[1:], data)}),
+                    np.array(lines, dtype=np.int64))
 
 
 def _is_number(text: str) -> bool:
