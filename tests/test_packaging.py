@@ -32,7 +32,7 @@ def test_wheel_carries_license_type_marker_and_models(wheel: Path) -> None:
     shipped = {p.name for p in (ROOT / "src" / "nlobs" / "data" / "models").glob("*.toml")}
     assert shipped and {n.rsplit("/", 1)[-1] for n in names if n.startswith("nlobs/data/models/")} >= shipped
     schemas = {p.name for p in (ROOT / "src" / "nlobs" / "data" / "schemas").glob("*.schema.json")}
-    assert len(schemas) == 13 and {n.rsplit("/", 1)[-1] for n in names if n.startswith("nlobs/data/schemas/")} == schemas
+    assert len(schemas) == 14 and {n.rsplit("/", 1)[-1] for n in names if n.startswith("nlobs/data/schemas/")} == schemas
     assert not any(n.startswith("tests/") or "/tests/" in n for n in names)
     assert "nlobs/__main__.py" in names
 

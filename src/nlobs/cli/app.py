@@ -325,6 +325,9 @@ from nlobs.cli import gnss_ins as _gnss_ins  # noqa: E402,F401 - registers `simu
 from nlobs.cli.schema import schema_cmd  # noqa: E402 - registered after the app exists
 
 app.command("schema")(schema_cmd)
+from nlobs.cli.estimate import estimate_cmd  # noqa: E402 - registered after the app exists
+
+app.command("estimate")(estimate_cmd)
 
 app.add_typer(design_app, name="design")
 app.add_typer(simulate_app, name="simulate")

@@ -41,6 +41,8 @@ COMMANDS: dict[str, tuple[str, str, tuple[str, ...], bool]] = {
     "simulate gnss-ins": ("Monte Carlo flights of the GNSS/INS observer", "nlobs.workflows.gnss_ins_study",
                           ("GNSS_INS_STUDY_JSON",), True),
     "demo gnss-ins": ("the GNSS/INS demo (and its results.json)", "nlobs.workflows.demo", ("DEMO_JSON",), True),
+    "estimate": ("observers on a logged run: residuals at the samples, a filter's NIS", "nlobs.workflows.estimate",
+                 ("ESTIMATE_JSON",), True),
     "reproduce": ("each number a paper reports beside the value nlobs computes (a list)", "nlobs.papers.reproduce",
                   ("REPRODUCE_JSON",), False),
     "models": ("the model files shipped with nlobs (a list)", "nlobs.systems.modelfile", ("MODELS_JSON",), False),
@@ -58,6 +60,7 @@ _IMPORT: dict[str, Callable[[], Any]] = {
     "nlobs.workflows.compare": lambda: importlib.import_module("nlobs.workflows.compare"),
     "nlobs.workflows.gnss_ins_study": lambda: importlib.import_module("nlobs.workflows.gnss_ins_study"),
     "nlobs.workflows.demo": lambda: importlib.import_module("nlobs.workflows.demo"),
+    "nlobs.workflows.estimate": lambda: importlib.import_module("nlobs.workflows.estimate"),
     "nlobs.papers.reproduce": lambda: importlib.import_module("nlobs.papers.reproduce"),
     "nlobs.systems.modelfile": lambda: importlib.import_module("nlobs.systems.modelfile"),
 }

@@ -97,6 +97,8 @@ __all__ = [
     "DivergedRun",
     "ObserverOutcome",
     "compare_observers",
+    "design_observer",
+    "method_options",
 ]
 
 #: The observers ``nlobs simulate MODEL`` knows, in the order they are reported (:mod:`nlobs.methods.registry`).
@@ -878,7 +880,7 @@ def compare_observers(
     alpha = None if alpha is None else positive("`alpha`", alpha)
     if backend not in BACKENDS:
         raise InvalidArgumentError(f"`backend`: expected one of {', '.join(BACKENDS)}, got {backend!r}")
-    options = _all_options(chosen, alpha, filter_q, design_options)
+    options = method_options(chosen, alpha, filter_q, design_options)
     s = _setup(scenario, label, runs=runs, duration=duration, dt=dt, seed=seed, x0=x0, x_hat0=x_hat0,
                initial_error_std=initial_error_std, box=box, settle=settle, rate=rate, noise_std=noise_std,
                inputs=inputs, process_noise=process_noise)
@@ -915,9 +917,37 @@ _DEFAULT_KEYS: dict[str, set[str]] = {"drift": {"on_singular"}, "luenberger": {"
                                       "ukf": {"filter_q", "p0_std"}}
 
 
-def _all_options(chosen: Sequence[str], alpha: float, filter_q: ArrayLike | None,
-                 given: Mapping[str, Mapping[str, Any]] | None) -> dict[str, dict[str, Any]]:
-    """The design options a comparison gives each chosen method: its defaults here, then the options given."""
+def method_options(chosen: Sequence[str], alpha: float | None, filter_q: ArrayLike | None,
+                   given: Mapping[str, Mapping[str, Any]] | None) -> dict[str, dict[str, Any]]:
+    """The design options ``nlobs simulate`` (and ``nlobs estimate``) give each chosen method: their defaults, then
+    the options given.
+
+    Parameters
+    ----------
+    chosen : sequence of str
+        The methods.
+    alpha : float or None
+        The Luenberger design's decay rate (``None``: its default).
+    filter_q : array_like or None
+        The Kalman filters' process noise (``None``: the file's, else their default).
+    given : Mapping or None
+        Per method, options that override (each checked against the method's options).
+
+    Returns
+    -------
+    dict
+        Per method, its options.
+
+    Raises
+    ------
+    InvalidArgumentError
+        A method not among ``chosen``, or an option the method does not take.
+
+    Examples
+    --------
+    >>> method_options(["drift", "ekf"], None, None, {"drift": {"mu": 2.0}})
+    {'drift': {'on_singular': 'nan', 'mu': 2.0}, 'ekf': {'filter_q': None}}
+    """
     given = dict(given or {})
     unknown = sorted(set(given) - set(chosen))
     if unknown:
@@ -944,14 +974,45 @@ def _with_p0(name: str, options: dict[str, Any], s: _Setup) -> dict[str, Any]:
     return options
 
 
-def _design(name: str, s: _Setup, options: Mapping[str, Any]) -> Design | str:
-    """The method's design for the comparison's problem, or why the observer is skipped."""
+def design_observer(name: str, problem: Problem, options: Mapping[str, Any]) -> Design | str:
+    """The method's design for a problem, or why the observer is skipped (one line): what ``nlobs simulate`` and
+    ``nlobs estimate`` run, the same design for the same model file and options.
+
+    Parameters
+    ----------
+    name : str
+        A method of :func:`~nlobs.methods.registry.names` (``drift``, ``pinv``, ``luenberger``, ``cascade``,
+        ``ekf``, ``ukf``).
+    problem : Problem
+        The model file's problem (:func:`~nlobs.methods.problem.problem`).
+    options : Mapping
+        The method's design options (:func:`method_options`, and ``p0_std`` for the Kalman filters).
+
+    Returns
+    -------
+    Design or str
+        The usable design, or why there is none (an assumption, a design that failed).
+
+    Raises
+    ------
+    InvalidArgumentError
+        A design option given by the caller is refused (named with its method).
+
+    Examples
+    --------
+    >>> from nlobs.methods.problem import problem
+    >>> d = design_observer("luenberger", problem("cartpole"), {})
+    >>> d.method, d.usable
+    ('luenberger', True)
+    >>> design_observer("drift", problem("gnss-ins-axis"), {})
+    '(3.1) of Dalla Mora, Germani & Manes is for nonlinear input-affine models; this one is linear'
+    """
     method = get_method(name)
-    why = method.applies(s.problem)
+    why = method.applies(problem)
     if why is not None:
         return str(why)
     try:
-        design = method.design(s.problem, **options)
+        design = method.design(problem, **options)
     except (ModelError, AssumptionViolated, DesignError) as exc:
         return str(exc)
     except NlobsError as exc:  # a bad option (the design's own failures are caught above)
@@ -1014,7 +1075,7 @@ def _initial(s: _Setup) -> Array:
 
 def _run_one(name: str, s: _Setup, options: Mapping[str, Any], progress: bool | None,
              backend: str = "python", shared: _SharedPlant | None = None) -> ObserverOutcome:
-    design = _design(name, s, options)
+    design = design_observer(name, s.problem, options)
     if isinstance(design, str):
         return ObserverOutcome(name, design)
     obs, desc = design.observer, design.description
