@@ -60,7 +60,7 @@ API_PAGES: tuple[tuple[str, str, tuple[str, ...]], ...] = (
     ("observers", "Observers", ("nlobs.observers",)),
     ("synthesis", "Gains and certificates", ("nlobs.synthesis",)),
     ("simulate", "Simulation and Monte Carlo", ("nlobs.simulate", "nlobs.simulate.sweep")),
-    ("methods", "Methods: one design per plant", ("nlobs.methods",)),
+    ("methods", "Methods: one design per plant", ("nlobs.methods", "nlobs.methods.estimation")),
     ("workflows", "Workflows: one call per command", ("nlobs.workflows",)),
     ("export", "Generated C", ("nlobs.export",)),
     ("navigation", "GNSS/INS navigation", ("nlobs.navigation",)),

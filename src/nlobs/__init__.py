@@ -19,7 +19,8 @@ The observer protocol and the observers
 The loops and the result
     :func:`simulate` (plant and observer together: the simulation subpackage ``nlobs.simulate``,
     which called is its loop), :func:`run_observer` (an observer on recorded measurements),
-    :class:`SimulationResult`.
+    :func:`estimate` (every observer of a model file, designed as ``nlobs simulate`` designs it, on a logged run
+    of the plant), :class:`SimulationResult`.
 Gains and certificates
     ``design_*`` and ``verify_*`` for each method; every certificate satisfies :class:`Certificate`
     and reports its conditions as :class:`Check` values.
@@ -74,6 +75,7 @@ if TYPE_CHECKING:
         UnknownInputEKF,
     )
     from nlobs import simulate
+    from nlobs.methods.estimation import estimate
     from nlobs.export import compile_observer, export_observer
     from nlobs.simulate import SimulationResult, monte_carlo, run_observer
     from nlobs.synthesis import (
@@ -121,6 +123,7 @@ _LAZY: dict[str, str] = {
                     "nlobs.observers"),
     **dict.fromkeys(("SimulationResult", "run_observer", "monte_carlo"), "nlobs.simulate"),
     "simulate": "nlobs.simulate",
+    "estimate": "nlobs.methods.estimation",
     **dict.fromkeys(("Certificate", "design_cascade_gain", "design_discrete_lipschitz_gain", "design_drift_gain",
                      "design_observer_gain", "design_setvalued", "verify_discrete_lipschitz_gain",
                      "verify_drift_gain", "verify_observer_gain", "verify_setvalued"), "nlobs.synthesis"),
