@@ -205,7 +205,7 @@ def _tutorials() -> dict[str, str | bytes]:
         marker = "\u241e-block-end-\u241e"
         script = "".join(f"{b}\nprint({marker!r}, flush=True)\n" for b in blocks)
         with tempfile.TemporaryDirectory(prefix=f"nlobs-tutorial-{src.stem}-") as tmp:
-            env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONHASHSEED": "0", "NLOBS_PROGRESS": "0"}
+            env = {**os.environ, "MPLBACKEND": "Agg", "PYTHONHASHSEED": "0"}
             run = subprocess.run([sys.executable, "-c", script], cwd=tmp, capture_output=True, text=True, env=env,
                                  timeout=600)
             if run.returncode != 0:

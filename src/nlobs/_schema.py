@@ -383,7 +383,7 @@ BOX = Record("Box", {"lower": array(NUMBER), "upper": array(NUMBER)},
 
 
 def document_schema(node: Node, command: str, *, versioned: bool = True, description: str = "") -> dict[str, Any]:
-    """The JSON Schema document (draft 2020-12) of a command's ``--json`` output.
+    """The JSON Schema document (draft 2020-12) of a command's JSON output.
 
     Parameters
     ----------

@@ -153,7 +153,7 @@ class EstimateOutcome:
 
 @dataclass(frozen=True, eq=False)
 class EstimationReport:
-    """What ``nlobs estimate`` reports (``to_dict()`` is its ``--json``).
+    """What ``nlobs estimate`` reports (``to_dict()`` is its JSON report).
 
     Attributes
     ----------
@@ -409,6 +409,6 @@ def estimate(model: str | Path | Scenario, data: str | Path | RecordedLog, *, ob
             f"{k}: {o.diverged}" for k, o in outcomes.items() if o.diverged)
     else:
         verdict, msg = Verdict.OK, ""
-    units = tuple(scenario.units.get(s, "") for s in m.states) if getattr(scenario, "units", None) else ("",) * m.n
-    return EstimationReport(getattr(scenario, "name", None) or m.name, log, scenario, tuple(m.states), units, settle,
+    units = tuple(scenario.unit(s) for s in m.states)
+    return EstimationReport(m.name, log, scenario, tuple(m.states), units, settle,
                             xh, outcomes, verdict=verdict, message=msg)

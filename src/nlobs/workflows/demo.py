@@ -309,8 +309,8 @@ class DemoReport:
         lines = [title, "  ".join(h.ljust(w) if i == 0 else h.rjust(w) for i, (h, w) in enumerate(zip(heads, widths)))]
         lines += ["  ".join(v.ljust(w) if i == 0 else v.rjust(w) for i, (v, w) in enumerate(zip(row, widths)))
                   for row in rows]
-        return "\n".join(lines + ([self.consistency_line()] if self.consistency_line() else [])
-                         + [f"wrote {f}" for f in self.files])
+        consistency = self.consistency_line()
+        return "\n".join(lines + ([consistency] if consistency else []) + [f"wrote {f}" for f in self.files])
 
     def consistency_line(self) -> str:
         """One line on the EKF's consistency (its NEES and NIS against the 95 % χ² band), or ``""``."""

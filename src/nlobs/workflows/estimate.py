@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from nlobs._io import atomic_write_json, atomic_write_text, jsonable, save_figure, with_schema
-from nlobs.methods.estimation import ESTIMATE_JSON, EstimationReport, estimate
+from nlobs.methods.estimation import ESTIMATE_JSON, EstimationReport, estimate, model_outputs
 from nlobs.workflows._results import prepare_out
 
 __all__ = ["ESTIMATE_JSON", "estimate_log", "estimates_csv", "estimate_figure"]
@@ -93,8 +93,6 @@ def estimate_figure(report: EstimationReport) -> Any:
     """
     from matplotlib.figure import Figure
 
-    from nlobs.methods.estimation import model_outputs
-
     log, sc = report.log, report.scenario
     ran = {k: o for k, o in report.observers.items() if o.result is not None}
     p, n = len(log.outputs), len(report.states)
@@ -110,7 +108,7 @@ def estimate_figure(report: EstimationReport) -> Any:
                 yhat = np.asarray(h(log.t, np.asarray(o.result.x_hat, dtype=float), log.u), dtype=float)
             ax.plot(log.t, yhat.reshape(log.y.shape)[:, j], color=f"C{i}", lw=1.2, ls=("-", "--", ":", "-.")[i % 4],
                     label=f"ŷ, {k}")
-        unit = sc.unit(name) if hasattr(sc, "unit") else ""
+        unit = sc.unit(name)
         ax.set_ylabel(f"{name}" + (f" [{unit}]" if unit else ""))
         ax.legend(loc="upper right", fontsize="small", ncols=2)
         ax.grid(True, alpha=0.3)
@@ -127,8 +125,7 @@ def estimate_figure(report: EstimationReport) -> Any:
         ax.grid(True, alpha=0.3)
         if s == 0:
             ax.legend(loc="upper right", fontsize="small", ncols=2)
-    tu = sc.time_unit if hasattr(sc, "time_unit") else "s"
-    axes[-1].set_xlabel(f"time [{tu}]")
+    axes[-1].set_xlabel(f"time [{sc.time_unit}]")
     skipped = [k for k, o in report.observers.items() if o.result is None]
     fig.suptitle(f"{report.model} on {Path(log.path).name}: samples and ŷ, then the estimates (no truth in a log)"
                  + (f"\nnot run: {', '.join(skipped)}" if skipped else ""), fontsize="medium")
