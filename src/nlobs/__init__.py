@@ -5,7 +5,8 @@ each is imported on first use (PEP 562), so ``import nlobs`` loads neither NumPy
 
 Plants and models
     :func:`load_model` (a model file or a shipped name), :func:`shipped_models`,
-    :class:`Continuous`, :class:`Discrete`, :class:`LinearSystem`, :class:`DiscreteUISystem`.
+    :class:`Continuous`, :class:`Discrete`, :class:`LinearSystem`, :class:`DiscreteUISystem`; a feedback law
+    :class:`ControlLaw` (a model file's ``[controller]``) and state bounds :class:`StateBounds` (``[constraints]``).
 The observer protocol and the observers
     :class:`Observer`, :class:`CorrectingObserver`; :class:`LuenbergerObserver`,
     :class:`CascadeObserver` (Grip, Saberi & Johansen, (3)), :class:`DriftObserver` (Dalla Mora,
@@ -92,9 +93,11 @@ if TYPE_CHECKING:
     )
     from nlobs.systems import (
         Continuous,
+        ControlLaw,
         Discrete,
         DiscreteUISystem,
         LinearSystem,
+        StateBounds,
         load_model,
         shipped_models,
     )
@@ -127,8 +130,8 @@ _LAZY: dict[str, str] = {
     **dict.fromkeys(("Certificate", "design_cascade_gain", "design_discrete_lipschitz_gain", "design_drift_gain",
                      "design_observer_gain", "design_setvalued", "verify_discrete_lipschitz_gain",
                      "verify_drift_gain", "verify_observer_gain", "verify_setvalued"), "nlobs.synthesis"),
-    **dict.fromkeys(("Continuous", "Discrete", "DiscreteUISystem", "LinearSystem", "load_model", "shipped_models"),
-                    "nlobs.systems"),
+    **dict.fromkeys(("Continuous", "ControlLaw", "Discrete", "DiscreteUISystem", "LinearSystem", "StateBounds",
+                     "load_model", "shipped_models"), "nlobs.systems"),
     **dict.fromkeys(("analyze_model", "design_drift_observer", "design_pinv_observer", "design_setvalued_observer",
                      "gnss_ins_demo", "simulate_setvalued_observer"), "nlobs.workflows"),
 }

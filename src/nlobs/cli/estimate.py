@@ -44,6 +44,9 @@ def estimate_cmd(
     option: Annotated[list[str] | None, typer.Option(
         "--option", metavar="METHOD.KEY=VALUE", help="A method's design option, repeatable (as nlobs simulate).")]
     = None,
+    smooth: Annotated[bool, typer.Option(
+        "--smooth", help="Also run the Rauch-Tung-Striebel smoother of the EKF and the UKF on the whole log (their "
+                         "estimates given every sample; columns <state>_smoothed in the CSV).")] = False,
     as_json: Annotated[bool, typer.Option("--json", help="Print the report as JSON.")] = False,
     out: Annotated[Path | None, typer.Option(
         "--out", metavar="DIR", help="Folder for estimates_<observer>.csv, estimate.png and estimate.json.")] = None,
@@ -57,7 +60,8 @@ def estimate_cmd(
         fail("--observer: give at least one of " + _KNOWN)
     try:
         report = estimate_log(model, data, observers=chosen, x_hat0=parse_floats("--xhat0", xhat0), dt=dt,
-                              design_options=design_options(option), out=out, progress=progress)
+                              design_options=design_options(option), out=out, progress=progress,
+                              smooth=smooth)
     except ModelFileError as exc:
         fail(str(exc))
     except OutputError as exc:

@@ -73,6 +73,17 @@ from nlobs.errors import (
 )
 from nlobs._schema import BOOLEAN, INTEGER, NUMBER, STRING, Node, Record, array, mapping, nullable, one_of
 from nlobs.methods.base import DESIGN_JSON, Design
+from nlobs.methods.closed_loop import (
+    CLOSED_LOOP_JSON,
+    CLOSED_LOOP_SETUP_JSON,
+    CONSTRAINTS_JSON,
+    ESTIMATE_BOUNDS_JSON,
+    bounds_report,
+    closed_loop_metrics,
+    estimate_bounds,
+    loop_setup,
+    warnings_of,
+)
 from nlobs.methods.kalman import DEFAULT_FILTER_Q, noise_matrix
 from nlobs.methods.problem import Problem, problem
 from nlobs.methods.registry import get as get_method
@@ -82,6 +93,7 @@ from nlobs.simulate.coverage import VIOLATION_JSON, monitor
 from nlobs.simulate.loop import PlantRun, observe, simulate, simulate_plant
 from nlobs.simulate.result import SimulationResult, with_run_axis
 from nlobs.systems.linear import LinearSystem
+from nlobs.systems.controller import control_period_steps
 from nlobs.systems.modelfile import load_scenario
 from nlobs.systems.scenario import Scenario
 from nlobs.systems.sensors import MeasurementGroup
@@ -162,7 +174,9 @@ OBSERVER_OUTCOME_JSON = Record("ObserverOutcome", {
     "cost_per_step_us": NUMBER.about("wall time inside the observer per step and run"),
     "certificate": nullable(RUN_CERTIFICATE_JSON),
     "consistency": nullable(CONSISTENCY_JSON),
-})
+    "closed_loop": CLOSED_LOOP_JSON.about("with a [controller]: the loop around this observer against the reference"),
+    "constraints": ESTIMATE_BOUNDS_JSON.about("with [constraints]: how often the estimate left them"),
+}, optional={"closed_loop", "constraints"})
 
 #: How the runs were made, as text.
 SETUP_JSON = Record("Setup", {
@@ -184,7 +198,9 @@ COMPARISON_JSON = Record("Comparison", {
     "observers": mapping(one_of(OBSERVER_OUTCOME_JSON, SKIPPED_OBSERVER_JSON), "per observer, in the order asked for"),
     "unobservable": array(STRING, "the directions the outputs cannot see"),
     "files": array(STRING),
-}, description="Observers compared on the same noisy Monte Carlo runs.")
+    "closed_loop": CLOSED_LOOP_SETUP_JSON.about("with a [controller]: the law and the loop around the true state"),
+    "constraints": CONSTRAINTS_JSON.about("with [constraints]: the bounds and how often the truth left them"),
+}, description="Observers compared on the same noisy Monte Carlo runs.", optional={"closed_loop", "constraints"})
 
 
 @dataclass(frozen=True)
@@ -252,6 +268,12 @@ class ObserverOutcome:
     consistency : Consistency or None
         A Kalman filter's NEES and NIS over the runs against their 95 % χ² bands
         (:func:`nlobs.simulate.consistency.filter_consistency`; ``to_dict()`` is the ``consistency`` key).
+    closed_loop : Mapping or None
+        With a ``[controller]``: the loop around this observer against the reference loop
+        (:func:`nlobs.methods.closed_loop.closed_loop_metrics`).
+    bounds : Mapping or None
+        With ``[constraints]``: how often the estimate left them (:func:`nlobs.methods.closed_loop.estimate_bounds`;
+        the ``constraints`` key).
     """
 
     name: str
@@ -271,6 +293,8 @@ class ObserverOutcome:
     observer: Any = None
     design: Design | None = None
     consistency: Consistency | None = None
+    closed_loop: Mapping[str, Any] | None = None
+    bounds: Mapping[str, Any] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         if self.skipped is not None:
@@ -289,6 +313,8 @@ class ObserverOutcome:
             "cost_per_step_us": self.cost_per_step_us,
             "certificate": None if self.certificate is None else RUN_CERTIFICATE_JSON.emit(self.certificate),
             "consistency": None if self.consistency is None else self.consistency.to_dict(),
+            **({} if self.closed_loop is None else {"closed_loop": dict(self.closed_loop)}),
+            **({} if self.bounds is None else {"constraints": dict(self.bounds)}),
         })
 
 
@@ -323,6 +349,14 @@ class ComparisonReport:
     unobservable : tuple of str
         The directions the outputs cannot see (:func:`nlobs.geometry.unobservable.unobservable_directions`:
         a state's name, or a combination of states); empty for an observable model.
+    closed_loop : Mapping or None
+        With a ``[controller]``: the law and the reference loop around the true state
+        (:func:`nlobs.methods.closed_loop.loop_setup`).
+    constraints : Mapping or None
+        With ``[constraints]``: the bounds and how often the truth left them
+        (:func:`nlobs.methods.closed_loop.bounds_report`).
+    reference : SimulationResult or None
+        With a ``[controller]``: the reference loop's runs (the law fed the true state; not part of :meth:`to_dict`).
     """
 
     model: str
@@ -343,6 +377,9 @@ class ComparisonReport:
     scenario: Scenario | None = None
     plant: Any = None
     unobservable: tuple[str, ...] = ()
+    closed_loop: Mapping[str, Any] | None = None
+    constraints: Mapping[str, Any] | None = None
+    reference: SimulationResult | None = None
 
     def to_dict(self) -> dict[str, Any]:
         return COMPARISON_JSON.emit({
@@ -352,6 +389,8 @@ class ComparisonReport:
             "setup": SETUP_JSON.emit(self.setup), "observers": {k: v.to_dict() for k, v in self.observers.items()},
             "unobservable": list(self.unobservable),
             "files": [str(f) for f in self.files],
+            **({} if self.closed_loop is None else {"closed_loop": dict(self.closed_loop)}),
+            **({} if self.constraints is None else {"constraints": dict(self.constraints)}),
         })
 
     def table(self) -> tuple[str, list[str], list[list[str]]]:
@@ -405,8 +444,34 @@ class ComparisonReport:
                     lines.append(f"    seen before run {first.run} diverged: " + "; ".join(first.causes))
             if o.certificate is not None and o.certificate.get("reasons"):
                 lines.append("    certificate: " + "; ".join(o.certificate["reasons"]))
+        lines += self._loop_lines()
+        lines += [f"warning: {w}" for w in warnings_of(self.constraints, self.runs)]
         lines += [f"wrote {f}" for f in self.files]
         return "\n".join(lines)
+
+    def _loop_lines(self) -> list[str]:
+        """The closed loop's table (each observer's loop against the reference) and the estimates' bounds."""
+        lines = []
+        if self.closed_loop is not None:
+            ref = self.closed_loop["reference"]
+            ins = self.closed_loop["inputs"]
+            lines.append("closed loop: " + ", ".join(f"{i} = {e}" for i, e in zip(ins, self.closed_loop["law"]))
+                         + f"; reference (true state fed back): RMS x after t = {self.settle:g} "
+                         + str([float(f"{v:.3g}") for v in ref["rms_state"]]) + ", peak |u| "
+                         + str([float(f"{v:.3g}") for v in ref["peak_input"]]))
+            for name, o in self.observers.items():
+                if o.closed_loop is not None:
+                    c = o.closed_loop
+                    lines.append(f"  {name}: RMS ‖x − x_ref‖ {_num(c['rms_deviation'])}, peak |u| "
+                                 f"{[float(f'{v:.3g}') for v in c['peak_input']]}, diverged {c['diverged_runs']}/"
+                                 f"{self.runs}")
+        if self.constraints is not None:
+            for name, o in self.observers.items():
+                if o.bounds is not None and o.bounds["runs_outside"]:
+                    lines.append(f"  {name}: estimate outside the [constraints] at "
+                                 f"{100 * o.bounds['outside_fraction']:.3g} % of the instants "
+                                 f"({o.bounds['runs_outside']}/{self.runs} runs)")
+        return lines
 
 
 def _num(v: float) -> str:
@@ -437,6 +502,8 @@ class _Setup:
     save_every: int
     describe: dict[str, Any]
     problem: Problem
+    controller: Any = None  # the file's [controller]: the loop is closed around each observer
+    bounds: Any = None  # the file's [constraints]
 
 
 def _vector(name: str, value: ArrayLike | None, n: int) -> Array | None:
@@ -537,8 +604,13 @@ def _setup(scenario: Scenario, label: str, *, runs: int | None, duration: float 
         "region": region.describe() if region is not None else "[-1, 1] per state (default)",
     }
     plant = model.compile() if isinstance(model, SymbolicModel) else model
+    controller = scenario.controller
+    if controller is not None:
+        control_period_steps(controller.rate, step)  # a rate that does not fit dt: refused before any run
+        describe["inputs"] = f"closed loop, {controller.describe()} (fed the estimate; [input_signals] not used)"
     return _Setup(scenario, label, plant, np.asarray(x0_, dtype=float), x_hat, np.asarray(p0_std, dtype=float), dur,
-                  step, float(settle_), runs_, int(seed), u, u0, sensors, q, region, save_every, describe, pb)
+                  step, float(settle_), runs_, int(seed), u, u0, sensors, q, region, save_every, describe, pb,
+                  controller, scenario.constraints)
 
 
 def _sources(d: Any, box: Any, x0: Any, duration: Any) -> dict[str, str]:
@@ -740,16 +812,18 @@ def _outcome(name: str, desc: str, res: SimulationResult, s: _Setup, cert: _Cert
         res = dataclasses.replace(res, extras={k: v for k, v in res.extras.items() if k != "P"})
     certificate = None
     if cert is not None:
-        cov = monitor(res, cert.hypotheses, u=s.u, verified=cert.verified)
+        applied = res.extras.get("u") if s.controller is not None else s.u  # a closed loop: the input applied
+        cov = monitor(res, cert.hypotheses, u=applied, verified=cert.verified)
         certificate = {"verified": cert.verified, "covers_run": cov.covers_run,
                        "covered_fraction": cov.covered_fraction, "reasons": list(cov.reasons),
                        "violations": [v.to_dict() for v in cov.violations],
                        "hypotheses": list(cov.hypotheses), **cert.extras}
         if cert.bound is not None:
             certificate.update(_bound_entries(cert.bound, s))
+    bounds = None if s.bounds is None else estimate_bounds(s.bounds, xh)
     return ObserverOutcome(name, None, desc, rms, rms_all, rms_norm, rms_norm_all, final, conv_time, tuple(diverged),
                            float(res.info.get("cost_per_step_us", math.nan)), certificate, run_rms, res,
-                           consistency=consistency)
+                           consistency=consistency, bounds=bounds)
 
 
 def _bound_entries(bound: Any, s: _Setup) -> dict[str, Any]:
@@ -900,7 +974,7 @@ def compare_observers(
             run_tasks(executor if executor is not None else client, _run_task, s,
                       [(n_, _with_p0(n_, options[n_], s), backend) for n_ in chosen], got.__setitem__)
         outcomes = {n_: got[i] for i, n_ in enumerate(chosen)}
-    return _report(s, outcomes, ())
+    return _report(s, outcomes, (), progress, backend)
 
 
 def _compiled(obs: Any, desc: str) -> tuple[Any, str]:
@@ -909,6 +983,8 @@ def _compiled(obs: Any, desc: str) -> tuple[Any, str]:
 
     if type(obs).__name__ not in supported():
         return obs, desc
+    if getattr(obs, "bounds", None) is not None:  # the generated C has no projection onto the bounds
+        return obs, desc + "; in Python (the generated C does not project onto the [constraints])"
     return compile_observer(obs), desc + "; generated C"
 
 
@@ -1087,7 +1163,12 @@ def _run_one(name: str, s: _Setup, options: Mapping[str, Any], progress: bool | 
     one = s.runs == 1  # one run without a batch axis: the single-run paths of the compiled code and the filters
     x_hat0 = s.x_hat0[0] if one else s.x_hat0
     try:
-        if shared is not None and s.sensors:  # sampled outputs: the observer replays the one plant run
+        if s.controller is not None:  # closed loop: the plant depends on the observer, integrated with each
+            plant = shared.plant if shared is not None else _plant(s, backend)
+            res = simulate(plant, obs, _initial(s), x_hat0, duration=s.duration, dt=s.dt, u=None,
+                           measurements=s.sensors or None, process_noise=s.process_noise, seed=s.seed,
+                           save_every=s.save_every, progress=progress, divergence="keep", controller=s.controller)
+        elif shared is not None and s.sensors:  # sampled outputs: the observer replays the one plant run
             res = observe(shared(), obs, x_hat0, progress=progress, divergence="keep")
         else:  # exact outputs are read at every RK4 stage of the plant: integrated with each observer
             plant = shared.plant if shared is not None else _plant(s, backend)
@@ -1141,7 +1222,41 @@ def _unobservable(s: _Setup) -> tuple[str, ...]:
     return tuple(u.directions) if u is not None and u.rank is not None and not u.observable else ()
 
 
-def _report(s: _Setup, outcomes: dict[str, ObserverOutcome], files: tuple[Path, ...]) -> ComparisonReport:
+def _reference_loop(s: _Setup, progress: bool | None, backend: str) -> SimulationResult:
+    """The law fed the true state, on the runs' noise (the same sensors and process noise draws, in order)."""
+    res = simulate(_plant(s, backend), None, _initial(s), duration=s.duration, dt=s.dt, u=None,
+                   measurements=s.sensors or None, process_noise=s.process_noise, seed=s.seed, save_every=s.save_every,
+                   progress=progress, divergence="keep", controller=s.controller, feedback="state")
+    return with_run_axis(res) if s.runs == 1 else res
+
+
+def _loops_and_bounds(s: _Setup, outcomes: dict[str, ObserverOutcome], progress: bool | None,
+                      backend: str) -> tuple[dict[str, ObserverOutcome], Any, Any, Any]:
+    """Each outcome with its closed loop against the reference, the top-level ``closed_loop`` and ``constraints``,
+    and the reference loop's runs."""
+    loop = bounds = ref = None
+    truth = next((o.result.x for o in outcomes.values() if o.result is not None and o.result.x is not None), None)
+    if s.controller is not None:
+        ref = _reference_loop(s, progress, backend)
+        assert ref.x is not None
+        loop = loop_setup(s.controller, ref.x, ref.extras["u"], ref.t, s.settle)
+        outcomes = {k: o if o.result is None or o.result.x is None else dataclasses.replace(
+            o, closed_loop=closed_loop_metrics(o.result.x, o.result.extras["u"], o.result.x_hat, ref.x, ref.t,
+                                               s.settle)) for k, o in outcomes.items()}
+        truth = ref.x if truth is None else truth
+    if s.bounds is not None:
+        if truth is None:  # every observer skipped: the plant's run alone
+            truth = (_reference_loop(s, progress, backend) if s.controller is not None else
+                     _SharedPlant(s, progress, backend)().result).x
+            truth = truth if truth.ndim == 3 else truth[None]
+        box = s.scenario.defaults.box
+        bounds = bounds_report(s.bounds, truth, box)
+    return outcomes, loop, bounds, ref
+
+
+def _report(s: _Setup, outcomes: dict[str, ObserverOutcome], files: tuple[Path, ...], progress: bool | None = None,
+            backend: str = "python") -> ComparisonReport:
+    outcomes, loop, bounds, ref = _loops_and_bounds(s, outcomes, progress, backend)
     ran = [o for o in outcomes.values() if o.skipped is None]
     if not ran:
         verdict, msg = Verdict.NO_OBSERVER, f"{s.label}: none of the observers applies: " + "; ".join(
@@ -1156,5 +1271,6 @@ def _report(s: _Setup, outcomes: dict[str, ObserverOutcome], files: tuple[Path, 
         runs=s.runs, seed=s.seed, duration=s.duration, dt=s.dt, settle=s.settle,
         time_unit=s.scenario.time_unit, x0=tuple(float(v) for v in s.x0),
         setup=s.describe, observers=outcomes, files=files, verdict=verdict, message=msg, scenario=s.scenario,
-        plant=s.plant, unobservable=_unobservable(s))
+        plant=s.plant, unobservable=_unobservable(s), closed_loop=loop, constraints=bounds,
+        reference=ref)
 

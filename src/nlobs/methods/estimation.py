@@ -23,6 +23,7 @@ is split evenly, the inputs held over it, so a high-gain observer is not integra
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -40,6 +41,7 @@ from nlobs.errors import InvalidArgumentError, NlobsError, SimulationDiverged
 from nlobs.methods.base import DESIGN_JSON, Design
 from nlobs.methods.comparison import OBSERVERS, design_observer, method_options
 from nlobs.methods.problem import problem
+from nlobs.observers.smoother import smooth_run
 from nlobs.simulate.consistency import CONSISTENCY_JSON, Consistency, error_consistency
 from nlobs.simulate.replay import run_observer
 from nlobs.simulate.result import SimulationResult
@@ -63,7 +65,14 @@ ESTIMATE_OUTCOME_JSON = Record("EstimateOutcome", {
     "final_std": nullable(array(NUMBER), "a filter's standard deviation of each state at the end"),
     "consistency": nullable(CONSISTENCY_JSON, "a filter's NIS at the samples (no truth: no NEES)"),
     "cost_per_step_us": NUMBER,
-})
+    "smoothed": Record("Smoothed", {
+        "residual_rms": array(NUMBER, "per output, RMS of y − h(x̂_s, u) at its samples after the settling time"),
+        "residual_rms_all": array(NUMBER),
+        "final_estimate": array(NUMBER),
+        "final_std": array(NUMBER),
+        "method": STRING.about("extended or unscented Rauch–Tung–Striebel"),
+    }).about("with smoothing: the Rauch–Tung–Striebel smoother of the filter on the whole log"),
+}, optional={"smoothed"})
 
 #: The JSON report of ``nlobs estimate``.
 ESTIMATE_JSON = Record("Estimate", {
@@ -105,6 +114,11 @@ class EstimateOutcome:
         A filter's standard deviations, ``(K, n)``.
     consistency : Consistency or None
         A filter's NIS at the samples.
+    smoothed : Smoothed or None
+        With smoothing, a filter's Rauch–Tung–Striebel smoother on the whole log, at the log's rows
+        (:func:`nlobs.observers.smoother.rts_smooth`).
+    smoothed_residual_rms, smoothed_residual_rms_all : tuple of float
+        Its residuals per output, after the settling time and over the whole log.
 
     Examples
     --------
@@ -134,10 +148,14 @@ class EstimateOutcome:
     residual_rms_all: tuple[float, ...] = ()
     sigma: Array | None = None
     consistency: Consistency | None = None
+    smoothed: Any = None
+    smoothed_residual_rms: tuple[float, ...] = ()
+    smoothed_residual_rms_all: tuple[float, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         res = self.result
         ran = res is not None
+        sm = self.smoothed
         return ESTIMATE_OUTCOME_JSON.emit({
             "skipped": self.skipped, "description": self.description,
             "design": None if self.design is None else self.design.to_dict(),
@@ -148,6 +166,11 @@ class EstimateOutcome:
             "final_std": None if self.sigma is None else [float(v) for v in self.sigma[-1]],
             "consistency": None if self.consistency is None else self.consistency.to_dict(),
             "cost_per_step_us": float(res.info.get("cost_per_step_us", math.nan)) if ran else None,
+            **({} if sm is None else {"smoothed": {
+                "residual_rms": list(self.smoothed_residual_rms),
+                "residual_rms_all": list(self.smoothed_residual_rms_all),
+                "final_estimate": [float(v) for v in sm.x[-1]], "final_std": [float(v) for v in sm.std[-1]],
+                "method": sm.method}}),
         })
 
 
@@ -213,6 +236,7 @@ class EstimationReport:
     def table(self) -> tuple[str, list[str], list[list[str]]]:
         """Title, column heads and rows of the table the command prints."""
         heads = ["observer", *(f"RMS y−ŷ {o}" for o in self.log.outputs), "NIS in band", "µs/step", "note"]
+        smoothed = any(o.smoothed is not None for o in self.observers.values())
         rows = []
         for name, o in self.observers.items():
             if o.result is None:
@@ -220,8 +244,11 @@ class EstimationReport:
                 continue
             c = None if o.consistency is None else o.consistency.to_dict()
             nis = "—" if c is None or c["nis_inside"] is None else f"{c['nis_inside']:.0%}"
+            note = o.diverged or ""
+            if smoothed and o.smoothed is not None:
+                note = "smoothed: RMS y−ŷ " + ", ".join(f"{v:.4g}" for v in o.smoothed_residual_rms)
             rows.append([name, *(f"{v:.4g}" for v in o.residual_rms), nis,
-                         f"{o.result.info.get('cost_per_step_us', math.nan):.3g}", o.diverged or ""])
+                         f"{o.result.info.get('cost_per_step_us', math.nan):.3g}", note])
         log = self.log
         title = (f"{self.model} on {Path(log.path).name}: {log.t.shape[0]} rows, t ∈ [{log.t[0]:g}, {log.t[-1]:g}], "
                  "samples " + ", ".join(f"{k} {v}" for k, v in log.samples.items())
@@ -285,9 +312,35 @@ def _fine_grid(t: Array, dt: float | None) -> tuple[Array, Array]:
     return grid, np.concatenate([[0], np.cumsum(parts)])
 
 
+def _smoothed_at(sm: Any, at: Array) -> Any:
+    """A smoother's output on the integration grid thinned to the log's rows (``t``, ``x``, ``P``)."""
+    return _Thinned(sm.t[at], sm.x[..., at, :], sm.P[..., at, :, :], sm.method)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Thinned:
+    """A smoother's estimate at the log's rows.
+
+    Parameters
+    ----------
+    t : ndarray, shape (K,)
+    x : ndarray, shape (K, n)
+    P : ndarray, shape (K, n, n)
+    method : str
+    """
+
+    t: Array
+    x: Array
+    P: Array
+    method: str
+
+    @property
+    def std(self) -> Array:
+        return np.sqrt(np.maximum(np.diagonal(self.P, axis1=-2, axis2=-1), 0.0))
+
+
 def _at_rows(res: SimulationResult, at: Array, t: Array) -> SimulationResult:
     """A result on the integration grid thinned to the log's rows."""
-    import dataclasses
 
     if at.shape[0] == res.t.shape[0]:
         return res
@@ -298,7 +351,7 @@ def _at_rows(res: SimulationResult, at: Array, t: Array) -> SimulationResult:
 def estimate(model: str | Path | Scenario, data: str | Path | RecordedLog, *, observers: Sequence[str] | None = None,
              x_hat0: ArrayLike | None = None, dt: float | None = None,
              design_options: Mapping[str, Mapping[str, Any]] | None = None,
-             progress: bool | None = None) -> EstimationReport:
+             progress: bool | None = None, smooth: bool = False) -> EstimationReport:
     """Run the chosen observers on a logged run of the model (module docstring).
 
     Parameters
@@ -319,6 +372,9 @@ def estimate(model: str | Path | Scenario, data: str | Path | RecordedLog, *, ob
         Per method, design options (as ``nlobs simulate``'s ``design_options``).
     progress : bool, optional
         A progress bar per observer on a terminal.
+    smooth : bool
+        Also run the Rauch–Tung–Striebel smoother of each Kalman filter (EKF, UKF) on the whole log (Rauch, Tung &
+        Striebel 1965; Särkkä 2008 for the UKF): the estimate at each row given every sample, before and after.
 
     Returns
     -------
@@ -380,14 +436,22 @@ def estimate(model: str | Path | Scenario, data: str | Path | RecordedLog, *, ob
             outcomes[name] = EstimateOutcome(name, skipped=design)
             continue
         obs = design.observer
+        smoothing = smooth and hasattr(obs, "record_covariance")
+        if smoothing:
+            obs = dataclasses.replace(obs, record_covariance=True)
         grid, at_rows = _fine_grid(log.t, None if isinstance(getattr(obs, "time", None), Discrete) else step)
         u_grid = log.u[np.searchsorted(log.t, grid, side="right") - 1] if m.m else None
         try:
             fine = run_observer(obs, grid, x_hat0=xh, u=u_grid, y=log.y[rows], y_times=log.t[rows],
                                 sampled=np.isfinite(log.y[rows]), states=m.states, outputs=m.outputs,
                                 progress=progress)
+            smoothed = smooth_run(obs, fine, u_grid) if smoothing else None
             res = _at_rows(fine, at_rows, log.t)
-        except SimulationDiverged as exc:
+            if "P" in res.extras:
+                res = dataclasses.replace(res, extras={k: v for k, v in res.extras.items() if k != "P"})
+        except (SimulationDiverged, InvalidArgumentError) as exc:
+            if isinstance(exc, InvalidArgumentError) and not smoothing:
+                raise
             outcomes[name] = EstimateOutcome(name, design.description, design=design, diverged=str(exc))
             continue
         rms, rms_all = _residuals(h, log, np.asarray(res.x_hat, dtype=float), settle)
@@ -398,8 +462,13 @@ def estimate(model: str | Path | Scenario, data: str | Path | RecordedLog, *, ob
         if "nis" in res.extras:
             cons = error_consistency(log.t, np.zeros((log.t.shape[0], m.n)), None, res.extras["nis"],
                                      np.isfinite(log.y), log.y)
+        extra: dict[str, Any] = {}
+        if smoothed is not None:
+            sm = _smoothed_at(smoothed, at_rows)
+            s_rms, s_all = _residuals(h, log, sm.x, settle)
+            extra = {"smoothed": sm, "smoothed_residual_rms": s_rms, "smoothed_residual_rms_all": s_all}
         outcomes[name] = EstimateOutcome(name, design.description, design=design, result=res, residual_rms=rms,
-                                         residual_rms_all=rms_all, sigma=sigma, consistency=cons)
+                                         residual_rms_all=rms_all, sigma=sigma, consistency=cons, **extra)
     ran = [o for o in outcomes.values() if o.result is not None]
     if not ran and all(o.skipped for o in outcomes.values()):
         verdict, msg = Verdict.NO_OBSERVER, "none of the observers applies: " + "; ".join(

@@ -160,12 +160,14 @@ class KalmanMethod:
         cls = EKFObserver if self.name == "ekf" else UKFObserver
         plant = model.compile() if isinstance(model, SymbolicModel) else model
         try:
-            obs = cls(plant, Q, R, P0, name=self.name.upper())
+            obs = cls(plant, Q, R, P0, name=self.name.upper(), bounds=problem.scenario.constraints)
         except NlobsError as exc:
             raise ModelError(str(exc)) from None
         mode = "discrete" if model.time.is_discrete else "continuous-discrete"
         desc = (f"{mode} {'extended' if self.name == 'ekf' else 'unscented'} Kalman filter, Q = {q_text}, R from the "
                 f"sensors, P0 = diag({[float(f'{v:.4g}') for v in std]}²)")
+        if problem.scenario.constraints is not None:
+            desc += "; mean projected onto the [constraints] after each correction"
         parameters = {"Q": Q, "R": R, "p0_std": std}
         sources = {"Q": q_text, "R": "[sensors]"}
         u = problem.observability

@@ -11,6 +11,8 @@
 * :class:`EKF` and :class:`UKF` — the extended (Jazwinski) and unscented (Särkkä; Julier & Uhlmann)
   Kalman filters for any plant, continuous-discrete or discrete (``ekf.py``, ``ukf.py``, their shared
   state and correction in ``gaussian.py``);
+* :func:`rts_smooth`, :func:`smooth_run`, :class:`Smoothed` — the Rauch–Tung–Striebel smoother of the EKF and the
+  UKF on a recorded run (Rauch, Tung & Striebel 1965; the unscented one of Särkkä 2008) (``smoother.py``);
 * :class:`OutputPredictor` — any continuous observer on sampled outputs, with the inter-sample output
   predictor of Karafyllis & Kravaris (2009) (``sampled.py``);
 * :class:`ImpulsiveObserver` — the copy of the plant corrected by a jump at each sample (Raff & Allgöwer
@@ -33,6 +35,7 @@ if TYPE_CHECKING:  # the names as static tools (type checkers, the API reference
     from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
     from nlobs.observers.pinv import AssumptionWarning, ByrnesIsidoriObserver, PinvObserver
     from nlobs.observers.sampled import OutputPredictor, with_predictor
+    from nlobs.observers.smoother import Smoothed, rts_smooth, smooth_run
     from nlobs.observers.setvalued import (
         GivenGain,
         Radii,
@@ -71,10 +74,13 @@ _EXPORTS = {
     "SetValuedObserver": "nlobs.observers.setvalued",
     "SetValuedState": "nlobs.observers.setvalued",
     "SingularObservabilityError": "nlobs.observers.drift",
+    "Smoothed": "nlobs.observers.smoother",
     "UKF": "nlobs.observers.ukf",
     "UnknownInputEKF": "nlobs.observers.kalman",
     "input_error_map": "nlobs.observers.setvalued",
     "joseph_update": "nlobs.observers.kalman",
+    "rts_smooth": "nlobs.observers.smoother",
+    "smooth_run": "nlobs.observers.smoother",
     "sound_radii": "nlobs.observers.setvalued",
     "with_predictor": "nlobs.observers.sampled",
 }

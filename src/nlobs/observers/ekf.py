@@ -56,6 +56,8 @@ class EKF(GaussianFilterBase):
         Label in results.
     record_covariance : bool
         Also record the full ``P`` among the diagnostics.
+    bounds : StateBounds, optional
+        Bounds on the state: the mean is projected onto them after each correction (Simon 2010).
 
     Notes
     -----

@@ -154,6 +154,9 @@ class GaussianFilterBase(ToControl):
         Label in results.
     record_covariance : bool
         Also record the full ``P`` among the diagnostics.
+    bounds : StateBounds, optional
+        Bounds on the state (:class:`~nlobs.systems.constraints.StateBounds`): the mean is projected onto them after
+        each correction (estimate projection, Simon 2010, with the weight ``I``: the clip); the covariance is kept.
 
     Raises
     ------
@@ -170,6 +173,7 @@ class GaussianFilterBase(ToControl):
     P0: Array
     name: str = field(default="Gaussian filter", kw_only=True)
     record_covariance: bool = field(default=False, kw_only=True)
+    bounds: Any = field(default=None, kw_only=True)
     time: TimeBase = field(init=False)
     n: int = field(init=False)
     p: int = field(init=False)
@@ -193,6 +197,12 @@ class GaussianFilterBase(ToControl):
         if not isinstance(self.name, str):
             raise InvalidArgumentError(f"name: expected a string, got {type(self.name).__name__}")
         object.__setattr__(self, "record_covariance", bool(self.record_covariance))
+        if self.bounds is not None:
+            from nlobs.systems.constraints import StateBounds
+
+            if not isinstance(self.bounds, StateBounds):
+                raise InvalidArgumentError(f"bounds: expected a StateBounds, got {type(self.bounds).__name__}")
+            self.bounds.check_size(n)
 
     @property
     def n_x(self) -> int:
@@ -267,6 +277,8 @@ class GaussianFilterBase(ToControl):
             raise self._diverged(t, "the innovation covariance is singular", exc) from None
         if not (math.isfinite(nis) if nis.ndim == 0 else np.isfinite(nis).all()):
             raise self._diverged(t, "the innovation covariance or the innovation is not finite")
+        if self.bounds is not None:
+            x = self.bounds.project(x)
         return FilterState(x, P, nis)
 
     def _update_missing(self, t: float, z: FilterState, u: Array, ys: Array, ok: BoolArray,

@@ -102,6 +102,30 @@ class _NullObserver:
         return z
 
 
+class _HeldInput:
+    """The input of a closed loop: the value the control law last applied, held (the loop sets :attr:`value`)."""
+
+    def __init__(self, batch: tuple[int, ...], m: int) -> None:
+        self.value = np.zeros((*batch, m))
+
+    def __call__(self, t: float) -> Array:
+        return self.value
+
+
+def _apply_control(s: _Setup, k: int, t: float, x: Array, z: Any) -> None:
+    """At a sample of the control law, its new input from the fed-back state (the estimate, or the truth)."""
+    if k % s.control_every:
+        return
+    fed = x if s.feedback_state else _estimate(s, z)
+    u = np.asarray(s.controller(t, fed), dtype=float)
+    try:
+        s.held.value = np.broadcast_to(u, s.held.value.shape).copy()
+    except ValueError:
+        raise DimensionError(f"controller: returned shape {u.shape}, expected {s.held.value.shape}") from None
+    if not s.keep and not np.isfinite(s.held.value).all():
+        raise SimulationDiverged(t, "observer", "controller input")
+
+
 @dataclass(frozen=True)
 class Samples:
     """What the sensors of a plant run read, by step: the held measurement after the step's samples with the
@@ -149,6 +173,10 @@ class _Setup:
     tape: Samples | None = None  # a plant run: its samples are written here for observers to replay
     truth: Samples | None = None  # an observer on a recorded plant run: its samples are read from here
     clock: list[float] = dataclasses.field(default_factory=lambda: [0.0, math.nan])  # observer seconds, diverged at
+    controller: Any = None  # a feedback law u = k(t, x̂ or x): the loop is closed (its input held in `held`)
+    feedback_state: bool = False  # the law is fed the true state (the reference loop), not the estimate
+    control_every: int = 1  # steps between two samples of the law
+    held: Any = None  # _HeldInput: the input the law last applied
 
     def t(self, k: int) -> float:
         return self.t0 + k * self.dt
@@ -283,7 +311,11 @@ def _check_z(s: _Setup, t: float, z: Any) -> None:
 
 def _check_finite(s: _Setup, t: float, x: Array, z: Any) -> None:
     if not np.isfinite(x).all():
-        raise SimulationDiverged(t, "plant", _first_bad(x, s.plant_names))
+        if s.keep and s.controller is not None:  # a closed loop the estimate drove away: that run's failure
+            if math.isnan(s.clock[1]):
+                s.clock[1] = t
+        else:
+            raise SimulationDiverged(t, "plant", _first_bad(x, s.plant_names))
     _check_z(s, t, z)
 
 
@@ -374,6 +406,10 @@ def _run_fixed(s: _Setup, rec: _Recorder, progress: Progress) -> None:
     for k in range(s.n_steps + 1):
         t = s.t(k)
         z, fresh = _events(s, st, k, t, x, z)
+        if s.controller is not None:
+            _apply_control(s, k, t, x, z)
+            if k in rec.row_of:
+                record_diagnostics(rec.extras, {"u": s.held.value}, rec.row_of[k], rec.K)
         if k in rec.row_of:
             u_k = s.u_fn(t)
             y_rec = plant.output(t, x, u_k) if exact_y else st.y_view
@@ -593,6 +629,8 @@ def simulate(
     t0: float = 0.0,
     progress: bool | None = None,
     divergence: Literal["raise", "keep"] = "raise",
+    controller: Callable[[float, Array], ArrayLike] | None = None,
+    feedback: Literal["estimate", "state"] = "estimate",
 ) -> SimulationResult:
     """Simulate a plant and an observer together, for one or many initial conditions.
 
@@ -652,7 +690,16 @@ def simulate(
         :class:`~nlobs.errors.SimulationDiverged`. ``"keep"``: a non-finite *observer* state is
         carried on (the batch members concerned have NaN or inf estimates from then on, the
         others are unaffected) and ``info["diverged_at"]`` is the first such time (NaN if none);
-        a non-finite plant state still raises.
+        a non-finite plant state still raises (in a closed loop it is kept too: the estimate drove that run away).
+    controller : callable, optional
+        A feedback law ``controller(t, x) -> u`` (``(..., n) -> (..., m)``, e.g. a
+        :class:`~nlobs.systems.controller.ControlLaw`): the loop is closed, the plant's input is the law's output
+        evaluated after the step's correction and held over the step, or over ``1/controller.rate`` when the
+        law has a ``rate`` (a sampled controller). ``u`` must then be ``None`` and there are no input sensors;
+        the applied input is recorded as ``extras["u"]``.
+    feedback : {"estimate", "state"}
+        What the law is fed: the observer's estimate (default), or the true state (the reference loop of
+        separation: run without an observer, on the same noise).
 
     Returns
     -------
@@ -693,10 +740,41 @@ def simulate(
     >>> bool(0.2 < e[1000] < 0.5 and e[-1] < 1e-3)
     True
     """
-    setup = _prepare(plant, observer, x0, x_hat0, duration=duration, dt=dt, u=u, measurements=measurements,
+    u_given = u if controller is None or u is not None else np.zeros(int(getattr(plant, "m", 0) or 0))
+    setup = _prepare(plant, observer, x0, x_hat0, duration=duration, dt=dt, u=u_given, measurements=measurements,
                      input_sensors=input_sensors, process_noise=process_noise, seed=seed, integrator=integrator,
                      save_every=save_every, t0=t0, divergence=divergence)
+    if controller is not None:
+        setup = _closed_loop(setup, controller, feedback, u, integrator)
+    elif feedback != "estimate":
+        raise InvalidArgumentError("feedback: applies to a closed loop (give a controller)")
     return _execute(setup, integrator, observer, progress)
+
+
+def _closed_loop(setup: _Setup, controller: Any, feedback: str, u: Any, integrator: Integrator) -> _Setup:
+    """The setup with its input replaced by the control law's held output (:func:`simulate`'s ``controller``)."""
+    from nlobs.systems.controller import control_period_steps
+
+    if not callable(controller):
+        raise InvalidArgumentError(f"controller: expected a callable controller(t, x) -> u, got {type(controller).__name__}")
+    if feedback not in ("estimate", "state"):
+        raise InvalidArgumentError(f"feedback: expected 'estimate' or 'state', got {feedback!r}")
+    if feedback == "estimate" and not setup.has_observer:
+        raise InvalidArgumentError("feedback: 'estimate' needs an observer; without one, feed the state "
+                                   "(feedback='state')")
+    if feedback == "estimate" and setup.n_x != setup.plant.n:
+        raise InvalidArgumentError(f"controller: the observer estimates {setup.n_x} values, the plant has "
+                                   f"{setup.plant.n} states")
+    if u is not None and setup.plant.m:
+        raise InvalidArgumentError("u: a closed loop's input is the controller's; give u=None")
+    if setup.sensors:
+        raise InvalidArgumentError("input_sensors: a closed loop's input is the controller's own, known exactly")
+    if isinstance(integrator, SolveIVP):
+        raise InvalidArgumentError("integrator: a closed loop is simulated with RK4() (the input is held per step)")
+    every = control_period_steps(getattr(controller, "rate", None), setup.dt)
+    held = _HeldInput(setup.batch, setup.plant.m)
+    return dataclasses.replace(setup, controller=controller, feedback_state=feedback == "state", control_every=every,
+                               held=held, u_fn=held, u_hold=True)
 
 
 @dataclass(frozen=True)

@@ -24,6 +24,8 @@ from nlobs._lazy import lazy_exports
 
 if TYPE_CHECKING:
     from nlobs.systems.base import PlantModel
+    from nlobs.systems.constraints import StateBounds
+    from nlobs.systems.controller import ControlLaw
     from nlobs.systems.discrete_ui import DiscreteUISystem
     from nlobs.systems.interconnected import (
         InterconnectedPlant,
@@ -53,6 +55,8 @@ if TYPE_CHECKING:
 #: Names imported on first use, and the module that holds each.
 _LAZY: dict[str, str] = {
     "PlantModel": "nlobs.systems.base",
+    "StateBounds": "nlobs.systems.constraints",
+    "ControlLaw": "nlobs.systems.controller",
     "DiscreteUISystem": "nlobs.systems.discrete_ui",
     **dict.fromkeys(("InterconnectedPlant", "LinearSubsystem", "NonlinearSubsystem", "check_interconnection",
                      "interconnected_plant"), "nlobs.systems.interconnected"),
@@ -69,6 +73,7 @@ __all__ = [
     "CompiledModel",
     "Constant",
     "Continuous",
+    "ControlLaw",
     "Discrete",
     "DiscreteUISystem",
     "Expression",
@@ -81,6 +86,7 @@ __all__ = [
     "PlantModel",
     "Signal",
     "Sine",
+    "StateBounds",
     "Step",
     "SymbolicModel",
     "TimeBase",

@@ -82,6 +82,7 @@ Limits, so that a small or hostile file cannot hang nlobs or garble a terminal:
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -669,6 +670,8 @@ class _Signal:
 # ------------------------------------------------------------- experiments: sensors, inputs, noise, units
 _SENSOR_KEYS = {"outputs", "rate", "noise_std", "noise_cov", "bias", "outages"}
 _PROCESS_KEYS = {"std", "covariance"}
+_CONTROLLER_KEYS = {"law", "rate", "saturation"}
+_CONSTRAINT_KEYS = {"lower", "upper"}
 _SIMULATION_KEYS = {"x0", "initial_error_std", "duration", "dt", "settle", "runs", "box"}
 #: Longest unit string (``"m/s^2"``, ``"mmol/L"``).
 MAX_UNIT_LENGTH = 40
@@ -708,7 +711,10 @@ def parse_scenario(text: str, *, source: str = "<string>", base_dir: str | Path 
     signals = _input_signals(src, data, model, params, base_dir)
     q = _process_noise(src, data["process_noise"], model.n, params, psyms) if "process_noise" in data else None
     defaults = _run_defaults(src, data.get("simulation", {}), model.n, params, psyms)
-    return Scenario(model, sensors, signals, q, units, defaults, source, frozenset(data), cascade)
+    controller = _controller(src, data["controller"], model, params, psyms) if "controller" in data else None
+    bounds = _constraints(src, data["constraints"], model, params, psyms) if "constraints" in data else None
+    return Scenario(model, sensors, signals, q, units, defaults, source, frozenset(data), cascade,
+                    controller=controller, constraints=bounds)
 
 
 def _units(src: Source, table: Mapping[str, Any], model: Model) -> dict[str, str]:
@@ -892,3 +898,75 @@ def _run_defaults(src: Source, table: Mapping[str, Any], n: int, params: Mapping
             raise src.table_error("simulation", "box", "[simulation].box: every row is [lo, hi] with lo < hi", "box")
         kw["box"] = (arr[:, 0].copy(), arr[:, 1].copy())
     return RunDefaults(**kw)
+
+
+def _controller(src: Source, table: Mapping[str, Any], model: Model, params: Mapping[str, float],
+                psyms: Mapping[str, sp.Symbol]) -> Any:
+    """``[controller]``: the feedback law (:class:`~nlobs.systems.controller.ControlLaw`)."""
+    from nlobs.systems.controller import ControlLaw
+
+    unknown = sorted(set(table) - _CONTROLLER_KEYS)
+    if unknown:
+        raise src.table_error("controller", unknown[0], "unknown key in [controller] (allowed: "
+                              f"{', '.join(sorted(_CONTROLLER_KEYS))})", unknown[0])
+    if "law" not in table:
+        raise src.table_error("controller", None, "[controller] needs 'law' (one expression per input)", "controller")
+    if not model.inputs:
+        raise src.table_error("controller", "law", "[controller]: the model has no inputs to control", "law")
+    law = table["law"]
+    if isinstance(law, str):
+        law = [law]
+    if not isinstance(law, list) or not all(isinstance(e, (str, int, float)) and not isinstance(e, bool) for e in law):
+        raise src.table_error("controller", "law", "[controller].law must be a list of expression strings, one per "
+                              "input", repr(law)[:80])
+    rate = read_constant(src, "controller", "rate", table["rate"], params, psyms) if "rate" in table else None
+    sat = None
+    if "saturation" in table:
+        sat = _bounds_list(src, "controller", "saturation", table["saturation"], params, psyms)
+    try:
+        return ControlLaw(tuple(model.states), tuple(model.inputs), tuple(str(e) for e in law),
+                          parameters=dict(params), rate=rate, saturation=sat)
+    except ExpressionError as exc:
+        raise src.table_error("controller", "law", f"[controller].law: {exc.reason}", exc.offending or "law") from None
+    except NlobsError as exc:
+        key = next((k for k in ("saturation", "rate", "law") if str(exc).startswith(k)), "law")
+        raise src.table_error("controller", key, f"[controller].{exc}", key) from None
+
+
+def _bounds_list(src: Source, table: str, key: str, v: Any, params: Mapping[str, float],
+                 psyms: Mapping[str, sp.Symbol]) -> Any:
+    """A (nested) list of numbers where TOML's ``inf`` and ``-inf`` are allowed, finite entries as constants."""
+    if isinstance(v, list):
+        return [_bounds_list(src, table, key, e, params, psyms) for e in v]
+    if isinstance(v, float) and math.isinf(v):
+        return v
+    return read_constant(src, table, key, v, params, psyms)
+
+
+def _constraints(src: Source, table: Mapping[str, Any], model: Model, params: Mapping[str, float],
+                 psyms: Mapping[str, sp.Symbol]) -> Any:
+    """``[constraints]``: per-state bounds (:class:`~nlobs.systems.constraints.StateBounds`)."""
+    from nlobs.systems.constraints import StateBounds
+
+    unknown = sorted(set(table) - _CONSTRAINT_KEYS)
+    if unknown:
+        raise src.table_error("constraints", unknown[0], "unknown key in [constraints] (allowed: lower, upper)",
+                              unknown[0])
+    n = model.n
+    vals = {}
+    for key, default in (("lower", -math.inf), ("upper", math.inf)):
+        if key not in table:
+            vals[key] = [default] * n
+            continue
+        v = table[key]
+        if not isinstance(v, list):
+            v = [v] * n
+        if len(v) != n or any(isinstance(e, list) for e in v):
+            raise src.table_error("constraints", key, f"[constraints].{key} must be {n} numbers (one per state; inf "
+                                  "or -inf for none)", repr(table[key])[:80])
+        vals[key] = _bounds_list(src, "constraints", key, v, params, psyms)
+    try:
+        return StateBounds(vals["lower"], vals["upper"])
+    except NlobsError as exc:
+        raise src.table_error("constraints", "lower", f"[{exc}".replace("[constraints:", "[constraints]:"),
+                              "lower") from None

@@ -37,8 +37,8 @@ __all__ = ["COMMAND_TABLES", "MAX_FILE_BYTES", "MAX_NAMES", "MAX_STRINGS", "SCEN
 
 #: The tables of a discrete-time model with unknown inputs (Khajenejad & Yong (8)).
 UI_TABLES = ("unknown_inputs", "noise", "initial", "function_class")
-#: The tables of a scenario (sensors, known inputs, process noise, units, run defaults).
-SCENARIO_TABLES = ("units", "sensors", "input_signals", "process_noise", "simulation")
+#: The tables of a scenario (sensors, known inputs, process noise, units, run defaults, a feedback law, state bounds).
+SCENARIO_TABLES = ("units", "sensors", "input_signals", "process_noise", "simulation", "controller", "constraints")
 #: Tables of a command besides the model (``[cascade]``: the interconnection of ``nlobs design cascade``, from
 #: which the reader also builds the plant [x, w]).
 COMMAND_TABLES = ("cascade",)

@@ -30,6 +30,15 @@ output, zero input, no process noise)::
     runs = 20
     box = [[-3, 3], [-5, 5]]     # region of the designs (per state [lo, hi])
 
+    [controller]                 # optional feedback u = k(x̂, t): `nlobs simulate` closes the loop
+    law = ["-2*theta - omega"]   # one expression per input over the states, t and parameters
+    rate = 100.0                 # optional: sampled (Hz), held between samples
+    saturation = [[-1, 1]]       # optional: [lo, hi] per input
+
+    [constraints]                # optional bounds per state (inf for none)
+    lower = [-inf, -inf]
+    upper = [inf, inf]
+
 The table of known inputs is ``[input_signals]`` because ``inputs`` already names the inputs.
 :func:`nlobs.systems.modelfile.load_scenario` reads a file into a :class:`Scenario`.
 """
@@ -98,6 +107,10 @@ class Scenario:
         model given in Python), so that a command asks the file once.
     cascade : CascadeModel or None
         The file's ``[cascade]`` table, read with the rest (:mod:`nlobs.systems.cascade_file`).
+    controller : ControlLaw or None
+        The file's ``[controller]`` table: a feedback law ``u = k(x̂, t)`` (:mod:`nlobs.systems.controller`).
+    constraints : StateBounds or None
+        The file's ``[constraints]`` table: bounds per state (:mod:`nlobs.systems.constraints`).
     """
 
     model: SymbolicModel | LinearSystem
@@ -109,6 +122,8 @@ class Scenario:
     path: str = ""
     tables: frozenset[str] = frozenset()
     cascade: Any = None
+    controller: Any = None
+    constraints: Any = None
 
     @property
     def time_unit(self) -> str:

@@ -7,6 +7,8 @@ figures, the trajectories.
 * ``error_norms.png`` — the error of every observer state by state (``|x̂_i − x_i|`` in its unit), then
   ``‖x̂ − x‖``, on log axes: the median over the runs that did not diverge and the band between the 10th and 90th
   percentiles; observers whose runs diverged named with when and why;
+* ``closed_loop.png`` — with a ``[controller]``: run 0 of the loop around each observer, states and inputs,
+  beside the loop around the true state;
 * ``consistency.png`` — the Kalman filters' NEES and NIS over the runs against the 95 % χ² band
   (:mod:`nlobs.simulate.consistency`), when a filter ran;
 * ``bode.png`` — for a continuous linear model's Luenberger design, ``σ_max`` of its error dynamics' ``H(jω)``
@@ -94,9 +96,13 @@ def states_figure(report: ComparisonReport, scenario: Scenario, plant: Any = Non
     t = ref.t
     x = ref.x[0]
     styles = _styles(report)
+    loop = report.closed_loop is not None  # each observer drives its own plant: each has its own truth
     for i, name in enumerate(model.states):
         ax = axes[i]
-        ax.plot(t, x[:, i], label="true", **_TRUE)
+        ax.plot(t, x[:, i], label=f"true ({ran[0].name}'s loop)" if loop else "true", **_TRUE)
+        for o in ran[1:] if loop else ():
+            ax.plot(t, o.result.x[0, :, i], color=colors[o.name], lw=0.8, alpha=0.7,
+                    label=f"true ({o.name}'s loop)" if i == 0 else None)
         for o in ran:
             xh = o.result.x_hat[0, :, i]
             xh = np.where(np.isfinite(xh), xh, np.nan)
@@ -119,7 +125,9 @@ def states_figure(report: ComparisonReport, scenario: Scenario, plant: Any = Non
         plant = model.compile() if hasattr(model, "compile") else model
     u = np.zeros((t.size, model.m))
     sig = scenario.input_signals
-    if model.m and sig is not None:
+    if loop and "u" in ref.extras:
+        u = np.asarray(ref.extras["u"])[0]
+    elif model.m and sig is not None:
         u = np.stack([np.asarray(sig(float(tk)), dtype=float).reshape(model.m) for tk in t])
     y_true = np.asarray(plant.output(0.0, x, u), dtype=float)
     for j, name in enumerate(model.outputs):
@@ -134,6 +142,46 @@ def states_figure(report: ComparisonReport, scenario: Scenario, plant: Any = Non
     axes[-1].set_xlabel(f"time [{report.time_unit}]")
     fig.suptitle(f"{report.model}: run 0 of {report.runs}, true (black) and estimated (dashed) states, a filter's "
                  "± 3σ shaded; outputs with their samples", fontsize="medium")
+    return fig
+
+
+def closed_loop_figure(report: ComparisonReport, scenario: Scenario) -> Any | None:
+    """Run 0 of each closed loop beside the reference loop (the law fed the true state): every state, then every
+    input (``closed_loop.png``); ``None`` without a ``[controller]``."""
+    from matplotlib.figure import Figure
+
+    ref = report.reference
+    if report.closed_loop is None or ref is None:
+        return None
+    ran = [o for o in _ran(report) if "u" in o.result.extras]
+    model = scenario.model
+    n, m = model.n, model.m
+    fig = Figure(figsize=(9.0, 1.8 * (n + m) + 1.0), layout="constrained")
+    axes = fig.subplots(n + m, 1, sharex=True, squeeze=False)[:, 0]
+    styles = _styles(report)
+    t = ref.t
+    x_ref, u_ref = ref.x[0], np.asarray(ref.extras["u"])[0]
+    series = [(name, i, x_ref[:, i], [o.result.x[0, :, i] for o in ran]) for i, name in enumerate(model.states)]
+    series += [(name, n + j, u_ref[:, j], [np.asarray(o.result.extras["u"])[0, :, j] for o in ran])
+               for j, name in enumerate(model.inputs)]
+    for name, k, reference, loops in series:
+        ax = axes[k]
+        ax.plot(t, reference, label="true state fed back", **_TRUE)
+        for o, v in zip(ran, loops):
+            ax.plot(t, np.where(np.isfinite(v), v, np.nan), label=f"{o.name} fed back", **styles[o.name])
+        lo, hi = np.nanmin(reference), np.nanmax(reference)
+        pad = 0.75 * max(hi - lo, 1e-9) + 1e-9
+        peak = max([float(np.nanmax(np.abs(v))) for v in loops if np.isfinite(v).any()] + [0.0])
+        if peak > max(abs(lo), abs(hi)) + pad:  # peaking: the reference stays readable, the peak is named
+            ax.set_title(f"{name}: peak |{name}| = {peak:.3g} (clipped in the plot)", fontsize="small", loc="left")
+        ax.set_ylim(lo - pad, hi + pad)
+        ax.set_ylabel(scenario.label(name))
+        ax.grid(True, alpha=0.3)
+    axes[0].legend(loc="upper right", fontsize="small", ncol=min(3, len(ran) + 1))
+    axes[-1].set_xlabel(f"time [{report.time_unit}]")
+    law = ", ".join(f"{i} = {e}" for i, e in zip(report.closed_loop["inputs"], report.closed_loop["law"]))
+    fig.suptitle(f"{report.model}, closed loop {law}\nrun 0: states and inputs of the loop around each observer "
+                 "beside the loop around the true state (black)", fontsize="medium")
     return fig
 
 
@@ -393,6 +441,9 @@ def write_comparison(report: ComparisonReport, scenario: Scenario, out: Path, *,
     consistency = consistency_figure(report)
     if consistency is not None:
         put(out / "consistency.png", lambda p: save_figure(consistency, p))
+    loop = closed_loop_figure(report, scenario)
+    if loop is not None:
+        put(out / "closed_loop.png", lambda p: save_figure(loop, p))
     bode = _linear_bode(report, scenario)
     if bode is not None:
         put(out / "bode.png", lambda p: save_figure(bode, p))

@@ -3,7 +3,8 @@
 :func:`estimate_log` runs :func:`nlobs.methods.estimation.estimate` and, with ``out``, writes (atomically)
 
 * ``estimates_<observer>.csv`` per observer that ran: ``t`` and one column per state, and for a filter one
-  ``sigma_<state>`` column per state (its standard deviation);
+  ``sigma_<state>`` column per state (its standard deviation); smoothed, also ``<state>_smoothed`` and
+  ``sigma_<state>_smoothed`` (the Rauch–Tung–Striebel smoother on the whole log);
 * ``estimate.png``: the log's samples and each observer's ``ŷ = h(x̂, u)`` per output, and each observer's
   estimate per state (a filter's ±3σ shaded), labelled with the model's names and units;
 * ``estimate.json``: the JSON report.
@@ -59,6 +60,9 @@ def estimates_csv(report: EstimationReport, name: str) -> str:
     data = [report.log.t[:, None], np.asarray(o.result.x_hat, dtype=float)]
     if o.sigma is not None:
         data.append(np.asarray(o.sigma, dtype=float))
+    if o.smoothed is not None:
+        cols += [f"{s}_smoothed" for s in states] + [f"sigma_{s}_smoothed" for s in states]
+        data += [np.asarray(o.smoothed.x, dtype=float), np.asarray(o.smoothed.std, dtype=float)]
     table = np.hstack(data)
     buf = io.StringIO()
     buf.write(",".join(cols) + "\n")
@@ -121,6 +125,9 @@ def estimate_figure(report: EstimationReport) -> Any:
                 sd = np.asarray(o.sigma, dtype=float)[:, s]
                 ax.fill_between(log.t, x - 3 * sd, x + 3 * sd, color=f"C{i}", alpha=0.15, lw=0,
                                 label=f"{k} ± 3σ")
+            if o.smoothed is not None:
+                ax.plot(log.t, np.asarray(o.smoothed.x, dtype=float)[:, s], color=f"C{i}", lw=2.0, alpha=0.6,
+                        label=f"{k} smoothed")
         ax.set_ylabel(f"{state}" + (f" [{unit}]" if unit else ""))
         ax.grid(True, alpha=0.3)
         if s == 0:
@@ -144,7 +151,7 @@ def estimate_log(model: Any, data: Any, *, out: Path | None = None, **options: A
     out : Path, optional
         Folder for ``estimates_<observer>.csv``, ``estimate.png`` and ``estimate.json`` (module docstring).
     **options
-        ``observers``, ``x_hat0``, ``dt``, ``design_options``, ``progress`` of
+        ``observers``, ``x_hat0``, ``dt``, ``design_options``, ``progress``, ``smooth`` of
         :func:`~nlobs.methods.estimation.estimate`.
 
     Returns
