@@ -180,7 +180,7 @@ def test_json_keys_and_analyze_keeps_its_keys() -> None:
     data = json.loads(res.stdout)
     assert set(data) == {"schema_version", "model", "box", "box_source", "region", "singularities", "methods", "recommended", "command",
                          "compare_command", "verdict", "message", "check", "design"}
-    assert set(data["methods"]) == {"cascade", "setvalued", "drift", "pinv", "ekf-ukf", "luenberger"}
+    assert set(data["methods"]) == {"cascade", "setvalued", "drift", "pinv", "ekf-ukf", "luenberger", "pf", "mhe"}
     assert set(data["methods"]["drift"]) == {"method", "title", "applicable", "reason", "region", "evidence",
                                              "parameters", "command"}
     assert data["region"] == {"lower": [1.0, 1.0], "upper": [12.0, 12.0]}

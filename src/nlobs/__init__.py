@@ -12,7 +12,8 @@ The observer protocol and the observers
     :class:`CascadeObserver` (Grip, Saberi & Johansen, (3)), :class:`DriftObserver` (Dalla Mora,
     Germani & Manes, (3.1)), :class:`PinvObserver` and :class:`ByrnesIsidoriObserver` (Röbenack,
     (7), (17)), :class:`SetValuedObserver` (Khajenejad & Yong, (10)–(15)),
-    :class:`DiscreteLipschitzObserver`, :class:`UnknownInputEKF`, :class:`EKF` and :class:`UKF` (any plant),
+    :class:`DiscreteLipschitzObserver`, :class:`UnknownInputEKF`, :class:`EKF` and :class:`UKF` (any plant, and their
+    smoother :func:`rts_smooth`), :class:`ParticleFilter` and :class:`MHE` (moving-horizon estimation),
     :class:`GnssInsObserver` (Grip, Saberi & Johansen, (22)/(24)), :class:`ScheduledGnssInsObserver` (the same
     with a scheduled attitude gain Γ(t)) and the navigation :class:`ExtendedKalmanFilter`; for sampled
     outputs :class:`OutputPredictor` (any continuous observer with the inter-sample output predictor of
@@ -68,12 +69,15 @@ if TYPE_CHECKING:
         EKF,
         ImpulsiveObserver,
         LuenbergerObserver,
+        MHE,
         Observer,
         OutputPredictor,
+        ParticleFilter,
         PinvObserver,
         SetValuedObserver,
         UKF,
         UnknownInputEKF,
+        rts_smooth,
     )
     from nlobs import simulate
     from nlobs.methods.estimation import estimate
@@ -121,8 +125,9 @@ _LAZY: dict[str, str] = {
     "GnssInsObserver": "nlobs.navigation.gnss_ins",
     "ScheduledGnssInsObserver": "nlobs.navigation.schedule",
     **dict.fromkeys(("ByrnesIsidoriObserver", "CascadeObserver", "ConstantGainObserver", "CorrectingObserver",
-                     "DiscreteLipschitzObserver", "DriftObserver", "EKF", "ImpulsiveObserver", "LuenbergerObserver",
-                     "Observer", "OutputPredictor", "PinvObserver", "SetValuedObserver", "UKF", "UnknownInputEKF"),
+                     "DiscreteLipschitzObserver", "DriftObserver", "EKF", "ImpulsiveObserver", "LuenbergerObserver", "MHE",
+                     "Observer", "OutputPredictor", "ParticleFilter", "PinvObserver", "SetValuedObserver", "UKF",
+                     "UnknownInputEKF", "rts_smooth"),
                     "nlobs.observers"),
     **dict.fromkeys(("SimulationResult", "run_observer", "monte_carlo"), "nlobs.simulate"),
     "simulate": "nlobs.simulate",

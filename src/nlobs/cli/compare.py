@@ -33,7 +33,7 @@ from nlobs.errors import ModelFileError, NlobsError, OutputError, StudyFailed
 from nlobs.methods.registry import REGISTRY, names
 
 #: The observers ``nlobs simulate MODEL`` runs: the methods' registry (its order).
-_KNOWN = ",".join(names(simulated=True))
+_KNOWN = ",".join(names(simulated=True, default=True))
 _HELP = "; ".join(f"{e.name}: {e.help}" for e in REGISTRY if e.simulated)
 
 
@@ -80,6 +80,23 @@ def design_options(values: list[str] | None) -> dict[str, dict[str, object]] | N
     return out
 
 
+def estimator_options(opts: dict[str, dict[str, object]] | None, chosen: list[str], particles: int | None,
+                      horizon: int | None) -> dict[str, dict[str, object]] | None:
+    """``--particles`` and ``--horizon`` as the design options ``pf.particles`` and ``mhe.horizon``; either without
+    its estimator among ``chosen`` is exit 2."""
+    for flag, method, key, val in (("--particles", "pf", "particles", particles), ("--horizon", "mhe", "horizon",
+                                                                                      horizon)):
+        if val is None:
+            continue
+        if method not in chosen:
+            fail(f"{flag}: applies to the {'particle filter' if method == 'pf' else 'moving-horizon estimator'} "
+                 f"(--observer {method})")
+        if key in (opts or {}).get(method, {}):
+            fail(f"{flag}: given twice (also --option {method}.{key})")
+        opts = {**(opts or {}), method: {**(opts or {}).get(method, {}), key: val}}
+    return opts
+
+
 def _one_or_many(option: str, text: str | None) -> list[float] | float | None:
     vals = parse_floats(option, text)
     if vals is None:
@@ -92,7 +109,10 @@ def compare_cmd(
     model: Annotated[str, typer.Argument(
         metavar="MODEL", autocompletion=complete_model, help="A model file (.toml) with optional [sensors], [input_signals], "
                                               "[process_noise], units and [simulation] tables, or a shipped model.")],
-    observer: Annotated[str, typer.Option("--observer", metavar="NAME,...", help=f"Comma-separated observers (default: all). {_HELP}.")] = _KNOWN,
+    observer: Annotated[str, typer.Option("--observer", metavar="NAME,...", help=f"Comma-separated observers (default: all but pf and mhe). {_HELP}.")] = _KNOWN,
+    particles: Annotated[int | None, typer.Option(min=2, help="Particles of the particle filter (default 1000).")]
+    = None,
+    horizon: Annotated[int | None, typer.Option(min=1, help="Samples in the moving horizon (default 10).")] = None,
     runs: Annotated[int | None, typer.Option(help="Monte Carlo runs (default: [simulation].runs, else 20).")] = None,
     duration: Annotated[float | None, typer.Option(help="Simulated time [s] (default: [simulation], else 10).")] = None,
     dt: Annotated[float | None, typer.Option(help="RK4 step [s] (default: [simulation], else 1e-3).")] = None,
@@ -129,12 +149,14 @@ def compare_cmd(
                                                   "(tcp://host:8786).")] = None,
     progress: Progress_ = None,
 ) -> None:
-    """Compare observers (drift, pinv, luenberger, cascade) with an EKF and a UKF on the same noisy runs."""
+    """Compare observers (drift, pinv, luenberger, cascade) with an EKF and a UKF (a particle filter and moving-horizon
+    estimation when named) on the same noisy runs; with a [controller], in closed loop."""
     from nlobs.workflows.compare import compare_observers
 
     names = [o.strip() for o in observer.split(",") if o.strip()]
     if not names:
-        fail("--observer: give at least one of " + _KNOWN)
+        fail("--observer: give at least one of " + ",".join(names(simulated=True)))
+    options = estimator_options(design_options(option), names, particles, horizon)
     pn = parse_floats("--process-noise", process_noise)
     fq = parse_floats("--filter-q", filter_q)
     try:
@@ -143,7 +165,7 @@ def compare_cmd(
             x_hat0=parse_floats("--xhat0", xhat0), initial_error_std=_one_or_many("--initial-error-std", initial_error_std),
             box=box_numbers("--box", box), settle=settle, rate=rate, noise_std=_one_or_many("--noise-std", noise_std),
             inputs=_inputs(input_), process_noise=pn, filter_q=fq, alpha=alpha,
-            design_options=design_options(option), out=out, progress=progress,
+            design_options=options, out=out, progress=progress,
             name=model, backend=value(backend), workers=workers, scheduler=scheduler)
     except ModelFileError as exc:
         fail(str(exc))

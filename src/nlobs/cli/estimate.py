@@ -18,11 +18,11 @@ from nlobs.cli.common import (
     parse_floats,
     print_table,
 )
-from nlobs.cli.compare import design_options
+from nlobs.cli.compare import design_options, estimator_options
 from nlobs.errors import ModelFileError, NlobsError, OutputError
 from nlobs.methods.registry import REGISTRY, names
 
-_KNOWN = ",".join(names(simulated=True))
+_KNOWN = ",".join(names(simulated=True, default=True))
 _HELP = "; ".join(f"{e.name}: {e.help}" for e in REGISTRY if e.simulated)
 
 
@@ -35,7 +35,11 @@ def estimate_cmd(
         "--data", metavar="FILE.csv", help="The log: a column t, one column per input and per output named as in "
                                            "the model file; an empty field where a sensor gave no sample.")],
     observer: Annotated[str, typer.Option("--observer", metavar="NAME,...",
-                                          help=f"Comma-separated observers (default: all). {_HELP}.")] = _KNOWN,
+                                          help=f"Comma-separated observers (default: all but pf and mhe). {_HELP}.")]
+    = _KNOWN,
+    particles: Annotated[int | None, typer.Option(min=2, help="Particles of the particle filter (default 1000).")]
+    = None,
+    horizon: Annotated[int | None, typer.Option(min=1, help="Samples in the moving horizon (default 10).")] = None,
     xhat0: Annotated[str | None, typer.Option(
         "--xhat0", help="Initial estimate (default: [simulation].x0, else 0).")] = None,
     dt: Annotated[float | None, typer.Option(
@@ -57,10 +61,10 @@ def estimate_cmd(
 
     chosen = [o.strip() for o in observer.split(",") if o.strip()]
     if not chosen:
-        fail("--observer: give at least one of " + _KNOWN)
+        fail("--observer: give at least one of " + ",".join(names(simulated=True)))
     try:
         report = estimate_log(model, data, observers=chosen, x_hat0=parse_floats("--xhat0", xhat0), dt=dt,
-                              design_options=design_options(option), out=out, progress=progress,
+                              design_options=estimator_options(design_options(option), chosen, particles, horizon), out=out, progress=progress,
                               smooth=smooth)
     except ModelFileError as exc:
         fail(str(exc))

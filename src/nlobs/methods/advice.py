@@ -84,12 +84,17 @@ from nlobs.methods.problem import as_region, model_label, problem
 CHECK_RMS_FACTOR = 10.0
 #: The advisor's methods that :func:`nlobs.methods.comparison.compare_observers` runs (under the same names).
 _SIMULATED = ("drift", "pinv", "luenberger", "cascade")
+#: The methods the check runs when they apply: the certified ones and the estimators without a certificate.
+_CHECKED = (*_SIMULATED, "pf", "mhe")
 
 __all__ = ["CHECK_RMS_FACTOR", "METHODS", "AdviceReport", "SensorCheck", "CascadeStructure", "MethodAdvice", "Singularity", "advise_model",
            "cascade_structure", "singularities"]
 
 #: The methods the advisor reports on, in the order it prefers an applicable one.
-METHODS: tuple[str, ...] = ("cascade", "setvalued", "drift", "pinv", "ekf-ukf", "luenberger")
+METHODS: tuple[str, ...] = ("cascade", "setvalued", "drift", "pinv", "ekf-ukf", "luenberger", "pf", "mhe")
+#: The estimators without a certificate that need what the Kalman filters need: where the EKF/UKF advice is "no",
+#: theirs is too (the same observability verdict).
+_LIKE_THE_FILTERS = ("pf", "mhe")
 #: Fraction of the remaining interval kept away from a singular value of one state.
 MARGIN = 0.05
 #: Largest ``n`` whose subsets are searched for a cascade structure (2ⁿ subsets).
@@ -249,7 +254,7 @@ def _sensor_check(model: str | Path, methods: Sequence[MethodAdvice], region: Bo
 
     from nlobs.methods.comparison import compare_observers
 
-    names = [m.method for m in methods if m.usable and m.method in _SIMULATED]
+    names = [m.method for m in methods if m.usable and m.method in _CHECKED]
     drift = next((m for m in methods if m.method == "drift" and m.usable), None)
     box = best_region(drift, region) if drift is not None else region
     flat = [float(v) for pair in zip(box.lower, box.upper) for v in pair]
@@ -280,7 +285,7 @@ def _sensor_check(model: str | Path, methods: Sequence[MethodAdvice], region: Bo
     check = SensorCheck(runs, 0, outcomes, demoted, rep.time_unit)
     out = []
     for m in methods:
-        sim = m.method if m.method in _SIMULATED else ("ekf" if m.method == "ekf-ukf" else None)
+        sim = m.method if m.method in _CHECKED else ("ekf" if m.method == "ekf-ukf" else None)
         if sim is None or sim not in outcomes or not m.usable:
             out.append(m)
             continue
@@ -897,7 +902,7 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
         _pinv(target, geo, geo_err, region),
         kal,
         luen,
-        *_registered(target, scenario, is_file),
+        *_registered(target, scenario, is_file, kal),
     )
     designs: dict[str, Any] = {}
     if scenario is not None and is_file and scenario.sensors:
@@ -935,7 +940,7 @@ def advise_model(model: str | Path | Model, box: Sequence[float] | Box | None = 
 _ANALYSED = frozenset({"drift", "pinv", "luenberger", "cascade", "ekf", "ukf", "setvalued", "gnss-ins"})
 
 
-def _registered(target: str, scenario: Any, is_file: bool) -> tuple[MethodAdvice, ...]:
+def _registered(target: str, scenario: Any, is_file: bool, kal: MethodAdvice | None = None) -> tuple[MethodAdvice, ...]:
     """Every other method of the registry, by its own :meth:`~nlobs.methods.base.Method.applies` (a new method
     appears in the advice without a line here)."""
     from nlobs.methods.registry import REGISTRY, get
@@ -947,6 +952,9 @@ def _registered(target: str, scenario: Any, is_file: bool) -> tuple[MethodAdvice
         title = f"{e.name} ({e.help})"
         if scenario is None:
             out.append(MethodAdvice(e.name, title, "no", "needs a model file"))
+            continue
+        if e.name in _LIKE_THE_FILTERS and kal is not None and kal.applicable == "no":
+            out.append(MethodAdvice(e.name, title, "no", f"as the EKF/UKF: {kal.reason}"))
             continue
         try:
             why = get(e.name).applies(problem(scenario))

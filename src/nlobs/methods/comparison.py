@@ -115,6 +115,8 @@ __all__ = [
 
 #: The observers ``nlobs simulate MODEL`` knows, in the order they are reported (:mod:`nlobs.methods.registry`).
 OBSERVERS: tuple[str, ...] = names(simulated=True)
+#: Those it runs when none are named (the particle filter and moving-horizon estimation only when named).
+DEFAULT_OBSERVERS: tuple[str, ...] = names(simulated=True, default=True)
 #: Where the observers' steps run: NumPy, or their generated C (``--backend c``).
 BACKENDS: tuple[str, ...] = ("python", "c")
 #: A run diverged when its error exceeds this many times ``1 + max‖x‖`` of its truth (or is not finite).
@@ -945,7 +947,7 @@ def compare_observers(
     scenario = model if isinstance(model, Scenario) else (
         load_scenario(model) if isinstance(model, (str, Path)) else Scenario(model))
     label = name or model_label(model if not isinstance(model, Scenario) else scenario.model)
-    chosen = tuple(OBSERVERS if observers is None else observers)
+    chosen = tuple(DEFAULT_OBSERVERS if observers is None else observers)
     for o in chosen:
         if o not in OBSERVERS:
             raise UnknownNameError(f"`observers`: unknown observer {o!r} (known: {', '.join(OBSERVERS)})")
@@ -990,7 +992,10 @@ def _compiled(obs: Any, desc: str) -> tuple[Any, str]:
 
 #: The options a comparison itself gives each method (the caller's design_options come on top).
 _DEFAULT_KEYS: dict[str, set[str]] = {"drift": {"on_singular"}, "luenberger": {"alpha"}, "ekf": {"filter_q", "p0_std"},
-                                      "ukf": {"filter_q", "p0_std"}}
+                                      "ukf": {"filter_q", "p0_std"}, "pf": {"filter_q", "p0_std"},
+                                      "mhe": {"filter_q", "p0_std"}}
+#: The methods that start from the runs' initial error (``P0 = diag(p0_std²)``) and take the filters' ``filter_q``.
+_STOCHASTIC = ("ekf", "ukf", "pf", "mhe")
 
 
 def method_options(chosen: Sequence[str], alpha: float | None, filter_q: ArrayLike | None,
@@ -1032,7 +1037,7 @@ def method_options(chosen: Sequence[str], alpha: float | None, filter_q: ArrayLi
     out: dict[str, dict[str, Any]] = {}
     for name in chosen:
         base: dict[str, Any] = {"drift": {"on_singular": "nan"}, "luenberger": {} if alpha is None else {"alpha": alpha},
-                                "ekf": {"filter_q": filter_q}, "ukf": {"filter_q": filter_q}}.get(name, {})
+                                **{k: {"filter_q": filter_q} for k in _STOCHASTIC}}.get(name, {})
         extra = dict(given.get(name, {}))
         method = get_method(name)
         bad = sorted(set(extra) - set(method.options))
@@ -1045,7 +1050,7 @@ def method_options(chosen: Sequence[str], alpha: float | None, filter_q: ArrayLi
 
 def _with_p0(name: str, options: dict[str, Any], s: _Setup) -> dict[str, Any]:
     """A Kalman filter starts from the runs' initial error (``P0 = diag(p0_std²)``) unless given one."""
-    if name in ("ekf", "ukf") and "p0_std" not in options:
+    if name in _STOCHASTIC and "p0_std" not in options:
         return {**options, "p0_std": s.p0_std}
     return options
 

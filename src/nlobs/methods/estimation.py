@@ -39,7 +39,7 @@ from nlobs._validate import as_vector
 from nlobs.checks import VERDICT_JSON, Verdict
 from nlobs.errors import InvalidArgumentError, NlobsError, SimulationDiverged
 from nlobs.methods.base import DESIGN_JSON, Design
-from nlobs.methods.comparison import OBSERVERS, design_observer, method_options
+from nlobs.methods.comparison import DEFAULT_OBSERVERS, OBSERVERS, design_observer, method_options
 from nlobs.methods.problem import problem
 from nlobs.observers.smoother import smooth_run
 from nlobs.simulate.consistency import CONSISTENCY_JSON, Consistency, error_consistency
@@ -362,7 +362,9 @@ def estimate(model: str | Path | Scenario, data: str | Path | RecordedLog, *, ob
     data : str, Path or RecordedLog
         The log (:func:`~nlobs.systems.recorded.read_log`).
     observers : sequence of str, optional
-        Among :data:`~nlobs.methods.comparison.OBSERVERS`; default all of them.
+        Among :data:`~nlobs.methods.comparison.OBSERVERS`; default those run unless named otherwise
+        (:data:`~nlobs.methods.comparison.DEFAULT_OBSERVERS`: all but the particle filter and moving-horizon
+        estimation).
     x_hat0 : array_like, optional
         The initial estimate (default the file's ``[simulation] x0``, else zeros).
     dt : float, optional
@@ -407,7 +409,7 @@ def estimate(model: str | Path | Scenario, data: str | Path | RecordedLog, *, ob
     """
     scenario = model if isinstance(model, Scenario) else load_scenario(model)
     m = scenario.model
-    chosen = list(OBSERVERS if observers is None else observers)
+    chosen = list(DEFAULT_OBSERVERS if observers is None else observers)
     unknown = [c for c in chosen if c not in OBSERVERS]
     if unknown:
         raise InvalidArgumentError(f"`observers`: {unknown[0]!r} is not an observer nlobs designs; one of: "
@@ -429,7 +431,7 @@ def estimate(model: str | Path | Scenario, data: str | Path | RecordedLog, *, ob
     h = model_outputs(scenario)
     outcomes: dict[str, EstimateOutcome] = {}
     for name in chosen:
-        opts = {**options[name], **({"p0_std": std} if name in ("ekf", "ukf") and "p0_std" not in options[name]
+        opts = {**options[name], **({"p0_std": std} if name in ("ekf", "ukf", "pf", "mhe") and "p0_std" not in options[name]
                                     else {})}
         design = design_observer(name, pb, opts)
         if isinstance(design, str):

@@ -24,7 +24,8 @@ from nlobs.methods.problem import Problem
 from nlobs.systems.sensors import MeasurementGroup
 from nlobs.systems.symbolic import SymbolicModel
 
-__all__ = ["DEFAULT_FILTER_Q", "EKF", "UKF", "KalmanMethod", "measurement_covariance", "noise_matrix"]
+__all__ = ["DEFAULT_FILTER_Q", "EKF", "UKF", "KalmanMethod", "filter_tuning", "measurement_covariance",
+           "noise_matrix"]
 
 #: Process-noise spectral density a Kalman filter assumes per state when the model has no ``[process_noise]``.
 DEFAULT_FILTER_Q = 1e-6
@@ -75,6 +76,67 @@ def measurement_covariance(model: Any, sensors: Sequence[MeasurementGroup]) -> A
         idx = [model.outputs.index(o) if isinstance(o, str) else int(o) for o in g.outputs]
         R[np.ix_(idx, idx)] = g.covariance
     return R
+
+
+def filter_tuning(problem: Problem, filter_q: ArrayLike | None, p0_std: ArrayLike | None) -> tuple[Array, str, Array,
+                                                                                                Array]:
+    """The tuning every stochastic estimator of a problem shares (EKF, UKF, particle filter, moving horizon).
+
+    Parameters
+    ----------
+    problem : Problem
+        With sensors.
+    filter_q : array_like or None
+        ``Q`` given (std per state or a covariance); else the process noise, else :data:`DEFAULT_FILTER_Q` ``I``.
+    p0_std : array_like or None
+        Standard deviations of the initial error (default the file's ``initial_error_std``, else
+        ``0.1 max(1, |x0|)``).
+
+    Returns
+    -------
+    Q : ndarray, shape (n, n)
+    q_text : str
+        Where ``Q`` came from.
+    R : ndarray, shape (p, p)
+        From the sensors (:func:`measurement_covariance`).
+    p0_std : ndarray, shape (n,)
+
+    Raises
+    ------
+    InvalidArgumentError
+        A ``filter_q`` or ``p0_std`` that is not numbers of the right size, finite and positive.
+
+    Examples
+    --------
+    >>> from nlobs.methods.problem import problem
+    >>> Q, q_text, R, std = filter_tuning(problem("cartpole"), None, None)
+    >>> q_text, R.diagonal().tolist(), std.tolist()
+    ('the process noise', [1e-06, 2.5e-05], [0.05, 0.1, 0.1, 0.2])
+    """
+    model = problem.model
+    n = model.n
+    R = measurement_covariance(model, problem.sensors)
+    if filter_q is not None:
+        try:
+            Q, q_text = noise_matrix("`filter_q`", np.asarray(filter_q, dtype=float), n), "given"
+        except (TypeError, ValueError) as exc:
+            if isinstance(exc, NlobsError):
+                raise
+            raise InvalidArgumentError(f"`filter_q`: expected numbers, got {filter_q!r}") from None
+    elif problem.process_noise is not None and np.any(problem.process_noise):
+        Q, q_text = np.asarray(problem.process_noise, dtype=float), "the process noise"
+    else:
+        Q, q_text = DEFAULT_FILTER_Q * np.eye(n), f"{DEFAULT_FILTER_Q:g} I (no process noise given)"
+    file_std = problem.scenario.defaults.initial_error_std
+    default_std = np.asarray(file_std, dtype=float) if file_std is not None else 0.1 * np.maximum(
+        1.0, np.abs(problem.x0))
+    try:
+        std = default_std if p0_std is None else np.broadcast_to(np.asarray(p0_std, dtype=float), (n,))
+    except (TypeError, ValueError):
+        raise InvalidArgumentError(f"`p0_std`: expected {n} standard deviations (or one), got {p0_std!r}") from None
+    if not np.all(np.isfinite(std)) or np.any(std <= 0):
+        raise InvalidArgumentError(f"`p0_std`: expected {n} finite, positive standard deviations, got {std.tolist()}")
+    return Q, q_text, R, np.asarray(std, dtype=float)
 
 
 @dataclass(frozen=True)
@@ -134,28 +196,7 @@ class KalmanMethod:
         if why is not None:
             raise ModelError(why)
         model = problem.model
-        n = model.n
-        R = measurement_covariance(model, problem.sensors)
-        if filter_q is not None:
-            try:
-                Q, q_text = noise_matrix("`filter_q`", np.asarray(filter_q, dtype=float), n), "given"
-            except (TypeError, ValueError) as exc:
-                if isinstance(exc, NlobsError):
-                    raise
-                raise InvalidArgumentError(f"`filter_q`: expected numbers, got {filter_q!r}") from None
-        elif problem.process_noise is not None and np.any(problem.process_noise):
-            Q, q_text = np.asarray(problem.process_noise, dtype=float), "the process noise"
-        else:
-            Q, q_text = DEFAULT_FILTER_Q * np.eye(n), f"{DEFAULT_FILTER_Q:g} I (no process noise given)"
-        file_std = problem.scenario.defaults.initial_error_std
-        default_std = np.asarray(file_std, dtype=float) if file_std is not None else 0.1 * np.maximum(
-            1.0, np.abs(problem.x0))
-        try:
-            std = default_std if p0_std is None else np.broadcast_to(np.asarray(p0_std, dtype=float), (n,))
-        except (TypeError, ValueError):
-            raise InvalidArgumentError(f"`p0_std`: expected {n} standard deviations (or one), got {p0_std!r}") from None
-        if not np.all(np.isfinite(std)) or np.any(std <= 0):
-            raise InvalidArgumentError(f"`p0_std`: expected {n} finite, positive standard deviations, got {std.tolist()}")
+        Q, q_text, R, std = filter_tuning(problem, filter_q, p0_std)
         P0 = np.diag(std**2)
         cls = EKFObserver if self.name == "ekf" else UKFObserver
         plant = model.compile() if isinstance(model, SymbolicModel) else model

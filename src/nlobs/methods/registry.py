@@ -37,6 +37,9 @@ class Entry:
         ``nlobs simulate MODEL`` runs it.
     exported : bool
         ``nlobs export`` writes its C.
+    default : bool
+        ``nlobs simulate`` and ``nlobs estimate`` run it without being asked (the particle filter and moving-horizon
+        estimation, orders of magnitude costlier per step, only when named).
     """
 
     name: str
@@ -45,6 +48,7 @@ class Entry:
     help: str
     simulated: bool = True
     exported: bool = True
+    default: bool = True
 
 
 #: Every method, in the order ``nlobs simulate`` reports them.
@@ -57,6 +61,12 @@ REGISTRY: tuple[Entry, ...] = (
           "Grip, Saberi & Johansen (9)–(10) / (17)–(18), the file's [cascade] table"),
     Entry("ekf", "nlobs.methods.kalman", "EKF", "extended Kalman filter (no certificate)"),
     Entry("ukf", "nlobs.methods.kalman", "UKF", "unscented Kalman filter (no certificate)"),
+    Entry("pf", "nlobs.methods.estimators", "PF",
+          "bootstrap particle filter, Gordon, Salmond & Smith (no certificate; run when named)", exported=False,
+          default=False),
+    Entry("mhe", "nlobs.methods.estimators", "MHE",
+          "moving-horizon estimation, IPOPT via CasADi (no certificate; run when named; extra nlobs[mhe])",
+          exported=False, default=False),
     Entry("setvalued", "nlobs.methods.setvalued", "SETVALUED",
           "Khajenejad & Yong (10)–(15), Algorithm 1, a discrete model with [unknown_inputs]", simulated=False),
     Entry("gnss-ins", "nlobs.methods.gnss_ins", "GNSS_INS",
@@ -64,12 +74,13 @@ REGISTRY: tuple[Entry, ...] = (
 )
 
 
-def names(*, simulated: bool | None = None, exported: bool | None = None) -> tuple[str, ...]:
+def names(*, simulated: bool | None = None, exported: bool | None = None,
+          default: bool | None = None) -> tuple[str, ...]:
     """The methods' names, optionally only those ``nlobs simulate`` runs or ``nlobs export`` writes.
 
     Parameters
     ----------
-    simulated, exported : bool, optional
+    simulated, exported, default : bool, optional
         Keep only the methods with this flag (``None``: all).
 
     Returns
@@ -79,12 +90,15 @@ def names(*, simulated: bool | None = None, exported: bool | None = None) -> tup
     Examples
     --------
     >>> names()
-    ('drift', 'pinv', 'luenberger', 'cascade', 'ekf', 'ukf', 'setvalued', 'gnss-ins')
+    ('drift', 'pinv', 'luenberger', 'cascade', 'ekf', 'ukf', 'pf', 'mhe', 'setvalued', 'gnss-ins')
     >>> names(simulated=False)  # not run by ``nlobs simulate MODEL``
     ('setvalued', 'gnss-ins')
+    >>> names(simulated=True, default=True)  # run by ``nlobs simulate MODEL`` unless told otherwise
+    ('drift', 'pinv', 'luenberger', 'cascade', 'ekf', 'ukf')
     """
     return tuple(e.name for e in REGISTRY
-                 if (simulated is None or e.simulated == simulated) and (exported is None or e.exported == exported))
+                 if (simulated is None or e.simulated == simulated) and (exported is None or e.exported == exported)
+                 and (default is None or e.default == default))
 
 
 def entry(name: str) -> Entry:

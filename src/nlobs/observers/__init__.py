@@ -11,6 +11,10 @@
 * :class:`EKF` and :class:`UKF` — the extended (Jazwinski) and unscented (Särkkä; Julier & Uhlmann)
   Kalman filters for any plant, continuous-discrete or discrete (``ekf.py``, ``ukf.py``, their shared
   state and correction in ``gaussian.py``);
+* :class:`ParticleFilter` — the bootstrap particle filter (Gordon, Salmond & Smith 1993; systematic resampling,
+  Kitagawa 1996) for any plant, batched over runs and particles (``particle.py``);
+* :class:`MHE` — moving-horizon estimation (Rao, Rawlings & Mayne 2003) with an arrival cost from an EKF
+  covariance and bounds on the state, solved by IPOPT through CasADi (the extra ``nlobs[mhe]``) (``mhe.py``);
 * :func:`rts_smooth`, :func:`smooth_run`, :class:`Smoothed` — the Rauch–Tung–Striebel smoother of the EKF and the
   UKF on a recorded run (Rauch, Tung & Striebel 1965; the unscented one of Särkkä 2008) (``smoother.py``);
 * :class:`OutputPredictor` — any continuous observer on sampled outputs, with the inter-sample output
@@ -33,6 +37,8 @@ if TYPE_CHECKING:  # the names as static tools (type checkers, the API reference
     from nlobs.observers.kalman import GaussianState, UnknownInputEKF, joseph_update
     from nlobs.observers.lipschitz import DiscreteLipschitzObserver
     from nlobs.observers.luenberger import ConstantGainObserver, LuenbergerObserver
+    from nlobs.observers.mhe import MHE, MHEState
+    from nlobs.observers.particle import ParticleFilter, ParticleState, systematic_resample
     from nlobs.observers.pinv import AssumptionWarning, ByrnesIsidoriObserver, PinvObserver
     from nlobs.observers.sampled import OutputPredictor, with_predictor
     from nlobs.observers.smoother import Smoothed, rts_smooth, smooth_run
@@ -65,7 +71,11 @@ _EXPORTS = {
     "GivenGain": "nlobs.observers.setvalued",
     "ImpulsiveObserver": "nlobs.observers.impulsive",
     "LuenbergerObserver": "nlobs.observers.luenberger",
+    "MHE": "nlobs.observers.mhe",
+    "MHEState": "nlobs.observers.mhe",
     "Observer": "nlobs.observers.base",
+    "ParticleFilter": "nlobs.observers.particle",
+    "ParticleState": "nlobs.observers.particle",
     "OutputPredictor": "nlobs.observers.sampled",
     "PinvObserver": "nlobs.observers.pinv",
     "Radii": "nlobs.observers.setvalued",
@@ -82,6 +92,7 @@ _EXPORTS = {
     "rts_smooth": "nlobs.observers.smoother",
     "smooth_run": "nlobs.observers.smoother",
     "sound_radii": "nlobs.observers.setvalued",
+    "systematic_resample": "nlobs.observers.particle",
     "with_predictor": "nlobs.observers.sampled",
 }
 

@@ -739,6 +739,18 @@ def simulate(
     >>> e = np.abs(res.x - res.x_hat).max(axis=-1)  # from 1 at t = 0, about as e^(−2t)
     >>> bool(0.2 < e[1000] < 0.5 and e[-1] < 1e-3)
     True
+
+    The same loop closed by the state feedback ``u = −2 x1 − x2`` on the estimate, beside the loop fed the true
+    state: the estimate's initial error moves the plant away from the reference only while it decays:
+
+    >>> law = nlobs.ControlLaw(system.states, system.inputs, ["-2*x1 - x2"])
+    >>> loop = simulate(system, observer, [1.0, 0.0], [0.0, 0.0], duration=10.0, dt=1e-3, controller=law)
+    >>> ref = simulate(system, None, [1.0, 0.0], duration=10.0, dt=1e-3, controller=law, feedback="state")
+    >>> loop.extras["u"].shape, float(loop.extras["u"][0, 0]), float(ref.extras["u"][0, 0])  # u = −2 x̂1 − x̂2
+    ((10001, 1), -0.0, -2.0)
+    >>> d = np.linalg.norm(loop.x - ref.x, axis=-1)
+    >>> bool(d.max() > 0.1 and d[-1] < 0.05 * d.max())
+    True
     """
     u_given = u if controller is None or u is not None else np.zeros(int(getattr(plant, "m", 0) or 0))
     setup = _prepare(plant, observer, x0, x_hat0, duration=duration, dt=dt, u=u_given, measurements=measurements,

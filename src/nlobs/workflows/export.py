@@ -10,6 +10,8 @@ A design that is not usable is still written, with that in the header, and the r
 
 from __future__ import annotations
 
+import dataclasses
+
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -128,7 +130,12 @@ def _method_design(method: Any, pb: Any, options: dict[str, Any], saturation: bo
     design = method.design(pb, **options)
     title = design.theorem or method.title
     why_not = "" if design.certified else design.status
-    return design.observer, design.certified, _certificate_text(design, title), why_not, design
+    text, obs = _certificate_text(design, title), design.observer
+    if getattr(obs, "bounds", None) is not None:  # the generated C has no projection onto the model's bounds
+        obs = dataclasses.replace(obs, bounds=None)
+        text += ("\nnot in this C: the projection of the mean onto the model file's [constraints] after each "
+                 "correction (clip the estimate to them in the calling code)")
+    return obs, design.certified, text, why_not, design
 
 
 _NO_GUARANTEE = "none: a Kalman filter carries no convergence guarantee"
