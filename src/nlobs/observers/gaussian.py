@@ -33,7 +33,7 @@ from nlobs.systems.base import PlantModel
 from nlobs.observers.base import ToControl
 from nlobs.systems.timebase import Continuous, Discrete, TimeBase
 
-__all__ = ["FilterState", "GaussianFilterBase", "checked_covariance"]
+__all__ = ["FilterState", "GaussianFilterBase", "checked_covariance", "checked_plant"]
 
 
 @dataclass(frozen=True)
@@ -125,6 +125,38 @@ def checked_covariance(name: str, value: ArrayLike, n: int, *, definite: bool) -
     return readonly(M)
 
 
+def checked_plant(plant: Any) -> tuple[int, int]:
+    """``(n, p)`` of a plant a stochastic estimator can run on: a :class:`~nlobs.systems.base.PlantModel` with a
+    continuous or discrete time base.
+
+    Parameters
+    ----------
+    plant : PlantModel
+
+    Returns
+    -------
+    n, p : int
+        States and outputs.
+
+    Raises
+    ------
+    InvalidArgumentError
+        Not a plant, or another time base.
+
+    Examples
+    --------
+    >>> import nlobs
+    >>> checked_plant(nlobs.load_model("pendulum").compile())
+    (2, 1)
+    """
+    if not isinstance(plant, PlantModel):
+        raise InvalidArgumentError(f"plant: expected a PlantModel (time, states, inputs, outputs, rhs, output), "
+                                   f"got {type(plant).__name__}")
+    if not isinstance(plant.time, (Continuous, Discrete)):
+        raise InvalidArgumentError(f"plant.time: expected Continuous or Discrete, got {plant.time!r}")
+    return int(plant.n), int(plant.p)
+
+
 #: The NIS's rate between samples for one run: a shared read-only zero (the NIS only changes at a correction).
 ZERO_RATE = np.zeros(())
 ZERO_RATE.flags.writeable = False
@@ -181,12 +213,7 @@ class GaussianFilterBase(ToControl):
 
     def __post_init__(self) -> None:
         plant = self.plant
-        if not isinstance(plant, PlantModel):
-            raise InvalidArgumentError(f"plant: expected a PlantModel (time, states, inputs, outputs, rhs, output), "
-                                       f"got {type(plant).__name__}")
-        if not isinstance(plant.time, (Continuous, Discrete)):
-            raise InvalidArgumentError(f"plant.time: expected Continuous or Discrete, got {plant.time!r}")
-        n, p = int(plant.n), int(plant.p)
+        n, p = checked_plant(plant)
         object.__setattr__(self, "time", plant.time)
         object.__setattr__(self, "n", n)
         object.__setattr__(self, "p", p)

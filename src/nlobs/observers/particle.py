@@ -56,10 +56,10 @@ from nlobs._typing import Array, BoolArray, IntArray
 from nlobs._validate import as_batch, as_count, as_real_array, in_range, positive, readonly
 from nlobs.errors import DimensionError, InvalidArgumentError, NonFiniteError, SimulationDiverged
 from nlobs.observers.base import ToControl
-from nlobs.observers.gaussian import checked_covariance
+from nlobs.observers.gaussian import checked_covariance, checked_plant
 from nlobs.systems.base import PlantModel
 from nlobs.systems.sensors import covariance_factor
-from nlobs.systems.timebase import Continuous, Discrete, TimeBase
+from nlobs.systems.timebase import TimeBase
 
 __all__ = ["ParticleFilter", "ParticleState", "systematic_resample"]
 
@@ -316,12 +316,7 @@ class ParticleFilter(ToControl):
 
     def __post_init__(self) -> None:
         plant = self.plant
-        if not isinstance(plant, PlantModel):
-            raise InvalidArgumentError(f"plant: expected a PlantModel (time, states, inputs, outputs, rhs, output), "
-                                       f"got {type(plant).__name__}")
-        if not isinstance(plant.time, (Continuous, Discrete)):
-            raise InvalidArgumentError(f"plant.time: expected Continuous or Discrete, got {plant.time!r}")
-        n, p = int(plant.n), int(plant.p)
+        n, p = checked_plant(plant)
         set_ = object.__setattr__
         set_(self, "time", plant.time)
         set_(self, "n", n)
