@@ -121,14 +121,13 @@ def test_the_smoother_on_the_log_halves_the_filters_error_against_the_truth(logg
     """The Rauch–Tung–Striebel smoother of the EKF on the whole log: after 5 s its error against the truth is about
     half the filter's in every state (measured 0.45–0.50), its ±3σ covers the error, and the command writes it."""
     path, truth = logged
-    res = CliRunner().invoke(app, ["estimate", "cartpole", "--data", str(path), "--observer", "ekf,luenberger",
+    res = CliRunner().invoke(app, ["estimate", "cartpole", "--data", str(path), "--observer", "ekf",
                                    "--xhat0", ",".join(map(str, X_HAT0)), "--smooth", "--out", str(tmp_path / "out"),
                                    "--json"])
     assert res.exit_code == 0, res.output
     data = json.loads(res.stdout)
     assert list(Draft202012Validator(command_schema("estimate")).iter_errors(data)) == []
     assert data["observers"]["ekf"]["smoothed"]["method"] == "extended"
-    assert "smoothed" not in data["observers"]["luenberger"]  # no covariance: nothing to smooth
     head = (tmp_path / "out" / "estimates_ekf.csv").read_text().splitlines()
     assert head[0].endswith("sigma_w,x_smoothed,v_smoothed,th_smoothed,w_smoothed,sigma_x_smoothed,"
                             "sigma_v_smoothed,sigma_th_smoothed,sigma_w_smoothed")
