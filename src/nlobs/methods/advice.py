@@ -946,6 +946,7 @@ def _registered(target: str, scenario: Any, is_file: bool, kal: MethodAdvice | N
     from nlobs.methods.registry import REGISTRY, get
 
     out = []
+    pb: Any = None
     for e in REGISTRY:
         if e.name in _ANALYSED:
             continue
@@ -957,7 +958,8 @@ def _registered(target: str, scenario: Any, is_file: bool, kal: MethodAdvice | N
             out.append(MethodAdvice(e.name, title, "no", f"as the EKF/UKF: {kal.reason}"))
             continue
         try:
-            why = get(e.name).applies(problem(scenario))
+            pb = pb if pb is not None else problem(scenario)  # the file's problem, made once for every method
+            why = get(e.name).applies(pb)
         except NlobsError as exc:
             why = str(exc)
         if why is not None:

@@ -105,6 +105,7 @@ __all__ = [
     "BLOWUP",
     "DEFAULT_FILTER_Q",
     "OBSERVERS",
+    "STOCHASTIC",
     "ComparisonReport",
     "DivergedRun",
     "ObserverOutcome",
@@ -991,11 +992,10 @@ def _compiled(obs: Any, desc: str) -> tuple[Any, str]:
 
 
 #: The options a comparison itself gives each method (the caller's design_options come on top).
-_DEFAULT_KEYS: dict[str, set[str]] = {"drift": {"on_singular"}, "luenberger": {"alpha"}, "ekf": {"filter_q", "p0_std"},
-                                      "ukf": {"filter_q", "p0_std"}, "pf": {"filter_q", "p0_std"},
-                                      "mhe": {"filter_q", "p0_std"}}
 #: The methods that start from the runs' initial error (``P0 = diag(p0_std²)``) and take the filters' ``filter_q``.
-_STOCHASTIC = ("ekf", "ukf", "pf", "mhe")
+STOCHASTIC: tuple[str, ...] = ("ekf", "ukf", "pf", "mhe")
+_DEFAULT_KEYS: dict[str, set[str]] = {"drift": {"on_singular"}, "luenberger": {"alpha"},
+                                      **{k: {"filter_q", "p0_std"} for k in STOCHASTIC}}
 
 
 def method_options(chosen: Sequence[str], alpha: float | None, filter_q: ArrayLike | None,
@@ -1037,7 +1037,7 @@ def method_options(chosen: Sequence[str], alpha: float | None, filter_q: ArrayLi
     out: dict[str, dict[str, Any]] = {}
     for name in chosen:
         base: dict[str, Any] = {"drift": {"on_singular": "nan"}, "luenberger": {} if alpha is None else {"alpha": alpha},
-                                **{k: {"filter_q": filter_q} for k in _STOCHASTIC}}.get(name, {})
+                                **{k: {"filter_q": filter_q} for k in STOCHASTIC}}.get(name, {})
         extra = dict(given.get(name, {}))
         method = get_method(name)
         bad = sorted(set(extra) - set(method.options))
@@ -1050,7 +1050,7 @@ def method_options(chosen: Sequence[str], alpha: float | None, filter_q: ArrayLi
 
 def _with_p0(name: str, options: dict[str, Any], s: _Setup) -> dict[str, Any]:
     """A Kalman filter starts from the runs' initial error (``P0 = diag(p0_std²)``) unless given one."""
-    if name in _STOCHASTIC and "p0_std" not in options:
+    if name in STOCHASTIC and "p0_std" not in options:
         return {**options, "p0_std": s.p0_std}
     return options
 

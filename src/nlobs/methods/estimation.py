@@ -39,7 +39,7 @@ from nlobs._validate import as_vector
 from nlobs.checks import VERDICT_JSON, Verdict
 from nlobs.errors import InvalidArgumentError, NlobsError, SimulationDiverged
 from nlobs.methods.base import DESIGN_JSON, Design
-from nlobs.methods.comparison import DEFAULT_OBSERVERS, OBSERVERS, design_observer, method_options
+from nlobs.methods.comparison import DEFAULT_OBSERVERS, OBSERVERS, STOCHASTIC, design_observer, method_options
 from nlobs.methods.problem import problem
 from nlobs.observers.smoother import smooth_run
 from nlobs.simulate.consistency import CONSISTENCY_JSON, Consistency, error_consistency
@@ -431,7 +431,7 @@ def estimate(model: str | Path | Scenario, data: str | Path | RecordedLog, *, ob
     h = model_outputs(scenario)
     outcomes: dict[str, EstimateOutcome] = {}
     for name in chosen:
-        opts = {**options[name], **({"p0_std": std} if name in ("ekf", "ukf", "pf", "mhe") and "p0_std" not in options[name]
+        opts = {**options[name], **({"p0_std": std} if name in STOCHASTIC and "p0_std" not in options[name]
                                     else {})}
         design = design_observer(name, pb, opts)
         if isinstance(design, str):
